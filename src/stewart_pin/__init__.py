@@ -1,0 +1,45 @@
+"""stewart-pin: closed-loop dynamics of Gough-Stewart (6-UPS) hexapods on Pinocchio.
+
+The models of Khalil & Guegan, "Inverse and direct dynamic modeling of Gough-Stewart
+robots": geometry, kinematics, inverse and direct dynamics, cross-checked against
+Pinocchio's constrained dynamics on the full closed-loop model.
+"""
+
+from .description import RobotDescription, leg_base_rotation_from_axis, leg_frame_from_mdh
+from .exceptions import (
+    ConvergenceError,
+    DescriptionError,
+    FileFormatError,
+    InertiaError,
+    InputError,
+    JointLimitError,
+    SingularityError,
+    StewartPinError,
+    StrokeLimitError,
+    WorkspaceError,
+)
+from .presets import PRESETS, preset, random_robot
+from .robot import StewartRobot
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "PRESETS",
+    "ConvergenceError",
+    "DescriptionError",
+    "FileFormatError",
+    "InertiaError",
+    "InputError",
+    "JointLimitError",
+    "RobotDescription",
+    "SingularityError",
+    "StewartPinError",
+    "StewartRobot",
+    "StrokeLimitError",
+    "WorkspaceError",
+    "__version__",
+    "leg_base_rotation_from_axis",
+    "leg_frame_from_mdh",
+    "preset",
+    "random_robot",
+]

@@ -1,0 +1,317 @@
+"""The robot description: geometry, strokes and the 190 standard inertial parameters.
+
+Frames and points (SI units throughout):
+
+- ``F0`` is the base frame, ``Fp`` the platform frame (origin ``O_p``).
+- ``base_points[i]`` is ``B_i`` in ``F0``: the centre of leg i's universal joint.
+- ``platform_points[i]`` is ``P_i`` in ``Fp``: the centre of leg i's spherical joint.
+- ``leg_base_rotations[i]`` is the orientation in ``F0`` of leg frame ``1i`` at
+  ``q1i = 0``; its z column is the first U-joint axis. The leg frames follow
+  Khalil-Kleinfinger (modified DH): frame ``1i(q1) = R1_i Rz(q1)`` at ``B_i``,
+  frame ``2i = 1i(q1) Rx(pi/2) Rz(q2)`` at ``B_i``, frame ``3i = 2i Rx(pi/2) Tz(q3)``,
+  whose origin is ``P_i`` and whose z axis runs along the leg, ``q3i = |B_i P_i|``.
+- ``leg_inertia[i, j]`` holds the 10 standard parameters of link ``j+1`` of leg ``i+1`` in
+  Khalil's order ``XX XY XZ YY YZ ZZ MX MY MZ M``, in that link's frame, about its origin;
+  ``platform_inertia`` likewise in ``Fp`` about ``O_p``.
+
+Legs are numbered 1..6 in messages (as in the paper) and 0..5 as array indices.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._checks import check_array, check_pose
+from .exceptions import DescriptionError, FileFormatError, InputError
+from .inertia import check_physical
+
+#: Keys of the dictionary form (``to_dict`` / ``from_dict``) that must be present.
+REQUIRED_KEYS = (
+    "base_points",
+    "platform_points",
+    "leg_base_rotations",
+    "stroke",
+    "leg_inertia",
+    "platform_inertia",
+    "gravity",
+)
+#: Optional keys: ``name`` (str), ``u_joint_limits`` ((2, 2) or (6, 2, 2) [rad]) and
+#: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess).
+OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose")
+
+#: Tolerance on the orthonormality of the leg base rotations.
+FRAME_TOLERANCE = 1e-9
+#: Relative distance (to the attachment circle's size) under which two points are "repeated".
+POINT_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class RobotDescription:
+    """A validated, immutable Gough-Stewart robot description (see the module docstring).
+
+    Arrays are copied on construction and made read-only.
+    """
+
+    base_points: np.ndarray
+    platform_points: np.ndarray
+    leg_base_rotations: np.ndarray
+    stroke: np.ndarray
+    leg_inertia: np.ndarray
+    platform_inertia: np.ndarray
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    u_joint_limits: np.ndarray | None = None
+    name: str = "stewart"
+    home_pose: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        def set_(key: str, value: np.ndarray) -> None:
+            value = np.array(value, dtype=np.float64)
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+        try:
+            set_("base_points", check_array(self.base_points, (6, 3), "base_points"))
+            set_("platform_points", check_array(self.platform_points, (6, 3), "platform_points"))
+            set_(
+                "leg_base_rotations",
+                check_array(self.leg_base_rotations, (6, 3, 3), "leg_base_rotations"),
+            )
+            set_("stroke", check_array(self.stroke, (2,), "stroke"))
+            set_("leg_inertia", check_array(self.leg_inertia, (6, 3, 10), "leg_inertia"))
+            set_("platform_inertia", check_array(self.platform_inertia, (10,), "platform_inertia"))
+            set_("gravity", check_array(self.gravity, (3,), "gravity"))
+            if self.u_joint_limits is not None:
+                lim = np.asarray(self.u_joint_limits, dtype=float)
+                lim = np.broadcast_to(lim, (6, 2, 2)) if lim.shape == (2, 2) else lim
+                set_("u_joint_limits", check_array(lim, (6, 2, 2), "u_joint_limits"))
+            if self.home_pose is not None:
+                set_("home_pose", check_pose(self.home_pose, "home_pose"))
+        except InputError as e:
+            raise DescriptionError(f"robot description '{self.name}': {e}") from e
+        if not isinstance(self.name, str) or not self.name:
+            raise DescriptionError(f"robot name must be a non-empty string, got {self.name!r}")
+        self._check_points(self.base_points, "base", "B")
+        self._check_points(self.platform_points, "platform", "P")
+        self._check_frames()
+        lo, hi = self.stroke
+        if not 0.0 < lo < hi:
+            raise DescriptionError(
+                f"stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
+            )
+        if self.u_joint_limits is not None:
+            bad = np.argwhere(self.u_joint_limits[..., 0] >= self.u_joint_limits[..., 1])
+            if bad.size:
+                i, j = bad[0]
+                raise DescriptionError(
+                    f"u_joint_limits of leg {i + 1}, q{j + 1}: lower "
+                    f"{self.u_joint_limits[i, j, 0]:.9g} >= upper {self.u_joint_limits[i, j, 1]:.9g}"
+                )
+        if self.home_pose is None:
+            set_("home_pose", _upright_home_pose(self))
+        for i in range(6):
+            for j in range(3):
+                check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
+        check_physical(self.platform_inertia, "platform")
+
+    # ------------------------------------------------------------------ validation
+    @staticmethod
+    def _check_points(points: np.ndarray, which: str, letter: str) -> None:
+        centred = points - points.mean(axis=0)
+        scale = max(np.linalg.norm(centred, axis=1).max(), np.finfo(float).tiny)
+        for a in range(6):
+            for b in range(a + 1, 6):
+                d = np.linalg.norm(points[a] - points[b])
+                if d <= POINT_TOLERANCE * scale:
+                    raise DescriptionError(
+                        f"{which} attachment points {letter}_{a + 1} and {letter}_{b + 1} are "
+                        f"repeated ({points[a]} and {points[b]}, {d:.3g} m apart)"
+                    )
+        sv = np.linalg.svd(centred, compute_uv=False)
+        if sv[1] <= POINT_TOLERANCE * sv[0]:
+            raise DescriptionError(
+                f"the six {which} attachment points {letter}_i are collinear: every pose of such "
+                "a robot is singular"
+            )
+
+    def _check_frames(self) -> None:
+        for i, R in enumerate(self.leg_base_rotations):
+            err = np.abs(R.T @ R - np.eye(3)).max()
+            if err > FRAME_TOLERANCE:
+                raise DescriptionError(
+                    f"leg_base_rotations[{i}] (leg {i + 1}) is not orthonormal: "
+                    f"max |R^T R - I| = {err:.3g} > {FRAME_TOLERANCE:g} (unit, orthogonal "
+                    "columns required)"
+                )
+            if np.linalg.det(R) < 0:
+                raise DescriptionError(
+                    f"leg_base_rotations[{i}] (leg {i + 1}) is a reflection (det < 0)"
+                )
+
+    # ------------------------------------------------------------------ dict and files
+    def to_dict(self) -> dict[str, Any]:
+        """The description as plain Python lists (JSON/TOML-ready), with the public keys."""
+        d: dict[str, Any] = {"name": self.name}
+        for key in REQUIRED_KEYS:
+            d[key] = getattr(self, key).tolist()
+        for key in ("u_joint_limits", "home_pose"):
+            if getattr(self, key) is not None:
+                d[key] = getattr(self, key).tolist()
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RobotDescription:
+        """Build from the dictionary form; raises :class:`DescriptionError` on bad keys."""
+        if not isinstance(d, dict):
+            raise DescriptionError(f"a robot description must be a dict, got {type(d).__name__}")
+        missing = [k for k in REQUIRED_KEYS if k not in d]
+        unknown = [k for k in d if k not in REQUIRED_KEYS + OPTIONAL_KEYS]
+        if missing or unknown:
+            raise DescriptionError(
+                f"robot description keys: missing {missing}, unknown {unknown}; expected "
+                f"{list(REQUIRED_KEYS)} and optionally {list(OPTIONAL_KEYS)}"
+            )
+        kwargs = {k: d[k] for k in REQUIRED_KEYS + OPTIONAL_KEYS if k in d}
+        return cls(**kwargs)
+
+    def replace(self, **changes: Any) -> RobotDescription:
+        """A copy with some fields changed (validated again)."""
+        d = {k: getattr(self, k) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS)}
+        d.update(changes)
+        return RobotDescription(**d)
+
+    def write(self, path: str | Path) -> Path:
+        """Write the description to ``path`` (``.toml`` or ``.json``, SI units)."""
+        path = Path(path)
+        d = self.to_dict()
+        if path.suffix == ".json":
+            path.write_text(json.dumps(d, indent=2) + "\n")
+        elif path.suffix == ".toml":
+            import tomli_w
+
+            path.write_text(FILE_HEADER + tomli_w.dumps(d, multiline_strings=False))
+        else:
+            raise FileFormatError(f"unknown description file type '{path.suffix}' (.toml, .json)")
+        return path
+
+    @classmethod
+    def read(cls, path: str | Path) -> RobotDescription:
+        """Read a description written by :meth:`write` (or by hand: see ``docs/description.md``)."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except OSError as e:
+            raise FileFormatError(f"cannot read robot description {path}: {e}") from e
+        try:
+            if path.suffix == ".json":
+                d = json.loads(text)
+            elif path.suffix == ".toml":
+                d = tomllib.loads(text)
+            else:
+                raise FileFormatError(
+                    f"unknown description file type '{path.suffix}' of {path} (.toml, .json)"
+                )
+        except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
+            raise FileFormatError(f"malformed robot description {path}: {e}") from e
+        try:
+            return cls.from_dict(d)
+        except DescriptionError as e:
+            raise FileFormatError(f"{path}: {e}") from e
+
+    # ------------------------------------------------------------------ derived data
+    @property
+    def leg_masses(self) -> np.ndarray:
+        """Masses of the 18 leg links, shape (6, 3) [kg]."""
+        return self.leg_inertia[:, :, 9]
+
+    @property
+    def stroke_mid(self) -> float:
+        """Middle of the stroke [m]."""
+        return float(self.stroke.mean())
+
+    @property
+    def size(self) -> float:
+        """A length scale of the robot: the mean base-point distance to their centroid [m]."""
+        c = self.base_points - self.base_points.mean(axis=0)
+        return float(np.linalg.norm(c, axis=1).mean())
+
+
+FILE_HEADER = """\
+# stewart-pin robot description (SI units: m, kg, kg m^2, m/s^2).
+# base_points: B_i in F0 (6 x 3). platform_points: P_i in Fp (6 x 3).
+# leg_base_rotations: orientation in F0 of leg frame 1i at q1i = 0 (6 x 3 x 3),
+#   its z column the first U-joint axis.
+# stroke: [min, max] leg length |B_i P_i|.
+# leg_inertia: 6 legs x 3 links x 10 standard parameters, Khalil's order
+#   XX XY XZ YY YZ ZZ MX MY MZ M, in each link's MDH frame about its origin.
+# platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
+# gravity: in F0. Optional: u_joint_limits [[q1min, q1max], [q2min, q2max]] (rad),
+#   home_pose: 0Tp (4 x 4), the workspace centre.
+"""
+
+
+def _upright_home_pose(desc: RobotDescription) -> np.ndarray:
+    """The default home pose: Fp parallel to F0, O_p above the centroids, mean leg length at
+    mid-stroke (found by bisection on the height along the base z axis)."""
+    B, P = desc.base_points, desc.platform_points
+    T = np.eye(4)
+    T[:2, 3] = B.mean(axis=0)[:2] - P.mean(axis=0)[:2]
+    z_lo = B[:, 2].mean() - P[:, 2].mean()
+    z_hi = z_lo + 2.0 * desc.stroke[1] + np.linalg.norm(B - B.mean(0), axis=1).max()
+
+    def mean_length(z: float) -> float:
+        return float(np.linalg.norm(T[:3, 3] + [0, 0, z - T[2, 3]] + P - B, axis=1).mean())
+
+    target = desc.stroke.mean()
+    if mean_length(z_lo) > target:
+        raise DescriptionError(
+            "cannot place a default home pose: the legs are longer than mid-stroke even with "
+            "the platform in the base plane; give home_pose explicitly"
+        )
+    for _ in range(200):
+        z = 0.5 * (z_lo + z_hi)
+        z_lo, z_hi = (z, z_hi) if mean_length(z) < target else (z_lo, z)
+    T[2, 3] = 0.5 * (z_lo + z_hi)
+    return T
+
+
+def leg_base_rotation_from_axis(axis: Any, leg_direction: Any) -> np.ndarray:
+    """Orientation of leg frame 1i at q1i = 0 from the first U-joint axis.
+
+    ``z1 = axis``, ``x1`` is ``leg_direction`` made orthogonal to the axis, so that a leg
+    along ``leg_direction`` sits at ``q1i = 0``, ``q2i = pi/2`` when the axis is
+    perpendicular to it.
+
+    Args:
+        axis: shape (3,), first revolute axis in F0 (any length > 0).
+        leg_direction: shape (3,), typically the leg's direction B_i -> P_i at home, in F0.
+    """
+    z = check_array(axis, (3,), "axis")
+    x = check_array(leg_direction, (3,), "leg_direction")
+    if np.linalg.norm(z) == 0:
+        raise InputError("the U-joint axis must be non-zero")
+    z = z / np.linalg.norm(z)
+    x = x - (x @ z) * z
+    if np.linalg.norm(x) < 1e-9 * max(1.0, np.linalg.norm(leg_direction)):
+        raise InputError("leg_direction is parallel to the U-joint axis: that leg is singular")
+    x = x / np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def leg_frame_from_mdh(gamma: float, b: float, alpha: float, d: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(B_i in F0, rotation of frame 1i at q1i = 0 in F0)`` from the paper's MDH parameters.
+
+    Khalil-Kleinfinger: ``0T1i = Rz(gamma) Tz(b) Rx(alpha) Tx(d) Rz(q1i)``, with q1i = 0.
+    Angles [rad], lengths [m].
+    """
+    cg, sg, ca, sa = np.cos(gamma), np.sin(gamma), np.cos(alpha), np.sin(alpha)
+    Rz = np.array([[cg, -sg, 0.0], [sg, cg, 0.0], [0.0, 0.0, 1.0]])
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    R = Rz @ Rx
+    B = np.array([0.0, 0.0, b]) + R @ np.array([d, 0.0, 0.0])
+    return B, R

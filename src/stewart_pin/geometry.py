@@ -1,0 +1,164 @@
+"""Inverse and forward geometric models (paper section II).
+
+Every function works on batches: poses ``(N, 4, 4)`` give leg values ``(N, 6, 3)``.
+
+Inverse geometry of leg i. With ``u = R1_i^T (P_i - B_i) / q3i`` (the leg direction in
+frame 1i at q1i = 0), the MDH chain gives ``u = [cos q1 sin q2, sin q1 sin q2, -cos q2]``,
+so ``q2i = arccos(-u_z)``, ``q1i = atan2(u_y, u_x)``, ``q3i = |B_i P_i|``. The U-joint has a
+second solution ``(q1i + pi, -q2i)`` reaching the same direction; it differs physically when
+the links' inertia is not symmetric about the leg. The default branch, used throughout, has
+``q2i`` in ``(0, pi)`` and ``q1i`` in ``(-pi, pi]``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ._checks import check_array, check_pose, check_poses
+from .description import RobotDescription
+from .exceptions import ConvergenceError, JointLimitError, SingularityError, StrokeLimitError
+
+#: A leg is singular (first U-joint axis along the leg) when ``sin q2i`` falls below this.
+LEG_SINGULARITY_SIN = 1e-6
+#: Forward geometry: leg-length tolerance [m] and iteration cap of Newton-Raphson.
+FORWARD_TOLERANCE = 1e-12
+FORWARD_MAX_ITERATIONS = 50
+
+
+def platform_points_in_base(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+    """``P_i`` in F0 for a batch of poses: shape (N, 6, 3) [m]."""
+    R, p = poses[:, :3, :3], poses[:, :3, 3]
+    return np.einsum("nij,kj->nki", R, desc.platform_points) + p[:, None, :]
+
+
+def leg_vectors(desc: RobotDescription, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(B_i P_i, L_i = O_p P_i)`` in F0, each shape (N, 6, 3) [m]."""
+    R = poses[:, :3, :3]
+    L = np.einsum("nij,kj->nki", R, desc.platform_points)
+    return L + poses[:, None, :3, 3] - desc.base_points, L
+
+
+def leg_lengths(desc: RobotDescription, poses: Any) -> np.ndarray:
+    """Leg lengths ``q3i = |B_i P_i|`` [m], shape (6,) or (N, 6)."""
+    T, batched = check_poses(poses)
+    lengths = np.linalg.norm(leg_vectors(desc, T)[0], axis=-1)
+    return lengths if batched else lengths[0]
+
+
+def inverse_geometry_batch(
+    desc: RobotDescription, poses: np.ndarray, check_limits: bool = True
+) -> np.ndarray:
+    """The 18 leg joint values for validated poses ``(N, 4, 4)``: shape (N, 6, 3).
+
+    Raises:
+        StrokeLimitError: a leg length outside the stroke (when ``check_limits``).
+        JointLimitError: a U-joint angle outside ``desc.u_joint_limits`` (when set).
+        SingularityError: a leg along its first U-joint axis (``sin q2i`` ~ 0).
+    """
+    d, _ = leg_vectors(desc, poses)
+    q3 = np.linalg.norm(d, axis=-1)
+    u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
+    q = np.empty(d.shape)
+    q[..., 0] = np.arctan2(u[..., 1], u[..., 0])
+    q[..., 1] = np.arccos(np.clip(-u[..., 2], -1.0, 1.0))
+    q[..., 2] = q3
+    sin_q2 = np.hypot(u[..., 0], u[..., 1])
+    if np.any(sin_q2 < LEG_SINGULARITY_SIN):
+        n, k = np.argwhere(sin_q2 < LEG_SINGULARITY_SIN)[0]
+        raise SingularityError(
+            f"leg {k + 1} lies along its first U-joint axis (sin q2{k + 1} = {sin_q2[n, k]:.3g} "
+            f"< {LEG_SINGULARITY_SIN:g}) at pose {n}: its Jacobian is singular",
+            float(sin_q2[n, k]),
+            LEG_SINGULARITY_SIN,
+            leg=int(k + 1),
+        )
+    if check_limits:
+        check_leg_limits(desc, q)
+    return q
+
+
+def check_leg_limits(desc: RobotDescription, q: np.ndarray) -> None:
+    """Raise :class:`StrokeLimitError` / :class:`JointLimitError` for leg values (N, 6, 3)."""
+    lo, hi = desc.stroke
+    bad = (q[..., 2] < lo) | (q[..., 2] > hi)
+    if np.any(bad):
+        n, k = np.argwhere(bad)[0]
+        raise StrokeLimitError(int(k + 1), float(q[n, k, 2]), float(lo), float(hi))
+    if desc.u_joint_limits is not None:
+        lim = desc.u_joint_limits
+        for j in range(2):
+            bad = (q[..., j] < lim[:, j, 0]) | (q[..., j] > lim[:, j, 1])
+            if np.any(bad):
+                n, k = np.argwhere(bad)[0]
+                raise JointLimitError(
+                    int(k + 1), j + 1, float(q[n, k, j]), float(lim[k, j, 0]), float(lim[k, j, 1])
+                )
+
+
+def inverse_geometry(desc: RobotDescription, pose: Any, check_limits: bool = True) -> np.ndarray:
+    """Leg joint values for one pose (4x4 or ``pin.SE3``) -> (6, 3), or a batch -> (N, 6, 3).
+
+    Columns ``q1i, q2i`` [rad] (default U-joint branch) and ``q3i`` [m].
+    """
+    T, batched = check_poses(pose)
+    q = inverse_geometry_batch(desc, T, check_limits)
+    return q if batched else q[0]
+
+
+def forward_geometry(
+    desc: RobotDescription,
+    lengths: Any,
+    guess: Any = None,
+    tol: float = FORWARD_TOLERANCE,
+    max_iterations: int = FORWARD_MAX_ITERATIONS,
+) -> np.ndarray:
+    """The platform pose 0Tp (4x4) whose leg lengths are ``lengths`` (shape (6,) [m]).
+
+    Newton-Raphson on the closure equations ``|B_i P_i(T)| = lengths_i``: the correction
+    twist ``dV`` solves ``Jp^-1 dV = lengths - |B_i P_i|``, applied as ``p += dv``,
+    ``R <- exp(dw) R`` (on SE(3), no drift off the manifold). It starts from ``guess``
+    (default: the description's home pose) and stops when every leg length is within
+    ``tol`` [m], raising :class:`ConvergenceError` after ``max_iterations``.
+
+    Raises:
+        StrokeLimitError: a requested length outside the stroke.
+        ConvergenceError: no convergence (the lengths may be unassemblable from the guess).
+        SingularityError: the iteration met a singular configuration.
+    """
+    from .kinematics import inverse_jacobian_batch  # kinematics imports this module
+
+    target = check_array(lengths, (6,), "lengths")
+    lo, hi = desc.stroke
+    for k, value in enumerate(target):
+        if not lo <= value <= hi:
+            raise StrokeLimitError(k + 1, float(value), float(lo), float(hi))
+    T = check_pose(desc.home_pose if guess is None else guess, "guess").copy()
+    residual = np.inf
+    for iteration in range(max_iterations + 1):
+        d, _ = leg_vectors(desc, T[None])
+        error = target - np.linalg.norm(d[0], axis=-1)
+        residual = float(np.abs(error).max())
+        if residual <= tol:
+            return T
+        if iteration == max_iterations:
+            break
+        J_inv = inverse_jacobian_batch(desc, T[None])[0]
+        try:
+            step = np.linalg.solve(J_inv, error)
+        except np.linalg.LinAlgError as e:
+            raise SingularityError(
+                f"forward geometry met a singular Jp^-1 at iteration {iteration}",
+                np.inf,
+                np.inf,
+            ) from e
+        T[:3, 3] += step[:3]
+        T[:3, :3] = pin.exp3(step[3:]) @ T[:3, :3]
+    raise ConvergenceError(
+        f"forward geometry did not converge in {max_iterations} iterations (largest leg-length "
+        f"error {residual:.3g} m > tol {tol:g} m); give a guess closer to the solution",
+        max_iterations,
+        residual,
+    )

@@ -1,0 +1,175 @@
+"""Inertial parameters: Khalil's 10 standard parameters and their conversions.
+
+Khalil's order, about the origin of the body's own frame (not its centre of mass)::
+
+    XX XY XZ YY YZ ZZ MX MY MZ M
+
+``XX..ZZ`` are the inertia tensor at the frame origin [kg m^2], ``MX MY MZ`` the first
+moments ``M * c`` [kg m], ``M`` the mass [kg]. This module is the only place that converts
+them to Pinocchio's order (``m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz``, same origin)
+and to URDF's ``<inertial>`` (centre of mass and the tensor about it).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ._checks import check_array
+from .exceptions import InertiaError
+
+#: Names of the 10 standard parameters, in Khalil's order.
+KHALIL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+
+#: ``pin_params = khalil_params[KHALIL_TO_PIN]``.
+KHALIL_TO_PIN = np.array([9, 6, 7, 8, 0, 1, 3, 2, 4, 5])
+#: ``khalil_params = pin_params[PIN_TO_KHALIL]``.
+PIN_TO_KHALIL = np.argsort(KHALIL_TO_PIN)
+
+#: Relative tolerance of the physical-consistency checks (scaled by the body's inertia).
+PHYSICAL_TOLERANCE = 1e-10
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """The 3x3 (or batch (..., 3, 3)) skew matrix ``v^`` with ``v^ x = v x x``."""
+    v = np.asarray(v, dtype=float)
+    S = np.zeros((*v.shape[:-1], 3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def inertia_tensor(params: np.ndarray) -> np.ndarray:
+    """The 3x3 (or batch) inertia tensor about the frame origin [kg m^2] from Khalil params."""
+    p = np.asarray(params, dtype=float)
+    XX, XY, XZ, YY, YZ, ZZ = (p[..., k] for k in range(6))
+    return np.stack(
+        [np.stack([XX, XY, XZ], -1), np.stack([XY, YY, YZ], -1), np.stack([XZ, YZ, ZZ], -1)],
+        -2,
+    )
+
+
+def khalil_from_tensor(I_O: np.ndarray, ms: np.ndarray, mass: float) -> np.ndarray:
+    """Khalil's 10 parameters from the tensor about the origin, first moments and mass."""
+    I_O = np.asarray(I_O, dtype=float)
+    return np.array(
+        [I_O[0, 0], I_O[0, 1], I_O[0, 2], I_O[1, 1], I_O[1, 2], I_O[2, 2], *ms, mass], dtype=float
+    )
+
+
+def pin_inertia_from_khalil(params: Any) -> pin.Inertia:
+    """A ``pin.Inertia`` from Khalil's 10 parameters (both about the frame origin)."""
+    p = check_array(params, (10,), "inertial parameters")
+    return pin.Inertia.FromDynamicParameters(p[KHALIL_TO_PIN])
+
+
+def khalil_from_pin_inertia(inertia: pin.Inertia) -> np.ndarray:
+    """Khalil's 10 parameters from a ``pin.Inertia``."""
+    return np.asarray(inertia.toDynamicParameters(), dtype=float)[PIN_TO_KHALIL]
+
+
+def urdf_inertial_from_khalil(params: Any) -> tuple[float, np.ndarray, np.ndarray]:
+    """URDF's ``<inertial>``: ``(mass [kg], com [m] (3,), inertia about the com (3, 3))``.
+
+    A massless body (all ten parameters zero) gives ``(0, 0, 0)``.
+    """
+    p = check_array(params, (10,), "inertial parameters")
+    mass, ms, I_O = p[9], p[6:9], inertia_tensor(p)
+    if mass == 0.0:
+        return 0.0, np.zeros(3), I_O.copy()
+    com = ms / mass
+    I_c = I_O - mass * (com @ com * np.eye(3) - np.outer(com, com))
+    return float(mass), com, 0.5 * (I_c + I_c.T)
+
+
+def khalil_from_urdf_inertial(mass: float, com: Any, I_c: Any) -> np.ndarray:
+    """Khalil's 10 parameters from URDF's mass, centre of mass and inertia about it."""
+    com = check_array(com, (3,), "centre of mass")
+    I_c = check_array(I_c, (3, 3), "inertia about the centre of mass")
+    I_O = I_c + mass * (com @ com * np.eye(3) - np.outer(com, com))
+    return khalil_from_tensor(I_O, mass * com, mass)
+
+
+def transform_khalil(params: Any, R_a_b: Any, p_a_b: Any) -> np.ndarray:
+    """Re-express a body's parameters given in frame b (about O_b) in frame a (about O_a).
+
+    Args:
+        params: shape (10,), Khalil's parameters in frame b.
+        R_a_b: shape (3, 3), orientation of frame b in frame a.
+        p_a_b: shape (3,), position of O_b in frame a [m].
+    """
+    p = check_array(params, (10,), "inertial parameters")
+    R, t = np.asarray(R_a_b, float), np.asarray(p_a_b, float)
+    mass, ms_b, I_b = p[9], p[6:9], inertia_tensor(p)
+    ms_a = R @ ms_b + mass * t
+    # Parallel axis theorem via the first moments, valid for any mass (0 included):
+    # I_Oa = R I_Ob R^T - m t^ t^ - t^ (R ms)^ - (R ms)^ t^ .
+    Rms, T = R @ ms_b, skew(t)
+    I_a = R @ I_b @ R.T - mass * T @ T - T @ skew(Rms) - skew(Rms) @ T
+    return khalil_from_tensor(0.5 * (I_a + I_a.T), ms_a, mass)
+
+
+def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> np.ndarray:
+    """Return the parameters as float64, or raise :class:`InertiaError` if non-physical.
+
+    A body is physical when its mass is non-negative, a massless body has no first moment
+    or inertia, and its inertia about the centre of mass is positive semi-definite with
+    principal moments satisfying the triangle inequality ``I1 + I2 >= I3`` (each within
+    ``tol`` times the largest principal moment).
+    """
+    try:
+        p = check_array(params, (10,), f"inertial parameters of {body}")
+    except Exception as e:
+        raise InertiaError(str(e), body) from e
+    mass = p[9]
+    if mass < 0:
+        raise InertiaError(f"{body}: negative mass M = {mass:.9g} kg", body)
+    if mass == 0.0:
+        if np.any(p != 0.0):
+            raise InertiaError(
+                f"{body}: a massless body must have zero first moments and inertia, got {p}", body
+            )
+        return p
+    _, _, I_c = urdf_inertial_from_khalil(p)
+    eig = np.linalg.eigvalsh(I_c)
+    scale = max(np.abs(eig).max(), np.finfo(float).tiny)
+    if eig[0] < -tol * scale:
+        raise InertiaError(
+            f"{body}: inertia about the centre of mass is not positive semi-definite "
+            f"(principal moments {eig} kg m^2); check the sign of XY, XZ, YZ and the first "
+            "moments",
+            body,
+        )
+    if eig[0] + eig[1] < eig[2] - tol * scale:
+        raise InertiaError(
+            f"{body}: principal moments {eig} kg m^2 violate the triangle inequality "
+            "I1 + I2 >= I3",
+            body,
+        )
+    return p
+
+
+def random_physical_khalil(
+    rng: np.random.Generator, mass: float, size: float, com_offset: float
+) -> np.ndarray:
+    """Random physically consistent parameters with a full tensor and an offset centre of mass.
+
+    Args:
+        mass: the body's mass [kg].
+        size: a typical half-dimension of the body [m] (sets the inertia magnitude).
+        com_offset: the largest coordinate of the centre of mass in the body frame [m].
+    """
+    # A random box-like density: principal moments of a solid with random half-axes,
+    # which satisfy the triangle inequality by construction.
+    half = size * rng.uniform(0.3, 1.0, 3)
+    principal = mass / 5.0 * np.array(
+        [half[1] ** 2 + half[2] ** 2, half[0] ** 2 + half[2] ** 2, half[0] ** 2 + half[1] ** 2]
+    )
+    q = rng.normal(size=4)
+    R = pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()
+    I_c = R @ np.diag(principal) @ R.T
+    com = rng.uniform(-com_offset, com_offset, 3)
+    return khalil_from_urdf_inertial(mass, com, I_c)

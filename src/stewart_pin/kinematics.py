@@ -1,0 +1,231 @@
+"""Kinematic models (paper section III): Jp^-1, the leg Jacobians, first and second order.
+
+Conventions: a twist is ``V_p = [v, w]`` (6,) — the velocity of O_p and the angular
+velocity of the platform, both in F0; an acceleration is classical ``[dv/dt, dw/dt]``
+(the acceleration of the point O_p, not the spatial one). Batches carry a leading N axis.
+
+Leg i in F0 (frame 1i at q1i = 0 has orientation ``R1_i``)::
+
+    a_i   = R1_i [cos q1 sin q2, sin q1 sin q2, -cos q2]    (unit vector z3i along the leg)
+    P_i   = B_i + q3i a_i
+    J_3i  = [q3i da/dq1, q3i da/dq2, a_i]                   (3x3, columns orthogonal)
+
+so ``J_3i^-1`` has rows ``(da/dq1)^T / (q3 sin^2 q2)``, ``(da/dq2)^T / q3``, ``a_i^T`` —
+the frame-3i form of the paper (eq. 15-17) rotated into F0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ._checks import check_batch, check_poses
+from .description import RobotDescription
+from .exceptions import InputError, SingularityError
+from .geometry import inverse_geometry_batch, leg_vectors
+
+#: Default threshold on the condition number of Jp^-1 past which a pose is declared
+#: singular (``SingularityError``); a robot can set its own.
+MAX_CONDITION = 1e6
+
+
+@dataclass(frozen=True)
+class LegFrames:
+    """Leg directions and their derivatives in F0, each shape (N, 6, 3).
+
+    ``a`` is the unit vector of the leg, ``a1 = da/dq1``, ``a2 = da/dq2``; ``y3`` the y axis
+    of frame 3i (its x axis is ``a2``, z axis ``a``).
+    """
+
+    a: np.ndarray
+    a1: np.ndarray
+    a2: np.ndarray
+    y3: np.ndarray
+    sin_q2: np.ndarray
+    cos_q2: np.ndarray
+
+
+def leg_frames(desc: RobotDescription, q: np.ndarray) -> LegFrames:
+    """Leg directions and derivatives from leg joint values (N, 6, 3)."""
+    c1, s1 = np.cos(q[..., 0]), np.sin(q[..., 0])
+    c2, s2 = np.cos(q[..., 1]), np.sin(q[..., 1])
+    zero = np.zeros_like(c1)
+    R1 = desc.leg_base_rotations
+
+    def to_base(u: np.ndarray) -> np.ndarray:
+        return np.einsum("kij,nkj->nki", R1, u)
+
+    return LegFrames(
+        a=to_base(np.stack([c1 * s2, s1 * s2, -c2], -1)),
+        a1=to_base(np.stack([-s1 * s2, c1 * s2, zero], -1)),
+        a2=to_base(np.stack([c1 * c2, s1 * c2, s2], -1)),
+        y3=to_base(np.stack([s1, -c1, zero], -1)),
+        sin_q2=s2,
+        cos_q2=c2,
+    )
+
+
+def leg_rotations(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
+    """Orientation of frame 3i in F0, shape (N, 6, 3, 3): columns ``[x3, y3, z3 = a]``."""
+    f = leg_frames(desc, q)
+    return np.stack([f.a2, f.y3, f.a], axis=-1)
+
+
+def leg_jacobians(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
+    """``J_3i`` in F0: velocity of the leg tip P_i from ``qdot_i``, shape (N, 6, 3, 3)."""
+    f = leg_frames(desc, q)
+    q3 = q[..., 2, None]
+    return np.stack([q3 * f.a1, q3 * f.a2, f.a], axis=-1)
+
+
+def leg_inverse_jacobians(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
+    """``J_3i^-1`` in F0 (eq. 16-17): shape (N, 6, 3, 3). Singular when sin q2i or q3i is 0."""
+    return _leg_inverse_jacobians(leg_frames(desc, q), q)
+
+
+def _leg_inverse_jacobians(f: LegFrames, q: np.ndarray) -> np.ndarray:
+    q3 = q[..., 2, None]
+    return np.stack([f.a1 / (q3 * f.sin_q2[..., None] ** 2), f.a2 / q3, f.a], axis=-2)
+
+
+def leg_drift(desc: RobotDescription, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+    """``Jdot_3i qdot_i`` in F0: the classical acceleration of P_i at ``qddot_i = 0``,
+    shape (N, 6, 3) [m/s^2]."""
+    return _leg_drift(leg_frames(desc, q), q, qdot)
+
+
+def _leg_drift(f: LegFrames, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    d1, d2, d3 = (qd[..., j, None] for j in range(3))
+    q3 = q[..., 2, None]
+    # Second derivatives of a, from a = R1 [c1 s2, s1 s2, -c2]:
+    #   a11 = -sin q2 * (sin q2 a + cos q2 a2)   (minus the component of a normal to z1)
+    #   a12 = -cos q2 * y3                        (since a1 = -sin q2 y3)
+    #   a22 = -a
+    s2, c2 = f.sin_q2[..., None], f.cos_q2[..., None]
+    a11 = -s2 * (s2 * f.a + c2 * f.a2)
+    a12 = -c2 * f.y3
+    return 2.0 * d3 * (f.a1 * d1 + f.a2 * d2) + q3 * (a11 * d1**2 + 2.0 * a12 * d1 * d2 - f.a * d2**2)
+
+
+def inverse_jacobian_batch(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+    """``Jp^-1`` (eq. 13) for validated poses (N, 4, 4): rows ``[a_i^T, (L_i x a_i)^T]``."""
+    d, L = leg_vectors(desc, poses)
+    a = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.concatenate([a, np.cross(L, a)], axis=-1)
+
+
+def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
+    """``Jp^-1``: actuator velocities ``qdot_a = Jp^-1 V_p`` [m/s] from the twist; (6, 6)
+    for one pose, (N, 6, 6) for a batch. Its transpose maps leg forces to the platform
+    wrench about O_p in F0."""
+    T, batched = check_poses(pose)
+    J = inverse_jacobian_batch(desc, T)
+    return J if batched else J[0]
+
+
+def condition_number(desc: RobotDescription, pose: Any) -> np.ndarray | float:
+    """The singularity measure: the 2-norm condition number of Jp^-1 (1 is isotropic).
+
+    Mixed units (rows [m/m, m]) make its value depend on the length unit; compare it
+    against thresholds for the same robot only.
+    """
+    T, batched = check_poses(pose)
+    c = np.linalg.cond(inverse_jacobian_batch(desc, T))
+    return c if batched else float(c[0])
+
+
+def check_condition(J_inv: np.ndarray, max_condition: float = MAX_CONDITION) -> np.ndarray:
+    """Raise :class:`SingularityError` where cond(Jp^-1) > ``max_condition``; returns the
+    condition numbers (N,)."""
+    c = np.linalg.cond(J_inv)
+    bad = ~(c <= max_condition)
+    if np.any(bad):
+        n = int(np.argmax(bad))
+        raise SingularityError(
+            f"the platform is at or near a parallel singularity at state {n}: cond(Jp^-1) = "
+            f"{c[n]:.3g} > {max_condition:g}",
+            float(c[n]),
+            max_condition,
+        )
+    return c
+
+
+def jacobian(desc: RobotDescription, pose: Any, max_condition: float = MAX_CONDITION) -> np.ndarray:
+    """``Jp = (Jp^-1)^-1``: platform twist from actuator velocities; (6, 6) or (N, 6, 6).
+
+    Raises :class:`SingularityError` past ``max_condition``.
+    """
+    T, batched = check_poses(pose)
+    J_inv = inverse_jacobian_batch(desc, T)
+    check_condition(J_inv, max_condition)
+    J = np.linalg.inv(J_inv)
+    return J if batched else J[0]
+
+
+@dataclass(frozen=True)
+class LegState:
+    """Leg joint positions, velocities, accelerations (N, 6, 3), with the quantities the
+    dynamics needs: frames, Jacobians (N, 6, 3, 3), the drift ``Jdot qdot`` (N, 6, 3) and
+    ``L_i`` (N, 6, 3), all in F0."""
+
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray | None
+    frames: LegFrames
+    J_inv: np.ndarray
+    drift: np.ndarray
+    L: np.ndarray
+
+
+def leg_state(
+    desc: RobotDescription,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    accels: np.ndarray | None = None,
+    check_limits: bool = True,
+) -> LegState:
+    """First and second order inverse kinematics of the legs (eq. 14-19), validated inputs.
+
+    ``qdot_i = J_3i^-1 (v + w x L_i)``;
+    ``qddot_i = J_3i^-1 (vdot + wdot x L_i + w x (w x L_i) - Jdot_3i qdot_i)``.
+    """
+    q = inverse_geometry_batch(desc, poses, check_limits)
+    _, L = leg_vectors(desc, poses)
+    f = leg_frames(desc, q)
+    J_inv = _leg_inverse_jacobians(f, q)
+    v, w = twists[:, None, :3], twists[:, None, 3:]
+    V_P = v + np.cross(w, L)
+    qdot = np.einsum("nkij,nkj->nki", J_inv, V_P)
+    drift = _leg_drift(f, q, qdot)
+    qddot = None
+    if accels is not None:
+        vd, wd = accels[:, None, :3], accels[:, None, 3:]
+        Vdot_P = vd + np.cross(wd, L) + np.cross(w, np.cross(w, L))
+        qddot = np.einsum("nkij,nkj->nki", J_inv, Vdot_P - drift)
+    return LegState(q, qdot, qddot, f, J_inv, drift, L)
+
+
+def leg_kinematics(
+    desc: RobotDescription, pose: Any, twist: Any, accel: Any | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """``(q, qdot, qddot)`` of the legs, each (6, 3) for one state or (N, 6, 3) for a batch.
+
+    Args:
+        pose: 0Tp, (4, 4) / ``pin.SE3`` or (N, 4, 4).
+        twist: ``[v, w]`` of O_p in F0, (6,) or (N, 6) [m/s, rad/s].
+        accel: classical ``[dv/dt, dw/dt]`` in F0, (6,) or (N, 6) [m/s^2, rad/s^2]; ``None``
+            skips qddot.
+    """
+    T, batched = check_poses(pose)
+    V, _ = check_batch(twist, (6,), "twist")
+    A = None if accel is None else check_batch(accel, (6,), "accel")[0]
+    for name, arr in (("twist", V), ("accel", A)):
+        if arr is not None and arr.shape[0] != T.shape[0]:
+            raise InputError(f"{name} has {arr.shape[0]} states but pose has {T.shape[0]}")
+    s = leg_state(desc, T, V, A)
+    out = (s.q, s.qdot, s.qddot)
+    if batched:
+        return out
+    return tuple(None if x is None else x[0] for x in out)  # type: ignore[return-value]

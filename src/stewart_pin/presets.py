@@ -1,0 +1,269 @@
+"""Named robots, and a generator of general asymmetric robots for tests.
+
+- ``simulator``: a symmetric 6-6 motion-simulator hexapod (1.8 m base radius, 1.2 t payload).
+- ``desktop``: a small symmetric desktop hexapod (10 cm base radius).
+- ``paper``: a hexapod placed with the paper's frames (F0 at B_1, x0 along B_1B_2,
+  (x0, y0) the plane of B_1, B_2, B_6; Fp at P_1, xp along P_1P_2, (xp, yp) the plane of
+  P_1, P_2, P_6), with an asymmetric platform.
+- :func:`random_robot`: general asymmetric robots (non-planar attachment points, oblique
+  U-joint axes, full inertia tensors and offset first moments on every link).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from .description import RobotDescription, leg_base_rotation_from_axis
+from .exceptions import DescriptionError
+from .inertia import khalil_from_urdf_inertial, random_physical_khalil, transform_khalil
+
+GRAVITY = np.array([0.0, 0.0, -9.81])  # [m/s^2]
+
+
+def _triangle_points(radius: float, angles_deg: list[float], z: float = 0.0) -> np.ndarray:
+    a = np.radians(angles_deg)
+    return np.column_stack([radius * np.cos(a), radius * np.sin(a), np.full(6, z)])
+
+
+def _symmetric_geometry(rb: float, rp: float, db: float, dp: float) -> tuple[np.ndarray, ...]:
+    """Base and platform points of the classic triangle-triangle 6-6 hexapod.
+
+    Leg i joins the base point at ``120 k +/- db`` to the platform point at ``120 k +/- 60
+    -/+ dp`` degrees, so adjacent base points feed different platform pairs.
+    """
+    B = _triangle_points(rb, [-db, db, 120 - db, 120 + db, 240 - db, 240 + db])
+    P = _triangle_points(rp, [-60 + dp, 60 - dp, 60 + dp, 180 - dp, 180 + dp, 300 - dp])
+    return B, P
+
+
+def _cylinder_link(mass: float, radius: float, length: float, axis: np.ndarray, start: float):
+    """Khalil parameters of a solid cylinder along ``axis`` (unit, in the link frame) whose
+    centre is at ``(start + length / 2) * axis``."""
+    axial = 0.5 * mass * radius**2
+    transverse = mass * (3 * radius**2 + length**2) / 12.0
+    I_c = transverse * np.eye(3) + (axial - transverse) * np.outer(axis, axis)
+    return khalil_from_urdf_inertial(mass, (start + 0.5 * length) * axis, I_c)
+
+
+def _axes_and_rotations(B: np.ndarray, P_home_in_0: np.ndarray) -> np.ndarray:
+    """Horizontal first axes, perpendicular to each leg at home (q2i = pi/2 there)."""
+    rotations = []
+    for b, p in zip(B, P_home_in_0, strict=True):
+        d = p - b
+        axis = np.cross([0.0, 0.0, 1.0], d)
+        rotations.append(leg_base_rotation_from_axis(axis, d))
+    return np.array(rotations)
+
+
+def _symmetric_robot(
+    name: str,
+    rb: float,
+    rp: float,
+    db: float,
+    dp: float,
+    stroke: tuple[float, float],
+    platform_mass: float,
+    platform_com_height: float,
+    platform_gyration: tuple[float, float, float],
+    link_masses: tuple[float, float, float],
+    cylinder_length: float,
+    rod_length: float,
+    radius: float,
+) -> RobotDescription:
+    B, P = _symmetric_geometry(rb, rp, db, dp)
+    m1, m2, m3 = link_masses
+    # Link 1 (U-joint cross): a small sphere-like body at B_i.
+    I1 = 0.4 * m1 * (1.5 * radius) ** 2
+    link1 = khalil_from_urdf_inertial(m1, np.zeros(3), I1 * np.eye(3))
+    # Link 2 (cylinder body): along -y2 (the leg direction in frame 2), from B_i upwards.
+    link2 = _cylinder_link(m2, 1.4 * radius, cylinder_length, np.array([0.0, -1.0, 0.0]), 0.0)
+    # Link 3 (piston rod): along z3, ending at P_i (origin of frame 3).
+    link3 = _cylinder_link(m3, radius, rod_length, np.array([0.0, 0.0, 1.0]), -rod_length)
+    leg = np.stack([link1, link2, link3])
+    kx, ky, kz = platform_gyration
+    I_c = platform_mass * np.diag([kx**2, ky**2, kz**2])
+    platform = khalil_from_urdf_inertial(
+        platform_mass, np.array([0.0, 0.0, platform_com_height]), I_c
+    )
+    draft = RobotDescription(
+        base_points=B,
+        platform_points=P,
+        leg_base_rotations=np.tile(np.eye(3), (6, 1, 1)),
+        stroke=np.array(stroke),
+        leg_inertia=np.tile(leg, (6, 1, 1)),
+        platform_inertia=platform,
+        gravity=GRAVITY,
+        name=name,
+    )
+    T = draft.home_pose
+    rotations = _axes_and_rotations(B, P @ T[:3, :3].T + T[:3, 3])
+    return draft.replace(leg_base_rotations=rotations)
+
+
+def simulator() -> RobotDescription:
+    """A symmetric 6-6 motion-simulator hexapod: 1.8 m / 1.2 m attachment radii, stroke
+    2.0-2.8 m, a 1200 kg cockpit platform, 2 + 45 + 18 kg per leg."""
+    return _symmetric_robot(
+        "simulator",
+        rb=1.8,
+        rp=1.2,
+        db=10.0,
+        dp=12.0,
+        stroke=(2.0, 2.8),
+        platform_mass=1200.0,
+        platform_com_height=0.5,
+        platform_gyration=(0.9, 0.9, 1.05),
+        link_masses=(2.0, 45.0, 18.0),
+        cylinder_length=1.5,
+        rod_length=1.5,
+        radius=0.06,
+    )
+
+
+def desktop() -> RobotDescription:
+    """A small desktop hexapod: 10 cm / 7.5 cm radii, stroke 13-19 cm, 0.6 kg platform."""
+    return _symmetric_robot(
+        "desktop",
+        rb=0.10,
+        rp=0.075,
+        db=12.0,
+        dp=15.0,
+        stroke=(0.13, 0.19),
+        platform_mass=0.6,
+        platform_com_height=0.01,
+        platform_gyration=(0.05, 0.05, 0.06),
+        link_masses=(0.005, 0.04, 0.02),
+        cylinder_length=0.1,
+        rod_length=0.1,
+        radius=0.006,
+    )
+
+
+def paper() -> RobotDescription:
+    """A hexapod with the paper's frame placement (F0 at B_1, Fp at P_1, fig. 2).
+
+    A mid-size symmetric geometry re-expressed in those frames, with an asymmetric
+    platform (full inertia tensor, offset centre of mass).
+    """
+    sym = _symmetric_robot(
+        "paper",
+        rb=0.6,
+        rp=0.4,
+        db=8.0,
+        dp=14.0,
+        stroke=(0.75, 1.15),
+        platform_mass=40.0,
+        platform_com_height=0.08,
+        platform_gyration=(0.25, 0.27, 0.33),
+        link_masses=(0.5, 6.0, 3.0),
+        cylinder_length=0.5,
+        rod_length=0.5,
+        radius=0.03,
+    )
+    R0, p0 = _paper_frame(sym.base_points)
+    Rp, pp = _paper_frame(sym.platform_points)
+    platform = transform_khalil(sym.platform_inertia, Rp.T, -Rp.T @ pp)
+    # An asymmetric payload: a 5 kg box offset from the platform centre.
+    rng = np.random.default_rng(2003)
+    payload = random_physical_khalil(rng, mass=5.0, size=0.1, com_offset=0.05)
+    platform = platform + transform_khalil(payload, np.eye(3), np.array([0.25, 0.12, 0.1]))
+    T = sym.home_pose
+    home = np.eye(4)
+    home[:3, :3] = R0.T @ T[:3, :3] @ Rp
+    home[:3, 3] = R0.T @ (T[:3, :3] @ pp + T[:3, 3] - p0)
+    return RobotDescription(
+        base_points=(sym.base_points - p0) @ R0,
+        platform_points=(sym.platform_points - pp) @ Rp,
+        leg_base_rotations=np.einsum("ji,njk->nik", R0, sym.leg_base_rotations),
+        stroke=sym.stroke,
+        leg_inertia=sym.leg_inertia,
+        platform_inertia=platform,
+        gravity=R0.T @ sym.gravity,
+        name="paper",
+        home_pose=home,
+    )
+
+
+def _paper_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's frame on six points: origin at point 1, x along 1->2, (x, y) plane
+    through points 1, 2 and 6. Returns its orientation and origin in the current frame."""
+    x = points[1] - points[0]
+    x /= np.linalg.norm(x)
+    z = np.cross(x, points[5] - points[0])
+    z /= np.linalg.norm(z)
+    return np.column_stack([x, np.cross(z, x), z]), points[0].copy()
+
+
+def random_robot(seed: int = 0) -> RobotDescription:
+    """A general asymmetric robot for tests: perturbed non-planar attachment points, a
+    platform frame away from the platform centre and rotated, oblique U-joint axes (q2i
+    away from pi/2), full inertia tensors and offset first moments on every body."""
+    rng = np.random.default_rng(seed)
+    B, P = _symmetric_geometry(0.5, 0.32, 10.0, 14.0)
+    B = B + rng.uniform(-0.04, 0.04, (6, 3))
+    P = P + rng.uniform(-0.03, 0.03, (6, 3))
+    height = 0.7
+    P_home_in_0 = P + [0.0, 0.0, height]
+    # Platform frame: origin offset from the centroid, orientation tilted.
+    q = rng.normal(size=4)
+    R_home = pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()
+    R_home = _slerp_identity(R_home, 0.15)
+    p_home = np.array([0.03, -0.02, height + 0.05])
+    P_local = (P_home_in_0 - p_home) @ R_home
+    lengths = np.linalg.norm(P_home_in_0 - B, axis=1)
+    rotations = []
+    for b, p in zip(B, P_home_in_0, strict=True):
+        d = p - b
+        axis = np.cross([0.0, 0.0, 1.0], d)
+        axis = axis / np.linalg.norm(axis) + rng.uniform(-0.3, 0.3, 3)
+        rotations.append(leg_base_rotation_from_axis(axis, d + rng.uniform(-0.3, 0.3, 3)))
+    legs = np.array(
+        [
+            [
+                random_physical_khalil(rng, rng.uniform(0.2, 0.6), 0.05, 0.03),
+                random_physical_khalil(rng, rng.uniform(2.0, 5.0), 0.25, 0.15),
+                random_physical_khalil(rng, rng.uniform(1.0, 3.0), 0.25, 0.15),
+            ]
+            for _ in range(6)
+        ]
+    )
+    home = np.eye(4)
+    home[:3, :3], home[:3, 3] = R_home, p_home
+    gravity = GRAVITY + rng.uniform(-0.5, 0.5, 3)
+    return RobotDescription(
+        base_points=B,
+        platform_points=P_local,
+        leg_base_rotations=np.array(rotations),
+        stroke=np.array([lengths.min() * 0.75, lengths.max() * 1.3]),
+        leg_inertia=legs,
+        platform_inertia=random_physical_khalil(rng, rng.uniform(10.0, 30.0), 0.3, 0.1),
+        gravity=gravity,
+        name=f"random-{seed}",
+        home_pose=home,
+    )
+
+
+def _slerp_identity(R: np.ndarray, fraction: float) -> np.ndarray:
+    """The rotation ``fraction`` of the way from the identity to ``R``."""
+    return pin.exp3(fraction * pin.log3(R))
+
+
+PRESETS: dict[str, Callable[[], RobotDescription]] = {
+    "simulator": simulator,
+    "desktop": desktop,
+    "paper": paper,
+}
+
+
+def preset(name: str) -> RobotDescription:
+    """A named preset (``simulator``, ``desktop``, ``paper``) or ``random-<seed>``."""
+    if name in PRESETS:
+        return PRESETS[name]()
+    if name.startswith("random-") and name[7:].isdigit():
+        return random_robot(int(name[7:]))
+    raise DescriptionError(
+        f"unknown preset '{name}'; choose one of {sorted(PRESETS)} or 'random-<seed>'"
+    )

@@ -1,0 +1,159 @@
+"""``StewartRobot``: the object users hold. It owns a validated description, builds the
+Pinocchio models on first use, and delegates to the model modules.
+
+Conventions (see ``docs/conventions.md``): a pose is 0Tp as a 4x4 matrix (``pin.SE3``
+accepted); a twist is ``[v, w]`` (6,) of the origin of Fp in F0 [m/s, rad/s]; an
+acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma_3i`` [N] is
+positive when it extends leg i. Every method takes one state or a batch with a leading
+N axis, and returns the same.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from . import geometry, kinematics
+from .description import RobotDescription
+from .kinematics import MAX_CONDITION
+from .models import TreeModel, build_leg_model, build_legs_model, build_tree
+from .presets import preset
+from .urdf import urdf_string, write_urdf
+
+
+class StewartRobot:
+    """A Gough-Stewart robot: description, Pinocchio models, geometry and kinematics.
+
+    Args:
+        description: the validated robot description.
+        max_condition: cond(Jp^-1) past which a pose counts as singular.
+    """
+
+    def __init__(self, description: RobotDescription, max_condition: float = MAX_CONDITION):
+        if not isinstance(description, RobotDescription):
+            raise TypeError(
+                f"StewartRobot takes a RobotDescription, got {type(description).__name__}; "
+                "use StewartRobot.from_dict / from_file / from_preset"
+            )
+        self.description = description
+        self.max_condition = float(max_condition)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], **kwargs: Any) -> StewartRobot:
+        """From the dictionary form (keys in :data:`stewart_pin.description.REQUIRED_KEYS`)."""
+        return cls(RobotDescription.from_dict(d), **kwargs)
+
+    @classmethod
+    def from_file(cls, path: str | Path, **kwargs: Any) -> StewartRobot:
+        """From a ``.toml`` or ``.json`` description file."""
+        return cls(RobotDescription.read(path), **kwargs)
+
+    @classmethod
+    def from_preset(cls, name: str, **kwargs: Any) -> StewartRobot:
+        """From a preset: ``simulator``, ``desktop``, ``paper`` or ``random-<seed>``."""
+        return cls(preset(name), **kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The description's dictionary form."""
+        return self.description.to_dict()
+
+    def write(self, path: str | Path) -> Path:
+        """Write the description (``.toml`` or ``.json``)."""
+        return self.description.write(path)
+
+    def __repr__(self) -> str:
+        return f"StewartRobot('{self.name}')"
+
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def home_pose(self) -> np.ndarray:
+        """The workspace centre 0Tp (4x4), a copy."""
+        return self.description.home_pose.copy()
+
+    # ------------------------------------------------------------------ files and models
+    def urdf(self) -> str:
+        """The URDF text of the tree."""
+        return urdf_string(self.description)
+
+    def write_urdf(self, path: str | Path) -> tuple[Path, Path]:
+        """Write the URDF and its loop-closure sidecar ``*.closures.json``."""
+        return write_urdf(self.description, path)
+
+    @cached_property
+    def tree(self) -> TreeModel:
+        """The 24-dof Pinocchio tree with its six 3D loop-closure constraints."""
+        return build_tree(self.description)
+
+    @cached_property
+    def leg_models(self) -> list[pin.Model]:
+        """The six 3-dof leg models."""
+        return [build_leg_model(self.description, i) for i in range(6)]
+
+    @cached_property
+    def legs_model(self) -> tuple[pin.Model, np.ndarray]:
+        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index."""
+        return build_legs_model(self.description)
+
+    # ------------------------------------------------------------------ geometry
+    def inverse_geometry(self, pose: Any, check_limits: bool = True) -> np.ndarray:
+        """Leg joint values (6, 3) (or (N, 6, 3)): columns q1i, q2i [rad], q3i [m]."""
+        return geometry.inverse_geometry(self.description, pose, check_limits)
+
+    def leg_lengths(self, pose: Any) -> np.ndarray:
+        """Leg lengths [m], (6,) or (N, 6), without stroke checks."""
+        return geometry.leg_lengths(self.description, pose)
+
+    def forward_geometry(self, lengths: Any, guess: Any = None, **kwargs: Any) -> np.ndarray:
+        """The pose 0Tp (4x4) with leg lengths ``lengths`` [m] (Newton-Raphson from ``guess``,
+        default the home pose); see :func:`stewart_pin.geometry.forward_geometry`."""
+        return geometry.forward_geometry(self.description, lengths, guess, **kwargs)
+
+    # ------------------------------------------------------------------ kinematics
+    def inverse_jacobian(self, pose: Any) -> np.ndarray:
+        """``Jp^-1`` (6, 6): ``qdot_a = Jp^-1 [v, w]`` (eq. 13)."""
+        return kinematics.inverse_jacobian(self.description, pose)
+
+    def jacobian(self, pose: Any) -> np.ndarray:
+        """``Jp`` (6, 6); raises :class:`SingularityError` past ``max_condition``."""
+        return kinematics.jacobian(self.description, pose, self.max_condition)
+
+    def condition_number(self, pose: Any) -> float | np.ndarray:
+        """cond(Jp^-1), the singularity measure."""
+        return kinematics.condition_number(self.description, pose)
+
+    def leg_jacobians(self, pose: Any) -> np.ndarray:
+        """Each leg's Jacobian ``J_3i`` at P_i in F0, (6, 3, 3) (or (N, 6, 3, 3))."""
+        q = self.inverse_geometry(pose)
+        J = kinematics.leg_jacobians(self.description, np.reshape(q, (-1, 6, 3)))
+        return J if q.ndim == 3 else J[0]
+
+    def leg_kinematics(
+        self, pose: Any, twist: Any, accel: Any | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """``(q, qdot, qddot)`` of the legs, each (6, 3) or (N, 6, 3) (eq. 14-19)."""
+        return kinematics.leg_kinematics(self.description, pose, twist, accel)
+
+    def sample_poses(
+        self,
+        n: int,
+        rng: np.random.Generator | int | None = None,
+        translation: float | None = None,
+        rotation: float = 0.25,
+    ) -> np.ndarray:
+        """``n`` random reachable poses around the home pose, (n, 4, 4).
+
+        Translations uniform in a cube of half-side ``translation`` [m] (default 15 % of the
+        mid-stroke), rotations ``exp(w)`` with ``|w_k| <= rotation`` [rad]; poses outside
+        the stroke, the U-joint limits or past ``max_condition`` are redrawn.
+        """
+        from .workspace import sample_poses
+
+        return sample_poses(self.description, n, rng, translation, rotation, self.max_condition)

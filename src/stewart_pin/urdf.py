@@ -1,0 +1,285 @@
+"""URDF writer and the loop-closure sidecar.
+
+The URDF holds the tree: ``base_link``; for each leg i (1..6) the links ``leg{i}_link1..3``
+joined by ``leg{i}_q1`` (revolute, at B_i, about the first U-joint axis), ``leg{i}_q2``
+(revolute) and ``leg{i}_q3`` (prismatic along the leg, actuated, limits = stroke); and the
+``platform`` link, child of ``base_link`` through the ``floating`` joint ``platform_joint``.
+Every link frame is the MDH frame of the paper, so the inertials are the description's
+Khalil parameters converted exactly (centre of mass and inertia about it).
+
+URDF cannot hold loops: the six closures (origin of frame 3i == P_i on the platform) go in
+a JSON sidecar, ``<name>.closures.json``, documented in ``docs/closures.md``::
+
+    {"format": "stewart-pin/closures", "version": 1, "urdf": "<name>.urdf",
+     "closures": [{"name": "loop1", "type": "point",
+                   "link1": "leg1_link3", "point1": [0, 0, 0],
+                   "link2": "platform",   "point2": [x, y, z]}, ...],
+     "actuated_joints": ["leg1_q3", ...]}
+"""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from .description import RobotDescription
+from .exceptions import FileFormatError
+from .inertia import urdf_inertial_from_khalil
+
+BASE_LINK = "base_link"
+PLATFORM_LINK = "platform"
+PLATFORM_JOINT = "platform_joint"
+CLOSURE_FORMAT = "stewart-pin/closures"
+
+#: Placeholder actuator limits written into the URDF (the description has none) [N, m/s].
+URDF_EFFORT, URDF_VELOCITY = 1.0e6, 10.0
+
+
+def leg_link(i: int, j: int) -> str:
+    """Name of link j (1..3) of leg i (1..6)."""
+    return f"leg{i}_link{j}"
+
+
+def leg_joint(i: int, j: int) -> str:
+    """Name of joint q_ji (j = 1..3) of leg i (1..6)."""
+    return f"leg{i}_q{j}"
+
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+def _vec(v: Any) -> str:
+    return " ".join(_num(x) for x in v)
+
+
+def _origin(parent: ET.Element, xyz: Any = (0, 0, 0), rpy: Any = (0, 0, 0)) -> None:
+    ET.SubElement(parent, "origin", xyz=_vec(xyz), rpy=_vec(rpy))
+
+
+def _inertial(link: ET.Element, params: np.ndarray) -> None:
+    mass, com, I = urdf_inertial_from_khalil(params)
+    el = ET.SubElement(link, "inertial")
+    _origin(el, com)
+    ET.SubElement(el, "mass", value=_num(mass))
+    ET.SubElement(
+        el,
+        "inertia",
+        ixx=_num(I[0, 0]),
+        ixy=_num(I[0, 1]),
+        ixz=_num(I[0, 2]),
+        iyy=_num(I[1, 1]),
+        iyz=_num(I[1, 2]),
+        izz=_num(I[2, 2]),
+    )
+
+
+def _visual(link: ET.Element, geometry: str, material: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **size):
+    el = ET.SubElement(link, "visual")
+    _origin(el, xyz, rpy)
+    geom = ET.SubElement(el, "geometry")
+    ET.SubElement(geom, geometry, **{k: _num(v) for k, v in size.items()})
+    ET.SubElement(el, "material", name=material)
+
+
+def _joint(robot, name, kind, parent, child, xyz=(0, 0, 0), rpy=(0, 0, 0), limits=None):
+    el = ET.SubElement(robot, "joint", name=name, type=kind)
+    ET.SubElement(el, "parent", link=parent)
+    ET.SubElement(el, "child", link=child)
+    _origin(el, xyz, rpy)
+    if kind != "floating":
+        ET.SubElement(el, "axis", xyz="0 0 1")
+    if limits is not None:
+        ET.SubElement(
+            el,
+            "limit",
+            lower=_num(limits[0]),
+            upper=_num(limits[1]),
+            effort=_num(URDF_EFFORT),
+            velocity=_num(URDF_VELOCITY),
+        )
+    return el
+
+
+def _plane_rpy(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centre and rpy of a disc through the best-fit plane of ``points``."""
+    centre = points.mean(axis=0)
+    normal = np.linalg.svd(points - centre)[2][2]
+    normal = normal if normal[2] >= 0 else -normal
+    x = np.cross([0.0, 1.0, 0.0], normal)
+    x = x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.array([1.0, 0.0, 0.0])
+    R = np.column_stack([x, np.cross(normal, x), normal])
+    return centre, pin.rpy.matrixToRpy(R)
+
+
+@dataclass(frozen=True)
+class VisualSizes:
+    """Sizes of the simple visuals [m], scaled on the robot."""
+
+    joint_radius: float
+    cylinder_radius: float
+    rod_radius: float
+    body_length: float
+    rod_length: float
+    plate_thickness: float
+
+    @classmethod
+    def for_robot(cls, desc: RobotDescription) -> VisualSizes:
+        s = desc.size
+        lo = float(desc.stroke[0])
+        return cls(0.05 * s, 0.035 * s, 0.02 * s, 0.6 * lo, 0.6 * lo, 0.04 * s)
+
+
+def urdf_string(desc: RobotDescription) -> str:
+    """The URDF of the six-leg tree plus the platform (see the module docstring)."""
+    vs = VisualSizes.for_robot(desc)
+    robot = ET.Element("robot", name=desc.name)
+    for name, rgba in (
+        ("base_grey", "0.35 0.35 0.38 1"),
+        ("cylinder_blue", "0.20 0.40 0.80 1"),
+        ("rod_silver", "0.80 0.80 0.82 1"),
+        ("joint_dark", "0.15 0.15 0.15 1"),
+        ("platform_orange", "0.95 0.55 0.15 1"),
+    ):
+        ET.SubElement(ET.SubElement(robot, "material", name=name), "color", rgba=rgba)
+
+    base = ET.SubElement(robot, "link", name=BASE_LINK)
+    centre, rpy = _plane_rpy(desc.base_points)
+    radius = np.linalg.norm(desc.base_points - centre, axis=1).max() + 2 * vs.joint_radius
+    R = pin.rpy.rpyToMatrix(rpy)
+    _visual(base, "cylinder", "base_grey", centre - R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius), rpy, radius=radius, length=vs.plate_thickness)
+
+    lim = desc.u_joint_limits
+    for i in range(1, 7):
+        k = i - 1
+        links = [ET.SubElement(robot, "link", name=leg_link(i, j)) for j in (1, 2, 3)]
+        for link, params in zip(links, desc.leg_inertia[k], strict=True):
+            _inertial(link, params)
+        _visual(links[0], "sphere", "joint_dark", radius=vs.joint_radius)
+        # The cylinder body runs along -y2 (the leg direction in frame 2i) from B_i.
+        _visual(
+            links[1],
+            "cylinder",
+            "cylinder_blue",
+            (0.0, -vs.body_length / 2, 0.0),
+            (np.pi / 2, 0.0, 0.0),
+            radius=vs.cylinder_radius,
+            length=vs.body_length,
+        )
+        _visual(
+            links[2],
+            "cylinder",
+            "rod_silver",
+            (0.0, 0.0, -vs.rod_length / 2),
+            radius=vs.rod_radius,
+            length=vs.rod_length,
+        )
+        _visual(links[2], "sphere", "joint_dark", radius=vs.joint_radius)
+        R1 = desc.leg_base_rotations[k]
+        q1_lim = lim[k, 0] if lim is not None else (-np.pi, np.pi)
+        q2_lim = lim[k, 1] if lim is not None else (0.0, np.pi)
+        _joint(robot, leg_joint(i, 1), "revolute", BASE_LINK, leg_link(i, 1), desc.base_points[k], pin.rpy.matrixToRpy(R1), q1_lim)
+        _joint(robot, leg_joint(i, 2), "revolute", leg_link(i, 1), leg_link(i, 2), rpy=(np.pi / 2, 0, 0), limits=q2_lim)
+        _joint(robot, leg_joint(i, 3), "prismatic", leg_link(i, 2), leg_link(i, 3), rpy=(np.pi / 2, 0, 0), limits=desc.stroke)
+
+    platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
+    _inertial(platform, desc.platform_inertia)
+    centre, rpy = _plane_rpy(desc.platform_points)
+    radius = np.linalg.norm(desc.platform_points - centre, axis=1).max() + 2 * vs.joint_radius
+    R = pin.rpy.rpyToMatrix(rpy)
+    _visual(platform, "cylinder", "platform_orange", centre + R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius), rpy, radius=radius, length=vs.plate_thickness)
+    _joint(robot, PLATFORM_JOINT, "floating", BASE_LINK, PLATFORM_LINK)
+    ET.indent(robot)
+    return (
+        '<?xml version="1.0"?>\n'
+        "<!-- Generated by stewart-pin from the robot description; do not edit by hand. -->\n"
+        f"<!-- Loop closures (not expressible in URDF): {desc.name}.closures.json -->\n"
+        + ET.tostring(robot, encoding="unicode")
+        + "\n"
+    )
+
+
+def closures_dict(desc: RobotDescription, urdf_name: str | None = None) -> dict[str, Any]:
+    """The loop-closure sidecar as a dict (see the module docstring)."""
+    return {
+        "format": CLOSURE_FORMAT,
+        "version": 1,
+        "urdf": urdf_name or f"{desc.name}.urdf",
+        "description": (
+            "Point constraints closing the six loops: the origin of point1 in link1 coincides "
+            "with point2 in link2 (spherical joints). Coordinates in each link's frame [m]."
+        ),
+        "closures": [
+            {
+                "name": f"loop{i}",
+                "type": "point",
+                "link1": leg_link(i, 3),
+                "point1": [0.0, 0.0, 0.0],
+                "link2": PLATFORM_LINK,
+                "point2": desc.platform_points[i - 1].tolist(),
+            }
+            for i in range(1, 7)
+        ],
+        "actuated_joints": [leg_joint(i, 3) for i in range(1, 7)],
+    }
+
+
+@dataclass(frozen=True)
+class Closure:
+    """One point closure read from a sidecar: ``point1`` in ``link1`` == ``point2`` in
+    ``link2`` [m]."""
+
+    name: str
+    link1: str
+    point1: np.ndarray
+    link2: str
+    point2: np.ndarray
+
+
+def read_closures(path: str | Path) -> list[Closure]:
+    """Read and validate a closure sidecar; raises :class:`FileFormatError` on any defect."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise FileFormatError(f"cannot read loop closures {path}: {e}") from e
+    return parse_closures(data, str(path))
+
+
+def parse_closures(data: Any, source: str = "closures") -> list[Closure]:
+    """Validate a closure dict (the sidecar's content)."""
+    if not isinstance(data, dict) or data.get("format") != CLOSURE_FORMAT:
+        raise FileFormatError(f"{source}: not a '{CLOSURE_FORMAT}' document")
+    if data.get("version") != 1:
+        raise FileFormatError(f"{source}: unsupported version {data.get('version')!r}")
+    items = data.get("closures")
+    if not isinstance(items, list) or not items:
+        raise FileFormatError(f"{source}: 'closures' must be a non-empty list")
+    out = []
+    for n, c in enumerate(items):
+        try:
+            if c["type"] != "point":
+                raise FileFormatError(f"{source}: closure {n} has type {c['type']!r}, not 'point'")
+            p1, p2 = np.array(c["point1"], float), np.array(c["point2"], float)
+            if p1.shape != (3,) or p2.shape != (3,) or not np.all(np.isfinite([*p1, *p2])):
+                raise FileFormatError(f"{source}: closure {n} points must be 3 finite numbers")
+            out.append(Closure(str(c["name"]), str(c["link1"]), p1, str(c["link2"]), p2))
+        except (KeyError, TypeError, ValueError) as e:
+            raise FileFormatError(f"{source}: closure {n} is malformed: {e!r}") from e
+    return out
+
+
+def write_urdf(desc: RobotDescription, path: str | Path) -> tuple[Path, Path]:
+    """Write ``path`` (the URDF) and its closure sidecar beside it; returns both paths."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(urdf_string(desc))
+    sidecar = path.with_name(path.name.removesuffix(".urdf") + ".closures.json")
+    sidecar.write_text(json.dumps(closures_dict(desc, path.name), indent=2) + "\n")
+    return path, sidecar

@@ -1,0 +1,77 @@
+"""Random reachable states: poses around the home pose, twists and accelerations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .description import RobotDescription
+from .exceptions import StewartPinError, WorkspaceError
+from .geometry import inverse_geometry_batch
+from .kinematics import MAX_CONDITION, check_condition, inverse_jacobian_batch
+
+
+def _rng(rng: np.random.Generator | int | None) -> np.random.Generator:
+    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+
+
+def sample_poses(
+    desc: RobotDescription,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    translation: float | None = None,
+    rotation: float = 0.25,
+    max_condition: float = MAX_CONDITION,
+    max_draws: int = 100,
+) -> np.ndarray:
+    """``n`` reachable poses 0Tp (n, 4, 4) drawn around ``desc.home_pose``.
+
+    The displacement is uniform in a cube of half-side ``translation`` [m] (default 15 % of
+    the mid-stroke) along F0's axes, the rotation ``exp(w) R_home`` with each ``w_k``
+    uniform in ``[-rotation, rotation]`` [rad]. Draws that leave the stroke or the U-joint
+    limits, or pass ``max_condition``, are rejected; after ``max_draws * n`` draws the
+    function raises :class:`WorkspaceError`.
+    """
+    rng = _rng(rng)
+    half = 0.15 * desc.stroke_mid if translation is None else float(translation)
+    home = desc.home_pose
+    out: list[np.ndarray] = []
+    draws = 0
+    while len(out) < n:
+        if draws >= max_draws * max(n, 1):
+            raise WorkspaceError(
+                f"only {len(out)} of {n} poses reachable after {draws} draws; reduce the "
+                f"translation ({half:g} m) or rotation ({rotation:g} rad) range"
+            )
+        draws += 1
+        T = home.copy()
+        T[:3, 3] += rng.uniform(-half, half, 3)
+        T[:3, :3] = pin.exp3(rng.uniform(-rotation, rotation, 3)) @ home[:3, :3]
+        try:
+            inverse_geometry_batch(desc, T[None])
+            check_condition(inverse_jacobian_batch(desc, T[None]), max_condition)
+        except StewartPinError:
+            continue
+        out.append(T)
+    return np.array(out).reshape(n, 4, 4)
+
+
+def sample_states(
+    desc: RobotDescription,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    speed: float | None = None,
+    angular_speed: float = 1.0,
+    **pose_kwargs,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(poses (n,4,4), twists (n,6), accels (n,6))``: random reachable poses with twists
+    and classical accelerations drawn uniformly (linear parts up to ``speed`` [m/s],
+    default the mid-stroke per second, and ``speed`` per second; angular parts up to
+    ``angular_speed`` [rad/s] and that per second)."""
+    rng = _rng(rng)
+    poses = sample_poses(desc, n, rng, **pose_kwargs)
+    s = desc.stroke_mid if speed is None else float(speed)
+    scale = np.array([s, s, s, angular_speed, angular_speed, angular_speed])
+    twists = rng.uniform(-1, 1, (n, 6)) * scale
+    accels = rng.uniform(-1, 1, (n, 6)) * scale * 3.0
+    return poses, twists, accels
