@@ -90,4 +90,5 @@ def _is_se3(x: Any) -> bool:
 
 
 def _fmt(shape: tuple[int | None, ...]) -> str:
-    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+    dims = ["N" if s is None else str(s) for s in shape]
+    return "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"

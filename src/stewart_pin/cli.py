@@ -65,7 +65,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _add_robot_args(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--preset", default="simulator", help="simulator, desktop, paper, random-<seed>")
+    g.add_argument(
+        "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
+    )
     g.add_argument("--description", help="a robot description file (.toml or .json)")
 
 

@@ -303,7 +303,9 @@ def leg_base_rotation_from_axis(axis: Any, leg_direction: Any) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def leg_frame_from_mdh(gamma: float, b: float, alpha: float, d: float) -> tuple[np.ndarray, np.ndarray]:
+def leg_frame_from_mdh(
+    gamma: float, b: float, alpha: float, d: float
+) -> tuple[np.ndarray, np.ndarray]:
     """``(B_i in F0, rotation of frame 1i at q1i = 0 in F0)`` from the paper's MDH parameters.
 
     Khalil-Kleinfinger: ``0T1i = Rz(gamma) Tz(b) Rx(alpha) Tx(d) Rz(q1i)``, with q1i = 0.

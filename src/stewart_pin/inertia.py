@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._checks import check_array
+from ._vector import skew
 from .exceptions import InertiaError
 
 #: Names of the 10 standard parameters, in Khalil's order.
@@ -30,16 +31,6 @@ PIN_TO_KHALIL = np.argsort(KHALIL_TO_PIN)
 
 #: Relative tolerance of the physical-consistency checks (scaled by the body's inertia).
 PHYSICAL_TOLERANCE = 1e-10
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """The 3x3 (or batch (..., 3, 3)) skew matrix ``v^`` with ``v^ x = v x x``."""
-    v = np.asarray(v, dtype=float)
-    S = np.zeros((*v.shape[:-1], 3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
 
 
 def inertia_tensor(params: np.ndarray) -> np.ndarray:
@@ -165,8 +156,12 @@ def random_physical_khalil(
     # A random box-like density: principal moments of a solid with random half-axes,
     # which satisfy the triangle inequality by construction.
     half = size * rng.uniform(0.3, 1.0, 3)
-    principal = mass / 5.0 * np.array(
-        [half[1] ** 2 + half[2] ** 2, half[0] ** 2 + half[2] ** 2, half[0] ** 2 + half[1] ** 2]
+    principal = (
+        mass
+        / 5.0
+        * np.array(
+            [half[1] ** 2 + half[2] ** 2, half[0] ** 2 + half[2] ** 2, half[0] ** 2 + half[1] ** 2]
+        )
     )
     q = rng.normal(size=4)
     R = pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()

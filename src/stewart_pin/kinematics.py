@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ._checks import check_batch, check_poses
+from ._vector import cross
 from .description import RobotDescription
 from .exceptions import InputError, SingularityError
 from .geometry import inverse_geometry_batch, leg_vectors
@@ -106,14 +107,16 @@ def _leg_drift(f: LegFrames, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     s2, c2 = f.sin_q2[..., None], f.cos_q2[..., None]
     a11 = -s2 * (s2 * f.a + c2 * f.a2)
     a12 = -c2 * f.y3
-    return 2.0 * d3 * (f.a1 * d1 + f.a2 * d2) + q3 * (a11 * d1**2 + 2.0 * a12 * d1 * d2 - f.a * d2**2)
+    return 2.0 * d3 * (f.a1 * d1 + f.a2 * d2) + q3 * (
+        a11 * d1**2 + 2.0 * a12 * d1 * d2 - f.a * d2**2
+    )
 
 
 def inverse_jacobian_batch(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
     """``Jp^-1`` (eq. 13) for validated poses (N, 4, 4): rows ``[a_i^T, (L_i x a_i)^T]``."""
     d, L = leg_vectors(desc, poses)
     a = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    return np.concatenate([a, np.cross(L, a)], axis=-1)
+    return np.concatenate([a, cross(L, a)], axis=-1)
 
 
 def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
@@ -152,7 +155,9 @@ def check_condition(J_inv: np.ndarray, max_condition: float = MAX_CONDITION) -> 
     return c
 
 
-def jacobian(desc: RobotDescription, pose: Any, max_condition: float = MAX_CONDITION) -> np.ndarray:
+def jacobian(
+    desc: RobotDescription, pose: Any, max_condition: float = MAX_CONDITION
+) -> np.ndarray:
     """``Jp = (Jp^-1)^-1``: platform twist from actuator velocities; (6, 6) or (N, 6, 6).
 
     Raises :class:`SingularityError` past ``max_condition``.
@@ -196,13 +201,13 @@ def leg_state(
     f = leg_frames(desc, q)
     J_inv = _leg_inverse_jacobians(f, q)
     v, w = twists[:, None, :3], twists[:, None, 3:]
-    V_P = v + np.cross(w, L)
+    V_P = v + cross(w, L)
     qdot = np.einsum("nkij,nkj->nki", J_inv, V_P)
     drift = _leg_drift(f, q, qdot)
     qddot = None
     if accels is not None:
         vd, wd = accels[:, None, :3], accels[:, None, 3:]
-        Vdot_P = vd + np.cross(wd, L) + np.cross(w, np.cross(w, L))
+        Vdot_P = vd + cross(wd, L) + cross(w, cross(w, L))
         qddot = np.einsum("nkij,nkj->nki", J_inv, Vdot_P - drift)
     return LegState(q, qdot, qddot, f, J_inv, drift, L)
 

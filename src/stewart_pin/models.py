@@ -20,7 +20,15 @@ import pinocchio as pin
 
 from .description import RobotDescription
 from .exceptions import FileFormatError
-from .urdf import PLATFORM_JOINT, Closure, closures_dict, leg_joint, parse_closures, read_closures, urdf_string
+from .urdf import (
+    PLATFORM_JOINT,
+    Closure,
+    closures_dict,
+    leg_joint,
+    parse_closures,
+    read_closures,
+    urdf_string,
+)
 
 
 def _model_from_urdf_text(text: str, gravity: np.ndarray) -> pin.Model:
@@ -71,9 +79,7 @@ def _leg_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
     return q_idx, v_idx
 
 
-def tree_from_files(
-    urdf_text: str, closures: list[Closure], gravity: np.ndarray
-) -> TreeModel:
+def tree_from_files(urdf_text: str, closures: list[Closure], gravity: np.ndarray) -> TreeModel:
     """Build the closed-loop model from URDF text and parsed closures."""
     model = _model_from_urdf_text(urdf_text, gravity)
     if not model.existJointName(PLATFORM_JOINT):

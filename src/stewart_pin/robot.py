@@ -17,9 +17,14 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from . import geometry, kinematics
+from . import closure, geometry, kinematics
+from ._checks import check_batch, check_poses
+from ._vector import cross
+from .closure import CartesianDynamics, InverseDynamicsResult
 from .description import RobotDescription
-from .kinematics import MAX_CONDITION
+from .exceptions import InputError
+from .kinematics import MAX_CONDITION, leg_state
+from .legs import LegDynamics
 from .models import TreeModel, build_leg_model, build_legs_model, build_tree
 from .presets import preset
 from .urdf import urdf_string, write_urdf
@@ -157,3 +162,93 @@ class StewartRobot:
         from .workspace import sample_poses
 
         return sample_poses(self.description, n, rng, translation, rotation, self.max_condition)
+
+    # ------------------------------------------------------------------ dynamics
+    @cached_property
+    def leg_dynamics(self) -> LegDynamics:
+        """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``)."""
+        return LegDynamics(self.description)
+
+    def _states(self, pose: Any, *vectors: tuple[Any, str]) -> tuple[bool, np.ndarray, ...]:
+        T, batched = check_poses(pose)
+        out = [T]
+        for value, name in vectors:
+            arr, arr_batched = check_batch(value, (6,), name)
+            if arr.shape[0] != T.shape[0] or arr_batched != batched:
+                raise InputError(
+                    f"{name} has shape {np.shape(value)} but pose has "
+                    f"{'shape ' + str(np.shape(pose)) if batched else 'one state'}; give "
+                    "(6,) with one pose or (N, 6) with N poses"
+                )
+            out.append(arr)
+        return (batched, *out)
+
+    def inverse_dynamics(
+        self, pose: Any, twist: Any, accel: Any, details: bool = False
+    ) -> np.ndarray | InverseDynamicsResult:
+        """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
+
+        Args:
+            pose: 0Tp, (4, 4) / ``pin.SE3``, or a batch (N, 4, 4).
+            twist: ``[v, w]`` of O_p in F0, (6,) or (N, 6) [m/s, rad/s].
+            accel: classical ``[dv/dt, dw/dt]`` in F0, (6,) or (N, 6) [m/s^2, rad/s^2].
+            details: return the :class:`~stewart_pin.closure.InverseDynamicsResult`
+                (batch arrays) with the leg forces on the platform, each leg's share...
+
+        Returns:
+            Gamma (6,) or (N, 6); positive extends the leg.
+        """
+        batched, T, V, A = self._states(pose, (twist, "twist"), (accel, "accel"))
+        res = closure.inverse_dynamics(
+            self.description, self.leg_dynamics, T, V, A, self.max_condition
+        )
+        if details:
+            return res
+        return res.gamma if batched else res.gamma[0]
+
+    def direct_dynamics(self, pose: Any, twist: Any, gamma: Any) -> np.ndarray:
+        """Classical platform acceleration ``[dv/dt, dw/dt]`` in F0 (eq. 35):
+        ``A_robot Vdot_p = Jp^-T Gamma - h_robot``, solved by Cholesky.
+
+        Args:
+            pose: 0Tp (4, 4) or (N, 4, 4); twist: (6,) or (N, 6); gamma: actuator forces
+                (6,) or (N, 6) [N].
+        """
+        batched, T, V, G = self._states(pose, (twist, "twist"), (gamma, "gamma"))
+        accel, _ = closure.direct_dynamics(
+            self.description, self.leg_dynamics, T, V, G, self.max_condition
+        )
+        return accel if batched else accel[0]
+
+    def cartesian_dynamics(self, pose: Any, twist: Any) -> CartesianDynamics:
+        """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays)."""
+        _, T, V = self._states(pose, (twist, "twist"))
+        return closure.cartesian_dynamics(
+            self.description, self.leg_dynamics, T, V, self.max_condition
+        )
+
+    def gravity_compensation(self, pose: Any) -> np.ndarray:
+        """The static inverse dynamic model: Gamma holding the robot still at ``pose`` [N]."""
+        T, batched = check_poses(pose)
+        zeros = np.zeros((T.shape[0], 6))
+        gamma = self.inverse_dynamics(T, zeros, zeros)
+        return gamma if batched else gamma[0]
+
+    def energy(self, pose: Any, twist: Any) -> np.ndarray | float:
+        """Total mechanical energy of platform + legs [J]: kinetic plus gravitational
+        potential (zero with every centre of mass at the origin of F0)."""
+        batched, T, V = self._states(pose, (twist, "twist"))
+        legs = leg_state(self.description, T, V, check_limits=False)
+        kin, pot = self.leg_dynamics.energy(legs.q, legs.qdot)
+        p = self.description.platform_inertia
+        R, pos = T[:, :3, :3], T[:, :3, 3]
+        MS = R @ p[6:9]
+        I0 = R @ closure.inertia_tensor(p) @ np.swapaxes(R, 1, 2)
+        v, w = V[:, :3], V[:, 3:]
+        kin_p = 0.5 * (
+            p[9] * np.einsum("ni,ni->n", v, v) + np.einsum("ni,nij,nj->n", w, I0, w)
+        ) + np.einsum("ni,ni->n", v, cross(w, MS))
+        g = self.description.gravity
+        pot_p = -(p[9] * pos @ g + MS @ g)
+        total = kin + pot + kin_p + pot_p
+        return total if batched else float(total[0])

@@ -153,7 +153,15 @@ def urdf_string(desc: RobotDescription) -> str:
     centre, rpy = _plane_rpy(desc.base_points)
     radius = np.linalg.norm(desc.base_points - centre, axis=1).max() + 2 * vs.joint_radius
     R = pin.rpy.rpyToMatrix(rpy)
-    _visual(base, "cylinder", "base_grey", centre - R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius), rpy, radius=radius, length=vs.plate_thickness)
+    _visual(
+        base,
+        "cylinder",
+        "base_grey",
+        centre - R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius),
+        rpy,
+        radius=radius,
+        length=vs.plate_thickness,
+    )
 
     lim = desc.u_joint_limits
     for i in range(1, 7):
@@ -184,16 +192,49 @@ def urdf_string(desc: RobotDescription) -> str:
         R1 = desc.leg_base_rotations[k]
         q1_lim = lim[k, 0] if lim is not None else (-np.pi, np.pi)
         q2_lim = lim[k, 1] if lim is not None else (0.0, np.pi)
-        _joint(robot, leg_joint(i, 1), "revolute", BASE_LINK, leg_link(i, 1), desc.base_points[k], pin.rpy.matrixToRpy(R1), q1_lim)
-        _joint(robot, leg_joint(i, 2), "revolute", leg_link(i, 1), leg_link(i, 2), rpy=(np.pi / 2, 0, 0), limits=q2_lim)
-        _joint(robot, leg_joint(i, 3), "prismatic", leg_link(i, 2), leg_link(i, 3), rpy=(np.pi / 2, 0, 0), limits=desc.stroke)
+        _joint(
+            robot,
+            leg_joint(i, 1),
+            "revolute",
+            BASE_LINK,
+            leg_link(i, 1),
+            desc.base_points[k],
+            pin.rpy.matrixToRpy(R1),
+            q1_lim,
+        )
+        _joint(
+            robot,
+            leg_joint(i, 2),
+            "revolute",
+            leg_link(i, 1),
+            leg_link(i, 2),
+            rpy=(np.pi / 2, 0, 0),
+            limits=q2_lim,
+        )
+        _joint(
+            robot,
+            leg_joint(i, 3),
+            "prismatic",
+            leg_link(i, 2),
+            leg_link(i, 3),
+            rpy=(np.pi / 2, 0, 0),
+            limits=desc.stroke,
+        )
 
     platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
     _inertial(platform, desc.platform_inertia)
     centre, rpy = _plane_rpy(desc.platform_points)
     radius = np.linalg.norm(desc.platform_points - centre, axis=1).max() + 2 * vs.joint_radius
     R = pin.rpy.rpyToMatrix(rpy)
-    _visual(platform, "cylinder", "platform_orange", centre + R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius), rpy, radius=radius, length=vs.plate_thickness)
+    _visual(
+        platform,
+        "cylinder",
+        "platform_orange",
+        centre + R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius),
+        rpy,
+        radius=radius,
+        length=vs.plate_thickness,
+    )
     _joint(robot, PLATFORM_JOINT, "floating", BASE_LINK, PLATFORM_LINK)
     ET.indent(robot)
     return (

@@ -1,0 +1,203 @@
+"""The paper's closure layer: Cartesian projection of the legs, the platform's
+Newton-Euler equations, and the inverse and direct dynamic models (eq. 20-38).
+
+All functions take validated batches: poses (N, 4, 4), twists (N, 6), classical
+accelerations (N, 6), forces (N, 6); every 6-vector is ``[linear, angular]`` in F0, and
+every wrench is about O_p (the origin of Fp).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .description import RobotDescription
+from .exceptions import SingularityError
+from ._vector import cross, skew
+from .inertia import inertia_tensor
+from .kinematics import LegState, check_condition, inverse_jacobian_batch, leg_state
+from .legs import LegDynamics
+
+
+@dataclass(frozen=True)
+class PlatformTerms:
+    """The platform's Newton-Euler terms (eq. 24-29), in F0 about O_p.
+
+    Attributes:
+        inertia: ``Ip`` (N, 6, 6), the spatial inertia ``[[M I3, -MS^], [MS^, I]]``.
+        bias: (N, 6), ``[w x (w x MS); w x (I w)] - [M g; MS x g]``.
+    """
+
+    inertia: np.ndarray
+    bias: np.ndarray
+
+
+def platform_terms(desc: RobotDescription, poses: np.ndarray, twists: np.ndarray) -> PlatformTerms:
+    """Rotate the platform's parameters into F0 and form ``Ip`` and its bias (eq. 24-29)."""
+    R = poses[:, :3, :3]
+    p = desc.platform_inertia
+    mass = p[9]
+    MS = R @ p[6:9]  # (N, 3)
+    I0 = R @ inertia_tensor(p) @ np.swapaxes(R, 1, 2)
+    S = skew(MS)
+    Ip = np.zeros((R.shape[0], 6, 6))
+    Ip[:, :3, :3] = mass * np.eye(3)
+    Ip[:, :3, 3:] = -S
+    Ip[:, 3:, :3] = S
+    Ip[:, 3:, 3:] = I0
+    w, g = twists[:, 3:], desc.gravity
+    bias = np.concatenate(
+        [
+            cross(w, cross(w, MS)) - mass * g,
+            cross(w, np.einsum("nij,nj->ni", I0, w)) - cross(MS, g),
+        ],
+        axis=-1,
+    )
+    return PlatformTerms(Ip, bias)
+
+
+def _wrench_at_origin(force: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """``sum_i [f_i; L_i x f_i]``: forces (N, 6, 3) at P_i as one wrench (N, 6) about O_p."""
+    return np.concatenate([force.sum(axis=1), cross(L, force).sum(axis=1)], axis=-1)
+
+
+def _transpose_solve(J_inv: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+    """``Jp^T wrench = (Jp^-1)^-T wrench`` for batches."""
+    return np.linalg.solve(np.swapaxes(J_inv, 1, 2), wrench[..., None])[..., 0]
+
+
+@dataclass(frozen=True)
+class InverseDynamicsResult:
+    """The inverse dynamic model with its intermediate terms (batches).
+
+    Attributes:
+        gamma: (N, 6) actuator forces Gamma_3i [N] (eq. 31).
+        leg_forces: (N, 6, 3) the force f_i of leg i on the platform at P_i, in F0 (eq. 23).
+        platform_share: (N, 6) ``Jp^T F_p``, the part of Gamma that moves the platform.
+        leg_shares: (N, 6, 6) ``Jp^T [I3; L_i^] H_xi``, leg i's part of Gamma in
+            ``leg_shares[:, i]``; ``gamma = platform_share + leg_shares.sum(axis=1)``.
+        H: (N, 6, 3) each leg's own inverse dynamics ``H_i`` (eq. 20).
+        H_x: (N, 6, 3) its Cartesian form ``J_3i^-T H_i`` at P_i (eq. 22).
+        F_p, F_leg: (N, 6) the platform and leg wrenches about O_p (eq. 24, 32).
+        legs: the leg kinematic state used.
+    """
+
+    gamma: np.ndarray
+    leg_forces: np.ndarray
+    platform_share: np.ndarray
+    leg_shares: np.ndarray
+    H: np.ndarray
+    H_x: np.ndarray
+    F_p: np.ndarray
+    F_leg: np.ndarray
+    legs: LegState
+
+
+def inverse_dynamics(
+    desc: RobotDescription,
+    legs_dyn: LegDynamics,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    accels: np.ndarray,
+    max_condition: float,
+) -> InverseDynamicsResult:
+    """``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) with every intermediate term."""
+    legs = leg_state(desc, poses, twists, accels)
+    J_inv = inverse_jacobian_batch(desc, poses)
+    check_condition(J_inv, max_condition)
+    H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
+    H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)  # J_3i^-T H_i
+    plat = platform_terms(desc, poses, twists)
+    F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
+    F_leg = _wrench_at_origin(H_x, legs.L)
+    gamma = _transpose_solve(J_inv, F_p + F_leg)
+    per_leg = np.concatenate([H_x, cross(legs.L, H_x)], axis=-1)  # (N, 6, 6)
+    leg_shares = np.linalg.solve(np.swapaxes(J_inv, 1, 2)[:, None], per_leg[..., None])[..., 0]
+    a = legs.frames.a
+    return InverseDynamicsResult(
+        gamma=gamma,
+        leg_forces=-H_x + a * gamma[..., None],
+        platform_share=_transpose_solve(J_inv, F_p),
+        leg_shares=leg_shares,
+        H=H,
+        H_x=H_x,
+        F_p=F_p,
+        F_leg=F_leg,
+        legs=legs,
+    )
+
+
+@dataclass(frozen=True)
+class CartesianDynamics:
+    """``A_robot Vdot_p + h_robot = Jp^-T Gamma`` (eq. 35-37) at a batch of states.
+
+    Attributes:
+        A_robot: (N, 6, 6) symmetric positive definite inertia of platform + legs.
+        h_robot: (N, 6) Coriolis, centrifugal and gravity wrench about O_p.
+        J_inv: (N, 6, 6) ``Jp^-1``.
+        A_x: (N, 6, 3, 3) each leg's Cartesian inertia at P_i, ``J_3i^-T A_i J_3i^-1``.
+        h_x: (N, 6, 3) each leg's Cartesian bias ``J_3i^-T h_i``.
+    """
+
+    A_robot: np.ndarray
+    h_robot: np.ndarray
+    J_inv: np.ndarray
+    A_x: np.ndarray
+    h_x: np.ndarray
+
+
+def cartesian_dynamics(
+    desc: RobotDescription,
+    legs_dyn: LegDynamics,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    max_condition: float,
+) -> CartesianDynamics:
+    """``A_robot`` and ``h_robot`` (eq. 36-37)."""
+    legs = leg_state(desc, poses, twists)
+    J_inv = inverse_jacobian_batch(desc, poses)
+    check_condition(J_inv, max_condition)
+    A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
+    Ji = legs.J_inv
+    A_x = np.einsum("nkji,nkjl,nklm->nkim", Ji, A, Ji)
+    h_x = np.einsum("nkji,nkj->nki", Ji, h)
+    L, w = legs.L, twists[:, None, 3:]
+    # Centripetal acceleration of P_i on the platform minus the leg drift (eq. 34).
+    c = cross(w, cross(w, L)) - legs.drift
+    t = np.einsum("nkij,nkj->nki", A_x, c) + h_x
+    Lh = skew(L)  # (N, 6, 3, 3)
+    AL = A_x @ Lh
+    blocks = np.zeros((*L.shape[:2], 6, 6))
+    blocks[..., :3, :3] = A_x
+    blocks[..., :3, 3:] = -AL
+    blocks[..., 3:, :3] = Lh @ A_x
+    blocks[..., 3:, 3:] = -Lh @ AL
+    plat = platform_terms(desc, poses, twists)
+    A_robot = plat.inertia + blocks.sum(axis=1)
+    h_robot = plat.bias + _wrench_at_origin(t, L)
+    return CartesianDynamics(
+        0.5 * (A_robot + np.swapaxes(A_robot, 1, 2)), h_robot, J_inv, A_x, h_x
+    )
+
+
+def direct_dynamics(
+    desc: RobotDescription,
+    legs_dyn: LegDynamics,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    gammas: np.ndarray,
+    max_condition: float,
+) -> tuple[np.ndarray, CartesianDynamics]:
+    """``Vdot_p = A_robot^-1 (Jp^-T Gamma - h_robot)`` (eq. 35) by Cholesky, classical, F0."""
+    cd = cartesian_dynamics(desc, legs_dyn, poses, twists, max_condition)
+    rhs = np.einsum("nji,nj->ni", cd.J_inv, gammas) - cd.h_robot
+    try:
+        chol = np.linalg.cholesky(cd.A_robot)
+    except np.linalg.LinAlgError as e:
+        raise SingularityError(
+            "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
+        ) from e
+    y = np.linalg.solve(chol, rhs[..., None])
+    accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
+    return accel, cd

@@ -1,0 +1,73 @@
+"""Each leg's own dynamics, from Pinocchio: ``H_i``, ``A_i``, ``h_i`` (paper eq. 20, 33).
+
+The six 3-dof legs are evaluated as one 18-dof fixed-base Pinocchio model (the chains
+share no body, so one RNEA / CRBA call on it *is* the six legs' RNEA / CRBA, with
+block-diagonal mass matrix). Nothing acts at the leg tips here: ``H_i`` is the joint
+force vector leg i needs to follow ``(q_i, qdot_i, qddot_i)`` on its own, gravity included.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .description import RobotDescription
+from .models import build_legs_model
+
+
+class LegDynamics:
+    """Pinocchio's RNEA / CRBA / nonlinear effects on the six legs, for batches of states.
+
+    All arrays are (N, 6, 3) for joint vectors (columns q1i, q2i, q3i) and (N, 6, 3, 3)
+    for the leg mass matrices.
+    """
+
+    def __init__(self, desc: RobotDescription) -> None:
+        self.model, v_index = build_legs_model(desc)
+        self.data = self.model.createData()
+        # Revolute and prismatic joints have nq == nv, so q and v share the index.
+        self.index = v_index.ravel()
+        self._blocks = v_index  # (6, 3)
+
+    def _pack(self, x: np.ndarray) -> np.ndarray:
+        out = np.empty(18)
+        out[self.index] = x.ravel()
+        return out
+
+    def _unpack(self, x: np.ndarray) -> np.ndarray:
+        return x[self.index].reshape(6, 3)
+
+    def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+        """``H_i = A_i qddot_i + h_i`` (N, 6, 3) [N m for q1, q2; N for q3] by RNEA."""
+        m, d = self.model, self.data
+        out = np.empty(q.shape)
+        for n in range(q.shape[0]):
+            tau = pin.rnea(m, d, self._pack(q[n]), self._pack(qdot[n]), self._pack(qddot[n]))
+            out[n] = self._unpack(tau)
+        return out
+
+    def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA and the nonlinear effects (Coriolis,
+        centrifugal, gravity)."""
+        m, d = self.model, self.data
+        A = np.empty((*q.shape, 3))
+        h = np.empty(q.shape)
+        rows = self._blocks[:, :, None]
+        cols = self._blocks[:, None, :]
+        for n in range(q.shape[0]):
+            qn, vn = self._pack(q[n]), self._pack(qdot[n])
+            M = pin.crba(m, d, qn)
+            A[n] = M[rows, cols]
+            h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
+        return A, h
+
+    def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Kinetic and potential energy of the six legs together, each (N,) [J]; the
+        potential is zero with every link's centre of mass at the origin of F0."""
+        m, d = self.model, self.data
+        kinetic, potential = np.empty(q.shape[0]), np.empty(q.shape[0])
+        for n in range(q.shape[0]):
+            qn = self._pack(q[n])
+            kinetic[n] = pin.computeKineticEnergy(m, d, qn, self._pack(qdot[n]))
+            potential[n] = pin.computePotentialEnergy(m, d, qn)
+        return kinetic, potential
