@@ -25,7 +25,8 @@ def check_array(value: Any, shape: tuple[int | None, ...], name: str) -> np.ndar
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise InputError(
-            f"{name} holds a non-finite value {arr[tuple(bad)]} at index {tuple(int(i) for i in bad)}"
+            f"{name} holds a non-finite value {arr[tuple(bad)]} at index "
+            f"{tuple(int(i) for i in bad)}"
         )
     return arr
 

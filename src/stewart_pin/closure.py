@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._vector import cross, skew
 from .description import RobotDescription
 from .exceptions import SingularityError
-from ._vector import cross, skew
 from .inertia import inertia_tensor
 from .kinematics import LegState, check_condition, inverse_jacobian_batch, leg_state
 from .legs import LegDynamics

@@ -110,7 +110,8 @@ class RobotDescription:
                 i, j = bad[0]
                 raise DescriptionError(
                     f"u_joint_limits of leg {i + 1}, q{j + 1}: lower "
-                    f"{self.u_joint_limits[i, j, 0]:.9g} >= upper {self.u_joint_limits[i, j, 1]:.9g}"
+                    f"{self.u_joint_limits[i, j, 0]:.9g} >= upper "
+                    f"{self.u_joint_limits[i, j, 1]:.9g}"
                 )
         if self.home_pose is None:
             set_("home_pose", _upright_home_pose(self))
@@ -201,7 +202,7 @@ class RobotDescription:
 
     @classmethod
     def read(cls, path: str | Path) -> RobotDescription:
-        """Read a description written by :meth:`write` (or by hand: see ``docs/description.md``)."""
+        """Read a description written by :meth:`write` or by hand (``docs/description.md``)."""
         path = Path(path)
         try:
             text = path.read_text()

@@ -206,7 +206,7 @@ def random_robot(seed: int = 0) -> RobotDescription:
     B = B + rng.uniform(-0.04, 0.04, (6, 3))
     P = P + rng.uniform(-0.03, 0.03, (6, 3))
     height = 0.7
-    P_home_in_0 = P + [0.0, 0.0, height]
+    P_home_in_0 = P + np.array([0.0, 0.0, height])
     # Platform frame: origin offset from the centroid, orientation tilted.
     q = rng.normal(size=4)
     R_home = pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()
