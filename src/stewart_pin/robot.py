@@ -252,3 +252,15 @@ class StewartRobot:
         pot_p = -(p[9] * pos @ g + MS @ g)
         total = kin + pot + kin_p + pot_p
         return total if batched else float(total[0])
+
+    def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
+        """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, 190) or (N, 6, 190).
+
+        Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform;
+        names in :data:`stewart_pin.regressor.STANDARD_NAMES`.
+        """
+        from .regressor import regressor_batch
+
+        batched, T, V, A = self._states(pose, (twist, "twist"), (accel, "accel"))
+        W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
+        return W if batched else W[0]
