@@ -1,0 +1,498 @@
+"""The independent check: the robot's dynamics from Pinocchio's constrained tree.
+
+This module shares none of the paper's algebra (it imports neither ``legs``, ``closure``
+nor ``kinematics``). The robot is the 24-dof tree of :func:`stewart_pin.models.build_tree`
+(six 3-dof legs, the platform as a free-flyer) closed by six 3D point constraints
+``c_i(q) = 0`` (origin of leg frame 3i == P_i on the platform). Only the leg joint
+*positions* come from the project's inverse geometry; every velocity, acceleration and
+dynamic term comes from Pinocchio:
+
+- velocities: the 18 leg rates solve ``Jc v = 0`` given the platform's 6, with ``Jc``
+  (18 x 24) from ``pin.getConstraintsJacobian``;
+- inverse dynamics: the 18 leg accelerations solve ``Jc qddot + drift = 0``, where the
+  drift is the constraint acceleration with the leg accelerations set to zero (classical
+  point accelerations from ``pin.forwardKinematics``); then ``pin.rnea`` gives
+  ``tau = M qddot + b`` and ``[S^T, Jc^T] [Gamma; lambda] = tau`` (24 x 24) gives the six
+  actuator forces and the 18 constraint multipliers;
+- direct dynamics: ``pin.constraintDynamics`` with ``tau = S^T Gamma`` and
+  ``pin.ProximalSettings(1e-14, 0, 1)`` (one proximal iteration with ``mu = 0``: the exact
+  KKT solution).
+
+Conventions (as the rest of the package): a pose is 0Tp (4x4, or ``pin.SE3``), a twist
+``[v, w]`` (6,) is the velocity of O_p and the angular velocity, both in F0 [m/s, rad/s];
+an acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma`` (6,) [N]
+are the prismatic joint forces, positive when they extend the leg. Pinocchio's free-flyer
+velocity is the local body twist ``[R^T v, R^T w]`` and its acceleration the time
+derivative of that local twist, ``[R^T vdot - (R^T w) x (R^T v), R^T wdot]``; the
+conversions live here and nowhere else.
+
+Every function takes one state or a batch with a leading N axis (a Python loop over the
+states: this is a reference, not a fast path). Stroke and U-joint limits are *not*
+checked (the physics is defined outside them); leg singularities raise
+:class:`SingularityError`.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from ._checks import check_batch, check_poses
+from .exceptions import InputError, SingularityError
+from .geometry import inverse_geometry_batch
+from .workspace import sample_states
+
+if TYPE_CHECKING:
+    from .models import TreeModel
+    from .robot import StewartRobot
+
+__all__ = [
+    "RELATIVE_FLOOR",
+    "ValidationReport",
+    "constrained_forward_dynamics",
+    "constrained_inverse_dynamics",
+    "constraint_jacobian",
+    "energy",
+    "relative_error",
+    "tree_state",
+    "validate",
+]
+
+#: Floor of the relative errors, as a fraction of the largest reference magnitude in the
+#: batch: ``err_n = max_k |a_nk - b_nk| / max(max_k |b_nk|, RELATIVE_FLOOR * max |b|)``.
+RELATIVE_FLOOR = 1e-6
+
+#: Settings of ``pin.constraintDynamics``: absolute accuracy, ``mu = 0`` (no proximal
+#: regularisation), one iteration: an exact KKT solve.
+_PROXIMAL = (1e-14, 0.0, 1)
+
+
+class _TreeSolver:
+    """Pinocchio data for one robot's tree, with ``initConstraintDynamics`` done once."""
+
+    def __init__(self, tree: TreeModel) -> None:
+        self.model = tree.model
+        self.data = tree.model.createData()
+        self.cmodels = pin.StdVec_RigidConstraintModel()
+        self.cdatas = pin.StdVec_RigidConstraintData()
+        for cm in tree.constraints:
+            self.cmodels.append(cm)
+            self.cdatas.append(cm.createData())
+        pin.initConstraintDynamics(self.model, self.data, self.cmodels, self.cdatas)
+        self.settings = pin.ProximalSettings(*_PROXIMAL)
+        self.q_ff = np.asarray(tree.platform_q_index)
+        self.v_ff = np.asarray(tree.platform_v_index)
+        self.q_legs = np.asarray(tree.leg_q_index).ravel()
+        self.v_legs = np.asarray(tree.leg_v_index).ravel()
+        self.v_act = np.asarray(tree.actuated_v_index)
+        self.nv = tree.model.nv
+
+
+_SOLVERS: weakref.WeakKeyDictionary[Any, _TreeSolver] = weakref.WeakKeyDictionary()
+
+
+def _solver(robot: StewartRobot) -> _TreeSolver:
+    if not hasattr(robot, "tree") or not hasattr(robot, "description"):
+        raise TypeError(
+            f"expected a StewartRobot (with .tree and .description), got {type(robot).__name__}"
+        )
+    try:
+        return _SOLVERS[robot]
+    except KeyError:
+        pass
+    solver = _TreeSolver(robot.tree)
+    _SOLVERS[robot] = solver
+    return solver
+
+
+# ---------------------------------------------------------------------------- inputs
+def _batch_inputs(
+    pose: Any, vectors: list[tuple[Any, str]]
+) -> tuple[np.ndarray, list[np.ndarray], bool]:
+    """Validate a pose (or batch) and 6-vectors of matching batch form and size."""
+    T, batched = check_poses(pose)
+    out = []
+    for value, name in vectors:
+        arr, b = check_batch(value, (6,), name)
+        if b != batched:
+            raise InputError(
+                f"{name} must be {'a batch (N, 6)' if batched else 'one 6-vector'} to match "
+                f"the pose{'s' if batched else ''}, got shape {np.shape(value)}"
+            )
+        if arr.shape[0] != T.shape[0]:
+            raise InputError(
+                f"{name} holds {arr.shape[0]} states but pose holds {T.shape[0]}; give one "
+                "row per pose"
+            )
+        out.append(arr)
+    return T, out, batched
+
+
+def _unbatch(x: np.ndarray, batched: bool) -> np.ndarray:
+    return x if batched else x[0]
+
+
+# ---------------------------------------------------------------------------- one state
+def _constraint_jacobian(s: _TreeSolver, q: np.ndarray) -> np.ndarray:
+    """``Jc`` (18, 24): rows 3i..3i+2 are ``R_c1^T (J_1 - J_2)`` of loop i (LOCAL frame
+    of the leg-side point), from ``pin.getConstraintsJacobian``.
+
+    ``getConstraintsJacobian`` reads the constraint datas' placements, which only
+    ``cm.calc`` updates: without the ``calc`` calls it returns a stale, plausible-looking
+    Jacobian.
+    """
+    pin.computeJointJacobians(s.model, s.data, q)
+    for cm, cd in zip(s.cmodels, s.cdatas, strict=True):
+        cm.calc(s.model, s.data, cd)
+    return pin.getConstraintsJacobian(s.model, s.data, s.cmodels, s.cdatas)
+
+
+def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
+    try:
+        x = np.linalg.solve(A, b)
+    except np.linalg.LinAlgError as e:
+        raise SingularityError(
+            f"{what} is singular (a singular configuration)", np.inf, 0.0
+        ) from e
+    if not np.all(np.isfinite(x)):
+        raise SingularityError(
+            f"{what} gave non-finite values (a singular configuration)", np.inf, 0.0
+        )
+    return x
+
+
+def _state(
+    s: _TreeSolver, desc: Any, T: np.ndarray, twist: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Tree ``q`` (25,), ``v`` (24,), ``Jc`` (18, 24) and ``R = 0Rp`` for one state."""
+    R = T[:3, :3]
+    q = np.empty(s.model.nq)
+    q[s.q_ff] = pin.SE3ToXYZQUAT(pin.SE3(R, T[:3, 3]))
+    q[s.q_legs] = inverse_geometry_batch(desc, T[None], check_limits=False)[0].ravel()
+    Jc = _constraint_jacobian(s, q)
+    v = np.zeros(s.nv)
+    v[s.v_ff] = np.concatenate([R.T @ twist[:3], R.T @ twist[3:]])
+    rhs = -Jc[:, s.v_ff] @ v[s.v_ff]
+    v[s.v_legs] = _solve(Jc[:, s.v_legs], rhs, "the legs' constraint Jacobian")
+    return q, v, Jc, R
+
+
+def _loop_accelerations(s: _TreeSolver) -> np.ndarray:
+    """Constraint accelerations ``R_c1^T (a_1 - a_2)`` of the six loops, (18,), from the
+    classical accelerations in F0 of both points (after
+    ``pin.forwardKinematics(model, data, q, v, a)`` and the constraints' ``calc``).
+
+    A point at placement ``M`` on joint ``j`` has the classical acceleration
+    ``R_0j R_M (a_lin + w x v_lin)`` of the spatial velocity and acceleration brought to
+    it; ``data.a`` alone lacks the ``w x v`` term.
+    """
+    n = len(s.cmodels)
+    lin, ang, acc = np.empty((3, 2 * n, 3))
+    rot = np.empty((2 * n, 3, 3))
+    k = 0
+    for cm in s.cmodels:
+        for joint, M in ((cm.joint1_id, cm.joint1_placement), (cm.joint2_id, cm.joint2_placement)):
+            vc = M.actInv(s.data.v[joint])
+            lin[k], ang[k] = vc.linear, vc.angular
+            acc[k] = M.actInv(s.data.a[joint]).linear
+            rot[k] = s.data.oMi[joint].rotation @ M.rotation
+            k += 1
+    a0 = np.einsum("kij,kj->ki", rot, acc + np.cross(ang, lin))
+    R_c1 = rot[0::2]
+    return np.einsum("kji,kj->ki", R_c1, a0[0::2] - a0[1::2]).ravel()
+
+
+def _local_platform_acceleration(R: np.ndarray, twist: np.ndarray, accel: np.ndarray):
+    """Free-flyer acceleration ``d/dt [R^T v, R^T w]`` from the classical one in F0."""
+    v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
+    return np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
+
+
+def _classical_platform_acceleration(R: np.ndarray, v_ff: np.ndarray, a_ff: np.ndarray):
+    """Classical ``[vdot, wdot]`` in F0 from the free-flyer velocity and acceleration."""
+    v_loc, w_loc = v_ff[:3], v_ff[3:]
+    return np.concatenate([R @ (a_ff[:3] + np.cross(w_loc, v_loc)), R @ a_ff[3:]])
+
+
+def _inverse_one(s: _TreeSolver, desc: Any, T, twist, accel):
+    q, v, Jc, R = _state(s, desc, T, twist)
+    a = np.zeros(s.nv)
+    a[s.v_ff] = _local_platform_acceleration(R, twist, accel)
+    # Constraint acceleration with the legs' accelerations at zero: the drift plus the
+    # platform's share, ``R_c1^T (a_1 - a_2)`` per loop (classical point accelerations).
+    pin.forwardKinematics(s.model, s.data, q, v, a)
+    residual = _loop_accelerations(s)
+    a[s.v_legs] = _solve(Jc[:, s.v_legs], -residual, "the legs' constraint Jacobian")
+    tau = pin.rnea(s.model, s.data, q, v, a)
+    # tau = S^T Gamma + Jc^T lambda, 24 equations in 6 + 18 unknowns.
+    K = np.zeros((s.nv, s.nv))
+    K[s.v_act, np.arange(6)] = 1.0
+    K[:, 6:] = Jc.T
+    x = _solve(K, tau, "[S^T, Jc^T] (the parallel Jacobian)")
+    gamma, lam = x[:6], x[6:].reshape(-1, 3)
+    # lambda_i acts on the leg side in frame c1: the leg's force on the platform is its
+    # opposite, in F0.
+    forces = -np.einsum("kij,kj->ki", np.array([cd.oMc1.rotation for cd in s.cdatas]), lam)
+    return gamma, forces
+
+
+def _forward_one(s: _TreeSolver, desc: Any, T, twist, gamma):
+    q, v, _, R = _state(s, desc, T, twist)
+    tau = np.zeros(s.nv)
+    tau[s.v_act] = gamma
+    ddq = pin.constraintDynamics(s.model, s.data, q, v, tau, s.cmodels, s.cdatas, s.settings)
+    ddq = np.array(ddq)
+    if not np.all(np.isfinite(ddq)):
+        raise SingularityError(
+            "pin.constraintDynamics returned non-finite accelerations: a singular "
+            "configuration, or a singular tree mass matrix (massless leg links; use "
+            "constrained_inverse_dynamics, which needs no mass matrix)",
+            np.inf,
+            0.0,
+        )
+    return _classical_platform_acceleration(R, v[s.v_ff], ddq[s.v_ff])
+
+
+# ---------------------------------------------------------------------------- public API
+def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The full tree configuration and velocity of a platform state.
+
+    The platform's free-flyer coordinates come from the pose and twist; the leg joint
+    values from :func:`stewart_pin.geometry.inverse_geometry` (default U-joint branch, no
+    stroke check); the 18 leg rates solve the constraint velocity equation ``Jc v = 0``.
+
+    Args:
+        robot: the robot (its ``tree`` is used).
+        pose: 0Tp, shape (4, 4) or (N, 4, 4) (``pin.SE3`` accepted).
+        twist: ``[v, w]`` of O_p in F0, shape (6,) or (N, 6) [m/s, rad/s].
+
+    Returns:
+        ``(q, v)``: shapes (25,) and (24,) (or (N, 25), (N, 24)) in the tree's order;
+        ``q`` holds the free-flyer's ``[p, quaternion xyzw]`` at ``robot.tree.platform_q_index``,
+        ``v`` its local body twist ``[R^T v, R^T w]`` at ``platform_v_index``, and the
+        prismatic rates ``qdot_3i`` [m/s] at ``actuated_v_index``.
+
+    Raises:
+        InputError: bad shapes or values. SingularityError: a leg singularity.
+    """
+    s = _solver(robot)
+    T, (V,), batched = _batch_inputs(pose, [(twist, "twist")])
+    qs = np.empty((len(T), s.model.nq))
+    vs = np.empty((len(T), s.nv))
+    for n in range(len(T)):
+        qs[n], vs[n] = _state(s, robot.description, T[n], V[n])[:2]
+    return _unbatch(qs, batched), _unbatch(vs, batched)
+
+
+def constraint_jacobian(robot: StewartRobot, q: Any) -> np.ndarray:
+    """The loop-closure Jacobian ``Jc`` (18, 24) at a tree configuration ``q`` (25,).
+
+    Rows ``3i..3i+2`` give the relative velocity of loop i's two points (leg tip minus
+    platform point P_i) in the frame of the leg-side point: ``Jc = R_c1^T (J_1 - J_2)``
+    with ``J_1, J_2`` the world-aligned point Jacobians [m/rad, dimensionless].
+    """
+    s = _solver(robot)
+    q = np.asarray(q, dtype=float)
+    if q.shape != (s.model.nq,) or not np.all(np.isfinite(q)):
+        raise InputError(f"q must be a finite array of shape ({s.model.nq},), got {q.shape}")
+    return _constraint_jacobian(s, q).copy()
+
+
+def constrained_inverse_dynamics(
+    robot: StewartRobot, pose: Any, twist: Any, accel: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """Actuator forces and loop-closure forces from the constrained tree.
+
+    Solves ``M qddot + b = S^T Gamma + Jc^T lambda`` with ``Jc qddot + drift = 0``, the
+    platform's part of ``qddot`` given by ``accel``.
+
+    Args:
+        robot: the robot.
+        pose: 0Tp, shape (4, 4) or (N, 4, 4).
+        twist: ``[v, w]`` in F0, shape (6,) or (N, 6) [m/s, rad/s].
+        accel: classical ``[dv/dt, dw/dt]`` of O_p in F0, shape (6,) or (N, 6)
+            [m/s^2, rad/s^2].
+
+    Returns:
+        ``(gamma, forces)``: ``gamma`` shape (6,) (or (N, 6)) the prismatic joint forces
+        [N], positive extending; ``forces`` shape (6, 3) (or (N, 6, 3)) the force of leg i
+        on the platform at P_i, in F0 [N] (``f_i`` of eq. 23).
+
+    Raises:
+        InputError: bad shapes or values.
+        SingularityError: a leg singularity, or ``[S^T, Jc^T]`` singular (parallel
+            singularity).
+    """
+    s = _solver(robot)
+    T, (V, A), batched = _batch_inputs(pose, [(twist, "twist"), (accel, "accel")])
+    gammas = np.empty((len(T), 6))
+    forces = np.empty((len(T), 6, 3))
+    for n in range(len(T)):
+        gammas[n], forces[n] = _inverse_one(s, robot.description, T[n], V[n], A[n])
+    return _unbatch(gammas, batched), _unbatch(forces, batched)
+
+
+def constrained_forward_dynamics(
+    robot: StewartRobot, pose: Any, twist: Any, gamma: Any
+) -> np.ndarray:
+    """The platform's acceleration under actuator forces, from ``pin.constraintDynamics``.
+
+    Args:
+        robot: the robot.
+        pose: 0Tp, shape (4, 4) or (N, 4, 4).
+        twist: ``[v, w]`` in F0, shape (6,) or (N, 6) [m/s, rad/s].
+        gamma: prismatic joint forces, shape (6,) or (N, 6) [N], positive extending.
+
+    Returns:
+        The classical acceleration ``[dv/dt, dw/dt]`` of O_p in F0, shape (6,) or (N, 6)
+        [m/s^2, rad/s^2].
+
+    Raises:
+        InputError: bad shapes or values. SingularityError: a singular configuration.
+    """
+    s = _solver(robot)
+    T, (V, G), batched = _batch_inputs(pose, [(twist, "twist"), (gamma, "gamma")])
+    out = np.empty((len(T), 6))
+    for n in range(len(T)):
+        out[n] = _forward_one(s, robot.description, T[n], V[n], G[n])
+    return _unbatch(out, batched)
+
+
+def energy(robot: StewartRobot, pose: Any, twist: Any) -> tuple[Any, Any]:
+    """Kinetic and potential energy of the whole robot (legs and platform) [J].
+
+    From ``pin.computeKineticEnergy`` / ``pin.computePotentialEnergy`` on the tree at
+    :func:`tree_state`; the potential is ``-sum_j m_j g . c_j`` with the description's
+    gravity ``g`` and the centres of mass ``c_j`` in F0 (zero at the origin of F0).
+
+    Args:
+        robot: the robot.
+        pose: 0Tp, shape (4, 4) or (N, 4, 4).
+        twist: ``[v, w]`` in F0, shape (6,) or (N, 6) [m/s, rad/s].
+
+    Returns:
+        ``(kinetic, potential)``: floats, or arrays of shape (N,) for a batch [J].
+    """
+    s = _solver(robot)
+    T, (V,), batched = _batch_inputs(pose, [(twist, "twist")])
+    out = np.empty((len(T), 2))
+    for n in range(len(T)):
+        q, v = _state(s, robot.description, T[n], V[n])[:2]
+        out[n, 0] = pin.computeKineticEnergy(s.model, s.data, q, v)
+        out[n, 1] = pin.computePotentialEnergy(s.model, s.data, q)
+    if batched:
+        return out[:, 0], out[:, 1]
+    return float(out[0, 0]), float(out[0, 1])
+
+
+# ---------------------------------------------------------------------------- the check
+def relative_error(a: Any, b: Any, floor: float = RELATIVE_FLOOR) -> float:
+    """Largest per-state relative error of ``a`` against the reference ``b``, shape (N, k).
+
+    ``max_n max_k |a_nk - b_nk| / max(max_k |b_nk|, floor * max |b|)``: each state is
+    scaled by its own magnitude, floored at ``floor`` times the batch's largest, so that a
+    state with a near-zero reference doesn't blow up the ratio.
+    """
+    a = np.atleast_2d(np.asarray(a, dtype=float))
+    b = np.atleast_2d(np.asarray(b, dtype=float))
+    if a.shape != b.shape:
+        raise InputError(f"cannot compare shapes {a.shape} and {b.shape}")
+    scale = np.abs(b).max(axis=1)
+    denominator = np.maximum(scale, floor * scale.max(initial=0.0))
+    denominator[denominator == 0.0] = 1.0
+    return float((np.abs(a - b).max(axis=1) / denominator).max(initial=0.0))
+
+
+@dataclass(frozen=True)
+class ValidationReport:
+    """The paper's models against the constrained tree, over random states.
+
+    Attributes:
+        robot: the robot's name.
+        n_states: number of random states compared.
+        idm_error: largest relative error of ``robot.inverse_dynamics`` against
+            :func:`constrained_inverse_dynamics` (Gamma).
+        ddm_error: largest relative error of ``robot.direct_dynamics`` against
+            :func:`constrained_forward_dynamics`, both under the reference Gamma.
+        round_trip_error: largest relative error of ``DDM(IDM(x, V, Vdot))`` against
+            ``Vdot`` (the paper's models alone).
+        reference_error: the same round trip through the constrained tree alone (the
+            reference's own consistency).
+        floor: the relative-error floor used (see :func:`relative_error`).
+    """
+
+    robot: str
+    n_states: int
+    idm_error: float
+    ddm_error: float
+    round_trip_error: float
+    reference_error: float
+    floor: float = RELATIVE_FLOOR
+
+    def passed(self, tol_idm: float = 1e-9, tol_ddm: float = 1e-8) -> bool:
+        """Whether the inverse model is within ``tol_idm`` and the direct model, the round
+        trip and the reference's own round trip within ``tol_ddm`` (relative)."""
+        return bool(
+            self.idm_error <= tol_idm
+            and self.ddm_error <= tol_ddm
+            and self.round_trip_error <= tol_ddm
+            and self.reference_error <= tol_ddm
+        )
+
+    def __str__(self) -> str:
+        verdict = "PASSED" if self.passed() else "FAILED"
+        return (
+            f"validation of '{self.robot}' against Pinocchio's constrained tree, "
+            f"{self.n_states} random states (relative errors, floor {self.floor:g}):\n"
+            f"  inverse dynamics  Gamma         {self.idm_error:.3e}\n"
+            f"  direct dynamics   Vdot          {self.ddm_error:.3e}\n"
+            f"  round trip        DDM(IDM)      {self.round_trip_error:.3e}\n"
+            f"  reference         FD(ID) tree   {self.reference_error:.3e}\n"
+            f"  {verdict} at the default tolerances (IDM 1e-9, DDM 1e-8)"
+        )
+
+
+def validate(robot: StewartRobot, n_states: int = 200, seed: int = 0) -> ValidationReport:
+    """Compare the paper's inverse and direct models with the constrained tree.
+
+    Draws ``n_states`` states with :func:`stewart_pin.workspace.sample_states` (seeded),
+    computes the reference Gamma with :func:`constrained_inverse_dynamics`, then compares
+    ``robot.inverse_dynamics(poses, twists, accels)`` with it, ``robot.direct_dynamics``
+    under the reference Gamma with :func:`constrained_forward_dynamics`, and the round
+    trip ``robot.direct_dynamics(robot.inverse_dynamics(...))`` with the drawn
+    accelerations. Errors are relative (see :func:`relative_error`).
+
+    Args:
+        robot: the robot; it must provide ``inverse_dynamics`` and ``direct_dynamics``
+            taking batches and returning (N, 6).
+        n_states: number of random states (>= 1).
+        seed: seed of the random generator.
+    """
+    if int(n_states) != n_states or n_states < 1:
+        raise InputError(f"n_states must be a positive integer, got {n_states!r}")
+    n_states = int(n_states)
+    for method in ("inverse_dynamics", "direct_dynamics"):
+        if not callable(getattr(robot, method, None)):
+            raise TypeError(f"{type(robot).__name__} has no method '{method}' to validate")
+    rng = np.random.default_rng(seed)
+    kwargs = {}
+    if hasattr(robot, "max_condition"):
+        kwargs["max_condition"] = robot.max_condition
+    poses, twists, accels = sample_states(robot.description, n_states, rng, **kwargs)
+    gamma_ref, _ = constrained_inverse_dynamics(robot, poses, twists, accels)
+    accel_ref = constrained_forward_dynamics(robot, poses, twists, gamma_ref)
+    gamma = np.asarray(robot.inverse_dynamics(poses, twists, accels), dtype=float)
+    accel = np.asarray(robot.direct_dynamics(poses, twists, gamma_ref), dtype=float)
+    round_trip = np.asarray(robot.direct_dynamics(poses, twists, gamma), dtype=float)
+    return ValidationReport(
+        robot=str(robot.description.name),
+        n_states=n_states,
+        idm_error=relative_error(gamma, gamma_ref),
+        ddm_error=relative_error(accel, accel_ref),
+        round_trip_error=relative_error(round_trip, accels),
+        reference_error=relative_error(accel_ref, accels),
+    )
