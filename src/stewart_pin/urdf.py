@@ -118,6 +118,35 @@ def _plane_rpy(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return centre, pin.rpy.matrixToRpy(R)
 
 
+def plate_visual(
+    points: np.ndarray, vs: VisualSizes, sign: float
+) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """``(xyz, rpy, radius, length)`` of the disc drawn through ``points`` [m, rad].
+
+    The disc lies on the points' best-fit plane, moved along its normal by ``sign`` (-1
+    below, for the base; +1 above, for the platform) so that the joint spheres rest on it.
+    """
+    centre, rpy = _plane_rpy(points)
+    radius = np.linalg.norm(points - centre, axis=1).max() + 2 * vs.joint_radius
+    R = pin.rpy.rpyToMatrix(rpy)
+    xyz = centre + sign * R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius)
+    return xyz, rpy, float(radius), vs.plate_thickness
+
+
+def joint_limits(desc: RobotDescription) -> np.ndarray:
+    """Limits written for q1i, q2i [rad] and q3i [m]: shape (6, 3, 2) ``[lower, upper]``.
+
+    Without ``desc.u_joint_limits``: q1i in [-pi, pi], q2i in [0, pi].
+    """
+    lim = np.empty((6, 3, 2))
+    if desc.u_joint_limits is not None:
+        lim[:, :2] = desc.u_joint_limits
+    else:
+        lim[:, 0], lim[:, 1] = (-np.pi, np.pi), (0.0, np.pi)
+    lim[:, 2] = desc.stroke
+    return lim
+
+
 @dataclass(frozen=True)
 class VisualSizes:
     """Sizes of the simple visuals [m], scaled on the robot."""
@@ -150,20 +179,10 @@ def urdf_string(desc: RobotDescription) -> str:
         ET.SubElement(ET.SubElement(robot, "material", name=name), "color", rgba=rgba)
 
     base = ET.SubElement(robot, "link", name=BASE_LINK)
-    centre, rpy = _plane_rpy(desc.base_points)
-    radius = np.linalg.norm(desc.base_points - centre, axis=1).max() + 2 * vs.joint_radius
-    R = pin.rpy.rpyToMatrix(rpy)
-    _visual(
-        base,
-        "cylinder",
-        "base_grey",
-        centre - R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius),
-        rpy,
-        radius=radius,
-        length=vs.plate_thickness,
-    )
+    xyz, rpy, radius, length = plate_visual(desc.base_points, vs, -1.0)
+    _visual(base, "cylinder", "base_grey", xyz, rpy, radius=radius, length=length)
 
-    lim = desc.u_joint_limits
+    lim = joint_limits(desc)
     for i in range(1, 7):
         k = i - 1
         links = [ET.SubElement(robot, "link", name=leg_link(i, j)) for j in (1, 2, 3)]
@@ -190,8 +209,6 @@ def urdf_string(desc: RobotDescription) -> str:
         )
         _visual(links[2], "sphere", "joint_dark", radius=vs.joint_radius)
         R1 = desc.leg_base_rotations[k]
-        q1_lim = lim[k, 0] if lim is not None else (-np.pi, np.pi)
-        q2_lim = lim[k, 1] if lim is not None else (0.0, np.pi)
         _joint(
             robot,
             leg_joint(i, 1),
@@ -200,7 +217,7 @@ def urdf_string(desc: RobotDescription) -> str:
             leg_link(i, 1),
             desc.base_points[k],
             pin.rpy.matrixToRpy(R1),
-            q1_lim,
+            lim[k, 0],
         )
         _joint(
             robot,
@@ -209,7 +226,7 @@ def urdf_string(desc: RobotDescription) -> str:
             leg_link(i, 1),
             leg_link(i, 2),
             rpy=(np.pi / 2, 0, 0),
-            limits=q2_lim,
+            limits=lim[k, 1],
         )
         _joint(
             robot,
@@ -218,23 +235,13 @@ def urdf_string(desc: RobotDescription) -> str:
             leg_link(i, 2),
             leg_link(i, 3),
             rpy=(np.pi / 2, 0, 0),
-            limits=desc.stroke,
+            limits=lim[k, 2],
         )
 
     platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
     _inertial(platform, desc.platform_inertia)
-    centre, rpy = _plane_rpy(desc.platform_points)
-    radius = np.linalg.norm(desc.platform_points - centre, axis=1).max() + 2 * vs.joint_radius
-    R = pin.rpy.rpyToMatrix(rpy)
-    _visual(
-        platform,
-        "cylinder",
-        "platform_orange",
-        centre + R[:, 2] * (vs.plate_thickness / 2 + vs.joint_radius),
-        rpy,
-        radius=radius,
-        length=vs.plate_thickness,
-    )
+    xyz, rpy, radius, length = plate_visual(desc.platform_points, vs, 1.0)
+    _visual(platform, "cylinder", "platform_orange", xyz, rpy, radius=radius, length=length)
     _joint(robot, PLATFORM_JOINT, "floating", BASE_LINK, PLATFORM_LINK)
     ET.indent(robot)
     return (

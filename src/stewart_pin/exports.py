@@ -1,0 +1,51 @@
+"""Every robot file stewart-pin writes, for one robot, in one folder.
+
+For a robot named ``<name>``:
+
+- ``<name>.toml``: the description (:meth:`RobotDescription.write`);
+- ``<name>.urdf`` and ``<name>.closures.json``: the tree and its loop closures
+  (:mod:`stewart_pin.urdf`);
+- ``<name>.xacro.yaml``: the arguments of ``models/urdf/stewart.urdf.xacro``
+  (:mod:`stewart_pin.xacro`);
+- ``<name>.xml``: the MJCF for MuJoCo (:mod:`stewart_pin.mjcf`).
+
+``scripts/generate_models.py`` writes them for the presets into ``models/urdf/``, and a test
+checks that the committed files are current.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .description import RobotDescription
+from .mjcf import write_mjcf
+from .urdf import write_urdf
+from .xacro import write_xacro_args
+
+__all__ = ["robot_file_names", "write_robot_files"]
+
+
+def robot_file_names(name: str) -> list[str]:
+    """The names of the files :func:`write_robot_files` writes for robot ``name``."""
+    return [
+        f"{name}.toml",
+        f"{name}.urdf",
+        f"{name}.closures.json",
+        f"{name}.xacro.yaml",
+        f"{name}.xml",
+    ]
+
+
+def write_robot_files(desc: RobotDescription, folder: str | Path) -> list[Path]:
+    """Write the description, URDF, closures, xacro arguments and MJCF of ``desc`` into
+    ``folder`` (created if needed); returns the paths, in :func:`robot_file_names` order."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    toml_path, urdf_path, _, yaml_path, xml_path = (
+        folder / n for n in robot_file_names(desc.name)
+    )
+    desc.write(toml_path)
+    urdf_path, closures_path = write_urdf(desc, urdf_path)
+    write_xacro_args(desc, yaml_path)
+    write_mjcf(desc, xml_path)
+    return [toml_path, urdf_path, closures_path, yaml_path, xml_path]

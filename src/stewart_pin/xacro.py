@@ -1,0 +1,159 @@
+"""The arguments file of the xacro version of the URDF.
+
+``models/urdf/stewart.urdf.xacro`` builds the same URDF as :func:`stewart_pin.urdf.urdf_string`
+(``models/urdf/stewart_leg.xacro`` holds the leg macro) from every number of one robot,
+read from a YAML file with ``xacro.load_yaml``. This module writes that file::
+
+    name: "simulator"
+    effort: 1000000.0             # URDF placeholder limits [N], [m/s]
+    velocity: 10.0
+    visual: {joint_radius, cylinder_radius, rod_radius, body_length, rod_length}   # [m]
+    base_visual: {xyz, rpy, radius, length}       # the base disc [m, rad]
+    legs:                                         # six of them, leg 1 first
+      - xyz: B_i in F0 [m]
+        rpy: roll-pitch-yaw of frame 1i at q1i = 0 in F0 [rad]
+        limits: [[q1 lower, upper], [q2 lower, upper], [q3 lower, upper]]   # [rad], [m]
+        links: [{mass, com, inertia: {ixx, ixy, ixz, iyy, iyz, izz}}] * 3
+    platform: {mass, com, inertia, visual: {xyz, rpy, radius, length}}
+
+Masses [kg], centres of mass [m] in the link frame and inertias about the centre of mass
+[kg m^2] are URDF's ``<inertial>``. Floats are written as their shortest exact repr (as the
+URDF writer does), so the rendered URDF carries the very same numbers.
+
+Render it with xacrodoc (``pip install xacrodoc``; the include uses
+``$(find stewart_pin_models)``, which xacrodoc resolves by walking up to
+``models/package.xml``)::
+
+    xacrodoc models/urdf/stewart.urdf.xacro args_file:=$PWD/models/urdf/simulator.xacro.yaml
+
+Relative ``args_file`` paths are resolved against the current directory by xacrodoc and
+against the xacro file's directory by ROS's ``xacro``: pass an absolute path.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from .description import RobotDescription
+from .inertia import urdf_inertial_from_khalil
+from .urdf import URDF_EFFORT, URDF_VELOCITY, VisualSizes, joint_limits, plate_visual
+
+__all__ = ["write_xacro_args", "xacro_args", "yaml_string"]
+
+
+def _floats(v: Any) -> list[Any]:
+    return np.asarray(v, dtype=float).tolist()
+
+
+def _inertial(params: np.ndarray) -> dict[str, Any]:
+    mass, com, I = urdf_inertial_from_khalil(params)
+    names = (("ixx", 0, 0), ("ixy", 0, 1), ("ixz", 0, 2), ("iyy", 1, 1), ("iyz", 1, 2))
+    inertia = {name: float(I[a, b]) for name, a, b in names}
+    inertia["izz"] = float(I[2, 2])
+    return {"mass": float(mass), "com": _floats(com), "inertia": inertia}
+
+
+def _plate(points: np.ndarray, vs: VisualSizes, sign: float) -> dict[str, Any]:
+    xyz, rpy, radius, length = plate_visual(points, vs, sign)
+    return {"xyz": _floats(xyz), "rpy": _floats(rpy), "radius": radius, "length": length}
+
+
+def xacro_args(desc: RobotDescription) -> dict[str, Any]:
+    """Every number of the URDF of ``desc``, as the xacro arguments (see the module
+    docstring): plain ``dict`` / ``list`` / ``float`` / ``str``."""
+    vs = VisualSizes.for_robot(desc)
+    lim = joint_limits(desc)
+    legs = [
+        {
+            "xyz": _floats(desc.base_points[k]),
+            "rpy": _floats(pin.rpy.matrixToRpy(desc.leg_base_rotations[k])),
+            "limits": _floats(lim[k]),
+            "links": [_inertial(params) for params in desc.leg_inertia[k]],
+        }
+        for k in range(6)
+    ]
+    platform = _inertial(desc.platform_inertia)
+    platform["visual"] = _plate(desc.platform_points, vs, 1.0)
+    return {
+        "name": desc.name,
+        "effort": float(URDF_EFFORT),
+        "velocity": float(URDF_VELOCITY),
+        "visual": {
+            "joint_radius": vs.joint_radius,
+            "cylinder_radius": vs.cylinder_radius,
+            "rod_radius": vs.rod_radius,
+            "body_length": vs.body_length,
+            "rod_length": vs.rod_length,
+        },
+        "base_visual": _plate(desc.base_points, vs, -1.0),
+        "legs": legs,
+        "platform": platform,
+    }
+
+
+# ---------------------------------------------------------------------- a tiny YAML writer
+def _scalar(x: Any) -> str:
+    if isinstance(x, str):
+        return json.dumps(x)  # a JSON string is a YAML double-quoted scalar
+    if isinstance(x, bool) or not isinstance(x, float | int):
+        raise TypeError(f"cannot write {x!r} as a YAML number")
+    text = repr(float(x))
+    # YAML 1.1 (PyYAML, hence xacro) reads "1e-05" as a string: a float needs a dot.
+    if "e" in text and "." not in text:
+        text = text.replace("e", ".0e", 1)
+    return text
+
+
+def _flow(x: Any) -> str:
+    if isinstance(x, list):
+        return "[" + ", ".join(_flow(v) for v in x) + "]"
+    return _scalar(x)
+
+
+def _is_flow(x: Any) -> bool:
+    return not isinstance(x, dict | list) or (isinstance(x, list) and all(_is_flow(v) for v in x))
+
+
+def _block(d: dict[str, Any], indent: int) -> list[str]:
+    pad = " " * indent
+    lines = []
+    for key, value in d.items():
+        if _is_flow(value):
+            lines.append(f"{pad}{key}: {_flow(value)}")
+        elif isinstance(value, dict):
+            lines += [f"{pad}{key}:", *_block(value, indent + 2)]
+        else:  # a list of mappings
+            lines.append(f"{pad}{key}:")
+            for item in value:
+                item_lines = _block(item, indent + 4)
+                item_lines[0] = f"{pad}  - {item_lines[0][indent + 4 :]}"
+                lines += item_lines
+    return lines
+
+
+def yaml_string(args: dict[str, Any], header: str = "") -> str:
+    """``args`` as block YAML (flow lists of numbers), floats written exactly.
+
+    ``header`` lines are written first, as comments.
+    """
+    comments = [f"# {line}".rstrip() for line in header.splitlines()]
+    return "\n".join([*comments, *_block(args, 0)]) + "\n"
+
+
+def write_xacro_args(desc: RobotDescription, path: str | Path) -> Path:
+    """Write :func:`xacro_args` of ``desc`` as YAML to ``path``; returns the path."""
+    path = Path(path)
+    header = (
+        f"xacro arguments of the robot '{desc.name}' for models/urdf/stewart.urdf.xacro.\n"
+        "Generated by stewart-pin from the robot description; do not edit by hand.\n"
+        "SI units: m, rad, kg; inertia [kg m^2] about the centre of mass, in the link frame.\n"
+        "Render: xacrodoc stewart.urdf.xacro args_file:=<absolute path of this file>"
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml_string(xacro_args(desc), header))
+    return path
