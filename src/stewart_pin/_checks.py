@@ -78,10 +78,16 @@ def check_poses(poses: Any, name: str = "pose") -> tuple[np.ndarray, bool]:
         raise InputError(f"{name}: the last row of every pose must be [0, 0, 0, 1]")
     R = T[:, :3, :3]
     err = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))
-    if np.any(err > ROTATION_TOLERANCE) or np.any(np.linalg.det(R) < 0):
+    if np.any(err > ROTATION_TOLERANCE):
         k = int(np.argmax(err))
         raise InputError(
             f"{name}[{k}] rotation block is not a rotation: max |R^T R - I| = {err[k]:.3g}"
+        )
+    det = np.linalg.det(R)
+    if np.any(det < 0):
+        k = int(np.argmax(det < 0))
+        raise InputError(
+            f"{name}[{k}] rotation block is a reflection (det = {det[k]:.6g}), not a rotation"
         )
     return T, batched
 

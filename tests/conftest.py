@@ -1,0 +1,68 @@
+"""Shared robots for the test suite (independent reference helpers: ``helpers.py``).
+
+The robots are session-scoped: a :class:`StewartRobot` builds its Pinocchio models once, on
+first use, and the tests only read from them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from stewart_pin import StewartRobot
+
+#: Seeds of the general asymmetric robots used throughout.
+RANDOM_SEEDS = (0, 1, 2)
+#: Every robot a "for all robots" test runs on.
+ALL_ROBOTS = ("simulator", "desktop", "paper", *(f"random-{s}" for s in RANDOM_SEEDS))
+
+_CACHE: dict[str, StewartRobot] = {}
+
+
+def get_robot(name: str) -> StewartRobot:
+    """A shared robot by preset name (``simulator``, ``desktop``, ``paper``, ``random-<seed>``)."""
+    if name not in _CACHE:
+        _CACHE[name] = StewartRobot.from_preset(name)
+    return _CACHE[name]
+
+
+@pytest.fixture(scope="session")
+def simulator() -> StewartRobot:
+    return get_robot("simulator")
+
+
+@pytest.fixture(scope="session")
+def desktop() -> StewartRobot:
+    return get_robot("desktop")
+
+
+@pytest.fixture(scope="session")
+def paper() -> StewartRobot:
+    return get_robot("paper")
+
+
+@pytest.fixture(scope="session")
+def random_robot() -> Callable[[int], StewartRobot]:
+    """A factory: ``random_robot(seed)`` is the shared general asymmetric robot of that seed."""
+    return lambda seed: get_robot(f"random-{seed}")
+
+
+@pytest.fixture(scope="session", params=ALL_ROBOTS)
+def any_robot(request: pytest.FixtureRequest) -> StewartRobot:
+    """Each preset and each random robot in turn."""
+    return get_robot(request.param)
+
+
+@pytest.fixture(scope="session", params=("paper", *(f"random-{s}" for s in RANDOM_SEEDS)))
+def general_robot(request: pytest.FixtureRequest) -> StewartRobot:
+    """The robots without symmetry: the paper preset (asymmetric platform) and the random
+    robots (oblique U-joint axes, full inertia tensors, offset first moments)."""
+    return get_robot(request.param)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A fresh generator with a fixed seed for each test."""
+    return np.random.default_rng(20030917)

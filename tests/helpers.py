@@ -1,0 +1,72 @@
+"""Independent references for the tests: small re-derivations from first principles.
+
+They share no code with stewart_pin beyond reading a description's arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from stewart_pin import RobotDescription
+
+
+def points_in_base(desc: RobotDescription, T: np.ndarray) -> np.ndarray:
+    """P_i in F0 for one pose 0Tp, (6, 3) [m]: P_i = R pP_i + p."""
+    return desc.platform_points @ T[:3, :3].T + T[:3, 3]
+
+
+def leg_lengths_by_hand(desc: RobotDescription, T: np.ndarray) -> np.ndarray:
+    """|B_i P_i| for one pose, (6,) [m]."""
+    return np.linalg.norm(points_in_base(desc, T) - desc.base_points, axis=1)
+
+
+def rot_z(angle: float) -> np.ndarray:
+    """4x4 homogeneous rotation about z [rad]."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def rot_x(angle: float) -> np.ndarray:
+    """4x4 homogeneous rotation about x [rad]."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+
+
+def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
+    """4x4 homogeneous translation [m]."""
+    T = np.eye(4)
+    T[:3, 3] = (x, y, z)
+    return T
+
+
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
+    """A uniformly random rotation matrix (QR of a Gaussian matrix, sign-fixed)."""
+    Q, R = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q = Q @ np.diag(np.sign(np.diag(R)))
+    return Q if np.linalg.det(Q) > 0 else -Q
+
+
+def tip_frame(i: int) -> str:
+    """Name of leg i's tip frame (0-based i): frame 3i, whose origin should be P_i."""
+    return f"leg{i + 1}_link3"
+
+
+def frame_position(model: pin.Model, q: np.ndarray, frame: str) -> np.ndarray:
+    """World position of ``frame`` at ``q`` by Pinocchio's forward kinematics, (3,) [m]."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    pin.updateFramePlacements(model, data)
+    return data.oMf[model.getFrameId(frame)].translation.copy()
+
+
+def tree_configuration(model: pin.Model, T: np.ndarray, q_legs: np.ndarray) -> np.ndarray:
+    """The tree's q (25,) for a platform pose 0Tp and leg joint values (6, 3), placed by
+    joint name through Pinocchio's own index tables."""
+    q = pin.neutral(model)
+    ff = model.getJointId("platform_joint")
+    q[model.idx_qs[ff] : model.idx_qs[ff] + 7] = pin.SE3ToXYZQUAT(pin.SE3(T[:3, :3], T[:3, 3]))
+    for i in range(6):
+        for j in range(3):
+            q[model.idx_qs[model.getJointId(f"leg{i + 1}_q{j + 1}")]] = q_legs[i, j]
+    return q

@@ -1,0 +1,97 @@
+"""The ``stewart-pin`` command (stewart_pin.cli)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from helpers import leg_lengths_by_hand
+
+from stewart_pin import preset
+from stewart_pin.cli import main
+from stewart_pin.models import load_tree
+
+
+def leg_rows(text: str) -> np.ndarray:
+    """The ``leg q1 q2 q3`` table printed by ``ik``: rows (leg, q1, q2, q3)."""
+    rows = []
+    for line in text.splitlines():
+        parts = line.split()
+        if len(parts) == 4 and parts[0].isdigit():
+            rows.append([float(x) for x in parts])
+    return np.array(rows)
+
+
+def test_urdf_writes_files_pinocchio_loads(tmp_path, capsys):
+    out = tmp_path / "sub" / "x.urdf"
+    assert main(["urdf", "--preset", "desktop", "-o", str(out)]) == 0
+    sidecar = tmp_path / "sub" / "x.closures.json"
+    assert out.exists() and sidecar.exists()
+    assert str(out) in capsys.readouterr().out
+    model = pin.buildModelFromUrdf(str(out))
+    assert (model.nq, model.nv) == (25, 24)  # the floating platform joint is a free-flyer
+    tree = load_tree(out)
+    assert (tree.model.nq, tree.model.nv, len(tree.constraints)) == (25, 24, 6)
+
+
+def test_urdf_from_a_description_file(tmp_path):
+    desc = preset("paper")
+    path = desc.write(tmp_path / "paper.toml")
+    out = tmp_path / "p.urdf"
+    assert main(["urdf", "--description", str(path), "-o", str(out)]) == 0
+    assert 'robot name="paper"' in out.read_text()
+
+
+def test_ik_prints_six_legs(capsys):
+    assert main(["ik", "--preset", "desktop"]) == 0
+    out = capsys.readouterr().out
+    rows = leg_rows(out)
+    assert rows.shape == (6, 4)
+    np.testing.assert_array_equal(rows[:, 0], np.arange(1, 7))
+    desc = preset("desktop")
+    expected = leg_lengths_by_hand(desc, desc.home_pose)
+    np.testing.assert_allclose(rows[:, 3], expected, rtol=0, atol=1e-6)  # printed to 6 places
+    assert "Jp^-1" in out
+
+
+def test_ik_with_a_pose_offset(capsys):
+    offset = [0.01, -0.02, 0.05, 0.05, -0.03, 0.1]  # [m, m, m, rad, rad, rad]
+    assert main(["ik", "--preset", "simulator", "--pose", *map(str, offset)]) == 0
+    desc = preset("simulator")
+    T = desc.home_pose.copy()
+    T[:3, 3] += offset[:3]
+    T[:3, :3] = pin.rpy.rpyToMatrix(*offset[3:]) @ T[:3, :3]
+    rows = leg_rows(capsys.readouterr().out)
+    np.testing.assert_allclose(rows[:, 3], leg_lengths_by_hand(desc, T), rtol=0, atol=1e-6)
+
+
+def test_unknown_preset_exits_2_with_one_line(capsys):
+    assert main(["ik", "--preset", "nonexistent"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("stewart-pin ik: error: unknown preset 'nonexistent'")
+
+
+def test_unreachable_pose_exits_2(capsys):
+    assert main(["ik", "--preset", "desktop", "--pose", "0", "0", "1", "0", "0", "0"]) == 2
+    assert "outside its stroke" in capsys.readouterr().err
+
+
+def test_missing_description_file_exits_2(tmp_path, capsys):
+    assert main(["urdf", "--description", str(tmp_path / "none.toml")]) == 2
+    assert len(capsys.readouterr().err.splitlines()) == 1
+
+
+def test_debug_shows_the_exception():
+    from stewart_pin import DescriptionError
+
+    with pytest.raises(DescriptionError, match="unknown preset"):
+        main(["--debug", "ik", "--preset", "nonexistent"])
+
+
+def test_bad_arguments_exit_2():
+    with pytest.raises(SystemExit) as info:
+        main(["ik", "--pose", "1", "2"])
+    assert info.value.code == 2

@@ -1,0 +1,229 @@
+"""Khalil's 10 inertial parameters and their conversions (stewart_pin.inertia).
+
+References: Pinocchio's own ``pin.Inertia`` (constructor from mass, centre of mass and
+inertia about it; ``SE3.act``), and textbook formulas (parallel-axis theorem, box and
+point-mass inertia) written out in the tests.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from helpers import random_rotation
+
+from stewart_pin import InertiaError
+from stewart_pin.inertia import (
+    check_physical,
+    khalil_from_pin_inertia,
+    khalil_from_urdf_inertial,
+    pin_inertia_from_khalil,
+    random_physical_khalil,
+    transform_khalil,
+    urdf_inertial_from_khalil,
+)
+
+
+def khalil_by_hand(mass: float, com: np.ndarray, I_c: np.ndarray) -> np.ndarray:
+    """Khalil's XX XY XZ YY YZ ZZ MX MY MZ M from mass, com and the inertia about the com,
+    by the parallel-axis theorem I_O = I_c + m (|c|^2 I3 - c c^T)."""
+    I_O = I_c + mass * (com @ com * np.eye(3) - np.outer(com, com))
+    return np.array(
+        [I_O[0, 0], I_O[0, 1], I_O[0, 2], I_O[1, 1], I_O[1, 2], I_O[2, 2], *(mass * com), mass]
+    )
+
+
+def random_body(rng: np.random.Generator) -> tuple[float, np.ndarray, np.ndarray]:
+    """A random rigid body: (mass [kg], com [m], inertia about the com [kg m^2])."""
+    mass = rng.uniform(0.5, 5.0)
+    com = rng.uniform(-0.3, 0.3, 3)
+    half = rng.uniform(0.05, 0.4, 3)  # a box of half-sides ``half``
+    a, b, c = half**2
+    principal = mass / 3.0 * np.array([b + c, a + c, a + b])
+    R = random_rotation(rng)
+    return mass, com, R @ np.diag(principal) @ R.T
+
+
+# ---------------------------------------------------------------------- Pinocchio round trip
+def test_pin_inertia_from_khalil_matches_pinocchio_constructor(rng):
+    for _ in range(10):
+        mass, com, I_c = random_body(rng)
+        Y = pin_inertia_from_khalil(khalil_by_hand(mass, com, I_c))
+        assert Y.mass == pytest.approx(mass, rel=1e-14)
+        np.testing.assert_allclose(Y.lever, com, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(Y.inertia, I_c, rtol=0, atol=1e-13)
+
+
+def test_khalil_from_pin_inertia_matches_hand_parallel_axis(rng):
+    for _ in range(10):
+        mass, com, I_c = random_body(rng)
+        Y = pin.Inertia(mass, com, I_c)
+        np.testing.assert_allclose(
+            khalil_from_pin_inertia(Y), khalil_by_hand(mass, com, I_c), rtol=0, atol=1e-13
+        )
+
+
+def test_khalil_pin_round_trip(rng):
+    for _ in range(10):
+        params = khalil_by_hand(*random_body(rng))
+        back = khalil_from_pin_inertia(pin_inertia_from_khalil(params))
+        np.testing.assert_allclose(back, params, rtol=0, atol=1e-14 * np.abs(params).max())
+
+
+# ---------------------------------------------------------------------- URDF inertial
+def test_urdf_inertial_of_a_point_mass():
+    # A 2 kg point at c = (0.1, -0.2, 0.3) m: I_O = m (|c|^2 I - c c^T), inertia about com 0.
+    m, c = 2.0, np.array([0.1, -0.2, 0.3])
+    XX, YY, ZZ = m * (0.04 + 0.09), m * (0.01 + 0.09), m * (0.01 + 0.04)
+    XY, XZ, YZ = -m * 0.1 * -0.2, -m * 0.1 * 0.3, -m * -0.2 * 0.3
+    params = np.array([XX, XY, XZ, YY, YZ, ZZ, m * 0.1, m * -0.2, m * 0.3, m])
+    mass, com, I_c = urdf_inertial_from_khalil(params)
+    assert mass == pytest.approx(2.0, rel=1e-15)
+    np.testing.assert_allclose(com, c, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(I_c, np.zeros((3, 3)), rtol=0, atol=1e-15)
+
+
+def test_urdf_inertial_of_an_offset_box():
+    # A solid box 3 kg with sides (0.4, 0.2, 0.1) m, axes along the frame's, centred at
+    # (0.5, 0, -0.2) m: I_c = m/12 diag(b^2 + c^2, a^2 + c^2, a^2 + b^2).
+    m, (a, b, c), r = 3.0, (0.4, 0.2, 0.1), np.array([0.5, 0.0, -0.2])
+    I_c_box = m / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    params = np.array(
+        [
+            I_c_box[0, 0] + m * (0.0**2 + 0.2**2),  # XX
+            -m * 0.5 * 0.0,  # XY
+            -m * 0.5 * -0.2,  # XZ
+            I_c_box[1, 1] + m * (0.5**2 + 0.2**2),  # YY
+            -m * 0.0 * -0.2,  # YZ
+            I_c_box[2, 2] + m * (0.5**2 + 0.0**2),  # ZZ
+            m * 0.5,
+            0.0,
+            m * -0.2,
+            m,
+        ]
+    )
+    mass, com, I_c = urdf_inertial_from_khalil(params)
+    assert mass == pytest.approx(m, rel=1e-15)
+    np.testing.assert_allclose(com, r, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(I_c, I_c_box, rtol=0, atol=1e-15)
+    # and back
+    np.testing.assert_allclose(
+        khalil_from_urdf_inertial(m, r, I_c_box), params, rtol=0, atol=1e-15
+    )
+
+
+def test_urdf_inertial_of_a_massless_body():
+    mass, com, I_c = urdf_inertial_from_khalil(np.zeros(10))
+    assert mass == 0.0
+    np.testing.assert_array_equal(com, np.zeros(3))
+    np.testing.assert_array_equal(I_c, np.zeros((3, 3)))
+
+
+def test_urdf_inertial_round_trip(rng):
+    for _ in range(10):
+        mass, com, I_c = random_body(rng)
+        m2, c2, I2 = urdf_inertial_from_khalil(khalil_from_urdf_inertial(mass, com, I_c))
+        assert m2 == pytest.approx(mass, rel=1e-15)
+        np.testing.assert_allclose(c2, com, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(I2, I_c, rtol=0, atol=1e-13)
+
+
+# ---------------------------------------------------------------------- change of frame
+def test_transform_khalil_matches_pinocchio_se3_act(rng):
+    for _ in range(20):
+        mass, com, I_c = random_body(rng)
+        R, p = random_rotation(rng), rng.uniform(-1.0, 1.0, 3)
+        Y_a = pin.SE3(R, p).act(pin.Inertia(mass, com, I_c))  # body inertia seen in frame a
+        expected = khalil_by_hand(Y_a.mass, Y_a.lever, Y_a.inertia)
+        got = transform_khalil(khalil_by_hand(mass, com, I_c), R, p)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+
+
+def test_transform_khalil_of_a_point_mass_in_a_translated_frame():
+    # A 1.5 kg point at O_b, and frame b at p in frame a: first moments m p, I_O = m(|p|^2 - pp^T).
+    m, p = 1.5, np.array([0.3, 0.4, -0.1])
+    point = np.array([0, 0, 0, 0, 0, 0, 0, 0, 0, m], dtype=float)
+    expected = khalil_by_hand(m, p, np.zeros((3, 3)))
+    np.testing.assert_allclose(transform_khalil(point, np.eye(3), p), expected, atol=1e-15)
+
+
+def test_transform_khalil_identity_and_inverse(rng):
+    params = khalil_by_hand(*random_body(rng))
+    np.testing.assert_allclose(
+        transform_khalil(params, np.eye(3), np.zeros(3)), params, rtol=0, atol=1e-15
+    )
+    R, p = random_rotation(rng), rng.uniform(-1.0, 1.0, 3)
+    there = transform_khalil(params, R, p)
+    back = transform_khalil(there, R.T, -R.T @ p)
+    np.testing.assert_allclose(back, params, rtol=0, atol=1e-13)
+
+
+# ---------------------------------------------------------------------- physical consistency
+def test_check_physical_accepts_physical_bodies(rng):
+    params = khalil_by_hand(*random_body(rng))
+    out = check_physical(params.tolist(), "body")
+    assert out.dtype == np.float64
+    np.testing.assert_array_equal(out, params)
+    np.testing.assert_array_equal(check_physical(np.zeros(10), "massless"), np.zeros(10))
+
+
+def test_check_physical_rejects_negative_mass():
+    params = khalil_by_hand(-1.0, np.zeros(3), np.eye(3))
+    with pytest.raises(InertiaError, match="negative mass") as info:
+        check_physical(params, "leg 2 link 3")
+    assert info.value.body == "leg 2 link 3"
+
+
+def test_check_physical_rejects_non_psd_inertia_about_the_com():
+    with pytest.raises(InertiaError, match="not positive semi-definite"):
+        check_physical(khalil_by_hand(1.0, np.zeros(3), np.diag([1.0, 1.0, -0.1])), "body")
+    # PSD about the origin, not about the centre of mass: a first moment and no inertia.
+    offset = np.array([0, 0, 0, 0, 0, 0, 0.5, 0, 0, 1.0])
+    with pytest.raises(InertiaError, match="not positive semi-definite"):
+        check_physical(offset, "body")
+
+
+def test_check_physical_rejects_the_triangle_inequality_violation():
+    # Principal moments (1, 1, 2.5): PSD, but 1 + 1 < 2.5.
+    params = khalil_by_hand(1.0, np.array([0.1, 0.2, 0.0]), np.diag([1.0, 1.0, 2.5]))
+    with pytest.raises(InertiaError, match="triangle inequality"):
+        check_physical(params, "body")
+    # A thin rod (1, 1, 0) is the limit case and passes.
+    check_physical(khalil_by_hand(1.0, np.zeros(3), np.diag([1.0, 1.0, 0.0])), "rod")
+
+
+def test_check_physical_rejects_massless_with_moments():
+    with pytest.raises(InertiaError, match="massless"):
+        check_physical(np.array([1e-3, 0, 0, 1e-3, 0, 1e-3, 0, 0, 0, 0.0]), "body")
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_check_physical_rejects_non_finite(bad):
+    params = khalil_by_hand(1.0, np.zeros(3), np.eye(3))
+    params[4] = bad
+    with pytest.raises(InertiaError, match="non-finite") as info:
+        check_physical(params, "platform")
+    assert info.value.body == "platform"
+
+
+def test_check_physical_rejects_wrong_shape():
+    with pytest.raises(InertiaError, match="shape"):
+        check_physical(np.ones(9), "body")
+
+
+def test_random_physical_khalil_is_physical(rng):
+    for _ in range(20):
+        mass, size, offset = rng.uniform(0.1, 10.0), rng.uniform(0.01, 1.0), 0.2
+        p = random_physical_khalil(rng, mass, size, offset)
+        assert p.shape == (10,)
+        assert p[9] == pytest.approx(mass, rel=1e-15)
+        com = p[6:9] / p[9]
+        assert np.all(np.abs(com) <= offset)
+        I_O = np.array([[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]])
+        I_c = I_O - mass * (com @ com * np.eye(3) - np.outer(com, com))
+        eig = np.linalg.eigvalsh(I_c)
+        tol = 1e-12 * eig.max()
+        assert eig[0] > 0.0
+        assert eig[0] + eig[1] >= eig[2] - tol
+        # A full tensor: off-diagonal terms about the com are not negligible.
+        assert np.abs(I_c[np.triu_indices(3, 1)]).max() > 1e-6 * eig.max()
