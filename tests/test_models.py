@@ -6,6 +6,8 @@ second, independent URDF reader, and the description's arrays.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -212,7 +214,7 @@ def test_tree_rnea_of_a_leg_equals_its_leg_model(robot):
 def test_load_tree_from_files_equals_build_tree(robot, tmp_path):
     urdf, sidecar = robot.write_urdf(tmp_path / "robot.urdf")
     assert sidecar.name == "robot.closures.json"
-    loaded = load_tree(urdf, robot.description.gravity)
+    loaded = load_tree(urdf)  # gravity from the sidecar
     built = robot.tree
     assert list(loaded.model.names) == list(built.model.names)
     np.testing.assert_array_equal(loaded.model.gravity.linear, built.model.gravity.linear)
@@ -237,9 +239,21 @@ def test_load_tree_from_files_equals_build_tree(robot, tmp_path):
         np.testing.assert_array_equal(getattr(loaded, key), getattr(built, key))
 
 
-def test_load_tree_default_gravity(desktop, tmp_path):
-    urdf, _ = desktop.write_urdf(tmp_path / "d.urdf")
+def test_load_tree_gravity_from_sidecar_or_argument(tmp_path):
+    robot = get_robot("random-1")  # tilted gravity
+    urdf, sidecar = robot.write_urdf(tmp_path / "r.urdf")
+    np.testing.assert_array_equal(load_tree(urdf).model.gravity.linear, robot.description.gravity)
+    np.testing.assert_array_equal(
+        load_tree(urdf, [0, 0, -1.62]).model.gravity.linear, [0, 0, -1.62]
+    )
+    data = json.loads(sidecar.read_text())
+    del data["gravity"]  # a sidecar written by another tool may not record it
+    sidecar.write_text(json.dumps(data))
     np.testing.assert_array_equal(load_tree(urdf).model.gravity.linear, [0.0, 0.0, -9.81])
+    data["gravity"] = [0.0, "down"]
+    sidecar.write_text(json.dumps(data))
+    with pytest.raises(FileFormatError, match="gravity"):
+        load_tree(urdf)
 
 
 def test_sidecar_content(paper, tmp_path):

@@ -26,7 +26,7 @@ from .urdf import (
     closures_dict,
     leg_joint,
     parse_closures,
-    read_closures,
+    read_sidecar,
     urdf_string,
 )
 
@@ -122,15 +122,24 @@ def build_tree(desc: RobotDescription) -> TreeModel:
 
 
 def load_tree(urdf_path: str | Path, gravity: np.ndarray | None = None) -> TreeModel:
-    """The closed-loop model from files on disk (``X.urdf`` and ``X.closures.json``)."""
+    """The closed-loop model from files on disk (``X.urdf`` and ``X.closures.json``).
+
+    Gravity: ``gravity`` when given, else the sidecar's ``gravity``, else [0, 0, -9.81].
+    """
     urdf_path = Path(urdf_path)
     sidecar = urdf_path.with_name(urdf_path.name.removesuffix(".urdf") + ".closures.json")
-    g = np.array([0.0, 0.0, -9.81]) if gravity is None else np.asarray(gravity, float)
+    closures, recorded = read_sidecar(sidecar)
+    if gravity is not None:
+        g = np.asarray(gravity, float)
+    elif recorded is not None:
+        g = recorded
+    else:
+        g = np.array([0.0, 0.0, -9.81])
     try:
         text = urdf_path.read_text()
     except OSError as e:
         raise FileFormatError(f"cannot read {urdf_path}: {e}") from e
-    return tree_from_files(text, read_closures(sidecar), g)
+    return tree_from_files(text, closures, g)
 
 
 def _reduced(model: pin.Model, keep_legs: list[int]) -> pin.Model:

@@ -275,6 +275,7 @@ def closures_dict(desc: RobotDescription, urdf_name: str | None = None) -> dict[
             for i in range(1, 7)
         ],
         "actuated_joints": [leg_joint(i, 3) for i in range(1, 7)],
+        "gravity": desc.gravity.tolist(),
     }
 
 
@@ -292,12 +293,26 @@ class Closure:
 
 def read_closures(path: str | Path) -> list[Closure]:
     """Read and validate a closure sidecar; raises :class:`FileFormatError` on any defect."""
+    return read_sidecar(path)[0]
+
+
+def read_sidecar(path: str | Path) -> tuple[list[Closure], np.ndarray | None]:
+    """The closures of a sidecar and the gravity it records (``None`` when absent) [m/s^2]."""
     path = Path(path)
     try:
         data = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as e:
         raise FileFormatError(f"cannot read loop closures {path}: {e}") from e
-    return parse_closures(data, str(path))
+    closures = parse_closures(data, str(path))
+    if "gravity" not in data:
+        return closures, None
+    try:
+        g = np.array(data["gravity"], dtype=float)
+    except (TypeError, ValueError):
+        g = None
+    if g is None or g.shape != (3,) or not np.all(np.isfinite(g)):
+        raise FileFormatError(f"{path}: 'gravity' must be 3 finite numbers [m/s^2]")
+    return closures, g
 
 
 def parse_closures(data: Any, source: str = "closures") -> list[Closure]:
