@@ -276,3 +276,13 @@ def test_a_batch_reports_the_first_bad_pose(simulator):
     poses[2, 2, 3] += 1.0  # [m]
     with pytest.raises(StrokeLimitError):
         simulator.inverse_geometry(poses)
+
+
+def test_singularity_error_for_a_zero_length_leg(desktop):
+    """B_1 and P_1 coincide: q1, q2 are undefined even without stroke checks."""
+    d = desktop.description
+    T = np.eye(4)
+    T[:3, 3] = d.base_points[0] - d.platform_points[0]
+    with pytest.raises(SingularityError, match="leg 1 has zero length") as e:
+        desktop.inverse_geometry(T, check_limits=False)
+    assert e.value.leg == 1

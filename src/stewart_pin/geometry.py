@@ -23,6 +23,8 @@ from .exceptions import ConvergenceError, JointLimitError, SingularityError, Str
 
 #: A leg is singular (first U-joint axis along the leg) when ``sin q2i`` falls below this.
 LEG_SINGULARITY_SIN = 1e-6
+#: A leg shorter than this [m] is singular (B_i and P_i coincide).
+LEG_MIN_LENGTH = 1e-9
 #: Forward geometry: leg-length tolerance [m] and iteration cap of Newton-Raphson.
 FORWARD_TOLERANCE = 1e-12
 FORWARD_MAX_ITERATIONS = 50
@@ -60,6 +62,15 @@ def inverse_geometry_batch(
     """
     d, _ = leg_vectors(desc, poses)
     q3 = np.linalg.norm(d, axis=-1)
+    if np.any(q3 < LEG_MIN_LENGTH):
+        n, k = np.argwhere(q3 < LEG_MIN_LENGTH)[0]
+        raise SingularityError(
+            f"leg {k + 1} has zero length ({q3[n, k]:.3g} m < {LEG_MIN_LENGTH:g} m) at pose {n}: "
+            "its U-joint angles are undefined",
+            float(q3[n, k]),
+            LEG_MIN_LENGTH,
+            leg=int(k + 1),
+        )
     u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
     q = np.empty(d.shape)
     q[..., 0] = np.arctan2(u[..., 1], u[..., 0])
