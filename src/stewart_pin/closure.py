@@ -57,6 +57,22 @@ def platform_terms(desc: RobotDescription, poses: np.ndarray, twists: np.ndarray
     return PlatformTerms(Ip, bias)
 
 
+def platform_energy(
+    desc: RobotDescription, poses: np.ndarray, twists: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Kinetic and potential energy of the platform, each (N,) [J]:
+    ``1/2 (M v.v + w.I w) + v.(w x MS)`` and ``-g.(M p + MS)`` (zero at F0's origin)."""
+    p = desc.platform_inertia
+    R, pos = poses[:, :3, :3], poses[:, :3, 3]
+    MS = R @ p[6:9]
+    I0 = R @ inertia_tensor(p) @ np.swapaxes(R, 1, 2)
+    v, w = twists[:, :3], twists[:, 3:]
+    kinetic = 0.5 * (p[9] * np.einsum("ni,ni->n", v, v) + np.einsum("ni,nij,nj->n", w, I0, w))
+    kinetic += np.einsum("ni,ni->n", v, cross(w, MS))
+    potential = -(p[9] * pos @ desc.gravity + MS @ desc.gravity)
+    return kinetic, potential
+
+
 def _wrench_at_origin(force: np.ndarray, L: np.ndarray) -> np.ndarray:
     """``sum_i [f_i; L_i x f_i]``: forces (N, 6, 3) at P_i as one wrench (N, 6) about O_p."""
     return np.concatenate([force.sum(axis=1), cross(L, force).sum(axis=1)], axis=-1)

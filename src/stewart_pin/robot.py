@@ -19,7 +19,6 @@ import pinocchio as pin
 
 from . import closure, geometry, kinematics
 from ._checks import check_batch, check_poses
-from ._vector import cross
 from .closure import CartesianDynamics, InverseDynamicsResult
 from .description import RobotDescription
 from .exceptions import InputError
@@ -240,16 +239,7 @@ class StewartRobot:
         batched, T, V = self._states(pose, (twist, "twist"))
         legs = leg_state(self.description, T, V, check_limits=False)
         kin, pot = self.leg_dynamics.energy(legs.q, legs.qdot)
-        p = self.description.platform_inertia
-        R, pos = T[:, :3, :3], T[:, :3, 3]
-        MS = R @ p[6:9]
-        I0 = R @ closure.inertia_tensor(p) @ np.swapaxes(R, 1, 2)
-        v, w = V[:, :3], V[:, 3:]
-        kin_p = 0.5 * (
-            p[9] * np.einsum("ni,ni->n", v, v) + np.einsum("ni,nij,nj->n", w, I0, w)
-        ) + np.einsum("ni,ni->n", v, cross(w, MS))
-        g = self.description.gravity
-        pot_p = -(p[9] * pos @ g + MS @ g)
+        kin_p, pot_p = closure.platform_energy(self.description, T, V)
         total = kin + pot + kin_p + pot_p
         return total if batched else float(total[0])
 
