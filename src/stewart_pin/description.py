@@ -193,9 +193,7 @@ class RobotDescription:
         if path.suffix == ".json":
             path.write_text(json.dumps(d, indent=2) + "\n")
         elif path.suffix == ".toml":
-            import tomli_w
-
-            path.write_text(FILE_HEADER + tomli_w.dumps(d, multiline_strings=False))
+            path.write_text(FILE_HEADER + _toml(d))
         else:
             raise FileFormatError(f"unknown description file type '{path.suffix}' (.toml, .json)")
         return path
@@ -254,6 +252,22 @@ FILE_HEADER = """\
 # gravity: in F0. Optional: u_joint_limits [[q1min, q1max], [q2min, q2max]] (rad),
 #   home_pose: 0Tp (4 x 4), the workspace centre.
 """
+
+
+def _toml(d: dict[str, Any]) -> str:
+    """TOML for the description's flat dict of strings and nested lists of floats, one
+    innermost row per line (``tomllib`` reads it back exactly: floats as ``repr``)."""
+
+    def value(x: Any, indent: int) -> str:
+        if isinstance(x, str):
+            return json.dumps(x)  # a JSON string is a valid TOML basic string
+        if not isinstance(x[0], list):
+            return "[" + ", ".join(repr(float(v)) for v in x) + "]"
+        pad = " " * (indent + 4)
+        rows = ",\n".join(pad + value(v, indent + 4) for v in x)
+        return "[\n" + rows + ",\n" + " " * indent + "]"
+
+    return "".join(f"{key} = {value(x, 0)}\n" for key, x in d.items())
 
 
 def _upright_home_pose(desc: RobotDescription) -> np.ndarray:
