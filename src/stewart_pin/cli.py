@@ -63,6 +63,108 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_base_params(args: argparse.Namespace) -> int:
+    from .base_parameters import base_parameters, numerical_base_parameters
+
+    robot = _robot(args)
+    numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
+    bp = numerical if args.method == "numerical" else base_parameters(robot, "analytic")
+    print(f"robot '{robot.name}': {len(bp)} {args.method} base parameters of 190 standard")
+    print(bp.table())
+    print(f"\nnumerical rank: {rank}")
+    if rank.rank != len(bp):
+        print(
+            f"warning: the numerical rank {rank.rank} differs from the {len(bp)} {args.method} "
+            "base parameters: this geometry makes some of them unidentifiable (or the "
+            "tolerance is off); use --method numerical"
+        )
+    return 0
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from .base_parameters import base_parameters
+    from .identification import (
+        exciting_trajectory,
+        identify,
+        read_measurements_csv,
+        simulate_measurements,
+        validation_error,
+        write_measurements_csv,
+    )
+
+    robot = _robot(args)
+    base = base_parameters(robot, "analytic")
+    out = Path(args.output) if args.output else None
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    lines: list[str] = []
+    if args.csv:
+        measurements = read_measurements_csv(args.csv, min_rows=len(base) // 6 + 1)
+        lines.append(f"measurements: {args.csv} ({len(measurements)} samples)")
+        label = "nominal"
+    else:
+        trajectory, cond = exciting_trajectory(
+            robot,
+            args.duration,
+            args.harmonics,
+            args.frequency,
+            args.seed,
+            args.samples,
+            max_evaluations=args.evaluations,
+        )
+        clean = simulate_measurements(robot, trajectory)
+        rms = float(np.sqrt(np.mean(clean.gammas**2)))
+        noise = 0.01 * rms if args.noise is None else args.noise
+        measurements = simulate_measurements(robot, trajectory, noise, args.seed)
+        stem = out.with_name(out.stem + "_measurements.csv") if out else None
+        csv_path = write_measurements_csv(
+            stem or Path(f"{robot.name}_measurements.csv"), measurements
+        )
+        lines.append(
+            f"simulated measurements: exciting trajectory ({args.harmonics} harmonics of "
+            f"{args.frequency:g} Hz, {len(trajectory)} samples, condition number {cond:.4g}), "
+            f"force noise std {noise:.4g} N ({100 * noise / rms:.3g} % of the RMS force "
+            f"{rms:.4g} N); written to {csv_path}"
+        )
+        label = "true"
+    result = identify(robot, measurements, base, weighted=not args.ols)
+    lines += ["", result.report(base.values, label=label), ""]
+    if args.validation_csv:
+        validation = read_measurements_csv(args.validation_csv)
+        error = validation_error(result, robot, validation)
+        lines.append(
+            f"validation on {args.validation_csv}: relative RMS force error {100 * error:.4g} %"
+        )
+    elif not args.csv:
+        trajectory, _ = exciting_trajectory(
+            robot,
+            args.duration,
+            args.harmonics,
+            args.frequency,
+            args.seed + 1,
+            args.samples,
+            optimise=False,
+        )
+        clean = simulate_measurements(robot, trajectory)
+        validation = simulate_measurements(robot, trajectory, noise, args.seed + 1)
+        error = validation_error(result, robot, validation)
+        floor = np.linalg.norm(validation.gammas - clean.gammas) / np.linalg.norm(
+            validation.gammas
+        )
+        lines.append(
+            f"validation on a fresh trajectory (seed {args.seed + 1}, same noise): relative "
+            f"RMS force error {100 * error:.4g} % (the noise alone: {100 * floor:.4g} %)"
+        )
+    else:
+        lines.append("validation: give --validation-csv FILE (a second log) to measure it")
+    text = "\n".join(lines)
+    print(text)
+    if out:
+        out.write_text(text + "\n")
+        print(f"wrote {out}")
+    return 0
+
+
 def _add_robot_args(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument(
@@ -95,6 +197,43 @@ def build_parser() -> argparse.ArgumentParser:
         help="offset from the home pose [m, m, m, rad, rad, rad], rotation applied in F0",
     )
     p.set_defaults(func=_cmd_ik)
+
+    p = sub.add_parser("base-params", help="the base inertial parameters and the numerical rank")
+    _add_robot_args(p)
+    p.add_argument(
+        "--method",
+        choices=("analytic", "numerical"),
+        default="analytic",
+        help="the paper's grouping rules (default) or QR of the stacked regressor",
+    )
+    p.add_argument("--states", type=int, default=60, help="random states stacked for the rank")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random states")
+    p.set_defaults(func=_cmd_base_params)
+
+    p = sub.add_parser(
+        "identify",
+        help="identify the base parameters from a CSV log, or from simulated measurements",
+        description="Without --csv: optimise an exciting trajectory, simulate noisy forces "
+        "(written as CSV, the format --csv reads: docs/identification.md), identify and "
+        "compare with the true values. With --csv: identify from the log.",
+    )
+    _add_robot_args(p)
+    p.add_argument("--csv", help="measurement log (t,x,y,z,qx,qy,qz,qw,...,gamma6; SI units)")
+    p.add_argument("--validation-csv", help="a second log to validate the prediction on")
+    p.add_argument(
+        "--noise", type=float, help="force noise std [N] (default 1 %% of the RMS force)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the trajectory and the noise")
+    p.add_argument("--samples", type=int, default=200, help="samples of the trajectory")
+    p.add_argument("--duration", type=float, help="[s] (default one period)")
+    p.add_argument("--harmonics", type=int, default=5, help="Fourier harmonics per axis")
+    p.add_argument("--frequency", type=float, default=0.2, help="base frequency [Hz]")
+    p.add_argument(
+        "--evaluations", type=int, default=300, help="cost evaluations of the optimiser"
+    )
+    p.add_argument("--ols", action="store_true", help="ordinary instead of weighted LS")
+    p.add_argument("-o", "--output", help="write the report there too (and the CSV beside)")
+    p.set_defaults(func=_cmd_identify)
 
     p = sub.add_parser("demo", help="the main demo: URDF, geometry and kinematics of a preset")
     p.add_argument("--preset", default="simulator")

@@ -101,3 +101,19 @@ class ConvergenceError(StewartPinError, RuntimeError):
     def __init__(self, message: str, iterations: int, residual: float) -> None:
         super().__init__(message)
         self.iterations, self.residual = iterations, residual
+
+
+class IdentificationError(StewartPinError, ValueError):
+    """Measurements that cannot identify the base parameters: too few equations, or a
+    stacked base regressor of deficient rank (a trajectory that does not excite them all).
+
+    Attributes:
+        rank: the numerical rank of the stacked base regressor (``None`` when not computed).
+        n_parameters: the number of base parameters.
+    """
+
+    def __init__(
+        self, message: str, rank: int | None = None, n_parameters: int | None = None
+    ) -> None:
+        super().__init__(message)
+        self.rank, self.n_parameters = rank, n_parameters

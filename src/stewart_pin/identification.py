@@ -1,0 +1,703 @@
+"""Identification of the base inertial parameters: the workflow a lab runs on a hexapod.
+
+1. :func:`exciting_trajectory`: a periodic platform motion (a finite Fourier series per
+   axis, :class:`~stewart_pin.trajectories.FourierTrajectory`) whose coefficients minimise
+   the condition number of the stacked base regressor, inside the workspace.
+2. Measurements: run it, log poses, twists, accelerations and actuator forces
+   (:class:`Measurements`; CSV format in ``docs/identification.md``,
+   :func:`write_measurements_csv` / :func:`read_measurements_csv`), or simulate them with
+   :func:`simulate_measurements`.
+3. :func:`identify`: ordinary, then weighted least squares (Gautier 1991) of
+   ``Gamma = W_b chi_b`` stacked over the samples; estimates with standard deviations.
+4. :func:`validation_error`: the relative RMS force prediction error on another trajectory.
+
+Every condition number here is that of the stacked base regressor with its columns scaled
+to unit norm (so it does not depend on units), the 2-norm ratio of its extreme singular
+values.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+
+from ._checks import check_array
+from .base_parameters import RANK_TOLERANCE, BaseParameters, base_parameters
+from .exceptions import (
+    FileFormatError,
+    IdentificationError,
+    InputError,
+    StewartPinError,
+    WorkspaceError,
+)
+from .geometry import inverse_geometry_batch, leg_vectors
+from .kinematics import inverse_jacobian_batch
+from .trajectories import FourierTrajectory, Trajectory
+
+# ====================================================================== exciting trajectories
+
+
+def _base_of(robot: Any, base: BaseParameters | None) -> BaseParameters:
+    """``base`` (default the analytic set) bound to ``robot``."""
+    if base is None:
+        return base_parameters(robot, "analytic")
+    return base if base.robot is robot else replace(base, robot=robot)
+
+
+def _stacked(base: BaseParameters, robot: Any, poses: Any, twists: Any, accels: Any) -> np.ndarray:
+    """The base regressor stacked over the samples: (6 N, nb), rows sample-major."""
+    W = base.reduce(robot.regressor(poses, twists, accels))
+    return W.reshape(-1, W.shape[-1])
+
+
+def _svd(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Thin SVD ``A = U diag(s) Vt`` of a tall matrix through its QR factorisation (the SVD
+    of the small square R), which multithreaded LAPACK runs much faster on tall matrices."""
+    Q, R = np.linalg.qr(A)
+    Ur, s, Vt = np.linalg.svd(R)
+    return Q @ Ur, s, Vt
+
+
+def _scaled_singular_values(W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values of ``W`` (rows >= columns) with unit-norm columns, and the norms."""
+    norms = np.linalg.norm(W, axis=0)
+    scale = np.where(norms > 0, norms, 1.0)
+    if W.shape[0] < W.shape[1]:
+        return np.linalg.svd(W / scale, compute_uv=False), norms
+    R = np.linalg.qr(W / scale, mode="r")
+    return np.linalg.svd(R, compute_uv=False), norms
+
+
+def regressor_condition_number(W: np.ndarray) -> float:
+    """The condition number of a stacked regressor (rows, nb) with unit-norm columns
+    (``inf`` when a column is zero or the matrix is rank deficient)."""
+    s, norms = _scaled_singular_values(np.asarray(W, dtype=float))
+    if np.any(norms == 0) or s[-1] <= 0 or W.shape[0] < W.shape[1]:
+        return math.inf
+    return float(s[0] / s[-1])
+
+
+class _Workspace:
+    """How far a Fourier trajectory leaves the allowed workspace (0 when inside)."""
+
+    def __init__(self, robot: Any, times: np.ndarray, max_condition: float, margin: float):
+        desc = robot.description
+        lo, hi = desc.stroke
+        m = margin * (hi - lo)
+        self.desc, self.times, self.max_condition = desc, times, max_condition
+        self.lo, self.hi, self.width = lo + m, hi - m, hi - lo
+
+    def violation(self, traj: FourierTrajectory) -> float:
+        poses = traj.sample(self.times).poses
+        lengths = np.linalg.norm(leg_vectors(self.desc, poses)[0], axis=-1)
+        v = np.sum(np.maximum(0.0, self.lo - lengths) + np.maximum(0.0, lengths - self.hi))
+        v /= self.width
+        cond = np.linalg.cond(inverse_jacobian_batch(self.desc, poses))
+        v += np.sum(np.maximum(0.0, cond - self.max_condition)) / self.max_condition
+        if self.desc.u_joint_limits is not None and v == 0.0:
+            try:
+                q = inverse_geometry_batch(self.desc, poses, check_limits=False)
+            except StewartPinError:
+                return math.inf
+            lim = self.desc.u_joint_limits
+            for j in range(2):
+                v += np.sum(np.maximum(0.0, lim[:, j, 0] - q[..., j]))
+                v += np.sum(np.maximum(0.0, q[..., j] - lim[:, j, 1]))
+        return float(v) if np.isfinite(v) else math.inf
+
+
+def exciting_trajectory(
+    robot: Any,
+    duration: float | None = None,
+    n_harmonics: int = 5,
+    base_frequency: float = 0.2,
+    seed: int | None = 0,
+    n_samples: int = 200,
+    optimise: bool = True,
+    *,
+    base: BaseParameters | None = None,
+    max_condition: float | None = None,
+    margin: float = 0.05,
+    n_candidates: int = 8,
+    max_evaluations: int = 300,
+    n_grid: int = 30,
+) -> tuple[Trajectory, float]:
+    """An exciting trajectory for identification, and its condition number.
+
+    The platform follows a :class:`~stewart_pin.trajectories.FourierTrajectory` about the
+    home pose (three translations of O_p along F0's axes, a rotation vector in F0, each a
+    Fourier series of ``n_harmonics`` harmonics of ``base_frequency``). Random coefficients
+    (amplitudes decreasing as ``1/l`` with the harmonic l) are shrunk onto the workspace
+    boundary; the best of ``n_candidates`` draws is then refined by Powell's method on
+    ``log cond(W_b)`` (``W_b`` stacked on ``n_grid`` samples of one period, columns scaled
+    to unit norm), with a penalty outside the workspace: every one of 300 samples of a
+    period keeps its leg lengths ``margin`` (a fraction of the stroke) inside the stroke,
+    its U-joint angles inside their limits, and cond(Jp^-1) below ``max_condition``.
+
+    Args:
+        robot: a :class:`~stewart_pin.StewartRobot`.
+        duration: length of the returned samples [s] (default one period, ``1 /
+            base_frequency``).
+        n_harmonics: harmonics per axis.
+        base_frequency: [Hz]; frequencies ``l * base_frequency``, l = 1..n_harmonics.
+        seed: seeds the random draws.
+        n_samples: samples returned, evenly spaced in ``[0, duration)``.
+        optimise: ``False`` returns the first random draw, shrunk into the workspace.
+        base: the base parameters to excite (default the analytic 88).
+        max_condition: bound on cond(Jp^-1) (default twice its value at the home pose).
+        margin: stroke margin, a fraction of the stroke width, kept at both ends.
+        n_candidates, max_evaluations, n_grid: the optimiser's effort: random draws,
+            then at most ``max_evaluations`` cost evaluations of Powell's method, each on
+            ``n_grid`` samples (about 10 ms each; the default takes a few seconds).
+
+    Returns:
+        ``(trajectory, condition_number)``: the samples (``trajectory.fourier`` holds the
+        coefficients, to resample at a controller's rate) and the condition number of the
+        stacked base regressor on them.
+    """
+    base = _base_of(robot, base)
+    f = float(base_frequency)
+    if not (np.isfinite(f) and f > 0):
+        raise InputError(f"base_frequency must be a positive number of Hz, got {base_frequency}")
+    period = 1.0 / f
+    duration = period if duration is None else float(duration)
+    if not (np.isfinite(duration) and duration > 0):
+        raise InputError(f"duration must be a positive number of seconds, got {duration}")
+    if int(n_harmonics) < 1 or int(n_samples) < 1:
+        raise InputError(
+            f"n_harmonics and n_samples must be >= 1, got {n_harmonics} and {n_samples}"
+        )
+    n_harmonics, n_samples = int(n_harmonics), int(n_samples)
+    home = robot.home_pose
+    if max_condition is None:
+        max_condition = 2.0 * float(robot.condition_number(home))
+    span = min(period, duration)
+    workspace = _Workspace(
+        robot, np.linspace(0.0, span, 300, endpoint=False), float(max_condition), margin
+    )
+    grid = np.linspace(0.0, span, max(int(n_grid), 1), endpoint=False)
+    rng = np.random.default_rng(seed)
+
+    def make(x: np.ndarray) -> FourierTrajectory:
+        return FourierTrajectory.from_vector(home, f, x)
+
+    def cost(x: np.ndarray) -> float:
+        traj = make(x)
+        v = workspace.violation(traj)
+        if v > 0:
+            return 1e3 + min(v, 1e6)
+        s = traj.sample(grid)
+        try:
+            W = _stacked(base, robot, s.poses, s.twists, s.accels)
+        except StewartPinError:
+            return 1e3
+        return math.log(regressor_condition_number(W))
+
+    desc = robot.description
+    half = 0.5 * float(desc.stroke[1] - desc.stroke[0])  # [m]
+    amplitude = np.array([half] * 3 + [min(0.5, half / desc.size)] * 3)  # [m, rad]
+    harmonic = 1.0 / np.arange(1, n_harmonics + 1)
+
+    def draw() -> np.ndarray:
+        sine, cosine = (
+            rng.normal(size=(6, n_harmonics)) * amplitude[:, None] * harmonic / n_harmonics
+            for _ in range(2)
+        )
+        x = FourierTrajectory(home, f, np.zeros(6), sine, cosine).to_vector()
+        if workspace.violation(make(x)) == 0:
+            return x
+        lo, hi = 0.0, 1.0  # the zero motion (home pose) is inside
+        for _ in range(20):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if workspace.violation(make(mid * x)) == 0 else (lo, mid)
+        return 0.95 * lo * x
+
+    if workspace.violation(make(np.zeros(6 + 12 * n_harmonics))) > 0:
+        raise WorkspaceError(
+            "the home pose itself violates the workspace constraints (stroke margin "
+            f"{margin:g}, cond(Jp^-1) <= {max_condition:g}); lower margin or raise max_condition"
+        )
+    if optimise:
+        candidates = [draw() for _ in range(max(int(n_candidates), 1))]
+        costs = [cost(x) for x in candidates]
+        x = candidates[int(np.argmin(costs))]
+        if max_evaluations > 0:
+            res = scipy.optimize.minimize(
+                cost,
+                x,
+                method="Powell",
+                options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-4},
+            )
+            if res.fun <= min(costs) and workspace.violation(make(res.x)) == 0:
+                x = res.x
+    else:
+        x = draw()
+    times = np.linspace(0.0, duration, n_samples, endpoint=False)
+    traj = make(x).sample(times)
+    robot.inverse_geometry(traj.poses)  # the samples themselves: raise if outside
+    cond = regressor_condition_number(_stacked(base, robot, traj.poses, traj.twists, traj.accels))
+    return traj, cond
+
+
+# ====================================================================== measurements
+
+#: Columns of a measurement CSV file, in the order :func:`write_measurements_csv` writes.
+CSV_COLUMNS: tuple[str, ...] = (
+    "t",
+    "x",
+    "y",
+    "z",
+    "qx",
+    "qy",
+    "qz",
+    "qw",
+    "vx",
+    "vy",
+    "vz",
+    "wx",
+    "wy",
+    "wz",
+    "ax",
+    "ay",
+    "az",
+    "alphax",
+    "alphay",
+    "alphaz",
+    *(f"gamma{i}" for i in range(1, 7)),
+)
+#: Weighted least squares: relative change of the sigma_j that ends the reweighting, and
+#: the cap on the iterations.
+REWEIGHTING_TOLERANCE = 1e-3
+REWEIGHTING_ITERATIONS = 20
+#: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
+QUATERNION_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Measurements:
+    """Logged (or simulated) samples: platform states and actuator forces.
+
+    Attributes:
+        times: shape (N,), strictly increasing [s].
+        poses: 0Tp, shape (N, 4, 4) [m].
+        twists: ``[v, w]`` of O_p in F0, shape (N, 6) [m/s, rad/s].
+        accels: classical ``[dv/dt, dw/dt]`` in F0, shape (N, 6) [m/s^2, rad/s^2].
+        gammas: actuator forces, shape (N, 6) [N], positive extending the leg.
+    """
+
+    times: np.ndarray
+    poses: np.ndarray
+    twists: np.ndarray
+    accels: np.ndarray
+    gammas: np.ndarray
+
+    def __post_init__(self) -> None:
+        traj = Trajectory(self.times, self.poses, self.twists, self.accels)  # validates
+        values = {
+            "times": traj.times,
+            "poses": traj.poses,
+            "twists": traj.twists,
+            "accels": traj.accels,
+            "gammas": check_array(self.gammas, (len(traj), 6), "gammas"),
+        }
+        for key, value in values.items():
+            value = np.array(value)
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+    @property
+    def trajectory(self) -> Trajectory:
+        """The states without the forces."""
+        return Trajectory(self.times, self.poses, self.twists, self.accels)
+
+
+def simulate_measurements(
+    robot: Any,
+    trajectory: Trajectory,
+    noise_std: float | Any = 0.0,
+    seed: int | None = None,
+) -> Measurements:
+    """Measurements of ``trajectory`` by the inverse dynamic model, plus Gaussian noise.
+
+    Args:
+        robot: a :class:`~stewart_pin.StewartRobot` (its description holds the true
+            parameters).
+        trajectory: the states.
+        noise_std: standard deviation of the force noise [N], one value or one per
+            actuator (6,); zero-mean, independent across samples and actuators.
+        seed: seeds the noise.
+    """
+    std = np.broadcast_to(check_array(np.atleast_1d(noise_std), (None,), "noise_std"), (6,))
+    if np.any(std < 0):
+        raise InputError(f"noise_std must be >= 0 [N], got {noise_std}")
+    gammas = robot.inverse_dynamics(trajectory.poses, trajectory.twists, trajectory.accels)
+    rng = np.random.default_rng(seed)
+    gammas = gammas + rng.normal(size=gammas.shape) * std
+    return Measurements(
+        trajectory.times, trajectory.poses, trajectory.twists, trajectory.accels, gammas
+    )
+
+
+def _quaternions_from_rotations(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``[x, y, z, w]`` with ``w >= 0`` of rotation matrices (N, 3, 3)."""
+    import pinocchio as pin
+
+    q = np.array([pin.Quaternion(r).coeffs() for r in R]).reshape(-1, 4)
+    q *= np.where(q[:, 3:] < 0, -1.0, 1.0)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _rotations_from_quaternions(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of unit quaternions ``[x, y, z, w]`` (N, 4)."""
+    x, y, z, w = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
+def write_measurements_csv(path: str | Path, measurements: Measurements) -> Path:
+    """Write measurements as CSV (header :data:`CSV_COLUMNS`, SI units, ``repr`` floats so
+    that reading them back gives the same numbers; format in ``docs/identification.md``)."""
+    m = measurements
+    path = Path(path)
+    quat = _quaternions_from_rotations(m.poses[:, :3, :3])
+    table = np.column_stack([m.times, m.poses[:, :3, 3], quat, m.twists, m.accels, m.gammas])
+    with path.open("w", newline="") as f:
+        f.write(",".join(CSV_COLUMNS) + "\n")
+        for row in table:
+            f.write(",".join(repr(float(v)) for v in row) + "\n")
+    return path
+
+
+def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
+    """Read a measurement CSV file (format in ``docs/identification.md``).
+
+    Columns may come in any order; blank lines and lines starting with ``#`` are skipped.
+    Quaternions within :data:`QUATERNION_TOLERANCE` of unit norm are renormalised.
+
+    Raises:
+        FileFormatError: a missing, unknown or repeated column, a row with the wrong number
+            of fields, a non-numeric or non-finite value, a non-unit quaternion, a time
+            that does not increase, or fewer than ``min_rows`` rows; the message names the
+            line.
+        OSError: the file cannot be read.
+    """
+    path = Path(path)
+    with path.open(newline="") as f:
+        lines = [(k, line) for k, line in enumerate(f, 1) if line.strip() and line[0] != "#"]
+    if not lines:
+        raise FileFormatError(f"{path}: no header line; expected {','.join(CSV_COLUMNS)}")
+    header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
+    header = [h.strip() for h in header]
+    missing = [c for c in CSV_COLUMNS if c not in header]
+    unknown = [c for c in header if c not in CSV_COLUMNS]
+    repeated = sorted({c for c in header if header.count(c) > 1})
+    if missing or unknown or repeated:
+        problems = [
+            f"{label} column{'s' if len(cols) > 1 else ''} {', '.join(map(repr, cols))}"
+            for label, cols in (("missing", missing), ("unknown", unknown), ("repeated", repeated))
+            if cols
+        ]
+        raise FileFormatError(
+            f"{path}, line {header_line}: {'; '.join(problems)}; the header must name "
+            f"each of {','.join(CSV_COLUMNS)} once"
+        )
+    order = [header.index(c) for c in CSV_COLUMNS]
+    rows = np.empty((len(lines) - 1, len(CSV_COLUMNS)))
+    line_numbers = [k for k, _ in lines[1:]]
+    for r, (k, line) in enumerate(lines[1:]):
+        fields = next(csv.reader([line]))
+        if len(fields) != len(header):
+            raise FileFormatError(
+                f"{path}, line {k}: {len(fields)} fields, expected {len(header)} (one per "
+                "header column)"
+            )
+        for c, j in enumerate(order):
+            text = fields[j].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                raise FileFormatError(
+                    f"{path}, line {k}, column '{CSV_COLUMNS[c]}': {text!r} is not a number"
+                ) from None
+            if not math.isfinite(value):
+                raise FileFormatError(
+                    f"{path}, line {k}, column '{CSV_COLUMNS[c]}': non-finite value {text!r}"
+                )
+            rows[r, c] = value
+    quat = rows[:, 4:8]
+    norms = np.linalg.norm(quat, axis=1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
+    if bad.size:
+        r = int(bad[0])
+        raise FileFormatError(
+            f"{path}, line {line_numbers[r]}: the quaternion (qx, qy, qz, qw) = "
+            f"{tuple(float(v) for v in quat[r])} has norm {norms[r]:.9g}, expected 1 within "
+            f"{QUATERNION_TOLERANCE:g}; write unit quaternions"
+        )
+    bad = np.flatnonzero(np.diff(rows[:, 0]) <= 0)
+    if bad.size:
+        r = int(bad[0]) + 1
+        raise FileFormatError(
+            f"{path}, line {line_numbers[r]}: time t = {float(rows[r, 0])!r} s does not increase "
+            f"(line {line_numbers[r - 1]} has t = {float(rows[r - 1, 0])!r} s); times must be "
+            "strictly increasing"
+        )
+    if rows.shape[0] < max(int(min_rows), 1):
+        raise FileFormatError(
+            f"{path}: {rows.shape[0]} data rows (after the header on line {header_line}), "
+            f"at least {max(int(min_rows), 1)} needed"
+        )
+    poses = np.tile(np.eye(4), (rows.shape[0], 1, 1))
+    poses[:, :3, 3] = rows[:, 1:4]
+    poses[:, :3, :3] = _rotations_from_quaternions(quat / norms[:, None])
+    try:
+        return Measurements(rows[:, 0], poses, rows[:, 8:14], rows[:, 14:20], rows[:, 20:26])
+    except InputError as e:  # pragma: no cover - the checks above cover the format
+        raise FileFormatError(f"{path}: {e}") from e
+
+
+# ====================================================================== estimation
+
+
+@dataclass(frozen=True, eq=False)
+class IdentificationResult:
+    """Estimated base parameters with their uncertainty.
+
+    Attributes:
+        names: the base parameters' names (nb,).
+        estimate: the (weighted) least-squares estimate (nb,), SI units.
+        std: standard deviations of the estimate (nb,): the square roots of the diagonal of
+            ``sigma^2 (W^T W)^-1`` in the (weighted) problem.
+        covariance: (nb, nb) covariance of the estimate.
+        ols_estimate: the ordinary least-squares estimate (nb,).
+        sigma: per-actuator noise standard deviation estimated from the residuals of the
+            final fit (6,) [N]: ``sigma_j^2 = |r_j|^2 / (N - h_j)`` with ``h_j`` the
+            leverage (hat-matrix trace) of actuator j's equations.
+        iterations: reweighting iterations of the weighted least squares (0 for OLS).
+        residual_rms: per-actuator RMS residual of the final estimate (6,) [N].
+        condition_number: of the stacked base regressor, columns scaled to unit norm.
+        rank: its numerical rank (== nb).
+        n_samples: samples used (6 equations each).
+        weighted: whether the estimate is the weighted one.
+        base: the :class:`~stewart_pin.base_parameters.BaseParameters` identified.
+    """
+
+    names: tuple[str, ...]
+    estimate: np.ndarray
+    std: np.ndarray
+    covariance: np.ndarray
+    ols_estimate: np.ndarray
+    sigma: np.ndarray
+    iterations: int
+    residual_rms: np.ndarray
+    condition_number: float
+    rank: int
+    n_samples: int
+    weighted: bool
+    base: BaseParameters = field(repr=False)
+
+    @property
+    def relative_std(self) -> np.ndarray:
+        """``100 std / |estimate|`` [%] (nb,) (``inf`` for a zero estimate)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.estimate != 0, 100.0 * self.std / np.abs(self.estimate), np.inf)
+
+    def relative_errors(self, true_values: Any, atol: float | None = None) -> np.ndarray:
+        """``(estimate - true) / |true|`` (nb,), a fraction.
+
+        Where ``|true| <= atol`` (default ``1e-9`` times the largest ``|true|``) the error
+        is relative to the largest ``|true|`` instead, so that zero parameters (symmetric
+        robots) give finite numbers.
+        """
+        true = check_array(true_values, (len(self.names),), "true_values")
+        big = float(np.abs(true).max(initial=0.0))
+        atol = 1e-9 * big if atol is None else float(atol)
+        denom = np.where(np.abs(true) > atol, np.abs(true), big if big > 0 else 1.0)
+        return (self.estimate - true) / denom
+
+    def predict(self, poses: Any, twists: Any, accels: Any) -> np.ndarray:
+        """Actuator forces ``W_b chi_b`` from the estimate [N]: (6,) or (N, 6)."""
+        return self.base.regressor(poses, twists, accels) @ self.estimate
+
+    def report(self, true_values: Any | None = None, label: str = "true") -> str:
+        """A readable table: estimate, std, relative std [%], and with ``true_values`` (nb,)
+        the ``label`` values and the relative errors [%]."""
+        what = "weighted least squares" if self.weighted else "ordinary least squares"
+        lines = [
+            f"{len(self.names)} base parameters by {what} from {self.n_samples} samples "
+            f"({6 * self.n_samples} equations)",
+            f"condition number of the scaled base regressor: {self.condition_number:.4g}",
+            "per-actuator noise std (from the residuals) [N]: "
+            + " ".join(f"{s:.4g}" for s in self.sigma),
+            "per-actuator residual RMS (final) [N]: "
+            + " ".join(f"{s:.4g}" for s in self.residual_rms),
+            "",
+        ]
+        head = f"{'parameter':>12s} {'estimate':>14s} {'std':>11s} {'std %':>9s}"
+        true = None
+        if true_values is not None:
+            true = check_array(true_values, (len(self.names),), "true_values")
+            errors = 100.0 * self.relative_errors(true)
+            head += f" {label:>14s} {'error %':>10s}"
+        lines.append(head)
+        for k, name in enumerate(self.names):
+            row = (
+                f"{name:>12s} {self.estimate[k]:14.6g} {self.std[k]:11.3g} "
+                f"{self.relative_std[k]:9.3g}"
+            )
+            if true is not None:
+                row += f" {true[k]:14.6g} {errors[k]:10.3g}"
+            lines.append(row)
+        if true is not None:
+            lines.append(
+                "(error % is relative to |true|, or to the largest |true| where true is ~0)"
+            )
+        return "\n".join(lines)
+
+
+def identify(
+    robot: Any,
+    measurements: Measurements,
+    base: BaseParameters | None = None,
+    weighted: bool = True,
+) -> IdentificationResult:
+    """Estimate the base parameters from measurements.
+
+    Stacks ``Gamma = W_b chi_b`` over the N samples (6 equations each) and solves by
+    ordinary least squares. With ``weighted``, Gautier's weighted least squares: the
+    residuals give each actuator's noise ``sigma_j^2 = |r_j|^2 / (N - h_j)`` (``h_j`` the
+    leverage of its N equations, about nb/6), the equations of actuator j are divided by
+    ``sigma_j`` and the system is solved again; the ``sigma_j`` are then re-estimated
+    from the weighted fit's residuals and the solve repeated until they settle (to
+    :data:`REWEIGHTING_TOLERANCE`, at most :data:`REWEIGHTING_ITERATIONS` times): with
+    equal noise on the actuators one pass suffices, with very unequal noise the OLS
+    residuals of a noisy actuator leak into the others' and the iteration removes that.
+    The covariance is ``sigma^2 (W^T W)^-1`` of the final (weighted) problem with
+    ``sigma^2 = |r|^2 / (6 N - nb)``. Solves use the SVD of the column-scaled regressor.
+
+    Args:
+        robot: a :class:`~stewart_pin.StewartRobot` (its geometry; the inertial
+            parameters it holds play no part).
+        measurements: the samples.
+        base: the base parameters to identify (default the analytic 88 of ``robot``).
+        weighted: weighted (default) or ordinary least squares.
+
+    Raises:
+        IdentificationError: fewer than ``nb + 1`` equations, or a stacked base regressor
+            of rank below nb (the trajectory does not excite every base parameter).
+    """
+    base = _base_of(robot, base)
+    nb = len(base)
+    n = len(measurements)
+    if 6 * n <= nb:
+        raise IdentificationError(
+            f"{n} samples give {6 * n} equations for {nb} base parameters; at least "
+            f"{nb // 6 + 1} samples are needed (more than {nb} equations)",
+            n_parameters=nb,
+        )
+    W = _stacked(base, robot, measurements.poses, measurements.twists, measurements.accels)
+    y = measurements.gammas.reshape(-1)
+    norms = np.linalg.norm(W, axis=0)
+    scale = np.where(norms > 0, norms, 1.0)
+    U, s, Vt = _svd(W / scale)
+    rank = int(np.sum(s > RANK_TOLERANCE * s[0])) if s[0] > 0 else 0
+    if rank < nb:
+        weakest = np.argsort(-np.abs(Vt[-1]))[:4]
+        raise IdentificationError(
+            f"the stacked base regressor ({W.shape[0]} x {nb}) has rank {rank} < {nb}: the "
+            f"trajectory does not excite every base parameter (the least excited direction "
+            f"involves {', '.join(base.names[k] for k in weakest)}); use a richer trajectory "
+            "(exciting_trajectory) or fewer parameters",
+            rank=rank,
+            n_parameters=nb,
+        )
+    cond = float(s[0] / s[-1])
+
+    def solve(U: np.ndarray, s: np.ndarray, Vt: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        return (Vt.T @ ((U.T @ rhs) / s)) / scale
+
+    def noise(x: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """Per-actuator sigma_j^2 = |r_j|^2 / (N - h_j), h_j the leverage of its rows."""
+        r = (y - W @ x).reshape(n, 6)
+        leverage = np.sum(U**2, axis=1).reshape(n, 6).sum(axis=0)
+        return np.sqrt(np.sum(r**2, axis=0) / np.maximum(n - leverage, 1e-12))
+
+    x = ols = solve(U, s, Vt, y)
+    sigma = noise(x, U)
+    iterations = 0
+    if weighted:
+        floor = 1e-12 * float(np.sqrt(np.mean(y**2))) or 1e-300
+        for iterations in range(1, REWEIGHTING_ITERATIONS + 1):  # noqa: B007
+            w = np.tile(1.0 / np.maximum(sigma, floor), n)  # each equation's weight
+            U, s, Vt = _svd(W * w[:, None] / scale)
+            x = solve(U, s, Vt, y * w)
+            new = noise(x, U)
+            converged = np.all(np.abs(new - sigma) <= REWEIGHTING_TOLERANCE * sigma + floor)
+            sigma = new
+            if converged:
+                break
+        r_w = (y - W @ x) * w
+    else:
+        r_w = y - W @ x
+    s2 = float(r_w @ r_w) / (6 * n - nb)
+    Vs = Vt.T / s
+    covariance = s2 * (Vs @ Vs.T) / np.outer(scale, scale)
+    final = (y - W @ x).reshape(n, 6)
+    return IdentificationResult(
+        names=base.names,
+        estimate=x,
+        std=np.sqrt(np.diag(covariance)),
+        covariance=covariance,
+        ols_estimate=ols,
+        sigma=sigma,
+        iterations=iterations,
+        residual_rms=np.sqrt(np.mean(final**2, axis=0)),
+        condition_number=cond,
+        rank=rank,
+        n_samples=n,
+        weighted=bool(weighted),
+        base=base,
+    )
+
+
+def validation_error(
+    result: IdentificationResult, robot: Any, measurements: Measurements
+) -> float:
+    """The relative RMS force prediction error on ``measurements`` (another trajectory):
+    ``|Gamma_measured - Gamma_predicted| / |Gamma_measured|`` over all samples and
+    actuators (Frobenius norms), a fraction."""
+    m = measurements
+    predicted = result.base.reduce(robot.regressor(m.poses, m.twists, m.accels)) @ result.estimate
+    denom = float(np.linalg.norm(m.gammas))
+    if denom == 0:
+        raise InputError("the measured forces are all zero: the relative error is undefined")
+    return float(np.linalg.norm(m.gammas - predicted) / denom)
+
+
+__all__ = [
+    "CSV_COLUMNS",
+    "IdentificationResult",
+    "Measurements",
+    "exciting_trajectory",
+    "identify",
+    "read_measurements_csv",
+    "regressor_condition_number",
+    "simulate_measurements",
+    "validation_error",
+    "write_measurements_csv",
+]

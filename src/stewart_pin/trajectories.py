@@ -1,0 +1,244 @@
+"""Platform trajectories: sampled states, and the finite Fourier series identification uses.
+
+A :class:`Trajectory` is a sampled platform motion: times [s], poses 0Tp (N, 4, 4), twists
+``[v, w]`` of O_p in F0 (N, 6) [m/s, rad/s] and classical accelerations ``[dv/dt, dw/dt]``
+in F0 (N, 6) [m/s^2, rad/s^2] — the states :meth:`StewartRobot.inverse_dynamics` takes.
+
+A :class:`FourierTrajectory` moves the platform about a reference pose ``T_ref`` (the
+robot's home pose by default) along six coordinates ``x = [d, r]``, each a finite Fourier
+series of base frequency ``f`` (period ``1/f``)::
+
+    x_k(t) = c_k + sum_{l=1..n} (a_kl sin(2 pi l f t) + b_kl cos(2 pi l f t))
+
+    p(t) = p_ref + d(t)                 (O_p in F0: a translation along F0's axes)
+    R(t) = exp3(r(t)) R_ref             (r: a rotation vector in F0)
+
+Its derivatives are exact: ``v = d'``, ``dv/dt = d''``, and with the left Jacobian of SO(3)
+``J_l(r) = I + (1 - cos t)/t^2 [r]x + (t - sin t)/t^3 [r]x^2`` (``t = |r|``), which maps the
+rotation vector's rate to the angular velocity in F0 (``R' R^T = [J_l(r) r']x``)::
+
+    w = J_l(r) r'
+    dw/dt = J_l(r) r'' + (dJ_l/dt) r'
+          = J_l(r) r'' + (r . r') (a'(t)/t  r x r' + b'(t)/t  r x (r x r')) + b(t) r' x (r x r')
+
+with ``a(t) = (1 - cos t)/t^2``, ``b(t) = (t - sin t)/t^3``; near ``t = 0`` the functions
+use their Taylor series, so the formulas hold at and around the reference pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._checks import check_array, check_pose, check_poses
+from ._vector import cross, skew
+from .exceptions import InputError
+
+#: Below this rotation angle [rad] the SO(3) coefficient functions use Taylor series.
+_SERIES_ANGLE = 0.1
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A sampled platform motion (arrays copied and made read-only).
+
+    Attributes:
+        times: shape (N,), strictly increasing [s].
+        poses: 0Tp, shape (N, 4, 4).
+        twists: ``[v, w]`` of O_p in F0, shape (N, 6) [m/s, rad/s].
+        accels: classical ``[dv/dt, dw/dt]`` in F0, shape (N, 6) [m/s^2, rad/s^2].
+        fourier: the :class:`FourierTrajectory` it was sampled from, if any (to resample
+            it at a controller's rate: ``trajectory.fourier.sample(times)``).
+    """
+
+    times: np.ndarray
+    poses: np.ndarray
+    twists: np.ndarray
+    accels: np.ndarray
+    fourier: FourierTrajectory | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        times = check_array(self.times, (None,), "times")
+        n = times.shape[0]
+        poses, _ = check_poses(np.asarray(self.poses), "poses")
+        arrays = {
+            "times": times,
+            "poses": poses,
+            "twists": check_array(self.twists, (n, 6), "twists"),
+            "accels": check_array(self.accels, (n, 6), "accels"),
+        }
+        if poses.shape[0] != n:
+            raise InputError(f"poses holds {poses.shape[0]} states but times has {n}")
+        check_increasing(times)
+        for key, value in arrays.items():
+            value = np.array(value)  # a copy we own
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+
+def check_increasing(times: np.ndarray, name: str = "times") -> None:
+    """Raise :class:`InputError` unless ``times`` (N,) is strictly increasing."""
+    bad = np.flatnonzero(np.diff(times) <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise InputError(
+            f"{name} must be strictly increasing: {name}[{k}] = {float(times[k])!r} s follows "
+            f"{name}[{k - 1}] = {float(times[k - 1])!r} s"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class FourierTrajectory:
+    """Six finite Fourier series about a reference pose (see the module docstring).
+
+    Attributes:
+        reference: ``T_ref``, the pose 0Tp the coordinates are measured from, (4, 4).
+        base_frequency: ``f`` [Hz]; the motion has period ``1/f``.
+        offsets: ``c``, shape (6,) [m, m, m, rad, rad, rad].
+        sine: ``a``, shape (6, n) (same units), harmonic l in column l - 1.
+        cosine: ``b``, shape (6, n).
+    """
+
+    reference: np.ndarray
+    base_frequency: float
+    offsets: np.ndarray
+    sine: np.ndarray
+    cosine: np.ndarray
+
+    def __post_init__(self) -> None:
+        f = float(self.base_frequency)
+        if not np.isfinite(f) or f <= 0:
+            raise InputError(f"base_frequency must be a positive number of Hz, got {f}")
+        object.__setattr__(self, "base_frequency", f)
+        sine = check_array(self.sine, (6, None), "sine")
+        values = {
+            "reference": check_pose(self.reference, "reference"),
+            "offsets": check_array(self.offsets, (6,), "offsets"),
+            "sine": sine,
+            "cosine": check_array(self.cosine, (6, sine.shape[1]), "cosine"),
+        }
+        for key, value in values.items():
+            value = np.array(value)
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+    @property
+    def n_harmonics(self) -> int:
+        return int(self.sine.shape[1])
+
+    @property
+    def period(self) -> float:
+        """``1/f`` [s]."""
+        return 1.0 / self.base_frequency
+
+    # ------------------------------------------------------------ the optimiser's view
+    def to_vector(self) -> np.ndarray:
+        """The coefficients as one vector ``[c, a.ravel(), b.ravel()]``, (6 + 12 n,)."""
+        return np.concatenate([self.offsets, self.sine.ravel(), self.cosine.ravel()])
+
+    @classmethod
+    def from_vector(cls, reference: Any, base_frequency: float, vector: Any) -> FourierTrajectory:
+        """The inverse of :meth:`to_vector`."""
+        x = np.asarray(vector, dtype=float)
+        n = (x.size - 6) // 12
+        if x.ndim != 1 or x.size != 6 + 12 * n or n < 1:
+            raise InputError(f"a coefficient vector has 6 + 12 n entries (n >= 1), got {x.shape}")
+        return cls(
+            reference,
+            base_frequency,
+            x[:6],
+            x[6 : 6 + 6 * n].reshape(6, n),
+            x[6 + 6 * n :].reshape(6, n),
+        )
+
+    # ------------------------------------------------------------ evaluation
+    def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(x, x', x'')`` of the six coordinates, each (N, 6)."""
+        t = check_array(times, (None,), "times")
+        w = 2.0 * np.pi * self.base_frequency * np.arange(1, self.n_harmonics + 1)  # [rad/s]
+        s, c = np.sin(np.outer(t, w)), np.cos(np.outer(t, w))  # (N, n)
+        x = self.offsets + s @ self.sine.T + c @ self.cosine.T
+        xd = (c * w) @ self.sine.T - (s * w) @ self.cosine.T
+        xdd = -(s * w**2) @ self.sine.T - (c * w**2) @ self.cosine.T
+        return x, xd, xdd
+
+    def sample(self, times: Any) -> Trajectory:
+        """The poses, twists and classical accelerations at ``times`` (N,) [s]."""
+        t = check_array(times, (None,), "times")
+        x, xd, xdd = self.coordinates(t)
+        r, rd, rdd = x[:, 3:], xd[:, 3:], xdd[:, 3:]
+        poses = np.tile(np.eye(4), (t.shape[0], 1, 1))
+        poses[:, :3, :3] = so3_exp(r) @ self.reference[:3, :3]
+        poses[:, :3, 3] = self.reference[:3, 3] + x[:, :3]
+        w = np.einsum("nij,nj->ni", so3_left_jacobian(r), rd)
+        wd = np.einsum("nij,nj->ni", so3_left_jacobian(r), rdd) + _left_jacobian_rate(r, rd)
+        twists = np.concatenate([xd[:, :3], w], axis=1)
+        accels = np.concatenate([xdd[:, :3], wd], axis=1)
+        return Trajectory(t, poses, twists, accels, fourier=self)
+
+
+# ---------------------------------------------------------------------- SO(3) helpers
+def _series(theta2: np.ndarray, coefs: list[float]) -> np.ndarray:
+    out = np.zeros_like(theta2)
+    for c in reversed(coefs):
+        out = out * theta2 + c
+    return out
+
+
+def _coefficients(r: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``sin t / t, a, b, a'/t, b'/t`` at ``t = |r|`` for rotation vectors r (N, 3)."""
+    t = np.linalg.norm(r, axis=-1)
+    t2 = t * t
+    small = t < _SERIES_ANGLE
+    ts = np.where(small, 1.0, t)  # avoids 0/0 in the branch np.where discards
+    sinc = np.sinc(t / np.pi)
+    a = np.where(
+        small, _series(t2, [1 / 2, -1 / 24, 1 / 720, -1 / 40320]), (1 - np.cos(ts)) / ts**2
+    )
+    b = np.where(
+        small,
+        _series(t2, [1 / 6, -1 / 120, 1 / 5040, -1 / 362880]),
+        (ts - np.sin(ts)) / ts**3,
+    )
+    da = np.where(
+        small,
+        _series(t2, [-1 / 12, 1 / 180, -1 / 6720, 1 / 453600]),
+        (ts * np.sin(ts) - 2 * (1 - np.cos(ts))) / ts**4,
+    )
+    db = np.where(
+        small,
+        _series(t2, [-1 / 60, 1 / 1260, -1 / 60480, 1 / 4989600]),
+        ((1 - np.cos(ts)) * ts - 3 * (ts - np.sin(ts))) / ts**5,
+    )
+    return sinc, a, b, da, db
+
+
+def so3_exp(r: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``exp([r]x)`` (Rodrigues) of rotation vectors r (N, 3) [rad]."""
+    sinc, a, _, _, _ = _coefficients(r)
+    K = skew(r)
+    return np.eye(3) + sinc[:, None, None] * K + a[:, None, None] * (K @ K)
+
+
+def so3_left_jacobian(r: np.ndarray) -> np.ndarray:
+    """``J_l(r)`` (N, 3, 3): ``w = J_l(r) r'`` is the angular velocity in F0 of ``exp(r) R0``."""
+    _, a, b, _, _ = _coefficients(r)
+    K = skew(r)
+    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
+
+
+def _left_jacobian_rate(r: np.ndarray, rd: np.ndarray) -> np.ndarray:
+    """``(dJ_l/dt) r'`` (N, 3) (module docstring)."""
+    _, _, b, da, db = _coefficients(r)
+    rdr = np.einsum("ni,ni->n", r, rd)
+    r_x_rd = cross(r, rd)
+    return (
+        (rdr * da)[:, None] * r_x_rd
+        + (rdr * db)[:, None] * cross(r, r_x_rd)
+        + b[:, None] * cross(rd, r_x_rd)
+    )
