@@ -19,7 +19,7 @@ import pytest
 from helpers import leg_lengths_by_hand
 
 from stewart_pin import FileFormatError, IdentificationError, InputError, StewartPinError
-from stewart_pin.base_parameters import base_parameters
+from stewart_pin.base_params import base_parameters
 from stewart_pin.cli import main
 from stewart_pin.identification import (
     CSV_COLUMNS,

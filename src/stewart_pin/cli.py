@@ -64,7 +64,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_base_params(args: argparse.Namespace) -> int:
-    from .base_parameters import base_parameters, numerical_base_parameters
+    from .base_params import base_parameters, numerical_base_parameters
 
     robot = _robot(args)
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
@@ -82,7 +82,7 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from .base_parameters import base_parameters
+    from .base_params import base_parameters
     from .identification import (
         exciting_trajectory,
         identify,

@@ -18,7 +18,6 @@ values.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -28,7 +27,7 @@ import numpy as np
 import scipy.optimize
 
 from ._checks import check_array
-from .base_parameters import RANK_TOLERANCE, BaseParameters, base_parameters
+from .base_params import RANK_TOLERANCE, BaseParameters, base_parameters
 from .exceptions import (
     FileFormatError,
     IdentificationError,
@@ -38,6 +37,14 @@ from .exceptions import (
 )
 from .geometry import inverse_geometry_batch, leg_vectors
 from .kinematics import inverse_jacobian_batch
+from .tables import (
+    FORCE_COLUMNS,
+    STATE_COLUMNS,
+    read_csv,
+    state_table,
+    states_from_table,
+    write_csv,
+)
 from .trajectories import FourierTrajectory, Trajectory
 
 # ====================================================================== exciting trajectories
@@ -248,35 +255,11 @@ def exciting_trajectory(
 # ====================================================================== measurements
 
 #: Columns of a measurement CSV file, in the order :func:`write_measurements_csv` writes.
-CSV_COLUMNS: tuple[str, ...] = (
-    "t",
-    "x",
-    "y",
-    "z",
-    "qx",
-    "qy",
-    "qz",
-    "qw",
-    "vx",
-    "vy",
-    "vz",
-    "wx",
-    "wy",
-    "wz",
-    "ax",
-    "ay",
-    "az",
-    "alphax",
-    "alphay",
-    "alphaz",
-    *(f"gamma{i}" for i in range(1, 7)),
-)
+CSV_COLUMNS: tuple[str, ...] = STATE_COLUMNS + FORCE_COLUMNS
 #: Weighted least squares: relative change of the sigma_j that ends the reweighting, and
 #: the cap on the iterations.
 REWEIGHTING_TOLERANCE = 1e-3
 REWEIGHTING_ITERATIONS = 20
-#: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
-QUATERNION_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -347,47 +330,20 @@ def simulate_measurements(
     )
 
 
-def _quaternions_from_rotations(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``[x, y, z, w]`` with ``w >= 0`` of rotation matrices (N, 3, 3)."""
-    import pinocchio as pin
-
-    q = np.array([pin.Quaternion(r).coeffs() for r in R]).reshape(-1, 4)
-    q *= np.where(q[:, 3:] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def _rotations_from_quaternions(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) of unit quaternions ``[x, y, z, w]`` (N, 4)."""
-    x, y, z, w = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=-2,
-    )
-
-
 def write_measurements_csv(path: str | Path, measurements: Measurements) -> Path:
     """Write measurements as CSV (header :data:`CSV_COLUMNS`, SI units, ``repr`` floats so
     that reading them back gives the same numbers; format in ``docs/identification.md``)."""
     m = measurements
-    path = Path(path)
-    quat = _quaternions_from_rotations(m.poses[:, :3, :3])
-    table = np.column_stack([m.times, m.poses[:, :3, 3], quat, m.twists, m.accels, m.gammas])
-    with path.open("w", newline="") as f:
-        f.write(",".join(CSV_COLUMNS) + "\n")
-        for row in table:
-            f.write(",".join(repr(float(v)) for v in row) + "\n")
-    return path
+    table = np.column_stack([state_table(m.times, m.poses, m.twists, m.accels), m.gammas])
+    return write_csv(path, CSV_COLUMNS, table)
 
 
 def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
     """Read a measurement CSV file (format in ``docs/identification.md``).
 
     Columns may come in any order; blank lines and lines starting with ``#`` are skipped.
-    Quaternions within :data:`QUATERNION_TOLERANCE` of unit norm are renormalised.
+    Quaternions within :data:`~stewart_pin.tables.QUATERNION_TOLERANCE` of unit norm are
+    renormalised.
 
     Raises:
         FileFormatError: a missing, unknown or repeated column, a row with the wrong number
@@ -396,78 +352,10 @@ def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
             line.
         OSError: the file cannot be read.
     """
-    path = Path(path)
-    with path.open(newline="") as f:
-        lines = [(k, line) for k, line in enumerate(f, 1) if line.strip() and line[0] != "#"]
-    if not lines:
-        raise FileFormatError(f"{path}: no header line; expected {','.join(CSV_COLUMNS)}")
-    header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
-    header = [h.strip() for h in header]
-    missing = [c for c in CSV_COLUMNS if c not in header]
-    unknown = [c for c in header if c not in CSV_COLUMNS]
-    repeated = sorted({c for c in header if header.count(c) > 1})
-    if missing or unknown or repeated:
-        problems = [
-            f"{label} column{'s' if len(cols) > 1 else ''} {', '.join(map(repr, cols))}"
-            for label, cols in (("missing", missing), ("unknown", unknown), ("repeated", repeated))
-            if cols
-        ]
-        raise FileFormatError(
-            f"{path}, line {header_line}: {'; '.join(problems)}; the header must name "
-            f"each of {','.join(CSV_COLUMNS)} once"
-        )
-    order = [header.index(c) for c in CSV_COLUMNS]
-    rows = np.empty((len(lines) - 1, len(CSV_COLUMNS)))
-    line_numbers = [k for k, _ in lines[1:]]
-    for r, (k, line) in enumerate(lines[1:]):
-        fields = next(csv.reader([line]))
-        if len(fields) != len(header):
-            raise FileFormatError(
-                f"{path}, line {k}: {len(fields)} fields, expected {len(header)} (one per "
-                "header column)"
-            )
-        for c, j in enumerate(order):
-            text = fields[j].strip()
-            try:
-                value = float(text)
-            except ValueError:
-                raise FileFormatError(
-                    f"{path}, line {k}, column '{CSV_COLUMNS[c]}': {text!r} is not a number"
-                ) from None
-            if not math.isfinite(value):
-                raise FileFormatError(
-                    f"{path}, line {k}, column '{CSV_COLUMNS[c]}': non-finite value {text!r}"
-                )
-            rows[r, c] = value
-    quat = rows[:, 4:8]
-    norms = np.linalg.norm(quat, axis=1)
-    bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
-    if bad.size:
-        r = int(bad[0])
-        raise FileFormatError(
-            f"{path}, line {line_numbers[r]}: the quaternion (qx, qy, qz, qw) = "
-            f"{tuple(float(v) for v in quat[r])} has norm {norms[r]:.9g}, expected 1 within "
-            f"{QUATERNION_TOLERANCE:g}; write unit quaternions"
-        )
-    bad = np.flatnonzero(np.diff(rows[:, 0]) <= 0)
-    if bad.size:
-        r = int(bad[0]) + 1
-        raise FileFormatError(
-            f"{path}, line {line_numbers[r]}: time t = {float(rows[r, 0])!r} s does not increase "
-            f"(line {line_numbers[r - 1]} has t = {float(rows[r - 1, 0])!r} s); times must be "
-            "strictly increasing"
-        )
-    if rows.shape[0] < max(int(min_rows), 1):
-        raise FileFormatError(
-            f"{path}: {rows.shape[0]} data rows (after the header on line {header_line}), "
-            f"at least {max(int(min_rows), 1)} needed"
-        )
-    poses = np.tile(np.eye(4), (rows.shape[0], 1, 1))
-    poses[:, :3, 3] = rows[:, 1:4]
-    poses[:, :3, :3] = _rotations_from_quaternions(quat / norms[:, None])
+    rows = read_csv(path, CSV_COLUMNS, min_rows)
     try:
-        return Measurements(rows[:, 0], poses, rows[:, 8:14], rows[:, 14:20], rows[:, 20:26])
-    except InputError as e:  # pragma: no cover - the checks above cover the format
+        return Measurements(*states_from_table(rows), rows[:, 20:26])
+    except InputError as e:  # pragma: no cover - read_csv's checks cover the format
         raise FileFormatError(f"{path}: {e}") from e
 
 
@@ -494,7 +382,7 @@ class IdentificationResult:
         rank: its numerical rank (== nb).
         n_samples: samples used (6 equations each).
         weighted: whether the estimate is the weighted one.
-        base: the :class:`~stewart_pin.base_parameters.BaseParameters` identified.
+        base: the :class:`~stewart_pin.base_params.BaseParameters` identified.
     """
 
     names: tuple[str, ...]

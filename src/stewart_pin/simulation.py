@@ -30,6 +30,15 @@ import pinocchio as pin
 
 from ._checks import check_array, check_pose
 from .exceptions import FileFormatError, InputError, StewartPinError
+from .tables import (
+    FORCE_COLUMNS,
+    LENGTH_COLUMNS,
+    STATE_COLUMNS,
+    read_csv,
+    state_table,
+    states_from_table,
+    write_csv,
+)
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
@@ -80,65 +89,37 @@ class SimulationResult:
     gammas: np.ndarray
     lengths: np.ndarray
 
-    CSV_COLUMNS = (
-        "t,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,ax,ay,az,alphax,alphay,alphaz,"
-        "gamma1,gamma2,gamma3,gamma4,gamma5,gamma6,l1,l2,l3,l4,l5,l6"
-    )
+    #: Columns of the CSV form (see :mod:`stewart_pin.tables`).
+    CSV_COLUMNS = STATE_COLUMNS + FORCE_COLUMNS + LENGTH_COLUMNS
 
     def save(self, path: str | Path) -> Path:
-        """Write ``.npz`` (arrays as named here) or ``.csv`` (columns :data:`CSV_COLUMNS`:
-        time, O_p position, quaternion of 0Rp (x, y, z, w), twist, classical acceleration,
-        forces, leg lengths; SI units)."""
+        """Write ``.npz`` (arrays as named here) or ``.csv`` (:data:`CSV_COLUMNS`: time,
+        O_p position, quaternion of 0Rp (x, y, z, w), twist, classical acceleration, forces,
+        leg lengths; SI units)."""
         path = Path(path)
         if path.suffix == ".npz":
             np.savez(path, **{k: getattr(self, k) for k in _FIELDS})
-        elif path.suffix == ".csv":
-            quats = np.array([pin.Quaternion(T[:3, :3]).coeffs() for T in self.poses])
-            table = np.column_stack(
-                [
-                    self.t,
-                    self.poses[:, :3, 3],
-                    quats,
-                    self.twists,
-                    self.accels,
-                    self.gammas,
-                    self.lengths,
-                ]
+            return path
+        if path.suffix == ".csv":
+            states = state_table(self.t, self.poses, self.twists, self.accels)
+            return write_csv(
+                path, self.CSV_COLUMNS, np.column_stack([states, self.gammas, self.lengths])
             )
-            np.savetxt(
-                path, table, delimiter=",", header=self.CSV_COLUMNS, comments="", fmt="%.17g"
-            )
-        else:
-            raise FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
-        return path
+        raise FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
 
     @classmethod
     def load(cls, path: str | Path) -> SimulationResult:
         """Read a result written by :meth:`save`."""
         path = Path(path)
-        try:
-            if path.suffix == ".npz":
+        if path.suffix == ".npz":
+            try:
                 with np.load(path) as data:
                     return cls(**{k: data[k] for k in _FIELDS})
-            if path.suffix == ".csv":
-                header = path.read_text().splitlines()[0].strip()
-                if header != cls.CSV_COLUMNS:
-                    raise FileFormatError(f"{path}: header is not '{cls.CSV_COLUMNS}'")
-                table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-                poses = np.tile(np.eye(4), (len(table), 1, 1))
-                poses[:, :3, 3] = table[:, 1:4]
-                for T, q in zip(poses, table[:, 4:8], strict=True):
-                    T[:3, :3] = pin.Quaternion(q[3], *q[:3]).normalized().toRotationMatrix()
-                return cls(
-                    table[:, 0],
-                    poses,
-                    table[:, 8:14],
-                    table[:, 14:20],
-                    table[:, 20:26],
-                    table[:, 26:32],
-                )
-        except (OSError, ValueError, KeyError) as e:
-            raise FileFormatError(f"cannot read simulation result {path}: {e}") from e
+            except (OSError, ValueError, KeyError) as e:
+                raise FileFormatError(f"cannot read simulation result {path}: {e}") from e
+        if path.suffix == ".csv":
+            rows = read_csv(path, cls.CSV_COLUMNS)
+            return cls(*states_from_table(rows), rows[:, 20:26], rows[:, 26:32])
         raise FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
 
 

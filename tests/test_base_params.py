@@ -12,7 +12,7 @@ import pytest
 import scipy.linalg
 
 from stewart_pin import StewartRobot, random_robot
-from stewart_pin.base_parameters import (
+from stewart_pin.base_params import (
     analytic_base_parameters,
     base_parameters,
     essential_parameters,

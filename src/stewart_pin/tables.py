@@ -1,0 +1,171 @@
+"""CSV tables of platform states, forces and leg lengths (the project's one CSV format).
+
+A table is a header line naming its columns (any order on reading) and one row per
+sample, SI units, numbers written with Python's ``repr`` so that reading them back gives
+the same floats. Lines starting with ``#`` and blank lines are skipped. The columns:
+
+- :data:`STATE_COLUMNS`: ``t`` [s]; ``x y z``, the position of O_p in F0 [m];
+  ``qx qy qz qw``, the unit quaternion of 0Rp; ``vx vy vz wx wy wz``, the twist [v, w] in
+  F0 [m/s, rad/s]; ``ax ay az alphax alphay alphaz``, the classical acceleration in F0
+  [m/s^2, rad/s^2];
+- :data:`FORCE_COLUMNS`: ``gamma1 .. gamma6``, the actuator forces [N];
+- :data:`LENGTH_COLUMNS`: ``l1 .. l6``, the leg lengths [m].
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .exceptions import FileFormatError
+
+STATE_COLUMNS: tuple[str, ...] = (
+    "t",
+    *("x", "y", "z"),
+    *("qx", "qy", "qz", "qw"),
+    *("vx", "vy", "vz", "wx", "wy", "wz"),
+    *("ax", "ay", "az", "alphax", "alphay", "alphaz"),
+)
+FORCE_COLUMNS: tuple[str, ...] = tuple(f"gamma{i}" for i in range(1, 7))
+LENGTH_COLUMNS: tuple[str, ...] = tuple(f"l{i}" for i in range(1, 7))
+
+#: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
+QUATERNION_TOLERANCE = 1e-6
+
+
+def quaternions_from_rotations(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``[x, y, z, w]`` with ``w >= 0`` of rotation matrices (N, 3, 3)."""
+    q = np.array([pin.Quaternion(r).coeffs() for r in R]).reshape(-1, 4)
+    q *= np.where(q[:, 3:] < 0, -1.0, 1.0)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def rotations_from_quaternions(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of unit quaternions ``[x, y, z, w]`` (N, 4)."""
+    x, y, z, w = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
+def state_table(
+    times: np.ndarray, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
+) -> np.ndarray:
+    """The :data:`STATE_COLUMNS` block (N, 20) of a motion."""
+    quat = quaternions_from_rotations(poses[:, :3, :3])
+    return np.column_stack([times, poses[:, :3, 3], quat, twists, accels])
+
+
+def states_from_table(rows: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``(times, poses (N, 4, 4), twists, accels)`` from rows whose first 20 columns are
+    :data:`STATE_COLUMNS` (quaternions already checked to be unit within tolerance)."""
+    quat = rows[:, 4:8]
+    poses = np.tile(np.eye(4), (rows.shape[0], 1, 1))
+    poses[:, :3, 3] = rows[:, 1:4]
+    poses[:, :3, :3] = rotations_from_quaternions(quat / np.linalg.norm(quat, axis=1)[:, None])
+    return rows[:, 0], poses, rows[:, 8:14], rows[:, 14:20]
+
+
+def write_csv(path: str | Path, columns: Sequence[str], table: np.ndarray) -> Path:
+    """Write ``table`` (N, len(columns)) under a header of ``columns``."""
+    path = Path(path)
+    with path.open("w", newline="") as f:
+        f.write(",".join(columns) + "\n")
+        for row in np.asarray(table, dtype=float):
+            f.write(",".join(repr(float(v)) for v in row) + "\n")
+    return path
+
+
+def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.ndarray:
+    """Read a table holding exactly ``columns`` (any order): rows (N, len(columns)) in the
+    order of ``columns``.
+
+    Raises:
+        FileFormatError: a missing, unknown or repeated column, a row with the wrong number
+            of fields, a non-numeric or non-finite value, a non-unit quaternion (when the
+            table has ``qx..qw``), a time ``t`` that does not increase, or fewer than
+            ``min_rows`` rows; the message names the line.
+        OSError: the file cannot be read.
+    """
+    path = Path(path)
+    columns = tuple(columns)
+    with path.open(newline="") as f:
+        lines = [(k, line) for k, line in enumerate(f, 1) if line.strip() and line[0] != "#"]
+    if not lines:
+        raise FileFormatError(f"{path}: no header line; expected {','.join(columns)}")
+    header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
+    header = [h.strip() for h in header]
+    missing = [c for c in columns if c not in header]
+    unknown = [c for c in header if c not in columns]
+    repeated = sorted({c for c in header if header.count(c) > 1})
+    if missing or unknown or repeated:
+        problems = [
+            f"{label} column{'s' if len(cols) > 1 else ''} {', '.join(map(repr, cols))}"
+            for label, cols in (("missing", missing), ("unknown", unknown), ("repeated", repeated))
+            if cols
+        ]
+        raise FileFormatError(
+            f"{path}, line {header_line}: {'; '.join(problems)}; the header must name "
+            f"each of {','.join(columns)} once"
+        )
+    order = [header.index(c) for c in columns]
+    rows = np.empty((len(lines) - 1, len(columns)))
+    line_numbers = [k for k, _ in lines[1:]]
+    for r, (k, line) in enumerate(lines[1:]):
+        fields = next(csv.reader([line]))
+        if len(fields) != len(header):
+            raise FileFormatError(
+                f"{path}, line {k}: {len(fields)} fields, expected {len(header)} (one per "
+                "header column)"
+            )
+        for c, j in enumerate(order):
+            text = fields[j].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                raise FileFormatError(
+                    f"{path}, line {k}, column '{columns[c]}': {text!r} is not a number"
+                ) from None
+            if not math.isfinite(value):
+                raise FileFormatError(
+                    f"{path}, line {k}, column '{columns[c]}': non-finite value {text!r}"
+                )
+            rows[r, c] = value
+    if "qx" in columns:
+        q0 = columns.index("qx")
+        quat = rows[:, q0 : q0 + 4]
+        norms = np.linalg.norm(quat, axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
+        if bad.size:
+            r = int(bad[0])
+            raise FileFormatError(
+                f"{path}, line {line_numbers[r]}: the quaternion (qx, qy, qz, qw) = "
+                f"{tuple(float(v) for v in quat[r])} has norm {norms[r]:.9g}, expected 1 "
+                f"within {QUATERNION_TOLERANCE:g}; write unit quaternions"
+            )
+    if "t" in columns:
+        t = rows[:, columns.index("t")]
+        bad = np.flatnonzero(np.diff(t) <= 0)
+        if bad.size:
+            r = int(bad[0]) + 1
+            raise FileFormatError(
+                f"{path}, line {line_numbers[r]}: time t = {float(t[r])!r} s does not "
+                f"increase (line {line_numbers[r - 1]} has t = {float(t[r - 1])!r} s); times "
+                "must be strictly increasing"
+            )
+    if rows.shape[0] < max(int(min_rows), 1):
+        raise FileFormatError(
+            f"{path}: {rows.shape[0]} data rows (after the header on line {header_line}), "
+            f"at least {max(int(min_rows), 1)} needed"
+        )
+    return rows
