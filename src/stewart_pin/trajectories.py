@@ -28,13 +28,14 @@ use their Taylor series, so the formulas hold at and around the reference pose.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
 
 from ._checks import check_array, check_pose, check_poses
 from ._vector import cross, skew
-from .exceptions import InputError
+from .exceptions import InputError, SingularityError, WorkspaceError
 
 #: Below this rotation angle [rad] the SO(3) coefficient functions use Taylor series.
 _SERIES_ANGLE = 0.1
@@ -170,16 +171,223 @@ class FourierTrajectory:
     def sample(self, times: Any) -> Trajectory:
         """The poses, twists and classical accelerations at ``times`` (N,) [s]."""
         t = check_array(times, (None,), "times")
-        x, xd, xdd = self.coordinates(t)
-        r, rd, rdd = x[:, 3:], xd[:, 3:], xdd[:, 3:]
-        poses = np.tile(np.eye(4), (t.shape[0], 1, 1))
-        poses[:, :3, :3] = so3_exp(r) @ self.reference[:3, :3]
-        poses[:, :3, 3] = self.reference[:3, 3] + x[:, :3]
-        w = np.einsum("nij,nj->ni", so3_left_jacobian(r), rd)
-        wd = np.einsum("nij,nj->ni", so3_left_jacobian(r), rdd) + _left_jacobian_rate(r, rd)
-        twists = np.concatenate([xd[:, :3], w], axis=1)
-        accels = np.concatenate([xdd[:, :3], wd], axis=1)
-        return Trajectory(t, poses, twists, accels, fourier=self)
+        return trajectory_from_coordinates(self.reference, t, *self.coordinates(t), fourier=self)
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(T, V, A)`` at one time ``t`` [s] (a controller's reference)."""
+        return _at(self, t)
+
+
+def trajectory_from_coordinates(
+    reference: np.ndarray,
+    t: np.ndarray,
+    x: np.ndarray,
+    xd: np.ndarray,
+    xdd: np.ndarray,
+    fourier: FourierTrajectory | None = None,
+) -> Trajectory:
+    """States from the six coordinates ``x = [d, r]`` about ``reference`` and their first
+    and second time derivatives (each (N, 6)): ``p = p_ref + d``, ``R = exp3(r) R_ref``,
+    ``v = d'``, ``w = J_l(r) r'``, exact classical accelerations (module docstring)."""
+    r, rd, rdd = x[:, 3:], xd[:, 3:], xdd[:, 3:]
+    poses = np.tile(np.eye(4), (t.shape[0], 1, 1))
+    poses[:, :3, :3] = so3_exp(r) @ reference[:3, :3]
+    poses[:, :3, 3] = reference[:3, 3] + x[:, :3]
+    w = np.einsum("nij,nj->ni", so3_left_jacobian(r), rd)
+    wd = np.einsum("nij,nj->ni", so3_left_jacobian(r), rdd) + _left_jacobian_rate(r, rd)
+    twists = np.concatenate([xd[:, :3], w], axis=1)
+    accels = np.concatenate([xdd[:, :3], wd], axis=1)
+    return Trajectory(t, poses, twists, accels, fourier=fourier)
+
+
+def _at(motion: Any, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    tr = motion.sample(np.array([float(t)]))
+    return tr.poses[0].copy(), tr.twists[0].copy(), tr.accels[0].copy()
+
+
+class CoordinateMotion:
+    """A platform motion given by its six coordinates about a reference pose.
+
+    Subclasses define ``reference`` (4, 4), ``duration`` [s] and ``coordinates(times) ->
+    (x, x', x'')``; they get :meth:`sample` (a :class:`Trajectory`), ``motion(t)`` (one
+    state, for a controller) and :meth:`check_workspace`.
+    """
+
+    reference: np.ndarray
+    duration: float
+
+    def coordinates(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def sample(self, times: Any) -> Trajectory:
+        """The poses, twists and classical accelerations at ``times`` (N,) [s]."""
+        t = check_array(times, (None,), "times")
+        return trajectory_from_coordinates(self.reference, t, *self.coordinates(t))
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(T, V, A)`` at one time ``t`` [s] (a controller's reference)."""
+        return _at(self, t)
+
+    def check_workspace(self, robot: Any, n_samples: int = 500) -> Trajectory:
+        """Sample the whole motion and raise :class:`WorkspaceError` (stroke, U-joint
+        limits) or :class:`SingularityError` at the first sample that leaves the
+        workspace, naming its time; returns the samples when all are reachable."""
+        traj = self.sample(np.linspace(0.0, self.duration, n_samples))
+        for k in range(0, len(traj), 100):
+            chunk = slice(k, k + 100)
+            try:
+                robot.inverse_geometry(traj.poses[chunk])
+                robot.jacobian(traj.poses[chunk])
+            except (WorkspaceError, SingularityError) as e:
+                bad = _first_bad(robot, traj.poses[chunk])
+                # Same exception (type and attributes), its message prefixed with the time.
+                e.args = (
+                    f"the motion leaves the workspace at t = {traj.times[k + bad]:.4g} s: {e}",
+                )
+                raise
+        return traj
+
+
+def _first_bad(robot: Any, poses: np.ndarray) -> int:
+    for n, T in enumerate(poses):
+        try:
+            robot.inverse_geometry(T)
+            robot.jacobian(T)
+        except (WorkspaceError, SingularityError):
+            return n
+    return 0
+
+
+def _quintic(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minimum-jerk profile ``10 s^3 - 15 s^4 + 6 s^5`` on [0, 1] and its derivatives."""
+    s = np.clip(s, 0.0, 1.0)
+    return (
+        s**3 * (10 - 15 * s + 6 * s**2),
+        30 * s**2 * (1 - s) ** 2,
+        60 * s * (1 - s) * (1 - 2 * s),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class MinimumJerkKnots(CoordinateMotion):
+    """Each coordinate moves through rest-to-rest minimum-jerk segments between knots.
+
+    Attributes:
+        reference: the pose the coordinates are measured from (4, 4).
+        knots: six lists of ``(time [s], value [m or rad])``, times increasing, one list
+            per coordinate ``[dx, dy, dz, rx, ry, rz]`` (empty: the coordinate stays 0);
+            the value holds before the first and after the last knot.
+    """
+
+    reference: np.ndarray
+    knots: tuple[tuple[tuple[float, float], ...], ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reference", check_pose(self.reference, "reference"))
+        if len(self.knots) != 6:
+            raise InputError(
+                f"knots must hold 6 lists (one per coordinate), got {len(self.knots)}"
+            )
+        for k, axis in enumerate(self.knots):
+            times = np.array([float(t) for t, _ in axis])
+            if times.size and np.any(np.diff(times) <= 0):
+                raise InputError(f"knot times of coordinate {k} must increase, got {times}")
+
+    @property
+    def duration(self) -> float:  # type: ignore[override]
+        return max((axis[-1][0] for axis in self.knots if axis), default=0.0)
+
+    def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = check_array(times, (None,), "times")
+        out = np.zeros((3, t.shape[0], 6))
+        for k, axis in enumerate(self.knots):
+            if not axis:
+                continue
+            out[0, :, k] = axis[0][1]
+            for (t0, v0), (t1, v1) in pairwise(axis):
+                h = t1 - t0
+                f, fd, fdd = _quintic((t - t0) / h)
+                inside = t >= t0
+                out[0, inside, k] = v0 + (v1 - v0) * f[inside]
+                out[1, inside, k] = (v1 - v0) / h * fd[inside]
+                out[2, inside, k] = (v1 - v0) / h**2 * fdd[inside]
+        return out[0], out[1], out[2]
+
+
+def minimum_jerk(
+    reference: Any, goal: Any, duration: float, start: Any = None
+) -> MinimumJerkKnots:
+    """Rest-to-rest point-to-point motion from ``start`` to ``goal`` in ``duration`` [s].
+
+    ``start``, ``goal``: coordinates ``[dx, dy, dz, rx, ry, rz]`` about ``reference``
+    [m, rad] (a translation in F0 and a rotation vector in F0); ``start`` defaults to 0.
+    """
+    goal = check_array(goal, (6,), "goal")
+    start = np.zeros(6) if start is None else check_array(start, (6,), "start")
+    if not duration > 0:
+        raise InputError(f"duration must be positive, got {duration} s")
+    knots = tuple(
+        ((0.0, float(a)), (float(duration), float(b))) for a, b in zip(start, goal, strict=True)
+    )
+    return MinimumJerkKnots(reference, knots)
+
+
+def washout(
+    reference: Any,
+    surge: float,
+    tilt: float,
+    onset: float = 0.5,
+    hold: float = 1.5,
+    washout_time: float = 2.5,
+) -> MinimumJerkKnots:
+    """A motion-simulator style cue, washout-like: a quick surge of ``surge`` [m] along x0
+    (the onset cue, in ``onset`` s), then a slow return to the centre below the perception
+    threshold (``washout_time`` s); meanwhile the platform pitches by ``tilt`` [rad] (tilt
+    coordination: gravity felt as a sustained acceleration), holds it ``hold`` s and
+    levels out."""
+    t1, t2 = onset, onset + hold
+    knots = (
+        ((0.0, 0.0), (t1, surge), (t2 + washout_time, 0.0)),
+        (),
+        (),
+        (),
+        ((0.0, 0.0), (2 * t1, tilt), (t2 + t1, tilt), (t2 + washout_time, 0.0)),
+        (),
+    )
+    return MinimumJerkKnots(reference, knots)
+
+
+@dataclass(frozen=True, eq=False)
+class Sinusoids(CoordinateMotion):
+    """Multi-axis sinusoids: ``x_k = A_k (sin(2 pi f_k t + phi_k) - sin(phi_k))`` about the
+    reference (so the motion starts at the reference), for ``duration`` [s].
+
+    Attributes:
+        amplitudes: (6,) [m, m, m, rad, rad, rad]; frequencies: (6,) [Hz]; phases: (6,)
+        [rad].
+    """
+
+    reference: np.ndarray
+    amplitudes: np.ndarray
+    frequencies: np.ndarray
+    phases: np.ndarray
+    duration: float = 2.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reference", check_pose(self.reference, "reference"))
+        for name in ("amplitudes", "frequencies", "phases"):
+            object.__setattr__(self, name, check_array(getattr(self, name), (6,), name))
+
+    def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = check_array(times, (None,), "times")[:, None]
+        om = 2 * np.pi * self.frequencies
+        arg = om * t + self.phases
+        A = self.amplitudes
+        return (
+            A * (np.sin(arg) - np.sin(self.phases)),
+            A * om * np.cos(arg),
+            -A * om**2 * np.sin(arg),
+        )
 
 
 # ---------------------------------------------------------------------- SO(3) helpers
