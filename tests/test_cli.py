@@ -95,3 +95,59 @@ def test_bad_arguments_exit_2():
     with pytest.raises(SystemExit) as info:
         main(["ik", "--pose", "1", "2"])
     assert info.value.code == 2
+
+
+def test_idm_reads_a_trajectory_and_writes_forces(tmp_path, capsys):
+    from stewart_pin import StewartRobot
+    from stewart_pin.tables import STATE_COLUMNS, read_csv, state_table, write_csv
+    from stewart_pin.trajectories import standard_motion
+
+    robot = StewartRobot.from_preset("desktop")
+    tr = standard_motion(robot, "washout").sample(np.linspace(0, 4.0, 30))
+    traj = write_csv(
+        tmp_path / "traj.csv", STATE_COLUMNS, state_table(tr.times, tr.poses, tr.twists, tr.accels)
+    )
+    out = tmp_path / "forces.csv"
+    assert main(["idm", "--preset", "desktop", "--trajectory", str(traj), "-o", str(out)]) == 0
+    rows = read_csv(out, ("t", *(f"gamma{i}" for i in range(1, 7))))
+    np.testing.assert_array_equal(rows[:, 0], tr.times)
+    # Against the constrained dynamics of Pinocchio's closed-loop tree (independent).
+    from stewart_pin.validation import constrained_inverse_dynamics
+
+    ref, _ = constrained_inverse_dynamics(robot, tr.poses, tr.twists, tr.accels)
+    np.testing.assert_allclose(rows[:, 1:], ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+
+
+def test_idm_bad_file_is_one_line_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,x\n0,1\n")
+    assert main(["idm", "--preset", "desktop", "--trajectory", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "missing columns" in err
+
+
+def test_validate_passes_and_reports(capsys):
+    assert main(["validate", "--preset", "desktop", "--states", "20"]) == 0
+    out = capsys.readouterr().out
+    assert "PASSED" in out and "inverse dynamics" in out
+
+
+def test_simulate_tracks_and_writes_the_result(tmp_path, capsys):
+    from stewart_pin.simulation import SimulationResult
+
+    out = tmp_path / "run.csv"
+    args = ["simulate", "--preset", "desktop", "--motion", "minimum-jerk", "--duration", "0.2"]
+    assert main([*args, "-o", str(out), "--quiet"]) == 0
+    res = SimulationResult.load(out)
+    assert res.t[-1] == pytest.approx(0.2) and len(res.t) == 201
+    text = capsys.readouterr().out
+    error_mm = float(text.split("tracking error: max ")[1].split(" mm")[0])
+    assert error_mm < 0.01
+
+
+def test_bad_arguments_exit_2_with_one_line(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["simulate", "--motion", "loop-the-loop"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "invalid choice" in err

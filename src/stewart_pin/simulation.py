@@ -176,6 +176,7 @@ def simulate(
     atol: float = 1e-12,
     control_period: float | None = None,
     output_dt: float | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> SimulationResult:
     """Integrate the direct dynamic model from ``(pose, twist)`` for ``duration`` [s].
 
@@ -188,6 +189,8 @@ def simulate(
         control_period: sample-and-hold period of ``forces`` [s] (``None``: continuous).
         output_dt: spacing of the returned samples [s] (default: every step for rk4 and
             for the adaptive method, its accepted steps).
+        progress: called with the simulated time [s] after each accepted step (a progress
+            bar's hook).
 
     Raises:
         SimulationError: a leg left its stroke, a U-joint its limits, or the robot came
@@ -237,6 +240,8 @@ def simulate(
             else:
                 T, V, t, h = _dp_step(integ, t, T, V, h, rtol, atol)
             record(t, T, V)
+            if progress is not None:
+                progress(t)
     except SimulationError:
         raise
     except StewartPinError as e:

@@ -450,3 +450,32 @@ def _left_jacobian_rate(r: np.ndarray, rd: np.ndarray) -> np.ndarray:
         + (rdr * db)[:, None] * cross(r, r_x_rd)
         + b[:, None] * cross(rd, r_x_rd)
     )
+
+
+#: The kinds :func:`standard_motion` builds.
+MOTION_KINDS = ("sinusoid", "minimum-jerk", "washout")
+
+
+def standard_motion(robot: Any, kind: str = "sinusoid", duration: float = 2.0) -> CoordinateMotion:
+    """A demonstration motion about the home pose, scaled on the robot's mid-stroke ``s``:
+
+    - ``sinusoid``: multi-axis sinusoids (4 % of s, 3 deg, 0.4-0.9 Hz) for ``duration``;
+    - ``minimum-jerk``: to ``[5, -4, 6] % s`` and ``[3, -2, 4] deg`` in ``duration``;
+    - ``washout``: a 8 % s surge with a 4 deg tilt, washed out (4.5 s, ``duration`` unused).
+    """
+    s = robot.description.stroke_mid
+    T0 = robot.home_pose
+    if kind == "sinusoid":
+        return Sinusoids(
+            T0,
+            [0.04 * s, 0.035 * s, 0.03 * s, *np.radians([3.0, 2.5, 3.0])],
+            [0.5, 0.7, 0.9, 0.4, 0.6, 0.8],
+            [0.0, 1.0, 2.0, 0.5, 1.5, 2.5],
+            duration,
+        )
+    if kind == "minimum-jerk":
+        goal = [0.05 * s, -0.04 * s, 0.06 * s, *np.radians([3.0, -2.0, 4.0])]
+        return minimum_jerk(T0, goal, duration)
+    if kind == "washout":
+        return washout(T0, surge=0.08 * s, tilt=np.radians(4.0))
+    raise InputError(f"unknown motion '{kind}'; choose one of {MOTION_KINDS}")

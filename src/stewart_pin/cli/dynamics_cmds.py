@@ -1,0 +1,70 @@
+"""``idm`` and ``validate``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ..tables import FORCE_COLUMNS, STATE_COLUMNS, read_csv, states_from_table, write_csv
+from ._common import add_robot_args, robot_from_args
+
+
+def _idm(args: argparse.Namespace) -> int:
+    robot = robot_from_args(args)
+    rows = read_csv(args.trajectory, STATE_COLUMNS)
+    times, poses, twists, accels = states_from_table(rows)
+    gamma = robot.inverse_dynamics(poses, twists, accels)
+    out = Path(args.output)
+    write_csv(out, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
+    peak = np.abs(gamma).max(axis=0)
+    print(
+        f"inverse dynamics of {len(times)} states of {args.trajectory} on '{robot.name}': "
+        f"peak |Gamma_i| = {np.array2string(peak, precision=5)} N; wrote {out}"
+    )
+    return 0
+
+
+def _validate(args: argparse.Namespace) -> int:
+    from ..validation import validate
+
+    robot = robot_from_args(args)
+    report = validate(robot, n_states=args.states, seed=args.seed)
+    print(report)
+    ok = report.passed(args.tol_idm, args.tol_ddm)
+    print(
+        f"{'PASSED' if ok else 'FAILED'}: tolerances {args.tol_idm:g} (inverse), "
+        f"{args.tol_ddm:g} (direct)"
+    )
+    return 0 if ok else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "idm",
+        help="inverse dynamics along a platform trajectory: CSV in, actuator forces CSV out",
+        description="Reads a trajectory CSV with columns "
+        + ",".join(STATE_COLUMNS)
+        + " (time [s]; O_p in F0 [m]; quaternion of 0Rp; twist [v, w] in F0 [m/s, rad/s]; "
+        "classical acceleration in F0 [m/s^2, rad/s^2]) and writes t,gamma1..gamma6 [N] "
+        "(positive extends the leg).",
+    )
+    add_robot_args(p)
+    p.add_argument("--trajectory", required=True, help="platform trajectory CSV")
+    p.add_argument("-o", "--output", default="forces.csv", help="forces CSV to write")
+    p.set_defaults(func=_idm)
+
+    p = sub.add_parser(
+        "validate",
+        help="compare the paper's models with Pinocchio's constrained dynamics",
+        description="Random workspace states: the inverse model against the constrained "
+        "inverse dynamics of the 24-dof tree with six loop closures, the direct model "
+        "against pin.constraintDynamics. Exit code 1 when a tolerance is exceeded.",
+    )
+    add_robot_args(p)
+    p.add_argument("--states", type=int, default=200, help="random states")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--tol-idm", type=float, default=1e-9, help="relative tolerance, inverse")
+    p.add_argument("--tol-ddm", type=float, default=1e-8, help="relative tolerance, direct")
+    p.set_defaults(func=_validate)

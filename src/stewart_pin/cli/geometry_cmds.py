@@ -1,0 +1,50 @@
+"""``urdf`` and ``ik``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ._common import add_robot_args, pose_from_args, robot_from_args
+
+
+def _urdf(args: argparse.Namespace) -> int:
+    robot = robot_from_args(args)
+    out = Path(args.output or f"{robot.name}.urdf")
+    urdf, sidecar = robot.write_urdf(out)
+    print(f"wrote {urdf} and {sidecar}")
+    return 0
+
+
+def _ik(args: argparse.Namespace) -> int:
+    robot = robot_from_args(args)
+    T = pose_from_args(args.pose, robot)
+    q = robot.inverse_geometry(T)
+    np.set_printoptions(precision=6, suppress=True)
+    print(f"pose 0Tp:\n{T}")
+    print("leg   q1 [rad]     q2 [rad]     q3 [m]")
+    for i, row in enumerate(q, 1):
+        print(f"{i:3d} {row[0]:12.6f} {row[1]:12.6f} {row[2]:12.6f}")
+    print(f"Jp^-1 (rows [a_i, L_i x a_i]), cond = {robot.condition_number(T):.4g}:")
+    print(robot.inverse_jacobian(T))
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("urdf", help="write the URDF and its loop-closure sidecar")
+    add_robot_args(p)
+    p.add_argument("-o", "--output", help="URDF path (default <name>.urdf)")
+    p.set_defaults(func=_urdf)
+
+    p = sub.add_parser("ik", help="inverse geometry and Jp^-1 at a pose")
+    add_robot_args(p)
+    p.add_argument(
+        "--pose",
+        nargs=6,
+        type=float,
+        metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
+        help="offset from the home pose [m, m, m, rad, rad, rad], rotation applied in F0",
+    )
+    p.set_defaults(func=_ik)
