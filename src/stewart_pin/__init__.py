@@ -5,6 +5,7 @@ robots": geometry, kinematics, inverse and direct dynamics, cross-checked agains
 Pinocchio's constrained dynamics on the full closed-loop model.
 """
 
+from .base_params import base_parameters, essential_parameters
 from .description import RobotDescription, leg_base_rotation_from_axis, leg_frame_from_mdh
 from .exceptions import (
     ConvergenceError,
@@ -21,6 +22,8 @@ from .exceptions import (
 )
 from .presets import PRESETS, preset, random_robot
 from .robot import StewartRobot
+from .simulation import SimulationError, simulate
+from .validation import validate
 
 __version__ = "0.1.0"
 
@@ -34,14 +37,19 @@ __all__ = [
     "InputError",
     "JointLimitError",
     "RobotDescription",
+    "SimulationError",
     "SingularityError",
     "StewartPinError",
     "StewartRobot",
     "StrokeLimitError",
     "WorkspaceError",
     "__version__",
+    "base_parameters",
+    "essential_parameters",
     "leg_base_rotation_from_axis",
     "leg_frame_from_mdh",
     "preset",
     "random_robot",
+    "simulate",
+    "validate",
 ]
