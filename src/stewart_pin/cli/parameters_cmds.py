@@ -20,6 +20,21 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     print(f"robot '{robot.name}': {len(bp)} {args.method} base parameters of 190 standard")
     print(bp.table())
     print(f"\nnumerical rank: {rank}")
+    from ..base_params import essential_parameters, paper_essential_parameters
+
+    ess = essential_parameters(robot, args.threshold, n_states=args.states, seed=args.seed)
+    paper = paper_essential_parameters(robot, n_states=args.states, seed=args.seed)
+    print(
+        f"\n190 standard -> {len(bp)} base -> {len(ess)} essential parameters (those left when "
+        f"the base parameters changing the forces by less than {args.threshold:g} relative "
+        f"are removed; the kept set predicts the forces to {ess.relative_error:.3g}):"
+    )
+    for name, value in zip(ess.names, ess.values, strict=True):
+        print(f"{name:>16s} {value:14.6g}")
+    print(
+        f"the paper's Table III set ({len(paper)} parameters: 7 per leg + 10) predicts the "
+        f"forces of this robot to {paper.relative_error:.3g} relative"
+    )
     if rank.rank != len(bp):
         print(
             f"warning: the numerical rank {rank.rank} differs from the {len(bp)} {args.method} "
@@ -123,6 +138,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="the paper's grouping rules (default) or QR of the stacked regressor",
     )
     p.add_argument("--states", type=int, default=60, help="random states stacked for the rank")
+    p.add_argument(
+        "--threshold",
+        type=float,
+        default=0.01,
+        help="essential parameters: largest relative force change allowed (default 1 %%)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the random states")
     p.set_defaults(func=_cmd_base_params)
 
