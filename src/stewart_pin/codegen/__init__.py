@@ -1,0 +1,29 @@
+"""Symbolic generation, operation counts and compiled backends (paper section VII).
+
+- :func:`generate_models` (:mod:`.symbolic`): the IDM and DDM of a robot as straight-line
+  CasADi SX functions, the geometry baked in, the 88 base parameters an input.
+- :func:`cost_table` / :func:`cost_dict` (:mod:`.opcount`): their operation counts beside
+  the paper's Table IV.
+- :func:`compiled_backend` / :class:`CompiledDynamics` (:mod:`.compiled`): the models
+  compiled to C and called through :mod:`ctypes`, one state or batches, with a CasADi
+  virtual-machine fallback when no C compiler is available.
+
+Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
+"""
+
+from .compiled import CompilationError, CompiledDynamics, cache_root, compiled_backend
+from .opcount import OperationCount, cost_dict, cost_table, count_operations
+from .symbolic import SymbolicModels, generate_models
+
+__all__ = [
+    "CompilationError",
+    "CompiledDynamics",
+    "OperationCount",
+    "SymbolicModels",
+    "cache_root",
+    "compiled_backend",
+    "cost_dict",
+    "cost_table",
+    "count_operations",
+    "generate_models",
+]

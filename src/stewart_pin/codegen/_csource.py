@@ -1,0 +1,206 @@
+"""The hand-written C around the CasADi-generated models: batch loops and state guards.
+
+For each state, the batch loop calls the generated function with its CasADi signature
+(``arg``/``res`` pointer arrays, ``iw``, ``w``, ``mem``; the work arrays live on the stack)
+and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
+
+- ``INPUT``: a non-finite number, a last pose row other than ``[0, 0, 0, 1]``, a rotation
+  block off orthonormal (``max |R^T R - I|`` past just under the reference's tolerance) or
+  a reflection;
+- ``GEOMETRY``: a leg nearly zero-length, along its first U-joint axis, or outside (or
+  within 1e-9 of the ends of) its stroke;
+- ``COND``: the upper bound ``2 / |det J| (||J||_F^2 / 6)^3`` of cond(Jp^-1)
+  (Guggenheimer, Edelman & Johnson 1995), from an LU with partial pivoting, passes half
+  the threshold: the caller computes the exact condition number of those states only;
+- ``REPIVOTED`` (IDM): the static-pivot LU of the generated code met a multiplier larger
+  than ``GROWTH_LIMIT``; the state was solved again here with partial pivoting (not an
+  error);
+- ``NOT_PD`` (DDM): a pivot of ``A_robot = L D L^T`` is not positive;
+- ``NONFINITE``: a non-finite result.
+
+The margins make the guard flag generously: a flagged state is decided by the reference
+checks in Python, so the compiled path raises exactly what the reference path raises.
+"""
+
+from __future__ import annotations
+
+FLAG_NAMES = {
+    "INPUT": 1,
+    "GEOMETRY": 2,
+    "COND": 4,
+    "REPIVOTED": 8,
+    "NOT_PD": 16,
+    "NONFINITE": 32,
+}
+#: Largest static-pivot multiplier trusted before solving again with partial pivoting.
+GROWTH_LIMIT = 16.0
+#: Bump when the text below changes (part of the cache key).
+WRAPPER_VERSION = "2"
+
+TEMPLATE = r"""
+/* ---- stewart-pin: batch loops and state guards (hand-written, see _csource.py) ---- */
+#include <math.h>
+
+#ifndef SP_EXPORT
+#define SP_EXPORT __attribute__((visibility("default")))
+#endif
+
+#define SP_INPUT 1
+#define SP_GEOMETRY 2
+#define SP_COND 4
+#define SP_REPIVOTED 8
+#define SP_NOT_PD 16
+#define SP_NONFINITE 32
+
+static const double sp_stroke_lo2 = %(lo2)r;  /* stroke ends squared, with margins */
+static const double sp_stroke_hi2 = %(hi2)r;
+static const double sp_min_length2 = %(min_length2)r;
+static const double sp_min_sin2 = %(min_sin2)r;
+static const double sp_rotation_tol = %(rotation_tol)r;
+static const double sp_growth_limit = %(growth_limit)r;
+
+/* Validity of a pose (row-major 4x4) and two 6-vectors. */
+static int sp_check_inputs(const double* T, const double* x, const double* y) {
+  int i, j, k;
+  double err = 0.0, det;
+  for (k = 0; k < 16; ++k) if (!isfinite(T[k])) return SP_INPUT;
+  for (k = 0; k < 6; ++k) if (!isfinite(x[k]) || !isfinite(y[k])) return SP_INPUT;
+  if (T[12] != 0.0 || T[13] != 0.0 || T[14] != 0.0 || T[15] != 1.0) return SP_INPUT;
+  for (i = 0; i < 3; ++i) {
+    for (j = i; j < 3; ++j) {
+      double s = T[i] * T[j] + T[4 + i] * T[4 + j] + T[8 + i] * T[8 + j];
+      double e = fabs(s - (i == j ? 1.0 : 0.0));
+      if (e > err) err = e;
+    }
+  }
+  if (!(err <= sp_rotation_tol)) return SP_INPUT;
+  det = T[0] * (T[5] * T[10] - T[6] * T[9]) - T[1] * (T[4] * T[10] - T[6] * T[8])
+      + T[2] * (T[4] * T[9] - T[5] * T[8]);
+  if (!(det > 0.0)) return SP_INPUT;
+  return 0;
+}
+
+/* Leg lengths and leg singularities from q3^2 and rho^2 = (q3 sin q2)^2. */
+static int sp_check_legs(const double* q3sq, const double* rho2) {
+  int k;
+  for (k = 0; k < 6; ++k) {
+    if (!(q3sq[k] >= sp_stroke_lo2 && q3sq[k] <= sp_stroke_hi2)) return SP_GEOMETRY;
+    if (!(q3sq[k] > sp_min_length2)) return SP_GEOMETRY;
+    if (!(rho2[k] > sp_min_sin2 * q3sq[k])) return SP_GEOMETRY;
+  }
+  return 0;
+}
+
+/* The condition bound 2 / |det J| (||J||_F^2 / 6)^3 (Guggenheimer et al. 1995). */
+static int sp_cond_bound(double det, double fro2, double max_cond) {
+  double t = fro2 / 6.0;
+  double bound = 2.0 / fabs(det) * t * t * t;
+  return (bound <= 0.5 * max_cond) ? 0 : SP_COND;
+}
+
+/* LU with partial pivoting of A = Jp^-T (column i = row i of Jp^-1, J row-major), the
+   condition bound, and (if rhs) the solution of A y = rhs. */
+static int sp_check_cond(const double* J, double max_cond, const double* rhs, double* y) {
+  double A[6][6], b[6], fro2 = 0.0, det = 1.0, t;
+  int i, j, k, p;
+  for (i = 0; i < 6; ++i)
+    for (j = 0; j < 6; ++j) {
+      A[i][j] = J[6 * j + i];
+      fro2 += A[i][j] * A[i][j];
+    }
+  for (i = 0; i < 6; ++i) b[i] = rhs ? rhs[i] : 0.0;
+  for (k = 0; k < 6; ++k) {
+    p = k;
+    for (i = k + 1; i < 6; ++i) if (fabs(A[i][k]) > fabs(A[p][k])) p = i;
+    if (p != k) {
+      for (j = 0; j < 6; ++j) { t = A[k][j]; A[k][j] = A[p][j]; A[p][j] = t; }
+      t = b[k]; b[k] = b[p]; b[p] = t;
+    }
+    det *= A[k][k];
+    if (A[k][k] == 0.0) return SP_COND;
+    for (i = k + 1; i < 6; ++i) {
+      double l = A[i][k] / A[k][k];
+      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+      b[i] -= l * b[k];
+    }
+  }
+  if (rhs) {
+    for (i = 5; i >= 0; --i) {
+      double s = b[i];
+      for (j = i + 1; j < 6; ++j) s -= A[i][j] * y[j];
+      y[i] = s / A[i][i];
+    }
+  }
+  return sp_cond_bound(det, fro2, max_cond);
+}
+
+static int sp_finite6(const double* x) {
+  int k;
+  for (k = 0; k < 6; ++k) if (!isfinite(x[k])) return 0;
+  return 1;
+}
+
+#define SP_IDM_NAUX %(idm_naux)d
+#define SP_DDM_NAUX %(ddm_naux)d
+
+/* Inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), chi (88) -> gamma
+   (n x 6), flags (n). Returns the OR of the flags. */
+SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
+                           const double* accel, const double* chi, double max_cond,
+                           double* gamma, int* flags) {
+  const casadi_real* arg[%(idm_sz_arg)d + 1];
+  casadi_real* res[%(idm_sz_res)d + 1];
+  casadi_int iw[%(idm_sz_iw)d + 1];
+  casadi_real w[%(idm_sz_w)d + 1];
+  double aux[SP_IDM_NAUX], y[6];
+  int any = 0, k;
+  long long s;
+  for (s = 0; s < n; ++s) {
+    const double* T = pose + 16 * s;
+    double* g = gamma + 6 * s;
+    int f = sp_check_inputs(T, twist + 6 * s, accel + 6 * s);
+    arg[0] = T; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
+    res[0] = g; res[1] = aux;
+    %(idm)s(arg, res, iw, w, 0);
+    f |= sp_check_legs(aux + 0, aux + 6);
+    if (!(aux[%(growth)d] <= sp_growth_limit)) {
+      f |= sp_check_cond(aux + 12, max_cond, aux + 48, y) | SP_REPIVOTED;
+      for (k = 0; k < 6; ++k) g[k] = aux[54 + k] + y[k];
+    } else {  /* the static LU is sound: its pivots give the determinant */
+      f |= sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond);
+    }
+    if (!sp_finite6(g)) f |= SP_NONFINITE;
+    flags[s] = f;
+    any |= f;
+  }
+  return any;
+}
+
+/* Direct dynamics of n states: pose, twist, gamma, chi -> accel (n x 6), flags. */
+SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
+                           const double* gam, const double* chi, double max_cond,
+                           double* accel, int* flags) {
+  const casadi_real* arg[%(ddm_sz_arg)d + 1];
+  casadi_real* res[%(ddm_sz_res)d + 1];
+  casadi_int iw[%(ddm_sz_iw)d + 1];
+  casadi_real w[%(ddm_sz_w)d + 1];
+  double aux[SP_DDM_NAUX];
+  int any = 0, k;
+  long long s;
+  for (s = 0; s < n; ++s) {
+    const double* T = pose + 16 * s;
+    double* a = accel + 6 * s;
+    int f = sp_check_inputs(T, twist + 6 * s, gam + 6 * s);
+    arg[0] = T; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;
+    res[0] = a; res[1] = aux;
+    %(ddm)s(arg, res, iw, w, 0);
+    f |= sp_check_legs(aux + 0, aux + 6);
+    f |= sp_check_cond(aux + 12, max_cond, 0, 0);
+    for (k = 0; k < 6; ++k) if (!(aux[48 + k] > 0.0)) f |= SP_NOT_PD;
+    if (!sp_finite6(a)) f |= SP_NONFINITE;
+    flags[s] = f;
+    any |= f;
+  }
+  return any;
+}
+"""
