@@ -260,3 +260,20 @@ class TestBadInput:
         strict = StewartRobot(self.robot.description, max_condition=1.5)
         with pytest.raises(SingularityError, match=r"cond\(Jp\^-1\) = [\d.]+ > 1.5"):
             strict.direct_dynamics(self.robot.home_pose, np.zeros(6), np.zeros(6))
+
+
+def test_compiled_backend_agrees_with_the_pinocchio_path(tmp_path, monkeypatch):
+    monkeypatch.setenv("STEWART_PIN_CACHE", str(tmp_path))
+    robot = StewartRobot.from_preset("random-2")
+    poses, twists, accels = sample_states(robot.description, 50, 6)
+    ref = robot.inverse_dynamics(poses, twists, accels)
+    fast = robot.inverse_dynamics(poses, twists, accels, backend="compiled")
+    assert _rel(fast, ref) < 1e-10
+    acc = robot.direct_dynamics(poses, twists, ref, backend="compiled")
+    assert _rel(acc, accels) < 1e-10
+    single = robot.direct_dynamics(poses[0], twists[0], ref[0], backend="compiled")
+    assert single.shape == (6,)
+    with pytest.raises(InputError, match="unknown backend 'fast'"):
+        robot.inverse_dynamics(poses, twists, accels, backend="fast")
+    with pytest.raises(InputError, match="details=True needs backend='pinocchio'"):
+        robot.inverse_dynamics(poses, twists, accels, details=True, backend="compiled")

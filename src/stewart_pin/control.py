@@ -41,12 +41,14 @@ class ComputedTorqueController:
         reference: ``t -> (T_ref (4, 4), V_ref (6,), A_ref (6,))``.
         kp, kd: stiffness [1/s^2] and damping [1/s] gains, scalars or (6,) per axis
             (linear x, y, z then angular); default a critically damped 10 Hz loop.
+        backend: the inverse model's backend, ``"pinocchio"`` or ``"compiled"``.
     """
 
     model: object
     reference: Reference
     kp: np.ndarray | float = (2 * np.pi * 10.0) ** 2
     kd: np.ndarray | float = 2 * (2 * np.pi * 10.0)
+    backend: str = "pinocchio"
 
     def __post_init__(self) -> None:
         self.kp = check_array(np.broadcast_to(self.kp, (6,)), (6,), "kp")
@@ -59,7 +61,7 @@ class ComputedTorqueController:
 
     def __call__(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
         """Actuator forces Gamma (6,) [N] at time ``t`` [s] for the measured state."""
-        return self.model.inverse_dynamics(T, V, self.command(t, T, V))
+        return self.model.inverse_dynamics(T, V, self.command(t, T, V), backend=self.backend)
 
 
 def tracking_errors(

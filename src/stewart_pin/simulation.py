@@ -133,8 +133,10 @@ def _left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
 
 
 class _Integrator:
-    def __init__(self, robot: Any, forces: ForceFunction, control_period: float | None):
-        self.robot, self.forces, self.period = robot, forces, control_period
+    def __init__(
+        self, robot: Any, forces: ForceFunction, control_period: float | None, backend: str
+    ):
+        self.robot, self.forces, self.period, self.backend = robot, forces, control_period, backend
         self.held: tuple[int, np.ndarray] | None = None
 
     def gamma(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -152,7 +154,7 @@ class _Integrator:
         T = _chart_pose(T0, y)
         V = y[6:]
         g = self.gamma(t, T, V)
-        acc = self.robot.direct_dynamics(T, V, g)
+        acc = self.robot.direct_dynamics(T, V, g, backend=self.backend)
         dy = np.concatenate([V[:3], _left_jacobian_inverse(y[3:6]) @ V[3:], acc])
         return dy, g
 
@@ -177,6 +179,7 @@ def simulate(
     control_period: float | None = None,
     output_dt: float | None = None,
     progress: Callable[[float], None] | None = None,
+    backend: str = "pinocchio",
 ) -> SimulationResult:
     """Integrate the direct dynamic model from ``(pose, twist)`` for ``duration`` [s].
 
@@ -191,6 +194,8 @@ def simulate(
             for the adaptive method, its accepted steps).
         progress: called with the simulated time [s] after each accepted step (a progress
             bar's hook).
+        backend: the direct model's backend, ``"pinocchio"`` or ``"compiled"`` (see
+            :meth:`StewartRobot.direct_dynamics`).
 
     Raises:
         SimulationError: a leg left its stroke, a U-joint its limits, or the robot came
@@ -208,7 +213,7 @@ def simulate(
             )
     T = check_pose(robot.home_pose if pose is None else pose, "pose")
     V = np.zeros(6) if twist is None else check_array(twist, (6,), "twist")
-    integ = _Integrator(robot, forces or (lambda t, T, V: np.zeros(6)), control_period)
+    integ = _Integrator(robot, forces or (lambda t, T, V: np.zeros(6)), control_period, backend)
     rows: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     next_output = 0.0
 

@@ -189,20 +189,29 @@ def trajectory_from_coordinates(
     """States from the six coordinates ``x = [d, r]`` about ``reference`` and their first
     and second time derivatives (each (N, 6)): ``p = p_ref + d``, ``R = exp3(r) R_ref``,
     ``v = d'``, ``w = J_l(r) r'``, exact classical accelerations (module docstring)."""
+    return Trajectory(t, *_states(reference, x, xd, xdd), fourier=fourier)
+
+
+def _states(
+    reference: np.ndarray, x: np.ndarray, xd: np.ndarray, xdd: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r, rd, rdd = x[:, 3:], xd[:, 3:], xdd[:, 3:]
-    poses = np.tile(np.eye(4), (t.shape[0], 1, 1))
-    poses[:, :3, :3] = so3_exp(r) @ reference[:3, :3]
+    coefs = _coefficients(r)  # shared by the exponential and the Jacobians
+    poses = np.tile(np.eye(4), (x.shape[0], 1, 1))
+    poses[:, :3, :3] = so3_exp(r, coefs) @ reference[:3, :3]
     poses[:, :3, 3] = reference[:3, 3] + x[:, :3]
-    w = np.einsum("nij,nj->ni", so3_left_jacobian(r), rd)
-    wd = np.einsum("nij,nj->ni", so3_left_jacobian(r), rdd) + _left_jacobian_rate(r, rd)
+    J = so3_left_jacobian(r, coefs)
+    w = np.einsum("nij,nj->ni", J, rd)
+    wd = np.einsum("nij,nj->ni", J, rdd) + _left_jacobian_rate(r, rd, coefs)
     twists = np.concatenate([xd[:, :3], w], axis=1)
     accels = np.concatenate([xdd[:, :3], wd], axis=1)
-    return Trajectory(t, poses, twists, accels, fourier=fourier)
+    return poses, twists, accels
 
 
 def _at(motion: Any, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    tr = motion.sample(np.array([float(t)]))
-    return tr.poses[0].copy(), tr.twists[0].copy(), tr.accels[0].copy()
+    """One state, without building a validated :class:`Trajectory` (a controller's hot path)."""
+    poses, twists, accels = _states(motion.reference, *motion.coordinates(np.array([float(t)])))
+    return poses[0], twists[0], accels[0]
 
 
 class CoordinateMotion:
@@ -426,23 +435,25 @@ def _coefficients(r: np.ndarray) -> tuple[np.ndarray, ...]:
     return sinc, a, b, da, db
 
 
-def so3_exp(r: np.ndarray) -> np.ndarray:
+def so3_exp(r: np.ndarray, coefs: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """Rotation matrices ``exp([r]x)`` (Rodrigues) of rotation vectors r (N, 3) [rad]."""
-    sinc, a, _, _, _ = _coefficients(r)
+    sinc, a, _, _, _ = coefs or _coefficients(r)
     K = skew(r)
     return np.eye(3) + sinc[:, None, None] * K + a[:, None, None] * (K @ K)
 
 
-def so3_left_jacobian(r: np.ndarray) -> np.ndarray:
+def so3_left_jacobian(r: np.ndarray, coefs: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """``J_l(r)`` (N, 3, 3): ``w = J_l(r) r'`` is the angular velocity in F0 of ``exp(r) R0``."""
-    _, a, b, _, _ = _coefficients(r)
+    _, a, b, _, _ = coefs or _coefficients(r)
     K = skew(r)
     return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
 
 
-def _left_jacobian_rate(r: np.ndarray, rd: np.ndarray) -> np.ndarray:
+def _left_jacobian_rate(
+    r: np.ndarray, rd: np.ndarray, coefs: tuple[np.ndarray, ...] | None = None
+) -> np.ndarray:
     """``(dJ_l/dt) r'`` (N, 3) (module docstring)."""
-    _, _, b, da, db = _coefficients(r)
+    _, _, b, da, db = coefs or _coefficients(r)
     rdr = np.einsum("ni,ni->n", r, rd)
     r_x_rd = cross(r, rd)
     return (

@@ -1,4 +1,4 @@
-"""``idm`` and ``validate``."""
+"""``idm``, ``validate``, ``cost`` and ``bench``."""
 
 from __future__ import annotations
 
@@ -68,3 +68,36 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tol-idm", type=float, default=1e-9, help="relative tolerance, inverse")
     p.add_argument("--tol-ddm", type=float, default=1e-8, help="relative tolerance, direct")
     p.set_defaults(func=_validate)
+    register_performance(sub)
+
+
+def _cost(args: argparse.Namespace) -> int:
+    from ..codegen import cost_table
+
+    print(cost_table(robot_from_args(args)))
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from ..bench import report
+
+    report(args)
+    return 0
+
+
+def register_performance(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "cost",
+        help="operation counts of the generated closed-form models beside the paper's Table IV",
+    )
+    add_robot_args(p)
+    p.set_defaults(func=_cost)
+
+    from ..bench import add_arguments
+
+    p = sub.add_parser(
+        "bench",
+        help="median time per state: the models, compiled C, pin.constraintDynamics, MuJoCo",
+    )
+    add_arguments(p)
+    p.set_defaults(func=_bench)

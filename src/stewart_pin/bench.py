@@ -1,0 +1,254 @@
+"""Benchmark the paper's dynamic models against Pinocchio's constrained dynamics.
+
+Median wall-clock time per state [us], all measured in this one run:
+
+- the inverse (IDM) and direct (DDM) models of stewart-pin (Pinocchio leg dynamics plus
+  the closure layer), one state per call and a batch of N states per call;
+- ``pin.constraintDynamics`` on the 24-dof closed-loop tree (the raw C++ call, with q, v
+  and tau prepared beforehand) and the whole reference path of
+  ``stewart_pin.validation`` (state conversion included) for the direct and inverse models;
+- the generated models compiled to C (``stewart_pin.codegen.CompiledDynamics``, paper
+  section VII), from Python: one state per call, and batches of N = 1, 100, 10 000 and
+  1 000 000 states per call (the last streamed as 100 chunks of 10 000; ``--quick`` skips
+  it);
+- MuJoCo's ``mj_forward`` on the MJCF of the same robot, when ``import mujoco`` works (soft
+  loop constraints: a timing reference, not an exact solution).
+
+Usage: ``stewart-pin bench [--preset simulator] [--batch 10000] [--repeats 300] [--quick]
+[--json bench.json]`` (or ``python scripts/bench_dynamics.py`` with the same options).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import casadi
+import numpy as np
+import pinocchio as pin
+
+import stewart_pin
+from stewart_pin import StewartRobot
+from stewart_pin.codegen import CompiledDynamics, cost_dict
+from stewart_pin.codegen.compiled import CFLAGS, find_compiler
+from stewart_pin.validation import (
+    _solver,
+    constrained_forward_dynamics,
+    constrained_inverse_dynamics,
+    tree_state,
+)
+from stewart_pin.workspace import sample_states
+
+
+def median_us(fn: Callable[[], object], repeats: int, per: int = 1) -> float:
+    """Median over ``repeats`` calls of ``fn``, divided by ``per`` states per call [us]."""
+    fn()  # warm-up
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times) / per * 1e6
+
+
+def machine() -> dict[str, object]:
+    return {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "numpy": np.__version__,
+        "pinocchio": pin.__version__,
+        "stewart_pin": stewart_pin.__version__,
+        "casadi": casadi.__version__,
+        "cpu_model": cpu_model(),
+        "load_average_1min": os.getloadavg()[0],
+    }
+
+
+def cpu_model() -> str:
+    """The CPU's model name (Linux), else the platform's processor string."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def compiled_rows(
+    robot: StewartRobot,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    accels: np.ndarray,
+    gammas: np.ndarray,
+    repeats: int,
+    quick: bool,
+) -> tuple[dict[str, float], dict[str, object]]:
+    """Rows of the compiled backend (one state, then batches of N states per call)."""
+    backend = CompiledDynamics(robot)
+    T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
+    rows = {
+        f"compiled IDM single ({backend.kind})": median_us(
+            lambda: backend.inverse_dynamics(T, V, A), max(repeats, 1000)
+        ),
+        f"compiled DDM single ({backend.kind})": median_us(
+            lambda: backend.direct_dynamics(T, V, G), max(repeats, 1000)
+        ),
+    }
+    m = poses.shape[0]
+    for n, reps in ((1, max(repeats, 1000)), (100, 200), (10_000, 20)):
+        idx = np.arange(n) % m
+        P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
+        rows[f"compiled IDM batch {n}"] = median_us(
+            lambda P=P, Vn=Vn, An=An: backend.inverse_dynamics(P, Vn, An), reps, n
+        )
+        rows[f"compiled DDM batch {n}"] = median_us(
+            lambda P=P, Vn=Vn, Gn=Gn: backend.direct_dynamics(P, Vn, Gn), reps, n
+        )
+    if not quick:
+        n, chunk = 1_000_000, 10_000
+        idx = np.arange(chunk) % m
+        P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
+
+        def stream(x: np.ndarray, method: Callable) -> None:
+            for _ in method((P, Vn, x) for _ in range(n // chunk)):
+                pass
+
+        rows[f"compiled IDM batch {n} (streamed)"] = median_us(
+            lambda: stream(An, backend.inverse_dynamics_stream), 3, n
+        )
+        rows[f"compiled DDM batch {n} (streamed)"] = median_us(
+            lambda: stream(Gn, backend.direct_dynamics_stream), 3, n
+        )
+    info = {
+        "kind": backend.kind,
+        "reason": backend.reason,
+        "library": str(backend.library) if backend.library else None,
+        "compiler": find_compiler(),
+        "cflags": list(CFLAGS),
+    }
+    return rows, info
+
+
+def mujoco_rows(robot: StewartRobot, T: np.ndarray, G: np.ndarray, repeats: int):
+    """``mj_forward`` on the robot's MJCF (when MuJoCo imports)."""
+    try:
+        import mujoco
+    except ImportError:
+        return {}
+    from stewart_pin.mjcf import mujoco_qpos, write_mjcf
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = write_mjcf(robot.description, Path(tmp) / "robot.xml")
+        model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    data.qpos[:] = mujoco_qpos(robot.description, T)
+    data.ctrl[:] = G
+    return {
+        f"MuJoCo {mujoco.__version__} mj_forward (soft constraints)": median_us(
+            lambda: mujoco.mj_forward(model, data), repeats
+        )
+    }
+
+
+def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str, object]:
+    robot = StewartRobot.from_preset(preset)
+    poses, twists, accels = sample_states(robot.description, batch, 0)
+    gammas = robot.inverse_dynamics(poses, twists, accels)
+    T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
+    solver = _solver(robot)
+    q, v = tree_state(robot, T, V)
+    tau = np.zeros(solver.nv)
+    tau[solver.v_act] = G
+    batch_repeats = max(3, min(repeats, 5))
+    rows = {
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), repeats),
+        f"IDM batch {batch}": median_us(
+            lambda: robot.inverse_dynamics(poses, twists, accels), batch_repeats, batch
+        ),
+        f"DDM batch {batch}": median_us(
+            lambda: robot.direct_dynamics(poses, twists, gammas), batch_repeats, batch
+        ),
+        "pin.constraintDynamics (raw call)": median_us(
+            lambda: pin.constraintDynamics(
+                solver.model,
+                solver.data,
+                q,
+                v,
+                tau,
+                solver.cmodels,
+                solver.cdatas,
+                solver.settings,
+            ),
+            repeats,
+        ),
+        "pin.rnea on the 24-dof tree (raw call)": median_us(
+            lambda: pin.rnea(solver.model, solver.data, q, v, np.zeros(solver.nv)), repeats
+        ),
+        "constrained forward dynamics (reference path)": median_us(
+            lambda: constrained_forward_dynamics(robot, T, V, G), repeats
+        ),
+        "constrained inverse dynamics (reference path)": median_us(
+            lambda: constrained_inverse_dynamics(robot, T, V, A), repeats
+        ),
+    }
+    more, compiled_info = compiled_rows(robot, poses, twists, accels, gammas, repeats, quick)
+    rows.update(more)
+    rows.update(mujoco_rows(robot, T, G, repeats))
+    reference = rows["pin.constraintDynamics (raw call)"]
+    counts = cost_dict(robot)
+    return {
+        "preset": preset,
+        "batch": batch,
+        "repeats": repeats,
+        "machine": machine(),
+        "compiled_backend": compiled_info,
+        "operation_counts": {
+            m: {k: counts[m][k] for k in ("base", "essential", "critical_path")}
+            for m in ("IDM", "DDM")
+        },
+        "median_us_per_state": rows,
+        "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
+    }
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--preset", default="simulator")
+    parser.add_argument("--batch", type=int, default=10_000)
+    parser.add_argument("--repeats", type=int, default=300)
+    parser.add_argument("--quick", action="store_true", help="skip the 1 000 000-state batch")
+    parser.add_argument("--json", type=Path, help="write the results as JSON here")
+
+
+def report(args: argparse.Namespace) -> dict[str, object]:
+    """Run the benchmark, print the table (and write the JSON) as ``args`` say."""
+    result = run(args.preset, args.batch, args.repeats, args.quick)
+    print(f"stewart-pin {stewart_pin.__version__}, preset '{args.preset}', {result['machine']}")
+    print(f"{'median time per state':48s} {'[us]':>10s} {'/ pin.constraintDynamics':>26s}")
+    for name, t in result["median_us_per_state"].items():
+        ratio = result["ratio_to_pin_constraintDynamics"][name]
+        print(f"{name:48s} {t:10.2f} {ratio:26.2f}")
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    report(parser.parse_args())
+
+
+if __name__ == "__main__":
+    main()

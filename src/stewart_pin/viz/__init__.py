@@ -1,0 +1,27 @@
+"""Visualisation: the robot in meshcat (live or as a standalone HTML animation) and
+matplotlib figures of simulated motions.
+
+Optional dependencies (``pip install stewart-pin[viz]``): meshcat for the viewer,
+matplotlib for the figures; each is imported where it is used.
+"""
+
+from .plots import (
+    plot_energy,
+    plot_forces,
+    plot_lengths,
+    plot_tracking_error,
+    save_figures,
+)
+from .viewer import CameraView, Viewer, tree_configuration, visual_model
+
+__all__ = [
+    "CameraView",
+    "Viewer",
+    "plot_energy",
+    "plot_forces",
+    "plot_lengths",
+    "plot_tracking_error",
+    "save_figures",
+    "tree_configuration",
+    "visual_model",
+]

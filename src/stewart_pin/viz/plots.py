@@ -1,0 +1,188 @@
+"""Figures of a motion: actuator forces, leg lengths against the stroke, tracking error,
+mechanical energy.
+
+Each ``plot_*`` function takes arrays and returns a ``matplotlib.figure.Figure`` built
+without pyplot (no global state, no display: it saves through the Agg canvas).
+:func:`save_figures` writes them as PNG files for a
+:class:`~stewart_pin.simulation.SimulationResult`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from .._checks import check_array, check_poses
+from ..exceptions import InputError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from ..robot import StewartRobot
+    from ..simulation import SimulationResult
+
+#: Install hint of the optional figure dependency.
+INSTALL_HINT = "pip install stewart-pin[viz]"
+#: Size of every figure [inch].
+FIGSIZE = (8.0, 4.5)
+LEG_LABELS = tuple(f"leg {i}" for i in range(1, 7))
+
+
+def _figure(nrows: int = 1) -> tuple[Figure, list[Any]]:
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as e:
+        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
+    height = FIGSIZE[1] if nrows == 1 else FIGSIZE[1] * 0.8 * nrows
+    fig = Figure(figsize=(FIGSIZE[0], height), layout="constrained")
+    axes = fig.subplots(nrows, 1, sharex=True, squeeze=False)[:, 0]
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    return fig, list(axes)
+
+
+def _series(t: Any, values: Any, width: int | None, name: str) -> tuple[np.ndarray, np.ndarray]:
+    t = check_array(t, (None,), "t")
+    values = check_array(values, (len(t),) if width is None else (len(t), width), name)
+    return t, values
+
+
+def plot_forces(t: Any, gammas: Any) -> Figure:
+    """The six actuator forces against time.
+
+    Args:
+        t: shape (K,) [s]; gammas: shape (K, 6) [N], positive extending the leg.
+    """
+    t, gammas = _series(t, gammas, 6, "gammas")
+    fig, (ax,) = _figure()
+    for i in range(6):
+        ax.plot(t, gammas[:, i], label=LEG_LABELS[i])
+    ax.set_ylabel("actuator force [N]")
+    ax.set_title("Actuator forces")
+    ax.legend(ncols=3, fontsize="small")
+    return fig
+
+
+def plot_lengths(t: Any, lengths: Any, stroke: Any = None) -> Figure:
+    """The six leg lengths against time, with the stroke limits as dashed lines.
+
+    Args:
+        t: shape (K,) [s]; lengths: shape (K, 6) [m].
+        stroke: ``[lower, upper]`` shape (2,) [m] (``robot.description.stroke``), or
+            ``None`` for no limit lines.
+    """
+    t, lengths = _series(t, lengths, 6, "lengths")
+    fig, (ax,) = _figure()
+    for i in range(6):
+        ax.plot(t, lengths[:, i], label=LEG_LABELS[i])
+    if stroke is not None:
+        lower, upper = check_array(stroke, (2,), "stroke")
+        for value, name in ((lower, "stroke min"), (upper, "stroke max")):
+            ax.axhline(value, color="black", linestyle="--", linewidth=1.0, label=name)
+    ax.set_ylabel("leg length [m]")
+    ax.set_title("Leg lengths")
+    ax.legend(ncols=4, fontsize="small")
+    return fig
+
+
+def tracking_errors(poses: Any, reference: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Position and rotation errors of ``poses`` against ``reference`` (both (K, 4, 4)).
+
+    Returns:
+        ``(e_p, e_r)``, each (K, 3): ``e_p = p - p_ref`` [m] and ``e_r = log3(R R_ref^T)``
+        [rad], the rotation vector in F0 turning the reference into the actual orientation.
+    """
+    T, _ = check_poses(poses, "poses")
+    R_ref, _ = check_poses(reference, "reference")
+    if R_ref.shape != T.shape:
+        raise InputError(f"reference has shape {R_ref.shape} but poses {T.shape}: give one each")
+    e_p = T[:, :3, 3] - R_ref[:, :3, 3]
+    dR = T[:, :3, :3] @ np.swapaxes(R_ref[:, :3, :3], 1, 2)
+    e_r = np.array([pin.log3(R) for R in dR])
+    return e_p, e_r
+
+
+def plot_tracking_error(t: Any, poses: Any, reference: Any) -> Figure:
+    """Tracking error against time: position [mm] (top) and rotation [deg] (bottom),
+    the three components in F0 and the norm (see :func:`tracking_errors`).
+
+    Args:
+        t: shape (K,) [s]; poses, reference: shape (K, 4, 4), 0Tp and its reference.
+    """
+    t = check_array(t, (None,), "t")
+    e_p, e_r = tracking_errors(poses, reference)
+    if len(e_p) != len(t):
+        raise InputError(f"poses has {len(e_p)} samples but t has {len(t)}")
+    fig, (ax_p, ax_r) = _figure(2)
+    for ax, err in ((ax_p, 1e3 * e_p), (ax_r, np.degrees(e_r))):
+        for k, axis in enumerate("xyz"):
+            ax.plot(t, err[:, k], label=axis)
+        ax.plot(t, np.linalg.norm(err, axis=1), color="black", linewidth=1.0, label="norm")
+        ax.legend(ncols=4, fontsize="small")
+    ax_p.set_ylabel("position error [mm]")
+    ax_r.set_ylabel("rotation error [deg]")
+    ax_p.set_title("Tracking error")
+    return fig
+
+
+def plot_energy(t: Any, energy: Any) -> Figure:
+    """Total mechanical energy against time (its drift shows in the title).
+
+    Args:
+        t: shape (K,) [s]; energy: shape (K,) [J] (``robot.energy(poses, twists)``).
+    """
+    t, energy = _series(t, energy, None, "energy")
+    fig, (ax,) = _figure()
+    ax.plot(t, energy, label="kinetic + potential")
+    ax.set_ylabel("energy [J]")
+    drift = float(np.max(np.abs(energy - energy[0]))) if len(energy) else 0.0
+    ax.set_title(f"Mechanical energy (max |E - E(0)| = {drift:.3g} J)")
+    ax.legend(fontsize="small")
+    return fig
+
+
+def save_figures(
+    result: SimulationResult,
+    folder: str | Path,
+    reference: Any = None,
+    robot: StewartRobot | None = None,
+    dpi: int = 100,
+) -> dict[str, Path]:
+    """Write the figures of a simulated motion as PNG files in ``folder``.
+
+    Always ``forces.png`` and ``lengths.png``; ``tracking_error.png`` with a
+    ``reference``; ``energy.png`` with the ``robot`` (which also draws the stroke limits).
+
+    Args:
+        result: the motion.
+        folder: created when missing.
+        reference: the reference poses, (K, 4, 4) at ``result.t``, or a function
+            ``t [s] -> 0Tp (4, 4)``.
+        robot: the simulated robot.
+
+    Returns:
+        ``{"forces": path, ...}`` of the files written.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    figures = {
+        "forces": plot_forces(result.t, result.gammas),
+        "lengths": plot_lengths(
+            result.t, result.lengths, None if robot is None else robot.description.stroke
+        ),
+    }
+    if reference is not None:
+        if callable(reference):
+            reference = np.stack([np.asarray(reference(float(t)), float) for t in result.t])
+        figures["tracking_error"] = plot_tracking_error(result.t, result.poses, reference)
+    if robot is not None:
+        figures["energy"] = plot_energy(result.t, robot.energy(result.poses, result.twists))
+    paths = {}
+    for name, fig in figures.items():
+        paths[name] = folder / f"{name}.png"
+        fig.savefig(paths[name], dpi=dpi)
+    return paths
