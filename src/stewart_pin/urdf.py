@@ -161,8 +161,11 @@ class VisualSizes:
     @classmethod
     def for_robot(cls, desc: RobotDescription) -> VisualSizes:
         s = desc.size
-        lo = float(desc.stroke[0])
-        return cls(0.05 * s, 0.035 * s, 0.02 * s, 0.6 * lo, 0.6 * lo, 0.04 * s)
+        lo, hi = (float(x) for x in desc.stroke)
+        # Cylinder and rod overlap over the whole stroke (together longer than the longest
+        # leg) and the rod never pokes out below B_i (shorter than the shortest leg).
+        length = min(0.55 * hi, 0.95 * lo)
+        return cls(0.05 * s, 0.035 * s, 0.02 * s, 0.55 * hi, length, 0.04 * s)
 
 
 def urdf_string(desc: RobotDescription) -> str:

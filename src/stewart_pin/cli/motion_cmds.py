@@ -29,7 +29,7 @@ def _simulate(args: argparse.Namespace) -> int:
         if args.model_error:
             chi = standard_parameters(robot.description) * (1.0 + args.model_error)
             model = type(robot)(with_standard_parameters(robot.description, chi))
-        forces = ComputedTorqueController(model, motion)
+        forces = ComputedTorqueController(model, motion, backend=args.backend)
         duration = motion.duration
         T0, V0, _ = motion(0.0)
         start = (T0, V0)
@@ -43,6 +43,7 @@ def _simulate(args: argparse.Namespace) -> int:
             dt=args.dt,
             control_period=args.control_period if forces is not None else None,
             progress=bar.to,
+            backend=args.backend,
         )
     result.save(out)
     lines = [f"simulated {duration:g} s of '{robot.name}' ({args.motion}, {args.method}): {out}"]
@@ -59,7 +60,7 @@ def _simulate(args: argparse.Namespace) -> int:
         from ..viz.plots import save_figures
 
         paths = save_figures(result, Path(args.plots), reference=motion, robot=robot)
-        lines.append("plots: " + ", ".join(str(p) for p in paths))
+        lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
     print("\n".join(lines))
     return 0
 
@@ -91,6 +92,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=0.0,
         help="relative error of every inertial parameter in the controller's model",
+    )
+    p.add_argument(
+        "--backend",
+        choices=("compiled", "pinocchio"),
+        default="compiled",
+        help="dynamic models: generated C (default, cached after the first build) or the "
+        "Pinocchio reference path",
     )
     p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
     p.add_argument("--plots", help="folder for PNG plots")

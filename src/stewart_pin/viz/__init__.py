@@ -10,7 +10,9 @@ from .plots import (
     plot_forces,
     plot_lengths,
     plot_tracking_error,
+    reference_poses,
     save_figures,
+    tracking_errors,
 )
 from .viewer import CameraView, Viewer, tree_configuration, visual_model
 
@@ -21,7 +23,9 @@ __all__ = [
     "plot_forces",
     "plot_lengths",
     "plot_tracking_error",
+    "reference_poses",
     "save_figures",
+    "tracking_errors",
     "tree_configuration",
     "visual_model",
 ]

@@ -45,6 +45,10 @@ def _figure(nrows: int = 1) -> tuple[Figure, list[Any]]:
     return fig, list(axes)
 
 
+def _legend_right(ax: Any) -> None:
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small")
+
+
 def _series(t: Any, values: Any, width: int | None, name: str) -> tuple[np.ndarray, np.ndarray]:
     t = check_array(t, (None,), "t")
     values = check_array(values, (len(t),) if width is None else (len(t), width), name)
@@ -63,7 +67,7 @@ def plot_forces(t: Any, gammas: Any) -> Figure:
         ax.plot(t, gammas[:, i], label=LEG_LABELS[i])
     ax.set_ylabel("actuator force [N]")
     ax.set_title("Actuator forces")
-    ax.legend(ncols=3, fontsize="small")
+    _legend_right(ax)
     return fig
 
 
@@ -85,7 +89,7 @@ def plot_lengths(t: Any, lengths: Any, stroke: Any = None) -> Figure:
             ax.axhline(value, color="black", linestyle="--", linewidth=1.0, label=name)
     ax.set_ylabel("leg length [m]")
     ax.set_title("Leg lengths")
-    ax.legend(ncols=4, fontsize="small")
+    _legend_right(ax)
     return fig
 
 
@@ -145,6 +149,29 @@ def plot_energy(t: Any, energy: Any) -> Figure:
     return fig
 
 
+def reference_poses(reference: Any, times: Any) -> np.ndarray:
+    """The reference poses at ``times`` (K,) [s], shape (K, 4, 4), from either
+
+    - poses (K, 4, 4) already at ``times``;
+    - a motion with ``sample(times)`` returning an object with ``.poses``
+      (:mod:`stewart_pin.trajectories`);
+    - a function ``t [s] -> 0Tp (4, 4)`` or ``-> (0Tp, twist, accel)`` (a controller's
+      reference).
+    """
+    t = check_array(times, (None,), "times")
+    if hasattr(reference, "sample"):
+        poses = reference.sample(t).poses
+    elif callable(reference):
+        values = [reference(float(tk)) for tk in t]
+        poses = [v[0] if isinstance(v, tuple) else v for v in values]
+    else:
+        poses = reference
+    T, _ = check_poses(np.asarray(poses, dtype=float), "reference")
+    if len(T) != len(t):
+        raise InputError(f"reference has {len(T)} poses for {len(t)} times: give one per time")
+    return T
+
+
 def save_figures(
     result: SimulationResult,
     folder: str | Path,
@@ -160,8 +187,7 @@ def save_figures(
     Args:
         result: the motion.
         folder: created when missing.
-        reference: the reference poses, (K, 4, 4) at ``result.t``, or a function
-            ``t [s] -> 0Tp (4, 4)``.
+        reference: the reference motion, as :func:`reference_poses` takes it.
         robot: the simulated robot.
 
     Returns:
@@ -176,8 +202,7 @@ def save_figures(
         ),
     }
     if reference is not None:
-        if callable(reference):
-            reference = np.stack([np.asarray(reference(float(t)), float) for t in result.t])
+        reference = reference_poses(reference, result.t)
         figures["tracking_error"] = plot_tracking_error(result.t, result.poses, reference)
     if robot is not None:
         figures["energy"] = plot_energy(result.t, robot.energy(result.poses, result.twists))

@@ -222,6 +222,28 @@ class _Server:
         finally:
             self._set_timeout(REQUEST_TIMEOUT)
 
+    def _read_lines(self, n: int, timeout: float) -> list[str]:
+        """The server's first ``n`` ``key=value`` lines (unbuffered reads, so that the
+        selector sees every byte)."""
+        buffer = b""
+        deadline = time.monotonic() + timeout
+        fd = self.process.stdout.fileno()
+        with selectors.DefaultSelector() as sel:
+            sel.register(fd, selectors.EVENT_READ)
+            while buffer.count(b"\n") < n:
+                left = deadline - time.monotonic()
+                if left <= 0 or not sel.select(left):
+                    self.close()
+                    raise RuntimeError(f"the meshcat server did not start within {timeout} s")
+                chunk = os.read(fd, 4096)
+                if not chunk:
+                    code = self.process.wait()
+                    self.close()
+                    raise RuntimeError(f"the meshcat server exited early with code {code}")
+                buffer += chunk
+        lines = buffer.decode("utf-8").splitlines()
+        return [line.strip() for line in lines if "=" in line][:n]
+
     @property
     def alive(self) -> bool:
         return self._finalizer.alive and self.process.poll() is None
