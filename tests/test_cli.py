@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -151,3 +153,61 @@ def test_bad_arguments_exit_2_with_one_line(capsys):
     assert e.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "invalid choice" in err
+
+
+def test_cost_prints_counts_beside_table_iv(capsys):
+    assert main(["cost", "--preset", "paper"]) == 0
+    out = capsys.readouterr().out
+    assert "IDM, 52 essential parameters" in out and "2078" in out and "2943" in out
+
+
+def test_bench_writes_json(tmp_path, capsys):
+    import json
+
+    path = tmp_path / "bench.json"
+    args = ["bench", "--preset", "desktop", "--batch", "50", "--repeats", "3", "--quick"]
+    assert main([*args, "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    rows = data["median_us_per_state"]
+    assert "pin.constraintDynamics (raw call)" in rows and "IDM single" in rows
+    assert all(t > 0 for t in rows.values())
+    assert data["machine"]["cpus"] >= 1
+
+
+def test_animate_writes_a_standalone_page(tmp_path, capsys):
+    out = tmp_path / "a.html"
+    args = ["animate", "--preset", "desktop", "--motion", "minimum-jerk", "--duration", "1"]
+    assert main([*args, "-o", str(out)]) == 0
+    html = out.read_text()
+    assert "<html" in html.lower() and "animation" in html.lower()
+    # Nothing fetched at view time (the page holds an XML namespace URL, which is no fetch).
+    assert not re.search(r"""(src|href)\s*=\s*["']https?://""", html)
+    assert 'fetch("http' not in html
+
+
+def test_view_starts_a_local_server(capsys):
+    assert main(["view", "--preset", "desktop", "--no-wait"]) == 0
+    assert "http://127.0.0.1:" in capsys.readouterr().out
+
+
+def test_demo_writes_the_whole_workflow(tmp_path, capsys):
+    from stewart_pin.simulation import SimulationResult
+
+    out = tmp_path / "demo"
+    assert main(["demo", "--preset", "desktop", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    for name in (
+        "desktop.urdf",
+        "desktop.closures.json",
+        "trajectory.csv",
+        "forces.csv",
+        "simulation.npz",
+        "validation.png",
+        "plots/forces.png",
+        "animation.html",
+    ):
+        assert (out / name).is_file(), name
+        assert str(out / name) in text
+    res = SimulationResult.load(out / "simulation.npz")
+    assert res.t[-1] == pytest.approx(4.0)
+    assert "file://" in text

@@ -1,4 +1,4 @@
-"""``simulate`` and ``demo``."""
+"""``simulate``, ``animate``, ``view`` and ``demo``."""
 
 from __future__ import annotations
 
@@ -65,6 +65,56 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _motion_samples(args: argparse.Namespace, robot) -> tuple[np.ndarray, np.ndarray]:
+    """``(poses, times)`` of a simulation result file, or of a standard motion."""
+    from ..simulation import SimulationResult
+    from ..trajectories import standard_motion
+
+    if args.result:
+        result = SimulationResult.load(args.result)
+        return result.poses, result.t
+    motion = standard_motion(robot, args.motion, args.duration)
+    traj = motion.check_workspace(robot, n_samples=max(2, int(motion.duration * 60) + 1))
+    return traj.poses, traj.times
+
+
+def _animate(args: argparse.Namespace) -> int:
+    from ..viz.viewer import Viewer
+
+    robot = robot_from_args(args)
+    poses, times = _motion_samples(args, robot)
+    out = Viewer(robot).export_html(Path(args.output), poses, times, fps=args.fps)
+    print(f"wrote {out} ({times[-1] - times[0]:.3g} s of motion): open it in a web browser")
+    return 0
+
+
+def _view(args: argparse.Namespace) -> int:
+    import time
+
+    from ..viz.viewer import Viewer
+
+    robot = robot_from_args(args)
+    with Viewer(robot) as viewer:
+        url = viewer.start(open=args.open)
+        print(f"meshcat viewer at {url} (local only); Ctrl-C to stop", flush=True)
+        viewer.display(robot.home_pose)
+        if args.result or args.motion != "none":
+            if args.motion == "none":
+                args.motion = "sinusoid"
+            poses, times = _motion_samples(args, robot)
+            if not args.no_wait:
+                viewer.wait()
+            viewer.play(poses, times)
+        if args.no_wait:
+            return 0
+        try:
+            while True:
+                time.sleep(0.5)
+        except KeyboardInterrupt:
+            print("stopped")
+    return 0
+
+
 def _demo(args: argparse.Namespace) -> int:
     from ..demo import run_demo
 
@@ -104,6 +154,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plots", help="folder for PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_simulate)
+
+    p = sub.add_parser(
+        "animate",
+        help="export a standalone HTML animation (opens in a browser without a server)",
+    )
+    add_robot_args(p)
+    p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
+    p.add_argument("--motion", choices=MOTION_KINDS, default="sinusoid", help="else this motion")
+    p.add_argument("--duration", type=float, default=4.0, help="[s] of the motion")
+    p.add_argument("--fps", type=float, default=30.0, help="key frames per second")
+    p.add_argument("-o", "--output", default="animation.html")
+    p.set_defaults(func=_animate)
+
+    p = sub.add_parser("view", help="the robot live in meshcat (a local server on 127.0.0.1)")
+    add_robot_args(p)
+    p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
+    p.add_argument("--motion", choices=(*MOTION_KINDS, "none"), default="none")
+    p.add_argument("--duration", type=float, default=4.0, help="[s] of the motion")
+    p.add_argument("--open", action="store_true", help="open the page in the web browser")
+    p.add_argument("--no-wait", action="store_true", help="show, then exit (no waiting)")
+    p.set_defaults(func=_view)
 
     p = sub.add_parser("demo", help="the main demo: the whole workflow on a preset")
     p.add_argument("--preset", default="simulator")
