@@ -99,3 +99,26 @@ def _is_se3(x: Any) -> bool:
 def _fmt(shape: tuple[int | None, ...]) -> str:
     dims = ["N" if s is None else str(s) for s in shape]
     return "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
+
+
+def check_states(pose: Any, *vectors: tuple[Any, str]) -> tuple[Any, ...]:
+    """Validate a pose (or batch) and 6-vectors ``(value, name)`` of matching form.
+
+    Returns ``(batched, T (N, 4, 4), *arrays (N, 6))``: one state gives N = 1.
+    """
+    T, batched = check_poses(pose)
+    out = []
+    for value, name in vectors:
+        arr, b = check_batch(value, (6,), name)
+        if b != batched:
+            raise InputError(
+                f"{name} must be {'a batch (N, 6)' if batched else 'one 6-vector'} to match "
+                f"the pose{'s' if batched else ''}, got shape {np.shape(value)}"
+            )
+        if arr.shape[0] != T.shape[0]:
+            raise InputError(
+                f"{name} holds {arr.shape[0]} states but pose holds {T.shape[0]}; give one "
+                "row per pose"
+            )
+        out.append(arr)
+    return (batched, T, *out)

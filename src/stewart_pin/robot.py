@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import closure, geometry, kinematics
-from ._checks import check_batch, check_poses
+from ._checks import check_poses, check_states
 from .closure import CartesianDynamics, InverseDynamicsResult
 from .description import RobotDescription
 from .exceptions import InputError
@@ -168,20 +168,6 @@ class StewartRobot:
         """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``)."""
         return LegDynamics(self.description)
 
-    def _states(self, pose: Any, *vectors: tuple[Any, str]) -> tuple[bool, np.ndarray, ...]:
-        T, batched = check_poses(pose)
-        out = [T]
-        for value, name in vectors:
-            arr, arr_batched = check_batch(value, (6,), name)
-            if arr.shape[0] != T.shape[0] or arr_batched != batched:
-                raise InputError(
-                    f"{name} has shape {np.shape(value)} but pose has "
-                    f"{'shape ' + str(np.shape(pose)) if batched else 'one state'}; give "
-                    "(6,) with one pose or (N, 6) with N poses"
-                )
-            out.append(arr)
-        return (batched, *out)
-
     def inverse_dynamics(
         self, pose: Any, twist: Any, accel: Any, details: bool = False, backend: str = "pinocchio"
     ) -> np.ndarray | InverseDynamicsResult:
@@ -204,7 +190,7 @@ class StewartRobot:
             from .codegen import compiled_backend
 
             return compiled_backend(self).inverse_dynamics(pose, twist, accel)
-        batched, T, V, A = self._states(pose, (twist, "twist"), (accel, "accel"))
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         res = closure.inverse_dynamics(
             self.description, self.leg_dynamics, T, V, A, self.max_condition
         )
@@ -227,7 +213,7 @@ class StewartRobot:
             from .codegen import compiled_backend
 
             return compiled_backend(self).direct_dynamics(pose, twist, gamma)
-        batched, T, V, G = self._states(pose, (twist, "twist"), (gamma, "gamma"))
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
         accel, _ = closure.direct_dynamics(
             self.description, self.leg_dynamics, T, V, G, self.max_condition
         )
@@ -235,7 +221,7 @@ class StewartRobot:
 
     def cartesian_dynamics(self, pose: Any, twist: Any) -> CartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays)."""
-        _, T, V = self._states(pose, (twist, "twist"))
+        _, T, V = check_states(pose, (twist, "twist"))
         return closure.cartesian_dynamics(
             self.description, self.leg_dynamics, T, V, self.max_condition
         )
@@ -250,7 +236,7 @@ class StewartRobot:
     def energy(self, pose: Any, twist: Any) -> np.ndarray | float:
         """Total mechanical energy of platform + legs [J]: kinetic plus gravitational
         potential (zero with every centre of mass at the origin of F0)."""
-        batched, T, V = self._states(pose, (twist, "twist"))
+        batched, T, V = check_states(pose, (twist, "twist"))
         legs = leg_state(self.description, T, V, check_limits=False)
         kin, pot = self.leg_dynamics.energy(legs.q, legs.qdot)
         kin_p, pot_p = closure.platform_energy(self.description, T, V)
@@ -265,7 +251,7 @@ class StewartRobot:
         """
         from .regressor import regressor_batch
 
-        batched, T, V, A = self._states(pose, (twist, "twist"), (accel, "accel"))
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
         return W if batched else W[0]
 

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_batch, check_poses
+from ._checks import check_states
 from .exceptions import InputError, SingularityError
 from .geometry import inverse_geometry_batch
 from .workspace import sample_states
@@ -110,28 +110,6 @@ def _solver(robot: StewartRobot) -> _TreeSolver:
 
 
 # ---------------------------------------------------------------------------- inputs
-def _batch_inputs(
-    pose: Any, vectors: list[tuple[Any, str]]
-) -> tuple[np.ndarray, list[np.ndarray], bool]:
-    """Validate a pose (or batch) and 6-vectors of matching batch form and size."""
-    T, batched = check_poses(pose)
-    out = []
-    for value, name in vectors:
-        arr, b = check_batch(value, (6,), name)
-        if b != batched:
-            raise InputError(
-                f"{name} must be {'a batch (N, 6)' if batched else 'one 6-vector'} to match "
-                f"the pose{'s' if batched else ''}, got shape {np.shape(value)}"
-            )
-        if arr.shape[0] != T.shape[0]:
-            raise InputError(
-                f"{name} holds {arr.shape[0]} states but pose holds {T.shape[0]}; give one "
-                "row per pose"
-            )
-        out.append(arr)
-    return T, out, batched
-
-
 def _unbatch(x: np.ndarray, batched: bool) -> np.ndarray:
     return x if batched else x[0]
 
@@ -280,7 +258,7 @@ def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, 
         InputError: bad shapes or values. SingularityError: a leg singularity.
     """
     s = _solver(robot)
-    T, (V,), batched = _batch_inputs(pose, [(twist, "twist")])
+    batched, T, V = check_states(pose, (twist, "twist"))
     qs = np.empty((len(T), s.model.nq))
     vs = np.empty((len(T), s.nv))
     for n in range(len(T)):
@@ -328,7 +306,7 @@ def constrained_inverse_dynamics(
             singularity).
     """
     s = _solver(robot)
-    T, (V, A), batched = _batch_inputs(pose, [(twist, "twist"), (accel, "accel")])
+    batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
     gammas = np.empty((len(T), 6))
     forces = np.empty((len(T), 6, 3))
     for n in range(len(T)):
@@ -355,7 +333,7 @@ def constrained_forward_dynamics(
         InputError: bad shapes or values. SingularityError: a singular configuration.
     """
     s = _solver(robot)
-    T, (V, G), batched = _batch_inputs(pose, [(twist, "twist"), (gamma, "gamma")])
+    batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
     out = np.empty((len(T), 6))
     for n in range(len(T)):
         out[n] = _forward_one(s, robot.description, T[n], V[n], G[n])
@@ -378,7 +356,7 @@ def energy(robot: StewartRobot, pose: Any, twist: Any) -> tuple[Any, Any]:
         ``(kinetic, potential)``: floats, or arrays of shape (N,) for a batch [J].
     """
     s = _solver(robot)
-    T, (V,), batched = _batch_inputs(pose, [(twist, "twist")])
+    batched, T, V = check_states(pose, (twist, "twist"))
     out = np.empty((len(T), 2))
     for n in range(len(T)):
         q, v = _state(s, robot.description, T[n], V[n])[:2]

@@ -46,9 +46,9 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from .._checks import check_array, check_batch, check_poses
+from .._checks import check_array, check_states
 from ..base_params import analytic_base_parameters
-from ..exceptions import InputError, SingularityError, StewartPinError
+from ..exceptions import SingularityError, StewartPinError
 from ..geometry import LEG_MIN_LENGTH, LEG_SINGULARITY_SIN, inverse_geometry_batch
 from ..kinematics import check_condition, inverse_jacobian_batch
 from . import _csource
@@ -251,22 +251,6 @@ def _as_c(x: Any) -> np.ndarray | None:
     return None
 
 
-def _reference_states(pose: Any, *vectors: tuple[Any, str]) -> tuple[Any, ...]:
-    """The reference validation of ``StewartRobot`` (same checks, same messages)."""
-    T, batched = check_poses(pose)
-    out = [T]
-    for value, name in vectors:
-        arr, arr_batched = check_batch(value, (6,), name)
-        if arr.shape[0] != T.shape[0] or arr_batched != batched:
-            raise InputError(
-                f"{name} has shape {np.shape(value)} but pose has "
-                f"{'shape ' + str(np.shape(pose)) if batched else 'one state'}; give "
-                "(6,) with one pose or (N, 6) with N poses"
-            )
-        out.append(arr)
-    return (batched, *out)
-
-
 class CompiledDynamics:
     """The generated IDM and DDM of a robot, compiled to C (or in CasADi's VM).
 
@@ -426,7 +410,7 @@ class CompiledDynamics:
             else:
                 T = None
         if T is None or V is None or X is None:
-            batched, T, V, X = _reference_states(pose, (twist, "twist"), (x, name))
+            batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
         n = 1 if not batched else T.shape[0]
         out = np.empty((n, 6))
         flags = np.empty(n, dtype=np.int32)
@@ -475,7 +459,7 @@ class CompiledDynamics:
         bits = int(np.bitwise_or.reduce(flags)) if flags.size else 0
         desc = self._desc
         if bits & _INPUT:
-            _reference_states(pose, (twist, "twist"), (x, name))
+            check_states(pose, (twist, "twist"), (x, name))
         if bits & _GEOMETRY or self._limits:
             inverse_geometry_batch(desc, T)
         max_condition = self.robot.max_condition
@@ -504,7 +488,7 @@ class CompiledDynamics:
         return getattr(self, attr)
 
     def _run_vm(self, which: str, pose: Any, twist: Any, x: Any, name: str, chi: np.ndarray):
-        batched, T, V, X = _reference_states(pose, (twist, "twist"), (x, name))
+        batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
         desc = self._desc
         inverse_geometry_batch(desc, T)
         check_condition(inverse_jacobian_batch(desc, T), self.robot.max_condition)
