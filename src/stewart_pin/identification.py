@@ -405,6 +405,16 @@ class IdentificationResult:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(self.estimate != 0, 100.0 * self.std / np.abs(self.estimate), np.inf)
 
+    def confidence_interval(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+        """``(lower, upper)`` (nb,) each: the two-sided interval ``estimate +- z std`` with
+        ``z`` the normal quantile of ``level`` (Gaussian noise, the estimated covariance)."""
+        if not 0.0 < level < 1.0:
+            raise InputError(f"level must be in (0, 1), got {level}")
+        import scipy.stats
+
+        z = float(scipy.stats.norm.ppf(0.5 + level / 2))
+        return self.estimate - z * self.std, self.estimate + z * self.std
+
     def relative_errors(self, true_values: Any, atol: float | None = None) -> np.ndarray:
         """``(estimate - true) / |true|`` (nb,), a fraction.
 
