@@ -70,3 +70,8 @@ def tree_configuration(model: pin.Model, T: np.ndarray, q_legs: np.ndarray) -> n
         for j in range(3):
             q[model.idx_qs[model.getJointId(f"leg{i + 1}_q{j + 1}")]] = q_legs[i, j]
     return q
+
+
+def rel_error(a: np.ndarray, b: np.ndarray) -> float:
+    """``max |a - b| / max |b|``: the relative error the tests state their tolerances in."""
+    return float(np.abs(np.asarray(a) - b).max() / max(np.abs(b).max(), 1e-300))

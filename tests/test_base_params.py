@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg
+from helpers import rel_error
 
 from stewart_pin import StewartRobot, random_robot
 from stewart_pin.base_params import (
@@ -28,10 +29,6 @@ ROBOTS = ["simulator", "paper", "random-1", "random-6"]
 @pytest.fixture(scope="module", params=ROBOTS)
 def robot(request) -> StewartRobot:
     return StewartRobot.from_preset(request.param)
-
-
-def _rel(a, b) -> float:
-    return float(np.abs(a - b).max() / np.abs(b).max())
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3, 4])
@@ -71,7 +68,7 @@ def test_base_regressor_reproduces_inverse_dynamics(robot):
         bp = base_parameters(robot, method)
         Wb = bp.regressor(poses, twists, accels)
         assert Wb.shape == (100, 6, 88)
-        assert _rel(Wb @ bp.values, gamma) < 1e-10
+        assert rel_error(Wb @ bp.values, gamma) < 1e-10
 
 
 def test_analytic_values_follow_the_paper_relations():

@@ -11,6 +11,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from conftest import get_robot
+from helpers import rel_error
 
 from stewart_pin import StewartRobot
 from stewart_pin.base_params import analytic_base_parameters
@@ -35,10 +36,6 @@ from stewart_pin.workspace import sample_states
 
 ROBOTS = ("simulator", "paper", "random-1")
 TOL = 1e-10  # relative to the largest value of the batch
-
-
-def _rel(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.abs(np.asarray(a) - b).max() / np.abs(b).max())
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -72,28 +69,28 @@ def test_compiled_matches_reference(name, backends, states):
     backend, robot = backends[name], get_robot(name)
     assert backend.kind == "compiled", backend.reason
     P, V, A, G = states[name]
-    assert _rel(backend.inverse_dynamics(P, V, A), G) < TOL
+    assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
     acc_ref = robot.direct_dynamics(P, V, G)
-    assert _rel(backend.direct_dynamics(P, V, G), acc_ref) < TOL
-    assert _rel(backend.direct_dynamics(P, V, G), A) < 1e-9  # DDM(IDM(x)) == x
+    assert rel_error(backend.direct_dynamics(P, V, G), acc_ref) < TOL
+    assert rel_error(backend.direct_dynamics(P, V, G), A) < 1e-9  # DDM(IDM(x)) == x
     for k in range(3):  # one state at a time, (6,) results
         g = backend.inverse_dynamics(P[k], V[k], A[k])
         assert g.shape == (6,)
-        assert _rel(g, G[k]) < TOL
+        assert rel_error(g, G[k]) < TOL
         a = backend.direct_dynamics(P[k], V[k], G[k])
         assert a.shape == (6,)
-        assert _rel(a, acc_ref[k]) < TOL
+        assert rel_error(a, acc_ref[k]) < TOL
     # Lists, float32 and non-contiguous inputs take the general path.
     g = backend.inverse_dynamics(P[0].tolist(), list(V[0]), tuple(A[0]))
-    assert _rel(g, G[0]) < TOL
+    assert rel_error(g, G[0]) < TOL
     g = backend.inverse_dynamics(np.asfortranarray(P[:5]), V[:5, ::1], A[:5])
-    assert _rel(g, G[:5]) < TOL
+    assert rel_error(g, G[:5]) < TOL
     g = backend.inverse_dynamics(P[:1], V[:1], A[:1])  # a batch of one
     assert g.shape == (1, 6)
-    assert _rel(g, G[:1]) < TOL
+    assert rel_error(g, G[:1]) < TOL
     se3 = [pin.SE3(T[:3, :3], T[:3, 3]) for T in P[:3]]
-    assert _rel(backend.inverse_dynamics(se3[0], V[0], A[0]), G[0]) < TOL
-    assert _rel(backend.inverse_dynamics(se3, V[:3], A[:3]), G[:3]) < TOL
+    assert rel_error(backend.inverse_dynamics(se3[0], V[0], A[0]), G[0]) < TOL
+    assert rel_error(backend.inverse_dynamics(se3, V[:3], A[:3]), G[:3]) < TOL
 
 
 def test_joint_limits_are_checked(states, cache_dir):
@@ -107,7 +104,7 @@ def test_joint_limits_are_checked(states, cache_dir):
     backend = compiled_backend(wide)
     assert backend.kind == "compiled"
     assert backend.library == CompiledDynamics(get_robot("random-1")).library
-    assert _rel(backend.inverse_dynamics(P, V, A), G) < TOL
+    assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
     narrow = StewartRobot(
         wide.description.replace(u_joint_limits=np.stack([lo + 1e-3, hi + 0.1], -1))
     )
@@ -130,10 +127,10 @@ def test_vm_fallback_without_compiler(name, states, monkeypatch):
     assert backend.kind == "vm"
     assert "no C compiler" in backend.reason
     P, V, A, G = (x[:40] for x in states[name])
-    assert _rel(backend.inverse_dynamics(P, V, A), G) < TOL
-    assert _rel(backend.inverse_dynamics(P[0], V[0], A[0]), G[0]) < TOL
+    assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
+    assert rel_error(backend.inverse_dynamics(P[0], V[0], A[0]), G[0]) < TOL
     acc = get_robot(name).direct_dynamics(P, V, G)
-    assert _rel(backend.direct_dynamics(P, V, G), acc) < TOL
+    assert rel_error(backend.direct_dynamics(P, V, G), acc) < TOL
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # warned once only
         CompiledDynamics(get_robot(name))
@@ -145,7 +142,7 @@ def test_failed_compilation_falls_back(tmp_path, monkeypatch, states):
         backend = CompiledDynamics(get_robot("paper"), cache_dir=tmp_path, compiler="false")
     assert backend.kind == "vm"
     P, V, A, G = (x[:5] for x in states["paper"])
-    assert _rel(backend.inverse_dynamics(P, V, A), G) < TOL
+    assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
 
 
 def test_cache_is_reused(backends, cache_dir):
@@ -178,10 +175,12 @@ def test_base_values_are_an_input(backends, states):
     P, V, A, _ = states["random-1"]
     ref = StewartRobot(other).inverse_dynamics(P[:20], V[:20], A[:20])
     backend = backends["random-1"]
-    assert _rel(backend.inverse_dynamics(P[:20], V[:20], A[:20], base_values=values), ref) < TOL
-    assert _rel(backend.inverse_dynamics(P[0], V[0], A[0], base_values=values), ref[0]) < TOL
+    assert (
+        rel_error(backend.inverse_dynamics(P[:20], V[:20], A[:20], base_values=values), ref) < TOL
+    )
+    assert rel_error(backend.inverse_dynamics(P[0], V[0], A[0], base_values=values), ref[0]) < TOL
     acc = backend.direct_dynamics(P[:20], V[:20], ref, base_values=values)
-    assert _rel(acc, A[:20]) < 1e-9
+    assert rel_error(acc, A[:20]) < 1e-9
     with pytest.raises(InputError, match="base_values"):
         backend.inverse_dynamics(P[0], V[0], A[0], base_values=values[:10])
 
@@ -201,16 +200,16 @@ def test_static_pivot_growth_is_solved_again(backends):
     _, aux = m.idm_guarded(T.reshape(16), V, A, m.constants.parameter_values)
     assert float(aux[AUX_IDM_GROWTH]) > compiled_module.GROWTH_LIMIT
     ref = robot.inverse_dynamics(T, V, A)
-    assert _rel(backends["random-1"].inverse_dynamics(T, V, A), ref) < TOL
+    assert rel_error(backends["random-1"].inverse_dynamics(T, V, A), ref) < TOL
 
 
 def test_stream(backends, states):
     P, V, A, G = states["simulator"]
     chunks = ((P[s : s + 64], V[s : s + 64], A[s : s + 64]) for s in range(0, 200, 64))
     out = np.concatenate(list(backends["simulator"].inverse_dynamics_stream(chunks)))
-    assert _rel(out, G) < TOL
+    assert rel_error(out, G) < TOL
     accs = backends["simulator"].direct_dynamics_stream([(P, V, G)])
-    assert _rel(next(iter(accs)), A) < 1e-9
+    assert rel_error(next(iter(accs)), A) < 1e-9
 
 
 # ------------------------------------------------------------------ errors
@@ -289,7 +288,7 @@ def test_singular_poses_raise(states):
     )
     # The guard's bound flags states the exact check then accepts: no error.
     loose = StewartRobot(desc, max_condition=float(np.max(strict.condition_number(P))) * 1.5)
-    assert _rel(compiled_backend(loose).inverse_dynamics(P, V, A), G) < TOL
+    assert rel_error(compiled_backend(loose).inverse_dynamics(P, V, A), G) < TOL
 
 
 # ------------------------------------------------------------------ symbolic variants
@@ -302,16 +301,16 @@ def test_variants_and_stages(states):
     # Quaternion pose input [x, y, z, qx, qy, qz, qw].
     q = np.array([np.r_[T[:3, 3], pin.Quaternion(T[:3, :3]).coeffs()] for T in P])
     quat = generate_models(robot.description, pose="quaternion")
-    assert _rel(np.array(quat.idm(q.T, V.T, A.T, chi)).T, G) < TOL
+    assert rel_error(np.array(quat.idm(q.T, V.T, A.T, chi)).T, G) < TOL
     # Values baked in.
     num = generate_models(robot.description, parameters="numeric")
-    assert _rel(np.array(num.idm(P.reshape(n, 16).T, V.T, A.T, 0 * chi)).T, G) < TOL
+    assert rel_error(np.array(num.idm(P.reshape(n, 16).T, V.T, A.T, 0 * chi)).T, G) < TOL
     # Essential parameters: the base model with the other 36 set to zero.
     ess = generate_models(robot.description, parameters="essential")
     kept = np.array([float(not ess_name_zero(nm)) for nm in base.constants.parameter_names])
     g_ess = np.array(ess.idm(P.reshape(n, 16).T, V.T, A.T, chi)).T
     g_base = np.array(base.idm(P.reshape(n, 16).T, V.T, A.T, chi * kept)).T
-    assert _rel(g_ess, g_base) < TOL
+    assert rel_error(g_ess, g_base) < TOL
     # The stages composed give the flat models.
     s = base.idm_stages
     K, vdg = s.shared(V.T, A.T)
@@ -320,12 +319,12 @@ def test_variants_and_stages(states):
     wrenches = np.vstack([np.array(lg[1]) for lg in legs])
     Hz = np.vstack([np.array(lg[2]) for lg in legs])
     F_p = s.platform(P.reshape(n, 16).T, V.T, A.T, K, vdg, chi)
-    assert _rel(np.array(s.closure(rows, wrenches, Hz, F_p)).T, G) < TOL
+    assert rel_error(np.array(s.closure(rows, wrenches, Hz, F_p)).T, G) < TOL
     d = base.ddm_stages
     dlegs = [f(P.reshape(n, 16).T, V.T, G[None, :, k], chi) for k, f in enumerate(d.legs)]
     parts = [np.vstack([np.array(lg[j]) for lg in dlegs]) for j in range(3)]
     Ip, hp = d.platform(P.reshape(n, 16).T, V.T, chi)
-    assert _rel(np.array(d.closure(*parts, Ip, hp)).T, A) < 1e-9
+    assert rel_error(np.array(d.closure(*parts, Ip, hp)).T, A) < 1e-9
 
 
 def ess_name_zero(name: str) -> bool:

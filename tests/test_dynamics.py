@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import rel_error
 
 from stewart_pin import (
     InputError,
@@ -35,16 +36,12 @@ def robot(request) -> StewartRobot:
     return StewartRobot.from_preset(request.param)
 
 
-def _rel(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
-
-
 def test_round_trip_direct_of_inverse(robot):
     poses, twists, accels = sample_states(robot.description, 200, 11)
     gamma = robot.inverse_dynamics(poses, twists, accels)
     back = robot.direct_dynamics(poses, twists, gamma)
     # Exact algebra on both sides: round-off only.
-    assert _rel(back, accels) < 1e-10
+    assert rel_error(back, accels) < 1e-10
 
 
 def test_single_state_equals_batch(robot):
@@ -70,14 +67,14 @@ def test_details_are_consistent(robot):
     poses, twists, accels = sample_states(robot.description, 20, 4)
     res = robot.inverse_dynamics(poses, twists, accels, details=True)
     total = res.platform_share + res.leg_shares.sum(axis=1)
-    assert _rel(total, res.gamma) < 1e-12
+    assert rel_error(total, res.gamma) < 1e-12
     # The leg forces on the platform balance its Newton-Euler equations (eq. 30):
     # sum_i [f_i; L_i x f_i] = F_p.
     L = res.legs.L
     wrench = np.concatenate(
         [res.leg_forces.sum(axis=1), np.cross(L, res.leg_forces).sum(axis=1)], axis=-1
     )
-    assert _rel(wrench, res.F_p) < 1e-10
+    assert rel_error(wrench, res.F_p) < 1e-10
 
 
 def _trajectory(robot: StewartRobot, t: float):
@@ -190,7 +187,7 @@ def test_massless_legs_reduce_to_platform_newton_euler():
         f_b -= platform * pin.Motion(R.T @ g, np.zeros(3))  # gravity as a body force
         wrench = np.concatenate([R @ f_b.linear, R @ f_b.angular])  # F0 axes, about O_p
         expected = np.linalg.solve(robot.inverse_jacobian(T).T, wrench)
-        assert _rel(G, expected) < 1e-10
+        assert rel_error(G, expected) < 1e-10
 
 
 def test_leg_terms_match_each_three_dof_model():
@@ -228,7 +225,7 @@ def test_gravity_compensation_is_the_potential_gradient(name):
             U.append(robot.energy(Tk, np.zeros(6)))
         grad[k] = (U[0] - U[1]) / (2 * h)
     wrench = robot.inverse_jacobian(T).T @ static
-    assert _rel(wrench, grad) < 1e-7
+    assert rel_error(wrench, grad) < 1e-7
     # Holding still: the direct model under these forces gives no acceleration.
     acc = robot.direct_dynamics(T, np.zeros(6), static)
     assert np.abs(acc).max() < 1e-10 * np.abs(robot.description.gravity).max()
@@ -268,9 +265,9 @@ def test_compiled_backend_agrees_with_the_pinocchio_path(tmp_path, monkeypatch):
     poses, twists, accels = sample_states(robot.description, 50, 6)
     ref = robot.inverse_dynamics(poses, twists, accels)
     fast = robot.inverse_dynamics(poses, twists, accels, backend="compiled")
-    assert _rel(fast, ref) < 1e-10
+    assert rel_error(fast, ref) < 1e-10
     acc = robot.direct_dynamics(poses, twists, ref, backend="compiled")
-    assert _rel(acc, accels) < 1e-10
+    assert rel_error(acc, accels) < 1e-10
     single = robot.direct_dynamics(poses[0], twists[0], ref[0], backend="compiled")
     assert single.shape == (6,)
     with pytest.raises(InputError, match="unknown backend 'fast'"):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import rel_error
 
 from stewart_pin import StewartRobot, random_robot
 from stewart_pin.inertia import random_physical_khalil
@@ -21,10 +22,6 @@ ROBOTS = ["simulator", "paper", "random-1", "random-6"]
 @pytest.fixture(scope="module", params=ROBOTS)
 def robot(request) -> StewartRobot:
     return StewartRobot.from_preset(request.param)
-
-
-def _rel(a, b) -> float:
-    return float(np.abs(a - b).max() / np.abs(b).max())
 
 
 def test_names_and_order():
@@ -43,7 +40,7 @@ def test_regressor_times_parameters_is_inverse_dynamics(robot):
     W = robot.regressor(poses, twists, accels)
     gamma = robot.inverse_dynamics(poses, twists, accels)
     assert W.shape == (200, 6, 190)
-    assert _rel(W @ standard_parameters(robot.description), gamma) < 1e-10
+    assert rel_error(W @ standard_parameters(robot.description), gamma) < 1e-10
     single = robot.regressor(poses[0], twists[0], accels[0])
     np.testing.assert_allclose(single, W[0], rtol=0, atol=1e-12 * np.abs(W[0]).max())
 
@@ -65,7 +62,7 @@ def test_regressor_is_linear_in_any_inertial_parameters():
             leg_inertia=legs, platform_inertia=random_physical_khalil(rng, 20.0, 0.3, 0.1)
         )
         gamma = StewartRobot(other).inverse_dynamics(poses, twists, accels)
-        assert _rel(W @ standard_parameters(other), gamma) < 1e-10
+        assert rel_error(W @ standard_parameters(other), gamma) < 1e-10
 
 
 def test_with_standard_parameters_round_trip():
