@@ -354,3 +354,20 @@ def test_docs_sidecar_excerpt_parses_and_matches_the_desktop_preset():
     assert excerpt["closures"][0] == full["closures"][0]
     assert excerpt["actuated_joints"] == full["actuated_joints"]
     assert len(parse_closures(excerpt)) == 1
+
+
+def test_leg_models_from_one_parse_equal_each_built_alone():
+    from stewart_pin.models import build_leg_model, build_leg_models
+
+    desc = get_robot("random-1").description
+    for i, model in enumerate(build_leg_models(desc)):
+        alone = build_leg_model(desc, i)
+        assert list(model.names) == list(alone.names)
+        for jid in range(1, model.njoints):
+            np.testing.assert_array_equal(
+                model.inertias[jid].toDynamicParameters(),
+                alone.inertias[jid].toDynamicParameters(),
+            )
+            np.testing.assert_array_equal(
+                model.jointPlacements[jid].homogeneous, alone.jointPlacements[jid].homogeneous
+            )

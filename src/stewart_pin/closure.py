@@ -9,6 +9,7 @@ every wrench is about O_p (the origin of Fp).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -96,18 +97,34 @@ class InverseDynamicsResult:
         H: (N, 6, 3) each leg's own inverse dynamics ``H_i`` (eq. 20).
         H_x: (N, 6, 3) its Cartesian form ``J_3i^-T H_i`` at P_i (eq. 22).
         F_p, F_leg: (N, 6) the platform and leg wrenches about O_p (eq. 24, 32).
+        J_inv: (N, 6, 6) ``Jp^-1``.
         legs: the leg kinematic state used.
+
+    ``leg_forces``, ``platform_share`` and ``leg_shares`` are computed on first access, so
+    that the plain model (``gamma`` only) does not pay for them.
     """
 
     gamma: np.ndarray
-    leg_forces: np.ndarray
-    platform_share: np.ndarray
-    leg_shares: np.ndarray
     H: np.ndarray
     H_x: np.ndarray
     F_p: np.ndarray
     F_leg: np.ndarray
+    J_inv: np.ndarray
     legs: LegState
+
+    @cached_property
+    def leg_forces(self) -> np.ndarray:
+        return -self.H_x + self.legs.frames.a * self.gamma[..., None]
+
+    @cached_property
+    def platform_share(self) -> np.ndarray:
+        return _transpose_solve(self.J_inv, self.F_p)
+
+    @cached_property
+    def leg_shares(self) -> np.ndarray:
+        per_leg = np.concatenate([self.H_x, cross(self.legs.L, self.H_x)], axis=-1)
+        J_T = np.swapaxes(self.J_inv, 1, 2)[:, None]
+        return np.linalg.solve(J_T, per_leg[..., None])[..., 0]
 
 
 def inverse_dynamics(
@@ -128,20 +145,7 @@ def inverse_dynamics(
     F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
     F_leg = _wrench_at_origin(H_x, legs.L)
     gamma = _transpose_solve(J_inv, F_p + F_leg)
-    per_leg = np.concatenate([H_x, cross(legs.L, H_x)], axis=-1)  # (N, 6, 6)
-    leg_shares = np.linalg.solve(np.swapaxes(J_inv, 1, 2)[:, None], per_leg[..., None])[..., 0]
-    a = legs.frames.a
-    return InverseDynamicsResult(
-        gamma=gamma,
-        leg_forces=-H_x + a * gamma[..., None],
-        platform_share=_transpose_solve(J_inv, F_p),
-        leg_shares=leg_shares,
-        H=H,
-        H_x=H_x,
-        F_p=F_p,
-        F_leg=F_leg,
-        legs=legs,
-    )
+    return InverseDynamicsResult(gamma, H, H_x, F_p, F_leg, J_inv, legs)
 
 
 @dataclass(frozen=True)

@@ -280,7 +280,8 @@ def _upright_home_pose(desc: RobotDescription) -> np.ndarray:
     z_hi = z_lo + 2.0 * desc.stroke[1] + np.linalg.norm(B - B.mean(0), axis=1).max()
 
     def mean_length(z: float) -> float:
-        return float(np.linalg.norm(T[:3, 3] + [0, 0, z - T[2, 3]] + P - B, axis=1).mean())
+        origin = np.array([T[0, 3], T[1, 3], z])
+        return float(np.linalg.norm(origin + P - B, axis=1).mean())
 
     target = desc.stroke.mean()
     if mean_length(z_lo) > target:

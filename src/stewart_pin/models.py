@@ -2,7 +2,7 @@
 
 - :func:`build_tree` : the 24-dof tree (platform free-flyer + 18 leg joints) with the six
   3D loop-closure constraints (``pin.RigidConstraintModel`` CONTACT_3D, LOCAL).
-- :func:`build_leg_model` : the 3-dof model of one leg.
+- :func:`build_leg_model` / :func:`build_leg_models` : the 3-dof model of one leg / of each.
 - :func:`build_legs_model` : the six legs side by side, fixed base, 18 dof: one RNEA /
   CRBA call on it is the six legs' RNEA / CRBA (the chains share no body).
 
@@ -161,6 +161,12 @@ def build_leg_model(desc: RobotDescription, leg: int) -> pin.Model:
     """
     tree = _model_from_urdf_text(urdf_string(desc), desc.gravity)
     return _reduced(tree, [leg])
+
+
+def build_leg_models(desc: RobotDescription) -> list[pin.Model]:
+    """The six 3-dof leg models (as :func:`build_leg_model`), from one parse of the URDF."""
+    tree = _model_from_urdf_text(urdf_string(desc), desc.gravity)
+    return [_reduced(tree, [leg]) for leg in range(6)]
 
 
 def build_legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:

@@ -24,7 +24,7 @@ from .description import RobotDescription
 from .exceptions import InputError
 from .kinematics import MAX_CONDITION, leg_state
 from .legs import LegDynamics
-from .models import TreeModel, build_leg_model, build_legs_model, build_tree
+from .models import TreeModel, build_leg_models, build_legs_model, build_tree
 from .presets import preset
 from .urdf import urdf_string, write_urdf
 
@@ -99,7 +99,7 @@ class StewartRobot:
     @cached_property
     def leg_models(self) -> list[pin.Model]:
         """The six 3-dof leg models."""
-        return [build_leg_model(self.description, i) for i in range(6)]
+        return build_leg_models(self.description)
 
     @cached_property
     def legs_model(self) -> tuple[pin.Model, np.ndarray]:
