@@ -36,6 +36,7 @@ import pinocchio as pin
 
 import stewart_pin
 from stewart_pin import StewartRobot
+from stewart_pin._io import write_text_atomic
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
 from stewart_pin.validation import (
@@ -239,7 +240,7 @@ def report(args: argparse.Namespace) -> dict[str, object]:
         ratio = result["ratio_to_pin_constraintDynamics"][name]
         print(f"{name:48s} {t:10.2f} {ratio:26.2f}")
     if args.json:
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        write_text_atomic(args.json, json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.json}")
     return result
 

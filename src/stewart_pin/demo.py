@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._io import atomic_open
 from .control import ComputedTorqueController, tracking_errors
 from .exports import write_robot_files
 from .robot import StewartRobot
@@ -45,7 +46,8 @@ def _validation_figure(path: Path, t_idm, err_idm, t_ddm, err_ddm) -> Path:
     ax.set_ylabel("relative difference")
     ax.set_title("The paper's models against Pinocchio's closed-loop tree")
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    with atomic_open(path, "wb") as handle:
+        fig.savefig(handle, format="png", dpi=110)
     return path
 
 

@@ -20,6 +20,7 @@ Legs are numbered 1..6 in messages (as in the paper) and 0..5 as array indices.
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +29,8 @@ from typing import Any
 import numpy as np
 
 from ._checks import check_array, check_pose
-from .exceptions import DescriptionError, FileFormatError, InputError
+from ._io import write_text_atomic
+from .exceptions import DescriptionError, FileFormatError, InputError, RobotNameError
 from .inertia import check_physical
 
 #: Keys of the dictionary form (``to_dict`` / ``from_dict``) that must be present.
@@ -45,6 +47,16 @@ REQUIRED_KEYS = (
 #: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess).
 OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose")
 
+#: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
+#: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
+#: name (no folder, not hidden, not an option), and safe text in XML, YAML, JSON and HTML.
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+#: The rule of :data:`NAME_PATTERN`, as the error messages and the docs state it.
+NAME_RULE = (
+    "1 to 64 characters among A-Z a-z 0-9 _ . -, starting with a letter or a digit, "
+    "without '..' or '--'"
+)
+
 #: Tolerance on the orthonormality of the leg base rotations.
 FRAME_TOLERANCE = 1e-9
 #: Relative distance (to the attachment circle's size) under which two points are "repeated".
@@ -55,7 +67,10 @@ POINT_TOLERANCE = 1e-9
 class RobotDescription:
     """A validated, immutable Gough-Stewart robot description (see the module docstring).
 
-    Arrays are copied on construction and made read-only.
+    Arrays are copied on construction and made read-only. ``name`` names the robot and
+    the files written for it (``<name>.urdf``...): it follows :data:`NAME_RULE` (1 to 64
+    characters among ``A-Z a-z 0-9 _ . -``, starting with a letter or a digit, without
+    ``..`` or ``--``; :func:`check_robot_name`), else :class:`RobotNameError`.
     """
 
     base_points: np.ndarray
@@ -70,6 +85,8 @@ class RobotDescription:
     home_pose: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        check_robot_name(self.name)
+
         def set_(key: str, value: np.ndarray) -> None:
             value = np.array(value, dtype=np.float64)
             value.flags.writeable = False
@@ -94,8 +111,6 @@ class RobotDescription:
                 set_("home_pose", check_pose(self.home_pose, "home_pose"))
         except InputError as e:
             raise DescriptionError(f"robot description '{self.name}': {e}") from e
-        if not isinstance(self.name, str) or not self.name:
-            raise DescriptionError(f"robot name must be a non-empty string, got {self.name!r}")
         self._check_points(self.base_points, "base", "B")
         self._check_points(self.platform_points, "platform", "P")
         self._check_frames()
@@ -187,13 +202,14 @@ class RobotDescription:
         return RobotDescription(**d)
 
     def write(self, path: str | Path) -> Path:
-        """Write the description to ``path`` (``.toml`` or ``.json``, SI units)."""
+        """Write the description to ``path`` (``.toml`` or ``.json``, SI units), atomically
+        (a temporary file in the folder, then renamed)."""
         path = Path(path)
         d = self.to_dict()
         if path.suffix == ".json":
-            path.write_text(json.dumps(d, indent=2) + "\n")
+            write_text_atomic(path, json.dumps(d, indent=2) + "\n")
         elif path.suffix == ".toml":
-            path.write_text(FILE_HEADER + _toml(d))
+            write_text_atomic(path, FILE_HEADER + _toml(d))
         else:
             raise FileFormatError(f"unknown description file type '{path.suffix}' (.toml, .json)")
         return path
@@ -238,6 +254,25 @@ class RobotDescription:
         """A length scale of the robot: the mean base-point distance to their centroid [m]."""
         c = self.base_points - self.base_points.mean(axis=0)
         return float(np.linalg.norm(c, axis=1).mean())
+
+
+def check_robot_name(name: Any) -> str:
+    """``name`` if it is a valid robot name (:data:`NAME_RULE`), else
+    :class:`RobotNameError` (a :class:`DescriptionError`) naming the rule."""
+    if not isinstance(name, str) or not name:
+        raise RobotNameError(
+            f"robot name must be a non-empty string, got {name!r}; a name must have {NAME_RULE}",
+            name,
+        )
+    if NAME_PATTERN.fullmatch(name) is None or ".." in name or "--" in name:
+        shown = repr(name) if len(name) <= 80 else repr(name[:80]) + "..."
+        raise RobotNameError(
+            f"robot name {shown} is not allowed: a name must have {NAME_RULE} (it names "
+            "files and is written into URDF, MJCF and YAML); rename the robot, e.g. "
+            "'my_hexapod-2'",
+            name,
+        )
+    return name
 
 
 FILE_HEADER = """\

@@ -117,3 +117,16 @@ class IdentificationError(StewartPinError, ValueError):
     ) -> None:
         super().__init__(message)
         self.rank, self.n_parameters = rank, n_parameters
+
+
+class RobotNameError(DescriptionError):
+    """A robot name outside the safe set (``stewart_pin.description.NAME_RULE``): it would
+    name files outside their folder or break the markup written for the robot.
+
+    Attributes:
+        value: the refused name (any type, as received).
+    """
+
+    def __init__(self, message: str, value: object) -> None:
+        super().__init__(message)
+        self.value = value

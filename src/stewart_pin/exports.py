@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ._safe import file_in_folder
 from .description import RobotDescription
 from .mjcf import write_mjcf
 from .urdf import write_urdf
@@ -38,11 +39,16 @@ def robot_file_names(name: str) -> list[str]:
 
 def write_robot_files(desc: RobotDescription, folder: str | Path) -> list[Path]:
     """Write the description, URDF, closures, xacro arguments and MJCF of ``desc`` into
-    ``folder`` (created if needed); returns the paths, in :func:`robot_file_names` order."""
+    ``folder`` (created if needed); returns the paths, in :func:`robot_file_names` order.
+
+    Every file is written atomically (a temporary file in ``folder``, then renamed). The
+    file names come from the robot name and are checked to stay directly inside ``folder``
+    (:func:`stewart_pin._safe.file_in_folder`, :class:`InputError` otherwise).
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     toml_path, urdf_path, _, yaml_path, xml_path = (
-        folder / n for n in robot_file_names(desc.name)
+        file_in_folder(folder, n) for n in robot_file_names(desc.name)
     )
     desc.write(toml_path)
     urdf_path, closures_path = write_urdf(desc, urdf_path)

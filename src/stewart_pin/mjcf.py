@@ -37,6 +37,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ._io import write_text_atomic
+from ._safe import check_xml_text
 from .description import RobotDescription
 from .geometry import inverse_geometry
 from .inertia import urdf_inertial_from_khalil
@@ -169,10 +171,13 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
         desc: the robot description.
         pinocchio_layout: nest the platform in ``base_link`` (at the identity) so that
             Pinocchio's parser reads it; MuJoCo refuses such a file.
+
+    The robot name goes into the ``model`` attribute only, escaped by ElementTree (and
+    refused by :class:`InputError` if XML cannot hold it); the comments are fixed text.
     """
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
-    root = ET.Element("mujoco", model=desc.name)
+    root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
     ET.SubElement(root, "option", gravity=_vec(desc.gravity))
     default = ET.SubElement(root, "default")
@@ -222,8 +227,9 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
 
 
 def write_mjcf(desc: RobotDescription, path: str | Path, pinocchio_layout: bool = False) -> Path:
-    """Write :func:`mjcf_string` to ``path``; returns the path."""
+    """Write :func:`mjcf_string` to ``path`` (atomically: a temporary file in the folder,
+    then renamed); returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(mjcf_string(desc, pinocchio_layout))
+    write_text_atomic(path, mjcf_string(desc, pinocchio_layout))
     return path

@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._checks import check_array, check_pose
+from ._io import atomic_open
 from .exceptions import FileFormatError, InputError, StewartPinError
 from .tables import (
     FORCE_COLUMNS,
@@ -98,7 +99,8 @@ class SimulationResult:
         leg lengths; SI units)."""
         path = Path(path)
         if path.suffix == ".npz":
-            np.savez(path, **{k: getattr(self, k) for k in _FIELDS})
+            with atomic_open(path, "wb") as handle:
+                np.savez(handle, **{k: getattr(self, k) for k in _FIELDS})
             return path
         if path.suffix == ".csv":
             states = state_table(self.t, self.poses, self.twists, self.accels)

@@ -2,7 +2,11 @@
 
 A table is a header line naming its columns (any order on reading) and one row per
 sample, SI units, numbers written with Python's ``repr`` so that reading them back gives
-the same floats. Lines starting with ``#`` and blank lines are skipped. The columns:
+the same floats. Lines starting with ``#`` and blank lines are skipped. The file is UTF-8
+(a byte-order mark is allowed) and every line, the last one included, ends with a line
+break: a file whose last line has none may have been cut while it was written, and is
+refused (if it is complete, add the line break). Files are written atomically (a
+temporary file in the folder, renamed into place). The columns:
 
 - :data:`STATE_COLUMNS`: ``t`` [s]; ``x y z``, the position of O_p in F0 [m];
   ``qx qy qz qw``, the unit quaternion of 0Rp; ``vx vy vz wx wy wz``, the twist [v, w] in
@@ -15,6 +19,7 @@ the same floats. Lines starting with ``#`` and blank lines are skipped. The colu
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -22,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ._io import atomic_open
 from .exceptions import FileFormatError
 
 STATE_COLUMNS: tuple[str, ...] = (
@@ -77,9 +83,10 @@ def states_from_table(rows: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def write_csv(path: str | Path, columns: Sequence[str], table: np.ndarray) -> Path:
-    """Write ``table`` (N, len(columns)) under a header of ``columns``."""
+    """Write ``table`` (N, len(columns)) under a header of ``columns``, atomically (a
+    temporary file in the folder, renamed into place: an error leaves the previous file)."""
     path = Path(path)
-    with path.open("w", newline="") as f:
+    with atomic_open(path, "w") as f:
         f.write(",".join(columns) + "\n")
         for row in np.asarray(table, dtype=float):
             f.write(",".join(repr(float(v)) for v in row) + "\n")
@@ -91,16 +98,20 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
     order of ``columns``.
 
     Raises:
-        FileFormatError: a missing, unknown or repeated column, a row with the wrong number
-            of fields, a non-numeric or non-finite value, a non-unit quaternion (when the
-            table has ``qx..qw``), a time ``t`` that does not increase, or fewer than
-            ``min_rows`` rows; the message names the line.
+        FileFormatError: text that is not UTF-8, a last line without its line break (a
+            file cut short), a missing, unknown or repeated column, a row with the wrong
+            number of fields, a non-numeric or non-finite value, a non-unit quaternion
+            (when the table has ``qx..qw``), a time ``t`` that does not increase, or fewer
+            than ``min_rows`` rows; the message names the line.
         OSError: the file cannot be read.
     """
     path = Path(path)
     columns = tuple(columns)
-    with path.open(newline="") as f:
-        lines = [(k, line) for k, line in enumerate(f, 1) if line.strip() and line[0] != "#"]
+    lines = [
+        (k, line) for k, line in enumerate(_read_lines(path), 1) if line.strip() and line[0] != "#"
+    ]
+    # A last line without its line break: the file may have been cut while written.
+    cut = bool(lines) and not lines[-1][1].endswith(("\n", "\r"))
     if not lines:
         raise FileFormatError(f"{path}: no header line; expected {','.join(columns)}")
     header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
@@ -124,9 +135,10 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
     for r, (k, line) in enumerate(lines[1:]):
         fields = next(csv.reader([line]))
         if len(fields) != len(header):
+            hint = _CUT_HINT if cut and r == len(lines) - 2 else ""
             raise FileFormatError(
                 f"{path}, line {k}: {len(fields)} fields, expected {len(header)} (one per "
-                "header column)"
+                f"header column){hint}"
             )
         for c, j in enumerate(order):
             text = fields[j].strip()
@@ -141,6 +153,13 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
                     f"{path}, line {k}, column '{columns[c]}': non-finite value {text!r}"
                 )
             rows[r, c] = value
+    if cut:
+        k, line = lines[-1]
+        shown = line if len(line) <= 60 else line[:60] + "..."
+        raise FileFormatError(
+            f"{path}, line {k}: no line break after the last line ({shown!r}){_CUT_HINT}; "
+            "every line must end with a line break (add one if the file is complete)"
+        )
     if "qx" in columns:
         q0 = columns.index("qx")
         quat = rows[:, q0 : q0 + 4]
@@ -169,3 +188,20 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
             f"at least {max(int(min_rows), 1)} needed"
         )
     return rows
+
+
+_CUT_HINT = ": the file ends inside this line, it was probably cut short while being written"
+
+
+def _read_lines(path: Path) -> list[str]:
+    """The lines of a UTF-8 file (optional byte-order mark), line breaks kept."""
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise FileFormatError(
+            f"{path}, line {line}: not UTF-8 text ({e.reason} at byte {e.start}); save the "
+            "table as UTF-8"
+        ) from None
+    return list(io.StringIO(text, newline=""))

@@ -7,12 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .._safe import file_in_folder
 from ._common import add_robot_args, pose_from_args, robot_from_args
 
 
 def _urdf(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
-    out = Path(args.output or f"{robot.name}.urdf")
+    # The default name comes from the robot: checked to stay in the working folder.
+    out = Path(args.output) if args.output else file_in_folder(".", f"{robot.name}.urdf")
     urdf, sidecar = robot.write_urdf(out)
     print(f"wrote {urdf} and {sidecar}")
     return 0

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._io import write_text_atomic
+from .._safe import file_in_folder
 from ._common import add_robot_args
 from ._common import robot_from_args as _robot
 
@@ -81,7 +83,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         measurements = simulate_measurements(robot, trajectory, noise, args.seed)
         stem = out.with_name(out.stem + "_measurements.csv") if out else None
         csv_path = write_measurements_csv(
-            stem or Path(f"{robot.name}_measurements.csv"), measurements
+            stem or file_in_folder(".", f"{robot.name}_measurements.csv"), measurements
         )
         lines.append(
             f"simulated measurements: exciting trajectory ({args.harmonics} harmonics of "
@@ -123,7 +125,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     text = "\n".join(lines)
     print(text)
     if out:
-        out.write_text(text + "\n")
+        write_text_atomic(out, text + "\n")
         print(f"wrote {out}")
     return 0
 

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._checks import check_array, check_poses
+from .._io import atomic_open
 from ..exceptions import InputError
 
 if TYPE_CHECKING:
@@ -209,5 +210,6 @@ def save_figures(
     paths = {}
     for name, fig in figures.items():
         paths[name] = folder / f"{name}.png"
-        fig.savefig(paths[name], dpi=dpi)
+        with atomic_open(paths[name], "wb") as handle:
+            fig.savefig(handle, format="png", dpi=dpi)
     return paths

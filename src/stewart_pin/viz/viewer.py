@@ -35,6 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._checks import check_array, check_pose, check_poses
+from .._io import write_text_atomic
 from ..exceptions import InputError
 from ..geometry import platform_points_in_base
 from ..urdf import VisualSizes
@@ -423,7 +424,7 @@ class Viewer:
             html = vis.static_html()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(html, encoding="utf-8")
+        write_text_atomic(path, html)
         return path
 
     def animation(self, visualizer: Any, q: np.ndarray, times: np.ndarray, fps: float) -> Any:
