@@ -636,3 +636,18 @@ def test_utf8_byte_order_mark_is_accepted(tmp_path, good, suffix):
     path = tmp_path / f"bom{suffix}"
     path.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
     assert_same(RobotDescription.read(path), d)
+
+
+def test_utf8_byte_order_mark_is_accepted_in_csv_tables(tmp_path):
+    from stewart_pin.tables import STATE_COLUMNS, read_csv
+
+    rows = np.zeros((2, len(STATE_COLUMNS)))
+    rows[:, 0], rows[:, 7] = [0.0, 0.5], 1.0  # t, qw
+    text = (
+        ",".join(STATE_COLUMNS)
+        + "\n"
+        + "".join(",".join(repr(float(v)) for v in row) + "\n" for row in rows)
+    )
+    path = tmp_path / "bom.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode())  # as spreadsheet tools save UTF-8
+    np.testing.assert_array_equal(read_csv(path, STATE_COLUMNS), rows)
