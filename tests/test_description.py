@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 
 import numpy as np
 import pytest
@@ -112,9 +113,11 @@ def test_default_home_pose_puts_legs_at_mid_stroke(good):
 
 # ---------------------------------------------------------------------- validation
 def _repeated(d):
-    B = np.array(d["base_points"])
-    B[3] = B[1]
-    return modified(d, "base_points", B)
+    # Legs 2 and 4 with both ends at one point (a shared joint on one side only is the
+    # legitimate 3-3 / 6-3 design, see test_bad_input.py).
+    B, P = np.array(d["base_points"]), np.array(d["platform_points"])
+    B[3], P[3] = B[1], P[1]
+    return modified(modified(d, "base_points", B), "platform_points", P)
 
 
 def _collinear(d):
@@ -147,7 +150,7 @@ NON_PSD = [1, 0, 0, 1, 0, -0.5, 0, 0, 0, 1.0]
 TRIANGLE = [1, 0, 0, 1, 0, 3.0, 0, 0, 0, 1.0]
 
 BAD_INPUTS = {
-    "repeated": (_repeated, DescriptionError, r"B_2 and B_4 are repeated"),
+    "repeated": (_repeated, DescriptionError, r"legs 2 and 4 coincide: B_2 = B_4"),
     "collinear": (_collinear, DescriptionError, r"platform attachment points P_i are collinear"),
     "non-orthonormal": (
         lambda d: _rotation(d, lambda R: R + 1e-3 * np.outer(R[:, 0], R[:, 1])),
@@ -467,3 +470,184 @@ def test_docs_toml_excerpt_matches_the_desktop_preset():
             continue
         expected = np.asarray(full[key])[: len(value)]  # the excerpt keeps the first rows
         np.testing.assert_allclose(np.asarray(value), expected, rtol=1e-12, atol=1e-17)
+
+
+# ---------------------------------------------------------------------- legitimate designs
+def _ring(radius: float, degrees: list[float]) -> np.ndarray:
+    a = np.radians(degrees)
+    return np.column_stack([radius * np.cos(a), radius * np.sin(a), np.zeros(6)])
+
+
+#: Classic designs with legs sharing a joint centre, on the desktop preset's scale [m, deg].
+#: 3-3 (octahedral): three base and three platform points, each shared by two legs;
+#: 6-3: six base points, three shared platform points.
+SHARED_JOINT_DESIGNS = {
+    "3-3": (_ring(0.10, [0, 0, 120, 120, 240, 240]), _ring(0.075, [300, 60, 60, 180, 180, 300])),
+    "6-3": (
+        _ring(0.10, [-12, 12, 108, 132, 228, 252]),
+        _ring(0.075, [300, 60, 60, 180, 180, 300]),
+    ),
+}
+
+
+def shared_joint_robot(kind: str) -> RobotDescription:
+    """The desktop preset's legs, strokes and platform on a 3-3 or 6-3 geometry, with
+    oblique first U-joint axes."""
+    B, P = SHARED_JOINT_DESIGNS[kind]
+    draft = preset("desktop").replace(
+        base_points=B,
+        platform_points=P,
+        leg_base_rotations=np.tile(np.eye(3), (6, 1, 1)),
+        home_pose=None,
+        name=f"design-{kind}",
+    )
+    T = draft.home_pose
+    P_home = P @ T[:3, :3].T + T[:3, 3]
+    R = [
+        leg_base_rotation_from_axis(
+            np.cross([0, 0, 1], p - b) + np.array([0.1, -0.2, 0.05]), p - b
+        )
+        for b, p in zip(B, P_home, strict=True)
+    ]
+    return draft.replace(leg_base_rotations=np.array(R))
+
+
+@pytest.mark.parametrize("kind", list(SHARED_JOINT_DESIGNS))
+def test_shared_joint_designs_are_accepted_and_match_the_constrained_tree(kind):
+    from stewart_pin import StewartRobot, validate
+
+    d = shared_joint_robot(kind)
+    B, P = SHARED_JOINT_DESIGNS[kind]
+    np.testing.assert_array_equal(d.base_points, B)  # kept as given
+    np.testing.assert_array_equal(d.platform_points, P)
+    # The paper's models against Pinocchio's constrained dynamics of the 24-dof tree, which
+    # closes each leg on its own point (coincident or not): IDM to 1e-9, DDM to 1e-8.
+    report = validate(StewartRobot(d), n_states=12, seed=3)
+    assert report.passed(), str(report)
+    assert report.idm_error < 1e-12 and report.ddm_error < 1e-10
+
+
+def _shared_points(d: dict, base: dict[int, int], platform: dict[int, int]) -> dict:
+    """``d`` with B_i = B_j for each ``i: j`` of ``base`` (0-based), likewise P."""
+    B, P = np.array(d["base_points"]), np.array(d["platform_points"])
+    for i, j in base.items():
+        B[i] = B[j]
+    for i, j in platform.items():
+        P[i] = P[j]
+    return modified(modified(d, "base_points", B), "platform_points", P)
+
+
+@pytest.mark.parametrize(
+    ("base", "platform", "message"),
+    [
+        ({3: 1}, {3: 1}, r"legs 2 and 4 coincide: B_2 = B_4"),
+        ({1: 0, 2: 0, 3: 0}, {}, r"4 base attachment points \(B_1, B_2, B_3, B_4\) coincide"),
+        ({}, {k: 5 for k in range(5)}, r"6 platform attachment points .* coincide"),
+    ],
+)
+def test_degenerate_shared_joints_are_refused(good, base, platform, message):
+    # Two legs on one line, or more than three lines through one point: the six leg lines
+    # are dependent, so every pose is singular.
+    with pytest.raises(DescriptionError, match=message):
+        RobotDescription.from_dict(_shared_points(good, base, platform))
+
+
+def test_legs_sharing_one_end_are_accepted(good):
+    # Before: "B_2 and B_4 are repeated". A shared joint centre on one side is legitimate.
+    d = RobotDescription.from_dict(_shared_points(good, {3: 1}, {}))
+    np.testing.assert_array_equal(d.base_points[3], d.base_points[1])
+
+
+def _round_to(x: np.ndarray, digits: int) -> np.ndarray:
+    """Each entry written with ``digits`` significant digits, as a CAD export prints it."""
+    return np.vectorize(lambda v: float(f"{v:.{digits - 1}e}"))(x)
+
+
+def _nearest_rotation(R: np.ndarray) -> np.ndarray:
+    """Reference: the orthogonal polar factor (scipy), the rotation nearest to R."""
+    from scipy.linalg import polar
+
+    return polar(R)[0]
+
+
+def test_cad_rounded_rotations_are_projected_with_a_warning(good):
+    from stewart_pin.exceptions import StewartPinWarning
+
+    exact = np.array(good["leg_base_rotations"])
+    rounded = _round_to(exact, 6)
+    assert np.abs(np.einsum("nji,njk->nik", rounded, rounded) - np.eye(3)).max() > 1e-7
+    with pytest.warns(StewartPinWarning) as record:
+        d = RobotDescription.from_dict(modified(good, "leg_base_rotations", rounded))
+    assert len(record) == 6  # one per leg, each naming the field and the correction
+    fields = sorted(w.message.field for w in record)
+    assert fields == [f"leg_base_rotations[{i}] (leg {i + 1})" for i in range(6)]
+    for w in record:
+        assert 0 < w.message.correction < 1e-6
+        assert re.search(r"projected onto SO\(3\), max \|R_projected - R\| = ", str(w.message))
+    for i in range(6):
+        R = d.leg_base_rotations[i]
+        np.testing.assert_allclose(R.T @ R, np.eye(3), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(R, _nearest_rotation(rounded[i]), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(R, exact[i], rtol=0, atol=1e-6)  # the rounding's size
+
+
+def test_cad_rounded_home_pose_is_projected_with_a_warning(good):
+    from stewart_pin.exceptions import StewartPinWarning
+
+    T = np.array(good["home_pose"])
+    T_rounded = T.copy()
+    T_rounded[:3, :3] = _round_to(T[:3, :3], 6)
+    with pytest.warns(StewartPinWarning, match=r"home_pose rotation block .* projected"):
+        d = RobotDescription.from_dict(modified(good, "home_pose", T_rounded))
+    np.testing.assert_allclose(
+        d.home_pose[:3, :3], _nearest_rotation(T_rounded[:3, :3]), rtol=0, atol=1e-14
+    )
+    np.testing.assert_array_equal(d.home_pose[:3, 3], T[:3, 3])
+
+
+def test_exact_rotations_are_kept_as_given_without_warning(good):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = RobotDescription.from_dict(good)
+    np.testing.assert_array_equal(d.leg_base_rotations, good["leg_base_rotations"])
+
+
+@pytest.mark.parametrize("error", [2e-4, 1e-2])
+def test_rotations_beyond_the_projection_tolerance_are_refused(good, error):
+    R = np.array(good["leg_base_rotations"])
+    R[4] = R[4] @ (np.eye(3) + error * np.diag([1.0, 0.0, 0.0]))  # |R^T R - I| ~ 2 error
+    with pytest.raises(DescriptionError, match=r"leg_base_rotations\[4\] \(leg 5\) is not "):
+        RobotDescription.from_dict(modified(good, "leg_base_rotations", R))
+
+
+@pytest.mark.parametrize("suffix", [".TOML", ".Toml", ".JSON"])
+def test_upper_case_suffix_is_read_and_written(tmp_path, good, suffix):
+    d = RobotDescription.from_dict(good)
+    path = d.write(tmp_path / f"robot{suffix}")
+    assert_same(RobotDescription.read(path), d)
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_utf8_byte_order_mark_is_accepted(tmp_path, good, suffix):
+    d = RobotDescription.from_dict({**good, "name": "hexapod"})
+    plain = d.write(tmp_path / f"plain{suffix}")
+    path = tmp_path / f"bom{suffix}"
+    path.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    assert_same(RobotDescription.read(path), d)
+
+
+def test_utf8_byte_order_mark_is_accepted_in_csv_tables(tmp_path):
+    from stewart_pin.tables import STATE_COLUMNS, read_csv
+
+    rows = np.zeros((2, len(STATE_COLUMNS)))
+    rows[:, 0], rows[:, 7] = [0.0, 0.5], 1.0  # t, qw
+    text = (
+        ",".join(STATE_COLUMNS)
+        + "\n"
+        + "".join(",".join(repr(float(v)) for v in row) + "\n" for row in rows)
+    )
+    path = tmp_path / "bom.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode())  # as spreadsheet tools save UTF-8
+    np.testing.assert_array_equal(read_csv(path, STATE_COLUMNS), rows)

@@ -11,6 +11,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from helpers import random_rotation
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stewart_pin import InertiaError
 from stewart_pin.inertia import (
@@ -227,3 +229,102 @@ def test_random_physical_khalil_is_physical(rng):
         assert eig[0] + eig[1] >= eig[2] - tol
         # A full tensor: off-diagonal terms about the com are not negligible.
         assert np.abs(I_c[np.triu_indices(3, 1)]).max() > 1e-6 * eig.max()
+
+
+# ---------------------------------------------------------------------- scale-aware check
+def _rotation_from(q: list[float]) -> np.ndarray:
+    """The rotation of the quaternion (w, x, y, z) = q / |q| (textbook formula)."""
+    w, x, y, z = np.asarray(q) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _principal_moments(kind: str, mass: float, sides: np.ndarray) -> np.ndarray:
+    """Principal moments about the centre of mass [kg m^2] of textbook bodies: a point, a
+    thin rod of length ``a`` (0, I, I), a thin plate ``a x b`` (I1 + I2 = I3) and a box."""
+    a, b, c = sides
+    if kind == "point":
+        return np.zeros(3)
+    if kind == "rod":
+        return mass * a * a / 12.0 * np.array([0.0, 1.0, 1.0])
+    if kind == "plate":
+        return mass / 12.0 * np.array([b * b, a * a, a * a + b * b])
+    return mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+
+
+body_strategy = st.tuples(
+    st.sampled_from(["point", "rod", "plate", "box"]),
+    st.floats(-6.0, 6.0),  # log10 of the mass [kg]
+    st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3),  # com direction
+    st.floats(-4.0, 2.0),  # log10 of the com offset scale [m]
+    st.floats(-4.0, 1.0),  # log10 of the body size [m]
+    st.lists(st.floats(0.05, 1.0), min_size=3, max_size=3),  # side ratios
+    st.lists(st.floats(0.1, 1.0), min_size=4, max_size=4),  # quaternion (away from 0)
+    st.lists(st.sampled_from([-1.0, 1.0]), min_size=4, max_size=4),  # its signs
+)
+
+#: A non-physical body violates a bound by this fraction of its inertia scale
+#: ``S = ||I_O||_F + M |c|^2`` (plus ``M size^2``): 100 times the check's tolerance
+#: (PHYSICAL_TOLERANCE, 1e-10).
+NON_PHYSICAL_MARGIN = 1e-8
+
+
+def _body(draw: tuple) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    kind, log_m, direction, log_offset, log_size, ratios, q, signs = draw
+    mass = 10.0**log_m
+    com = np.array(direction) * 10.0**log_offset
+    R = _rotation_from(np.array(q) * signs)
+    return mass, com, R, _principal_moments(kind, mass, 10.0**log_size * np.array(ratios))
+
+
+def _scale(mass: float, com: np.ndarray, I_c: np.ndarray) -> float:
+    I_O = I_c + mass * (com @ com * np.eye(3) - np.outer(com, com))
+    return float(np.linalg.norm(I_O) + mass * com @ com)
+
+
+@settings(max_examples=300, deadline=None)
+@given(body_strategy)
+def test_point_masses_rods_plates_and_boxes_pass_the_physical_check(draw):
+    # Before: the tolerance was relative to the inertia about the com itself, which is a
+    # round-off for a point mass: about one point mass in four at a random offset failed.
+    mass, com, R, moments = _body(draw)
+    params = khalil_by_hand(mass, com, R @ np.diag(moments) @ R.T)
+    np.testing.assert_array_equal(check_physical(params, "body"), params)
+
+
+@settings(max_examples=300, deadline=None)
+@given(body_strategy, st.sampled_from(["triangle", "negative"]))
+def test_non_physical_tensors_fail_the_physical_check(draw, violation):
+    mass, com, R, moments = _body(draw)
+    I1, I2, I3 = np.sort(moments)
+    # the margin relative to the scale, with the body's size as a floor (a point mass at
+    # the origin has S = 0)
+    size = 10.0 ** draw[4]
+    delta = NON_PHYSICAL_MARGIN * (_scale(mass, com, R @ np.diag(moments) @ R.T) + mass * size**2)
+    if violation == "triangle":  # I3 > I1 + I2 by delta
+        bad = np.array([I1, I2, I1 + I2 + delta])
+    else:  # a negative principal moment, -delta
+        bad = np.array([-delta, I2, I3])
+    with pytest.raises(InertiaError, match=r"triangle inequality|not positive semi-definite"):
+        check_physical(khalil_by_hand(mass, com, R @ np.diag(bad) @ R.T), "body")
+
+
+def test_point_mass_check_is_independent_of_units():
+    # The same 2 kg point mass at 0.3 m, in m and kg, in mm and g, and in km and t.
+    c = np.array([0.1, -0.2, 0.2])
+    for length, mass in ((1.0, 1.0), (1e3, 1e3), (1e-3, 1e-3)):
+        params = khalil_by_hand(2.0 * mass, c * length, np.zeros((3, 3)))
+        check_physical(params, "point")
+
+
+@pytest.mark.parametrize("tol", [-1e-10, np.nan, "1e-10", True])
+def test_check_physical_refuses_a_bad_tolerance(tol):
+    from stewart_pin import InputError
+
+    with pytest.raises(InputError, match="tol must be"):
+        check_physical(khalil_by_hand(1.0, np.zeros(3), np.eye(3)), "body", tol=tol)

@@ -17,6 +17,7 @@ from .exceptions import (
     JointLimitError,
     SingularityError,
     StewartPinError,
+    StewartPinWarning,
     StrokeLimitError,
     WorkspaceError,
 )
@@ -40,6 +41,7 @@ __all__ = [
     "SimulationError",
     "SingularityError",
     "StewartPinError",
+    "StewartPinWarning",
     "StewartRobot",
     "StrokeLimitError",
     "WorkspaceError",

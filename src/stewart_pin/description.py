@@ -28,9 +28,16 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import check_array, check_pose
+from ._checks import (
+    _is_se3,
+    _ndim,
+    check_array,
+    check_pose,
+    decode_utf8,
+    project_rotation,
+)
 from ._io import write_text_atomic
-from .exceptions import DescriptionError, FileFormatError, InputError, RobotNameError
+from .exceptions import DescriptionError, FileFormatError, InertiaError, InputError, RobotNameError
 from .inertia import check_physical
 
 #: Keys of the dictionary form (``to_dict`` / ``from_dict``) that must be present.
@@ -57,10 +64,17 @@ NAME_RULE = (
     "without '..' or '--'"
 )
 
-#: Tolerance on the orthonormality of the leg base rotations.
+#: Tolerance on the orthonormality of the leg base rotations (and the home pose's
+#: rotation block) kept as given. Up to ``max |R^T R - I| = 1e-4``
+#: (``stewart_pin._checks.ROTATION_PROJECTION_TOLERANCE``) they are projected onto SO(3)
+#: with a :class:`~stewart_pin.exceptions.StewartPinWarning`; beyond, refused.
 FRAME_TOLERANCE = 1e-9
-#: Relative distance (to the attachment circle's size) under which two points are "repeated".
+#: Relative distance (to the attachment circle's size) under which two attachment points
+#: are one joint centre, shared by their legs (as in 3-3 and 6-3 designs).
 POINT_TOLERANCE = 1e-9
+#: Most legs that may meet at one joint centre: the lines of more than three legs
+#: through one point are linearly dependent, so every pose of such a robot is singular.
+MAX_LEGS_PER_POINT = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,82 +106,123 @@ class RobotDescription:
             value.flags.writeable = False
             object.__setattr__(self, key, value)
 
+        shapes = {
+            "base_points": (6, 3),
+            "platform_points": (6, 3),
+            "leg_base_rotations": (6, 3, 3),
+            "stroke": (2,),
+            "leg_inertia": (6, 3, 10),
+            "platform_inertia": (10,),
+            "gravity": (3,),
+        }
+        key = ""
         try:
-            set_("base_points", check_array(self.base_points, (6, 3), "base_points"))
-            set_("platform_points", check_array(self.platform_points, (6, 3), "platform_points"))
-            set_(
-                "leg_base_rotations",
-                check_array(self.leg_base_rotations, (6, 3, 3), "leg_base_rotations"),
-            )
-            set_("stroke", check_array(self.stroke, (2,), "stroke"))
-            set_("leg_inertia", check_array(self.leg_inertia, (6, 3, 10), "leg_inertia"))
-            set_("platform_inertia", check_array(self.platform_inertia, (10,), "platform_inertia"))
-            set_("gravity", check_array(self.gravity, (3,), "gravity"))
+            for key, shape in shapes.items():
+                set_(key, check_array(getattr(self, key), shape, key))
             if self.u_joint_limits is not None:
-                lim = np.asarray(self.u_joint_limits, dtype=float)
-                lim = np.broadcast_to(lim, (6, 2, 2)) if lim.shape == (2, 2) else lim
-                set_("u_joint_limits", check_array(lim, (6, 2, 2), "u_joint_limits"))
+                key = "u_joint_limits"
+                one = _ndim(self.u_joint_limits) == 2  # one (2, 2) for every leg
+                try:
+                    lim = check_array(self.u_joint_limits, (2, 2) if one else (6, 2, 2), key)
+                except InputError as e:
+                    raise InputError(f"{e} ((2, 2) for every leg, or (6, 2, 2))") from e
+                set_(key, np.broadcast_to(lim, (6, 2, 2)))
             if self.home_pose is not None:
-                set_("home_pose", check_pose(self.home_pose, "home_pose"))
+                key = "home_pose"
+                pose = self.home_pose.homogeneous if _is_se3(self.home_pose) else self.home_pose
+                T = check_array(pose, (4, 4), key).copy()
+                T[:3, :3] = project_rotation(T[:3, :3], "home_pose rotation block", stacklevel=4)
+                set_(key, check_pose(T, key))
         except InputError as e:
-            raise DescriptionError(f"robot description '{self.name}': {e}") from e
-        self._check_points(self.base_points, "base", "B")
-        self._check_points(self.platform_points, "platform", "P")
-        self._check_frames()
+            raise _field_error(key, f"robot description '{self.name}': {e}") from e
+        self._check_points()
+        self._check_frames(set_)
         lo, hi = self.stroke
         if not 0.0 < lo < hi:
-            raise DescriptionError(
-                f"stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
+            raise _field_error(
+                "stroke", f"stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
             )
         if self.u_joint_limits is not None:
             bad = np.argwhere(self.u_joint_limits[..., 0] >= self.u_joint_limits[..., 1])
             if bad.size:
                 i, j = bad[0]
-                raise DescriptionError(
+                raise _field_error(
+                    "u_joint_limits",
                     f"u_joint_limits of leg {i + 1}, q{j + 1}: lower "
                     f"{self.u_joint_limits[i, j, 0]:.9g} >= upper "
-                    f"{self.u_joint_limits[i, j, 1]:.9g}"
+                    f"{self.u_joint_limits[i, j, 1]:.9g}",
                 )
         if self.home_pose is None:
             set_("home_pose", _upright_home_pose(self))
-        for i in range(6):
-            for j in range(3):
-                check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
-        check_physical(self.platform_inertia, "platform")
+        try:
+            key = "leg_inertia"
+            for i in range(6):
+                for j in range(3):
+                    check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
+            key = "platform_inertia"
+            check_physical(self.platform_inertia, "platform")
+        except InertiaError as e:
+            e.key = key  # type: ignore[attr-defined] # read() quotes the line of the key
+            raise
 
     # ------------------------------------------------------------------ validation
-    @staticmethod
-    def _check_points(points: np.ndarray, which: str, letter: str) -> None:
-        centred = points - points.mean(axis=0)
-        scale = max(np.linalg.norm(centred, axis=1).max(), np.finfo(float).tiny)
+    def _check_points(self) -> None:
+        """Attachment points: legs may share a joint centre (3-3, 6-3 designs), but at most
+        :data:`MAX_LEGS_PER_POINT` of them, no two legs may share both ends, and neither
+        side's points may be collinear (each of these robots is singular in every pose)."""
+        groups = []
+        for points, which, letter in (
+            (self.base_points, "base", "B"),
+            (self.platform_points, "platform", "P"),
+        ):
+            key = f"{which}_points"
+            centred = points - points.mean(axis=0)
+            scale = max(np.linalg.norm(centred, axis=1).max(), np.finfo(float).tiny)
+            distance = np.linalg.norm(points[:, None] - points[None], axis=-1)
+            same = distance <= POINT_TOLERANCE * scale
+            for a in range(6):
+                shared = np.flatnonzero(same[a])
+                if shared.size > MAX_LEGS_PER_POINT:
+                    names = ", ".join(f"{letter}_{k + 1}" for k in shared)
+                    raise _field_error(
+                        key,
+                        f"{shared.size} {which} attachment points ({names}) coincide at "
+                        f"{points[a]}: at most {MAX_LEGS_PER_POINT} legs may share a joint "
+                        "centre (the lines of more legs through one point are dependent, "
+                        "so every pose would be singular)",
+                    )
+            sv = np.linalg.svd(centred, compute_uv=False)
+            if sv[1] <= POINT_TOLERANCE * sv[0] or sv[0] == 0.0:
+                raise _field_error(
+                    key,
+                    f"the six {which} attachment points {letter}_i are collinear: every pose "
+                    "of such a robot is singular",
+                )
+            groups.append(same)
+        both = groups[0] & groups[1]
         for a in range(6):
             for b in range(a + 1, 6):
-                d = np.linalg.norm(points[a] - points[b])
-                if d <= POINT_TOLERANCE * scale:
-                    raise DescriptionError(
-                        f"{which} attachment points {letter}_{a + 1} and {letter}_{b + 1} are "
-                        f"repeated ({points[a]} and {points[b]}, {d:.3g} m apart)"
+                if both[a, b]:
+                    raise _field_error(
+                        "base_points",
+                        f"legs {a + 1} and {b + 1} coincide: B_{a + 1} = B_{b + 1} "
+                        f"({self.base_points[a]}) and P_{a + 1} = P_{b + 1} "
+                        f"({self.platform_points[a]}); two legs may share one end, not both "
+                        "(the robot would be singular in every pose)",
                     )
-        sv = np.linalg.svd(centred, compute_uv=False)
-        if sv[1] <= POINT_TOLERANCE * sv[0]:
-            raise DescriptionError(
-                f"the six {which} attachment points {letter}_i are collinear: every pose of such "
-                "a robot is singular"
-            )
 
-    def _check_frames(self) -> None:
+    def _check_frames(self, set_: Any) -> None:
+        """Leg base rotations: kept when orthonormal to :data:`FRAME_TOLERANCE`, projected
+        onto SO(3) with a warning up to ``max |R^T R - I| = 1e-4``, else refused."""
+        out = np.empty((6, 3, 3))
         for i, R in enumerate(self.leg_base_rotations):
-            err = np.abs(R.T @ R - np.eye(3)).max()
-            if err > FRAME_TOLERANCE:
-                raise DescriptionError(
-                    f"leg_base_rotations[{i}] (leg {i + 1}) is not orthonormal: "
-                    f"max |R^T R - I| = {err:.3g} > {FRAME_TOLERANCE:g} (unit, orthogonal "
-                    "columns required)"
-                )
-            if np.linalg.det(R) < 0:
-                raise DescriptionError(
-                    f"leg_base_rotations[{i}] (leg {i + 1}) is a reflection (det < 0)"
-                )
+            try:
+                label = f"leg_base_rotations[{i}] (leg {i + 1})"
+                out[i] = project_rotation(R, label, stacklevel=5)
+            except InputError as e:
+                raise _field_error("leg_base_rotations", str(e)) from e
+        if not np.array_equal(out, self.leg_base_rotations):
+            set_("leg_base_rotations", out)
 
     # ------------------------------------------------------------------ dict and files
     def to_dict(self) -> dict[str, Any]:
@@ -202,13 +257,14 @@ class RobotDescription:
         return RobotDescription(**d)
 
     def write(self, path: str | Path) -> Path:
-        """Write the description to ``path`` (``.toml`` or ``.json``, SI units), atomically
-        (a temporary file in the folder, then renamed)."""
+        """Write the description to ``path`` (``.toml`` or ``.json``, any case; SI units),
+        atomically (a temporary file in the folder, then renamed)."""
         path = Path(path)
         d = self.to_dict()
-        if path.suffix == ".json":
+        suffix = path.suffix.lower()
+        if suffix == ".json":
             write_text_atomic(path, json.dumps(d, indent=2) + "\n")
-        elif path.suffix == ".toml":
+        elif suffix == ".toml":
             write_text_atomic(path, FILE_HEADER + _toml(d))
         else:
             raise FileFormatError(f"unknown description file type '{path.suffix}' (.toml, .json)")
@@ -216,27 +272,44 @@ class RobotDescription:
 
     @classmethod
     def read(cls, path: str | Path) -> RobotDescription:
-        """Read a description written by :meth:`write` or by hand (``docs/description.md``)."""
+        """Read a description written by :meth:`write` or by hand (``docs/description.md``).
+
+        The file is UTF-8 text (a byte-order mark is allowed), ``.toml`` or ``.json`` (the
+        suffix in any case).
+
+        Raises:
+            FileFormatError: the file cannot be read, is not UTF-8, is not valid TOML /
+                JSON (the message gives the line), nests too deeply, repeats a key, or
+                holds an invalid description (the message names the key and its line).
+        """
         path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in (".toml", ".json"):
+            raise FileFormatError(
+                f"unknown description file type '{path.suffix}' of {path} (.toml, .json)"
+            )
         try:
-            text = path.read_text()
+            data = path.read_bytes()
         except OSError as e:
             raise FileFormatError(f"cannot read robot description {path}: {e}") from e
+        text = decode_utf8(data, path)
         try:
-            if path.suffix == ".json":
-                d = json.loads(text)
-            elif path.suffix == ".toml":
-                d = tomllib.loads(text)
+            if suffix == ".json":
+                d = json.loads(text, object_pairs_hook=_no_repeated_keys)
             else:
-                raise FileFormatError(
-                    f"unknown description file type '{path.suffix}' of {path} (.toml, .json)"
-                )
-        except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
+                d = tomllib.loads(text)
+        except RecursionError:
+            raise FileFormatError(
+                f"malformed robot description {path}: nested too deeply to read"
+            ) from None
+        except ValueError as e:  # JSONDecodeError, TOMLDecodeError, huge integers, keys
             raise FileFormatError(f"malformed robot description {path}: {e}") from e
         try:
             return cls.from_dict(d)
         except DescriptionError as e:
-            raise FileFormatError(f"{path}: {e}") from e
+            line = _line_of_key(text, getattr(e, "key", ""), suffix)
+            where = f"line {line}: " if line else ""
+            raise FileFormatError(f"{path}: {where}{e}") from e
 
     # ------------------------------------------------------------------ derived data
     @property
@@ -273,6 +346,33 @@ def check_robot_name(name: Any) -> str:
             name,
         )
     return name
+
+
+def _no_repeated_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's dict, refusing a key given twice (which value would be meant?)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"key {key!r} is given twice")
+        out[key] = value
+    return out
+
+
+def _field_error(key: str, message: str) -> DescriptionError:
+    """A :class:`DescriptionError` about description key ``key`` (``read`` quotes its line)."""
+    error = DescriptionError(message)
+    error.key = key  # type: ignore[attr-defined]
+    return error
+
+
+def _line_of_key(text: str, key: str, suffix: str) -> int | None:
+    """The line (1-based) where ``key`` is set in a TOML / JSON description, if found."""
+    if not key:
+        return None
+    k = re.escape(key)
+    pattern = rf'"{k}"\s*:' if suffix == ".json" else rf'^[ \t]*(?:{k}|"{k}"|\'{k}\')[ \t]*='
+    match = re.search(pattern, text, flags=re.MULTILINE)
+    return text.count("\n", 0, match.start()) + 1 if match else None
 
 
 FILE_HEADER = """\

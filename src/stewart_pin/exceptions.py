@@ -130,3 +130,17 @@ class RobotNameError(DescriptionError):
     def __init__(self, message: str, value: object) -> None:
         super().__init__(message)
         self.value = value
+
+
+class StewartPinWarning(UserWarning):
+    """A warning of stewart-pin: input accepted after a documented correction (e.g. a
+    rotation given to a few significant digits, projected onto SO(3)).
+
+    Attributes:
+        field: the corrected input (e.g. ``"leg_base_rotations[2]"``), ``""`` if none.
+        correction: the size of the correction (e.g. ``max |R_projected - R|``), or ``None``.
+    """
+
+    def __init__(self, message: str, field: str = "", correction: float | None = None) -> None:
+        super().__init__(message)
+        self.field, self.correction = field, correction

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array, check_pose, check_poses
+from ._checks import check_array, check_pose, check_poses, check_scalar
 from .description import RobotDescription
 from .exceptions import ConvergenceError, JointLimitError, SingularityError, StrokeLimitError
 
@@ -141,6 +141,10 @@ def forward_geometry(
     """
     from .kinematics import inverse_jacobian_batch  # kinematics imports this module
 
+    tol = check_scalar(tol, "tol", positive=True, unit="m")
+    max_iterations = int(
+        check_scalar(max_iterations, "max_iterations", integer=True, nonnegative=True)
+    )
     target = check_array(lengths, (6,), "lengths")
     lo, hi = desc.stroke
     for k, value in enumerate(target):

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array
+from ._checks import check_array, check_scalar
 from ._vector import skew
-from .exceptions import InertiaError
+from .exceptions import InertiaError, InputError
 
 #: Names of the 10 standard parameters, in Khalil's order.
 KHALIL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
@@ -29,7 +29,14 @@ KHALIL_TO_PIN = np.array([9, 6, 7, 8, 0, 1, 3, 2, 4, 5])
 #: ``khalil_params = pin_params[PIN_TO_KHALIL]``.
 PIN_TO_KHALIL = np.argsort(KHALIL_TO_PIN)
 
-#: Relative tolerance of the physical-consistency checks (scaled by the body's inertia).
+#: Relative tolerance of the physical-consistency checks of :func:`check_physical`, as a
+#: fraction of the body's inertia scale ``S = ||I_O||_F + M |c|^2`` [kg m^2] (the tensor
+#: about the frame origin and the parallel-axis term, i.e. mass times a squared length).
+#: The inertia about the centre of mass is computed as ``I_O - M (|c|^2 I - c c^T)``,
+#: whose round-off is a few ``eps * S`` (~1e-15 S) whatever the mass or the offset: a
+#: point mass or a thin rod (a zero principal moment, or ``I1 + I2 = I3``) lands a
+#: round-off away on either side of the bounds, and 1e-10 S accepts it with a wide margin
+#: while any violation larger than 1e-10 S is refused.
 PHYSICAL_TOLERANCE = 1e-10
 
 
@@ -103,17 +110,30 @@ def transform_khalil(params: Any, R_a_b: Any, p_a_b: Any) -> np.ndarray:
     return khalil_from_tensor(0.5 * (I_a + I_a.T), ms_a, mass)
 
 
+def inertia_scale(params: Any) -> float:
+    """The inertia scale ``S = ||I_O||_F + M |c|^2`` [kg m^2] of Khalil parameters: the
+    magnitude of the terms whose difference is the inertia about the centre of mass (so
+    its round-off is a few ``eps * S``). 0 for a massless body or a point mass at O."""
+    p = np.asarray(params, dtype=float)
+    mass, ms = p[9], p[6:9]
+    offset = float(ms @ ms / mass) if mass > 0 else 0.0  # M |c|^2 = |M c|^2 / M
+    return float(np.linalg.norm(inertia_tensor(p))) + offset
+
+
 def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> np.ndarray:
     """Return the parameters as float64, or raise :class:`InertiaError` if non-physical.
 
     A body is physical when its mass is non-negative, a massless body has no first moment
     or inertia, and its inertia about the centre of mass is positive semi-definite with
-    principal moments satisfying the triangle inequality ``I1 + I2 >= I3`` (each within
-    ``tol`` times the largest principal moment).
+    principal moments satisfying the triangle inequality ``I1 + I2 >= I3``, each within
+    ``tol`` times the body's :func:`inertia_scale` ``S = ||I_O||_F + M |c|^2`` (see
+    :data:`PHYSICAL_TOLERANCE`: scale-aware, so a point mass or a thin rod passes whatever
+    its mass and position, and a violation larger than ``tol * S`` fails).
     """
+    tol = check_scalar(tol, "tol", nonnegative=True)
     try:
         p = check_array(params, (10,), f"inertial parameters of {body}")
-    except Exception as e:
+    except InputError as e:
         raise InertiaError(str(e), body) from e
     mass = p[9]
     if mass < 0:
@@ -126,18 +146,18 @@ def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> n
         return p
     _, _, I_c = urdf_inertial_from_khalil(p)
     eig = np.linalg.eigvalsh(I_c)
-    scale = max(np.abs(eig).max(), np.finfo(float).tiny)
-    if eig[0] < -tol * scale:
+    margin = tol * max(inertia_scale(p), np.finfo(float).tiny)
+    if eig[0] < -margin:
         raise InertiaError(
             f"{body}: inertia about the centre of mass is not positive semi-definite "
-            f"(principal moments {eig} kg m^2); check the sign of XY, XZ, YZ and the first "
-            "moments",
+            f"(principal moments {eig} kg m^2, tolerance {margin:.3g}); check the sign of "
+            "XY, XZ, YZ and the first moments",
             body,
         )
-    if eig[0] + eig[1] < eig[2] - tol * scale:
+    if eig[0] + eig[1] < eig[2] - margin:
         raise InertiaError(
             f"{body}: principal moments {eig} kg m^2 violate the triangle inequality "
-            "I1 + I2 >= I3",
+            f"I1 + I2 >= I3 (by {eig[2] - eig[0] - eig[1]:.3g} > tolerance {margin:.3g})",
             body,
         )
     return p

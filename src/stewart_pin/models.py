@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ._checks import decode_utf8
 from .description import RobotDescription
 from .exceptions import FileFormatError
 from .urdf import (
@@ -136,7 +137,7 @@ def load_tree(urdf_path: str | Path, gravity: np.ndarray | None = None) -> TreeM
     else:
         g = np.array([0.0, 0.0, -9.81])
     try:
-        text = urdf_path.read_text()
+        text = decode_utf8(urdf_path.read_bytes(), urdf_path)
     except OSError as e:
         raise FileFormatError(f"cannot read {urdf_path}: {e}") from e
     return tree_from_files(text, closures, g)

@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import closure, geometry, kinematics
-from ._checks import check_poses, check_states
+from ._checks import check_poses, check_scalar, check_states
 from .closure import CartesianDynamics, InverseDynamicsResult
 from .description import RobotDescription
 from .exceptions import InputError
@@ -44,7 +44,7 @@ class StewartRobot:
                 "use StewartRobot.from_dict / from_file / from_preset"
             )
         self.description = description
-        self.max_condition = float(max_condition)
+        self.max_condition = check_scalar(max_condition, "max_condition", positive=True)
 
     # ------------------------------------------------------------------ constructors
     @classmethod

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array, check_pose
+from ._checks import check_array, check_pose, check_scalar
 from ._io import atomic_open
 from .exceptions import FileFormatError, InputError, StewartPinError
 from .tables import (
@@ -36,6 +36,7 @@ from .tables import (
     LENGTH_COLUMNS,
     STATE_COLUMNS,
     read_csv,
+    read_npz,
     state_table,
     states_from_table,
     write_csv,
@@ -114,11 +115,7 @@ class SimulationResult:
         """Read a result written by :meth:`save`."""
         path = Path(path)
         if path.suffix == ".npz":
-            try:
-                with np.load(path) as data:
-                    return cls(**{k: data[k] for k in _FIELDS})
-            except (OSError, ValueError, KeyError) as e:
-                raise FileFormatError(f"cannot read simulation result {path}: {e}") from e
+            return cls(**read_npz(path, _NPZ_SHAPES))
         if path.suffix == ".csv":
             rows = read_csv(path, cls.CSV_COLUMNS)
             return cls(*states_from_table(rows), rows[:, 20:26], rows[:, 26:32])
@@ -126,6 +123,12 @@ class SimulationResult:
 
 
 _FIELDS = ("t", "poses", "twists", "accels", "gammas", "lengths")
+#: Shapes of the ``.npz`` arrays (K samples).
+_NPZ_SHAPES = {
+    "t": (None,),
+    "poses": (None, 4, 4),
+    **{k: (None, 6) for k in ("twists", "accels", "gammas", "lengths")},
+}
 
 
 def _left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
@@ -207,6 +210,11 @@ def simulate(
         raise InputError(f"duration and dt must be positive, got {duration} s and {dt} s")
     if method not in ("rk4", "adaptive"):
         raise InputError(f"unknown method '{method}': 'rk4' or 'adaptive'")
+    rtol = check_scalar(rtol, "rtol", positive=True)
+    atol = check_scalar(atol, "atol", positive=True)
+    for value, label in ((control_period, "control_period"), (output_dt, "output_dt")):
+        if value is not None:
+            check_scalar(value, label, positive=True, unit="s")
     if control_period is not None and method == "rk4":
         ratio = control_period / dt
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:

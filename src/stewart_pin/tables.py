@@ -21,7 +21,9 @@ from __future__ import annotations
 import csv
 import io
 import math
-from collections.abc import Sequence
+import zipfile
+import zlib
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -205,3 +207,97 @@ def _read_lines(path: Path) -> list[str]:
             "table as UTF-8"
         ) from None
     return list(io.StringIO(text, newline=""))
+
+
+#: Tolerance on ``max |R^T R - I|`` and on the last row of a pose read from an ``.npz``.
+POSE_TOLERANCE = 1e-6
+
+
+def read_npz(path: str | Path, shapes: Mapping[str, tuple[int | None, ...]]) -> dict:
+    """Read the arrays named in ``shapes`` from an ``.npz`` written by ``np.savez``.
+
+    Each array must be present and hold finite real numbers (no booleans, complex numbers,
+    strings or pickled objects) of its shape, where ``None`` is one sample count shared
+    by every array (at least one sample). A ``t`` array must strictly increase; a
+    ``poses`` array (K, 4, 4) must hold rigid transforms (last row ``[0, 0, 0, 1]``,
+    rotation blocks orthonormal within :data:`POSE_TOLERANCE`).
+
+    Returns:
+        the float64 arrays by name.
+
+    Raises:
+        FileFormatError: the file is not a readable ``.npz`` (corrupt, truncated, not a
+            zip archive, pickled data) or an array is missing or invalid, naming it.
+        OSError: the file cannot be opened.
+    """
+    path = Path(path)
+    with path.open("rb") as f:  # OSError (missing, unreadable) as for CSV files
+        try:
+            with np.load(f, allow_pickle=False) as data:
+                missing = [k for k in shapes if k not in data.files]
+                if missing:
+                    raise FileFormatError(
+                        f"{path}: missing array{'s' if len(missing) > 1 else ''} "
+                        f"{', '.join(map(repr, missing))}; expected {', '.join(shapes)}"
+                    )
+                raw = {k: data[k] for k in shapes}
+        except FileFormatError:
+            raise
+        except (
+            OSError,
+            ValueError,
+            EOFError,
+            KeyError,
+            MemoryError,
+            zipfile.BadZipFile,
+            zlib.error,
+        ) as e:
+            raise FileFormatError(f"{path}: not a readable .npz file ({e})") from e
+    out: dict[str, np.ndarray] = {}
+    count: tuple[int, str] | None = None
+    for key, shape in shapes.items():
+        a = raw[key]
+        if a.dtype.kind not in "iuf":
+            raise FileFormatError(
+                f"{path}: array '{key}' holds {a.dtype} values, expected real numbers"
+            )
+        fits = a.ndim == len(shape) and all(
+            s is None or s == n for s, n in zip(shape, a.shape, strict=True)
+        )
+        if not fits:
+            want = "(" + ", ".join("K" if s is None else str(s) for s in shape) + ")"
+            raise FileFormatError(f"{path}: array '{key}' has shape {a.shape}, expected {want}")
+        for s, n in zip(shape, a.shape, strict=True):
+            if s is None:
+                count = count or (n, key)
+                if n != count[0]:
+                    raise FileFormatError(
+                        f"{path}: array '{key}' holds {n} samples but '{count[1]}' holds "
+                        f"{count[0]}"
+                    )
+        a = a.astype(np.float64)
+        if not np.all(np.isfinite(a)):
+            bad = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+            raise FileFormatError(f"{path}: array '{key}' holds {a[bad]} at index {bad}")
+        out[key] = a
+    if count is not None and count[0] < 1:
+        raise FileFormatError(f"{path}: no samples (at least one needed)")
+    if "t" in out and np.any(np.diff(out["t"]) <= 0):
+        k = int(np.flatnonzero(np.diff(out["t"]) <= 0)[0]) + 1
+        raise FileFormatError(
+            f"{path}: time t[{k}] = {float(out['t'][k])!r} s does not increase (t[{k - 1}] = "
+            f"{float(out['t'][k - 1])!r} s); times must be strictly increasing"
+        )
+    if "poses" in out and out["poses"].shape[1:] == (4, 4):
+        T = out["poses"]
+        R = T[:, :3, :3]
+        err = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))
+        err = np.maximum(err, np.abs(T[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(axis=1))
+        bad = np.flatnonzero((err > POSE_TOLERANCE) | (np.linalg.det(R) <= 0))
+        if bad.size:
+            k = int(bad[0])
+            raise FileFormatError(
+                f"{path}: poses[{k}] is not a rigid transform (max |R^T R - I| or last-row "
+                f"error {err[k]:.3g} > {POSE_TOLERANCE:g}, or det R <= 0)"
+            )
+    return out

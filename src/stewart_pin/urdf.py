@@ -28,10 +28,11 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from ._checks import check_array, decode_utf8
 from ._io import write_text_atomic
 from ._safe import check_xml_text
 from .description import RobotDescription
-from .exceptions import FileFormatError
+from .exceptions import FileFormatError, InputError
 from .inertia import urdf_inertial_from_khalil
 
 BASE_LINK = "base_link"
@@ -308,18 +309,18 @@ def read_sidecar(path: str | Path) -> tuple[list[Closure], np.ndarray | None]:
     """The closures of a sidecar and the gravity it records (``None`` when absent) [m/s^2]."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as e:
+        data = json.loads(decode_utf8(path.read_bytes(), path))
+    except (OSError, ValueError) as e:  # JSONDecodeError, huge integers
         raise FileFormatError(f"cannot read loop closures {path}: {e}") from e
+    except RecursionError:
+        raise FileFormatError(f"cannot read loop closures {path}: nested too deeply") from None
     closures = parse_closures(data, str(path))
     if "gravity" not in data:
         return closures, None
     try:
-        g = np.array(data["gravity"], dtype=float)
-    except (TypeError, ValueError):
-        g = None
-    if g is None or g.shape != (3,) or not np.all(np.isfinite(g)):
-        raise FileFormatError(f"{path}: 'gravity' must be 3 finite numbers [m/s^2]")
+        g = check_array(data["gravity"], (3,), "gravity")
+    except InputError as e:
+        raise FileFormatError(f"{path}: 'gravity' must be 3 finite numbers [m/s^2]: {e}") from e
     return closures, g
 
 
@@ -337,9 +338,13 @@ def parse_closures(data: Any, source: str = "closures") -> list[Closure]:
         try:
             if c["type"] != "point":
                 raise FileFormatError(f"{source}: closure {n} has type {c['type']!r}, not 'point'")
-            p1, p2 = np.array(c["point1"], float), np.array(c["point2"], float)
-            if p1.shape != (3,) or p2.shape != (3,) or not np.all(np.isfinite([*p1, *p2])):
-                raise FileFormatError(f"{source}: closure {n} points must be 3 finite numbers")
+            try:
+                p1 = check_array(c["point1"], (3,), "point1")
+                p2 = check_array(c["point2"], (3,), "point2")
+            except InputError as e:
+                raise FileFormatError(
+                    f"{source}: closure {n} points must be 3 finite numbers: {e}"
+                ) from e
             out.append(Closure(str(c["name"]), str(c["link1"]), p1, str(c["link2"]), p2))
         except (KeyError, TypeError, ValueError) as e:
             raise FileFormatError(f"{source}: closure {n} is malformed: {e!r}") from e
