@@ -117,3 +117,9 @@ class IdentificationError(StewartPinError, ValueError):
     ) -> None:
         super().__init__(message)
         self.rank, self.n_parameters = rank, n_parameters
+
+
+class BaseParameterWarning(UserWarning):
+    """Base parameters that are identifiable in exact arithmetic but barely act on the
+    forces (a first U-joint axis within a hair of gravity, a near-zero gravity), or a
+    numerical rank decided within a narrow margin of its tolerance."""
