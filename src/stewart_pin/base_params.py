@@ -4,19 +4,25 @@ Two routes to the same space:
 
 - :func:`numerical_base_parameters`: QR with column pivoting of the regressor stacked over
   random states (Gautier 1991). Ground truth for the rank on any geometry.
-- :func:`analytic_base_parameters`: the paper's grouping rules, for any frame placement:
-  per leg (eq. 44-50) link 3's inertia groups into link 2 (prismatic joint), YY2, MZ2 and
-  M2 into links 2 and 1 (revolute), link 1 keeps ZZ1R, MX1, MY1R (revolute on the base);
-  then the loop groups each M3i into the platform as a point mass at P_i (eq. 56-66, with
-  every term of the sums kept since Fp need not sit at P_1). 13 per leg + 10 = 88.
+- :func:`analytic_base_parameters`: the paper's grouping rules, for any frame placement,
+  with the special cases of gravity decided per leg from the geometry. Per leg (eq. 44-50)
+  link 3's inertia groups into link 2 (prismatic joint), YY2, MZ2 and M2 into links 2 and
+  1 (revolute), link 1 keeps ZZ1R, MX1, MY1R (revolute on the base); then the loop groups
+  each M3i into the platform as a point mass at P_i (eq. 56-66, with every term of the
+  sums kept since Fp need not sit at P_1). 13 per leg + 10 = 88 on a general robot;
+  fewer when gravity is parallel to a leg's first axis or zero (see
+  :func:`analytic_base_parameters`).
+- :func:`grouped_parameters`: the paper's 88 on every geometry (minimal on a general one),
+  the fixed layout of the generated code.
 
-Both return a :class:`BaseParameters`: names, the linear map ``K`` (nb x 190) with
+All return a :class:`BaseParameters`: names, the linear map ``K`` (nb x 190) with
 ``chi_b = K chi``, the regressor columns they keep (``W_b = W[:, kept]`` for the analytic
 set; ``W_b = W[:, kept]`` too for the numerical one, whose ``K`` folds the others in).
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -25,12 +31,47 @@ import numpy as np
 import scipy.linalg
 
 from .description import RobotDescription
-from .exceptions import StewartPinError
+from .exceptions import BaseParameterWarning, InputError, StewartPinError
 from .regressor import N_STANDARD, STANDARD_NAMES, standard_parameters
 
-#: Default numerical rank tolerance, relative to the largest |R_kk| of the column-normalised
-#: stacked regressor.
+#: Default numerical rank tolerance, relative to the largest singular value of the stacked
+#: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`).
 RANK_TOLERANCE = 1e-8
+#: A numerical rank is flagged (:class:`BaseParameterWarning`) when a singular value lies
+#: within this factor of the tolerance on either side.
+RANK_MARGIN = 100.0
+
+#: Standard gravity [m/s^2]: the scale of the gravity tolerances below.
+STANDARD_GRAVITY = 9.80665
+#: Gravity tolerance of the analytic rules, relative to standard gravity: a leg's first
+#: U-joint axis z1i counts as parallel to gravity when ``|g x z1i| / g0`` (the sine of the
+#: angle between them, under Earth's gravity) is at most this, and gravity counts as zero
+#: when ``|g| / g0`` is.
+GRAVITY_TOLERANCE = 1e-9
+#: Above :data:`GRAVITY_TOLERANCE` and below this, the gravity-only parameters are kept
+#: (they are identifiable in exact arithmetic) with a :class:`BaseParameterWarning`: their
+#: forces are that small a fraction of gravity's, and the numerical rank at its default
+#: tolerance may or may not count them.
+WEAK_GRAVITY = 1e-5
+
+#: Per leg, in order: name, grouping (coefficient, standard parameter prefix and link),
+#: and which gravity condition the parameter needs to act on the forces ("lateral": a
+#: gravity component perpendicular to z1i; "gravity": a non-zero gravity; None: always).
+_LEG_GROUPING: tuple[tuple[str, tuple[tuple[float, str, int], ...], str | None], ...] = (
+    ("ZZ1R", ((1, "ZZ", 1), (1, "YY", 2), (1, "ZZ", 3)), None),
+    ("MX1", ((1, "MX", 1),), "lateral"),
+    ("MY1R", ((1, "MY", 1), (-1, "MZ", 2)), "lateral"),
+    ("XX2R", ((1, "XX", 2), (1, "XX", 3), (-1, "YY", 2), (-1, "ZZ", 3)), None),
+    ("XY2R", ((1, "XY", 2), (-1, "XZ", 3)), None),
+    ("XZ2R", ((1, "XZ", 2), (1, "XY", 3)), None),
+    ("YZ2R", ((1, "YZ", 2), (-1, "YZ", 3)), None),
+    ("ZZ2R", ((1, "ZZ", 2), (1, "YY", 3)), None),
+    ("MX2", ((1, "MX", 2),), "gravity"),
+    ("MY2", ((1, "MY", 2),), "gravity"),
+    ("MX3", ((1, "MX", 3),), None),
+    ("MY3", ((1, "MY", 3),), None),
+    ("MZ3", ((1, "MZ", 3),), None),
+)
 
 
 @dataclass(frozen=True)
@@ -94,24 +135,26 @@ def _index(name: str) -> int:
     return STANDARD_NAMES.index(name)
 
 
-def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
-    """The paper's 88 base parameters, generalised to any platform frame.
+def gravity_ratios(desc: RobotDescription) -> tuple[np.ndarray, float]:
+    """The two dimensionless gravity measures the analytic rules decide on.
 
-    Per leg i (names ``..._i``): ZZ1R, MX1, MY1R, XX2R, XY2R, XZ2R, YZ2R, ZZ2R, MX2, MY2,
-    MX3, MY3, MZ3 with (eq. 44-50)::
-
-        ZZ1R = ZZ1 + YY2 + ZZ3        MY1R = MY1 - MZ2
-        XX2R = XX2 + XX3 - YY2 - ZZ3  XY2R = XY2 - XZ3   XZ2R = XZ2 + XY3
-        YZ2R = YZ2 - YZ3              ZZ2R = ZZ2 + YY3
-
-    Platform (eq. 56-66, with ``l = pL_i`` = P_i in Fp; all six terms of each sum)::
-
-        XX_RP = XX_P + sum M3i (l_y^2 + l_z^2)   XY_RP = XY_P - sum M3i l_x l_y   ...
-        MX_RP = MX_P + sum M3i l_x  ...          M_RP = M_P + sum M3i
-
-    Special geometry (a vertical first axis, symmetric legs) can make some of these
-    unidentifiable; :func:`numerical_base_parameters` tells.
+    Returns:
+        ``(lateral, total)``: ``lateral`` (6,) is ``|g x z1i| / g0`` for each leg, with
+        ``z1i`` its first U-joint axis in F0 (the z column of ``leg_base_rotations[i]``),
+        ``g`` the description's gravity in F0 and ``g0`` :data:`STANDARD_GRAVITY`: under
+        Earth's gravity, the sine of the angle between the axis and the vertical.
+        ``total`` is ``|g| / g0``.
     """
+    g = desc.gravity
+    z1 = desc.leg_base_rotations[:, :, 2]
+    z1 = z1 / np.linalg.norm(z1, axis=1, keepdims=True)
+    lateral = np.linalg.norm(np.cross(z1, g), axis=1) / STANDARD_GRAVITY
+    return lateral, float(np.linalg.norm(g) / STANDARD_GRAVITY)
+
+
+def _grouping(desc: RobotDescription, lateral: np.ndarray, gravity: bool) -> BaseParameters:
+    """The grouped parameters, without the gravity-only ones of the legs whose ``lateral``
+    flag is False (MX1, MY1R) and, when ``gravity`` is False, of every leg (MX2, MY2)."""
     rows: list[np.ndarray] = []
     names: list[str] = []
     kept: list[int] = []
@@ -125,20 +168,12 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
         kept.append(_index(terms[0][1]))
 
     for i in range(1, 7):
-
-        def s(p: str, j: int, i: int = i) -> str:
-            return f"{p}{j}_{i}"
-
-        add(f"ZZ1R_{i}", [(1, s("ZZ", 1)), (1, s("YY", 2)), (1, s("ZZ", 3))])
-        add(f"MX1_{i}", [(1, s("MX", 1))])
-        add(f"MY1R_{i}", [(1, s("MY", 1)), (-1, s("MZ", 2))])
-        add(f"XX2R_{i}", [(1, s("XX", 2)), (1, s("XX", 3)), (-1, s("YY", 2)), (-1, s("ZZ", 3))])
-        add(f"XY2R_{i}", [(1, s("XY", 2)), (-1, s("XZ", 3))])
-        add(f"XZ2R_{i}", [(1, s("XZ", 2)), (1, s("XY", 3))])
-        add(f"YZ2R_{i}", [(1, s("YZ", 2)), (-1, s("YZ", 3))])
-        add(f"ZZ2R_{i}", [(1, s("ZZ", 2)), (1, s("YY", 3))])
-        for p, j in (("MX", 2), ("MY", 2), ("MX", 3), ("MY", 3), ("MZ", 3)):
-            add(f"{p}{j}_{i}", [(1, s(p, j))])
+        for name, terms, needs in _LEG_GROUPING:
+            if needs == "lateral" and not lateral[i - 1]:
+                continue
+            if needs == "gravity" and not gravity:
+                continue
+            add(f"{name}_{i}", [(c, f"{p}{j}_{i}") for c, p, j in terms])
 
     L = desc.platform_points  # P_i in Fp, from O_p
     lx, ly, lz = L[:, 0], L[:, 1], L[:, 2]
@@ -161,6 +196,83 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     return BaseParameters(tuple(names), K, np.array(kept), K @ standard_parameters(desc))
 
 
+def grouped_parameters(desc: RobotDescription) -> BaseParameters:
+    """The paper's 88 grouped parameters on every geometry: 13 per leg and 10 platform.
+
+    ``W chi = W[:, kept] (K chi)`` holds on every robot, and on a general one they are the
+    base parameters. When gravity is parallel to a leg's first axis (or zero) some of them
+    (MX1_i, MY1R_i; MX2_i, MY2_i) have no effect and :func:`analytic_base_parameters`
+    drops them; this fixed layout is the one the generated code takes as its input.
+    """
+    return _grouping(desc, np.ones(6, dtype=bool), True)
+
+
+def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
+    """The base parameters by the paper's grouping rules, decided per leg from the geometry.
+
+    Per leg i (names ``..._i``), on a general geometry: ZZ1R, MX1, MY1R, XX2R, XY2R, XZ2R,
+    YZ2R, ZZ2R, MX2, MY2, MX3, MY3, MZ3 with (eq. 44-50)::
+
+        ZZ1R = ZZ1 + YY2 + ZZ3        MY1R = MY1 - MZ2
+        XX2R = XX2 + XX3 - YY2 - ZZ3  XY2R = XY2 - XZ3   XZ2R = XZ2 + XY3
+        YZ2R = YZ2 - YZ3              ZZ2R = ZZ2 + YY3
+
+    Platform (eq. 56-66, with ``l = pL_i`` = P_i in Fp; all six terms of each sum)::
+
+        XX_RP = XX_P + sum M3i (l_y^2 + l_z^2)   XY_RP = XY_P - sum M3i l_x l_y   ...
+        MX_RP = MX_P + sum M3i l_x  ...          M_RP = M_P + sum M3i
+
+    That is 13 x 6 + 10 = 88. Gravity's rules, per leg (measures of
+    :func:`gravity_ratios`, tolerance :data:`GRAVITY_TOLERANCE` = 1e-9):
+
+    - **First axis parallel to gravity** (``|g x z1i| / g0 <= 1e-9``): link 1 turns about
+      a fixed vertical axis through B_i, so its potential energy ``-g . R1(q1i) MS1`` no
+      longer depends on q1i; its kinetic energy is ``ZZ1 q1i'^2 / 2``. Only ZZ1R remains
+      of link 1 (Khalil's rule for a first revolute joint along gravity): MX1_i and MY1R_i
+      (with the MZ2 grouped into it) are dropped. 11 parameters for that leg.
+    - **No gravity** (``|g| / g0 <= 1e-9``): the origin of frame 2i is the fixed point
+      B_i, so MX2 and MY2 act only through gravity; MX1, MY1R, MX2, MY2 are dropped on
+      every leg: 9 per leg, 64 in all.
+    - Otherwise every one of the 13 acts (MX1, MY1 through the gravity component across
+      z1i, MX2, MY2 through gravity).
+
+    No other geometry lowers the rank: the loop closure groups each M3i as a point mass at
+    P_i for any attachment points (planar, symmetric or not), and the tests check the set
+    against the numerical rank and span on general, symmetric, planar, vertical-axis,
+    mixed and zero-gravity robots. So the set is minimal on every valid description and
+    there is no fallback. The one grey zone is a gravity measure just above the
+    tolerance: between 1e-9 and :data:`WEAK_GRAVITY` (1e-5) the parameters are kept (they
+    act in exact arithmetic) but their forces are that small a fraction of gravity's, so
+    a :class:`~stewart_pin.exceptions.BaseParameterWarning` names the legs: the numerical
+    rank may or may not count them, and identification will not resolve them.
+    """
+    lateral, total = gravity_ratios(desc)
+    weak = [
+        f"leg {i + 1} (|g x z1| / g0 = {lateral[i]:.3g})"
+        for i in range(6)
+        if GRAVITY_TOLERANCE < lateral[i] < WEAK_GRAVITY
+    ]
+    if weak:
+        warnings.warn(
+            "first U-joint axis nearly parallel to gravity on "
+            + ", ".join(weak)
+            + f": MX1 and MY1R of these legs are kept (above the {GRAVITY_TOLERANCE:g} "
+            "tolerance) but barely act on the forces; make the axis exactly vertical to drop "
+            "them, or compare with method='numerical'",
+            BaseParameterWarning,
+            stacklevel=2,
+        )
+    if GRAVITY_TOLERANCE < total < WEAK_GRAVITY:
+        warnings.warn(
+            f"gravity |g| = {total * STANDARD_GRAVITY:.3g} m/s^2 is nearly zero: MX2 and MY2 "
+            f"of every leg are kept (above the {GRAVITY_TOLERANCE:g} g0 tolerance) but "
+            "barely act on the forces; set gravity to 0 to drop them",
+            BaseParameterWarning,
+            stacklevel=2,
+        )
+    return _grouping(desc, lateral > GRAVITY_TOLERANCE, total > GRAVITY_TOLERANCE)
+
+
 @dataclass(frozen=True)
 class RankReport:
     """How the numerical rank was decided.
@@ -168,9 +280,9 @@ class RankReport:
     Attributes:
         rank: the numerical rank of the stacked regressor.
         n_states: states stacked (6 rows each).
-        tolerance: relative threshold on the singular values / |R_kk|.
+        tolerance: relative threshold on the singular values.
         smallest_kept, largest_dropped: singular values either side of the cut, relative to
-            the largest (of the column-normalised stacked regressor).
+            the largest (of the stacked regressor with dimensionless columns).
     """
 
     rank: int
@@ -195,29 +307,50 @@ def stacked_regressor(robot: Any, n_states: int = 60, seed: int = 0) -> np.ndarr
     return robot.regressor(poses, twists, accels).reshape(-1, N_STANDARD)
 
 
+#: Powers of the characteristic length that make each of a body's 10 regressor columns
+#: dimensionless (Khalil's order XX XY XZ YY YZ ZZ [kg m^2], MX MY MZ [kg m], M [kg]).
+_LENGTH_POWERS = np.tile(np.array([2, 2, 2, 2, 2, 2, 1, 1, 1, 0]), N_STANDARD // 10)
+
+
 def numerical_base_parameters(
     robot: Any, n_states: int = 60, seed: int = 0, tolerance: float = RANK_TOLERANCE
 ) -> tuple[BaseParameters, RankReport]:
     """Base parameters by QR with column pivoting of the stacked regressor.
 
-    Columns are normalised to unit norm (zero columns stay zero) before the decomposition so
-    that the rank decision does not depend on units. With ``W P = Q [R1 R2]`` and rank r,
-    ``W_2 = W_1 beta`` with ``beta = R1^-1 R2``, so ``chi_b = chi_1 + beta chi_2``.
-    Names are those of the kept standard parameters with a ``*`` suffix when others are
-    folded into them.
+    The columns are made dimensionless before the decomposition: a parameter's column is
+    multiplied by ``L^2`` (inertia, kg m^2), ``L`` (first moment, kg m) or 1 (mass), with
+    ``L`` the robot's size (``description.size`` [m]), so all are forces per kg and the
+    rank decision does not depend on units. (Scaling each column to unit norm instead
+    magnifies round-off: the column of a parameter that nothing excites, e.g. MX1 of a
+    leg whose first axis is vertical, is round-off of 1e-16 of the others, which unit
+    norm turned into an independent column: rank 94 where the true one is 76.)
+
+    The rank r is the number of singular values above ``tolerance`` times the largest;
+    the QR's pivots choose the r kept columns. With ``W P = Q [R1 R2]``, ``W_2 = W_1
+    beta`` with ``beta = R1^-1 R2``, so ``chi_b = chi_1 + beta chi_2``. Names are those
+    of the kept standard parameters with a ``*`` suffix when others are folded into them.
+    A :class:`~stewart_pin.exceptions.BaseParameterWarning` says when a singular value
+    lies within a factor :data:`RANK_MARGIN` of the threshold (an ill-determined rank:
+    some parameter barely acts on these states).
     """
+    real = isinstance(tolerance, (int, float, np.integer, np.floating))
+    if isinstance(tolerance, bool) or not real or not 0.0 < float(tolerance) < 1.0:
+        raise InputError(
+            f"rank tolerance must be a number in (0, 1) (relative to the largest singular "
+            f"value; default {RANK_TOLERANCE:g}), got {tolerance!r}"
+        )
+    tol = float(tolerance)
     W = stacked_regressor(robot, n_states, seed)
-    norms = np.linalg.norm(W, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
+    scale = float(robot.description.size) ** -_LENGTH_POWERS.astype(float)
     Wn = W / scale
     sv = np.linalg.svd(Wn, compute_uv=False)
-    _, R, perm = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
-    diag = np.abs(np.diag(R))
-    rank = int(np.sum(diag > tolerance * diag[0]))
-    if rank == 0:
+    if not sv[0] > 0:
         raise StewartPinError("the stacked regressor is zero: no parameter is identifiable")
+    rel = sv / sv[0]
+    rank = int(np.sum(rel > tol))
+    _, R, perm = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
     R1, R2 = R[:rank, :rank], R[:rank, rank:]
-    beta_n = scipy.linalg.solve_triangular(R1, R2)  # in normalised columns
+    beta_n = scipy.linalg.solve_triangular(R1, R2)  # in scaled columns
     kept, folded = perm[:rank], perm[rank:]
     # Back to physical units: W1 = Wn1 D1, W2 = Wn2 D2 -> beta = D1^-1 beta_n D2.
     beta = beta_n * scale[folded][None, :] / scale[kept][:, None]
@@ -234,10 +367,19 @@ def numerical_base_parameters(
     report = RankReport(
         rank,
         n_states,
-        tolerance,
-        float(sv[rank - 1] / sv[0]),
-        float(sv[rank] / sv[0]) if rank < len(sv) else 0.0,
+        tol,
+        float(rel[rank - 1]),
+        float(rel[rank]) if rank < len(rel) else 0.0,
     )
+    if report.smallest_kept < RANK_MARGIN * tol or report.largest_dropped > tol / RANK_MARGIN:
+        warnings.warn(
+            f"ill-determined numerical {report}: a singular value lies within a factor "
+            f"{RANK_MARGIN:g} of the tolerance, so some parameters barely act on the forces "
+            "of these states (an axis nearly parallel to gravity, a weak excitation); the "
+            "rank may change with the tolerance or the states",
+            BaseParameterWarning,
+            stacklevel=2,
+        )
     chi = standard_parameters(robot.description)
     return BaseParameters(names, K, kept, K @ chi, robot), report
 
@@ -246,8 +388,10 @@ def base_parameters(robot: Any, method: str = "analytic", **kwargs: Any) -> Base
     """The base parameters of ``robot`` (a :class:`~stewart_pin.StewartRobot`), bound to it.
 
     Args:
-        method: ``"analytic"`` (the paper's named 88) or ``"numerical"`` (QR; ``kwargs``
-            go to :func:`numerical_base_parameters`).
+        method: ``"analytic"`` (the paper's named parameters, 88 on a general robot, fewer
+            when gravity is parallel to first U-joint axes or zero: see
+            :func:`analytic_base_parameters`) or ``"numerical"`` (QR; ``kwargs`` go to
+            :func:`numerical_base_parameters`).
     """
     if method == "analytic":
         bp = analytic_base_parameters(robot.description)
@@ -341,8 +485,9 @@ def paper_essential_parameters(
     robot: Any, n_states: int = 100, seed: int = 0
 ) -> EssentialParameters:
     """The paper's 52 essential parameters (Table III), with the relative force error of
-    keeping only them (zero to round-off for a robot meeting the paper's assumptions)."""
-    bp = analytic_base_parameters(robot.description)
+    keeping only them (zero to round-off for a robot meeting the paper's assumptions).
+    Taken from the paper's 88 (:func:`grouped_parameters`) on every geometry."""
+    bp = grouped_parameters(robot.description)
     keep = [f"{p}_{i}" for i in range(1, 7) for p in PAPER_ESSENTIAL_PER_LEG]
     keep += [n for n in bp.names if n.endswith("_RP")]
     idx = np.array(sorted(bp.names.index(n) for n in keep))

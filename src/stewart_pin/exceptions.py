@@ -144,3 +144,9 @@ class StewartPinWarning(UserWarning):
     def __init__(self, message: str, field: str = "", correction: float | None = None) -> None:
         super().__init__(message)
         self.field, self.correction = field, correction
+
+
+class BaseParameterWarning(UserWarning):
+    """Base parameters that are identifiable in exact arithmetic but barely act on the
+    forces (a first U-joint axis within a hair of gravity, a near-zero gravity), or a
+    numerical rank decided within a narrow margin of its tolerance."""

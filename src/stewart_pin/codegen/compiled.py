@@ -47,7 +47,7 @@ import casadi as cs
 import numpy as np
 
 from .._checks import check_array, check_states
-from ..base_params import analytic_base_parameters
+from ..base_params import grouped_parameters
 from ..exceptions import SingularityError, StewartPinError
 from ..geometry import LEG_MIN_LENGTH, LEG_SINGULARITY_SIN, inverse_geometry_batch
 from ..kinematics import check_condition, inverse_jacobian_batch
@@ -289,7 +289,7 @@ class CompiledDynamics:
         self.robot = robot
         desc = robot.description
         self._desc = desc
-        bp = analytic_base_parameters(desc)
+        bp = grouped_parameters(desc)
         self.parameter_names: tuple[str, ...] = bp.names
         self.base_values = np.ascontiguousarray(bp.values, dtype=np.float64)
         self.base_values.flags.writeable = False

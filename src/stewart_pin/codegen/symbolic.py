@@ -53,7 +53,7 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from ..base_params import PAPER_ESSENTIAL_PER_LEG, analytic_base_parameters
+from ..base_params import PAPER_ESSENTIAL_PER_LEG, grouped_parameters
 from ..description import RobotDescription
 from ..kinematics import inverse_jacobian_batch
 
@@ -68,7 +68,7 @@ SNAP_TOLERANCE = 1e-12
 #: entry of its column at the home pose (so every multiplier is <= 1 / this there).
 PIVOT_THRESHOLD = 0.5
 
-#: The 13 base parameters of each leg, in the order of ``analytic_base_parameters``.
+#: The 13 base parameters of each leg, in the order of ``grouped_parameters``.
 LEG_PARAMETERS = (
     "ZZ1R",
     "MX1",
@@ -139,7 +139,7 @@ def _snap(x: np.ndarray, scale: float) -> np.ndarray:
 def model_constants(desc: RobotDescription) -> ModelConstants:
     """The snapped geometry and the base parameters of ``desc``."""
     size = max(desc.size, float(np.abs(desc.base_points).max()), 1e-300)
-    bp = analytic_base_parameters(desc)
+    bp = grouped_parameters(desc)
     g = desc.gravity
     return ModelConstants(
         base_points=_snap(desc.base_points, size),
