@@ -117,3 +117,8 @@ class IdentificationError(StewartPinError, ValueError):
     ) -> None:
         super().__init__(message)
         self.rank, self.n_parameters = rank, n_parameters
+
+
+class ApproximationWarning(UserWarning):
+    """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
+    body MuJoCo refuses as described: see :func:`stewart_pin.mjcf.mujoco_inertials`)."""
