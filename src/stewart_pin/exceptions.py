@@ -150,3 +150,8 @@ class BaseParameterWarning(UserWarning):
     """Base parameters that are identifiable in exact arithmetic but barely act on the
     forces (a first U-joint axis within a hair of gravity, a near-zero gravity), or a
     numerical rank decided within a narrow margin of its tolerance."""
+
+
+class ApproximationWarning(UserWarning):
+    """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
+    body MuJoCo refuses as described: see :func:`stewart_pin.mjcf.mujoco_inertials`)."""

@@ -14,9 +14,20 @@ cannot hold:
   and a keyframe ``home``: the inverse geometry of the home pose.
 
 MuJoCo's ``qpos`` is the 18 leg joints (leg 1 first, ``q1i, q2i, q3i``) then the platform
-``[p, quat (w, x, y, z)]`` in F0; its free-joint velocity is ``[v in F0, w in Fp]``. The
-loops are soft constraints (MuJoCo's default ``solref``/``solimp``): a simulation holds them
-only approximately. Geoms are visual only (``contype = conaffinity = 0``).
+``[p, quat (w, x, y, z)]`` in F0; its free-joint velocity is ``[v in F0, w in Fp]``. MuJoCo's
+loops are soft constraints; each ``connect`` carries the stiffest parameters MuJoCo allows
+(:data:`LOOP_SOLREF`, :data:`LOOP_SOLIMP`), with which ``mj_forward`` at a consistent state
+gives the platform acceleration to about 1e-4 of the larger of it and gravity (against the
+exact model; figures in ``docs/closures.md``), where MuJoCo's defaults are 10 % off or
+worse. Geoms are visual only (``contype = conaffinity = 0``).
+
+MuJoCo refuses moving bodies without mass or with a vanishing principal moment, which a
+description allows (a massless U-joint cross, a point mass, a thin rod): the MuJoCo layout
+writes such bodies through :func:`mujoco_inertials`: a massless link 1 or 2 has no body
+(its joints go to the next link's body), a light rod takes a point mass at P_i from the
+platform (both exact), and what remains gets the smallest principal moments and mass MuJoCo
+takes (1e-9 of the robot's scale; an :class:`~stewart_pin.exceptions.ApproximationWarning`
+when that is not negligible).
 
 Pinocchio's MJCF parser (``pin.buildModelAndConstraintsFromMJCF``, Pinocchio 4.1) reads
 only the first top-level body of ``<worldbody>`` and ignores ``<option gravity>``, while
@@ -30,7 +41,9 @@ that file. Either way, set ``model.gravity`` in Pinocchio yourself.
 
 from __future__ import annotations
 
+import warnings
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -40,8 +53,14 @@ import pinocchio as pin
 from ._io import write_text_atomic
 from ._safe import check_xml_text
 from .description import RobotDescription
+from .exceptions import ApproximationWarning
 from .geometry import inverse_geometry
-from .inertia import urdf_inertial_from_khalil
+from .inertia import (
+    inertia_tensor,
+    khalil_from_tensor,
+    khalil_from_urdf_inertial,
+    urdf_inertial_from_khalil,
+)
 from .urdf import (
     BASE_LINK,
     PLATFORM_JOINT,
@@ -54,8 +73,12 @@ from .urdf import (
 )
 
 __all__ = [
+    "LOOP_SOLIMP",
+    "LOOP_SOLREF",
+    "MujocoInertials",
     "leg_tip_site",
     "mjcf_string",
+    "mujoco_inertials",
     "mujoco_qpos",
     "platform_site",
     "quaternion_wxyz",
@@ -71,6 +94,181 @@ _RGBA = {
     "platform": "0.95 0.55 0.15 1",
 }
 _R_X90 = pin.rpy.rpyToMatrix(np.pi / 2, 0.0, 0.0)
+
+#: ``solref`` of the six loop constraints: a time constant far below any step, which
+#: MuJoCo (flag ``refsafe``, on by default) raises to two steps (4 ms at its default 2 ms
+#: step): the stiffest drift correction the step allows; critically damped.
+LOOP_SOLREF = (0.0002, 1.0)
+#: ``solimp`` of the loop constraints: impedance 0.9999 (MuJoCo's maximum) at any violation,
+#: so the regulariser is 1e-4 of the constraint's approximate inverse inertia.
+LOOP_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+# MuJoCo refuses a moving body whose fullinertia has an eigenvalue below 1e-14 kg m^2 or
+# whose mass or principal moments are below 1e-15 (mjEPS, mjMINVAL), and principal moments
+# with I1 + I2 < I3; the bounds below keep a margin from those.
+_MJ_MIN_INERTIA = 1e-13  # [kg m^2]
+_MJ_MIN_MASS = 1e-14  # [kg]
+_TRIANGLE_MARGIN = 1e-9
+#: A raised principal moment or mass: this fraction of the robot's total mass (times its
+#: size squared for a moment), at least the bounds above.
+_FLOOR = 1e-9
+#: Raised values above this fraction of the robot's scale are warned about.
+_DOUBTFUL = 1e-6
+#: A rod (link 3) lighter than this fraction of the platform's mass per leg gets a point
+#: mass at P_i from the platform (exact), or MuJoCo's soft loops lose accuracy.
+_LIGHT_ROD = 0.01
+
+
+@dataclass(frozen=True)
+class MujocoInertials:
+    """The bodies and inertials of the MuJoCo layout (:func:`mujoco_inertials`).
+
+    Attributes:
+        leg: (6, 3, 10) Khalil parameters of each leg link about the origin of its own
+            frame (zeros for a link without a body).
+        has_body: (6, 3) bool; ``False``: a massless link 1 or 2 written without a body,
+            its joint carried by the next link's body.
+        platform: (10,) Khalil parameters of the platform in Fp.
+        exact: notes on the changes that leave the closed-loop dynamics as they are.
+        approximate: notes on the changes that alter them (principal moments or masses
+            raised to what MuJoCo takes).
+        doubtful: the approximate changes that may exceed the accuracy stated in
+            ``docs/closures.md``: a bound above 1e-6 of the robot's mass (times its size
+            squared), or a mass given to a rod or the platform (whose masses set MuJoCo's
+            loop regularisation); :func:`mjcf_string` issues them as an
+            :class:`ApproximationWarning`.
+    """
+
+    leg: np.ndarray
+    has_body: np.ndarray
+    platform: np.ndarray
+    exact: tuple[str, ...]
+    approximate: tuple[str, ...]
+    doubtful: tuple[str, ...]
+
+
+def _pseudo_inertia(params: np.ndarray) -> np.ndarray:
+    """The 4x4 pseudo-inertia ``[[sum m x x^T, m c], [m c^T, m]]`` (about the frame origin)."""
+    I_O = inertia_tensor(params)
+    J = np.empty((4, 4))
+    J[:3, :3] = 0.5 * np.trace(I_O) * np.eye(3) - I_O
+    J[:3, 3] = J[3, :3] = params[6:9]
+    J[3, 3] = params[9]
+    return J
+
+
+def _khalil_from_pseudo(J: np.ndarray) -> np.ndarray:
+    J = 0.5 * (J + J.T)
+    return khalil_from_tensor(np.trace(J[:3, :3]) * np.eye(3) - J[:3, :3], J[:3, 3], J[3, 3])
+
+
+def _point_mass_capacity(params: np.ndarray, points: np.ndarray) -> float:
+    """The largest mass ``mu`` [kg] that can be taken from the body at each of ``points``
+    ((k, 3), in its frame) leaving a physical body: ``J - mu sum q q^T >= 0`` with
+    ``q = [p, 1]``; 0 unless the pseudo-inertia J is positive definite."""
+    try:
+        L = np.linalg.cholesky(_pseudo_inertia(params))
+    except np.linalg.LinAlgError:
+        return 0.0
+    Y = np.linalg.solve(L, np.c_[points, np.ones(len(points))].T)
+    return float(1.0 / np.linalg.eigvalsh(Y @ Y.T)[-1])
+
+
+def _bounded(params: np.ndarray, min_inertia: float, min_mass: float) -> np.ndarray:
+    """The parameters with the principal moments about the centre of mass raised to at
+    least ``min_inertia`` and to the triangle inequality with a margin, and the mass to at
+    least ``min_mass`` (same centre of mass); unchanged if MuJoCo takes them as they are."""
+    mass, com, I_c = urdf_inertial_from_khalil(params)
+    moments, axes = np.linalg.eigh(I_c)
+    raised = np.maximum(moments, min_inertia)
+    short = raised[2] * (1.0 + _TRIANGLE_MARGIN) - raised[0] - raised[1]
+    if short > 0.0:
+        raised[:2] += short / 2
+    if mass >= min_mass and np.array_equal(raised, moments):
+        return params
+    return khalil_from_urdf_inertial(max(mass, min_mass), com, axes @ np.diag(raised) @ axes.T)
+
+
+def mujoco_inertials(desc: RobotDescription) -> MujocoInertials:
+    """The inertials written in the MuJoCo layout, which refuses moving bodies without mass
+    or with a vanishing principal moment (massless links, point masses, thin rods, flat
+    plates at the triangle inequality). Bodies MuJoCo takes are written as described;
+    the others are changed, in this order:
+
+    1. a massless link 1 or 2 gets no body: its joints go to the next link's body (exact);
+    2. a rod (link 3) lighter than 1/100 of the platform's mass per leg gets a point mass at
+       P_i taken from the platform (exact: the rod's tip is P_i; at most half of what
+       leaves the platform physical); a massless platform likewise takes point masses at
+       P_i from the rods;
+    3. what remains (a massless rod or platform with no donor, a point mass, a thin rod, a
+       flat plate) gets its principal moments raised to 1e-9 of the robot's mass times its
+       size squared and to the triangle inequality, and its mass to 1e-9 of the robot's,
+       at least MuJoCo's bounds (an approximation, reported in ``approximate``; in
+       ``doubtful`` too when MuJoCo's bounds exceed 1e-6 of the robot's scale, a tiny
+       robot, or when a rod or the platform must be given mass).
+    """
+    leg = np.array(desc.leg_inertia, dtype=float)
+    platform = np.array(desc.platform_inertia, dtype=float)
+    exact: list[str] = []
+
+    has_body = np.ones((6, 3), dtype=bool)
+    has_body[:, :2] = leg[:, :2, 9] != 0.0
+    for k, j in zip(*np.nonzero(~has_body), strict=True):
+        exact.append(f"leg {k + 1} link {j + 1} is massless: its joint is on the next link")
+
+    light = leg[:, 2, 9] < _LIGHT_ROD * platform[9] / 6
+    if light.any():
+        points = desc.platform_points[light]
+        mu = 0.5 * _point_mass_capacity(platform, points)
+        if mu > 0.0:
+            q = np.c_[points, np.ones(len(points))]
+            platform = _khalil_from_pseudo(_pseudo_inertia(platform) - mu * q.T @ q)
+            leg[light, 2, 9] += mu
+            legs = ", ".join(str(k + 1) for k in np.nonzero(light)[0])
+            exact.append(f"the rods of legs {legs} carry {mu:.6g} kg at P_i from the platform")
+    m_total = platform[9] + leg[has_body, 9].sum()
+    min_mass = max(_FLOOR * m_total, _MJ_MIN_MASS)
+    if platform[9] < min_mass:
+        J = _pseudo_inertia(platform)
+        for k in range(6):
+            mu = 0.5 * _point_mass_capacity(leg[k, 2], np.zeros((1, 3)))
+            if mu > 0.0:
+                leg[k, 2, 9] -= mu
+                q = np.r_[desc.platform_points[k], 1.0]
+                J += mu * np.outer(q, q)
+                exact.append(f"the platform carries {mu:.6g} kg at P_{k + 1} from rod {k + 1}")
+        platform = _khalil_from_pseudo(J)
+
+    min_inertia = max(_FLOOR * m_total * desc.size**2, _MJ_MIN_INERTIA)
+    # MuJoCo's absolute bounds above a millionth of the robot's own scale (a tiny robot).
+    too_small = min_inertia > _DOUBTFUL * m_total * desc.size**2 or min_mass > _DOUBTFUL * m_total
+    approximate: list[str] = []
+    doubtful: list[str] = []
+    bodies = [
+        (f"leg {k + 1} link {j + 1}", leg[k, j])
+        for k, j in zip(*np.nonzero(has_body), strict=True)
+    ]
+    for name, params in [*bodies, ("platform", platform)]:
+        bounded = _bounded(params, min_inertia, min_mass)
+        if bounded is params:
+            continue
+        note = (
+            f"{name}: mass {params[9]:.6g} -> {bounded[9]:.6g} kg, principal moments "
+            f"{_moments(params)} -> {_moments(bounded)} kg m^2"
+        )
+        approximate.append(note)
+        in_loop = name == "platform" or name.endswith("link 3")
+        if too_small or (in_loop and bounded[9] != params[9]):
+            doubtful.append(note)
+        params[:] = bounded
+    return MujocoInertials(
+        leg, has_body, platform, tuple(exact), tuple(approximate), tuple(doubtful)
+    )
+
+
+def _moments(params: np.ndarray) -> str:
+    moments = np.linalg.eigvalsh(urdf_inertial_from_khalil(params)[2])
+    return "[" + ", ".join(f"{x:.3g}" for x in moments) + "]"
 
 
 def leg_tip_site(i: int) -> str:
@@ -129,30 +327,55 @@ def _plate(body: ET.Element, points: np.ndarray, vs: VisualSizes, sign: float, r
     _geom(body, "cylinder", rgba, (radius, length / 2), xyz, pin.rpy.rpyToMatrix(rpy))
 
 
-def _joint(body: ET.Element, name: str, kind: str, limits: np.ndarray) -> None:
-    ET.SubElement(body, "joint", name=name, type=kind, axis="0 0 1", range=_vec(limits))
+def _joint(body: ET.Element, name: str, kind: str, limits: np.ndarray, axis: Any = None) -> None:
+    axis = "0 0 1" if axis is None else _vec(axis)
+    ET.SubElement(body, "joint", name=name, type=kind, axis=axis, range=_vec(limits))
 
 
-def _leg(base: ET.Element, desc: RobotDescription, i: int, vs: VisualSizes, lim: np.ndarray):
+def _leg(
+    base: ET.Element,
+    desc: RobotDescription,
+    i: int,
+    vs: VisualSizes,
+    lim: np.ndarray,
+    inertia: np.ndarray,
+    has_body: np.ndarray,
+) -> None:
+    """Leg i's bodies. A link without a body (``has_body`` False) passes its joint on to
+    the next body, whose frame at zero joint values is then the product ``X`` of the fixed
+    rotations before each joint it carries (``leg_base_rotations`` before q1 at B_i,
+    ``R_X90`` before q2 and q3), and joint n's axis there is ``S_n^T z``, with ``S_n`` the
+    product of the fixed rotations after it (MuJoCo turns a body's joints in order, each
+    about its axis in the frame the previous ones left; all pass through B_i, the slide
+    last)."""
     k = i - 1
-    inertia = desc.leg_inertia[k]
-    link1 = _body(base, leg_link(i, 1), desc.base_points[k], desc.leg_base_rotations[k])
-    _joint(link1, leg_joint(i, 1), "hinge", lim[k, 0])
-    _inertial(link1, inertia[0])
-    _geom(link1, "sphere", "joint", (vs.joint_radius,))
-    link2 = _body(link1, leg_link(i, 2), R=_R_X90)
-    _joint(link2, leg_joint(i, 2), "hinge", lim[k, 1])
-    _inertial(link2, inertia[1])
-    # The cylinder body runs along -y2 (the leg direction in frame 2i) from B_i.
-    size = (vs.cylinder_radius, vs.body_length / 2)
-    _geom(link2, "cylinder", "cylinder", size, (0.0, -vs.body_length / 2, 0.0), _R_X90)
-    link3 = _body(link2, leg_link(i, 3), R=_R_X90)
-    _joint(link3, leg_joint(i, 3), "slide", lim[k, 2])
-    _inertial(link3, inertia[2])
-    size = (vs.rod_radius, vs.rod_length / 2)
-    _geom(link3, "cylinder", "rod", size, (0.0, 0.0, -vs.rod_length / 2))
-    _geom(link3, "sphere", "joint", (vs.joint_radius,))
-    ET.SubElement(link3, "site", name=leg_tip_site(i), pos="0.0 0.0 0.0")
+    kinds = ("hinge", "hinge", "slide")
+    parent, carried = base, []
+    for j in range(3):
+        carried.append(j)
+        if not has_body[j]:
+            continue
+        fixed = [desc.leg_base_rotations[k] if n == 0 else _R_X90 for n in carried]
+        pos = desc.base_points[k] if carried[0] == 0 else None
+        X = np.linalg.multi_dot([np.eye(3), *fixed])
+        body = _body(parent, leg_link(i, j + 1), pos, fixed[0] if len(fixed) == 1 else X)
+        for m, n in enumerate(carried):
+            after = fixed[m + 1 :]
+            axis = None if not after else np.linalg.multi_dot([np.eye(3), *after]).T[:, 2]
+            _joint(body, leg_joint(i, n + 1), kinds[n], lim[k, n], axis)
+        _inertial(body, inertia[j])
+        if 0 in carried and j < 2:  # the U-joint sphere at B_i (not on the sliding rod)
+            _geom(body, "sphere", "joint", (vs.joint_radius,))
+        if j == 1:
+            # The cylinder body runs along -y2 (the leg direction in frame 2i) from B_i.
+            size = (vs.cylinder_radius, vs.body_length / 2)
+            _geom(body, "cylinder", "cylinder", size, (0.0, -vs.body_length / 2, 0.0), _R_X90)
+        if j == 2:
+            size = (vs.rod_radius, vs.rod_length / 2)
+            _geom(body, "cylinder", "rod", size, (0.0, 0.0, -vs.rod_length / 2))
+            _geom(body, "sphere", "joint", (vs.joint_radius,))
+            ET.SubElement(body, "site", name=leg_tip_site(i), pos="0.0 0.0 0.0")
+        parent, carried = body, []
 
 
 def mujoco_qpos(desc: RobotDescription, pose: Any) -> np.ndarray:
@@ -177,6 +400,21 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
     """
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
+    if pinocchio_layout:  # Pinocchio takes massless bodies: the description as it is
+        leg_inertia, has_body = desc.leg_inertia, np.ones((6, 3), dtype=bool)
+        platform_inertia = desc.platform_inertia
+    else:
+        inertials = mujoco_inertials(desc)
+        leg_inertia, has_body = inertials.leg, inertials.has_body
+        platform_inertia = inertials.platform
+        if inertials.doubtful:
+            warnings.warn(
+                f"robot {desc.name!r}: MuJoCo cannot hold some bodies as described, and the "
+                f"MJCF changes them enough to exceed the accuracy stated in docs/closures.md: "
+                f"{'; '.join(inertials.doubtful)}",
+                ApproximationWarning,
+                stacklevel=2,
+            )
     root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
     ET.SubElement(root, "option", gravity=_vec(desc.gravity))
@@ -190,7 +428,7 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
     ET.SubElement(base, "inertial", pos="0.0 0.0 0.0", mass="0.0", diaginertia="0.0 0.0 0.0")
     _plate(base, desc.base_points, vs, -1.0, "base")
     for i in range(1, 7):
-        _leg(base, desc, i, vs, lim)
+        _leg(base, desc, i, vs, lim, leg_inertia[i - 1], has_body[i - 1])
 
     if pinocchio_layout:
         platform = _body(base, PLATFORM_LINK)
@@ -198,7 +436,7 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
         T = desc.home_pose
         platform = _body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
     ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
-    _inertial(platform, desc.platform_inertia)
+    _inertial(platform, platform_inertia)
     _plate(platform, desc.platform_points, vs, 1.0, "platform")
     for i in range(1, 7):
         ET.SubElement(
@@ -208,7 +446,13 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
     equality = ET.SubElement(root, "equality")
     for i in range(1, 7):
         ET.SubElement(
-            equality, "connect", name=f"loop{i}", site1=leg_tip_site(i), site2=platform_site(i)
+            equality,
+            "connect",
+            name=f"loop{i}",
+            site1=leg_tip_site(i),
+            site2=platform_site(i),
+            solref=_vec(LOOP_SOLREF),
+            solimp=_vec(LOOP_SOLIMP),
         )
     actuator = ET.SubElement(root, "actuator")
     for i in range(1, 7):
