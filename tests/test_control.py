@@ -58,7 +58,7 @@ def simulator() -> StewartRobot:
 
 def test_tracks_a_multi_axis_trajectory(simulator):
     """Exact model, 1 kHz zero-order hold: errors below 1 mm and 0.1 deg over 2 s
-    (measured: 0.006 mm and 1.2e-4 deg; the residue is the hold's one-sample delay)."""
+    (measured: 0.0093 mm and 1.9e-4 deg, both integrators; the residue is the hold's one-sample delay)."""
     ref = multi_axis(simulator)
     ctrl = ComputedTorqueController(simulator, ref)
     res = simulate(simulator, 2.0, forces=ctrl, dt=1e-3, control_period=1e-3)
@@ -70,7 +70,7 @@ def test_tracks_a_multi_axis_trajectory(simulator):
 def test_wrong_inertial_parameters_degrade_tracking(simulator):
     """A model with the platform 30 % heavier and the legs 30 % lighter than the plant:
     the loop still tracks, with larger errors than with the exact model (over 2 s:
-    0.78 mm and 0.008 deg, against 0.006 mm and 1.2e-4 deg)."""
+    0.78 mm and 0.008 deg, against 0.0093 mm and 1.9e-4 deg)."""
     ref = multi_axis(simulator)
     chi = standard_parameters(simulator.description)
     wrong = chi.copy()

@@ -155,3 +155,23 @@ class BaseParameterWarning(UserWarning):
 class ApproximationWarning(UserWarning):
     """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
     body MuJoCo refuses as described: see :func:`stewart_pin.mjcf.mujoco_inertials`)."""
+
+
+class SimulationError(StewartPinError):
+    """A simulation stopped before its end: a leg reached its stroke end or a U-joint its
+    limit, the robot reached a singularity, the step control failed, or the forces
+    function (a controller) or the progress callback raised.
+
+    The named error that stopped it is chained as ``__cause__`` (a
+    :class:`StrokeLimitError`, :class:`JointLimitError`, :class:`SingularityError`, or the
+    callback's own exception).
+
+    Attributes:
+        time: the simulated time [s] of the last accepted state (where it stopped).
+        result: the ``SimulationResult`` up to and including that state (accepted
+            states only; empty when the initial state itself is refused).
+    """
+
+    def __init__(self, message: str, time: float, result: object) -> None:
+        super().__init__(message)
+        self.time, self.result = time, result

@@ -13,9 +13,21 @@ SO(3) to round-off, with no drift off the manifold.
 
 Actuator forces come from ``forces(t, pose, twist) -> Gamma (6,)`` [N]: a time function
 or a controller. With ``control_period`` the forces are sampled at that period and held
-(zero-order hold, as a digital controller does). A leg leaving its stroke or the robot
-nearing a singularity stops the run with :class:`SimulationError`, which keeps the part
-already simulated in ``.result``.
+(zero-order hold, as a digital controller does): sampled at the accepted state at the
+start of each period, never at a trial stage.
+
+Every step is a *trial* until accepted: it is rejected, and the step shrinks, when a stage
+or its end state leaves the stroke or a U-joint's limits, passes ``robot.max_condition``
+on cond(Jp^-1), or has a sign of det Jp^-1 other than the step's start (a parallel
+singularity stepped over). Repeated halving locates the event: the run stops with
+:class:`SimulationError` at the last accepted state, within :data:`LIMIT_TOLERANCE` of
+the stroke end or U-joint limit (a singularity: within the shortest step). The error
+keeps the part already simulated, accepted states only, in ``.result``, and chains the
+named error (``__cause__``). Whatever the forces function or the progress callback
+raises stops the run the same way.
+
+Bounds (checked before the run): durations, steps, tolerances and periods finite and
+positive, no step below :data:`MIN_STEP`, at most :data:`MAX_STEPS` steps.
 """
 
 from __future__ import annotations
@@ -30,7 +42,17 @@ import pinocchio as pin
 
 from ._checks import check_array, check_pose, check_scalar
 from ._io import atomic_open
-from .exceptions import FileFormatError, InputError, StewartPinError
+from .exceptions import (
+    FileFormatError,
+    InputError,
+    JointLimitError,
+    SimulationError,
+    SingularityError,
+    StewartPinError,
+    WorkspaceError,
+)
+from .geometry import inverse_geometry_batch
+from .kinematics import inverse_jacobian_batch
 from .tables import (
     FORCE_COLUMNS,
     LENGTH_COLUMNS,
@@ -43,6 +65,26 @@ from .tables import (
 )
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
+
+__all__ = [
+    "LIMIT_TOLERANCE",
+    "MAX_STEPS",
+    "MIN_STEP",
+    "SimulationError",
+    "SimulationResult",
+    "simulate",
+]
+
+#: The most steps one run may take (rk4: ``duration / dt``, refused before the run;
+#: adaptive: accepted steps, the run stops past it; either: ``duration / control_period``).
+MAX_STEPS = 10**8
+#: The shortest step [s]: a smaller ``dt`` is refused, and the adaptive method stops when
+#: its error control asks for less (or for less than 16 eps * duration, the clock's
+#: resolution). Events are located down to this step.
+MIN_STEP = 1e-12
+#: A leg reaching its stroke end is located to this fraction of the longest stroke length
+#: (1e-6 * 2.8 m = 2.8 um for the simulator preset); a U-joint limit to this many radians.
+LIMIT_TOLERANCE = 1e-6
 
 # Dormand-Prince 5(4) tableau.
 _DP_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1])
@@ -59,19 +101,6 @@ _DP_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0])
 _DP_E = _DP_B - np.array(
     [5179 / 57600, 0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40]
 )
-
-
-class SimulationError(StewartPinError):
-    """The simulation stopped: the robot left its workspace or met a singularity.
-
-    Attributes:
-        time: the simulated time [s] where it stopped.
-        result: the :class:`SimulationResult` up to the last accepted step.
-    """
-
-    def __init__(self, message: str, time: float, result: SimulationResult) -> None:
-        super().__init__(message)
-        self.time, self.result = time, result
 
 
 @dataclass(frozen=True)
@@ -137,6 +166,55 @@ def _left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
     return pin.Jlog3(pin.exp3(xi)).T
 
 
+def _chart_pose(T0: np.ndarray, y: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = pin.exp3(y[3:6]) @ T0[:3, :3]
+    T[:3, 3] = y[:3]
+    return T
+
+
+def _chart_state(T: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """The chart state ``[p, xi = 0, v, w]`` (12,) of ``(T, V)`` around its own rotation."""
+    return np.concatenate([T[:3, 3], np.zeros(3), V])
+
+
+@dataclass(frozen=True)
+class _State:
+    """An accepted state: time [s], pose, twist, chart derivative at xi = 0 (12,), the
+    forces applied from it [N], and the sign of det Jp^-1 there."""
+
+    t: float
+    T: np.ndarray
+    V: np.ndarray
+    dy: np.ndarray
+    gamma: np.ndarray
+    sign: float
+
+
+class _Failure(Exception):
+    """A trial step met a limit (a stage or its end outside the stroke / U-joint limits,
+    cond(Jp^-1) past its threshold, or det Jp^-1 changing sign): shrink the step."""
+
+    def __init__(self, error: StewartPinError) -> None:
+        super().__init__(str(error))
+        self.error = error
+
+
+class _CallbackError(Exception):
+    """The user's forces function or progress callback raised ``error``."""
+
+    def __init__(self, what: str, t: float, error: Exception) -> None:
+        super().__init__(f"{what} raised {type(error).__name__} at t = {t:.9g} s: {error}")
+        self.error = error
+
+
+#: Errors that reject a trial step (the step shrinks to locate the event) instead of
+#: stopping the run at once.
+_LIMIT_ERRORS = (WorkspaceError, SingularityError)
+#: The start of the message of a sign change of det Jp^-1 within a trial.
+_SIGN_CHANGE = "det Jp^-1 changes sign"
+
+
 class _Integrator:
     def __init__(
         self, robot: Any, forces: ForceFunction, control_period: float | None, backend: str
@@ -144,31 +222,111 @@ class _Integrator:
         self.robot, self.forces, self.period, self.backend = robot, forces, control_period, backend
         self.held: tuple[int, np.ndarray] | None = None
 
-    def gamma(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
-        if self.period is None:
-            g = self.forces(t, T, V)
-        else:
-            k = int(np.floor(t / self.period + 1e-9))
-            if self.held is None or self.held[0] != k:
-                self.held = (k, np.asarray(self.forces(t, T, V), dtype=float))
-            g = self.held[1]
-        return check_array(g, (6,), "forces(t, pose, twist)")
+    def period_index(self, t: float) -> int:
+        """Index of the control period holding ``t`` (0 without a control period)."""
+        return 0 if self.period is None else int(np.floor(t / self.period + 1e-9))
 
-    def f(self, t: float, T0: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Derivative of the chart state y = [p, xi, v, w] around the rotation of T0."""
+    def gamma(self, t: float, T: np.ndarray, V: np.ndarray, k: int) -> np.ndarray:
+        """Forces at stage time ``t``; with a control period, the value sampled at the
+        start of period ``k`` (an accepted state), held through the period."""
+        if self.period is not None and self.held is not None and self.held[0] == k:
+            return self.held[1]
+        try:
+            g = self.forces(t, T, V)
+        except _LIMIT_ERRORS:
+            raise  # a controller's own workspace check at a trial stage: shrink the step
+        except Exception as e:
+            raise _CallbackError("forces(t, pose, twist)", t, e) from e
+        g = check_array(g, (6,), "forces(t, pose, twist)")
+        if self.period is not None:
+            self.held = (k, g)
+        return g
+
+    def f(
+        self, t: float, T0: np.ndarray, y: np.ndarray, k: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Derivative of the chart state y = [p, xi, v, w] around the rotation of T0, the
+        forces and the pose; ``k`` is the control period of the step."""
         T = _chart_pose(T0, y)
         V = y[6:]
-        g = self.gamma(t, T, V)
+        g = self.gamma(t, T, V, k)
         acc = self.robot.direct_dynamics(T, V, g, backend=self.backend)
         dy = np.concatenate([V[:3], _left_jacobian_inverse(y[3:6]) @ V[3:], acc])
-        return dy, g
+        return dy, g, T
 
+    def det_signs(self, poses: np.ndarray) -> np.ndarray:
+        """Signs of det Jp^-1 at poses (N, 4, 4)."""
+        return np.sign(np.linalg.det(inverse_jacobian_batch(self.robot.description, poses)))
 
-def _chart_pose(T0: np.ndarray, y: np.ndarray) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = pin.exp3(y[3:6]) @ T0[:3, :3]
-    T[:3, 3] = y[:3]
-    return T
+    def state(self, t: float, T: np.ndarray, V: np.ndarray, sign: float | None = None) -> _State:
+        """Evaluate an accepted (or candidate) state: raises the dynamics' errors. ``sign``:
+        of det Jp^-1 at T, when known."""
+        dy, g, _ = self.f(t, T, _chart_state(T, V), self.period_index(t))
+        if sign is None:
+            sign = float(self.det_signs(T[None])[0])
+        return _State(t, T, V, dy, g, sign)
+
+    def trial(
+        self, s: _State, h: float, t_new: float, method: str, rtol: float, atol: float
+    ) -> tuple[_State | None, float]:
+        """One trial step of ``h`` [s] from ``s`` to ``t_new``: ``(new state, error norm)``,
+        the state ``None`` when the adaptive error control rejects it.
+
+        Raises :class:`_Failure` when a stage or the end state meets a limit or the sign
+        of det Jp^-1 differs from the start's at any of them; the held forces are then
+        restored, so a rejected trial leaves no trace.
+        """
+        held = self.held
+        try:
+            new, err = self._trial(s, h, t_new, method, rtol, atol)
+        except _LIMIT_ERRORS as e:
+            self.held = held
+            raise _Failure(e) from e
+        except BaseException:
+            self.held = held
+            raise
+        return new, err
+
+    def _trial(self, s, h, t_new, method, rtol, atol):
+        k = self.period_index(s.t)
+        y0 = _chart_state(s.T, s.V)
+        if method == "rk4":
+            k2, _, T2 = self.f(s.t + h / 2, s.T, y0 + h / 2 * s.dy, k)
+            k3, _, T3 = self.f(s.t + h / 2, s.T, y0 + h / 2 * k2, k)
+            k4, _, T4 = self.f(t_new, s.T, y0 + h * k3, k)
+            y1 = y0 + h / 6 * (s.dy + 2 * k2 + 2 * k3 + k4)
+            poses, err, last = np.array([T2, T3, T4, _chart_pose(s.T, y1)]), 0.0, None
+        else:
+            K, poses = [s.dy], []
+            for c, a in zip(_DP_C[1:], _DP_A[1:], strict=True):
+                y = y0 + h * sum(ai * ki for ai, ki in zip(a, K, strict=False))
+                dy, g, T = self.f(s.t + c * h, s.T, y, k)
+                K.append(dy)
+                poses.append(T)
+            y1 = y  # FSAL: the last stage is the fifth-order solution
+            Ks = np.array(K)
+            scale = atol + rtol * np.maximum(np.abs(y0), np.abs(y1))
+            err = float(np.sqrt(np.mean((h * (_DP_E @ Ks) / scale) ** 2)))
+            if not err <= 1.0:
+                return None, err
+            poses, last = np.array(poses), (K[-1], g)
+        signs = self.det_signs(poses)
+        if np.any(signs != s.sign):
+            n = int(np.argmax(signs != s.sign))
+            raise SingularityError(
+                f"{_SIGN_CHANGE} between t = {s.t:.9g} s and {t_new:.9g} s: the platform "
+                "crosses a parallel singularity",
+                float(self.robot.condition_number(poses[n])),
+                float(self.robot.max_condition),
+            )
+        T1, V1 = poses[-1], y1[6:].copy()
+        if last is not None and self.period_index(t_new) == k:
+            # The last Dormand-Prince stage is the end state: reuse it (no new sample of
+            # the forces within the same control period).
+            dy, g = last
+            dy = np.concatenate([V1[:3], V1[3:], dy[6:]])
+            return _State(t_new, T1, V1, dy, g, s.sign), err
+        return self.state(t_new, T1, V1, s.sign), err
 
 
 def simulate(
@@ -190,11 +348,17 @@ def simulate(
 
     Args:
         robot: a :class:`~stewart_pin.StewartRobot`.
+        duration: simulated time [s], finite and positive.
         pose: initial 0Tp (default the home pose); twist: initial ``[v, w]`` (default 0).
         forces: ``Gamma = forces(t, pose, twist)`` [N]; default zero (free motion).
         method: ``"rk4"`` (fixed step ``dt``) or ``"adaptive"`` (Dormand-Prince 5(4);
             ``dt`` is the first trial step).
+        dt: step [s], at least :data:`MIN_STEP`; for rk4, ``duration / dt`` is at most
+            :data:`MAX_STEPS`.
+        rtol, atol: the adaptive method's relative and absolute tolerances (positive).
         control_period: sample-and-hold period of ``forces`` [s] (``None``: continuous).
+            The forces are sampled at accepted states only, at the start of each period,
+            and held over it; no step crosses a period boundary.
         output_dt: spacing of the returned samples [s] (default: every step for rk4 and
             for the adaptive method, its accepted steps).
         progress: called with the simulated time [s] after each accepted step (a progress
@@ -203,92 +367,265 @@ def simulate(
             :meth:`StewartRobot.direct_dynamics`).
 
     Raises:
-        SimulationError: a leg left its stroke, a U-joint its limits, or the robot came
-            too close to a singularity; ``.result`` holds the motion up to then.
+        InputError: a duration, step, tolerance or period that is not finite and
+            positive, a step below :data:`MIN_STEP`, or more than :data:`MAX_STEPS` steps.
+        SimulationError: the run stopped; ``.result`` holds the accepted states up to
+            then and ``__cause__`` the named error. Stops: a leg reaching its stroke end or
+            a U-joint its limit (located to :data:`LIMIT_TOLERANCE`), cond(Jp^-1) passing
+            ``robot.max_condition`` or det Jp^-1 changing sign (a parallel singularity,
+            located to the step resolution), a leg singularity, the adaptive step falling
+            below the minimum, more than :data:`MAX_STEPS` accepted steps, or ``forces`` /
+            ``progress`` raising.
     """
-    if not duration > 0 or not dt > 0:
-        raise InputError(f"duration and dt must be positive, got {duration} s and {dt} s")
+    duration = check_scalar(duration, "duration", positive=True, unit="s")
+    dt = check_scalar(dt, "dt", positive=True, unit="s")
+    rtol, atol = (
+        check_scalar(rtol, "rtol", positive=True),
+        check_scalar(atol, "atol", positive=True),
+    )
+    if control_period is not None:
+        control_period = check_scalar(control_period, "control_period", positive=True, unit="s")
+    if output_dt is not None:
+        output_dt = check_scalar(output_dt, "output_dt", positive=True, unit="s")
     if method not in ("rk4", "adaptive"):
         raise InputError(f"unknown method '{method}': 'rk4' or 'adaptive'")
-    rtol = check_scalar(rtol, "rtol", positive=True)
-    atol = check_scalar(atol, "atol", positive=True)
-    for value, label in ((control_period, "control_period"), (output_dt, "output_dt")):
-        if value is not None:
-            check_scalar(value, label, positive=True, unit="s")
-    if control_period is not None and method == "rk4":
-        ratio = control_period / dt
-        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+    for fn, name in ((forces, "forces"), (progress, "progress")):
+        if fn is not None and not callable(fn):
+            raise InputError(f"{name} must be a function, got {type(fn).__name__}")
+    if dt < MIN_STEP:
+        raise InputError(
+            f"dt = {dt:g} s is below the smallest step {MIN_STEP:g} s: give a larger dt"
+        )
+    if method == "rk4" and duration / dt > MAX_STEPS:
+        raise InputError(
+            f"duration / dt = {duration:g} s / {dt:g} s = {duration / dt:.3g} steps, more than "
+            f"the bound {MAX_STEPS:.0e}: give a larger dt or a shorter duration"
+        )
+    if control_period is not None:
+        if duration / control_period > MAX_STEPS:
             raise InputError(
-                f"control_period {control_period} s must be a whole multiple of dt {dt} s"
+                f"duration / control_period = {duration / control_period:.3g} periods, more "
+                f"than the bound {MAX_STEPS:.0e} on the steps: give a larger control_period"
             )
+        if method == "rk4":
+            ratio = control_period / dt
+            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+                raise InputError(
+                    f"control_period {control_period} s must be a whole multiple of dt {dt} s"
+                )
     T = check_pose(robot.home_pose if pose is None else pose, "pose")
     V = np.zeros(6) if twist is None else check_array(twist, (6,), "twist")
     integ = _Integrator(robot, forces or (lambda t, T, V: np.zeros(6)), control_period, backend)
-    rows: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
-    next_output = 0.0
+    run = _Run(robot, integ, duration, method, dt, rtol, atol, output_dt, progress)
+    return run.go(T, V)
 
-    def record(t: float, T: np.ndarray, V: np.ndarray) -> None:
-        nonlocal next_output
-        if output_dt is not None and t < next_output - 1e-12 and t < duration - 1e-12:
+
+class _Run:
+    """The stepping loop of :func:`simulate` (validated arguments)."""
+
+    def __init__(self, robot, integ, duration, method, dt, rtol, atol, output_dt, progress):
+        self.robot, self.integ, self.duration, self.method = robot, integ, duration, method
+        self.dt, self.rtol, self.atol, self.output_dt = dt, rtol, atol, output_dt
+        self.progress = progress
+        self.rows: list[_State] = []
+        self.last: _State | None = None
+        self.next_output = 0.0
+        # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
+        self.h_min = max(MIN_STEP, 16 * np.finfo(float).eps * duration)
+        self.tol = LIMIT_TOLERANCE * float(robot.description.stroke[1])
+        self.n_grid = max(1, int(np.ceil(duration / dt - 1e-9))) if method == "rk4" else 0
+
+    # ------------------------------------------------------------------ output
+    def record(self, s: _State, final: bool = False) -> None:
+        """Keep an accepted state (every ``output_dt``; always when ``final``)."""
+        self.last = s
+        if self.rows and self.rows[-1].t == s.t:
             return
-        y0 = np.concatenate([T[:3, 3], np.zeros(3), V])
-        dy, g = integ.f(t, T, y0)
-        rows.append((t, T.copy(), V.copy(), dy[6:].copy(), g.copy()))
-        if output_dt is not None:
-            next_output += output_dt
+        out = self.output_dt
+        if out is not None and not final:
+            if s.t < self.next_output - 1e-12 and s.t < self.duration - 1e-12:
+                return
+            self.next_output += out
+        self.rows.append(s)
 
-    def result() -> SimulationResult:
-        if not rows:
+    def result(self) -> SimulationResult:
+        if not self.rows:
             empty = np.zeros((0, 6))
             return SimulationResult(np.zeros(0), np.zeros((0, 4, 4)), empty, empty, empty, empty)
-        t, P, Vs, A, G = (np.array(x) for x in zip(*rows, strict=True))
-        return SimulationResult(t, P, Vs, A, G, robot.leg_lengths(P))
+        t = np.array([s.t for s in self.rows])
+        P = np.array([s.T for s in self.rows])
+        V = np.array([s.V for s in self.rows])
+        A = np.array([s.dy[6:] for s in self.rows])
+        G = np.array([s.gamma for s in self.rows])
+        return SimulationResult(t, P, V, A, G, self.robot.leg_lengths(P))
 
-    t, h = 0.0, float(dt)
-    try:
-        record(t, T, V)
-        while t < duration - 1e-12:
-            h = min(h, duration - t)
-            if method == "rk4":
-                T, V = _rk4_step(integ, t, T, V, h)
-                t += h
+    def stop(self, message: str, t: float) -> SimulationError:
+        """The error to stop with; the result ends with the last accepted state."""
+        if self.last is not None:
+            self.record(self.last, final=True)
+        return SimulationError(f"simulation stopped at t = {t:.9g} s: {message}", t, self.result())
+
+    # ------------------------------------------------------------------ events
+    def _stroke_margin(self, q: np.ndarray) -> tuple[float, str]:
+        """The smallest distance [m] of a leg length to its stroke ends (leg values (6, 3))
+        and the sentence saying which."""
+        lo, hi = self.robot.description.stroke
+        m = np.minimum(q[:, 2] - lo, hi - q[:, 2])
+        k = int(np.argmin(m))
+        end = "lower" if q[k, 2] - lo <= hi - q[k, 2] else "upper"
+        return float(m[k]), (
+            f"leg {k + 1} length {q[k, 2]:.9g} m reached the {end} end of its stroke "
+            f"[{lo:.9g}, {hi:.9g}] m"
+        )
+
+    def _joint_margin(self, q: np.ndarray) -> tuple[float, str]:
+        """The smallest distance [rad] of a U-joint angle to its limits, and which."""
+        lim = self.robot.description.u_joint_limits
+        m = np.minimum(q[:, :2] - lim[:, :, 0], lim[:, :, 1] - q[:, :2])
+        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
+        end = "lower" if q[k, j] - lim[k, j, 0] <= lim[k, j, 1] - q[k, j] else "upper"
+        return float(m[k, j]), (
+            f"leg {k + 1} U-joint angle q{j + 1}{k + 1} = {q[k, j]:.9g} rad reached its {end} "
+            f"limit [{lim[k, j, 0]:.9g}, {lim[k, j, 1]:.9g}] rad"
+        )
+
+    def located(self, s: _State, failure: _Failure, h: float) -> SimulationError | None:
+        """The error to stop with when the event after ``s`` is located (``None``: not yet).
+
+        A stroke end (U-joint limit) is located when the last accepted state lies within
+        ``LIMIT_TOLERANCE`` times the longest stroke length (``LIMIT_TOLERANCE`` rad) of it;
+        any event when the failing step is down to the shortest step."""
+        e = failure.error
+        if isinstance(e, WorkspaceError):
+            desc = self.robot.description
+            q = inverse_geometry_batch(desc, s.T[None], check_limits=False)
+            if isinstance(e, JointLimitError) and desc.u_joint_limits is not None:
+                (margin, what), tol = self._joint_margin(q[0]), LIMIT_TOLERANCE
             else:
-                T, V, t, h = _dp_step(integ, t, T, V, h, rtol, atol)
-            record(t, T, V)
-            if progress is not None:
-                progress(t)
-    except SimulationError:
-        raise
-    except StewartPinError as e:
-        raise SimulationError(f"simulation stopped at t = {t:.6g} s: {e}", t, result()) from e
-    return result()
+                (margin, what), tol = self._stroke_margin(q[0]), self.tol
+            if margin <= tol:
+                return self._stop(what, s.t, e)
+            if h <= self.h_min:  # not this limit (a controller's own check, say)
+                return self._stop(f"{e} (within the next {h:.2g} s)", s.t, e)
+            return None
+        if h > self.h_min:
+            return None
+        if isinstance(e, SingularityError) and e.leg is not None:
+            what = (
+                f"leg {e.leg} reaches a leg singularity within the next {h:.2g} s "
+                f"(threshold {e.threshold:g})"
+            )
+        else:
+            cond = float(self.robot.condition_number(s.T))
+            if str(e).startswith(_SIGN_CHANGE):
+                how = _SIGN_CHANGE
+            elif isinstance(e, SingularityError) and e.threshold == self.robot.max_condition:
+                how = f"cond(Jp^-1) passes its threshold {self.robot.max_condition:g}"
+            else:
+                how = str(e)
+            what = (
+                f"the platform reaches a parallel singularity: cond(Jp^-1) = {cond:.4g} here, "
+                f"and {how} within the next {h:.2g} s"
+            )
+        return self._stop(what, s.t, e)
+
+    def _stop(self, what: str, t: float, cause: BaseException) -> SimulationError:
+        err = self.stop(what, t)
+        err.__cause__ = cause
+        return err
+
+    # ------------------------------------------------------------------ loop
+    def go(self, T: np.ndarray, V: np.ndarray) -> SimulationResult:
+        s: _State | None = None
+        try:
+            s = self.integ.state(0.0, T, V)
+            self.record(s)
+            self._loop(s)
+            self.record(self.last, final=True)
+        except _Located as done:
+            raise done.error from done.error.__cause__
+        except _CallbackError as e:
+            raise self.stop(str(e), self._time()) from e.error
+        except StewartPinError as e:
+            raise self.stop(str(e), self._time()) from e
+        except Exception as e:  # not a named error: keep what was simulated all the same
+            raise self.stop(f"{type(e).__name__}: {e}", self._time()) from e
+        return self.result()
+
+    def _time(self) -> float:
+        """The time [s] of the last accepted state (0 before the first)."""
+        return 0.0 if self.last is None else self.last.t
+
+    def _grid(self, n: int) -> float:
+        """rk4: the n-th grid time [s] (``duration`` for the last)."""
+        return self.duration if n >= self.n_grid else n * self.dt
+
+    def _loop(self, s: _State) -> None:
+        integ, duration, rk4 = self.integ, self.duration, self.method == "rk4"
+        n = 0  # rk4: the last grid time reached
+        h_cur = self.dt
+        t_bad: float | None = None  # end of the last failed trial still ahead: the event
+        steps = 0
+        while s.t < duration:
+            if rk4:
+                target = self._grid(n + 1)
+            else:
+                target = duration
+                if integ.period is not None:
+                    target = min(target, (integ.period_index(s.t) + 1) * integ.period)
+            if t_bad is not None:
+                target = min(target, t_bad)
+            h = min(h_cur, target - s.t)
+            t_new = target if h == target - s.t else s.t + h
+            try:
+                new, err = integ.trial(s, h, t_new, self.method, self.rtol, self.atol)
+            except _Failure as failure:
+                stop = self.located(s, failure, h)
+                if stop is not None:
+                    raise _Located(stop) from None
+                t_bad, h_cur = t_new, h / 2
+                continue
+            if new is None:  # the adaptive error control rejects the step
+                h_cur = h * max(0.2, 0.9 * err ** (-1 / 5))
+                if h_cur < self.h_min:
+                    raise _Located(
+                        self.stop(
+                            f"the adaptive step fell below {self.h_min:.3g} s (error "
+                            f"{err:.3g} times the tolerance): the forces may be discontinuous "
+                            "or the motion too stiff; loosen rtol/atol or use rk4",
+                            s.t,
+                        )
+                    )
+                continue
+            s = new
+            steps += 1
+            self.record(s)
+            if self.progress is not None:
+                try:
+                    self.progress(s.t)
+                except Exception as e:
+                    raise _CallbackError("progress(t)", s.t, e) from e
+            if steps >= MAX_STEPS and s.t < duration:
+                raise _Located(
+                    self.stop(
+                        f"{steps} accepted steps, the bound MAX_STEPS: give a shorter "
+                        "duration or looser tolerances",
+                        s.t,
+                    )
+                )
+            if t_bad is not None and s.t >= t_bad:
+                t_bad = None  # the failure was a trial artefact: the motion went past it
+            if not rk4:
+                h_cur = h * (5.0 if err == 0 else min(5.0, 0.9 * err ** (-1 / 5)))
+            elif s.t == self._grid(n + 1):
+                n, h_cur = n + 1, self.dt
+            elif t_bad is None:
+                h_cur = min(2 * h_cur, self.dt)
 
 
-def _rk4_step(integ: _Integrator, t: float, T: np.ndarray, V: np.ndarray, h: float):
-    y0 = np.concatenate([T[:3, 3], np.zeros(3), V])
-    k1, _ = integ.f(t, T, y0)
-    k2, _ = integ.f(t + h / 2, T, y0 + h / 2 * k1)
-    k3, _ = integ.f(t + h / 2, T, y0 + h / 2 * k2)
-    k4, _ = integ.f(t + h, T, y0 + h * k3)
-    y = y0 + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return _chart_pose(T, y), y[6:]
+class _Located(Exception):
+    """Carries the SimulationError of a located event out of the loop."""
 
-
-def _dp_step(integ, t, T, V, h, rtol, atol, max_tries: int = 50):
-    """One accepted Dormand-Prince step: returns (T, V, t, next step)."""
-    y0 = np.concatenate([T[:3, 3], np.zeros(3), V])
-    for _ in range(max_tries):
-        k = []
-        for c, a in zip(_DP_C, _DP_A, strict=True):
-            y = y0 + h * sum(ai * ki for ai, ki in zip(a, k, strict=False)) if a else y0
-            k.append(integ.f(t + c * h, T, y)[0])
-        K = np.array(k)
-        y1 = y0 + h * (_DP_B @ K)
-        err_vec = h * (_DP_E @ K)
-        scale = atol + rtol * np.maximum(np.abs(y0), np.abs(y1))
-        err = float(np.sqrt(np.mean((err_vec / scale) ** 2)))
-        if err <= 1.0:
-            factor = 5.0 if err == 0 else min(5.0, 0.9 * err ** (-1 / 5))
-            return _chart_pose(T, y1), y1[6:], t + h, h * factor
-        h *= max(0.2, 0.9 * err ** (-1 / 5))
-    raise InputError(f"adaptive step failed {max_tries} times at t = {t} s (step {h} s)")
+    def __init__(self, error: SimulationError) -> None:
+        super().__init__(str(error))
+        self.error = error

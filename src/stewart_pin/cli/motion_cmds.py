@@ -3,12 +3,42 @@
 from __future__ import annotations
 
 import argparse
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+from ..exceptions import FileFormatError, InputError, SimulationError, StewartPinError
 from ..trajectories import MOTION_KINDS
 from ._common import add_robot_args, progress_bar, robot_from_args
+
+
+def partial_path(out: Path) -> Path:
+    """Where ``simulate`` saves the result of a run that stopped early:
+    ``<stem>.partial<suffix>`` beside the requested output."""
+    return out.with_name(f"{out.stem}.partial{out.suffix}")
+
+
+def _save_partial(error: SimulationError, out: Path) -> SimulationError:
+    """Save a stopped run's accepted states beside ``out``; the error to report, naming
+    the file (one line)."""
+    result = error.result
+    if len(result.t) == 0:
+        note = "no state was accepted, nothing saved"
+    else:
+        path = partial_path(out)
+        try:
+            result.save(path)
+            note = (
+                f"partial result ({len(result.t)} samples, t = {result.t[0]:g} to "
+                f"{result.t[-1]:.6g} s) saved to {path}"
+            )
+        except (OSError, StewartPinError) as e:
+            note = f"the partial result could not be saved to {path}: {e}"
+    return SimulationError(f"{error}; {note}", error.time, result)
 
 
 def _simulate(args: argparse.Namespace) -> int:
@@ -17,8 +47,12 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..simulation import simulate
     from ..trajectories import standard_motion
 
+    if not (np.isfinite(args.duration) and args.duration > 0):
+        raise InputError(f"--duration must be finite and positive [s], got {args.duration}")
     robot = robot_from_args(args)
     out = Path(args.output)
+    if out.suffix not in (".npz", ".csv"):
+        raise FileFormatError(f"unknown result file type '{out.suffix}' for {out}: .npz or .csv")
     out.parent.mkdir(parents=True, exist_ok=True)
     if args.motion == "free":
         forces, motion, duration, start = None, None, args.duration, (None, None)
@@ -33,18 +67,21 @@ def _simulate(args: argparse.Namespace) -> int:
         duration = motion.duration
         T0, V0, _ = motion(0.0)
         start = (T0, V0)
-    with progress_bar(duration, "s", not args.quiet) as bar:
-        result = simulate(
-            robot,
-            duration,
-            *start,
-            forces=forces,
-            method=args.method,
-            dt=args.dt,
-            control_period=args.control_period if forces is not None else None,
-            progress=bar.to,
-            backend=args.backend,
-        )
+    try:
+        with progress_bar(duration, "s", not args.quiet) as bar:
+            result = simulate(
+                robot,
+                duration,
+                *start,
+                forces=forces,
+                method=args.method,
+                dt=args.dt,
+                control_period=args.control_period if forces is not None else None,
+                progress=bar.to,
+                backend=args.backend,
+            )
+    except SimulationError as e:
+        raise _save_partial(e, out) from e
     result.save(out)
     lines = [f"simulated {duration:g} s of '{robot.name}' ({args.motion}, {args.method}): {out}"]
     if motion is not None:
@@ -94,7 +131,7 @@ def _view(args: argparse.Namespace) -> int:
     from ..viz.viewer import Viewer
 
     robot = robot_from_args(args)
-    with Viewer(robot) as viewer:
+    with _exit_on_hangup(), Viewer(robot) as viewer:
         url = viewer.start(open=args.open)
         print(f"meshcat viewer at {url} (local only); Ctrl-C to stop", flush=True)
         viewer.display(robot.home_pose)
@@ -115,6 +152,26 @@ def _view(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextmanager
+def _exit_on_hangup() -> Iterator[None]:
+    """SIGTERM and SIGHUP end the command like Ctrl-C does, closing the viewer's server
+    (the server also dies on its own with this process: see viz._meshcat_server)."""
+
+    def stop(signum: int, frame: object) -> None:
+        raise SystemExit(128 + signum)
+
+    signals = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, stop) for sig in signals}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 def _demo(args: argparse.Namespace) -> int:
     from ..demo import run_demo
 
@@ -129,7 +186,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Integrates the direct dynamic model on SE(3). A motion (about the home "
         "pose, scaled on the robot) is tracked by computed-torque control (inverse model "
         "plus PD) sampled at --control-period; 'free' runs with zero actuator force. "
-        "Results: .npz or .csv (t, pose, twist, classical acceleration, forces, leg lengths).",
+        "Results: .npz or .csv (t, pose, twist, classical acceleration, forces, leg lengths). "
+        "A run that stops early (a leg at its stroke end, a U-joint at its limit, a "
+        "singularity, the controller failing) exits with code 2 and saves the states "
+        "simulated so far beside the output, as <stem>.partial<suffix>.",
     )
     add_robot_args(p)
     p.add_argument("--motion", choices=(*MOTION_KINDS, "free"), default="sinusoid")

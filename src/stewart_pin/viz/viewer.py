@@ -25,6 +25,7 @@ import os
 import selectors
 import subprocess
 import sys
+import threading
 import time
 import weakref
 from dataclasses import dataclass
@@ -186,6 +187,10 @@ class _Server:
         env = dict(os.environ)
         meshcat_dir = str(Path(meshcat.__file__).resolve().parents[1])
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [meshcat_dir, env.get("PYTHONPATH")]))
+        # The server dies with this process (see _meshcat_server.die_with_parent).
+        env["STEWART_PIN_VIEWER_PARENT"] = str(os.getpid())
+        main_thread = threading.current_thread() is threading.main_thread()
+        env["STEWART_PIN_VIEWER_PDEATHSIG"] = "1" if main_thread else "0"
         self.process = subprocess.Popen(
             [sys.executable, "-u", str(script)],
             stdin=subprocess.DEVNULL,
