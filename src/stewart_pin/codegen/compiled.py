@@ -230,8 +230,10 @@ def _check_private(path: Path, kind: str, follow: bool = False) -> os.stat_resul
         raise UnsafeCacheError(path, "it is not a folder")
     if kind == "file" and not stat.S_ISREG(st.st_mode):
         raise UnsafeCacheError(path, "it is not a regular file")
-    uid = os.geteuid() if hasattr(os, "geteuid") else None
-    if uid is not None and st.st_uid != uid:
+    if os.name != "posix":  # pragma: no cover - no owners or group bits to check
+        return st
+    uid = os.geteuid()
+    if st.st_uid != uid:
         raise UnsafeCacheError(path, f"it belongs to user id {st.st_uid}, not to you ({uid})")
     if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
         raise UnsafeCacheError(
@@ -399,7 +401,10 @@ def build_library(
                     )
                 _build(folder, source, compiler, key)
             if load is not None:
-                load(folder / _LIB_NAME)
+                try:
+                    load(folder / _LIB_NAME)
+                except OSError as e:
+                    raise CompilationError(f"cannot load {folder / _LIB_NAME}: {e}") from e
     except (OSError, subprocess.SubprocessError) as e:
         raise CompilationError(f"cannot build the library in {folder}: {e}") from e
     return folder / _LIB_NAME, why is not None
