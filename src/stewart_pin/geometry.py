@@ -23,14 +23,15 @@ from .exceptions import ConvergenceError, JointLimitError, SingularityError, Str
 
 #: A leg is singular (first U-joint axis along the leg) when ``sin q2i`` falls below this.
 #: Near that singularity the leg's Cartesian inertia and velocity terms grow like
-#: ``1 / sin^2 q2`` and ``1 / sin^3 q2`` and the direct dynamic model loses accuracy like
-#: ``eps / sin^4 q2``: at 1e-2 the two backends still agree to 2e-10, at 6e-3 no longer to
-#: 1e-9 (sweeps in ``tests/test_singularities.py``, figures in ``docs/errors.md``).
+#: ``1 / sin^2 q2`` and ``1 / sin^3 q2``, and the direct dynamic model loses accuracy
+#: fast: the two backends agree to 1e-11 at 0.02, 2e-10 at 0.01, 1e-9 at 6e-3, 2e-8 at
+#: 3e-3 and 7e-3 at 1e-4 (worst of the sweeps of ``tests/test_singularities.py``, run as a
+#: script with ``--beyond``).
 LEG_SINGULARITY_SIN = 2e-2
 #: A leg shorter than this fraction of the robot's characteristic length
 #: (:func:`characteristic_length`, the platform radius) is singular: B_i and P_i nearly
-#: coincide, its joint rates grow like ``1 / q3`` and the direct dynamic model loses
-#: accuracy like ``eps / q3^4`` (the backends agree to 1e-11 at 5 %, 2e-9 at 2 %).
+#: coincide and its joint rates grow like ``1 / q3``; the backends agree to 2e-12 at 5 %,
+#: 6e-11 at 2 %, 2e-9 at 1 % and 1e-5 at 0.1 % (same sweeps).
 LEG_MIN_LENGTH_RATIO = 5e-2
 #: Forward geometry: leg-length tolerance [m] and iteration cap of Newton-Raphson.
 FORWARD_TOLERANCE = 1e-12

@@ -32,9 +32,9 @@ from .geometry import characteristic_length, inverse_geometry_batch, leg_vectors
 #: which a pose is declared singular (``SingularityError``); a robot can set its own.
 #: Near a parallel singularity the models lose accuracy like measure * eps: the IDM's
 #: Gamma = Jp^T F, and the DDM given forces that nearly cancel through Jp^-T (e.g. those of
-#: the IDM): there the two backends agree to 1.3e-10 at 1e4, but only to 1.2e-9 at 1e5 and
-#: 1e-8 at 1e6 (sweeps in ``tests/test_singularities.py``). Workspace poses of the presets
-#: measure below 10.
+#: the IDM): the two backends agree to 1.6e-10 at 1e4, 8e-10 at 1e5 and only 9e-9 at 1e6
+#: (worst of the sweeps of ``tests/test_singularities.py``, run as a script with
+#: ``--beyond``). Workspace poses of the presets measure below 10.
 MAX_CONDITION = 1e4
 
 

@@ -377,8 +377,7 @@ def build_library(
     folder is still locked (the file loaded is the one just verified). Raises
     :class:`UnsafeCacheError` when the cache folder or a file in it could have been written
     by someone else, and :class:`CompilationError` when no compiler is found or the
-    compilation fails. See the module docstring for the
-    cache's rules.
+    compilation fails. See the module docstring for the cache's rules.
     """
     compiler = compiler or find_compiler()
     if not compiler:
