@@ -135,9 +135,10 @@ def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
 
 
 def scaled_inverse_jacobian(J_inv: np.ndarray, length: float) -> np.ndarray:
-    """``Jp^-1 diag(1, 1, 1, l, l, l)``: Jp^-1 (..., 6, 6) for a twist ``[v, w l]`` (angular
-    velocity times the characteristic length ``l`` [m], :func:`characteristic_length`), so
-    that every entry is dimensionless. Its condition number is the singularity measure."""
+    """``Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)``: Jp^-1 (..., 6, 6) acting on the twist
+    ``[v, w l]`` (the angular velocity times the characteristic length ``l`` [m],
+    :func:`stewart_pin.geometry.characteristic_length`), so that every entry is
+    dimensionless. Its condition number is the singularity measure."""
     S = J_inv.copy()
     S[..., 3:] /= length
     return S
@@ -176,7 +177,7 @@ def check_condition(J_inv: np.ndarray, max_condition: float, desc: RobotDescript
         raise SingularityError(
             f"the platform is at or near a parallel singularity at state {n}: cond(Jp^-1) = "
             f"{c[n]:.3g} > {max_condition:g} (angular columns scaled by the platform radius "
-            f"{length:.3g} m); move away from it or raise max_condition",
+            f"{length:.3g} m); move away from it (a higher max_condition costs accuracy)",
             float(c[n]),
             max_condition,
         )
