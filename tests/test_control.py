@@ -58,7 +58,8 @@ def simulator() -> StewartRobot:
 
 def test_tracks_a_multi_axis_trajectory(simulator):
     """Exact model, 1 kHz zero-order hold: errors below 1 mm and 0.1 deg over 2 s
-    (measured: 0.0093 mm and 1.9e-4 deg, both integrators; the residue is the hold's one-sample delay)."""
+    (measured: 0.0093 mm and 1.9e-4 deg, both integrators; the residue is the hold's
+    one-sample delay)."""
     ref = multi_axis(simulator)
     ctrl = ComputedTorqueController(simulator, ref)
     res = simulate(simulator, 2.0, forces=ctrl, dt=1e-3, control_period=1e-3)

@@ -159,7 +159,11 @@ def test_condition_number(robot):
     c = robot.condition_number(poses)
     assert c.shape == (4,)
     assert np.all(c >= 1.0)
-    s = np.linalg.svd(robot.inverse_jacobian(poses[0]), compute_uv=False)
+    # The measure is unit-free: Jp^-1's angular columns divided by the platform radius.
+    P = robot.description.platform_points
+    radius = np.linalg.norm(P - P.mean(axis=0), axis=1).mean()
+    scale = np.diag([1.0, 1.0, 1.0, 1.0 / radius, 1.0 / radius, 1.0 / radius])
+    s = np.linalg.svd(robot.inverse_jacobian(poses[0]) @ scale, compute_uv=False)
     assert robot.condition_number(poses[0]) == pytest.approx(s[0] / s[-1], rel=1e-12)
 
 

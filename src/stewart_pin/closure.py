@@ -138,7 +138,7 @@ def inverse_dynamics(
     """``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) with every intermediate term."""
     legs = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
-    check_condition(J_inv, max_condition)
+    check_condition(J_inv, max_condition, desc)
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
     H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)  # J_3i^-T H_i
     plat = platform_terms(desc, poses, twists)
@@ -177,7 +177,7 @@ def cartesian_dynamics(
     """``A_robot`` and ``h_robot`` (eq. 36-37)."""
     legs = leg_state(desc, poses, twists)
     J_inv = inverse_jacobian_batch(desc, poses)
-    check_condition(J_inv, max_condition)
+    check_condition(J_inv, max_condition, desc)
     A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
     Ji = legs.J_inv
     A_x = np.einsum("nkji,nkjl,nklm->nkim", Ji, A, Ji)

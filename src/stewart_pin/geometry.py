@@ -4,10 +4,10 @@ Every function works on batches: poses ``(N, 4, 4)`` give leg values ``(N, 6, 3)
 
 Inverse geometry of leg i. With ``u = R1_i^T (P_i - B_i) / q3i`` (the leg direction in
 frame 1i at q1i = 0), the MDH chain gives ``u = [cos q1 sin q2, sin q1 sin q2, -cos q2]``,
-so ``q2i = arccos(-u_z)``, ``q1i = atan2(u_y, u_x)``, ``q3i = |B_i P_i|``. The U-joint has a
-second solution ``(q1i + pi, -q2i)`` reaching the same direction; it differs physically when
-the links' inertia is not symmetric about the leg. The default branch, used throughout, has
-``q2i`` in ``(0, pi)`` and ``q1i`` in ``(-pi, pi]``.
+so ``q2i = atan2(hypot(u_x, u_y), -u_z)``, ``q1i = atan2(u_y, u_x)``, ``q3i = |B_i P_i|``.
+The U-joint has a second solution ``(q1i + pi, -q2i)`` reaching the same direction; it
+differs physically when the links' inertia is not symmetric about the leg. The default
+branch, used throughout, has ``q2i`` in ``(0, pi)`` and ``q1i`` in ``(-pi, pi]``.
 """
 
 from __future__ import annotations
@@ -22,12 +22,34 @@ from .description import RobotDescription
 from .exceptions import ConvergenceError, JointLimitError, SingularityError, StrokeLimitError
 
 #: A leg is singular (first U-joint axis along the leg) when ``sin q2i`` falls below this.
-LEG_SINGULARITY_SIN = 1e-6
-#: A leg shorter than this [m] is singular (B_i and P_i coincide).
-LEG_MIN_LENGTH = 1e-9
+#: Near that singularity the leg's Cartesian inertia and velocity terms grow like
+#: ``1 / sin^2 q2`` and ``1 / sin^3 q2``, and the direct dynamic model loses accuracy
+#: fast: the two backends agree to 1e-11 at 0.02, 2e-10 at 0.01, 1e-9 at 6e-3, 2e-8 at
+#: 3e-3 and 7e-3 at 1e-4 (worst of the sweeps of ``tests/test_singularities.py``, run as a
+#: script with ``--beyond``).
+LEG_SINGULARITY_SIN = 2e-2
+#: A leg shorter than this fraction of the robot's characteristic length
+#: (:func:`characteristic_length`, the platform radius) is singular: B_i and P_i nearly
+#: coincide and its joint rates grow like ``1 / q3``; the backends agree to 2e-12 at 5 %,
+#: 6e-11 at 2 %, 2e-9 at 1 % and 1e-5 at 0.1 % (same sweeps).
+LEG_MIN_LENGTH_RATIO = 5e-2
 #: Forward geometry: leg-length tolerance [m] and iteration cap of Newton-Raphson.
 FORWARD_TOLERANCE = 1e-12
 FORWARD_MAX_ITERATIONS = 50
+
+
+def characteristic_length(desc: RobotDescription) -> float:
+    """The robot's characteristic length [m]: its platform radius, the mean distance of the
+    platform attachment points P_i from their centroid (independent of where Fp is placed;
+    the base radius :attr:`RobotDescription.size` if the P_i coincide).
+
+    It makes the singularity measures unit-free: the angular columns of Jp^-1 are divided
+    by it (:func:`stewart_pin.kinematics.condition_number`) and the shortest leg is a
+    fraction of it (:data:`LEG_MIN_LENGTH_RATIO`).
+    """
+    P = desc.platform_points
+    radius = float(np.linalg.norm(P - P.mean(axis=0), axis=1).mean())
+    return radius if radius > 0.0 else max(float(desc.size), np.finfo(float).tiny)
 
 
 def platform_points_in_base(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
@@ -58,30 +80,35 @@ def inverse_geometry_batch(
     Raises:
         StrokeLimitError: a leg length outside the stroke (when ``check_limits``).
         JointLimitError: a U-joint angle outside ``desc.u_joint_limits`` (when set).
-        SingularityError: a leg along its first U-joint axis (``sin q2i`` ~ 0).
+        SingularityError: a leg along its first U-joint axis (``sin q2i`` below
+            :data:`LEG_SINGULARITY_SIN`) or nearly zero-length (:data:`LEG_MIN_LENGTH_RATIO`).
     """
     d, _ = leg_vectors(desc, poses)
     q3 = np.linalg.norm(d, axis=-1)
-    if np.any(q3 < LEG_MIN_LENGTH):
-        n, k = np.argwhere(q3 < LEG_MIN_LENGTH)[0]
+    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
+    if np.any(~(q3 >= min_length)):
+        n, k = np.argwhere(~(q3 >= min_length))[0]
         raise SingularityError(
-            f"leg {k + 1} has zero length ({q3[n, k]:.3g} m < {LEG_MIN_LENGTH:g} m) at pose {n}: "
-            "its U-joint angles are undefined",
+            f"leg {k + 1} has zero length or nearly ({q3[n, k]:.3g} m < {min_length:.3g} m, "
+            f"{LEG_MIN_LENGTH_RATIO:g} of the platform radius) at pose {n}: its U-joint "
+            "angles are ill-defined there",
             float(q3[n, k]),
-            LEG_MIN_LENGTH,
+            min_length,
             leg=int(k + 1),
         )
     u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
     q = np.empty(d.shape)
     q[..., 0] = np.arctan2(u[..., 1], u[..., 0])
-    q[..., 1] = np.arccos(np.clip(-u[..., 2], -1.0, 1.0))
-    q[..., 2] = q3
     sin_q2 = np.hypot(u[..., 0], u[..., 1])
-    if np.any(sin_q2 < LEG_SINGULARITY_SIN):
-        n, k = np.argwhere(sin_q2 < LEG_SINGULARITY_SIN)[0]
+    # atan2, not arccos(-u_z): arccos loses the relative accuracy eps / sin^2 q2 near 0, pi.
+    q[..., 1] = np.arctan2(sin_q2, -u[..., 2])
+    q[..., 2] = q3
+    if np.any(~(sin_q2 >= LEG_SINGULARITY_SIN)):
+        n, k = np.argwhere(~(sin_q2 >= LEG_SINGULARITY_SIN))[0]
         raise SingularityError(
-            f"leg {k + 1} lies along its first U-joint axis (sin q2{k + 1} = {sin_q2[n, k]:.3g} "
-            f"< {LEG_SINGULARITY_SIN:g}) at pose {n}: its Jacobian is singular",
+            f"leg {k + 1} lies along its first U-joint axis or too close to it (sin q2{k + 1} = "
+            f"{sin_q2[n, k]:.3g} < {LEG_SINGULARITY_SIN:g}) at pose {n}: its Jacobian is "
+            "singular or too ill-conditioned there for an accurate model",
             float(sin_q2[n, k]),
             LEG_SINGULARITY_SIN,
             leg=int(k + 1),

@@ -36,7 +36,7 @@ from .exceptions import (
     WorkspaceError,
 )
 from .geometry import inverse_geometry_batch, leg_vectors
-from .kinematics import inverse_jacobian_batch
+from .kinematics import condition_number_batch
 from .tables import (
     FORCE_COLUMNS,
     STATE_COLUMNS,
@@ -105,7 +105,7 @@ class _Workspace:
         lengths = np.linalg.norm(leg_vectors(self.desc, poses)[0], axis=-1)
         v = np.sum(np.maximum(0.0, self.lo - lengths) + np.maximum(0.0, lengths - self.hi))
         v /= self.width
-        cond = np.linalg.cond(inverse_jacobian_batch(self.desc, poses))
+        cond = condition_number_batch(self.desc, poses)
         v += np.sum(np.maximum(0.0, cond - self.max_condition)) / self.max_condition
         if self.desc.u_joint_limits is not None and v == 0.0:
             try:

@@ -25,11 +25,17 @@ from ._checks import check_batch, check_poses
 from ._vector import cross
 from .description import RobotDescription
 from .exceptions import InputError, SingularityError
-from .geometry import inverse_geometry_batch, leg_vectors
+from .geometry import characteristic_length, inverse_geometry_batch, leg_vectors
 
-#: Default threshold on the condition number of Jp^-1 past which a pose is declared
-#: singular (``SingularityError``); a robot can set its own.
-MAX_CONDITION = 1e6
+#: Default threshold on the singularity measure (:func:`condition_number`, the condition
+#: number of Jp^-1 with its angular columns divided by the characteristic length) past
+#: which a pose is declared singular (``SingularityError``); a robot can set its own.
+#: Near a parallel singularity the models lose accuracy like measure * eps: the IDM's
+#: Gamma = Jp^T F, and the DDM given forces that nearly cancel through Jp^-T (e.g. those of
+#: the IDM): the two backends agree to 1.6e-10 at 1e4, 8e-10 at 1e5 and only 9e-9 at 1e6
+#: (worst of the sweeps of ``tests/test_singularities.py``, run as a script with
+#: ``--beyond``). Workspace poses of the presets measure below 10.
+MAX_CONDITION = 1e4
 
 
 @dataclass(frozen=True)
@@ -128,27 +134,50 @@ def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
     return J if batched else J[0]
 
 
-def condition_number(desc: RobotDescription, pose: Any) -> np.ndarray | float:
-    """The singularity measure: the 2-norm condition number of Jp^-1 (1 is isotropic).
+def scaled_inverse_jacobian(J_inv: np.ndarray, length: float) -> np.ndarray:
+    """``Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)``: Jp^-1 (..., 6, 6) acting on the twist
+    ``[v, w l]`` (the angular velocity times the characteristic length ``l`` [m],
+    :func:`stewart_pin.geometry.characteristic_length`), so that every entry is
+    dimensionless. Its condition number is the singularity measure."""
+    S = J_inv.copy()
+    S[..., 3:] /= length
+    return S
 
-    Mixed units (rows [m/m, m]) make its value depend on the length unit; compare it
-    against thresholds for the same robot only.
+
+def condition_number_batch(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+    """The singularity measure (:func:`condition_number`) of validated poses (N, 4, 4): (N,)."""
+    J = scaled_inverse_jacobian(inverse_jacobian_batch(desc, poses), characteristic_length(desc))
+    return np.linalg.cond(J)
+
+
+def condition_number(desc: RobotDescription, pose: Any) -> np.ndarray | float:
+    """The singularity measure: the 2-norm condition number of Jp^-1 with its angular
+    columns divided by the robot's characteristic length (its platform radius,
+    :func:`stewart_pin.geometry.characteristic_length`), 1 when isotropic, infinite at a
+    parallel singularity.
+
+    The scaling makes it unit-free: a robot and its copy scaled by any factor have the same
+    measure at corresponding poses (plain cond(Jp^-1) mixes columns in m/m and m/rad, and
+    refused micro-scale robots). ``max_condition`` thresholds refer to this measure.
     """
     T, batched = check_poses(pose)
-    c = np.linalg.cond(inverse_jacobian_batch(desc, T))
+    c = condition_number_batch(desc, T)
     return c if batched else float(c[0])
 
 
-def check_condition(J_inv: np.ndarray, max_condition: float = MAX_CONDITION) -> np.ndarray:
-    """Raise :class:`SingularityError` where cond(Jp^-1) > ``max_condition``; returns the
-    condition numbers (N,)."""
-    c = np.linalg.cond(J_inv)
+def check_condition(J_inv: np.ndarray, max_condition: float, desc: RobotDescription) -> np.ndarray:
+    """Raise :class:`SingularityError` where the singularity measure (:func:`condition_number`)
+    of ``J_inv`` (N, 6, 6), Jp^-1 of ``desc`` at N poses, exceeds ``max_condition``.
+    Returns the measures (N,)."""
+    length = characteristic_length(desc)
+    c = np.linalg.cond(scaled_inverse_jacobian(J_inv, length))
     bad = ~(c <= max_condition)
     if np.any(bad):
         n = int(np.argmax(bad))
         raise SingularityError(
             f"the platform is at or near a parallel singularity at state {n}: cond(Jp^-1) = "
-            f"{c[n]:.3g} > {max_condition:g}",
+            f"{c[n]:.3g} > {max_condition:g} (angular columns scaled by the platform radius "
+            f"{length:.3g} m); move away from it (a higher max_condition costs accuracy)",
             float(c[n]),
             max_condition,
         )
@@ -164,7 +193,7 @@ def jacobian(
     """
     T, batched = check_poses(pose)
     J_inv = inverse_jacobian_batch(desc, T)
-    check_condition(J_inv, max_condition)
+    check_condition(J_inv, max_condition, desc)
     J = np.linalg.inv(J_inv)
     return J if batched else J[0]
 

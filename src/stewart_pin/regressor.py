@@ -99,7 +99,7 @@ def regressor_batch(
     """``W`` for validated batches: shape (N, 6, 190)."""
     state = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
-    check_condition(J_inv, max_condition)
+    check_condition(J_inv, max_condition, desc)
     Y = leg_regressors(legs, state.q, state.qdot, state.qddot)  # (N, 6, 3, 30)
     Yx = np.einsum("nkji,nkjc->nkic", state.J_inv, Y)  # J_3i^-T Y_i at P_i, (N, 6, 3, 30)
     L = state.L[..., None, :]  # (N, 6, 1, 3)

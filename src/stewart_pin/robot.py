@@ -34,7 +34,8 @@ class StewartRobot:
 
     Args:
         description: the validated robot description.
-        max_condition: cond(Jp^-1) past which a pose counts as singular.
+        max_condition: the singularity measure (cond(Jp^-1), its angular columns divided by
+            the platform radius) past which a pose counts as singular.
     """
 
     def __init__(self, description: RobotDescription, max_condition: float = MAX_CONDITION):
@@ -130,7 +131,8 @@ class StewartRobot:
         return kinematics.jacobian(self.description, pose, self.max_condition)
 
     def condition_number(self, pose: Any) -> float | np.ndarray:
-        """cond(Jp^-1), the singularity measure."""
+        """The singularity measure: cond(Jp^-1), its angular columns divided by the platform
+        radius (unit-free; see :func:`stewart_pin.kinematics.condition_number`)."""
         return kinematics.condition_number(self.description, pose)
 
     def leg_jacobians(self, pose: Any) -> np.ndarray:

@@ -49,7 +49,7 @@ def sample_poses(
         T[:3, :3] = pin.exp3(rng.uniform(-rotation, rotation, 3)) @ home[:3, :3]
         try:
             inverse_geometry_batch(desc, T[None])
-            check_condition(inverse_jacobian_batch(desc, T[None]), max_condition)
+            check_condition(inverse_jacobian_batch(desc, T[None]), max_condition, desc)
         except StewartPinError:
             continue
         out.append(T)

@@ -11,7 +11,13 @@
 Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
 """
 
-from .compiled import CompilationError, CompiledDynamics, cache_root, compiled_backend
+from .compiled import (
+    CompilationError,
+    CompiledDynamics,
+    UnsafeCacheError,
+    cache_root,
+    compiled_backend,
+)
 from .opcount import OperationCount, cost_dict, cost_table, count_operations
 from .symbolic import SymbolicModels, generate_models
 
@@ -20,6 +26,7 @@ __all__ = [
     "CompiledDynamics",
     "OperationCount",
     "SymbolicModels",
+    "UnsafeCacheError",
     "cache_root",
     "compiled_backend",
     "cost_dict",

@@ -7,11 +7,13 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
 - ``INPUT``: a non-finite number, a last pose row other than ``[0, 0, 0, 1]``, a rotation
   block off orthonormal (``max |R^T R - I|`` past just under the reference's tolerance) or
   a reflection;
-- ``GEOMETRY``: a leg nearly zero-length, along its first U-joint axis, or outside (or
-  within 1e-9 of the ends of) its stroke;
-- ``COND``: the upper bound ``2 / |det J| (||J||_F^2 / 6)^3`` of cond(Jp^-1)
-  (Guggenheimer, Edelman & Johnson 1995), from an LU with partial pivoting, passes half
-  the threshold: the caller computes the exact condition number of those states only;
+- ``GEOMETRY``: a leg shorter than (or within 1e-6 of) the minimum leg length, as close to
+  its first U-joint axis as the threshold, or outside (or within 1e-9 of the ends of) its
+  stroke (thresholds of :mod:`stewart_pin.geometry`);
+- ``COND``: the upper bound ``2 / |det S| (||S||_F^2 / 6)^3`` of cond(S) (Guggenheimer,
+  Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
+  measure's matrix (``l`` the characteristic length), passes half the threshold: the caller
+  computes the exact measure of those states only;
 - ``REPIVOTED`` (IDM): the static-pivot LU of the generated code met a multiplier larger
   than ``GROWTH_LIMIT``; the state was solved again here with partial pivoting (not an
   error);
@@ -34,8 +36,6 @@ FLAG_NAMES = {
 }
 #: Largest static-pivot multiplier trusted before solving again with partial pivoting.
 GROWTH_LIMIT = 16.0
-#: Bump when the text below changes (part of the cache key).
-WRAPPER_VERSION = "2"
 
 TEMPLATE = r"""
 /* ---- stewart-pin: batch loops and state guards (hand-written, see _csource.py) ---- */
@@ -58,6 +58,7 @@ static const double sp_min_length2 = %(min_length2)r;
 static const double sp_min_sin2 = %(min_sin2)r;
 static const double sp_rotation_tol = %(rotation_tol)r;
 static const double sp_growth_limit = %(growth_limit)r;
+static const double sp_inv_length = %(inv_length)r;  /* 1 / characteristic length [1/m] */
 
 /* Validity of a pose (row-major 4x4) and two 6-vectors. */
 static int sp_check_inputs(const double* T, const double* x, const double* y) {
@@ -91,24 +92,25 @@ static int sp_check_legs(const double* q3sq, const double* rho2) {
   return 0;
 }
 
-/* The condition bound 2 / |det J| (||J||_F^2 / 6)^3 (Guggenheimer et al. 1995). */
+/* The condition bound 2 / |det S| (||S||_F^2 / 6)^3 (Guggenheimer et al. 1995). */
 static int sp_cond_bound(double det, double fro2, double max_cond) {
   double t = fro2 / 6.0;
   double bound = 2.0 / fabs(det) * t * t * t;
   return (bound <= 0.5 * max_cond) ? 0 : SP_COND;
 }
 
-/* LU with partial pivoting of A = Jp^-T (column i = row i of Jp^-1, J row-major), the
-   condition bound, and (if rhs) the solution of A y = rhs. */
+/* LU with partial pivoting of A = S^T (column i = row i of Jp^-1, J row-major; rows 3-5,
+   the angular columns of Jp^-1, divided by the characteristic length), the condition
+   bound, and (if rhs) the solution of Jp^-T y = rhs (rows 3-5 of rhs scaled alike). */
 static int sp_check_cond(const double* J, double max_cond, const double* rhs, double* y) {
   double A[6][6], b[6], fro2 = 0.0, det = 1.0, t;
   int i, j, k, p;
   for (i = 0; i < 6; ++i)
     for (j = 0; j < 6; ++j) {
-      A[i][j] = J[6 * j + i];
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
       fro2 += A[i][j] * A[i][j];
     }
-  for (i = 0; i < 6; ++i) b[i] = rhs ? rhs[i] : 0.0;
+  for (i = 0; i < 6; ++i) b[i] = rhs ? (i < 3 ? rhs[i] : rhs[i] * sp_inv_length) : 0.0;
   for (k = 0; k < 6; ++k) {
     p = k;
     for (i = k + 1; i < 6; ++i) if (fabs(A[i][k]) > fabs(A[p][k])) p = i;

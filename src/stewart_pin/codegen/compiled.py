@@ -4,11 +4,28 @@
 library: CasADi writes the C of the guarded IDM and DDM, :mod:`._csource` adds a loop over
 N states and a guard per state, the system C compiler builds it (``-O2``, no
 ``-march=native``, so a cached library stays valid on any machine of the same kind), and
-:mod:`ctypes` loads it. The library is cached per robot under
-``$STEWART_PIN_CACHE`` (default ``~/.cache/stewart-pin``), in a folder named after a hash
-of the geometry (what is compiled in: robots that differ only in inertial parameters,
-name or U-joint limits share a library; the base parameters are a run-time input), the
-CasADi version, the generator and the compiler flags. Compiling takes a few seconds.
+:mod:`ctypes` loads it. Compiling takes a few seconds.
+
+The cache. Libraries are kept under ``$STEWART_PIN_CACHE`` (default
+``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of the generated C
+source itself, the compiler (resolved path and ``--version`` output) and the flags, so
+that everything that shapes the library is in its key (robots that differ only in
+inertial parameters, name or U-joint limits generate the same source and share a
+library; no text from a description or an argument enters the source). Integrity rules:
+
+- the cache folder, each key folder and every file in them must belong to the current
+  user and not be writable by group or others (no symbolic links): otherwise
+  :class:`UnsafeCacheError` is raised and nothing is loaded (fix the permissions, or point
+  ``$STEWART_PIN_CACHE`` at a private folder). Folders are created ``0700``, files
+  ``0644`` / ``0755``, whatever the umask;
+- a library is loaded only after its SHA-256 and size match its manifest
+  (``manifest.json``, written when it was built, naming the key); a missing, truncated,
+  replaced (e.g. copied from another robot) or unreadable library is rebuilt, with a
+  :class:`RuntimeWarning` saying so;
+- a build compiles into a temporary file in the key folder, then renames the library and
+  its manifest into place (``os.replace``); verification and build hold an exclusive
+  ``fcntl`` lock on the key folder's ``.lock`` file, so concurrent processes neither see a
+  half-written library nor build it twice.
 
 Without a C compiler (or when compiling or loading fails), the same functions run in
 CasADi's virtual machine: correct, slower, with one warning giving the reason.
@@ -16,8 +33,8 @@ CasADi's virtual machine: correct, slower, with one warning giving the reason.
 Validation. The results are those of the reference path (``StewartRobot.inverse_dynamics``
 / ``direct_dynamics``), errors included: the C guard checks each state cheaply (finite
 inputs, orthonormal rotation, leg lengths within the stroke and away from the leg
-singularities from the generated code's ``q3^2`` and ``rho^2``, and an upper bound of
-cond(Jp^-1)); any state it flags sends the batch through the reference checks
+singularities from the generated code's ``q3^2`` and ``rho^2``, and an upper bound of the
+singularity measure); any state it flags sends the batch through the reference checks
 (:func:`stewart_pin._checks.check_poses`, :func:`stewart_pin.geometry.inverse_geometry_batch`,
 :func:`stewart_pin.kinematics.check_condition` on the flagged states), which raise
 :class:`~stewart_pin.exceptions.InputError`, :class:`~stewart_pin.exceptions.StrokeLimitError`
@@ -29,11 +46,13 @@ multiplier grows past :data:`._csource.GROWTH_LIMIT`.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import hashlib
 import json
 import os
 import shutil
+import stat
 import subprocess
 import tempfile
 import threading
@@ -46,11 +65,16 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from .._checks import check_array, check_states
+from .._checks import ROTATION_TOLERANCE, check_array, check_states
 from ..base_params import grouped_parameters
 from ..exceptions import SingularityError, StewartPinError
-from ..geometry import LEG_MIN_LENGTH, LEG_SINGULARITY_SIN, inverse_geometry_batch
-from ..kinematics import check_condition, inverse_jacobian_batch
+from ..geometry import (
+    LEG_MIN_LENGTH_RATIO,
+    LEG_SINGULARITY_SIN,
+    characteristic_length,
+    inverse_geometry_batch,
+)
+from ..kinematics import check_condition, inverse_jacobian_batch, scaled_inverse_jacobian
 from . import _csource
 from ._csource import FLAG_NAMES, GROWTH_LIMIT
 from .symbolic import (
@@ -66,23 +90,49 @@ from .symbolic import (
     generate_models,
 )
 
+try:  # POSIX
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no lock (one process at a time)
+    fcntl = None  # type: ignore[assignment]
+
 #: Environment variable overriding the cache folder.
 CACHE_ENV = "STEWART_PIN_CACHE"
 #: Compiler flags (no -march=native: the cached library must run on any x86-64 of the kind).
 CFLAGS = ("-O2", "-fno-math-errno", "-fPIC", "-shared", "-fvisibility=hidden")
+#: Libraries linked (after the source).
+LDLIBS = ("-lm",)
 #: States per CasADi VM call in the fallback.
 VM_CHUNK = 4096
 
 _INPUT, _GEOMETRY, _COND = FLAG_NAMES["INPUT"], FLAG_NAMES["GEOMETRY"], FLAG_NAMES["COND"]
 _NOT_PD, _NONFINITE = FLAG_NAMES["NOT_PD"], FLAG_NAMES["NONFINITE"]
 _LIB_NAME = "libstewart_models.so"
+_SOURCE_NAME = "stewart_models.c"
+_MANIFEST_NAME = "manifest.json"
+_LOCK_NAME = ".lock"
 _WARNED: set[str] = set()
-#: Reference rotation tolerance (``stewart_pin._checks``), flagged just under it.
-_ROTATION_TOLERANCE = 1e-9
+_COMPILER_IDS: dict[str, str] = {}
 
 
 class CompilationError(StewartPinError, RuntimeError):
     """The C library could not be built or loaded (the fallback says why)."""
+
+
+class UnsafeCacheError(CompilationError):
+    """The cache folder, or a file in it, could be written by someone else (another owner,
+    group- or world-writable, or a symbolic link): nothing is loaded from it.
+
+    Attributes:
+        path: the offending folder or file. reason: what is wrong with it.
+    """
+
+    def __init__(self, path: Path, reason: str) -> None:
+        super().__init__(
+            f"refusing the compiled-model cache {path}: {reason}; code is loaded only from "
+            "folders and files that are yours alone (chmod go-w, or set "
+            f"${CACHE_ENV} to a private folder)"
+        )
+        self.path, self.reason = path, reason
 
 
 def cache_root() -> Path:
@@ -101,66 +151,57 @@ def find_compiler() -> str | None:
     return None
 
 
-#: The description fields the library depends on: the inertial parameters are an input
-#: (base parameters), the name and the U-joint limits are not compiled in.
-COMPILED_FIELDS = (
-    "base_points",
-    "platform_points",
-    "leg_base_rotations",
-    "stroke",
-    "gravity",
-    "home_pose",
-)
+def compiler_identity(compiler: str) -> str:
+    """The compiler as it enters the cache key: its resolved path and the output of
+    ``compiler --version`` (empty when that fails); cached per process."""
+    path = os.path.realpath(shutil.which(compiler) or compiler)
+    if path not in _COMPILER_IDS:
+        try:
+            run = subprocess.run(
+                [path, "--version"], capture_output=True, text=True, timeout=60, check=False
+            )
+            version = run.stdout.strip() if run.returncode == 0 else ""
+        except (OSError, subprocess.SubprocessError):
+            version = ""
+        _COMPILER_IDS[path] = f"{path}\n{version}"
+    return _COMPILER_IDS[path]
 
 
-def _sources_hash() -> str:
-    """A hash of the generator's own source (a stale library is never loaded)."""
+def cache_key(source: str, compiler: str) -> str:
+    """The name of a library's cache folder: the SHA-256 (first 32 hex digits) of the C
+    ``source`` (:func:`c_source`), the compiler (:func:`compiler_identity`) and the flags."""
     h = hashlib.sha256()
-    for name in ("symbolic.py", "_csource.py"):
-        h.update((Path(__file__).parent / name).read_bytes())
-    return h.hexdigest()[:16]
-
-
-def cache_key(desc: Any, compiler: str) -> str:
-    """The hash naming a robot's cache folder: of the compiled part of the description
-    (:data:`COMPILED_FIELDS`; robots differing only in inertia, name or U-joint limits
-    share a library), the CasADi version, the generator (version and source), the
-    compiler and its flags."""
-    d = desc.to_dict()
-    text = json.dumps(
-        {
-            "description": {k: d[k] for k in COMPILED_FIELDS},
-            "casadi": cs.__version__,
-            "generator": GENERATOR_VERSION,
-            "wrapper": _csource.WRAPPER_VERSION,
-            "sources": _sources_hash(),
-            "cflags": CFLAGS,
-            "compiler": os.path.basename(compiler),
-        },
-        sort_keys=True,
-    )
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
+    for part in (source, compiler_identity(compiler), " ".join(CFLAGS), " ".join(LDLIBS)):
+        data = part.encode()
+        h.update(len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.hexdigest()[:32]
 
 
 def c_source(desc: Any) -> str:
     """The C source of a robot's library: CasADi's generated IDM and DDM (guarded
-    variants) followed by the batch loops and guards of :mod:`._csource`."""
+    variants) followed by the batch loops and guards of :mod:`._csource`.
+
+    Only numbers enter it (the geometry, the thresholds): no name or other text from the
+    description."""
     models = generate_models(desc)
     cg = cs.CodeGenerator(
-        "stewart_models.c",
+        _SOURCE_NAME,
         {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
     )
     cg.add(models.idm_guarded)
     cg.add(models.ddm_guarded)
     lo, hi = (float(x) for x in desc.stroke)
+    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
     fi, fd = models.idm_guarded, models.ddm_guarded
     wrapper = _csource.TEMPLATE % {
         "lo2": lo * lo * (1.0 + 1e-9),
         "hi2": hi * hi * (1.0 - 1e-9),
-        "min_length2": LEG_MIN_LENGTH**2 * (1.0 + 1e-6),
+        "min_length2": min_length**2 * (1.0 + 1e-6),
         "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
-        "rotation_tol": _ROTATION_TOLERANCE * (1.0 - 1e-3),
+        "rotation_tol": ROTATION_TOLERANCE * (1.0 - 1e-3),
         "growth_limit": GROWTH_LIMIT,
+        "inv_length": 1.0 / characteristic_length(desc),
         "idm_naux": AUX_IDM_SIZE,
         "ddm_naux": fd.size1_out(1),
         "growth": AUX_IDM_GROWTH,
@@ -171,53 +212,201 @@ def c_source(desc: Any) -> str:
         **{f"idm_sz_{k}": getattr(fi, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
         **{f"ddm_sz_{k}": getattr(fd, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
     }
-    return f"/* Generated by stewart-pin for robot '{desc.name}'. */\n{cg.dump()}\n{wrapper}"
+    return f"/* Generated by stewart-pin (see codegen/_csource.py). */\n{cg.dump()}\n{wrapper}"
+
+
+# ---------------------------------------------------------------------------- the cache
+def _check_private(path: Path, kind: str, follow: bool = False) -> os.stat_result | None:
+    """The ``os.stat`` of ``path`` (None if absent) after checking that it is a ``kind``
+    (``"dir"`` or ``"file"``) of the current user that group and others cannot write, and
+    (unless ``follow``) not a symbolic link. Raises :class:`UnsafeCacheError`."""
+    try:
+        st = os.stat(path) if follow else os.lstat(path)
+    except FileNotFoundError:
+        return None
+    if stat.S_ISLNK(st.st_mode):
+        raise UnsafeCacheError(path, "it is a symbolic link")
+    if kind == "dir" and not stat.S_ISDIR(st.st_mode):
+        raise UnsafeCacheError(path, "it is not a folder")
+    if kind == "file" and not stat.S_ISREG(st.st_mode):
+        raise UnsafeCacheError(path, "it is not a regular file")
+    if os.name != "posix":  # pragma: no cover - no owners or group bits to check
+        return st
+    uid = os.geteuid()
+    if st.st_uid != uid:
+        raise UnsafeCacheError(path, f"it belongs to user id {st.st_uid}, not to you ({uid})")
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        raise UnsafeCacheError(
+            path, f"it is writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
+        )
+    return st
+
+
+def _private_dir(path: Path, follow: bool = False) -> None:
+    """Create ``path`` (mode 0700) if absent; check it is private (:func:`_check_private`)."""
+    if _check_private(path, "dir", follow) is None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with contextlib.suppress(FileExistsError):  # another process made it meanwhile
+            path.mkdir(mode=0o700)
+        _check_private(path, "dir", follow)
+
+
+@contextlib.contextmanager
+def _locked(folder: Path) -> Iterator[None]:
+    """An exclusive lock on ``folder/.lock`` (blocking) for the duration of the block."""
+    if fcntl is None:  # pragma: no cover
+        yield
+        return
+    lock = folder / _LOCK_NAME
+    flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+    fd = os.open(lock, flags, 0o600)
+    try:
+        _check_private(lock, "file")
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def _sha256(path: Path) -> tuple[str, int]:
+    h, size = hashlib.sha256(), 0
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+            size += len(block)
+    return h.hexdigest(), size
+
+
+def _verified(folder: Path, key: str) -> str | None:
+    """Why the library of ``folder`` cannot be used as it is (``None``: it matches its
+    manifest). Raises :class:`UnsafeCacheError` for a file others could have written."""
+    lib, manifest = folder / _LIB_NAME, folder / _MANIFEST_NAME
+    lib_st = _check_private(lib, "file")
+    man_st = _check_private(manifest, "file")
+    if lib_st is None:
+        return "no library" if man_st is None else "the library is missing"
+    if man_st is None:
+        return "the library has no manifest"
+    try:
+        meta = json.loads(manifest.read_text(encoding="utf-8"))
+        expected, size = str(meta["sha256"]), int(meta["size"])
+        if meta.get("key") != key:
+            return "its manifest names another key"
+    except (OSError, ValueError, KeyError, TypeError):
+        return "its manifest is unreadable"
+    try:
+        digest, actual = _sha256(lib)
+    except OSError as e:
+        return f"the library is unreadable ({e.strerror})"
+    if actual != size or digest != expected:
+        return (
+            f"the library does not match its manifest (SHA-256 {digest[:12]}..., {actual} "
+            f"bytes; recorded {expected[:12]}..., {size} bytes): corrupt, truncated or replaced"
+        )
+    return None
+
+
+def _write_private(folder: Path, name: str, data: bytes, mode: int) -> Path:
+    """``data`` into a new temporary file of ``folder`` with ``mode``; returns its path."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, mode)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return Path(tmp)
+
+
+def _build(folder: Path, source: str, compiler: str, key: str) -> None:
+    """Compile ``source`` into ``folder`` (temporary files, then renamed into place)."""
+    temps: list[Path] = []
+    try:
+        tmp_c = _write_private(folder, _SOURCE_NAME, source.encode(), 0o644)
+        temps.append(tmp_c)
+        fd, name = tempfile.mkstemp(prefix=f".{_LIB_NAME}.", suffix=".tmp", dir=folder)
+        os.close(fd)
+        tmp_so = Path(name)
+        temps.append(tmp_so)
+        # -x c: the temporary name does not end in .c.
+        cmd = [compiler, *CFLAGS, "-o", str(tmp_so), "-x", "c", str(tmp_c), *LDLIBS]
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+        if run.returncode != 0 or not tmp_so.is_file() or tmp_so.stat().st_size == 0:
+            first = (run.stderr or run.stdout or "").strip().splitlines()
+            raise CompilationError(
+                f"{os.path.basename(compiler)} failed ({run.returncode}): "
+                f"{first[0] if first else 'no output'}"
+            )
+        os.chmod(tmp_so, 0o755)
+        digest, size = _sha256(tmp_so)
+        meta = {
+            "key": key,
+            "sha256": digest,
+            "size": size,
+            "compiler": compiler_identity(compiler).splitlines()[0],
+            "cflags": list(CFLAGS),
+            "casadi": cs.__version__,
+            "generator": GENERATOR_VERSION,
+        }
+        tmp_m = _write_private(
+            folder, _MANIFEST_NAME, (json.dumps(meta, indent=2) + "\n").encode(), 0o644
+        )
+        temps.append(tmp_m)
+        os.replace(tmp_c, folder / _SOURCE_NAME)
+        os.replace(tmp_so, folder / _LIB_NAME)  # then the manifest: a reader holding the
+        os.replace(tmp_m, folder / _MANIFEST_NAME)  # lock sees both or rebuilds
+    finally:
+        for t in temps:
+            with contextlib.suppress(OSError):
+                os.unlink(t)
 
 
 def build_library(
-    desc: Any, cache_dir: str | Path | None = None, compiler: str | None = None
+    desc: Any,
+    cache_dir: str | Path | None = None,
+    compiler: str | None = None,
+    load: Any = None,
 ) -> tuple[Path, bool]:
-    """Build (or find in the cache) a robot's shared library.
+    """Build (or find, verified, in the cache) a robot's shared library.
 
-    Returns ``(path, compiled_now)``. Raises :class:`CompilationError` when no compiler is
-    found or the compilation fails.
+    Returns ``(path, compiled_now)``; ``load(path)``, if given, is called while the key
+    folder is still locked (the file loaded is the one just verified). Raises
+    :class:`UnsafeCacheError` when the cache folder or a file in it could have been written
+    by someone else, and :class:`CompilationError` when no compiler is found or the
+    compilation fails. See the module docstring for the cache's rules.
     """
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")
-    folder = Path(cache_dir) if cache_dir is not None else cache_root()
-    folder = folder / cache_key(desc, compiler)
-    lib = folder / _LIB_NAME
-    if lib.is_file():
-        return lib, False
+    root = Path(cache_dir) if cache_dir is not None else cache_root()
+    source = c_source(desc)
+    key = cache_key(source, compiler)
+    folder = root / key
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        source = folder / "stewart_models.c"
-        with tempfile.TemporaryDirectory(dir=folder) as tmp:
-            tmp_c = Path(tmp) / "stewart_models.c"
-            tmp_so = Path(tmp) / _LIB_NAME
-            tmp_c.write_text(c_source(desc))
-            cmd = [compiler, *CFLAGS, "-o", str(tmp_so), str(tmp_c), "-lm"]
-            run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-            if run.returncode != 0 or not tmp_so.is_file():
-                first = (run.stderr or run.stdout or "").strip().splitlines()
-                raise CompilationError(
-                    f"{os.path.basename(compiler)} failed ({run.returncode}): "
-                    f"{first[0] if first else 'no output'}"
-                )
-            os.replace(tmp_c, source)
-            os.replace(tmp_so, lib)
-        meta = {
-            "robot": desc.name,
-            "casadi": cs.__version__,
-            "cflags": CFLAGS,
-            "compiler": compiler,
-            "generator": GENERATOR_VERSION,
-        }
-        (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+        _private_dir(root, follow=True)
+        _private_dir(folder)
+        with _locked(folder):
+            why = _verified(folder, key)
+            if why is not None:
+                if why != "no library":
+                    warnings.warn(
+                        f"stewart-pin: rebuilding the cached library in {folder}: {why}",
+                        RuntimeWarning,
+                        stacklevel=3,
+                    )
+                _build(folder, source, compiler, key)
+            if load is not None:
+                try:
+                    load(folder / _LIB_NAME)
+                except OSError as e:
+                    raise CompilationError(f"cannot load {folder / _LIB_NAME}: {e}") from e
     except (OSError, subprocess.SubprocessError) as e:
         raise CompilationError(f"cannot build the library in {folder}: {e}") from e
-    return lib, True
+    return folder / _LIB_NAME, why is not None
 
 
 def _warn_once(reason: str) -> None:
@@ -261,6 +450,11 @@ class CompiledDynamics:
         compiler: the C compiler to use (default :func:`find_compiler`); ``False`` forces
             the virtual machine.
 
+    Raises:
+        UnsafeCacheError: the cache folder or a file in it could have been written by
+            someone else (no fallback: fix the cache; see the module docstring). Any
+            other failure to build or load falls back to the virtual machine.
+
     Methods (one state: ``pose`` (4, 4) / ``pin.SE3``, vectors (6,); a batch: (N, 4, 4) and
     (N, 6); the result has the same form):
 
@@ -294,6 +488,7 @@ class CompiledDynamics:
         self.base_values = np.ascontiguousarray(bp.values, dtype=np.float64)
         self.base_values.flags.writeable = False
         self._limits = desc.u_joint_limits is not None
+        self._length = characteristic_length(desc)
         self.kind, self.reason = "vm", None
         self.library: Path | None = None
         self.compiled_now = False
@@ -303,10 +498,11 @@ class CompiledDynamics:
         else:
             try:
                 self.library, self.compiled_now = build_library(
-                    desc, cache_dir, compiler if isinstance(compiler, str) else None
+                    desc, cache_dir, compiler if isinstance(compiler, str) else None, self._load
                 )
-                self._load(self.library)
                 self.kind = "compiled"
+            except UnsafeCacheError:
+                raise
             except (CompilationError, OSError, AttributeError) as e:
                 self.reason = str(e).splitlines()[0] if str(e) else type(e).__name__
         if self.kind == "vm":
@@ -465,9 +661,9 @@ class CompiledDynamics:
         max_condition = self.robot.max_condition
         if bits & _COND:
             idx = np.flatnonzero(flags & _COND)
-            c = np.linalg.cond(inverse_jacobian_batch(desc, T[idx]))
-            if np.any(~(c <= max_condition)):
-                check_condition(inverse_jacobian_batch(desc, T), max_condition)
+            J = scaled_inverse_jacobian(inverse_jacobian_batch(desc, T[idx]), self._length)
+            if np.any(~(np.linalg.cond(J) <= max_condition)):
+                check_condition(inverse_jacobian_batch(desc, T), max_condition, desc)
         if bits & _NOT_PD:
             raise SingularityError(
                 "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
@@ -491,7 +687,7 @@ class CompiledDynamics:
         batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
         desc = self._desc
         inverse_geometry_batch(desc, T)
-        check_condition(inverse_jacobian_batch(desc, T), self.robot.max_condition)
+        check_condition(inverse_jacobian_batch(desc, T), self.robot.max_condition, desc)
         f = self._vm_function(which)
         n = T.shape[0]
         out = np.empty((n, 6))

@@ -55,10 +55,12 @@ import numpy as np
 
 from ..base_params import PAPER_ESSENTIAL_PER_LEG, grouped_parameters
 from ..description import RobotDescription
+from ..geometry import characteristic_length
 from ..kinematics import inverse_jacobian_batch
 
-#: Bump when the generated code changes (part of the compiled cache key).
-GENERATOR_VERSION = "1"
+#: The generator's version (recorded in the cache manifest; the cache key is a hash of the
+#: generated source itself).
+GENERATOR_VERSION = "2"
 
 #: Geometry constants within this (relative) distance of 0 or +-1 are snapped to it, so
 #: that a frame placement like the paper's propagates exact zeros and ones.
@@ -94,7 +96,8 @@ AUX_Q3SQ = slice(0, 6)  # squared leg lengths q3i^2 [m^2]
 AUX_RHO2 = slice(6, 12)  # (q3i sin q2i)^2 [m^2] (P_i's squared distance to the axis z1i)
 AUX_JINV = slice(12, 48)  # Jp^-1, row-major (row i = [a_i, L_i x a_i])
 #: IDM only: the wrench F (6) that Jp^T maps, H_z (6), the largest multiplier of the
-#: static-pivot LU of Jp^-T, the product of its pivots (+-det Jp^-1) and ||Jp^-1||_F^2.
+#: static-pivot LU of Jp^-T, then ``+-det(S)`` and ``||S||_F^2`` of ``S = Jp^-1 diag(1, 1, 1,
+#: 1/l, 1/l, 1/l)`` (``l`` the characteristic length: the singularity measure is cond(S)).
 AUX_IDM_F = slice(48, 54)
 AUX_IDM_HZ = slice(54, 60)
 AUX_IDM_GROWTH = 60
@@ -244,12 +247,15 @@ def _leg_geometry(c: ModelConstants, k: int, p: Vec, R: list[list[Scalar]]) -> _
     d = [(p[i] - B[i]) + L[i] for i in range(3)]
     q3sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
     dz = _dot(d, z1)
-    rho2 = q3sq - dz * dz
+    # rho^2 = |d x z1|^2, not q3^2 - dz^2: the difference loses the relative accuracy
+    # eps / sin^2 q2 near a leg singularity (2e-6 at sin q2 = 1e-5), the cross product none.
+    n = _cross(d, z1)
+    rho2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
     # 1/sqrt first: SX folds a product by a reciprocal 1/x into a division.
     inv_rho2 = 1.0 / rho2
     iq3, irho = cs.sqrt(1.0 / q3sq), cs.sqrt(inv_rho2)
     a = _scale(d, iq3)
-    y3 = _scale(_cross(d, z1), irho)
+    y3 = _scale(n, irho)
     x3 = _cross(y3, a)
     return _LegGeometry(L, a, x3, y3, q3sq, rho2, iq3, irho, q3sq * inv_rho2, dz)
 
@@ -670,9 +676,16 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     jinv = [x for r in rows for x in r]
     idm_in = [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("base_parameters", x_chi)]
     idm = _function(f"{prefix}idm", idm_in, [("gamma", gamma)])
-    fro2 = 0.0
-    for x in jinv:
-        fro2 = fro2 + x * x
+    # The condition bound's inputs for the singularity measure (Jp^-1 with its angular
+    # columns divided by the characteristic length l): ||.||_F^2 and det = det(Jp^-1) / l^3.
+    inv_l = 1.0 / characteristic_length(desc)
+    fro2_lin, fro2_ang = 0.0, 0.0
+    for r in rows:
+        for j in range(3):
+            fro2_lin = fro2_lin + r[j] * r[j]
+            fro2_ang = fro2_ang + r[3 + j] * r[3 + j]
+    fro2 = fro2_lin + fro2_ang * (inv_l * inv_l)
+    det = det * inv_l**3
     idm_aux = [*q3, *rho, *jinv, *F, *[lg["Hz"][0] for lg in legs], growth, det, fro2]
     idm_guarded = _function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
 
