@@ -356,13 +356,15 @@ def test_output_equal_to_an_input_is_refused(tmp_path, capsys):
     log.write_text("anything\n")
     measurements = tmp_path / "r_measurements.csv"
     measurements.write_text("validation log\n")
-    before = traj.read_bytes(), log.read_bytes()
+    robot_file = preset("desktop").write(tmp_path / "robot.toml")
+    before = traj.read_bytes(), log.read_bytes(), robot_file.read_bytes()
     same = str(tmp_path / "sub" / ".." / "traj.csv")  # another spelling of the same file
     cases = [
         ["idm", "--trajectory", str(traj), "-o", str(traj)],
         ["idm", "--trajectory", str(traj), "-o", same],
         ["identify", "--csv", str(log), "-o", str(log)],
         ["identify", "--csv", str(traj), "--validation-csv", str(log), "-o", str(log)],
+        ["identify", "--description", str(robot_file), "--csv", str(log), "-o", str(robot_file)],
         # The simulated measurements (r_measurements.csv beside the report r.txt) would
         # be written over the validation log.
         ["identify", "--validation-csv", str(measurements), "-o", str(tmp_path / "r.txt")],
@@ -371,7 +373,7 @@ def test_output_equal_to_an_input_is_refused(tmp_path, capsys):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "is the input file" in err, (argv, err)
-    assert (traj.read_bytes(), log.read_bytes()) == before
+    assert (traj.read_bytes(), log.read_bytes(), robot_file.read_bytes()) == before
     assert measurements.read_text() == "validation log\n"
 
 

@@ -18,7 +18,7 @@ from ._common import (
 
 
 def _idm(args: argparse.Namespace) -> int:
-    out = check_output(args.output, (".csv",), [args.trajectory])
+    out = check_output(args.output, (".csv",), [args.trajectory, args.description])
     robot = robot_from_args(args)
     rows = read_csv(args.trajectory, STATE_COLUMNS)
     times, poses, twists, accels = states_from_table(rows)

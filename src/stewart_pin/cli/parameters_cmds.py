@@ -62,7 +62,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         write_measurements_csv,
     )
 
-    inputs = [args.csv, args.validation_csv]
+    inputs = [args.csv, args.validation_csv, args.description]
     out = check_output(args.output, (), inputs, "-o") if args.output else None
     robot = _robot(args)
     if not args.csv:  # the simulated measurements are written: check where, up front
