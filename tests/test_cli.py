@@ -211,3 +211,202 @@ def test_demo_writes_the_whole_workflow(tmp_path, capsys):
     res = SimulationResult.load(out / "simulation.npz")
     assert res.t[-1] == pytest.approx(4.0)
     assert "file://" in text
+
+
+# ---------------------------------------------------------------------------- item 13
+#: (command, option, bad value): every numeric option of every command.
+BAD_NUMBERS = [
+    ("validate", "--states", "0"),
+    ("validate", "--states", "-3"),
+    ("validate", "--states", "1.5"),
+    ("validate", "--seed", "-1"),
+    ("validate", "--seed", "x"),
+    ("validate", "--tol-idm", "nan"),
+    ("validate", "--tol-idm", "-1e-9"),
+    ("validate", "--tol-ddm", "inf"),
+    ("validate", "--translation", "nan"),
+    ("validate", "--translation", "-0.01"),
+    ("validate", "--rotation", "inf"),
+    ("validate", "--rotation", "-0.1"),
+    ("base-params", "--states", "0"),
+    ("base-params", "--seed", "-1"),
+    ("base-params", "--threshold", "nan"),
+    ("base-params", "--threshold", "0"),
+    ("identify", "--seed", "-1"),
+    ("identify", "--samples", "0"),
+    ("identify", "--duration", "nan"),
+    ("identify", "--duration", "0"),
+    ("identify", "--harmonics", "0"),
+    ("identify", "--frequency", "0"),
+    ("identify", "--frequency", "inf"),
+    ("identify", "--evaluations", "-1"),
+    ("identify", "--noise", "-1"),
+    ("identify", "--noise", "nan"),
+    ("simulate", "--duration", "nan"),
+    ("simulate", "--duration", "0"),
+    ("simulate", "--duration", "inf"),
+    ("simulate", "--dt", "0"),
+    ("simulate", "--dt", "nan"),
+    ("simulate", "--control-period", "0"),
+    ("simulate", "--control-period", "nan"),
+    ("simulate", "--control-period", "-1e-3"),
+    ("simulate", "--model-error", "nan"),
+    ("simulate", "--model-error", "inf"),
+    ("animate", "--duration", "nan"),
+    ("animate", "--fps", "0"),
+    ("animate", "--fps", "nan"),
+    ("view", "--duration", "nan"),
+    ("view", "--duration", "-1"),
+    ("bench", "--batch", "0"),
+    ("bench", "--repeats", "0"),
+    ("ik", "--pose", "nan"),
+    ("ik", "--pose", "inf"),
+]
+
+
+@pytest.mark.parametrize(
+    "command, option, value", BAD_NUMBERS, ids=[" ".join(c) for c in BAD_NUMBERS]
+)
+def test_bad_number_argument_exits_2_with_one_line(command, option, value, capsys):
+    if option == "--pose":
+        argv = [command, option, value, "0", "0", "0", "0", "0"]
+    else:
+        argv = [command, f"{option}={value}"]  # '--tol-idm -1e-9' would read as an option
+    with pytest.raises(SystemExit) as e:  # refused while parsing: before any work
+        main(argv)
+    assert e.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1
+    assert captured.err.startswith(f"stewart-pin {command}: error: argument {option}")
+    assert repr(value) in captured.err
+
+
+def _parsers():
+    import argparse
+
+    from stewart_pin.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices
+
+
+def test_every_numeric_option_has_a_checked_type_and_a_test():
+    from stewart_pin.cli import _common
+
+    checked = {
+        _common.positive_int,
+        _common.non_negative_int,
+        _common.finite_float,
+        _common.positive_finite_float,
+        _common.non_negative_finite_float,
+    }
+    tested = {(command, option) for command, option, _ in BAD_NUMBERS}
+    n_checked = 0
+    for command, parser in _parsers().items():
+        for action in parser._actions:
+            assert action.type not in (int, float), (command, action.option_strings)
+            if action.type in checked:
+                n_checked += 1
+                assert (command, action.option_strings[-1]) in tested
+    assert n_checked == len(tested)
+
+
+def test_checked_number_types_accept_good_values():
+    from stewart_pin.cli import _common
+
+    assert _common.positive_int("3") == 3 and _common.non_negative_int("0") == 0
+    assert _common.finite_float("-2.5") == -2.5 and _common.finite_float("1e3") == 1000.0
+    assert _common.positive_finite_float("1e-300") == 1e-300
+    assert _common.non_negative_finite_float("0") == 0.0
+
+
+def test_output_suffix_and_folder_are_checked_before_the_run(tmp_path, capsys, monkeypatch):
+    import stewart_pin.bench
+    import stewart_pin.simulation
+
+    def never(*args, **kwargs):
+        raise AssertionError("the long run started before the output was checked")
+
+    monkeypatch.setattr(stewart_pin.simulation, "simulate", never)
+    monkeypatch.setattr(stewart_pin.bench, "report", never)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    cases = [
+        (["simulate", "-o", str(tmp_path / "out.xyz")], "must end in .npz or .csv"),
+        (["simulate", "-o", str(blocker / "x.npz")], "cannot create the folder"),
+        (["simulate", "-o", str(tmp_path)], "must end in"),
+        (["simulate", "--plots", str(blocker)], "is a file"),
+        (["animate", "-o", str(tmp_path / "a.txt")], "must end in .html or .htm"),
+        (["bench", "--quick", "--json", str(tmp_path / "b.txt")], "must end in .json"),
+        (["idm", "--trajectory", "t.csv", "-o", str(tmp_path / "f.txt")], "must end in .csv"),
+    ]
+    for argv, message in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, (argv, err)
+    assert list(tmp_path.iterdir()) == [blocker]  # nothing written
+
+
+def test_output_equal_to_an_input_is_refused(tmp_path, capsys):
+    from stewart_pin.tables import STATE_COLUMNS, write_csv
+
+    traj = write_csv(tmp_path / "traj.csv", STATE_COLUMNS, np.zeros((2, len(STATE_COLUMNS))))
+    log = tmp_path / "log.csv"
+    log.write_text("anything\n")
+    measurements = tmp_path / "r_measurements.csv"
+    measurements.write_text("validation log\n")
+    robot_file = preset("desktop").write(tmp_path / "robot.toml")
+    before = traj.read_bytes(), log.read_bytes(), robot_file.read_bytes()
+    same = str(tmp_path / "sub" / ".." / "traj.csv")  # another spelling of the same file
+    cases = [
+        ["idm", "--trajectory", str(traj), "-o", str(traj)],
+        ["idm", "--trajectory", str(traj), "-o", same],
+        ["identify", "--csv", str(log), "-o", str(log)],
+        ["identify", "--csv", str(traj), "--validation-csv", str(log), "-o", str(log)],
+        ["identify", "--description", str(robot_file), "--csv", str(log), "-o", str(robot_file)],
+        # The simulated measurements (r_measurements.csv beside the report r.txt) would
+        # be written over the validation log.
+        ["identify", "--validation-csv", str(measurements), "-o", str(tmp_path / "r.txt")],
+    ]
+    for argv in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "is the input file" in err, (argv, err)
+    assert (traj.read_bytes(), log.read_bytes(), robot_file.read_bytes()) == before
+    assert measurements.read_text() == "validation log\n"
+
+
+# ---------------------------------------------------------------------------- item 5
+def test_idm_overflowing_state_exits_2_and_writes_nothing(tmp_path, capsys):
+    from stewart_pin import StewartRobot
+    from stewart_pin.tables import STATE_COLUMNS, state_table, write_csv
+    from stewart_pin.workspace import sample_states
+
+    robot = StewartRobot.from_preset("desktop")
+    poses, twists, accels = sample_states(robot.description, 5, 2)
+    twists[3, :3] = 1e160  # finite, but its square overflows
+    table = state_table(np.arange(5) * 0.01, poses, twists, accels)
+    traj = write_csv(tmp_path / "traj.csv", STATE_COLUMNS, table)
+    out = tmp_path / "forces.csv"
+    assert main(["idm", "--preset", "desktop", "--trajectory", str(traj), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "inverse dynamics Gamma is not finite at state 3" in err
+    assert not out.exists()
+
+
+# ---------------------------------------------------------------------------- item 17
+def test_validate_takes_the_sampling_range(tmp_path, capsys):
+    from stewart_pin import StewartRobot, random_robot
+
+    desc = random_robot(1)
+    lengths = StewartRobot(desc).leg_lengths(desc.home_pose)
+    tiny = desc.replace(stroke=[lengths.min() - 2e-3, lengths.max() + 2e-3], name="tiny")
+    path = tiny.write(tmp_path / "tiny.toml")
+    args = ["validate", "--description", str(path), "--states", "8"]
+    assert main(args) == 2  # the default range leaves the 4 mm stroke
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--translation, --rotation" in err
+    assert main([*args, "--translation", "5e-4", "--rotation", "5e-4"]) == 0
+    assert "PASSED" in capsys.readouterr().out

@@ -274,3 +274,107 @@ def test_compiled_backend_agrees_with_the_pinocchio_path(tmp_path, monkeypatch):
         robot.inverse_dynamics(poses, twists, accels, backend="fast")
     with pytest.raises(InputError, match="details=True needs backend='pinocchio'"):
         robot.inverse_dynamics(poses, twists, accels, details=True, backend="compiled")
+
+
+# ---------------------------------------------------------------------------- item 5
+# Finite inputs whose results overflow double precision: a named NumericalError, never NaN.
+BAD_STATE = 2  # the overflowing state of the batch of four
+
+
+@pytest.fixture(scope="module")
+def overflow_case():
+    robot = StewartRobot.from_preset("simulator")
+    poses, twists, accels = sample_states(robot.description, 4, 17)
+    gammas = robot.inverse_dynamics(poses, twists, accels)
+    return robot, poses, twists, accels, gammas
+
+
+def _overflowing(values: np.ndarray, magnitude: float) -> np.ndarray:
+    """A copy with state BAD_STATE set to ``magnitude`` (finite)."""
+    out = values.copy()
+    out[BAD_STATE] = magnitude
+    return out
+
+
+def _no_runtime_warning(record) -> None:
+    leaked = [w for w in record if issubclass(w.category, RuntimeWarning)]
+    assert not leaked, [str(w.message) for w in leaked]
+
+
+@pytest.mark.parametrize("backend", ["pinocchio", "compiled"])
+@pytest.mark.parametrize("batched", [True, False], ids=["batch", "single"])
+@pytest.mark.parametrize(
+    "model, field, magnitude, output",
+    [
+        ("inverse", "twist", 1e160, "inverse dynamics Gamma"),
+        ("inverse", "accel", 1e308, "inverse dynamics Gamma"),
+        ("direct", "twist", 1e160, "direct dynamics acceleration"),
+        ("direct", "gamma", 1e308, "direct dynamics acceleration"),
+    ],
+)
+def test_finite_input_that_overflows_raises_numerical_error_not_nan(
+    overflow_case, backend, batched, model, field, magnitude, output
+):
+    import warnings
+
+    from stewart_pin import NumericalError, StewartPinError
+
+    robot, poses, twists, accels, gammas = overflow_case
+    twist, third = twists.copy(), (accels if model == "inverse" else gammas).copy()
+    (twist if field == "twist" else third)[BAD_STATE] = magnitude  # finite
+    args = (poses, twist, third)
+    if not batched:
+        args = tuple(a[BAD_STATE] for a in args)
+    f = robot.inverse_dynamics if model == "inverse" else robot.direct_dynamics
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        with pytest.raises(NumericalError) as info:
+            f(*args, backend=backend)
+    _no_runtime_warning(record)
+    e = info.value
+    assert isinstance(e, StewartPinError) and isinstance(e, ArithmeticError)
+    index = BAD_STATE if batched else 0
+    assert (e.output, e.index) == (output, index)
+    # Both backends: the same type and the same message, naming the output and the state.
+    assert str(e).startswith(f"{output} is not finite at state {index}")
+    if backend == "pinocchio":
+        assert e.n_bad == 1 and e.n_states == (4 if batched else 1)
+
+
+def test_every_dynamic_output_is_checked_for_overflow(overflow_case):
+    """cartesian_dynamics, regressor, energy, details=True and the gravity compensation."""
+    import warnings
+
+    from stewart_pin import NumericalError
+
+    robot, poses, twists, accels, _ = overflow_case
+    fast = _overflowing(twists, 1e160)
+    calls = {
+        "cartesian dynamics h_robot": lambda: robot.cartesian_dynamics(poses, fast),
+        "regressor W": lambda: robot.regressor(poses, fast, accels),
+        "energy": lambda: robot.energy(poses, fast),
+        "inverse dynamics Gamma": lambda: robot.inverse_dynamics(
+            poses, fast, accels, details=True
+        ),
+    }
+    for output, call in calls.items():
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            with pytest.raises(NumericalError, match=f"at state {BAD_STATE}") as info:
+                call()
+        _no_runtime_warning(record)
+        assert info.value.output == output and info.value.index == BAD_STATE
+    with pytest.raises(NumericalError) as info:
+        robot.energy(poses[BAD_STATE], fast[BAD_STATE])
+    assert info.value.index == 0
+    # A robot whose weight overflows (platform 1.2e303 kg under 1e10 m/s^2): the static
+    # model, whose only inputs are poses, overflows too.
+    desc = robot.description
+    heavy = StewartRobot(
+        desc.replace(platform_inertia=desc.platform_inertia * 1e300, gravity=[0, 0, -1e10])
+    )
+    with pytest.raises(NumericalError, match="gravity compensation Gamma is not finite"):
+        heavy.gravity_compensation(poses)
+    # The same calls on the physical states are finite (the check costs them nothing).
+    assert np.isfinite(robot.regressor(poses, twists, accels)).all()
+    assert np.isfinite(robot.energy(poses, twists)).all()

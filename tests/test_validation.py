@@ -358,3 +358,114 @@ def test_validate_needs_the_models(random1):
 def test_paper_models_agree_with_the_constrained_tree(name):
     report = val.validate(_robot(name), n_states=30, seed=0)
     assert report.passed(), str(report)
+
+
+# ---------------------------------------------------------------------------- item 17
+@pytest.fixture(scope="module")
+def tiny_stroke(random1) -> StewartRobot:
+    """random-1 with a stroke just 2 mm wider than its home leg lengths on each side."""
+    desc = random1.description
+    lengths = random1.leg_lengths(desc.home_pose)
+    stroke = [lengths.min() - 2e-3, lengths.max() + 2e-3]
+    return StewartRobot(desc.replace(stroke=stroke, name="tiny-stroke"))
+
+
+#: A sampling range that keeps every leg of ``tiny_stroke`` inside its stroke [m, rad].
+SMALL_RANGE = {"translation_range": 5e-4, "rotation_range": 5e-4}
+
+
+class _WrongModel(StewartRobot):
+    """The tree (the reference) of one description, the paper's models of another."""
+
+    def __init__(self, description, model_description):
+        super().__init__(description)
+        self._model = StewartRobot(model_description)
+
+    def inverse_dynamics(self, poses, twists, accels):
+        return self._model.inverse_dynamics(poses, twists, accels)
+
+    def direct_dynamics(self, poses, twists, gammas):
+        return self._model.direct_dynamics(poses, twists, gammas)
+
+
+def test_validate_takes_the_sampling_range_for_a_small_workspace(tiny_stroke):
+    from stewart_pin import WorkspaceError
+
+    with pytest.raises(WorkspaceError, match="translation_range, rotation_range"):
+        val.validate(tiny_stroke, n_states=10)  # the default range leaves the stroke
+    report = val.validate(tiny_stroke, n_states=10, seed=3, **SMALL_RANGE)
+    assert report.passed(), str(report)
+    assert report.n_states == 10 and report.robot == "tiny-stroke"
+
+
+def test_validate_with_a_small_range_still_catches_a_wrong_model(tiny_stroke):
+    desc = tiny_stroke.description
+    heavier = desc.platform_inertia * 1.01  # platform mass and moments 1 % off
+    wrong = _WrongModel(desc, desc.replace(platform_inertia=heavier))
+    report = val.validate(wrong, n_states=10, seed=3, **SMALL_RANGE)
+    assert not report.passed()
+    assert report.idm_error > 1e-4 and report.ddm_error > 1e-4
+    off = val.validate(_ReferenceRobot(desc, error=1e-6), n_states=10, seed=3, **SMALL_RANGE)
+    assert off.idm_error == pytest.approx(1e-6, rel=1e-6) and not off.passed()
+
+
+def test_validate_samples_inside_the_given_range(tiny_stroke, monkeypatch):
+    """The states compared are drawn within the range: |dp_k| <= translation_range and the
+    rotation from the home orientation at most sqrt(3) rotation_range (a rotation vector
+    with every component in [-r, r])."""
+    drawn = []
+
+    def recording(*args, **kwargs):
+        states = sample_states(*args, **kwargs)
+        drawn.append(states[0])
+        return states
+
+    monkeypatch.setattr(val, "sample_states", recording)
+    val.validate(tiny_stroke, n_states=20, seed=4, translation_range=3e-4, rotation_range=2e-4)
+    (poses,) = drawn
+    home = tiny_stroke.home_pose
+    assert np.abs(poses[:, :3, 3] - home[:3, 3]).max() <= 3e-4
+    angles = [np.linalg.norm(pin.log3(T[:3, :3] @ home[:3, :3].T)) for T in poses]
+    assert max(angles) <= np.sqrt(3) * 2e-4 * (1 + 1e-9)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"translation_range": float("nan")},
+        {"translation_range": -1e-3},
+        {"rotation_range": float("inf")},
+        {"rotation_range": -0.1},
+        {"rotation_range": "0.1"},
+        {"n_states": 0},
+        {"n_states": 2.5},
+        {"seed": -1},
+    ],
+)
+def test_validate_refuses_bad_ranges_and_counts(random1, kwargs):
+    with pytest.raises(InputError):
+        val.validate(random1, **{"n_states": 2, **kwargs})
+
+
+# ---------------------------------------------------------------------------- item 5
+def test_reference_overflow_is_a_numerical_error_not_a_singularity(random1):
+    """The constrained tree's own checks name an overflow (twist 1e160 m/s, finite) as one,
+    at its state, instead of a singular configuration or a NaN energy."""
+    import warnings
+
+    from stewart_pin import NumericalError
+
+    poses, twists, accels = sample_states(random1.description, 3, 5)
+    fast = twists.copy()
+    fast[1, :3] = 1e160
+    calls = [
+        lambda: val.constrained_inverse_dynamics(random1, poses, fast, accels),
+        lambda: val.constrained_forward_dynamics(random1, poses, fast, np.zeros((3, 6))),
+        lambda: val.energy(random1, poses, fast),
+    ]
+    for call in calls:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            with pytest.raises(NumericalError, match="at state 1") as info:
+                call()
+        assert info.value.index == 1

@@ -225,8 +225,10 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default="simulator")
-    parser.add_argument("--batch", type=int, default=10_000)
-    parser.add_argument("--repeats", type=int, default=300)
+    from .cli._common import positive_int
+
+    parser.add_argument("--batch", type=positive_int, default=10_000)
+    parser.add_argument("--repeats", type=positive_int, default=300)
     parser.add_argument("--quick", action="store_true", help="skip the 1 000 000-state batch")
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
 

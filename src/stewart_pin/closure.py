@@ -15,10 +15,25 @@ import numpy as np
 
 from ._vector import cross, skew
 from .description import RobotDescription
-from .exceptions import SingularityError
+from .exceptions import NumericalError, SingularityError
 from .inertia import inertia_tensor
 from .kinematics import LegState, check_condition, inverse_jacobian_batch, leg_state
 from .legs import LegDynamics
+
+
+def check_finite(value: np.ndarray, output: str) -> np.ndarray:
+    """``value`` (a batch, leading axis N) when every entry is finite, else
+    :class:`NumericalError` naming ``output`` and the first non-finite state.
+
+    The cheap ``np.isfinite(value).all()`` is all a finite result pays.
+    """
+    if np.isfinite(value).all():
+        return value
+    value = np.asarray(value)
+    if value.ndim == 0:
+        raise NumericalError(output, 0, 1, 1)
+    bad = ~np.isfinite(value.reshape(value.shape[0], -1)).all(axis=1)
+    raise NumericalError(output, int(np.argmax(bad)), int(bad.sum()), int(bad.size))
 
 
 @dataclass(frozen=True)
@@ -135,7 +150,9 @@ def inverse_dynamics(
     accels: np.ndarray,
     max_condition: float,
 ) -> InverseDynamicsResult:
-    """``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) with every intermediate term."""
+    """``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) with every intermediate term.
+
+    Raises :class:`NumericalError` when Gamma is not finite (finite inputs that overflow)."""
     legs = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
@@ -144,7 +161,7 @@ def inverse_dynamics(
     plat = platform_terms(desc, poses, twists)
     F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
     F_leg = _wrench_at_origin(H_x, legs.L)
-    gamma = _transpose_solve(J_inv, F_p + F_leg)
+    gamma = check_finite(_transpose_solve(J_inv, F_p + F_leg), "inverse dynamics Gamma")
     return InverseDynamicsResult(gamma, H, H_x, F_p, F_leg, J_inv, legs)
 
 
@@ -209,8 +226,11 @@ def direct_dynamics(
     gammas: np.ndarray,
     max_condition: float,
 ) -> tuple[np.ndarray, CartesianDynamics]:
-    """``Vdot_p = A_robot^-1 (Jp^-T Gamma - h_robot)`` (eq. 35) by Cholesky, classical, F0."""
+    """``Vdot_p = A_robot^-1 (Jp^-T Gamma - h_robot)`` (eq. 35) by Cholesky, classical, F0.
+
+    Raises :class:`NumericalError` when ``A_robot`` or the acceleration is not finite."""
     cd = cartesian_dynamics(desc, legs_dyn, poses, twists, max_condition)
+    check_finite(cd.A_robot, "direct dynamics A_robot")
     rhs = np.einsum("nji,nj->ni", cd.J_inv, gammas) - cd.h_robot
     try:
         chol = np.linalg.cholesky(cd.A_robot)
@@ -220,4 +240,4 @@ def direct_dynamics(
         ) from e
     y = np.linalg.solve(chol, rhs[..., None])
     accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
-    return accel, cd
+    return check_finite(accel, "direct dynamics acceleration"), cd

@@ -175,3 +175,39 @@ class SimulationError(StewartPinError):
     def __init__(self, message: str, time: float, result: object) -> None:
         super().__init__(message)
         self.time, self.result = time, result
+
+
+class NumericalError(StewartPinError, ArithmeticError):
+    """A finite input gave a non-finite result: the computation overflowed double precision.
+
+    The dynamic models check their outputs instead of returning NaN or infinity (e.g. a
+    twist of 1e160 m/s, whose square overflows, or forces of 1e308 N).
+
+    Attributes:
+        output: which result is not finite (e.g. ``"inverse dynamics Gamma"``).
+        index: the first state of the batch (0-based) with a non-finite value, 0 for one
+            state, ``None`` when unknown.
+        n_bad: how many states are not finite (``None`` when unknown).
+        n_states: the number of states computed (``None`` when unknown).
+    """
+
+    def __init__(
+        self,
+        output: str,
+        index: int | None = 0,
+        n_bad: int | None = None,
+        n_states: int | None = None,
+    ) -> None:
+        where = "" if index is None else f" at state {index}"
+        count = (
+            ""
+            if n_bad is None or not n_states or n_states < 2
+            else f" ({n_bad} of {n_states} states)"
+        )
+        super().__init__(
+            f"{output} is not finite{where}{count}: expected a finite result from finite "
+            "inputs, but the computation overflowed double precision: the state (twist, "
+            "acceleration, forces) or the robot's parameters are far outside any physical "
+            "range; give values of physical magnitude"
+        )
+        self.output, self.index, self.n_bad, self.n_states = output, index, n_bad, n_states

@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._vector import cross
+from .closure import check_finite
 from .description import RobotDescription
 from .inertia import KHALIL_NAMES, PIN_TO_KHALIL
 from .kinematics import check_condition, inverse_jacobian_batch, leg_state
@@ -96,7 +97,8 @@ def regressor_batch(
     accels: np.ndarray,
     max_condition: float,
 ) -> np.ndarray:
-    """``W`` for validated batches: shape (N, 6, 190)."""
+    """``W`` for validated batches: shape (N, 6, 190); :class:`NumericalError` when not
+    finite."""
     state = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
@@ -109,4 +111,4 @@ def regressor_batch(
     F = np.empty((N, 6, N_STANDARD))
     F[:, :, :180] = np.moveaxis(wrench, 1, 2).reshape(N, 6, 180)
     F[:, :, 180:] = platform_regressor(desc, poses, twists, accels)
-    return np.linalg.solve(np.swapaxes(J_inv, 1, 2), F)
+    return check_finite(np.linalg.solve(np.swapaxes(J_inv, 1, 2), F), "regressor W")

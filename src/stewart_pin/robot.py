@@ -10,6 +10,7 @@ N axis, and returns the same.
 
 from __future__ import annotations
 
+import re
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -19,9 +20,9 @@ import pinocchio as pin
 
 from . import closure, geometry, kinematics
 from ._checks import check_poses, check_scalar, check_states
-from .closure import CartesianDynamics, InverseDynamicsResult
+from .closure import CartesianDynamics, InverseDynamicsResult, check_finite
 from .description import RobotDescription
-from .exceptions import InputError
+from .exceptions import InputError, NumericalError, StewartPinError
 from .kinematics import MAX_CONDITION, leg_state
 from .legs import LegDynamics
 from .models import TreeModel, build_leg_models, build_legs_model, build_tree
@@ -187,15 +188,25 @@ class StewartRobot:
 
         Returns:
             Gamma (6,) or (N, 6); positive extends the leg.
+
+        Raises:
+            NumericalError: finite inputs whose Gamma overflows (both backends).
         """
         if _compiled(backend, details):
             from .codegen import compiled_backend
 
-            return compiled_backend(self).inverse_dynamics(pose, twist, accel)
+            try:  # free when nothing is raised
+                return compiled_backend(self).inverse_dynamics(pose, twist, accel)
+            except StewartPinError as e:
+                numerical = _as_numerical(e, "inverse dynamics Gamma")
+                if numerical is None:
+                    raise
+                raise numerical from e
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        res = closure.inverse_dynamics(
-            self.description, self.leg_dynamics, T, V, A, self.max_condition
-        )
+        with _quiet_overflow():
+            res = closure.inverse_dynamics(
+                self.description, self.leg_dynamics, T, V, A, self.max_condition
+            )
         if details:
             return res
         return res.gamma if batched else res.gamma[0]
@@ -210,39 +221,58 @@ class StewartRobot:
             pose: 0Tp (4, 4) or (N, 4, 4); twist: (6,) or (N, 6); gamma: actuator forces
                 (6,) or (N, 6) [N].
             backend: ``"pinocchio"`` (reference) or ``"compiled"`` (generated C).
+
+        Raises:
+            NumericalError: finite inputs whose acceleration overflows (both backends).
         """
         if _compiled(backend):
             from .codegen import compiled_backend
 
-            return compiled_backend(self).direct_dynamics(pose, twist, gamma)
+            try:  # free when nothing is raised
+                return compiled_backend(self).direct_dynamics(pose, twist, gamma)
+            except StewartPinError as e:
+                numerical = _as_numerical(e, "direct dynamics acceleration")
+                if numerical is None:
+                    raise
+                raise numerical from e
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
-        accel, _ = closure.direct_dynamics(
-            self.description, self.leg_dynamics, T, V, G, self.max_condition
-        )
+        with _quiet_overflow():
+            accel, _ = closure.direct_dynamics(
+                self.description, self.leg_dynamics, T, V, G, self.max_condition
+            )
         return accel if batched else accel[0]
 
     def cartesian_dynamics(self, pose: Any, twist: Any) -> CartesianDynamics:
-        """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays)."""
+        """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
+        :class:`NumericalError` when either is not finite."""
         _, T, V = check_states(pose, (twist, "twist"))
-        return closure.cartesian_dynamics(
-            self.description, self.leg_dynamics, T, V, self.max_condition
-        )
+        with _quiet_overflow():
+            cd = closure.cartesian_dynamics(
+                self.description, self.leg_dynamics, T, V, self.max_condition
+            )
+        check_finite(cd.A_robot, "cartesian dynamics A_robot")
+        check_finite(cd.h_robot, "cartesian dynamics h_robot")
+        return cd
 
     def gravity_compensation(self, pose: Any) -> np.ndarray:
         """The static inverse dynamic model: Gamma holding the robot still at ``pose`` [N]."""
         T, batched = check_poses(pose)
         zeros = np.zeros((T.shape[0], 6))
-        gamma = self.inverse_dynamics(T, zeros, zeros)
+        try:
+            gamma = self.inverse_dynamics(T, zeros, zeros)
+        except NumericalError as e:
+            raise NumericalError("gravity compensation Gamma", e.index, e.n_bad, e.n_states) from e
         return gamma if batched else gamma[0]
 
     def energy(self, pose: Any, twist: Any) -> np.ndarray | float:
         """Total mechanical energy of platform + legs [J]: kinetic plus gravitational
         potential (zero with every centre of mass at the origin of F0)."""
         batched, T, V = check_states(pose, (twist, "twist"))
-        legs = leg_state(self.description, T, V, check_limits=False)
-        kin, pot = self.leg_dynamics.energy(legs.q, legs.qdot)
-        kin_p, pot_p = closure.platform_energy(self.description, T, V)
-        total = kin + pot + kin_p + pot_p
+        with _quiet_overflow():
+            legs = leg_state(self.description, T, V, check_limits=False)
+            kin, pot = self.leg_dynamics.energy(legs.q, legs.qdot)
+            kin_p, pot_p = closure.platform_energy(self.description, T, V)
+            total = check_finite(kin + pot + kin_p + pot_p, "energy")
         return total if batched else float(total[0])
 
     def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
@@ -254,11 +284,34 @@ class StewartRobot:
         from .regressor import regressor_batch
 
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
+        with _quiet_overflow():
+            W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
         return W if batched else W[0]
 
 
 BACKENDS = ("pinocchio", "compiled")
+
+
+def _quiet_overflow():
+    """No RuntimeWarning for overflow or invalid operations: the outputs are checked
+    (:func:`stewart_pin.closure.check_finite`), and a non-finite one raises
+    :class:`NumericalError` instead."""
+    return np.errstate(over="ignore", invalid="ignore")
+
+
+_STATE_INDEX = re.compile(r"at state (\d+)")
+
+
+def _as_numerical(error: StewartPinError, output: str) -> NumericalError | None:
+    """The compiled backend's non-finite-result error as :class:`NumericalError` (the
+    reference path's type and message; the compiled model checks its outputs in C), or
+    ``None`` for any other error."""
+    if isinstance(error, NumericalError):
+        return None
+    if type(error) is not StewartPinError or "non-finite" not in str(error):
+        return None
+    m = _STATE_INDEX.search(str(error))
+    return NumericalError(output, int(m.group(1)) if m else None)
 
 
 def _compiled(backend: str, details: bool = False) -> bool:

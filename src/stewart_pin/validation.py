@@ -35,6 +35,8 @@ checked (the physics is defined outside them); leg singularities raise
 from __future__ import annotations
 
 import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -42,7 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._checks import check_states
-from .exceptions import InputError, SingularityError
+from .exceptions import InputError, NumericalError, SingularityError, WorkspaceError
 from .geometry import inverse_geometry_batch
 from .workspace import sample_states
 
@@ -115,6 +117,19 @@ def _unbatch(x: np.ndarray, batched: bool) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- one state
+@contextmanager
+def _at_state(n: int) -> Iterator[None]:
+    """State ``n`` of a batch: a :class:`NumericalError` raised inside names it, and
+    overflow warnings are silenced (the outputs are checked instead)."""
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            yield
+    except NumericalError as e:
+        if e.index is not None:
+            raise
+        raise NumericalError(e.output, n) from e
+
+
 def _constraint_jacobian(s: _TreeSolver, q: np.ndarray) -> np.ndarray:
     """``Jc`` (18, 24): rows 3i..3i+2 are ``R_c1^T (J_1 - J_2)`` of loop i (LOCAL frame
     of the leg-side point), from ``pin.getConstraintsJacobian``.
@@ -130,6 +145,10 @@ def _constraint_jacobian(s: _TreeSolver, q: np.ndarray) -> np.ndarray:
 
 
 def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
+    """``A^-1 b``; a non-finite ``b`` (finite inputs that overflowed) raises
+    :class:`NumericalError`, a singular ``A`` :class:`SingularityError`."""
+    if not np.isfinite(b).all():
+        raise NumericalError(f"the right-hand side solved by {what} (reference)", None)
     try:
         x = np.linalg.solve(A, b)
     except np.linalg.LinAlgError as e:
@@ -225,6 +244,8 @@ def _forward_one(s: _TreeSolver, desc: Any, T, twist, gamma):
     ddq = pin.constraintDynamics(s.model, s.data, q, v, tau, s.cmodels, s.cdatas, s.settings)
     ddq = np.array(ddq)
     if not np.all(np.isfinite(ddq)):
+        if not np.isfinite(pin.rnea(s.model, s.data, q, v, np.zeros(s.nv))).all():
+            raise NumericalError("the tree's bias force vector (reference)", None)
         raise SingularityError(
             "pin.constraintDynamics returned non-finite accelerations: a singular "
             "configuration, or a singular tree mass matrix (massless leg links; use "
@@ -262,7 +283,8 @@ def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, 
     qs = np.empty((len(T), s.model.nq))
     vs = np.empty((len(T), s.nv))
     for n in range(len(T)):
-        qs[n], vs[n] = _state(s, robot.description, T[n], V[n])[:2]
+        with _at_state(n):
+            qs[n], vs[n] = _state(s, robot.description, T[n], V[n])[:2]
     return _unbatch(qs, batched), _unbatch(vs, batched)
 
 
@@ -310,7 +332,8 @@ def constrained_inverse_dynamics(
     gammas = np.empty((len(T), 6))
     forces = np.empty((len(T), 6, 3))
     for n in range(len(T)):
-        gammas[n], forces[n] = _inverse_one(s, robot.description, T[n], V[n], A[n])
+        with _at_state(n):
+            gammas[n], forces[n] = _inverse_one(s, robot.description, T[n], V[n], A[n])
     return _unbatch(gammas, batched), _unbatch(forces, batched)
 
 
@@ -336,7 +359,8 @@ def constrained_forward_dynamics(
     batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
     out = np.empty((len(T), 6))
     for n in range(len(T)):
-        out[n] = _forward_one(s, robot.description, T[n], V[n], G[n])
+        with _at_state(n):
+            out[n] = _forward_one(s, robot.description, T[n], V[n], G[n])
     return _unbatch(out, batched)
 
 
@@ -359,9 +383,12 @@ def energy(robot: StewartRobot, pose: Any, twist: Any) -> tuple[Any, Any]:
     batched, T, V = check_states(pose, (twist, "twist"))
     out = np.empty((len(T), 2))
     for n in range(len(T)):
-        q, v = _state(s, robot.description, T[n], V[n])[:2]
-        out[n, 0] = pin.computeKineticEnergy(s.model, s.data, q, v)
-        out[n, 1] = pin.computePotentialEnergy(s.model, s.data, q)
+        with _at_state(n):
+            q, v = _state(s, robot.description, T[n], V[n])[:2]
+            out[n, 0] = pin.computeKineticEnergy(s.model, s.data, q, v)
+            out[n, 1] = pin.computePotentialEnergy(s.model, s.data, q)
+            if not np.isfinite(out[n]).all():
+                raise NumericalError("the energy (reference)", n)
     if batched:
         return out[:, 0], out[:, 1]
     return float(out[0, 0]), float(out[0, 1])
@@ -434,7 +461,25 @@ class ValidationReport:
         )
 
 
-def validate(robot: StewartRobot, n_states: int = 200, seed: int = 0) -> ValidationReport:
+def _integer(value: Any, name: str, least: int) -> int:
+    """``value`` as an int >= ``least`` (integral floats accepted), else InputError."""
+    ok = not isinstance(value, (bool, str, bytes))
+    try:
+        x = int(value) if ok and value == int(value) else None
+    except (TypeError, ValueError, OverflowError):
+        x = None
+    if x is None or x < least:
+        raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
+    return x
+
+
+def validate(
+    robot: StewartRobot,
+    n_states: int = 200,
+    seed: int | None = 0,
+    translation_range: float | None = None,
+    rotation_range: float = 0.25,
+) -> ValidationReport:
     """Compare the paper's inverse and direct models with the constrained tree.
 
     Draws ``n_states`` states with :func:`stewart_pin.workspace.sample_states` (seeded),
@@ -449,18 +494,32 @@ def validate(robot: StewartRobot, n_states: int = 200, seed: int = 0) -> Validat
             taking batches and returning (N, 6).
         n_states: number of random states (>= 1).
         seed: seed of the random generator.
+        translation_range: half-side [m] of the cube, along F0's axes, in which the
+            platform's origin is drawn around the home pose (default 15 % of the
+            mid-stroke); give a smaller one for a robot with a small workspace.
+        rotation_range: each component of the rotation vector (in F0) applied to the
+            home orientation is drawn in ``[-rotation_range, rotation_range]`` [rad].
+
+    Raises:
+        InputError: a bad ``n_states`` or range. WorkspaceError: too few of the drawn
+            poses are reachable (the message says to narrow the ranges).
     """
-    if int(n_states) != n_states or n_states < 1:
-        raise InputError(f"n_states must be a positive integer, got {n_states!r}")
-    n_states = int(n_states)
+    n_states = _integer(n_states, "n_states", 1)
+    seed = None if seed is None else _integer(seed, "seed", 0)
     for method in ("inverse_dynamics", "direct_dynamics"):
         if not callable(getattr(robot, method, None)):
             raise TypeError(f"{type(robot).__name__} has no method '{method}' to validate")
     rng = np.random.default_rng(seed)
-    kwargs = {}
+    kwargs: dict[str, Any] = {"translation": translation_range, "rotation": rotation_range}
     if hasattr(robot, "max_condition"):
         kwargs["max_condition"] = robot.max_condition
-    poses, twists, accels = sample_states(robot.description, n_states, rng, **kwargs)
+    try:
+        poses, twists, accels = sample_states(robot.description, n_states, rng, **kwargs)
+    except WorkspaceError as e:
+        raise WorkspaceError(
+            f"{e} (validate: translation_range, rotation_range; stewart-pin validate: "
+            "--translation, --rotation)"
+        ) from e
     gamma_ref, _ = constrained_inverse_dynamics(robot, poses, twists, accels)
     accel_ref = constrained_forward_dynamics(robot, poses, twists, gamma_ref)
     gamma = np.asarray(robot.inverse_dynamics(poses, twists, accels), dtype=float)

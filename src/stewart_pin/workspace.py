@@ -6,13 +6,26 @@ import numpy as np
 import pinocchio as pin
 
 from .description import RobotDescription
-from .exceptions import StewartPinError, WorkspaceError
+from .exceptions import InputError, StewartPinError, WorkspaceError
 from .geometry import inverse_geometry_batch
 from .kinematics import MAX_CONDITION, check_condition, inverse_jacobian_batch
 
 
 def _rng(rng: np.random.Generator | int | None) -> np.random.Generator:
     return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+
+
+def _range(value: object, name: str, unit: str) -> float:
+    """``value`` as a finite float >= 0, else :class:`InputError`."""
+    if isinstance(value, (bool, str, bytes)):
+        raise InputError(f"{name} must be a number >= 0 [{unit}], got {value!r}")
+    try:
+        x = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as e:
+        raise InputError(f"{name} must be a number >= 0 [{unit}], got {value!r}") from e
+    if not (np.isfinite(x) and x >= 0.0):
+        raise InputError(f"{name} must be a finite number >= 0 [{unit}], got {value!r}")
+    return x
 
 
 def sample_poses(
@@ -30,10 +43,14 @@ def sample_poses(
     the mid-stroke) along F0's axes, the rotation ``exp(w) R_home`` with each ``w_k``
     uniform in ``[-rotation, rotation]`` [rad]. Draws that leave the stroke or the U-joint
     limits, or pass ``max_condition``, are rejected; after ``max_draws * n`` draws the
-    function raises :class:`WorkspaceError`.
+    function raises :class:`WorkspaceError`. ``translation`` and ``rotation`` must be
+    finite and >= 0 (:class:`InputError`).
     """
     rng = _rng(rng)
-    half = 0.15 * desc.stroke_mid if translation is None else float(translation)
+    half = (
+        0.15 * desc.stroke_mid if translation is None else _range(translation, "translation", "m")
+    )
+    rotation = _range(rotation, "rotation", "rad")
     home = desc.home_pose
     out: list[np.ndarray] = []
     draws = 0
@@ -70,7 +87,8 @@ def sample_states(
     ``angular_speed`` [rad/s] and that per second)."""
     rng = _rng(rng)
     poses = sample_poses(desc, n, rng, **pose_kwargs)
-    s = desc.stroke_mid if speed is None else float(speed)
+    s = desc.stroke_mid if speed is None else _range(speed, "speed", "m/s")
+    angular_speed = _range(angular_speed, "angular_speed", "rad/s")
     scale = np.array([s, s, s, angular_speed, angular_speed, angular_speed])
     twists = rng.uniform(-1, 1, (n, 6)) * scale
     accels = rng.uniform(-1, 1, (n, 6)) * scale * 3.0

@@ -1,16 +1,105 @@
-"""What the subcommands share: the robot arguments, poses from the command line, progress."""
+"""What the subcommands share: the robot arguments, poses from the command line, progress,
+the number types of the options and the output-path checks.
+
+The number types (``type=`` of ``add_argument``) refuse bad values while the arguments are
+parsed, so a bad number is one line on stderr and exit code 2, before any work:
+:func:`positive_int`, :func:`non_negative_int`, :func:`finite_float`,
+:func:`positive_finite_float`, :func:`non_negative_finite_float`.
+"""
 
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator, Sequence
+import math
+import os
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from ..exceptions import InputError
 from ..robot import StewartRobot
+
+
+def _parser(
+    convert: Callable[[str], Any], accept: Callable[[Any], bool], expected: str
+) -> Callable[[str], Any]:
+    def parse(text: str) -> Any:
+        try:
+            value = convert(text)
+        except ValueError:
+            value = None
+        if value is None or not accept(value):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+        return value
+
+    parse.__name__ = expected
+    return parse
+
+
+#: An integer >= 1 (a count: states, samples, repeats...).
+positive_int = _parser(int, lambda x: x >= 1, "an integer >= 1")
+#: An integer >= 0 (a seed, a budget that may be zero).
+non_negative_int = _parser(int, lambda x: x >= 0, "an integer >= 0")
+#: A finite number (no nan, no inf).
+finite_float = _parser(float, math.isfinite, "a finite number")
+#: A finite number > 0 (a duration, a period, a frequency...).
+positive_finite_float = _parser(
+    float, lambda x: math.isfinite(x) and x > 0.0, "a finite number > 0"
+)
+#: A finite number >= 0 (a tolerance, a noise level, a range).
+non_negative_finite_float = _parser(
+    float, lambda x: math.isfinite(x) and x >= 0.0, "a finite number >= 0"
+)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+    except OSError:
+        return False
+
+
+def check_output(
+    path: str | Path,
+    suffixes: Sequence[str] = (),
+    inputs: Sequence[str | Path | None] = (),
+    what: str = "output",
+) -> Path:
+    """The output path ``path``, checked before any long computation.
+
+    Refuses (:class:`InputError`) a suffix not in ``suffixes`` (when given), a path that
+    is a folder, a path naming the same file as one of ``inputs`` (``None`` entries
+    skipped), and a folder that cannot be created or written. A missing folder is
+    created here, up front (as the writers always did), so that a run never ends on it.
+    """
+    out = Path(path)
+    if suffixes and out.suffix not in suffixes:
+        raise InputError(
+            f"{what} {out} must end in {' or '.join(suffixes)}, got "
+            f"'{out.suffix or 'no suffix'}'; choose a file name with one of those suffixes"
+        )
+    if out.is_dir():
+        raise InputError(f"{what} {out} is a folder; give a file name")
+    for source in inputs:
+        if source is not None and _same_file(out, Path(source)):
+            raise InputError(
+                f"{what} {out} is the input file {source}: writing it would destroy the "
+                "input; give another output path"
+            )
+    folder = out.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"{what} {out}: cannot create the folder {folder}: {e}") from e
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{what} {out}: the folder {folder} is not writable")
+    return out
 
 
 def add_robot_args(p: argparse.ArgumentParser) -> None:

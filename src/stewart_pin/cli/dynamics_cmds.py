@@ -3,20 +3,26 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
 from ..tables import FORCE_COLUMNS, STATE_COLUMNS, read_csv, states_from_table, write_csv
-from ._common import add_robot_args, robot_from_args
+from ._common import (
+    add_robot_args,
+    check_output,
+    non_negative_finite_float,
+    non_negative_int,
+    positive_int,
+    robot_from_args,
+)
 
 
 def _idm(args: argparse.Namespace) -> int:
+    out = check_output(args.output, (".csv",), [args.trajectory, args.description])
     robot = robot_from_args(args)
     rows = read_csv(args.trajectory, STATE_COLUMNS)
     times, poses, twists, accels = states_from_table(rows)
-    gamma = robot.inverse_dynamics(poses, twists, accels)
-    out = Path(args.output)
+    gamma = robot.inverse_dynamics(poses, twists, accels)  # NumericalError if not finite
     write_csv(out, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
     peak = np.abs(gamma).max(axis=0)
     print(
@@ -30,7 +36,13 @@ def _validate(args: argparse.Namespace) -> int:
     from ..validation import validate
 
     robot = robot_from_args(args)
-    report = validate(robot, n_states=args.states, seed=args.seed)
+    report = validate(
+        robot,
+        n_states=args.states,
+        seed=args.seed,
+        translation_range=args.translation,
+        rotation_range=args.rotation,
+    )
     print(report)
     ok = report.passed(args.tol_idm, args.tol_ddm)
     print(
@@ -63,10 +75,35 @@ def register(sub: argparse._SubParsersAction) -> None:
         "against pin.constraintDynamics. Exit code 1 when a tolerance is exceeded.",
     )
     add_robot_args(p)
-    p.add_argument("--states", type=int, default=200, help="random states")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--tol-idm", type=float, default=1e-9, help="relative tolerance, inverse")
-    p.add_argument("--tol-ddm", type=float, default=1e-8, help="relative tolerance, direct")
+    p.add_argument("--states", type=positive_int, default=200, help="random states")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the states")
+    p.add_argument(
+        "--translation",
+        type=non_negative_finite_float,
+        metavar="M",
+        help="half-side [m] of the cube (along F0's axes) in which the platform's origin is "
+        "drawn around the home pose (default 15 %% of the mid-stroke)",
+    )
+    p.add_argument(
+        "--rotation",
+        type=non_negative_finite_float,
+        default=0.25,
+        metavar="RAD",
+        help="largest component [rad] of the rotation vector applied to the home "
+        "orientation (default 0.25)",
+    )
+    p.add_argument(
+        "--tol-idm",
+        type=non_negative_finite_float,
+        default=1e-9,
+        help="relative tolerance, inverse",
+    )
+    p.add_argument(
+        "--tol-ddm",
+        type=non_negative_finite_float,
+        default=1e-8,
+        help="relative tolerance, direct",
+    )
     p.set_defaults(func=_validate)
     register_performance(sub)
 
@@ -80,6 +117,9 @@ def _cost(args: argparse.Namespace) -> int:
 
 def _bench(args: argparse.Namespace) -> int:
     from ..bench import report
+
+    if args.json is not None:
+        check_output(args.json, (".json",), what="--json")
 
     report(args)
     return 0

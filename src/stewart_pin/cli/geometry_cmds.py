@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .._safe import file_in_folder
-from ._common import add_robot_args, pose_from_args, robot_from_args
+from ._common import add_robot_args, finite_float, pose_from_args, robot_from_args
 
 
 def _urdf(args: argparse.Namespace) -> int:
@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--pose",
         nargs=6,
-        type=float,
+        type=finite_float,
         metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
         help="offset from the home pose [m, m, m, rad, rad, rad], rotation applied in F0",
     )

@@ -11,9 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import FileFormatError, InputError, SimulationError, StewartPinError
+from ..exceptions import InputError, SimulationError, StewartPinError
 from ..trajectories import MOTION_KINDS
-from ._common import add_robot_args, progress_bar, robot_from_args
+from ._common import (
+    add_robot_args,
+    check_output,
+    finite_float,
+    positive_finite_float,
+    progress_bar,
+    robot_from_args,
+)
 
 
 def partial_path(out: Path) -> Path:
@@ -47,13 +54,10 @@ def _simulate(args: argparse.Namespace) -> int:
     from ..simulation import simulate
     from ..trajectories import standard_motion
 
-    if not (np.isfinite(args.duration) and args.duration > 0):
-        raise InputError(f"--duration must be finite and positive [s], got {args.duration}")
+    out = check_output(args.output, (".npz", ".csv"))
+    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
+        raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
     robot = robot_from_args(args)
-    out = Path(args.output)
-    if out.suffix not in (".npz", ".csv"):
-        raise FileFormatError(f"unknown result file type '{out.suffix}' for {out}: .npz or .csv")
-    out.parent.mkdir(parents=True, exist_ok=True)
     if args.motion == "free":
         forces, motion, duration, start = None, None, args.duration, (None, None)
     else:
@@ -118,9 +122,10 @@ def _motion_samples(args: argparse.Namespace, robot) -> tuple[np.ndarray, np.nda
 def _animate(args: argparse.Namespace) -> int:
     from ..viz.viewer import Viewer
 
+    path = check_output(args.output, (".html", ".htm"), [args.result])
     robot = robot_from_args(args)
     poses, times = _motion_samples(args, robot)
-    out = Viewer(robot).export_html(Path(args.output), poses, times, fps=args.fps)
+    out = Viewer(robot).export_html(path, poses, times, fps=args.fps)
     print(f"wrote {out} ({times[-1] - times[0]:.3g} s of motion): open it in a web browser")
     return 0
 
@@ -193,13 +198,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_robot_args(p)
     p.add_argument("--motion", choices=(*MOTION_KINDS, "free"), default="sinusoid")
-    p.add_argument("--duration", type=float, default=2.0, help="[s]")
+    p.add_argument("--duration", type=positive_finite_float, default=2.0, help="[s]")
     p.add_argument("--method", choices=("rk4", "adaptive"), default="rk4")
-    p.add_argument("--dt", type=float, default=1e-3, help="step [s] (first step if adaptive)")
-    p.add_argument("--control-period", type=float, default=1e-3, help="controller period [s]")
+    p.add_argument(
+        "--dt", type=positive_finite_float, default=1e-3, help="step [s] (first step if adaptive)"
+    )
+    p.add_argument(
+        "--control-period",
+        type=positive_finite_float,
+        default=1e-3,
+        help="controller period [s]",
+    )
     p.add_argument(
         "--model-error",
-        type=float,
+        type=finite_float,
         default=0.0,
         help="relative error of every inertial parameter in the controller's model",
     )
@@ -222,8 +234,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_robot_args(p)
     p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
     p.add_argument("--motion", choices=MOTION_KINDS, default="sinusoid", help="else this motion")
-    p.add_argument("--duration", type=float, default=4.0, help="[s] of the motion")
-    p.add_argument("--fps", type=float, default=30.0, help="key frames per second")
+    p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
+    p.add_argument("--fps", type=positive_finite_float, default=30.0, help="key frames per second")
     p.add_argument("-o", "--output", default="animation.html")
     p.set_defaults(func=_animate)
 
@@ -231,7 +243,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_robot_args(p)
     p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
     p.add_argument("--motion", choices=(*MOTION_KINDS, "none"), default="none")
-    p.add_argument("--duration", type=float, default=4.0, help="[s] of the motion")
+    p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
     p.add_argument("--open", action="store_true", help="open the page in the web browser")
     p.add_argument("--no-wait", action="store_true", help="show, then exit (no waiting)")
     p.set_defaults(func=_view)

@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
 from .._io import write_text_atomic
 from .._safe import file_in_folder
-from ._common import add_robot_args
+from ._common import (
+    add_robot_args,
+    check_output,
+    non_negative_finite_float,
+    non_negative_int,
+    positive_finite_float,
+    positive_int,
+)
 from ._common import robot_from_args as _robot
 
 
@@ -57,11 +63,18 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         write_measurements_csv,
     )
 
+    inputs = [args.csv, args.validation_csv, args.description]
+    out = check_output(args.output, (), inputs, "-o") if args.output else None
     robot = _robot(args)
+    if not args.csv:  # the simulated measurements are written: check where, up front
+        stem = out.with_name(out.stem + "_measurements.csv") if out else None
+        measurements_path = check_output(
+            stem or file_in_folder(".", f"{robot.name}_measurements.csv"),
+            (".csv",),
+            inputs,
+            "measurements",
+        )
     base = base_parameters(robot, "analytic")
-    out = Path(args.output) if args.output else None
-    if out:
-        out.parent.mkdir(parents=True, exist_ok=True)
     lines: list[str] = []
     if args.csv:
         measurements = read_measurements_csv(args.csv, min_rows=len(base) // 6 + 1)
@@ -81,10 +94,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         rms = float(np.sqrt(np.mean(clean.gammas**2)))
         noise = 0.01 * rms if args.noise is None else args.noise
         measurements = simulate_measurements(robot, trajectory, noise, args.seed)
-        stem = out.with_name(out.stem + "_measurements.csv") if out else None
-        csv_path = write_measurements_csv(
-            stem or file_in_folder(".", f"{robot.name}_measurements.csv"), measurements
-        )
+        csv_path = write_measurements_csv(measurements_path, measurements)
         lines.append(
             f"simulated measurements: exciting trajectory ({args.harmonics} harmonics of "
             f"{args.frequency:g} Hz, {len(trajectory)} samples, condition number {cond:.4g}), "
@@ -139,14 +149,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="analytic",
         help="the paper's grouping rules (default) or QR of the stacked regressor",
     )
-    p.add_argument("--states", type=int, default=60, help="random states stacked for the rank")
+    p.add_argument(
+        "--states", type=positive_int, default=60, help="random states stacked for the rank"
+    )
     p.add_argument(
         "--threshold",
-        type=float,
+        type=positive_finite_float,
         default=0.01,
         help="essential parameters: largest relative force change allowed (default 1 %%)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the random states")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the random states")
     p.set_defaults(func=_cmd_base_params)
 
     p = sub.add_parser(
@@ -160,15 +172,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", help="measurement log (t,x,y,z,qx,qy,qz,qw,...,gamma6; SI units)")
     p.add_argument("--validation-csv", help="a second log to validate the prediction on")
     p.add_argument(
-        "--noise", type=float, help="force noise std [N] (default 1 %% of the RMS force)"
+        "--noise",
+        type=non_negative_finite_float,
+        help="force noise std [N] (default 1 %% of the RMS force)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the trajectory and the noise")
-    p.add_argument("--samples", type=int, default=200, help="samples of the trajectory")
-    p.add_argument("--duration", type=float, help="[s] (default one period)")
-    p.add_argument("--harmonics", type=int, default=5, help="Fourier harmonics per axis")
-    p.add_argument("--frequency", type=float, default=0.2, help="base frequency [Hz]")
     p.add_argument(
-        "--evaluations", type=int, default=300, help="cost evaluations of the optimiser"
+        "--seed", type=non_negative_int, default=0, help="seed of the trajectory and the noise"
+    )
+    p.add_argument("--samples", type=positive_int, default=200, help="samples of the trajectory")
+    p.add_argument("--duration", type=positive_finite_float, help="[s] (default one period)")
+    p.add_argument("--harmonics", type=positive_int, default=5, help="Fourier harmonics per axis")
+    p.add_argument(
+        "--frequency", type=positive_finite_float, default=0.2, help="base frequency [Hz]"
+    )
+    p.add_argument(
+        "--evaluations",
+        type=non_negative_int,
+        default=300,
+        help="cost evaluations of the optimiser (0: the best random draw)",
     )
     p.add_argument("--ols", action="store_true", help="ordinary instead of weighted LS")
     p.add_argument("-o", "--output", help="write the report there too (and the CSV beside)")
