@@ -2,7 +2,7 @@
 
 For each preset (simulator, desktop, paper): ``<name>.toml``, ``<name>.urdf``,
 ``<name>.closures.json``, ``<name>.xacro.yaml`` and ``<name>.xml`` (MJCF), written by
-:func:`stewart_pin.exports.write_robot_files`. ``tests/test_generated_models.py`` fails
+:func:`stewart_pin.formats.robot_files.write_robot_files`. ``tests/test_generated_models.py`` fails
 when the committed files differ from what this script writes.
 
 Usage: ``python scripts/generate_models.py [output folder]`` (default ``models/urdf``).
@@ -13,8 +13,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from stewart_pin.exports import write_robot_files
-from stewart_pin.presets import PRESETS
+from stewart_pin.description.presets import PRESETS
+from stewart_pin.formats.robot_files import write_robot_files
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models" / "urdf"
 

@@ -25,13 +25,19 @@ import pytest
 import stewart_pin
 from stewart_pin import preset
 from stewart_pin.exceptions import FileFormatError
-from stewart_pin.exports import write_robot_files
-from stewart_pin.identification import Measurements, write_measurements_csv
-from stewart_pin.mjcf import write_mjcf
-from stewart_pin.simulation import SimulationResult
-from stewart_pin.tables import FORCE_COLUMNS, STATE_COLUMNS, read_csv, state_table, write_csv
-from stewart_pin.urdf import write_urdf
-from stewart_pin.xacro import write_xacro_args
+from stewart_pin.formats.csv_tables import (
+    FORCE_COLUMNS,
+    STATE_COLUMNS,
+    read_csv,
+    state_table,
+    write_csv,
+)
+from stewart_pin.formats.mjcf import write_mjcf
+from stewart_pin.formats.robot_files import write_robot_files
+from stewart_pin.formats.urdf import write_urdf
+from stewart_pin.formats.xacro import write_xacro_args
+from stewart_pin.motion.simulation import SimulationResult
+from stewart_pin.parameters.identification import Measurements, write_measurements_csv
 
 SRC = Path(stewart_pin.__file__).resolve().parent
 
@@ -144,7 +150,7 @@ def _result(variant: int) -> SimulationResult:
 def _bench_json(folder: Path, variant: int, monkeypatch: pytest.MonkeyPatch) -> None:
     import argparse
 
-    from stewart_pin import bench
+    from stewart_pin.apps import bench
 
     result = {
         "machine": "test",
@@ -165,7 +171,7 @@ def _figures(folder: Path, variant: int) -> None:
 
 def _demo_figure(folder: Path, variant: int) -> None:
     pytest.importorskip("matplotlib")
-    from stewart_pin.demo import _validation_figure
+    from stewart_pin.apps.demo import _validation_figure
 
     t = np.linspace(0.0, 1.0, 20)
     _validation_figure(folder / "validation.png", t, 1e-12 * (1 + variant + t), t, 1e-13 + t)

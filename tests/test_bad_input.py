@@ -27,9 +27,9 @@ from stewart_pin import (
     simulate,
 )
 from stewart_pin.cli import main
-from stewart_pin.simulation import SimulationResult
-from stewart_pin.tables import STATE_COLUMNS, read_csv
-from stewart_pin.urdf import read_sidecar
+from stewart_pin.formats.csv_tables import STATE_COLUMNS, read_csv
+from stewart_pin.formats.urdf import read_sidecar
+from stewart_pin.motion.simulation import SimulationResult
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,12 @@ import scipy.linalg
 from helpers import rel_error
 
 from stewart_pin import RobotDescription, StewartRobot, random_robot
-from stewart_pin.base_params import (
+from stewart_pin.description.presets import preset
+from stewart_pin.description.robot_description import leg_base_rotation_from_axis
+from stewart_pin.dynamics.regressor import STANDARD_NAMES
+from stewart_pin.exceptions import BaseParameterWarning, InputError
+from stewart_pin.kinematics.workspace import sample_states
+from stewart_pin.parameters.base import (
     analytic_base_parameters,
     base_parameters,
     essential_parameters,
@@ -25,11 +30,6 @@ from stewart_pin.base_params import (
     paper_essential_parameters,
     stacked_regressor,
 )
-from stewart_pin.description import leg_base_rotation_from_axis
-from stewart_pin.exceptions import BaseParameterWarning, InputError
-from stewart_pin.presets import preset
-from stewart_pin.regressor import STANDARD_NAMES
-from stewart_pin.workspace import sample_states
 
 ROBOTS = ["simulator", "paper", "random-1", "random-6"]
 

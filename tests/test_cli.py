@@ -11,7 +11,7 @@ from helpers import leg_lengths_by_hand
 
 from stewart_pin import preset
 from stewart_pin.cli import main
-from stewart_pin.models import load_tree
+from stewart_pin.models.pinocchio_models import load_tree
 
 
 def leg_rows(text: str) -> np.ndarray:
@@ -101,8 +101,8 @@ def test_bad_arguments_exit_2():
 
 def test_idm_reads_a_trajectory_and_writes_forces(tmp_path, capsys):
     from stewart_pin import StewartRobot
-    from stewart_pin.tables import STATE_COLUMNS, read_csv, state_table, write_csv
-    from stewart_pin.trajectories import standard_motion
+    from stewart_pin.formats.csv_tables import STATE_COLUMNS, read_csv, state_table, write_csv
+    from stewart_pin.motion.trajectories import standard_motion
 
     robot = StewartRobot.from_preset("desktop")
     tr = standard_motion(robot, "washout").sample(np.linspace(0, 4.0, 30))
@@ -114,7 +114,7 @@ def test_idm_reads_a_trajectory_and_writes_forces(tmp_path, capsys):
     rows = read_csv(out, ("t", *(f"gamma{i}" for i in range(1, 7))))
     np.testing.assert_array_equal(rows[:, 0], tr.times)
     # Against the constrained dynamics of Pinocchio's closed-loop tree (independent).
-    from stewart_pin.validation import constrained_inverse_dynamics
+    from stewart_pin.check.constrained_dynamics import constrained_inverse_dynamics
 
     ref, _ = constrained_inverse_dynamics(robot, tr.poses, tr.twists, tr.accels)
     np.testing.assert_allclose(rows[:, 1:], ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
@@ -135,7 +135,7 @@ def test_validate_passes_and_reports(capsys):
 
 
 def test_simulate_tracks_and_writes_the_result(tmp_path, capsys):
-    from stewart_pin.simulation import SimulationResult
+    from stewart_pin.motion.simulation import SimulationResult
 
     out = tmp_path / "run.csv"
     args = ["simulate", "--preset", "desktop", "--motion", "minimum-jerk", "--duration", "0.2"]
@@ -191,7 +191,7 @@ def test_view_starts_a_local_server(capsys):
 
 
 def test_demo_writes_the_whole_workflow(tmp_path, capsys):
-    from stewart_pin.simulation import SimulationResult
+    from stewart_pin.motion.simulation import SimulationResult
 
     out = tmp_path / "demo"
     assert main(["demo", "--preset", "desktop", "-o", str(out)]) == 0
@@ -322,14 +322,14 @@ def test_checked_number_types_accept_good_values():
 
 
 def test_output_suffix_and_folder_are_checked_before_the_run(tmp_path, capsys, monkeypatch):
-    import stewart_pin.bench
-    import stewart_pin.simulation
+    import stewart_pin.apps.bench
+    import stewart_pin.motion.simulation
 
     def never(*args, **kwargs):
         raise AssertionError("the long run started before the output was checked")
 
-    monkeypatch.setattr(stewart_pin.simulation, "simulate", never)
-    monkeypatch.setattr(stewart_pin.bench, "report", never)
+    monkeypatch.setattr(stewart_pin.motion.simulation, "simulate", never)
+    monkeypatch.setattr(stewart_pin.apps.bench, "report", never)
     blocker = tmp_path / "file"
     blocker.write_text("")
     cases = [
@@ -349,7 +349,7 @@ def test_output_suffix_and_folder_are_checked_before_the_run(tmp_path, capsys, m
 
 
 def test_output_equal_to_an_input_is_refused(tmp_path, capsys):
-    from stewart_pin.tables import STATE_COLUMNS, write_csv
+    from stewart_pin.formats.csv_tables import STATE_COLUMNS, write_csv
 
     traj = write_csv(tmp_path / "traj.csv", STATE_COLUMNS, np.zeros((2, len(STATE_COLUMNS))))
     log = tmp_path / "log.csv"
@@ -380,8 +380,8 @@ def test_output_equal_to_an_input_is_refused(tmp_path, capsys):
 # ---------------------------------------------------------------------------- item 5
 def test_idm_overflowing_state_exits_2_and_writes_nothing(tmp_path, capsys):
     from stewart_pin import StewartRobot
-    from stewart_pin.tables import STATE_COLUMNS, state_table, write_csv
-    from stewart_pin.workspace import sample_states
+    from stewart_pin.formats.csv_tables import STATE_COLUMNS, state_table, write_csv
+    from stewart_pin.kinematics.workspace import sample_states
 
     robot = StewartRobot.from_preset("desktop")
     poses, twists, accels = sample_states(robot.description, 5, 2)

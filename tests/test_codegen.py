@@ -14,7 +14,6 @@ from conftest import get_robot
 from helpers import rel_error
 
 from stewart_pin import StewartRobot
-from stewart_pin.base_params import analytic_base_parameters
 from stewart_pin.codegen import (
     CompiledDynamics,
     compiled_backend,
@@ -25,14 +24,15 @@ from stewart_pin.codegen import (
 )
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.symbolic import AUX_IDM_GROWTH
+from stewart_pin.dynamics.regressor import with_standard_parameters
 from stewart_pin.exceptions import (
     InputError,
     JointLimitError,
     SingularityError,
     StrokeLimitError,
 )
-from stewart_pin.regressor import with_standard_parameters
-from stewart_pin.workspace import sample_states
+from stewart_pin.kinematics.workspace import sample_states
+from stewart_pin.parameters.base import analytic_base_parameters
 
 ROBOTS = ("simulator", "paper", "random-1")
 TOL = 1e-10  # relative to the largest value of the batch
@@ -328,7 +328,7 @@ def test_variants_and_stages(states):
 
 
 def ess_name_zero(name: str) -> bool:
-    from stewart_pin.base_params import PAPER_ESSENTIAL_PER_LEG
+    from stewart_pin.parameters.base import PAPER_ESSENTIAL_PER_LEG
 
     if name.endswith("_RP"):
         return False

@@ -26,7 +26,7 @@ from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics, UnsafeCacheError
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.compiled import build_library, c_source
-from stewart_pin.workspace import sample_states
+from stewart_pin.kinematics.workspace import sample_states
 
 TOL = 1e-10  # relative, compiled against the reference path
 SRC = str(Path(__file__).resolve().parents[1] / "src")

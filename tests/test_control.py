@@ -7,9 +7,9 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import StewartRobot
-from stewart_pin.control import ComputedTorqueController, pose_error, tracking_errors
-from stewart_pin.regressor import standard_parameters, with_standard_parameters
-from stewart_pin.simulation import simulate
+from stewart_pin.dynamics.regressor import standard_parameters, with_standard_parameters
+from stewart_pin.motion.control import ComputedTorqueController, pose_error, tracking_errors
+from stewart_pin.motion.simulation import simulate
 
 
 def multi_axis(robot: StewartRobot):

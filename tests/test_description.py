@@ -22,8 +22,8 @@ from stewart_pin import (
     preset,
     random_robot,
 )
-from stewart_pin.description import OPTIONAL_KEYS, REQUIRED_KEYS
-from stewart_pin.presets import PRESETS
+from stewart_pin.description.presets import PRESETS
+from stewart_pin.description.robot_description import OPTIONAL_KEYS, REQUIRED_KEYS
 
 ARRAY_KEYS = (
     "base_points",
@@ -639,7 +639,7 @@ def test_utf8_byte_order_mark_is_accepted(tmp_path, good, suffix):
 
 
 def test_utf8_byte_order_mark_is_accepted_in_csv_tables(tmp_path):
-    from stewart_pin.tables import STATE_COLUMNS, read_csv
+    from stewart_pin.formats.csv_tables import STATE_COLUMNS, read_csv
 
     rows = np.zeros((2, len(STATE_COLUMNS)))
     rows[:, 0], rows[:, 7] = [0.0, 0.5], 1.0  # t, qw

@@ -26,7 +26,7 @@ from stewart_pin import (
     StrokeLimitError,
     random_robot,
 )
-from stewart_pin.workspace import sample_states
+from stewart_pin.kinematics.workspace import sample_states
 
 ROBOTS = ["simulator", "desktop", "paper", "random-1", "random-7"]
 

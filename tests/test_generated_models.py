@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stewart_pin.exports import robot_file_names, write_robot_files
-from stewart_pin.presets import PRESETS
+from stewart_pin.description.presets import PRESETS
+from stewart_pin.formats.robot_files import robot_file_names, write_robot_files
 
 MODELS = Path(__file__).resolve().parent.parent / "models" / "urdf"
 STALE = "stale: run python scripts/generate_models.py"

@@ -1,4 +1,4 @@
-"""Inverse and forward geometry (stewart_pin.geometry), checked with Pinocchio's forward
+"""Inverse and forward geometry (stewart_pin.kinematics.geometry), checked with Pinocchio's forward
 kinematics of the generated models."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Identification: Fourier trajectories, measurements and their CSV files, least squares,
-the ``identify`` and ``base-params`` commands (stewart_pin.trajectories,
-stewart_pin.identification).
+the ``identify`` and ``base-params`` commands (stewart_pin.motion.trajectories,
+stewart_pin.parameters.identification).
 
 References are independent of the code under test: finite differences of the poses on
 SO(3) (``pin.log3``) for the trajectory derivatives, the robot's inverse dynamic model for
@@ -19,9 +19,15 @@ import pytest
 from helpers import leg_lengths_by_hand
 
 from stewart_pin import FileFormatError, IdentificationError, InputError, StewartPinError
-from stewart_pin.base_params import base_parameters
 from stewart_pin.cli import main
-from stewart_pin.identification import (
+from stewart_pin.motion.trajectories import (
+    FourierTrajectory,
+    Trajectory,
+    so3_exp,
+    so3_left_jacobian,
+)
+from stewart_pin.parameters.base import base_parameters
+from stewart_pin.parameters.identification import (
     CSV_COLUMNS,
     Measurements,
     exciting_trajectory,
@@ -31,7 +37,6 @@ from stewart_pin.identification import (
     validation_error,
     write_measurements_csv,
 )
-from stewart_pin.trajectories import FourierTrajectory, Trajectory, so3_exp, so3_left_jacobian
 
 HEADER = (
     "t,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,ax,ay,az,alphax,alphay,alphaz,"

@@ -1,4 +1,4 @@
-"""Khalil's 10 inertial parameters and their conversions (stewart_pin.inertia).
+"""Khalil's 10 inertial parameters and their conversions (stewart_pin.description.inertia).
 
 References: Pinocchio's own ``pin.Inertia`` (constructor from mass, centre of mass and
 inertia about it; ``SE3.act``), and textbook formulas (parallel-axis theorem, box and
@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stewart_pin import InertiaError
-from stewart_pin.inertia import (
+from stewart_pin.description.inertia import (
     check_physical,
     khalil_from_pin_inertia,
     khalil_from_urdf_inertial,

@@ -1,4 +1,5 @@
-"""Kinematic models (stewart_pin.kinematics): Jp^-1, leg Jacobians, first and second order.
+"""Kinematic models (stewart_pin.kinematics.jacobians): Jp^-1, leg Jacobians, first and second
+order.
 
 References: central finite differences on SE(3) of independently computed leg lengths,
 Pinocchio's forward kinematics, frame Jacobians and classical frame accelerations of the
@@ -17,8 +18,8 @@ from conftest import get_robot
 from helpers import frame_position, leg_lengths_by_hand, tip_frame
 
 from stewart_pin import InputError, SingularityError, StewartRobot
-from stewart_pin.kinematics import leg_drift, leg_inverse_jacobians
-from stewart_pin.workspace import sample_states
+from stewart_pin.kinematics.jacobians import leg_drift, leg_inverse_jacobians
+from stewart_pin.kinematics.workspace import sample_states
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

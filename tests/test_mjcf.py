@@ -14,13 +14,19 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import StewartRobot
+from stewart_pin.description.inertia import khalil_from_urdf_inertial, urdf_inertial_from_khalil
+from stewart_pin.description.presets import preset
 from stewart_pin.exceptions import ApproximationWarning
-from stewart_pin.geometry import inverse_geometry
-from stewart_pin.inertia import khalil_from_urdf_inertial, urdf_inertial_from_khalil
-from stewart_pin.mjcf import LOOP_SOLIMP, LOOP_SOLREF, mjcf_string, mujoco_inertials, write_mjcf
-from stewart_pin.presets import preset
-from stewart_pin.urdf import urdf_string
-from stewart_pin.workspace import sample_states
+from stewart_pin.formats.mjcf import (
+    LOOP_SOLIMP,
+    LOOP_SOLREF,
+    mjcf_string,
+    mujoco_inertials,
+    write_mjcf,
+)
+from stewart_pin.formats.urdf import urdf_string
+from stewart_pin.kinematics.geometry import inverse_geometry
+from stewart_pin.kinematics.workspace import sample_states
 
 mujoco = pytest.importorskip("mujoco", reason="MuJoCo is optional: pip install mujoco")
 
@@ -55,7 +61,7 @@ def mujoco_qpos(desc, T: np.ndarray) -> np.ndarray:
 
 def com_and_inertia(params: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """Mass, centre of mass and inertia about it from Khalil's XX XY XZ YY YZ ZZ MX MY MZ M
-    (written out here, independently of stewart_pin.inertia)."""
+    (written out here, independently of stewart_pin.description.inertia)."""
     XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = params
     I_O = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
     c = np.array([MX, MY, MZ]) / M

@@ -1,4 +1,4 @@
-"""Pinocchio models (stewart_pin.models) and the URDF they come from.
+"""Pinocchio models (stewart_pin.models.pinocchio_models) and the URDF they come from.
 
 References: Pinocchio's own parser and algorithms on the generated URDF, yourdfpy as a
 second, independent URDF reader, and the description's arrays.
@@ -16,9 +16,9 @@ from conftest import get_robot
 from helpers import points_in_base, tree_configuration
 
 from stewart_pin import FileFormatError
-from stewart_pin.inertia import khalil_from_pin_inertia
-from stewart_pin.models import build_tree, load_tree, tree_from_files
-from stewart_pin.urdf import closures_dict, parse_closures, read_closures, urdf_string
+from stewart_pin.description.inertia import khalil_from_pin_inertia
+from stewart_pin.formats.urdf import closures_dict, parse_closures, read_closures, urdf_string
+from stewart_pin.models.pinocchio_models import build_tree, load_tree, tree_from_files
 
 LINKS = [f"leg{i}_link{j}" for i in range(1, 7) for j in (1, 2, 3)] + ["platform"]
 
@@ -357,7 +357,7 @@ def test_docs_sidecar_excerpt_parses_and_matches_the_desktop_preset():
 
 
 def test_leg_models_from_one_parse_equal_each_built_alone():
-    from stewart_pin.models import build_leg_model, build_leg_models
+    from stewart_pin.models.pinocchio_models import build_leg_model, build_leg_models
 
     desc = get_robot("random-1").description
     for i, model in enumerate(build_leg_models(desc)):

@@ -19,12 +19,12 @@ import pytest
 from stewart_pin import RobotDescription, StewartRobot, preset
 from stewart_pin._safe import check_xml_text, file_in_folder, yaml_quoted
 from stewart_pin.cli import main
-from stewart_pin.description import NAME_RULE, check_robot_name
+from stewart_pin.description.robot_description import NAME_RULE, check_robot_name
 from stewart_pin.exceptions import DescriptionError, FileFormatError, InputError, RobotNameError
-from stewart_pin.exports import write_robot_files
-from stewart_pin.mjcf import mjcf_string
-from stewart_pin.urdf import closures_dict, urdf_string, write_urdf
-from stewart_pin.xacro import xacro_args, yaml_string
+from stewart_pin.formats.mjcf import mjcf_string
+from stewart_pin.formats.robot_files import write_robot_files
+from stewart_pin.formats.urdf import closures_dict, urdf_string, write_urdf
+from stewart_pin.formats.xacro import xacro_args, yaml_string
 
 GOOD_NAMES = ["simulator", "random-7", "a", "7", "A_b.c-1", "x" * 64, "my_hexapod-2", "v1.2"]
 BAD_NAMES = [

@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stewart_pin import StewartRobot
-from stewart_pin.inertia import (
+from stewart_pin.description.inertia import (
     khalil_from_pin_inertia,
     khalil_from_urdf_inertial,
     pin_inertia_from_khalil,

@@ -12,9 +12,13 @@ import pytest
 from helpers import rel_error
 
 from stewart_pin import StewartRobot, random_robot
-from stewart_pin.inertia import random_physical_khalil
-from stewart_pin.regressor import STANDARD_NAMES, standard_parameters, with_standard_parameters
-from stewart_pin.workspace import sample_states
+from stewart_pin.description.inertia import random_physical_khalil
+from stewart_pin.dynamics.regressor import (
+    STANDARD_NAMES,
+    standard_parameters,
+    with_standard_parameters,
+)
+from stewart_pin.kinematics.workspace import sample_states
 
 ROBOTS = ["simulator", "paper", "random-1", "random-6"]
 

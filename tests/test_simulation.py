@@ -11,7 +11,7 @@ import pinocchio as pin
 import pytest
 from helpers import leg_lengths_by_hand
 
-from stewart_pin import StewartRobot, exceptions, simulation
+from stewart_pin import StewartRobot, exceptions
 from stewart_pin.cli import main
 from stewart_pin.exceptions import (
     InputError,
@@ -20,7 +20,8 @@ from stewart_pin.exceptions import (
     StewartPinError,
     StrokeLimitError,
 )
-from stewart_pin.simulation import SimulationError, SimulationResult, simulate
+from stewart_pin.motion import simulation
+from stewart_pin.motion.simulation import SimulationError, SimulationResult, simulate
 
 
 @pytest.fixture(scope="module")

@@ -19,13 +19,13 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import StewartRobot
-from stewart_pin import geometry as geometry_module
 from stewart_pin.codegen import CompiledDynamics
 from stewart_pin.codegen import compiled as compiled_module
+from stewart_pin.description.presets import preset
 from stewart_pin.exceptions import SingularityError
-from stewart_pin.kinematics import MAX_CONDITION
-from stewart_pin.presets import preset
-from stewart_pin.workspace import sample_states
+from stewart_pin.kinematics import geometry as geometry_module
+from stewart_pin.kinematics.jacobians import MAX_CONDITION
+from stewart_pin.kinematics.workspace import sample_states
 
 ROBOTS = ("simulator", "desktop", "random-0", "random-1")
 AGREE = 1e-9  # relative, per state: max |compiled - reference| / max |reference|

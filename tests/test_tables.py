@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import FileFormatError
-from stewart_pin.tables import (
+from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     STATE_COLUMNS,
     quaternions_from_rotations,

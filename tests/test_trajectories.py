@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import StewartRobot, StrokeLimitError
-from stewart_pin.trajectories import Sinusoids, minimum_jerk, washout
+from stewart_pin.motion.trajectories import Sinusoids, minimum_jerk, washout
 
 
 @pytest.fixture(scope="module")

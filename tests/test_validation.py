@@ -1,4 +1,4 @@
-"""Tests of the independent check (``stewart_pin.validation``).
+"""Tests of the independent check (``stewart_pin.check.constrained_dynamics``).
 
 Every reference here is computed without the module under test: finite differences of
 Pinocchio's forward kinematics, analytic statics of a platform on six two-force members,
@@ -17,9 +17,9 @@ from stewart_pin import (
     StewartRobot,
     random_robot,
 )
-from stewart_pin import validation as val
-from stewart_pin.geometry import inverse_geometry
-from stewart_pin.workspace import sample_poses, sample_states
+from stewart_pin.check import constrained_dynamics as val
+from stewart_pin.kinematics.geometry import inverse_geometry
+from stewart_pin.kinematics.workspace import sample_poses, sample_states
 
 ROBOTS = ("simulator", "desktop", "random-1")
 

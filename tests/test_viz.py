@@ -27,8 +27,8 @@ from helpers import tree_configuration as tree_configuration_by_hand
 
 from stewart_pin import StewartRobot
 from stewart_pin.exceptions import InputError
-from stewart_pin.simulation import simulate
-from stewart_pin.urdf import VisualSizes, plate_visual
+from stewart_pin.formats.urdf import VisualSizes, plate_visual
+from stewart_pin.motion.simulation import simulate
 
 meshcat = pytest.importorskip("meshcat")
 matplotlib = pytest.importorskip("matplotlib")

@@ -1,4 +1,4 @@
-"""Random reachable states (stewart_pin.workspace)."""
+"""Random reachable states (stewart_pin.kinematics.workspace)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from helpers import leg_lengths_by_hand
 
 from stewart_pin import WorkspaceError
-from stewart_pin.workspace import sample_poses, sample_states
+from stewart_pin.kinematics.workspace import sample_poses, sample_states
 
 
 def test_sample_poses_are_reachable_and_within_the_ranges(general_robot):

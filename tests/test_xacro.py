@@ -9,9 +9,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from stewart_pin.presets import preset
-from stewart_pin.urdf import urdf_string
-from stewart_pin.xacro import write_xacro_args, xacro_args, yaml_string
+from stewart_pin.description.presets import preset
+from stewart_pin.formats.urdf import urdf_string
+from stewart_pin.formats.xacro import write_xacro_args, xacro_args, yaml_string
 
 xacrodoc = pytest.importorskip("xacrodoc", reason="xacrodoc (test extra) renders the xacro")
 yaml = pytest.importorskip("yaml", reason="PyYAML (a dependency of xacro) reads the args")

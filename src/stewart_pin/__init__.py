@@ -5,9 +5,14 @@ robots": geometry, kinematics, inverse and direct dynamics, cross-checked agains
 Pinocchio's constrained dynamics on the full closed-loop model.
 """
 
-from .base_params import base_parameters, essential_parameters
-from .description import RobotDescription, leg_base_rotation_from_axis, leg_frame_from_mdh
-from .exceptions import (
+from stewart_pin.check.constrained_dynamics import validate
+from stewart_pin.description.presets import PRESETS, preset, random_robot
+from stewart_pin.description.robot_description import (
+    RobotDescription,
+    leg_base_rotation_from_axis,
+    leg_frame_from_mdh,
+)
+from stewart_pin.exceptions import (
     ConvergenceError,
     DescriptionError,
     FileFormatError,
@@ -22,10 +27,9 @@ from .exceptions import (
     StrokeLimitError,
     WorkspaceError,
 )
-from .presets import PRESETS, preset, random_robot
-from .robot import StewartRobot
-from .simulation import SimulationError, simulate
-from .validation import validate
+from stewart_pin.motion.simulation import SimulationError, simulate
+from stewart_pin.parameters.base import base_parameters, essential_parameters
+from stewart_pin.robot import StewartRobot
 
 __version__ = "0.1.0"
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .exceptions import FileFormatError, InputError, StewartPinWarning
+from stewart_pin.exceptions import FileFormatError, InputError, StewartPinWarning
 
 #: Tolerance on ``R^T R - I`` for a rotation matrix given by a user.
 ROTATION_TOLERANCE = 1e-9

@@ -13,7 +13,7 @@ import os
 import re
 from pathlib import Path
 
-from .exceptions import InputError
+from stewart_pin.exceptions import InputError
 
 __all__ = ["check_xml_text", "file_in_folder", "yaml_quoted"]
 

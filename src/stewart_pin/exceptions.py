@@ -154,7 +154,7 @@ class BaseParameterWarning(UserWarning):
 
 class ApproximationWarning(UserWarning):
     """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
-    body MuJoCo refuses as described: see :func:`stewart_pin.mjcf.mujoco_inertials`)."""
+    body MuJoCo refuses as described: see :func:`stewart_pin.formats.mjcf.mujoco_inertials`)."""
 
 
 class SimulationError(StewartPinError):

@@ -18,16 +18,23 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from . import closure, geometry, kinematics
-from ._checks import check_poses, check_scalar, check_states
-from .closure import CartesianDynamics, InverseDynamicsResult, check_finite
-from .description import RobotDescription
-from .exceptions import InputError, NumericalError, StewartPinError
-from .kinematics import MAX_CONDITION, leg_state
-from .legs import LegDynamics
-from .models import TreeModel, build_leg_models, build_legs_model, build_tree
-from .presets import preset
-from .urdf import urdf_string, write_urdf
+from stewart_pin._checks import check_poses, check_scalar, check_states
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.presets import preset
+from stewart_pin.dynamics import closed_loop as closure
+from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
+from stewart_pin.dynamics.leg_dynamics import LegDynamics
+from stewart_pin.exceptions import InputError, NumericalError, StewartPinError
+from stewart_pin.formats.urdf import urdf_string, write_urdf
+from stewart_pin.kinematics import geometry
+from stewart_pin.kinematics import jacobians as kinematics
+from stewart_pin.kinematics.jacobians import MAX_CONDITION, leg_state
+from stewart_pin.models.pinocchio_models import (
+    TreeModel,
+    build_leg_models,
+    build_legs_model,
+    build_tree,
+)
 
 
 class StewartRobot:
@@ -51,7 +58,8 @@ class StewartRobot:
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_dict(cls, d: dict[str, Any], **kwargs: Any) -> StewartRobot:
-        """From the dictionary form (keys in :data:`stewart_pin.description.REQUIRED_KEYS`)."""
+        """From the dictionary form (keys in
+        :data:`stewart_pin.description.robot_description.REQUIRED_KEYS`)."""
         return cls(RobotDescription.from_dict(d), **kwargs)
 
     @classmethod
@@ -119,7 +127,7 @@ class StewartRobot:
 
     def forward_geometry(self, lengths: Any, guess: Any = None, **kwargs: Any) -> np.ndarray:
         """The pose 0Tp (4x4) with leg lengths ``lengths`` [m] (Newton-Raphson from ``guess``,
-        default the home pose); see :func:`stewart_pin.geometry.forward_geometry`."""
+        default the home pose); see :func:`stewart_pin.kinematics.geometry.forward_geometry`."""
         return geometry.forward_geometry(self.description, lengths, guess, **kwargs)
 
     # ------------------------------------------------------------------ kinematics
@@ -133,7 +141,7 @@ class StewartRobot:
 
     def condition_number(self, pose: Any) -> float | np.ndarray:
         """The singularity measure: cond(Jp^-1), its angular columns divided by the platform
-        radius (unit-free; see :func:`stewart_pin.kinematics.condition_number`)."""
+        radius (unit-free; see :func:`stewart_pin.kinematics.jacobians.condition_number`)."""
         return kinematics.condition_number(self.description, pose)
 
     def leg_jacobians(self, pose: Any) -> np.ndarray:
@@ -161,7 +169,7 @@ class StewartRobot:
         mid-stroke), rotations ``exp(w)`` with ``|w_k| <= rotation`` [rad]; poses outside
         the stroke, the U-joint limits or past ``max_condition`` are redrawn.
         """
-        from .workspace import sample_poses
+        from stewart_pin.kinematics.workspace import sample_poses
 
         return sample_poses(self.description, n, rng, translation, rotation, self.max_condition)
 
@@ -180,7 +188,7 @@ class StewartRobot:
             pose: 0Tp, (4, 4) / ``pin.SE3``, or a batch (N, 4, 4).
             twist: ``[v, w]`` of O_p in F0, (6,) or (N, 6) [m/s, rad/s].
             accel: classical ``[dv/dt, dw/dt]`` in F0, (6,) or (N, 6) [m/s^2, rad/s^2].
-            details: return the :class:`~stewart_pin.closure.InverseDynamicsResult`
+            details: return the :class:`~stewart_pin.dynamics.closed_loop.InverseDynamicsResult`
                 (batch arrays) with the leg forces on the platform, each leg's share...
             backend: ``"pinocchio"`` (the reference: Pinocchio's RNEA on the legs and the
                 closure layer) or ``"compiled"`` (the generated closed-form model compiled
@@ -193,7 +201,7 @@ class StewartRobot:
             NumericalError: finite inputs whose Gamma overflows (both backends).
         """
         if _compiled(backend, details):
-            from .codegen import compiled_backend
+            from stewart_pin.codegen import compiled_backend
 
             try:  # free when nothing is raised
                 return compiled_backend(self).inverse_dynamics(pose, twist, accel)
@@ -226,7 +234,7 @@ class StewartRobot:
             NumericalError: finite inputs whose acceleration overflows (both backends).
         """
         if _compiled(backend):
-            from .codegen import compiled_backend
+            from stewart_pin.codegen import compiled_backend
 
             try:  # free when nothing is raised
                 return compiled_backend(self).direct_dynamics(pose, twist, gamma)
@@ -279,9 +287,9 @@ class StewartRobot:
         """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, 190) or (N, 6, 190).
 
         Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform;
-        names in :data:`stewart_pin.regressor.STANDARD_NAMES`.
+        names in :data:`stewart_pin.dynamics.regressor.STANDARD_NAMES`.
         """
-        from .regressor import regressor_batch
+        from stewart_pin.dynamics.regressor import regressor_batch
 
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with _quiet_overflow():
@@ -294,7 +302,7 @@ BACKENDS = ("pinocchio", "compiled")
 
 def _quiet_overflow():
     """No RuntimeWarning for overflow or invalid operations: the outputs are checked
-    (:func:`stewart_pin.closure.check_finite`), and a non-finite one raises
+    (:func:`stewart_pin.dynamics.closed_loop.check_finite`), and a non-finite one raises
     :class:`NumericalError` instead."""
     return np.errstate(over="ignore", invalid="ignore")
 

@@ -14,8 +14,8 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from ..exceptions import StewartPinError
-from . import dynamics_cmds, geometry_cmds, motion_cmds, parameters_cmds
+from stewart_pin.cli import dynamics_cmds, geometry_cmds, motion_cmds, parameters_cmds
+from stewart_pin.exceptions import StewartPinError
 
 
 class _Parser(argparse.ArgumentParser):

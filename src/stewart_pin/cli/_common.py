@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..exceptions import InputError
-from ..robot import StewartRobot
+from stewart_pin.exceptions import InputError
+from stewart_pin.robot import StewartRobot
 
 
 def _parser(

@@ -6,14 +6,20 @@ import argparse
 
 import numpy as np
 
-from ..tables import FORCE_COLUMNS, STATE_COLUMNS, read_csv, states_from_table, write_csv
-from ._common import (
+from stewart_pin.cli._common import (
     add_robot_args,
     check_output,
     non_negative_finite_float,
     non_negative_int,
     positive_int,
     robot_from_args,
+)
+from stewart_pin.formats.csv_tables import (
+    FORCE_COLUMNS,
+    STATE_COLUMNS,
+    read_csv,
+    states_from_table,
+    write_csv,
 )
 
 
@@ -33,7 +39,7 @@ def _idm(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    from ..validation import validate
+    from stewart_pin.check.constrained_dynamics import validate
 
     robot = robot_from_args(args)
     report = validate(
@@ -109,14 +115,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _cost(args: argparse.Namespace) -> int:
-    from ..codegen import cost_table
+    from stewart_pin.codegen import cost_table
 
     print(cost_table(robot_from_args(args)))
     return 0
 
 
 def _bench(args: argparse.Namespace) -> int:
-    from ..bench import report
+    from stewart_pin.apps.bench import report
 
     if args.json is not None:
         check_output(args.json, (".json",), what="--json")
@@ -133,7 +139,7 @@ def register_performance(sub: argparse._SubParsersAction) -> None:
     add_robot_args(p)
     p.set_defaults(func=_cost)
 
-    from ..bench import add_arguments
+    from stewart_pin.apps.bench import add_arguments
 
     p = sub.add_parser(
         "bench",

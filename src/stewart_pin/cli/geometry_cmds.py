@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._safe import file_in_folder
-from ._common import add_robot_args, finite_float, pose_from_args, robot_from_args
+from stewart_pin._safe import file_in_folder
+from stewart_pin.cli._common import add_robot_args, finite_float, pose_from_args, robot_from_args
 
 
 def _urdf(args: argparse.Namespace) -> int:

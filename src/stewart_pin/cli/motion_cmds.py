@@ -11,9 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError, SimulationError, StewartPinError
-from ..trajectories import MOTION_KINDS
-from ._common import (
+from stewart_pin.cli._common import (
     add_robot_args,
     check_output,
     finite_float,
@@ -21,6 +19,8 @@ from ._common import (
     progress_bar,
     robot_from_args,
 )
+from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
+from stewart_pin.motion.trajectories import MOTION_KINDS
 
 
 def partial_path(out: Path) -> Path:
@@ -49,10 +49,10 @@ def _save_partial(error: SimulationError, out: Path) -> SimulationError:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from ..control import ComputedTorqueController, tracking_errors
-    from ..regressor import standard_parameters, with_standard_parameters
-    from ..simulation import simulate
-    from ..trajectories import standard_motion
+    from stewart_pin.dynamics.regressor import standard_parameters, with_standard_parameters
+    from stewart_pin.motion.control import ComputedTorqueController, tracking_errors
+    from stewart_pin.motion.simulation import simulate
+    from stewart_pin.motion.trajectories import standard_motion
 
     out = check_output(args.output, (".npz", ".csv"))
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
@@ -98,7 +98,7 @@ def _simulate(args: argparse.Namespace) -> int:
         f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] m"
     )
     if args.plots:
-        from ..viz.plots import save_figures
+        from stewart_pin.viz.plots import save_figures
 
         paths = save_figures(result, Path(args.plots), reference=motion, robot=robot)
         lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
@@ -108,8 +108,8 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _motion_samples(args: argparse.Namespace, robot) -> tuple[np.ndarray, np.ndarray]:
     """``(poses, times)`` of a simulation result file, or of a standard motion."""
-    from ..simulation import SimulationResult
-    from ..trajectories import standard_motion
+    from stewart_pin.motion.simulation import SimulationResult
+    from stewart_pin.motion.trajectories import standard_motion
 
     if args.result:
         result = SimulationResult.load(args.result)
@@ -120,7 +120,7 @@ def _motion_samples(args: argparse.Namespace, robot) -> tuple[np.ndarray, np.nda
 
 
 def _animate(args: argparse.Namespace) -> int:
-    from ..viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer
 
     path = check_output(args.output, (".html", ".htm"), [args.result])
     robot = robot_from_args(args)
@@ -133,7 +133,7 @@ def _animate(args: argparse.Namespace) -> int:
 def _view(args: argparse.Namespace) -> int:
     import time
 
-    from ..viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer
 
     robot = robot_from_args(args)
     with _exit_on_hangup(), Viewer(robot) as viewer:
@@ -178,7 +178,7 @@ def _exit_on_hangup() -> Iterator[None]:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from ..demo import run_demo
+    from stewart_pin.apps.demo import run_demo
 
     run_demo(args.preset, Path(args.output))
     return 0

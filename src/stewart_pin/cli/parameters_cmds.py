@@ -6,9 +6,9 @@ import argparse
 
 import numpy as np
 
-from .._io import write_text_atomic
-from .._safe import file_in_folder
-from ._common import (
+from stewart_pin._io import write_text_atomic
+from stewart_pin._safe import file_in_folder
+from stewart_pin.cli._common import (
     add_robot_args,
     check_output,
     non_negative_finite_float,
@@ -16,11 +16,11 @@ from ._common import (
     positive_finite_float,
     positive_int,
 )
-from ._common import robot_from_args as _robot
+from stewart_pin.cli._common import robot_from_args as _robot
 
 
 def _cmd_base_params(args: argparse.Namespace) -> int:
-    from ..base_params import base_parameters, numerical_base_parameters
+    from stewart_pin.parameters.base import base_parameters, numerical_base_parameters
 
     robot = _robot(args)
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
@@ -28,7 +28,7 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     print(f"robot '{robot.name}': {len(bp)} {args.method} base parameters of 190 standard")
     print(bp.table())
     print(f"\nnumerical rank: {rank}")
-    from ..base_params import essential_parameters, paper_essential_parameters
+    from stewart_pin.parameters.base import essential_parameters, paper_essential_parameters
 
     ess = essential_parameters(robot, args.threshold, n_states=args.states, seed=args.seed)
     paper = paper_essential_parameters(robot, n_states=args.states, seed=args.seed)
@@ -53,8 +53,8 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from ..base_params import base_parameters
-    from ..identification import (
+    from stewart_pin.parameters.base import base_parameters
+    from stewart_pin.parameters.identification import (
         exciting_trajectory,
         identify,
         read_measurements_csv,

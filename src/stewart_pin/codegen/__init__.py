@@ -11,15 +11,15 @@
 Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
 """
 
-from .compiled import (
+from stewart_pin.codegen.compiled import (
     CompilationError,
     CompiledDynamics,
     UnsafeCacheError,
     cache_root,
     compiled_backend,
 )
-from .opcount import OperationCount, cost_dict, cost_table, count_operations
-from .symbolic import SymbolicModels, generate_models
+from stewart_pin.codegen.opcount import OperationCount, cost_dict, cost_table, count_operations
+from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 
 __all__ = [
     "CompilationError",

@@ -9,7 +9,7 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
   a reflection;
 - ``GEOMETRY``: a leg shorter than (or within 1e-6 of) the minimum leg length, as close to
   its first U-joint axis as the threshold, or outside (or within 1e-9 of the ends of) its
-  stroke (thresholds of :mod:`stewart_pin.geometry`);
+  stroke (thresholds of :mod:`stewart_pin.kinematics.geometry`);
 - ``COND``: the upper bound ``2 / |det S| (||S||_F^2 / 6)^3`` of cond(S) (Guggenheimer,
   Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
   measure's matrix (``l`` the characteristic length), passes half the threshold: the caller

@@ -35,8 +35,9 @@ Validation. The results are those of the reference path (``StewartRobot.inverse_
 inputs, orthonormal rotation, leg lengths within the stroke and away from the leg
 singularities from the generated code's ``q3^2`` and ``rho^2``, and an upper bound of the
 singularity measure); any state it flags sends the batch through the reference checks
-(:func:`stewart_pin._checks.check_poses`, :func:`stewart_pin.geometry.inverse_geometry_batch`,
-:func:`stewart_pin.kinematics.check_condition` on the flagged states), which raise
+(:func:`stewart_pin._checks.check_poses`,
+:func:`stewart_pin.kinematics.geometry.inverse_geometry_batch`,
+:func:`stewart_pin.kinematics.jacobians.check_condition` on the flagged states), which raise
 :class:`~stewart_pin.exceptions.InputError`, :class:`~stewart_pin.exceptions.StrokeLimitError`
 or :class:`~stewart_pin.exceptions.SingularityError` with the reference's messages. A robot
 with U-joint limits always runs the reference inverse geometry (the guard does not know
@@ -65,19 +66,10 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from .._checks import ROTATION_TOLERANCE, check_array, check_states
-from ..base_params import grouped_parameters
-from ..exceptions import SingularityError, StewartPinError
-from ..geometry import (
-    LEG_MIN_LENGTH_RATIO,
-    LEG_SINGULARITY_SIN,
-    characteristic_length,
-    inverse_geometry_batch,
-)
-from ..kinematics import check_condition, inverse_jacobian_batch, scaled_inverse_jacobian
-from . import _csource
-from ._csource import FLAG_NAMES, GROWTH_LIMIT
-from .symbolic import (
+from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states
+from stewart_pin.codegen import _csource
+from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
+from stewart_pin.codegen.symbolic import (
     AUX_DDM_D,
     AUX_IDM_DET,
     AUX_IDM_F,
@@ -89,6 +81,19 @@ from .symbolic import (
     GENERATOR_VERSION,
     generate_models,
 )
+from stewart_pin.exceptions import SingularityError, StewartPinError
+from stewart_pin.kinematics.geometry import (
+    LEG_MIN_LENGTH_RATIO,
+    LEG_SINGULARITY_SIN,
+    characteristic_length,
+    inverse_geometry_batch,
+)
+from stewart_pin.kinematics.jacobians import (
+    check_condition,
+    inverse_jacobian_batch,
+    scaled_inverse_jacobian,
+)
+from stewart_pin.parameters.base import grouped_parameters
 
 try:  # POSIX
     import fcntl

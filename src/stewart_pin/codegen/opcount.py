@@ -40,7 +40,7 @@ from typing import Any
 
 import casadi as cs
 
-from .symbolic import Stages, generate_models
+from stewart_pin.codegen.symbolic import Stages, generate_models
 
 _MUL = {cs.OP_MUL, cs.OP_SQ}
 _ADD = {cs.OP_ADD, cs.OP_SUB, cs.OP_TWICE}

@@ -53,10 +53,10 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from ..base_params import PAPER_ESSENTIAL_PER_LEG, grouped_parameters
-from ..description import RobotDescription
-from ..geometry import characteristic_length
-from ..kinematics import inverse_jacobian_batch
+from stewart_pin.description import RobotDescription
+from stewart_pin.kinematics.geometry import characteristic_length
+from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
+from stewart_pin.parameters.base import PAPER_ESSENTIAL_PER_LEG, grouped_parameters
 
 #: The generator's version (recorded in the cache manifest; the cache key is a hash of the
 #: generated source itself).

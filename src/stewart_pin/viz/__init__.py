@@ -5,7 +5,7 @@ Optional dependencies (``pip install stewart-pin[viz]``): meshcat for the viewer
 matplotlib for the figures; each is imported where it is used.
 """
 
-from .plots import (
+from stewart_pin.viz.plots import (
     plot_energy,
     plot_forces,
     plot_lengths,
@@ -14,7 +14,7 @@ from .plots import (
     save_figures,
     tracking_errors,
 )
-from .viewer import CameraView, Viewer, tree_configuration, visual_model
+from stewart_pin.viz.viewer import CameraView, Viewer, tree_configuration, visual_model
 
 __all__ = [
     "CameraView",

@@ -4,7 +4,7 @@ mechanical energy.
 Each ``plot_*`` function takes arrays and returns a ``matplotlib.figure.Figure`` built
 without pyplot (no global state, no display: it saves through the Agg canvas).
 :func:`save_figures` writes them as PNG files for a
-:class:`~stewart_pin.simulation.SimulationResult`.
+:class:`~stewart_pin.motion.simulation.SimulationResult`.
 """
 
 from __future__ import annotations
@@ -15,15 +15,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._checks import check_array, check_poses
-from .._io import atomic_open
-from ..exceptions import InputError
+from stewart_pin._checks import check_array, check_poses
+from stewart_pin._io import atomic_open
+from stewart_pin.exceptions import InputError
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from ..robot import StewartRobot
-    from ..simulation import SimulationResult
+    from stewart_pin.motion.simulation import SimulationResult
+    from stewart_pin.robot import StewartRobot
 
 #: Install hint of the optional figure dependency.
 INSTALL_HINT = "pip install stewart-pin[viz]"
@@ -155,7 +155,7 @@ def reference_poses(reference: Any, times: Any) -> np.ndarray:
 
     - poses (K, 4, 4) already at ``times``;
     - a motion with ``sample(times)`` returning an object with ``.poses``
-      (:mod:`stewart_pin.trajectories`);
+      (:mod:`stewart_pin.motion.trajectories`);
     - a function ``t [s] -> 0Tp (4, 4)`` or ``-> (0Tp, twist, accel)`` (a controller's
       reference).
     """

@@ -35,14 +35,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._checks import check_array, check_pose, check_poses
-from .._io import write_text_atomic
-from ..exceptions import InputError
-from ..geometry import platform_points_in_base
-from ..urdf import VisualSizes
+from stewart_pin._checks import check_array, check_pose, check_poses
+from stewart_pin._io import write_text_atomic
+from stewart_pin.exceptions import InputError
+from stewart_pin.formats.urdf import VisualSizes
+from stewart_pin.kinematics.geometry import platform_points_in_base
 
 if TYPE_CHECKING:
-    from ..robot import StewartRobot
+    from stewart_pin.robot import StewartRobot
 
 #: Install hint of the optional viewer dependencies.
 INSTALL_HINT = "pip install stewart-pin[viz]"

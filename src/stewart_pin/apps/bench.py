@@ -6,7 +6,8 @@ Median wall-clock time per state [us], all measured in this one run:
   the closure layer), one state per call and a batch of N states per call;
 - ``pin.constraintDynamics`` on the 24-dof closed-loop tree (the raw C++ call, with q, v
   and tau prepared beforehand) and the whole reference path of
-  ``stewart_pin.validation`` (state conversion included) for the direct and inverse models;
+  ``stewart_pin.check.constrained_dynamics`` (state conversion included) for the direct and
+  inverse models;
 - the generated models compiled to C (``stewart_pin.codegen.CompiledDynamics``, paper
   section VII), from Python: one state per call, and batches of N = 1, 100, 10 000 and
   1 000 000 states per call (the last streamed as 100 chunks of 10 000; ``--quick`` skips
@@ -37,15 +38,15 @@ import pinocchio as pin
 import stewart_pin
 from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
-from stewart_pin.codegen import CompiledDynamics, cost_dict
-from stewart_pin.codegen.compiled import CFLAGS, find_compiler
-from stewart_pin.validation import (
+from stewart_pin.check.constrained_dynamics import (
     _solver,
     constrained_forward_dynamics,
     constrained_inverse_dynamics,
     tree_state,
 )
-from stewart_pin.workspace import sample_states
+from stewart_pin.codegen import CompiledDynamics, cost_dict
+from stewart_pin.codegen.compiled import CFLAGS, find_compiler
+from stewart_pin.kinematics.workspace import sample_states
 
 
 def median_us(fn: Callable[[], object], repeats: int, per: int = 1) -> float:
@@ -146,7 +147,7 @@ def mujoco_rows(robot: StewartRobot, T: np.ndarray, G: np.ndarray, repeats: int)
         import mujoco
     except ImportError:
         return {}
-    from stewart_pin.mjcf import mujoco_qpos, write_mjcf
+    from stewart_pin.formats.mjcf import mujoco_qpos, write_mjcf
 
     with tempfile.TemporaryDirectory() as tmp:
         path = write_mjcf(robot.description, Path(tmp) / "robot.xml")
@@ -225,7 +226,7 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default="simulator")
-    from .cli._common import positive_int
+    from stewart_pin.cli._common import positive_int
 
     parser.add_argument("--batch", type=positive_int, default=10_000)
     parser.add_argument("--repeats", type=positive_int, default=300)

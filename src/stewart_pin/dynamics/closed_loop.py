@@ -13,12 +13,17 @@ from functools import cached_property
 
 import numpy as np
 
-from ._vector import cross, skew
-from .description import RobotDescription
-from .exceptions import NumericalError, SingularityError
-from .inertia import inertia_tensor
-from .kinematics import LegState, check_condition, inverse_jacobian_batch, leg_state
-from .legs import LegDynamics
+from stewart_pin._vector import cross, skew
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.inertia import inertia_tensor
+from stewart_pin.dynamics.leg_dynamics import LegDynamics
+from stewart_pin.exceptions import NumericalError, SingularityError
+from stewart_pin.kinematics.jacobians import (
+    LegState,
+    check_condition,
+    inverse_jacobian_batch,
+    leg_state,
+)
 
 
 def check_finite(value: np.ndarray, output: str) -> np.ndarray:

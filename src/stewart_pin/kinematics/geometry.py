@@ -17,9 +17,14 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array, check_pose, check_poses, check_scalar
-from .description import RobotDescription
-from .exceptions import ConvergenceError, JointLimitError, SingularityError, StrokeLimitError
+from stewart_pin._checks import check_array, check_pose, check_poses, check_scalar
+from stewart_pin.description import RobotDescription
+from stewart_pin.exceptions import (
+    ConvergenceError,
+    JointLimitError,
+    SingularityError,
+    StrokeLimitError,
+)
 
 #: A leg is singular (first U-joint axis along the leg) when ``sin q2i`` falls below this.
 #: Near that singularity the leg's Cartesian inertia and velocity terms grow like
@@ -44,7 +49,7 @@ def characteristic_length(desc: RobotDescription) -> float:
     the base radius :attr:`RobotDescription.size` if the P_i coincide).
 
     It makes the singularity measures unit-free: the angular columns of Jp^-1 are divided
-    by it (:func:`stewart_pin.kinematics.condition_number`) and the shortest leg is a
+    by it (:func:`stewart_pin.kinematics.jacobians.condition_number`) and the shortest leg is a
     fraction of it (:data:`LEG_MIN_LENGTH_RATIO`).
     """
     P = desc.platform_points
@@ -166,7 +171,9 @@ def forward_geometry(
         ConvergenceError: no convergence (the lengths may be unassemblable from the guess).
         SingularityError: the iteration met a singular configuration.
     """
-    from .kinematics import inverse_jacobian_batch  # kinematics imports this module
+    from stewart_pin.kinematics.jacobians import (
+        inverse_jacobian_batch,  # kinematics imports this module
+    )
 
     tol = check_scalar(tol, "tol", positive=True, unit="m")
     max_iterations = int(

@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array, decode_utf8
-from ._io import write_text_atomic
-from ._safe import check_xml_text
-from .description import RobotDescription
-from .exceptions import FileFormatError, InputError
-from .inertia import urdf_inertial_from_khalil
+from stewart_pin._checks import check_array, decode_utf8
+from stewart_pin._io import write_text_atomic
+from stewart_pin._safe import check_xml_text
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.inertia import urdf_inertial_from_khalil
+from stewart_pin.exceptions import FileFormatError, InputError
 
 BASE_LINK = "base_link"
 PLATFORM_LINK = "platform"

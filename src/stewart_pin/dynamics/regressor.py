@@ -16,13 +16,13 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ._vector import cross
-from .closure import check_finite
-from .description import RobotDescription
-from .inertia import KHALIL_NAMES, PIN_TO_KHALIL
-from .kinematics import check_condition, inverse_jacobian_batch, leg_state
-from .legs import LegDynamics
-from .urdf import leg_joint
+from stewart_pin._vector import cross
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
+from stewart_pin.dynamics.closed_loop import check_finite
+from stewart_pin.dynamics.leg_dynamics import LegDynamics
+from stewart_pin.formats.urdf import leg_joint
+from stewart_pin.kinematics.jacobians import check_condition, inverse_jacobian_batch, leg_state
 
 N_STANDARD = 190
 

@@ -1,7 +1,8 @@
 """The independent check: the robot's dynamics from Pinocchio's constrained tree.
 
 This module shares none of the paper's algebra (it imports neither ``legs``, ``closure``
-nor ``kinematics``). The robot is the 24-dof tree of :func:`stewart_pin.models.build_tree`
+nor ``kinematics``). The robot is the 24-dof tree of
+:func:`stewart_pin.models.pinocchio_models.build_tree`
 (six 3-dof legs, the platform as a free-flyer) closed by six 3D point constraints
 ``c_i(q) = 0`` (origin of leg frame 3i == P_i on the platform). Only the leg joint
 *positions* come from the project's inverse geometry; every velocity, acceleration and
@@ -43,14 +44,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_states
-from .exceptions import InputError, NumericalError, SingularityError, WorkspaceError
-from .geometry import inverse_geometry_batch
-from .workspace import sample_states
+from stewart_pin._checks import check_states
+from stewart_pin.exceptions import InputError, NumericalError, SingularityError, WorkspaceError
+from stewart_pin.kinematics.geometry import inverse_geometry_batch
+from stewart_pin.kinematics.workspace import sample_states
 
 if TYPE_CHECKING:
-    from .models import TreeModel
-    from .robot import StewartRobot
+    from stewart_pin.models.pinocchio_models import TreeModel
+    from stewart_pin.robot import StewartRobot
 
 __all__ = [
     "RELATIVE_FLOOR",
@@ -261,8 +262,8 @@ def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, 
     """The full tree configuration and velocity of a platform state.
 
     The platform's free-flyer coordinates come from the pose and twist; the leg joint
-    values from :func:`stewart_pin.geometry.inverse_geometry` (default U-joint branch, no
-    stroke check); the 18 leg rates solve the constraint velocity equation ``Jc v = 0``.
+    values from :func:`stewart_pin.kinematics.geometry.inverse_geometry` (default U-joint
+    branch, no stroke check); the 18 leg rates solve the constraint velocity equation ``Jc v = 0``.
 
     Args:
         robot: the robot (its ``tree`` is used).
@@ -482,7 +483,7 @@ def validate(
 ) -> ValidationReport:
     """Compare the paper's inverse and direct models with the constrained tree.
 
-    Draws ``n_states`` states with :func:`stewart_pin.workspace.sample_states` (seeded),
+    Draws ``n_states`` states with :func:`stewart_pin.kinematics.workspace.sample_states` (seeded),
     computes the reference Gamma with :func:`constrained_inverse_dynamics`, then compares
     ``robot.inverse_dynamics(poses, twists, accels)`` with it, ``robot.direct_dynamics``
     under the reference Gamma with :func:`constrained_forward_dynamics`, and the round

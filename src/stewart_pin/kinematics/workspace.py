@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .description import RobotDescription
-from .exceptions import InputError, StewartPinError, WorkspaceError
-from .geometry import inverse_geometry_batch
-from .kinematics import MAX_CONDITION, check_condition, inverse_jacobian_batch
+from stewart_pin.description import RobotDescription
+from stewart_pin.exceptions import InputError, StewartPinError, WorkspaceError
+from stewart_pin.kinematics.geometry import inverse_geometry_batch
+from stewart_pin.kinematics.jacobians import MAX_CONDITION, check_condition, inverse_jacobian_batch
 
 
 def _rng(rng: np.random.Generator | int | None) -> np.random.Generator:

@@ -1,6 +1,6 @@
 """MJCF writer: the closed-loop robot for MuJoCo.
 
-The same bodies, frames and inertials as the URDF (:mod:`stewart_pin.urdf`), plus what URDF
+The same bodies, frames and inertials as the URDF (:mod:`stewart_pin.formats.urdf`), plus what URDF
 cannot hold:
 
 - ``worldbody``: the static ``base_link`` body carrying the six leg chains ``leg{i}_link1..3``
@@ -50,18 +50,17 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._io import write_text_atomic
-from ._safe import check_xml_text
-from .description import RobotDescription
-from .exceptions import ApproximationWarning
-from .geometry import inverse_geometry
-from .inertia import (
+from stewart_pin._io import write_text_atomic
+from stewart_pin._safe import check_xml_text
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.inertia import (
     inertia_tensor,
     khalil_from_tensor,
     khalil_from_urdf_inertial,
     urdf_inertial_from_khalil,
 )
-from .urdf import (
+from stewart_pin.exceptions import ApproximationWarning
+from stewart_pin.formats.urdf import (
     BASE_LINK,
     PLATFORM_JOINT,
     PLATFORM_LINK,
@@ -71,6 +70,7 @@ from .urdf import (
     leg_link,
     plate_visual,
 )
+from stewart_pin.kinematics.geometry import inverse_geometry
 
 __all__ = [
     "LOOP_SOLIMP",

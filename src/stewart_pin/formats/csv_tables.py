@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ._io import atomic_open
-from .exceptions import FileFormatError
+from stewart_pin._io import atomic_open
+from stewart_pin.exceptions import FileFormatError
 
 STATE_COLUMNS: tuple[str, ...] = (
     "t",

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import (
+from stewart_pin._checks import (
     _is_se3,
     _ndim,
     check_array,
@@ -36,9 +36,15 @@ from ._checks import (
     decode_utf8,
     project_rotation,
 )
-from ._io import write_text_atomic
-from .exceptions import DescriptionError, FileFormatError, InertiaError, InputError, RobotNameError
-from .inertia import check_physical
+from stewart_pin._io import write_text_atomic
+from stewart_pin.description.inertia import check_physical
+from stewart_pin.exceptions import (
+    DescriptionError,
+    FileFormatError,
+    InertiaError,
+    InputError,
+    RobotNameError,
+)
 
 #: Keys of the dictionary form (``to_dict`` / ``from_dict``) that must be present.
 REQUIRED_KEYS = (

@@ -16,9 +16,13 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from .description import RobotDescription, leg_base_rotation_from_axis
-from .exceptions import DescriptionError
-from .inertia import khalil_from_urdf_inertial, random_physical_khalil, transform_khalil
+from stewart_pin.description.inertia import (
+    khalil_from_urdf_inertial,
+    random_physical_khalil,
+    transform_khalil,
+)
+from stewart_pin.description.robot_description import RobotDescription, leg_base_rotation_from_axis
+from stewart_pin.exceptions import DescriptionError
 
 GRAVITY = np.array([0.0, 0.0, -9.81])  # [m/s^2]
 

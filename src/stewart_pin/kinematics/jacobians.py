@@ -21,11 +21,15 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import check_batch, check_poses
-from ._vector import cross
-from .description import RobotDescription
-from .exceptions import InputError, SingularityError
-from .geometry import characteristic_length, inverse_geometry_batch, leg_vectors
+from stewart_pin._checks import check_batch, check_poses
+from stewart_pin._vector import cross
+from stewart_pin.description import RobotDescription
+from stewart_pin.exceptions import InputError, SingularityError
+from stewart_pin.kinematics.geometry import (
+    characteristic_length,
+    inverse_geometry_batch,
+    leg_vectors,
+)
 
 #: Default threshold on the singularity measure (:func:`condition_number`, the condition
 #: number of Jp^-1 with its angular columns divided by the characteristic length) past
@@ -137,7 +141,7 @@ def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
 def scaled_inverse_jacobian(J_inv: np.ndarray, length: float) -> np.ndarray:
     """``Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)``: Jp^-1 (..., 6, 6) acting on the twist
     ``[v, w l]`` (the angular velocity times the characteristic length ``l`` [m],
-    :func:`stewart_pin.geometry.characteristic_length`), so that every entry is
+    :func:`stewart_pin.kinematics.geometry.characteristic_length`), so that every entry is
     dimensionless. Its condition number is the singularity measure."""
     S = J_inv.copy()
     S[..., 3:] /= length
@@ -153,7 +157,7 @@ def condition_number_batch(desc: RobotDescription, poses: np.ndarray) -> np.ndar
 def condition_number(desc: RobotDescription, pose: Any) -> np.ndarray | float:
     """The singularity measure: the 2-norm condition number of Jp^-1 with its angular
     columns divided by the robot's characteristic length (its platform radius,
-    :func:`stewart_pin.geometry.characteristic_length`), 1 when isotropic, infinite at a
+    :func:`stewart_pin.kinematics.geometry.characteristic_length`), 1 when isotropic, infinite at a
     parallel singularity.
 
     The scaling makes it unit-free: a robot and its copy scaled by any factor have the same

@@ -40,9 +40,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array, check_pose, check_scalar
-from ._io import atomic_open
-from .exceptions import (
+from stewart_pin._checks import check_array, check_pose, check_scalar
+from stewart_pin._io import atomic_open
+from stewart_pin.exceptions import (
     FileFormatError,
     InputError,
     JointLimitError,
@@ -51,9 +51,7 @@ from .exceptions import (
     StewartPinError,
     WorkspaceError,
 )
-from .geometry import inverse_geometry_batch
-from .kinematics import inverse_jacobian_batch
-from .tables import (
+from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     LENGTH_COLUMNS,
     STATE_COLUMNS,
@@ -63,6 +61,8 @@ from .tables import (
     states_from_table,
     write_csv,
 )
+from stewart_pin.kinematics.geometry import inverse_geometry_batch
+from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
@@ -120,7 +120,7 @@ class SimulationResult:
     gammas: np.ndarray
     lengths: np.ndarray
 
-    #: Columns of the CSV form (see :mod:`stewart_pin.tables`).
+    #: Columns of the CSV form (see :mod:`stewart_pin.formats.csv_tables`).
     CSV_COLUMNS = STATE_COLUMNS + FORCE_COLUMNS + LENGTH_COLUMNS
 
     def save(self, path: str | Path) -> Path:

@@ -11,14 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ._io import atomic_open
-from .control import ComputedTorqueController, tracking_errors
-from .exports import write_robot_files
-from .robot import StewartRobot
-from .simulation import simulate
-from .tables import FORCE_COLUMNS, STATE_COLUMNS, state_table, write_csv
-from .trajectories import standard_motion
-from .validation import constrained_forward_dynamics, constrained_inverse_dynamics
+from stewart_pin._io import atomic_open
+from stewart_pin.check.constrained_dynamics import (
+    constrained_forward_dynamics,
+    constrained_inverse_dynamics,
+)
+from stewart_pin.formats.csv_tables import FORCE_COLUMNS, STATE_COLUMNS, state_table, write_csv
+from stewart_pin.formats.robot_files import write_robot_files
+from stewart_pin.motion.control import ComputedTorqueController, tracking_errors
+from stewart_pin.motion.simulation import simulate
+from stewart_pin.motion.trajectories import standard_motion
+from stewart_pin.robot import StewartRobot
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -110,7 +113,7 @@ def run_demo(
         files["validation figure"] = _validation_figure(
             out / "validation.png", traj.times[::every], err_idm, result.t[sim], err_ddm
         )
-        from .viz.plots import save_figures
+        from stewart_pin.viz.plots import save_figures
 
         for name, path in save_figures(
             result, out / "plots", reference=motion, robot=robot
@@ -119,7 +122,7 @@ def run_demo(
     except ImportError as e:
         say(f"   (no figures: {e})")
 
-    from .viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer
 
     files["animation"] = Viewer(robot).export_html(out / "animation.html", result.poses, result.t)
     say(f"\nfiles in {out}/:")

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array, check_scalar
-from ._vector import skew
-from .exceptions import InertiaError, InputError
+from stewart_pin._checks import check_array, check_scalar
+from stewart_pin._vector import skew
+from stewart_pin.exceptions import InertiaError, InputError
 
 #: Names of the 10 standard parameters, in Khalil's order.
 KHALIL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ._checks import check_array
+from stewart_pin._checks import check_array
 
 Reference = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
 

@@ -1,7 +1,7 @@
 """Identification of the base inertial parameters: the workflow a lab runs on a hexapod.
 
 1. :func:`exciting_trajectory`: a periodic platform motion (a finite Fourier series per
-   axis, :class:`~stewart_pin.trajectories.FourierTrajectory`) whose coefficients minimise
+   axis, :class:`~stewart_pin.motion.trajectories.FourierTrajectory`) whose coefficients minimise
    the condition number of the stacked base regressor, inside the workspace.
 2. Measurements: run it, log poses, twists, accelerations and actuator forces
    (:class:`Measurements`; CSV format in ``docs/identification.md``,
@@ -26,18 +26,15 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
-from ._checks import check_array
-from .base_params import RANK_TOLERANCE, BaseParameters, base_parameters
-from .exceptions import (
+from stewart_pin._checks import check_array
+from stewart_pin.exceptions import (
     FileFormatError,
     IdentificationError,
     InputError,
     StewartPinError,
     WorkspaceError,
 )
-from .geometry import inverse_geometry_batch, leg_vectors
-from .kinematics import condition_number_batch
-from .tables import (
+from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     STATE_COLUMNS,
     read_csv,
@@ -45,7 +42,10 @@ from .tables import (
     states_from_table,
     write_csv,
 )
-from .trajectories import FourierTrajectory, Trajectory
+from stewart_pin.kinematics.geometry import inverse_geometry_batch, leg_vectors
+from stewart_pin.kinematics.jacobians import condition_number_batch
+from stewart_pin.motion.trajectories import FourierTrajectory, Trajectory
+from stewart_pin.parameters.base import RANK_TOLERANCE, BaseParameters, base_parameters
 
 # ====================================================================== exciting trajectories
 
@@ -137,7 +137,7 @@ def exciting_trajectory(
 ) -> tuple[Trajectory, float]:
     """An exciting trajectory for identification, and its condition number.
 
-    The platform follows a :class:`~stewart_pin.trajectories.FourierTrajectory` about the
+    The platform follows a :class:`~stewart_pin.motion.trajectories.FourierTrajectory` about the
     home pose (three translations of O_p along F0's axes, a rotation vector in F0, each a
     Fourier series of ``n_harmonics`` harmonics of ``base_frequency``). Random coefficients
     (amplitudes decreasing as ``1/l`` with the harmonic l) are shrunk onto the workspace
@@ -342,7 +342,8 @@ def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
     """Read a measurement CSV file (format in ``docs/identification.md``).
 
     Columns may come in any order; blank lines and lines starting with ``#`` are skipped.
-    Quaternions within :data:`~stewart_pin.tables.QUATERNION_TOLERANCE` of unit norm are
+    Quaternions within :data:`~stewart_pin.formats.csv_tables.QUATERNION_TOLERANCE` of unit norm
+    are
     renormalised.
 
     Raises:
@@ -382,7 +383,7 @@ class IdentificationResult:
         rank: its numerical rank (== nb).
         n_samples: samples used (6 equations each).
         weighted: whether the estimate is the weighted one.
-        base: the :class:`~stewart_pin.base_params.BaseParameters` identified.
+        base: the :class:`~stewart_pin.parameters.base.BaseParameters` identified.
     """
 
     names: tuple[str, ...]

@@ -7,7 +7,7 @@
   CRBA call on it is the six legs' RNEA / CRBA (the chains share no body).
 
 The tree's free-flyer velocity is the platform's body twist in Fp (``[R^T v, R^T w]``),
-Pinocchio's convention; :mod:`stewart_pin.validation` converts.
+Pinocchio's convention; :mod:`stewart_pin.check.constrained_dynamics` converts.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ._checks import decode_utf8
-from .description import RobotDescription
-from .exceptions import FileFormatError
-from .urdf import (
+from stewart_pin._checks import decode_utf8
+from stewart_pin.description import RobotDescription
+from stewart_pin.exceptions import FileFormatError
+from stewart_pin.formats.urdf import (
     PLATFORM_JOINT,
     Closure,
     closures_dict,

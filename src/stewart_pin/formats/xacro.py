@@ -1,6 +1,7 @@
 """The arguments file of the xacro version of the URDF.
 
-``models/urdf/stewart.urdf.xacro`` builds the same URDF as :func:`stewart_pin.urdf.urdf_string`
+``models/urdf/stewart.urdf.xacro`` builds the same URDF as
+:func:`stewart_pin.formats.urdf.urdf_string`
 (``models/urdf/stewart_leg.xacro`` holds the leg macro) from every number of one robot,
 read from a YAML file with ``xacro.load_yaml``. This module writes that file::
 
@@ -38,11 +39,17 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ._io import write_text_atomic
-from ._safe import yaml_quoted
-from .description import RobotDescription
-from .inertia import urdf_inertial_from_khalil
-from .urdf import URDF_EFFORT, URDF_VELOCITY, VisualSizes, joint_limits, plate_visual
+from stewart_pin._io import write_text_atomic
+from stewart_pin._safe import yaml_quoted
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.inertia import urdf_inertial_from_khalil
+from stewart_pin.formats.urdf import (
+    URDF_EFFORT,
+    URDF_VELOCITY,
+    VisualSizes,
+    joint_limits,
+    plate_visual,
+)
 
 __all__ = ["write_xacro_args", "xacro_args", "yaml_string"]
 

@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from .description import RobotDescription
-from .exceptions import BaseParameterWarning, InputError, StewartPinError
-from .regressor import N_STANDARD, STANDARD_NAMES, standard_parameters
+from stewart_pin.description import RobotDescription
+from stewart_pin.dynamics.regressor import N_STANDARD, STANDARD_NAMES, standard_parameters
+from stewart_pin.exceptions import BaseParameterWarning, InputError, StewartPinError
 
 #: Default numerical rank tolerance, relative to the largest singular value of the stacked
 #: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`).
@@ -301,7 +301,7 @@ class RankReport:
 
 def stacked_regressor(robot: Any, n_states: int = 60, seed: int = 0) -> np.ndarray:
     """``W`` stacked over ``n_states`` random workspace states: (6 n_states, 190)."""
-    from .workspace import sample_states
+    from stewart_pin.kinematics.workspace import sample_states
 
     poses, twists, accels = sample_states(robot.description, n_states, seed)
     return robot.regressor(poses, twists, accels).reshape(-1, N_STANDARD)

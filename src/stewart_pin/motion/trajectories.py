@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import check_array, check_pose, check_poses
-from ._vector import cross, skew
-from .exceptions import InputError, SingularityError, WorkspaceError
+from stewart_pin._checks import check_array, check_pose, check_poses
+from stewart_pin._vector import cross, skew
+from stewart_pin.exceptions import InputError, SingularityError, WorkspaceError
 
 #: Below this rotation angle [rad] the SO(3) coefficient functions use Taylor series.
 _SERIES_ANGLE = 0.1

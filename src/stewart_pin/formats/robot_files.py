@@ -4,10 +4,10 @@ For a robot named ``<name>``:
 
 - ``<name>.toml``: the description (:meth:`RobotDescription.write`);
 - ``<name>.urdf`` and ``<name>.closures.json``: the tree and its loop closures
-  (:mod:`stewart_pin.urdf`);
+  (:mod:`stewart_pin.formats.urdf`);
 - ``<name>.xacro.yaml``: the arguments of ``models/urdf/stewart.urdf.xacro``
-  (:mod:`stewart_pin.xacro`);
-- ``<name>.xml``: the MJCF for MuJoCo (:mod:`stewart_pin.mjcf`).
+  (:mod:`stewart_pin.formats.xacro`);
+- ``<name>.xml``: the MJCF for MuJoCo (:mod:`stewart_pin.formats.mjcf`).
 
 ``scripts/generate_models.py`` writes them for the presets into ``models/urdf/``, and a test
 checks that the committed files are current.
@@ -17,11 +17,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._safe import file_in_folder
-from .description import RobotDescription
-from .mjcf import write_mjcf
-from .urdf import write_urdf
-from .xacro import write_xacro_args
+from stewart_pin._safe import file_in_folder
+from stewart_pin.description import RobotDescription
+from stewart_pin.formats.mjcf import write_mjcf
+from stewart_pin.formats.urdf import write_urdf
+from stewart_pin.formats.xacro import write_xacro_args
 
 __all__ = ["robot_file_names", "write_robot_files"]
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .description import RobotDescription
-from .models import build_legs_model
+from stewart_pin.description import RobotDescription
+from stewart_pin.models.pinocchio_models import build_legs_model
 
 
 class LegDynamics:

@@ -1,0 +1,5 @@
+"""Programs built on the library, kept out of its layers: the demo (the whole workflow on
+a preset into one folder) and the benchmark (medians and ratios against
+``pin.constraintDynamics`` in one run). The command line runs them
+(``stewart-pin demo``, ``stewart-pin bench``).
+"""

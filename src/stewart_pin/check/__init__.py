@@ -1,0 +1,22 @@
+"""The independent check: inverse and direct dynamics of the full closed-loop tree by
+Pinocchio's constrained dynamics (``pin.constraintDynamics`` and a KKT solve of the
+loop-closure Jacobians), compared with the paper's models.
+
+Shares no algebra with :mod:`stewart_pin.dynamics`, :mod:`stewart_pin.codegen` or the
+Jacobians of :mod:`stewart_pin.kinematics`: a check that reused the code it checks would
+prove nothing (the layering contract in ``pyproject.toml`` enforces it).
+"""
+
+from .constrained_dynamics import (
+    ValidationReport,
+    constrained_forward_dynamics,
+    constrained_inverse_dynamics,
+    validate,
+)
+
+__all__ = [
+    "ValidationReport",
+    "constrained_forward_dynamics",
+    "constrained_inverse_dynamics",
+    "validate",
+]

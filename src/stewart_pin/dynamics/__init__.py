@@ -1,0 +1,33 @@
+"""The inverse and direct dynamic models of Khalil & Guegan.
+
+:mod:`.leg_dynamics` gets each leg's H_i (RNEA), A_i (CRBA) and h_i from Pinocchio;
+:mod:`.closed_loop` is the paper's projection: leg forces to the platform (eq. 20-23),
+the platform's Newton-Euler (eq. 24), the inverse model Gamma = Jp^T (F_p + F_leg) and
+the direct model with A_robot, h_robot (eq. 36-38); :mod:`.regressor` gives the 6 x 190
+regressor W with Gamma = W chi.
+
+Stands on :mod:`stewart_pin.kinematics` and :mod:`stewart_pin.models`; knows no
+simulator, screen or command line.
+"""
+
+from .closed_loop import (
+    CartesianDynamics,
+    InverseDynamicsResult,
+    cartesian_dynamics,
+    direct_dynamics,
+    inverse_dynamics,
+)
+from .leg_dynamics import LegDynamics
+from .regressor import N_STANDARD, regressor_batch, standard_parameters
+
+__all__ = [
+    "N_STANDARD",
+    "CartesianDynamics",
+    "InverseDynamicsResult",
+    "LegDynamics",
+    "cartesian_dynamics",
+    "direct_dynamics",
+    "inverse_dynamics",
+    "regressor_batch",
+    "standard_parameters",
+]

@@ -1,0 +1,25 @@
+"""Pinocchio models built from a description's URDF: the 24-dof closed-loop tree with its
+six 3D loop closures (``RigidConstraintModel``), each 3-dof leg, and the 18-dof set of
+the six legs used by the leg dynamics.
+
+Both the dynamics (each leg's H_i, A_i, h_i) and the independent check (the constrained
+tree) stand on these models.
+"""
+
+from .pinocchio_models import (
+    TreeModel,
+    build_leg_model,
+    build_leg_models,
+    build_legs_model,
+    build_tree,
+    load_tree,
+)
+
+__all__ = [
+    "TreeModel",
+    "build_leg_model",
+    "build_leg_models",
+    "build_legs_model",
+    "build_tree",
+    "load_tree",
+]
