@@ -14,6 +14,7 @@ from helpers import leg_lengths_by_hand
 from stewart_pin import StewartRobot, exceptions
 from stewart_pin.cli import main
 from stewart_pin.exceptions import (
+    ConvergenceError,
     InputError,
     JointLimitError,
     SingularityError,
@@ -385,6 +386,7 @@ def test_the_adaptive_step_stops_at_its_minimum(desktop):
 
     err = _stopped(desktop, 0.01, forces=noisy, method="adaptive")
     assert "adaptive step fell below" in str(err)
+    assert isinstance(err.__cause__, ConvergenceError) and err.__cause__.residual > 1.0
     assert 0 < err.time < 2e-3 + 1e-12 and err.result.t[-1] == err.time
 
 

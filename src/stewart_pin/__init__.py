@@ -13,21 +13,29 @@ from stewart_pin.description.robot_description import (
     leg_frame_from_mdh,
 )
 from stewart_pin.exceptions import (
+    ApproximationWarning,
+    BaseParameterWarning,
+    CompilationError,
     ConvergenceError,
     DescriptionError,
     FileFormatError,
     IdentificationError,
     InertiaError,
     InputError,
+    InputTypeError,
     JointLimitError,
     NumericalError,
+    RobotNameError,
+    SimulationError,
     SingularityError,
     StewartPinError,
     StewartPinWarning,
     StrokeLimitError,
+    UnsafeCacheError,
+    ViewerError,
     WorkspaceError,
 )
-from stewart_pin.motion.simulation import SimulationError, simulate
+from stewart_pin.motion.simulation import simulate
 from stewart_pin.parameters.base import base_parameters, essential_parameters
 from stewart_pin.robot import StewartRobot
 
@@ -35,21 +43,28 @@ __version__ = "0.1.0"
 
 __all__ = [
     "PRESETS",
+    "ApproximationWarning",
+    "BaseParameterWarning",
+    "CompilationError",
     "ConvergenceError",
     "DescriptionError",
     "FileFormatError",
     "IdentificationError",
     "InertiaError",
     "InputError",
+    "InputTypeError",
     "JointLimitError",
     "NumericalError",
     "RobotDescription",
+    "RobotNameError",
     "SimulationError",
     "SingularityError",
     "StewartPinError",
     "StewartPinWarning",
     "StewartRobot",
     "StrokeLimitError",
+    "UnsafeCacheError",
+    "ViewerError",
     "WorkspaceError",
     "__version__",
     "base_parameters",

@@ -15,6 +15,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
+from stewart_pin.exceptions import InputError
+
 
 def _umask() -> int:
     mask = os.umask(0)
@@ -35,7 +37,7 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "w") -> Iterator[IO[An
     (0666 less the umask).
     """
     if mode not in ("w", "wb"):
-        raise ValueError(f"atomic_open mode must be 'w' or 'wb', got {mode!r}")
+        raise InputError(f"atomic_open mode must be 'w' or 'wb', got {mode!r}")
     dest = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent or ".")
     try:

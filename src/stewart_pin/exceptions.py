@@ -1,24 +1,57 @@
-"""The exceptions stewart-pin raises.
+"""The exceptions and warnings stewart-pin raises, all of them and nothing else.
 
-Every error the package raises on bad input derives from :class:`StewartPinError`.
-The input-validation errors also derive from :class:`ValueError`, so code written
-against the standard library's conventions keeps working. Each exception keeps the
-offending values as attributes (``leg``, ``value``, ``lower``, ``upper``...) so that
-callers can react programmatically, and its message says what was expected, what was
-received and how to fix it.
+Every error the package raises derives from :class:`StewartPinError`; the base itself is
+never raised, always one of its subclasses. Each also derives from the standard exception
+of its kind (``ValueError``, ``TypeError``, ``RuntimeError``, ``ArithmeticError``), so code
+written against the standard library's conventions keeps working. Each keeps the offending
+values as attributes (``leg``, ``value``, ``lower``, ``upper``...; ``None`` where a value is
+unknown) so that callers can react programmatically, and its message says what was
+expected, what was received and how to fix it::
+
+    StewartPinError
+    ├── InputError (ValueError)              a bad argument: shape, type, NaN, range
+    │   └── InputTypeError (TypeError)       an argument of the wrong kind of object
+    ├── DescriptionError (ValueError)        an inconsistent robot description
+    │   ├── InertiaError                     inertial parameters no rigid body can have
+    │   └── RobotNameError                   a name outside the safe set
+    ├── FileFormatError (ValueError)         a malformed file
+    ├── WorkspaceError (ValueError)          a pose the robot cannot reach
+    │   ├── StrokeLimitError                 a leg length outside its stroke
+    │   └── JointLimitError                  a U-joint angle outside its limits
+    ├── SingularityError (ValueError)        at or too near a singularity
+    ├── NumericalError (ArithmeticError)     finite inputs, non-finite result
+    ├── ConvergenceError (RuntimeError)      an iteration that did not converge
+    ├── SimulationError                      a simulation stopped before its end
+    ├── IdentificationError (ValueError)     measurements that identify nothing
+    ├── CompilationError (RuntimeError)      the C library not built or loaded
+    │   └── UnsafeCacheError                 a cache others could write to
+    └── ViewerError (RuntimeError)           the 3-D viewer's server did not start
+
+    StewartPinWarning (UserWarning)          input accepted after a correction
+    ├── BaseParameterWarning                 base parameters that barely act
+    └── ApproximationWarning                 an export that changes the robot
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 
 class StewartPinError(Exception):
-    """Base class of every error raised by stewart-pin."""
+    """Base class of every error raised by stewart-pin (never raised itself)."""
 
 
+# ---------------------------------------------------------------------------- input
 class InputError(StewartPinError, ValueError):
     """An argument has the wrong shape, type, or holds NaN / infinite values."""
 
 
+class InputTypeError(InputError, TypeError):
+    """An argument that is not the kind of object expected (e.g. a dict where a
+    :class:`~stewart_pin.description.robot_description.RobotDescription` is needed)."""
+
+
+# ---------------------------------------------------------------------------- description
 class DescriptionError(StewartPinError, ValueError):
     """A robot description is inconsistent (geometry, frames, strokes, gravity)."""
 
@@ -35,10 +68,24 @@ class InertiaError(DescriptionError):
         self.body = body
 
 
+class RobotNameError(DescriptionError):
+    """A robot name outside the safe set (``stewart_pin.description.NAME_RULE``): it would
+    name files outside their folder or break the markup written for the robot.
+
+    Attributes:
+        value: the refused name (any type, as received).
+    """
+
+    def __init__(self, message: str, value: object) -> None:
+        super().__init__(message)
+        self.value = value
+
+
 class FileFormatError(StewartPinError, ValueError):
     """A description, URDF, closure or measurement file is malformed."""
 
 
+# ---------------------------------------------------------------------------- workspace
 class WorkspaceError(StewartPinError, ValueError):
     """A pose the robot cannot reach (base class of the more specific errors)."""
 
@@ -79,104 +126,30 @@ class SingularityError(StewartPinError, ValueError):
     """A configuration at or too near a singularity.
 
     Attributes:
-        value: the measure that crossed its threshold (condition number, sin q2i, ...).
-        threshold: the threshold it crossed.
+        value: the measure that crossed its threshold (condition number, sin q2i, ...),
+            ``None`` when none was computed.
+        threshold: the threshold it crossed, ``None`` when there is none.
         leg: the leg concerned (1-based) or ``None`` for the parallel (platform) singularity.
     """
 
     def __init__(
-        self, message: str, value: float, threshold: float, leg: int | None = None
+        self,
+        message: str,
+        value: float | None = None,
+        threshold: float | None = None,
+        leg: int | None = None,
     ) -> None:
         super().__init__(message)
         self.value, self.threshold, self.leg = value, threshold, leg
 
-
-class ConvergenceError(StewartPinError, RuntimeError):
-    """An iterative solver (forward geometry) did not converge.
-
-    Attributes:
-        iterations: iterations performed; residual: the last residual norm.
-    """
-
-    def __init__(self, message: str, iterations: int, residual: float) -> None:
-        super().__init__(message)
-        self.iterations, self.residual = iterations, residual
+    @classmethod
+    def not_positive_definite(cls) -> SingularityError:
+        """``A_robot`` of eq. 36 is not positive definite (its Cholesky factorisation or
+        pivots failed): no measure is computed, ``value`` and ``threshold`` are ``None``."""
+        return cls("A_robot is not positive definite (massless robot or singular leg)")
 
 
-class IdentificationError(StewartPinError, ValueError):
-    """Measurements that cannot identify the base parameters: too few equations, or a
-    stacked base regressor of deficient rank (a trajectory that does not excite them all).
-
-    Attributes:
-        rank: the numerical rank of the stacked base regressor (``None`` when not computed).
-        n_parameters: the number of base parameters.
-    """
-
-    def __init__(
-        self, message: str, rank: int | None = None, n_parameters: int | None = None
-    ) -> None:
-        super().__init__(message)
-        self.rank, self.n_parameters = rank, n_parameters
-
-
-class RobotNameError(DescriptionError):
-    """A robot name outside the safe set (``stewart_pin.description.NAME_RULE``): it would
-    name files outside their folder or break the markup written for the robot.
-
-    Attributes:
-        value: the refused name (any type, as received).
-    """
-
-    def __init__(self, message: str, value: object) -> None:
-        super().__init__(message)
-        self.value = value
-
-
-class StewartPinWarning(UserWarning):
-    """A warning of stewart-pin: input accepted after a documented correction (e.g. a
-    rotation given to a few significant digits, projected onto SO(3)).
-
-    Attributes:
-        field: the corrected input (e.g. ``"leg_base_rotations[2]"``), ``""`` if none.
-        correction: the size of the correction (e.g. ``max |R_projected - R|``), or ``None``.
-    """
-
-    def __init__(self, message: str, field: str = "", correction: float | None = None) -> None:
-        super().__init__(message)
-        self.field, self.correction = field, correction
-
-
-class BaseParameterWarning(UserWarning):
-    """Base parameters that are identifiable in exact arithmetic but barely act on the
-    forces (a first U-joint axis within a hair of gravity, a near-zero gravity), or a
-    numerical rank decided within a narrow margin of its tolerance."""
-
-
-class ApproximationWarning(UserWarning):
-    """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
-    body MuJoCo refuses as described: see :func:`stewart_pin.formats.mjcf.mujoco_inertials`)."""
-
-
-class SimulationError(StewartPinError):
-    """A simulation stopped before its end: a leg reached its stroke end or a U-joint its
-    limit, the robot reached a singularity, the step control failed, or the forces
-    function (a controller) or the progress callback raised.
-
-    The named error that stopped it is chained as ``__cause__`` (a
-    :class:`StrokeLimitError`, :class:`JointLimitError`, :class:`SingularityError`, or the
-    callback's own exception).
-
-    Attributes:
-        time: the simulated time [s] of the last accepted state (where it stopped).
-        result: the ``SimulationResult`` up to and including that state (accepted
-            states only; empty when the initial state itself is refused).
-    """
-
-    def __init__(self, message: str, time: float, result: object) -> None:
-        super().__init__(message)
-        self.time, self.result = time, result
-
-
+# ---------------------------------------------------------------------------- numerical
 class NumericalError(StewartPinError, ArithmeticError):
     """A finite input gave a non-finite result: the computation overflowed double precision.
 
@@ -211,3 +184,110 @@ class NumericalError(StewartPinError, ArithmeticError):
             "range; give values of physical magnitude"
         )
         self.output, self.index, self.n_bad, self.n_states = output, index, n_bad, n_states
+
+
+class ConvergenceError(StewartPinError, RuntimeError):
+    """An iterative computation did not converge: the forward geometry's Newton iteration,
+    or the adaptive step control of a simulation (the step fell below its minimum).
+
+    Attributes:
+        iterations: iterations performed (``None`` when not counted); residual: the last
+            residual (forward geometry: the largest leg-length error [m]; step control: the
+            error estimate in units of the tolerance), ``None`` when unknown.
+    """
+
+    def __init__(self, message: str, iterations: int | None, residual: float | None) -> None:
+        super().__init__(message)
+        self.iterations, self.residual = iterations, residual
+
+
+# ---------------------------------------------------------------------------- simulation
+class SimulationError(StewartPinError):
+    """A simulation stopped before its end: a leg reached its stroke end or a U-joint its
+    limit, the robot reached a singularity, the step control failed, or the forces
+    function (a controller) or the progress callback raised.
+
+    The named error that stopped it is chained as ``__cause__`` (a
+    :class:`StrokeLimitError`, :class:`JointLimitError`, :class:`SingularityError`, a
+    :class:`ConvergenceError` of the step control, or the callback's own exception;
+    ``None`` for the bound on the number of steps).
+
+    Attributes:
+        time: the simulated time [s] of the last accepted state (where it stopped).
+        result: the ``SimulationResult`` up to and including that state (accepted
+            states only; empty when the initial state itself is refused).
+    """
+
+    def __init__(self, message: str, time: float, result: object) -> None:
+        super().__init__(message)
+        self.time, self.result = time, result
+
+
+# ---------------------------------------------------------------------------- identification
+class IdentificationError(StewartPinError, ValueError):
+    """Measurements that cannot identify the base parameters: too few equations, or a
+    stacked base regressor of deficient rank (a trajectory that does not excite them all).
+
+    Attributes:
+        rank: the numerical rank of the stacked base regressor (``None`` when not computed).
+        n_parameters: the number of base parameters (``None`` when not known).
+    """
+
+    def __init__(
+        self, message: str, rank: int | None = None, n_parameters: int | None = None
+    ) -> None:
+        super().__init__(message)
+        self.rank, self.n_parameters = rank, n_parameters
+
+
+# ---------------------------------------------------------------------------- codegen, viz
+class CompilationError(StewartPinError, RuntimeError):
+    """The C library could not be built or loaded (the fallback says why)."""
+
+
+class UnsafeCacheError(CompilationError):
+    """The cache folder, or a file in it, could be written by someone else (another owner,
+    group- or world-writable, or a symbolic link): nothing is loaded from it.
+
+    Attributes:
+        path: the offending folder or file. reason: what is wrong with it.
+    """
+
+    def __init__(self, path: Path, reason: str) -> None:
+        super().__init__(
+            f"refusing the compiled-model cache {path}: {reason}; code is loaded only from "
+            "folders and files that are yours alone (chmod go-w, or set "
+            "$STEWART_PIN_CACHE to a private folder)"
+        )
+        self.path, self.reason = path, reason
+
+
+class ViewerError(StewartPinError, RuntimeError):
+    """The 3-D viewer's meshcat server did not start (timed out or exited early)."""
+
+
+# ---------------------------------------------------------------------------- warnings
+class StewartPinWarning(UserWarning):
+    """Base class of stewart-pin's warnings; raised itself for input accepted after a
+    documented correction (e.g. a rotation given to a few significant digits, projected
+    onto SO(3)).
+
+    Attributes:
+        field: the corrected input (e.g. ``"leg_base_rotations[2]"``), ``""`` if none.
+        correction: the size of the correction (e.g. ``max |R_projected - R|``), or ``None``.
+    """
+
+    def __init__(self, message: str, field: str = "", correction: float | None = None) -> None:
+        super().__init__(message)
+        self.field, self.correction = field, correction
+
+
+class BaseParameterWarning(StewartPinWarning):
+    """Base parameters that are identifiable in exact arithmetic but barely act on the
+    forces (a first U-joint axis within a hair of gravity, a near-zero gravity), or a
+    numerical rank decided within a narrow margin of its tolerance."""
+
+
+class ApproximationWarning(StewartPinWarning):
+    """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
+    body MuJoCo refuses as described: see :func:`stewart_pin.formats.mjcf.mujoco_inertials`)."""

@@ -10,7 +10,6 @@ N axis, and returns the same.
 
 from __future__ import annotations
 
-import re
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ from stewart_pin.description.presets import preset
 from stewart_pin.dynamics import closed_loop as closure
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
-from stewart_pin.exceptions import InputError, NumericalError, StewartPinError
+from stewart_pin.exceptions import InputError, InputTypeError, NumericalError
 from stewart_pin.formats.urdf import urdf_string, write_urdf
 from stewart_pin.kinematics import geometry
 from stewart_pin.kinematics import jacobians as kinematics
@@ -48,7 +47,7 @@ class StewartRobot:
 
     def __init__(self, description: RobotDescription, max_condition: float = MAX_CONDITION):
         if not isinstance(description, RobotDescription):
-            raise TypeError(
+            raise InputTypeError(
                 f"StewartRobot takes a RobotDescription, got {type(description).__name__}; "
                 "use StewartRobot.from_dict / from_file / from_preset"
             )
@@ -203,13 +202,7 @@ class StewartRobot:
         if _compiled(backend, details):
             from stewart_pin.codegen import compiled_backend
 
-            try:  # free when nothing is raised
-                return compiled_backend(self).inverse_dynamics(pose, twist, accel)
-            except StewartPinError as e:
-                numerical = _as_numerical(e, "inverse dynamics Gamma")
-                if numerical is None:
-                    raise
-                raise numerical from e
+            return compiled_backend(self).inverse_dynamics(pose, twist, accel)
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with _quiet_overflow():
             res = closure.inverse_dynamics(
@@ -236,13 +229,7 @@ class StewartRobot:
         if _compiled(backend):
             from stewart_pin.codegen import compiled_backend
 
-            try:  # free when nothing is raised
-                return compiled_backend(self).direct_dynamics(pose, twist, gamma)
-            except StewartPinError as e:
-                numerical = _as_numerical(e, "direct dynamics acceleration")
-                if numerical is None:
-                    raise
-                raise numerical from e
+            return compiled_backend(self).direct_dynamics(pose, twist, gamma)
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
         with _quiet_overflow():
             accel, _ = closure.direct_dynamics(
@@ -305,21 +292,6 @@ def _quiet_overflow():
     (:func:`stewart_pin.dynamics.closed_loop.check_finite`), and a non-finite one raises
     :class:`NumericalError` instead."""
     return np.errstate(over="ignore", invalid="ignore")
-
-
-_STATE_INDEX = re.compile(r"at state (\d+)")
-
-
-def _as_numerical(error: StewartPinError, output: str) -> NumericalError | None:
-    """The compiled backend's non-finite-result error as :class:`NumericalError` (the
-    reference path's type and message; the compiled model checks its outputs in C), or
-    ``None`` for any other error."""
-    if isinstance(error, NumericalError):
-        return None
-    if type(error) is not StewartPinError or "non-finite" not in str(error):
-        return None
-    m = _STATE_INDEX.search(str(error))
-    return NumericalError(output, int(m.group(1)) if m else None)
 
 
 def _compiled(backend: str, details: bool = False) -> bool:

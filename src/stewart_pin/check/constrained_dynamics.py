@@ -45,7 +45,13 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_states
-from stewart_pin.exceptions import InputError, NumericalError, SingularityError, WorkspaceError
+from stewart_pin.exceptions import (
+    InputError,
+    InputTypeError,
+    NumericalError,
+    SingularityError,
+    WorkspaceError,
+)
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.workspace import sample_states
 
@@ -100,7 +106,7 @@ _SOLVERS: weakref.WeakKeyDictionary[Any, _TreeSolver] = weakref.WeakKeyDictionar
 
 def _solver(robot: StewartRobot) -> _TreeSolver:
     if not hasattr(robot, "tree") or not hasattr(robot, "description"):
-        raise TypeError(
+        raise InputTypeError(
             f"expected a StewartRobot (with .tree and .description), got {type(robot).__name__}"
         )
     try:
@@ -153,13 +159,9 @@ def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     try:
         x = np.linalg.solve(A, b)
     except np.linalg.LinAlgError as e:
-        raise SingularityError(
-            f"{what} is singular (a singular configuration)", np.inf, 0.0
-        ) from e
+        raise SingularityError(f"{what} is singular (a singular configuration)") from e
     if not np.all(np.isfinite(x)):
-        raise SingularityError(
-            f"{what} gave non-finite values (a singular configuration)", np.inf, 0.0
-        )
+        raise SingularityError(f"{what} gave non-finite values (a singular configuration)")
     return x
 
 
@@ -250,9 +252,7 @@ def _forward_one(s: _TreeSolver, desc: Any, T, twist, gamma):
         raise SingularityError(
             "pin.constraintDynamics returned non-finite accelerations: a singular "
             "configuration, or a singular tree mass matrix (massless leg links; use "
-            "constrained_inverse_dynamics, which needs no mass matrix)",
-            np.inf,
-            0.0,
+            "constrained_inverse_dynamics, which needs no mass matrix)"
         )
     return _classical_platform_acceleration(R, v[s.v_ff], ddq[s.v_ff])
 
@@ -509,7 +509,7 @@ def validate(
     seed = None if seed is None else _integer(seed, "seed", 0)
     for method in ("inverse_dynamics", "direct_dynamics"):
         if not callable(getattr(robot, method, None)):
-            raise TypeError(f"{type(robot).__name__} has no method '{method}' to validate")
+            raise InputTypeError(f"{type(robot).__name__} has no method '{method}' to validate")
     rng = np.random.default_rng(seed)
     kwargs: dict[str, Any] = {"translation": translation_range, "rotation": rotation_range}
     if hasattr(robot, "max_condition"):

@@ -11,15 +11,10 @@
 Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
 """
 
-from stewart_pin.codegen.compiled import (
-    CompilationError,
-    CompiledDynamics,
-    UnsafeCacheError,
-    cache_root,
-    compiled_backend,
-)
+from stewart_pin.codegen.compiled import CompiledDynamics, cache_root, compiled_backend
 from stewart_pin.codegen.opcount import OperationCount, cost_dict, cost_table, count_operations
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
+from stewart_pin.exceptions import CompilationError, UnsafeCacheError  # their old home
 
 __all__ = [
     "CompilationError",

@@ -81,7 +81,13 @@ from stewart_pin.codegen.symbolic import (
     GENERATOR_VERSION,
     generate_models,
 )
-from stewart_pin.exceptions import SingularityError, StewartPinError
+from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
+from stewart_pin.exceptions import (
+    CompilationError,
+    NumericalError,
+    SingularityError,
+    UnsafeCacheError,
+)
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -117,27 +123,8 @@ _MANIFEST_NAME = "manifest.json"
 _LOCK_NAME = ".lock"
 _WARNED: set[str] = set()
 _COMPILER_IDS: dict[str, str] = {}
-
-
-class CompilationError(StewartPinError, RuntimeError):
-    """The C library could not be built or loaded (the fallback says why)."""
-
-
-class UnsafeCacheError(CompilationError):
-    """The cache folder, or a file in it, could be written by someone else (another owner,
-    group- or world-writable, or a symbolic link): nothing is loaded from it.
-
-    Attributes:
-        path: the offending folder or file. reason: what is wrong with it.
-    """
-
-    def __init__(self, path: Path, reason: str) -> None:
-        super().__init__(
-            f"refusing the compiled-model cache {path}: {reason}; code is loaded only from "
-            "folders and files that are yours alone (chmod go-w, or set "
-            f"${CACHE_ENV} to a private folder)"
-        )
-        self.path, self.reason = path, reason
+#: The result each model checks, named as the reference names it in its NumericalError.
+_OUTPUTS = {"idm": IDM_OUTPUT, "ddm": DDM_OUTPUT}
 
 
 def cache_root() -> Path:
@@ -670,14 +657,11 @@ class CompiledDynamics:
             if np.any(~(np.linalg.cond(J) <= max_condition)):
                 check_condition(inverse_jacobian_batch(desc, T), max_condition, desc)
         if bits & _NOT_PD:
-            raise SingularityError(
-                "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
-            )
+            raise SingularityError.not_positive_definite()
         if bits & _NONFINITE:
-            n = int(np.argmax(flags & _NONFINITE != 0))
-            raise StewartPinError(
-                f"the compiled {which.upper()} gave a non-finite result at state {n} (check "
-                "base_values)"
+            bad = (flags & _NONFINITE) != 0
+            raise NumericalError(
+                _OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), int(bad.size)
             )
 
     # ------------------------------------------------------------------ virtual machine
@@ -707,15 +691,8 @@ class CompiledDynamics:
                 J = aux[k, AUX_JINV].reshape(6, 6)
                 out[k] = aux[k, AUX_IDM_HZ] + np.linalg.solve(J.T, aux[k, AUX_IDM_F])
         elif np.any(~(aux[:, AUX_DDM_D] > 0.0)):
-            raise SingularityError(
-                "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
-            )
-        if not np.all(np.isfinite(out)):
-            n_bad = int(np.argmax(~np.all(np.isfinite(out), axis=1)))
-            raise StewartPinError(
-                f"the {which.upper()} gave a non-finite result at state {n_bad} (check "
-                "base_values)"
-            )
+            raise SingularityError.not_positive_definite()
+        check_finite(out, _OUTPUTS[which])
         return out if batched else out[0]
 
 

@@ -54,6 +54,7 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin.description import RobotDescription
+from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics.geometry import characteristic_length
 from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
 from stewart_pin.parameters.base import PAPER_ESSENTIAL_PER_LEG, grouped_parameters
@@ -214,7 +215,7 @@ def pose_from_input(pose: cs.SX, rotation: str) -> tuple[Vec, list[list[Scalar]]
             [xz - wy, yz + wx, 1.0 - (xx + yy)],
         ]
         return [pose[0], pose[1], pose[2]], R
-    raise ValueError(f"rotation must be 'matrix' or 'quaternion', got {rotation!r}")
+    raise InputError(f"rotation must be 'matrix' or 'quaternion', got {rotation!r}")
 
 
 def pose_size(rotation: str) -> int:
@@ -620,7 +621,7 @@ def _chi_values(c: ModelConstants, chi: cs.SX, parameters: str) -> list[Scalar]:
         keep = {f"{p}_{i}" for i in range(1, 7) for p in PAPER_ESSENTIAL_PER_LEG}
         keep |= set(PLATFORM_PARAMETERS)
         return [x if n in keep else 0.0 for x, n in zip(entries, c.parameter_names, strict=True)]
-    raise ValueError(f"parameters must be 'base', 'essential' or 'numeric', got {parameters!r}")
+    raise InputError(f"parameters must be 'base', 'essential' or 'numeric', got {parameters!r}")
 
 
 def _function(name: str, inputs: list[tuple[str, cs.SX]], outputs: list[tuple[str, list]]):

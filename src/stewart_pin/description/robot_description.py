@@ -359,7 +359,7 @@ def _no_repeated_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in pairs:
         if key in out:
-            raise ValueError(f"key {key!r} is given twice")
+            raise FileFormatError(f"key {key!r} is given twice")
         out[key] = value
     return out
 

@@ -25,6 +25,11 @@ from stewart_pin.kinematics.jacobians import (
     leg_state,
 )
 
+#: The outputs of the inverse and direct dynamic models as their NumericalError names them
+#: (the compiled backend raises the same).
+IDM_OUTPUT = "inverse dynamics Gamma"
+DDM_OUTPUT = "direct dynamics acceleration"
+
 
 def check_finite(value: np.ndarray, output: str) -> np.ndarray:
     """``value`` (a batch, leading axis N) when every entry is finite, else
@@ -166,7 +171,7 @@ def inverse_dynamics(
     plat = platform_terms(desc, poses, twists)
     F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
     F_leg = _wrench_at_origin(H_x, legs.L)
-    gamma = check_finite(_transpose_solve(J_inv, F_p + F_leg), "inverse dynamics Gamma")
+    gamma = check_finite(_transpose_solve(J_inv, F_p + F_leg), IDM_OUTPUT)
     return InverseDynamicsResult(gamma, H, H_x, F_p, F_leg, J_inv, legs)
 
 
@@ -240,9 +245,7 @@ def direct_dynamics(
     try:
         chol = np.linalg.cholesky(cd.A_robot)
     except np.linalg.LinAlgError as e:
-        raise SingularityError(
-            "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
-        ) from e
+        raise SingularityError.not_positive_definite() from e
     y = np.linalg.solve(chol, rhs[..., None])
     accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
-    return check_finite(accel, "direct dynamics acceleration"), cd
+    return check_finite(accel, DDM_OUTPUT), cd

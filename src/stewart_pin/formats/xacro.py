@@ -43,6 +43,7 @@ from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import yaml_quoted
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import urdf_inertial_from_khalil
+from stewart_pin.exceptions import InputTypeError
 from stewart_pin.formats.urdf import (
     URDF_EFFORT,
     URDF_VELOCITY,
@@ -109,7 +110,7 @@ def _scalar(x: Any) -> str:
     if isinstance(x, str):
         return yaml_quoted(x)
     if isinstance(x, bool) or not isinstance(x, float | int):
-        raise TypeError(f"cannot write {x!r} as a YAML number")
+        raise InputTypeError(f"cannot write {x!r} as a YAML number")
     text = repr(float(x))
     # YAML 1.1 (PyYAML, hence xacro) reads "1e-05" as a string: a float needs a dot.
     if "e" in text and "." not in text:

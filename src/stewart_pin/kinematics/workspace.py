@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pinocchio as pin
 
@@ -17,12 +19,12 @@ def _rng(rng: np.random.Generator | int | None) -> np.random.Generator:
 
 def _range(value: object, name: str, unit: str) -> float:
     """``value`` as a finite float >= 0, else :class:`InputError`."""
-    if isinstance(value, (bool, str, bytes)):
+    x: float | None = None
+    if not isinstance(value, (bool, str, bytes)):
+        with contextlib.suppress(TypeError, ValueError):
+            x = float(value)  # type: ignore[arg-type]
+    if x is None:
         raise InputError(f"{name} must be a number >= 0 [{unit}], got {value!r}")
-    try:
-        x = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError) as e:
-        raise InputError(f"{name} must be a number >= 0 [{unit}], got {value!r}") from e
     if not (np.isfinite(x) and x >= 0.0):
         raise InputError(f"{name} must be a finite number >= 0 [{unit}], got {value!r}")
     return x

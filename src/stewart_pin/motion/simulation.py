@@ -43,6 +43,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_array, check_pose, check_scalar
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import (
+    ConvergenceError,
     FileFormatError,
     InputError,
     JointLimitError,
@@ -137,7 +138,7 @@ class SimulationResult:
             return write_csv(
                 path, self.CSV_COLUMNS, np.column_stack([states, self.gammas, self.lengths])
             )
-        raise FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
+        raise _unknown_suffix(path)
 
     @classmethod
     def load(cls, path: str | Path) -> SimulationResult:
@@ -148,7 +149,12 @@ class SimulationResult:
         if path.suffix == ".csv":
             rows = read_csv(path, cls.CSV_COLUMNS)
             return cls(*states_from_table(rows), rows[:, 20:26], rows[:, 26:32])
-        raise FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
+        raise _unknown_suffix(path)
+
+
+def _unknown_suffix(path: Path) -> FileFormatError:
+    """The error for a result file that is neither ``.npz`` nor ``.csv``."""
+    return FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
 
 
 _FIELDS = ("t", "poses", "twists", "accels", "gammas", "lengths")
@@ -588,14 +594,14 @@ class _Run:
             if new is None:  # the adaptive error control rejects the step
                 h_cur = h * max(0.2, 0.9 * err ** (-1 / 5))
                 if h_cur < self.h_min:
-                    raise _Located(
-                        self.stop(
-                            f"the adaptive step fell below {self.h_min:.3g} s (error "
-                            f"{err:.3g} times the tolerance): the forces may be discontinuous "
-                            "or the motion too stiff; loosen rtol/atol or use rk4",
-                            s.t,
-                        )
+                    failed = ConvergenceError(
+                        f"the adaptive step fell below {self.h_min:.3g} s (error "
+                        f"{err:.3g} times the tolerance): the forces may be discontinuous "
+                        "or the motion too stiff; loosen rtol/atol or use rk4",
+                        None,
+                        err,
                     )
+                    raise _Located(self._stop(str(failed), s.t, failed))
                 continue
             s = new
             steps += 1

@@ -32,7 +32,7 @@ import scipy.linalg
 
 from stewart_pin.description import RobotDescription
 from stewart_pin.dynamics.regressor import N_STANDARD, STANDARD_NAMES, standard_parameters
-from stewart_pin.exceptions import BaseParameterWarning, InputError, StewartPinError
+from stewart_pin.exceptions import BaseParameterWarning, IdentificationError, InputError
 
 #: Default numerical rank tolerance, relative to the largest singular value of the stacked
 #: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`).
@@ -105,7 +105,7 @@ class BaseParameters:
     def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
         """The base regressor ``W_b`` with ``Gamma = W_b chi_b``: (6, nb) or (N, 6, nb)."""
         if self.robot is None:
-            raise StewartPinError("these base parameters are bound to no robot")
+            raise InputError("these base parameters are bound to no robot")
         return self.reduce(self.robot.regressor(pose, twist, accel))
 
     def table(self) -> str:
@@ -345,7 +345,9 @@ def numerical_base_parameters(
     Wn = W / scale
     sv = np.linalg.svd(Wn, compute_uv=False)
     if not sv[0] > 0:
-        raise StewartPinError("the stacked regressor is zero: no parameter is identifiable")
+        raise IdentificationError(
+            "the stacked regressor is zero: no parameter is identifiable", rank=0
+        )
     rel = sv / sv[0]
     rank = int(np.sum(rel > tol))
     _, R, perm = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
@@ -398,7 +400,7 @@ def base_parameters(robot: Any, method: str = "analytic", **kwargs: Any) -> Base
     elif method == "numerical":
         bp, _ = numerical_base_parameters(robot, **kwargs)
     else:
-        raise StewartPinError(f"unknown method '{method}': 'analytic' or 'numerical'")
+        raise InputError(f"unknown method '{method}': 'analytic' or 'numerical'")
     return replace(bp, robot=robot)
 
 
@@ -451,7 +453,7 @@ def essential_parameters(
     gamma = parts.sum(axis=1)
     norm = np.linalg.norm(gamma)
     if norm == 0:
-        raise StewartPinError("the robot's forces are zero over the states: nothing to keep")
+        raise IdentificationError("the robot's forces are zero over the states: nothing to keep")
     active = list(range(len(bp)))
     removed: list[tuple[str, float]] = []
     dropped = np.zeros_like(gamma)

@@ -37,7 +37,7 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_poses
 from stewart_pin._io import write_text_atomic
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, ViewerError
 from stewart_pin.formats.urdf import VisualSizes
 from stewart_pin.kinematics.geometry import platform_points_in_base
 
@@ -240,12 +240,12 @@ class _Server:
                 left = deadline - time.monotonic()
                 if left <= 0 or not sel.select(left):
                     self.close()
-                    raise RuntimeError(f"the meshcat server did not start within {timeout} s")
+                    raise ViewerError(f"the meshcat server did not start within {timeout} s")
                 chunk = os.read(fd, 4096)
                 if not chunk:
                     code = self.process.wait()
                     self.close()
-                    raise RuntimeError(f"the meshcat server exited early with code {code}")
+                    raise ViewerError(f"the meshcat server exited early with code {code}")
                 buffer += chunk
         lines = buffer.decode("utf-8").splitlines()
         return [line.strip() for line in lines if "=" in line][:n]
