@@ -161,6 +161,7 @@ def inverse_dynamics(
     legs = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
+    assert legs.qddot is not None  # accels given
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
     H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)  # J_3i^-T H_i
     plat = platform_terms(desc, poses, twists)

@@ -27,9 +27,10 @@ class LegDynamics:
         self.data = self.model.createData()
         # Revolute and prismatic joints have nq == nv, so q and v share the index.
         self.index = v_index.ravel()
-        self._blocks = v_index  # (6, 3)
+        self.blocks = v_index  # (6, 3): velocity index of each leg joint
 
-    def _pack(self, x: np.ndarray) -> np.ndarray:
+    def pack(self, x: np.ndarray) -> np.ndarray:
+        """Leg values (6, 3) -> the legs model's configuration or velocity vector (18,)."""
         out = np.empty(18)
         out[self.index] = x.ravel()
         return out
@@ -42,7 +43,7 @@ class LegDynamics:
         m, d = self.model, self.data
         out = np.empty(q.shape)
         for n in range(q.shape[0]):
-            tau = pin.rnea(m, d, self._pack(q[n]), self._pack(qdot[n]), self._pack(qddot[n]))
+            tau = pin.rnea(m, d, self.pack(q[n]), self.pack(qdot[n]), self.pack(qddot[n]))
             out[n] = self._unpack(tau)
         return out
 
@@ -52,10 +53,10 @@ class LegDynamics:
         m, d = self.model, self.data
         A = np.empty((*q.shape, 3))
         h = np.empty(q.shape)
-        rows = self._blocks[:, :, None]
-        cols = self._blocks[:, None, :]
+        rows = self.blocks[:, :, None]
+        cols = self.blocks[:, None, :]
         for n in range(q.shape[0]):
-            qn, vn = self._pack(q[n]), self._pack(qdot[n])
+            qn, vn = self.pack(q[n]), self.pack(qdot[n])
             M = pin.crba(m, d, qn)
             A[n] = M[rows, cols]
             h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
@@ -67,7 +68,7 @@ class LegDynamics:
         m, d = self.model, self.data
         kinetic, potential = np.empty(q.shape[0]), np.empty(q.shape[0])
         for n in range(q.shape[0]):
-            qn = self._pack(q[n])
-            kinetic[n] = pin.computeKineticEnergy(m, d, qn, self._pack(qdot[n]))
+            qn = self.pack(q[n])
+            kinetic[n] = pin.computeKineticEnergy(m, d, qn, self.pack(qdot[n]))
             potential[n] = pin.computePotentialEnergy(m, d, qn)
         return kinetic, potential

@@ -61,12 +61,12 @@ def leg_regressors(
 ) -> np.ndarray:
     """``Y_i`` with ``H_i = Y_i chi_i``: shape (N, 6, 3, 30), Khalil order, links 1..3."""
     cols = _leg_columns(legs).reshape(6, 30)
-    rows = legs._blocks  # (6, 3) velocity index of each leg joint
+    rows = legs.blocks  # (6, 3) velocity index of each leg joint
     out = np.empty((*q.shape, 30))
     m, d = legs.model, legs.data
     for n in range(q.shape[0]):
         Y = pin.computeJointTorqueRegressor(
-            m, d, legs._pack(q[n]), legs._pack(qd[n]), legs._pack(qdd[n])
+            m, d, legs.pack(q[n]), legs.pack(qd[n]), legs.pack(qdd[n])
         )
         out[n] = Y[rows[:, :, None], cols[:, None, :]]
     return out
@@ -102,6 +102,7 @@ def regressor_batch(
     state = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
+    assert state.qddot is not None  # accels given
     Y = leg_regressors(legs, state.q, state.qdot, state.qddot)  # (N, 6, 3, 30)
     Yx = np.einsum("nkji,nkjc->nkic", state.J_inv, Y)  # J_3i^-T Y_i at P_i, (N, 6, 3, 30)
     L = state.L[..., None, :]  # (N, 6, 1, 3)
