@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._typing import FloatArray, JointValues
 from stewart_pin.description import RobotDescription
 from stewart_pin.models.pinocchio_models import build_legs_model
 
@@ -29,16 +30,18 @@ class LegDynamics:
         self.index = v_index.ravel()
         self.blocks = v_index  # (6, 3): velocity index of each leg joint
 
-    def pack(self, x: np.ndarray) -> np.ndarray:
+    def pack(self, x: FloatArray) -> FloatArray:
         """Leg values (6, 3) -> the legs model's configuration or velocity vector (18,)."""
         out = np.empty(18)
         out[self.index] = x.ravel()
         return out
 
-    def _unpack(self, x: np.ndarray) -> np.ndarray:
+    def _unpack(self, x: FloatArray) -> FloatArray:
         return x[self.index].reshape(6, 3)
 
-    def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+    def inverse_dynamics(
+        self, q: JointValues, qdot: JointValues, qddot: JointValues
+    ) -> FloatArray:
         """``H_i = A_i qddot_i + h_i`` (N, 6, 3) [N m for q1, q2; N for q3] by RNEA."""
         m, d = self.model, self.data
         out = np.empty(q.shape)
@@ -47,7 +50,7 @@ class LegDynamics:
             out[n] = self._unpack(tau)
         return out
 
-    def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def mass_and_bias(self, q: JointValues, qdot: JointValues) -> tuple[FloatArray, FloatArray]:
         """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA and the nonlinear effects (Coriolis,
         centrifugal, gravity)."""
         m, d = self.model, self.data
@@ -62,7 +65,7 @@ class LegDynamics:
             h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
         return A, h
 
-    def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def energy(self, q: JointValues, qdot: JointValues) -> tuple[FloatArray, FloatArray]:
         """Kinetic and potential energy of the six legs together, each (N,) [J]; the
         potential is zero with every link's centre of mass at the origin of F0."""
         m, d = self.model, self.data

@@ -6,13 +6,11 @@ itself builds on the inverse geometry.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_scalar
-from stewart_pin._typing import Pose
+from stewart_pin._typing import ArrayLike, Pose
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import ConvergenceError, SingularityError, StrokeLimitError
 from stewart_pin.kinematics.geometry import leg_vectors
@@ -25,8 +23,8 @@ FORWARD_MAX_ITERATIONS = 50
 
 def forward_geometry(
     desc: RobotDescription,
-    lengths: Any,
-    guess: Any = None,
+    lengths: ArrayLike,
+    guess: ArrayLike = None,
     tol: float = FORWARD_TOLERANCE,
     max_iterations: int = FORWARD_MAX_ITERATIONS,
 ) -> Pose:

@@ -12,11 +12,10 @@ branch, used throughout, has ``q2i`` in ``(0, pi)`` and ``q1i`` in ``(-pi, pi]``
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from stewart_pin._checks import check_poses
+from stewart_pin._typing import ArrayLike, FloatArray, JointValues, Poses
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import (
     JointLimitError,
@@ -52,20 +51,20 @@ def characteristic_length(desc: RobotDescription) -> float:
     return radius if radius > 0.0 else max(float(desc.size), np.finfo(float).tiny)
 
 
-def platform_points_in_base(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+def platform_points_in_base(desc: RobotDescription, poses: Poses) -> FloatArray:
     """``P_i`` in F0 for a batch of poses: shape (N, 6, 3) [m]."""
     R, p = poses[:, :3, :3], poses[:, :3, 3]
     return np.einsum("nij,kj->nki", R, desc.platform_points) + p[:, None, :]
 
 
-def leg_vectors(desc: RobotDescription, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def leg_vectors(desc: RobotDescription, poses: Poses) -> tuple[FloatArray, FloatArray]:
     """``(B_i P_i, L_i = O_p P_i)`` in F0, each shape (N, 6, 3) [m]."""
     R = poses[:, :3, :3]
     L = np.einsum("nij,kj->nki", R, desc.platform_points)
     return L + poses[:, None, :3, 3] - desc.base_points, L
 
 
-def leg_lengths(desc: RobotDescription, poses: Any) -> np.ndarray:
+def leg_lengths(desc: RobotDescription, poses: ArrayLike) -> FloatArray:
     """Leg lengths ``q3i = |B_i P_i|`` [m], shape (6,) or (N, 6)."""
     T, batched = check_poses(poses)
     lengths = np.linalg.norm(leg_vectors(desc, T)[0], axis=-1)
@@ -73,8 +72,8 @@ def leg_lengths(desc: RobotDescription, poses: Any) -> np.ndarray:
 
 
 def inverse_geometry_batch(
-    desc: RobotDescription, poses: np.ndarray, check_limits: bool = True
-) -> np.ndarray:
+    desc: RobotDescription, poses: Poses, check_limits: bool = True
+) -> FloatArray:
     """The 18 leg joint values for validated poses ``(N, 4, 4)``: shape (N, 6, 3).
 
     Raises:
@@ -118,7 +117,7 @@ def inverse_geometry_batch(
     return q
 
 
-def check_leg_limits(desc: RobotDescription, q: np.ndarray) -> None:
+def check_leg_limits(desc: RobotDescription, q: JointValues) -> None:
     """Raise :class:`StrokeLimitError` / :class:`JointLimitError` for leg values (N, 6, 3)."""
     lo, hi = desc.stroke
     bad = (q[..., 2] < lo) | (q[..., 2] > hi)
@@ -136,7 +135,9 @@ def check_leg_limits(desc: RobotDescription, q: np.ndarray) -> None:
                 )
 
 
-def inverse_geometry(desc: RobotDescription, pose: Any, check_limits: bool = True) -> np.ndarray:
+def inverse_geometry(
+    desc: RobotDescription, pose: ArrayLike, check_limits: bool = True
+) -> FloatArray:
     """Leg joint values for one pose (4x4 or ``pin.SE3``) -> (6, 3), or a batch -> (N, 6, 3).
 
     Columns ``q1i, q2i`` [rad] (default U-joint branch) and ``q3i`` [m].
