@@ -18,8 +18,8 @@ from stewart_pin import (
     random_robot,
 )
 from stewart_pin.check import constrained_dynamics as val
-from stewart_pin.kinematics.geometry import inverse_geometry
 from stewart_pin.kinematics import workspace
+from stewart_pin.kinematics.geometry import inverse_geometry
 from stewart_pin.kinematics.workspace import sample_poses, sample_states
 
 ROBOTS = ("simulator", "desktop", "random-1")
