@@ -18,6 +18,7 @@ from stewart_pin import (
     random_robot,
 )
 from stewart_pin.check import constrained_dynamics as val
+from stewart_pin.kinematics import workspace
 from stewart_pin.kinematics.geometry import inverse_geometry
 from stewart_pin.kinematics.workspace import sample_poses, sample_states
 
@@ -420,7 +421,8 @@ def test_validate_samples_inside_the_given_range(tiny_stroke, monkeypatch):
         drawn.append(states[0])
         return states
 
-    monkeypatch.setattr(val, "sample_states", recording)
+    # validate draws through the robot (RobotLike.sample_states), which samples here
+    monkeypatch.setattr(workspace, "sample_states", recording)
     val.validate(tiny_stroke, n_states=20, seed=4, translation_range=3e-4, rotation_range=2e-4)
     (poses,) = drawn
     home = tiny_stroke.home_pose

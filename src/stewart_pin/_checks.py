@@ -190,7 +190,7 @@ def check_batch(value: Any, tail: tuple[int, ...], name: str) -> tuple[np.ndarra
 
     Returns the array with a leading batch axis, and whether the input was a batch.
     """
-    batched = _ndim(value) == len(tail) + 1
+    batched = nested_ndim(value) == len(tail) + 1
     arr = check_array(value, ((None,) if batched else ()) + tail, name)
     return (arr if batched else arr[None]), batched
 
@@ -248,7 +248,7 @@ def project_rotation(
 
 def check_pose(pose: Any, name: str = "pose") -> np.ndarray:
     """Return a pose 0Tp as a 4x4 float64 homogeneous matrix (``pin.SE3`` accepted)."""
-    if _is_se3(pose):
+    if is_se3(pose):
         pose = pose.homogeneous
     T = check_array(pose, (4, 4), name)
     if np.abs(T[3] - (0.0, 0.0, 0.0, 1.0)).max() > 0.0:
@@ -259,11 +259,11 @@ def check_pose(pose: Any, name: str = "pose") -> np.ndarray:
 
 def check_poses(poses: Any, name: str = "pose") -> tuple[np.ndarray, bool]:
     """Accept one pose (4x4 or SE3) or a batch (N,4,4) / list of SE3; validate each rotation."""
-    if _is_se3(poses):
+    if is_se3(poses):
         return check_pose(poses, name)[None], False
-    if isinstance(poses, (list, tuple)) and poses and _is_se3(poses[0]):
+    if isinstance(poses, (list, tuple)) and poses and is_se3(poses[0]):
         return np.stack([check_pose(p, name) for p in poses]), True
-    batched = _ndim(poses) == 3
+    batched = nested_ndim(poses) == 3
     T = check_array(poses, ((None,) if batched else ()) + (4, 4), name)
     T = T if batched else T[None]
     if np.abs(T[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(initial=0.0) > 0.0:
@@ -284,11 +284,12 @@ def check_poses(poses: Any, name: str = "pose") -> tuple[np.ndarray, bool]:
     return T, batched
 
 
-def _is_se3(x: Any) -> bool:
+def is_se3(x: Any) -> bool:
+    """Whether ``x`` looks like a ``pin.SE3`` (has ``homogeneous`` and ``rotation``)."""
     return hasattr(x, "homogeneous") and hasattr(x, "rotation")
 
 
-def _ndim(value: Any) -> int:
+def nested_ndim(value: Any) -> int:
     """``np.ndim(value)``; for ragged nested lists, the depth along the first elements
     (:func:`check_array` then names the ragged rows)."""
     try:

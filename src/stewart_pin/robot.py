@@ -12,12 +12,23 @@ from __future__ import annotations
 
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_scalar, check_states
+from stewart_pin._typing import (
+    Accels,
+    ArrayLike,
+    FloatArray,
+    Forces,
+    IntArray,
+    JointValues,
+    Pose,
+    Poses,
+    Twists,
+)
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.presets import preset
 from stewart_pin.dynamics import closed_loop as closure
@@ -25,8 +36,9 @@ from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsR
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
 from stewart_pin.exceptions import InputError, InputTypeError, NumericalError
 from stewart_pin.formats.urdf import urdf_string, write_urdf
-from stewart_pin.kinematics import geometry
+from stewart_pin.kinematics import geometry, workspace
 from stewart_pin.kinematics import jacobians as kinematics
+from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import MAX_CONDITION, leg_state
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
@@ -87,7 +99,7 @@ class StewartRobot:
         return self.description.name
 
     @property
-    def home_pose(self) -> np.ndarray:
+    def home_pose(self) -> Pose:
         """The workspace centre 0Tp (4x4), a copy."""
         return self.description.home_pose.copy()
 
@@ -111,47 +123,48 @@ class StewartRobot:
         return build_leg_models(self.description)
 
     @cached_property
-    def legs_model(self) -> tuple[pin.Model, np.ndarray]:
+    def legs_model(self) -> tuple[pin.Model, IntArray]:
         """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index."""
         return build_legs_model(self.description)
 
     # ------------------------------------------------------------------ geometry
-    def inverse_geometry(self, pose: Any, check_limits: bool = True) -> np.ndarray:
+    def inverse_geometry(self, pose: ArrayLike, check_limits: bool = True) -> JointValues:
         """Leg joint values (6, 3) (or (N, 6, 3)): columns q1i, q2i [rad], q3i [m]."""
         return geometry.inverse_geometry(self.description, pose, check_limits)
 
-    def leg_lengths(self, pose: Any) -> np.ndarray:
+    def leg_lengths(self, pose: ArrayLike) -> FloatArray:
         """Leg lengths [m], (6,) or (N, 6), without stroke checks."""
         return geometry.leg_lengths(self.description, pose)
 
-    def forward_geometry(self, lengths: Any, guess: Any = None, **kwargs: Any) -> np.ndarray:
+    def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None, **kwargs: Any) -> Pose:
         """The pose 0Tp (4x4) with leg lengths ``lengths`` [m] (Newton-Raphson from ``guess``,
-        default the home pose); see :func:`stewart_pin.kinematics.geometry.forward_geometry`."""
-        return geometry.forward_geometry(self.description, lengths, guess, **kwargs)
+        default the home pose); see
+        :func:`stewart_pin.kinematics.forward_geometry.forward_geometry`."""
+        return forward_geometry(self.description, lengths, guess, **kwargs)
 
     # ------------------------------------------------------------------ kinematics
-    def inverse_jacobian(self, pose: Any) -> np.ndarray:
+    def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp^-1`` (6, 6): ``qdot_a = Jp^-1 [v, w]`` (eq. 13)."""
         return kinematics.inverse_jacobian(self.description, pose)
 
-    def jacobian(self, pose: Any) -> np.ndarray:
+    def jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp`` (6, 6); raises :class:`SingularityError` past ``max_condition``."""
         return kinematics.jacobian(self.description, pose, self.max_condition)
 
-    def condition_number(self, pose: Any) -> float | np.ndarray:
+    def condition_number(self, pose: ArrayLike) -> float | FloatArray:
         """The singularity measure: cond(Jp^-1), its angular columns divided by the platform
         radius (unit-free; see :func:`stewart_pin.kinematics.jacobians.condition_number`)."""
         return kinematics.condition_number(self.description, pose)
 
-    def leg_jacobians(self, pose: Any) -> np.ndarray:
+    def leg_jacobians(self, pose: ArrayLike) -> FloatArray:
         """Each leg's Jacobian ``J_3i`` at P_i in F0, (6, 3, 3) (or (N, 6, 3, 3))."""
         q = self.inverse_geometry(pose)
         J = kinematics.leg_jacobians(self.description, np.reshape(q, (-1, 6, 3)))
         return J if q.ndim == 3 else J[0]
 
     def leg_kinematics(
-        self, pose: Any, twist: Any, accel: Any | None = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
         """``(q, qdot, qddot)`` of the legs, each (6, 3) or (N, 6, 3) (eq. 14-19)."""
         return kinematics.leg_kinematics(self.description, pose, twist, accel)
 
@@ -161,16 +174,35 @@ class StewartRobot:
         rng: np.random.Generator | int | None = None,
         translation: float | None = None,
         rotation: float = 0.25,
-    ) -> np.ndarray:
+    ) -> FloatArray:
         """``n`` random reachable poses around the home pose, (n, 4, 4).
 
         Translations uniform in a cube of half-side ``translation`` [m] (default 15 % of the
         mid-stroke), rotations ``exp(w)`` with ``|w_k| <= rotation`` [rad]; poses outside
         the stroke, the U-joint limits or past ``max_condition`` are redrawn.
         """
-        from stewart_pin.kinematics.workspace import sample_poses
+        return workspace.sample_poses(
+            self.description, n, rng, translation, rotation, self.max_condition
+        )
 
-        return sample_poses(self.description, n, rng, translation, rotation, self.max_condition)
+    def sample_states(
+        self,
+        n: int,
+        rng: np.random.Generator | int | None = None,
+        translation: float | None = None,
+        rotation: float = 0.25,
+    ) -> tuple[Poses, Twists, Accels]:
+        """``(poses (n, 4, 4), twists (n, 6), accels (n, 6))``: :meth:`sample_poses` with
+        random twists and accelerations
+        (:func:`stewart_pin.kinematics.workspace.sample_states`)."""
+        return workspace.sample_states(
+            self.description,
+            n,
+            rng,
+            translation=translation,
+            rotation=rotation,
+            max_condition=self.max_condition,
+        )
 
     # ------------------------------------------------------------------ dynamics
     @cached_property
@@ -178,9 +210,44 @@ class StewartRobot:
         """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``)."""
         return LegDynamics(self.description)
 
+    @overload
     def inverse_dynamics(
-        self, pose: Any, twist: Any, accel: Any, details: bool = False, backend: str = "pinocchio"
-    ) -> np.ndarray | InverseDynamicsResult:
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: Literal[False] = False,
+        backend: str = "pinocchio",
+    ) -> Forces: ...
+
+    @overload
+    def inverse_dynamics(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: Literal[True],
+        backend: str = "pinocchio",
+    ) -> InverseDynamicsResult: ...
+
+    @overload
+    def inverse_dynamics(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: bool = False,
+        backend: str = "pinocchio",
+    ) -> Forces | InverseDynamicsResult: ...
+
+    def inverse_dynamics(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: bool = False,
+        backend: str = "pinocchio",
+    ) -> Forces | InverseDynamicsResult:
         """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
 
         Args:
@@ -213,8 +280,8 @@ class StewartRobot:
         return res.gamma if batched else res.gamma[0]
 
     def direct_dynamics(
-        self, pose: Any, twist: Any, gamma: Any, backend: str = "pinocchio"
-    ) -> np.ndarray:
+        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "pinocchio"
+    ) -> FloatArray:
         """Classical platform acceleration ``[dv/dt, dw/dt]`` in F0 (eq. 35):
         ``A_robot Vdot_p = Jp^-T Gamma - h_robot``, solved by Cholesky.
 
@@ -237,7 +304,7 @@ class StewartRobot:
             )
         return accel if batched else accel[0]
 
-    def cartesian_dynamics(self, pose: Any, twist: Any) -> CartesianDynamics:
+    def cartesian_dynamics(self, pose: ArrayLike, twist: ArrayLike) -> CartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
         :class:`NumericalError` when either is not finite."""
         _, T, V = check_states(pose, (twist, "twist"))
@@ -249,7 +316,7 @@ class StewartRobot:
         check_finite(cd.h_robot, "cartesian dynamics h_robot")
         return cd
 
-    def gravity_compensation(self, pose: Any) -> np.ndarray:
+    def gravity_compensation(self, pose: ArrayLike) -> FloatArray:
         """The static inverse dynamic model: Gamma holding the robot still at ``pose`` [N]."""
         T, batched = check_poses(pose)
         zeros = np.zeros((T.shape[0], 6))
@@ -259,7 +326,7 @@ class StewartRobot:
             raise NumericalError("gravity compensation Gamma", e.index, e.n_bad, e.n_states) from e
         return gamma if batched else gamma[0]
 
-    def energy(self, pose: Any, twist: Any) -> np.ndarray | float:
+    def energy(self, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
         """Total mechanical energy of platform + legs [J]: kinetic plus gravitational
         potential (zero with every centre of mass at the origin of F0)."""
         batched, T, V = check_states(pose, (twist, "twist"))
@@ -270,7 +337,7 @@ class StewartRobot:
             total = check_finite(kin + pot + kin_p + pot_p, "energy")
         return total if batched else float(total[0])
 
-    def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
+    def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
         """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, 190) or (N, 6, 190).
 
         Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform;
@@ -287,7 +354,7 @@ class StewartRobot:
 BACKENDS = ("pinocchio", "compiled")
 
 
-def _quiet_overflow():
+def _quiet_overflow() -> np.errstate:
     """No RuntimeWarning for overflow or invalid operations: the outputs are checked
     (:func:`stewart_pin.dynamics.closed_loop.check_finite`), and a non-finite one raises
     :class:`NumericalError` instead."""

@@ -29,7 +29,9 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
+from typing import cast
 
 import casadi
 import numpy as np
@@ -37,11 +39,12 @@ import pinocchio as pin
 
 import stewart_pin
 from stewart_pin import StewartRobot
+from stewart_pin._argtypes import positive_int
 from stewart_pin._io import write_text_atomic
 from stewart_pin.check.constrained_dynamics import (
-    _solver,
     constrained_forward_dynamics,
     constrained_inverse_dynamics,
+    tree_solver,
     tree_state,
 )
 from stewart_pin.codegen import CompiledDynamics, cost_dict
@@ -69,7 +72,7 @@ def machine() -> dict[str, object]:
         "numpy": np.__version__,
         "pinocchio": pin.__version__,
         "stewart_pin": stewart_pin.__version__,
-        "casadi": casadi.__version__,
+        "casadi": casadi.__version__,  # type: ignore[attr-defined]  # missing from its stubs
         "cpu_model": cpu_model(),
         "load_average_1min": os.getloadavg()[0],
     }
@@ -111,10 +114,10 @@ def compiled_rows(
         idx = np.arange(n) % m
         P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
         rows[f"compiled IDM batch {n}"] = median_us(
-            lambda P=P, Vn=Vn, An=An: backend.inverse_dynamics(P, Vn, An), reps, n
+            partial(backend.inverse_dynamics, P, Vn, An), reps, n
         )
         rows[f"compiled DDM batch {n}"] = median_us(
-            lambda P=P, Vn=Vn, Gn=Gn: backend.direct_dynamics(P, Vn, Gn), reps, n
+            partial(backend.direct_dynamics, P, Vn, Gn), reps, n
         )
     if not quick:
         n, chunk = 1_000_000, 10_000
@@ -131,7 +134,7 @@ def compiled_rows(
         rows[f"compiled DDM batch {n} (streamed)"] = median_us(
             lambda: stream(Gn, backend.direct_dynamics_stream), 3, n
         )
-    info = {
+    info: dict[str, object] = {
         "kind": backend.kind,
         "reason": backend.reason,
         "library": str(backend.library) if backend.library else None,
@@ -141,7 +144,9 @@ def compiled_rows(
     return rows, info
 
 
-def mujoco_rows(robot: StewartRobot, T: np.ndarray, G: np.ndarray, repeats: int):
+def mujoco_rows(
+    robot: StewartRobot, T: np.ndarray, G: np.ndarray, repeats: int
+) -> dict[str, float]:
     """``mj_forward`` on the robot's MJCF (when MuJoCo imports)."""
     try:
         import mujoco
@@ -167,7 +172,7 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
     poses, twists, accels = sample_states(robot.description, batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels)
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
-    solver = _solver(robot)
+    solver = tree_solver(robot)
     q, v = tree_state(robot, T, V)
     tau = np.zeros(solver.nv)
     tau[solver.v_act] = G
@@ -226,8 +231,6 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default="simulator")
-    from stewart_pin.cli._common import positive_int
-
     parser.add_argument("--batch", type=positive_int, default=10_000)
     parser.add_argument("--repeats", type=positive_int, default=300)
     parser.add_argument("--quick", action="store_true", help="skip the 1 000 000-state batch")
@@ -239,8 +242,10 @@ def report(args: argparse.Namespace) -> dict[str, object]:
     result = run(args.preset, args.batch, args.repeats, args.quick)
     print(f"stewart-pin {stewart_pin.__version__}, preset '{args.preset}', {result['machine']}")
     print(f"{'median time per state':48s} {'[us]':>10s} {'/ pin.constraintDynamics':>26s}")
-    for name, t in result["median_us_per_state"].items():
-        ratio = result["ratio_to_pin_constraintDynamics"][name]
+    rows = cast(dict[str, float], result["median_us_per_state"])
+    ratios = cast(dict[str, float], result["ratio_to_pin_constraintDynamics"])
+    for name, t in rows.items():
+        ratio = ratios[name]
         print(f"{name:48s} {t:10.2f} {ratio:26.2f}")
     if args.json:
         write_text_atomic(args.json, json.dumps(result, indent=2) + "\n")

@@ -29,7 +29,9 @@ def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.abs(a - b).max(axis=1) / np.maximum(np.abs(b).max(axis=1), 1e-300)
 
 
-def _validation_figure(path: Path, t_idm, err_idm, t_ddm, err_ddm) -> Path:
+def _validation_figure(
+    path: Path, t_idm: np.ndarray, err_idm: np.ndarray, t_ddm: np.ndarray, err_ddm: np.ndarray
+) -> Path:
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(8, 3.5), layout="constrained")

@@ -39,12 +39,13 @@ import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_states
+from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import (
     InputError,
     InputTypeError,
@@ -53,20 +54,19 @@ from stewart_pin.exceptions import (
     WorkspaceError,
 )
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
-from stewart_pin.kinematics.workspace import sample_states
-
-if TYPE_CHECKING:
-    from stewart_pin.models.pinocchio_models import TreeModel
-    from stewart_pin.robot import StewartRobot
+from stewart_pin.models.pinocchio_models import TreeModel
+from stewart_pin.protocols import RobotLike
 
 __all__ = [
     "RELATIVE_FLOOR",
+    "TreeSolver",
     "ValidationReport",
     "constrained_forward_dynamics",
     "constrained_inverse_dynamics",
     "constraint_jacobian",
     "energy",
     "relative_error",
+    "tree_solver",
     "tree_state",
     "validate",
 ]
@@ -80,7 +80,7 @@ RELATIVE_FLOOR = 1e-6
 _PROXIMAL = (1e-14, 0.0, 1)
 
 
-class _TreeSolver:
+class TreeSolver:
     """Pinocchio data for one robot's tree, with ``initConstraintDynamics`` done once."""
 
     def __init__(self, tree: TreeModel) -> None:
@@ -101,10 +101,10 @@ class _TreeSolver:
         self.nv = tree.model.nv
 
 
-_SOLVERS: weakref.WeakKeyDictionary[Any, _TreeSolver] = weakref.WeakKeyDictionary()
+_SOLVERS: weakref.WeakKeyDictionary[Any, TreeSolver] = weakref.WeakKeyDictionary()
 
 
-def _solver(robot: StewartRobot) -> _TreeSolver:
+def tree_solver(robot: RobotLike) -> TreeSolver:
     if not hasattr(robot, "tree") or not hasattr(robot, "description"):
         raise InputTypeError(
             f"expected a StewartRobot (with .tree and .description), got {type(robot).__name__}"
@@ -113,7 +113,7 @@ def _solver(robot: StewartRobot) -> _TreeSolver:
         return _SOLVERS[robot]
     except KeyError:
         pass
-    solver = _TreeSolver(robot.tree)
+    solver = TreeSolver(robot.tree)
     _SOLVERS[robot] = solver
     return solver
 
@@ -137,7 +137,7 @@ def _at_state(n: int) -> Iterator[None]:
         raise NumericalError(e.output, n) from e
 
 
-def _constraint_jacobian(s: _TreeSolver, q: np.ndarray) -> np.ndarray:
+def _constraint_jacobian(s: TreeSolver, q: np.ndarray) -> np.ndarray:
     """``Jc`` (18, 24): rows 3i..3i+2 are ``R_c1^T (J_1 - J_2)`` of loop i (LOCAL frame
     of the leg-side point), from ``pin.getConstraintsJacobian``.
 
@@ -166,7 +166,7 @@ def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
 
 
 def _state(
-    s: _TreeSolver, desc: Any, T: np.ndarray, twist: np.ndarray
+    s: TreeSolver, desc: RobotDescription, T: np.ndarray, twist: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Tree ``q`` (25,), ``v`` (24,), ``Jc`` (18, 24) and ``R = 0Rp`` for one state."""
     R = T[:3, :3]
@@ -181,7 +181,7 @@ def _state(
     return q, v, Jc, R
 
 
-def _loop_accelerations(s: _TreeSolver) -> np.ndarray:
+def _loop_accelerations(s: TreeSolver) -> np.ndarray:
     """Constraint accelerations ``R_c1^T (a_1 - a_2)`` of the six loops, (18,), from the
     classical accelerations in F0 of both points (after
     ``pin.forwardKinematics(model, data, q, v, a)`` and the constraints' ``calc``).
@@ -206,19 +206,25 @@ def _loop_accelerations(s: _TreeSolver) -> np.ndarray:
     return np.einsum("kji,kj->ki", R_c1, a0[0::2] - a0[1::2]).ravel()
 
 
-def _local_platform_acceleration(R: np.ndarray, twist: np.ndarray, accel: np.ndarray):
+def _local_platform_acceleration(
+    R: np.ndarray, twist: np.ndarray, accel: np.ndarray
+) -> np.ndarray:
     """Free-flyer acceleration ``d/dt [R^T v, R^T w]`` from the classical one in F0."""
     v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
     return np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
 
 
-def _classical_platform_acceleration(R: np.ndarray, v_ff: np.ndarray, a_ff: np.ndarray):
+def _classical_platform_acceleration(
+    R: np.ndarray, v_ff: np.ndarray, a_ff: np.ndarray
+) -> np.ndarray:
     """Classical ``[vdot, wdot]`` in F0 from the free-flyer velocity and acceleration."""
     v_loc, w_loc = v_ff[:3], v_ff[3:]
     return np.concatenate([R @ (a_ff[:3] + np.cross(w_loc, v_loc)), R @ a_ff[3:]])
 
 
-def _inverse_one(s: _TreeSolver, desc: Any, T, twist, accel):
+def _inverse_one(
+    s: TreeSolver, desc: RobotDescription, T: np.ndarray, twist: np.ndarray, accel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     q, v, Jc, R = _state(s, desc, T, twist)
     a = np.zeros(s.nv)
     a[s.v_ff] = _local_platform_acceleration(R, twist, accel)
@@ -240,7 +246,9 @@ def _inverse_one(s: _TreeSolver, desc: Any, T, twist, accel):
     return gamma, forces
 
 
-def _forward_one(s: _TreeSolver, desc: Any, T, twist, gamma):
+def _forward_one(
+    s: TreeSolver, desc: RobotDescription, T: np.ndarray, twist: np.ndarray, gamma: np.ndarray
+) -> np.ndarray:
     q, v, _, R = _state(s, desc, T, twist)
     tau = np.zeros(s.nv)
     tau[s.v_act] = gamma
@@ -258,7 +266,7 @@ def _forward_one(s: _TreeSolver, desc: Any, T, twist, gamma):
 
 
 # ---------------------------------------------------------------------------- public API
-def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, np.ndarray]:
+def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.ndarray]:
     """The full tree configuration and velocity of a platform state.
 
     The platform's free-flyer coordinates come from the pose and twist; the leg joint
@@ -279,7 +287,7 @@ def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, 
     Raises:
         InputError: bad shapes or values. SingularityError: a leg singularity.
     """
-    s = _solver(robot)
+    s = tree_solver(robot)
     batched, T, V = check_states(pose, (twist, "twist"))
     qs = np.empty((len(T), s.model.nq))
     vs = np.empty((len(T), s.nv))
@@ -289,14 +297,14 @@ def tree_state(robot: StewartRobot, pose: Any, twist: Any) -> tuple[np.ndarray, 
     return _unbatch(qs, batched), _unbatch(vs, batched)
 
 
-def constraint_jacobian(robot: StewartRobot, q: Any) -> np.ndarray:
+def constraint_jacobian(robot: RobotLike, q: Any) -> np.ndarray:
     """The loop-closure Jacobian ``Jc`` (18, 24) at a tree configuration ``q`` (25,).
 
     Rows ``3i..3i+2`` give the relative velocity of loop i's two points (leg tip minus
     platform point P_i) in the frame of the leg-side point: ``Jc = R_c1^T (J_1 - J_2)``
     with ``J_1, J_2`` the world-aligned point Jacobians [m/rad, dimensionless].
     """
-    s = _solver(robot)
+    s = tree_solver(robot)
     q = np.asarray(q, dtype=float)
     if q.shape != (s.model.nq,) or not np.all(np.isfinite(q)):
         raise InputError(f"q must be a finite array of shape ({s.model.nq},), got {q.shape}")
@@ -304,7 +312,7 @@ def constraint_jacobian(robot: StewartRobot, q: Any) -> np.ndarray:
 
 
 def constrained_inverse_dynamics(
-    robot: StewartRobot, pose: Any, twist: Any, accel: Any
+    robot: RobotLike, pose: Any, twist: Any, accel: Any
 ) -> tuple[np.ndarray, np.ndarray]:
     """Actuator forces and loop-closure forces from the constrained tree.
 
@@ -328,7 +336,7 @@ def constrained_inverse_dynamics(
         SingularityError: a leg singularity, or ``[S^T, Jc^T]`` singular (parallel
             singularity).
     """
-    s = _solver(robot)
+    s = tree_solver(robot)
     batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
     gammas = np.empty((len(T), 6))
     forces = np.empty((len(T), 6, 3))
@@ -339,7 +347,7 @@ def constrained_inverse_dynamics(
 
 
 def constrained_forward_dynamics(
-    robot: StewartRobot, pose: Any, twist: Any, gamma: Any
+    robot: RobotLike, pose: Any, twist: Any, gamma: Any
 ) -> np.ndarray:
     """The platform's acceleration under actuator forces, from ``pin.constraintDynamics``.
 
@@ -356,7 +364,7 @@ def constrained_forward_dynamics(
     Raises:
         InputError: bad shapes or values. SingularityError: a singular configuration.
     """
-    s = _solver(robot)
+    s = tree_solver(robot)
     batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
     out = np.empty((len(T), 6))
     for n in range(len(T)):
@@ -365,7 +373,7 @@ def constrained_forward_dynamics(
     return _unbatch(out, batched)
 
 
-def energy(robot: StewartRobot, pose: Any, twist: Any) -> tuple[Any, Any]:
+def energy(robot: RobotLike, pose: Any, twist: Any) -> tuple[Any, Any]:
     """Kinetic and potential energy of the whole robot (legs and platform) [J].
 
     From ``pin.computeKineticEnergy`` / ``pin.computePotentialEnergy`` on the tree at
@@ -380,7 +388,7 @@ def energy(robot: StewartRobot, pose: Any, twist: Any) -> tuple[Any, Any]:
     Returns:
         ``(kinetic, potential)``: floats, or arrays of shape (N,) for a batch [J].
     """
-    s = _solver(robot)
+    s = tree_solver(robot)
     batched, T, V = check_states(pose, (twist, "twist"))
     out = np.empty((len(T), 2))
     for n in range(len(T)):
@@ -475,7 +483,7 @@ def _integer(value: Any, name: str, least: int) -> int:
 
 
 def validate(
-    robot: StewartRobot,
+    robot: RobotLike,
     n_states: int = 200,
     seed: int | None = 0,
     translation_range: float | None = None,
@@ -483,7 +491,8 @@ def validate(
 ) -> ValidationReport:
     """Compare the paper's inverse and direct models with the constrained tree.
 
-    Draws ``n_states`` states with :func:`stewart_pin.kinematics.workspace.sample_states` (seeded),
+    Draws ``n_states`` states with ``robot.sample_states`` (seeded; for a
+    :class:`~stewart_pin.StewartRobot`, :func:`stewart_pin.kinematics.workspace.sample_states`),
     computes the reference Gamma with :func:`constrained_inverse_dynamics`, then compares
     ``robot.inverse_dynamics(poses, twists, accels)`` with it, ``robot.direct_dynamics``
     under the reference Gamma with :func:`constrained_forward_dynamics`, and the round
@@ -511,11 +520,10 @@ def validate(
         if not callable(getattr(robot, method, None)):
             raise InputTypeError(f"{type(robot).__name__} has no method '{method}' to validate")
     rng = np.random.default_rng(seed)
-    kwargs: dict[str, Any] = {"translation": translation_range, "rotation": rotation_range}
-    if hasattr(robot, "max_condition"):
-        kwargs["max_condition"] = robot.max_condition
-    try:
-        poses, twists, accels = sample_states(robot.description, n_states, rng, **kwargs)
+    try:  # the robot draws in its own workspace (its singularity threshold)
+        poses, twists, accels = robot.sample_states(
+            n_states, rng, translation=translation_range, rotation=rotation_range
+        )
     except WorkspaceError as e:
         raise WorkspaceError(
             f"{e} (validate: translation_range, rotation_range; stewart-pin validate: "

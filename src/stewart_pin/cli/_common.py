@@ -2,17 +2,17 @@
 the number types of the options and the output-path checks.
 
 The number types (``type=`` of ``add_argument``) refuse bad values while the arguments are
-parsed, so a bad number is one line on stderr and exit code 2, before any work:
-:func:`positive_int`, :func:`non_negative_int`, :func:`finite_float`,
-:func:`positive_finite_float`, :func:`non_negative_finite_float`.
+parsed, so a bad number is one line on stderr and exit code 2, before any work (they live
+in :mod:`stewart_pin._argtypes`, which the applications use too): :func:`positive_int`,
+:func:`non_negative_int`, :func:`finite_float`, :func:`positive_finite_float`,
+:func:`non_negative_finite_float`.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -20,40 +20,28 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._argtypes import (
+    finite_float,
+    non_negative_finite_float,
+    non_negative_int,
+    positive_finite_float,
+    positive_int,
+)
 from stewart_pin.exceptions import InputError
 from stewart_pin.robot import StewartRobot
 
-
-def _parser(
-    convert: Callable[[str], Any], accept: Callable[[Any], bool], expected: str
-) -> Callable[[str], Any]:
-    def parse(text: str) -> Any:
-        try:
-            value = convert(text)
-        except ValueError:
-            value = None
-        if value is None or not accept(value):
-            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
-        return value
-
-    parse.__name__ = expected
-    return parse
-
-
-#: An integer >= 1 (a count: states, samples, repeats...).
-positive_int = _parser(int, lambda x: x >= 1, "an integer >= 1")
-#: An integer >= 0 (a seed, a budget that may be zero).
-non_negative_int = _parser(int, lambda x: x >= 0, "an integer >= 0")
-#: A finite number (no nan, no inf).
-finite_float = _parser(float, math.isfinite, "a finite number")
-#: A finite number > 0 (a duration, a period, a frequency...).
-positive_finite_float = _parser(
-    float, lambda x: math.isfinite(x) and x > 0.0, "a finite number > 0"
-)
-#: A finite number >= 0 (a tolerance, a noise level, a range).
-non_negative_finite_float = _parser(
-    float, lambda x: math.isfinite(x) and x >= 0.0, "a finite number >= 0"
-)
+__all__ = [
+    "add_robot_args",
+    "check_output",
+    "finite_float",
+    "non_negative_finite_float",
+    "non_negative_int",
+    "pose_from_args",
+    "positive_finite_float",
+    "positive_int",
+    "progress_bar",
+    "robot_from_args",
+]
 
 
 def _same_file(a: Path, b: Path) -> bool:

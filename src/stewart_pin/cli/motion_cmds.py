@@ -8,6 +8,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -22,6 +23,10 @@ from stewart_pin.cli._common import (
 from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
 from stewart_pin.motion.trajectories import MOTION_KINDS
 
+if TYPE_CHECKING:  # imported where used, to keep the command quick to start
+    from stewart_pin.motion.simulation import SimulationResult
+    from stewart_pin.robot import StewartRobot
+
 
 def partial_path(out: Path) -> Path:
     """Where ``simulate`` saves the result of a run that stopped early:
@@ -32,7 +37,7 @@ def partial_path(out: Path) -> Path:
 def _save_partial(error: SimulationError, out: Path) -> SimulationError:
     """Save a stopped run's accepted states beside ``out``; the error to report, naming
     the file (one line)."""
-    result = error.result
+    result = cast("SimulationResult", error.result)  # simulate attaches its partial result
     if len(result.t) == 0:
         note = "no state was accepted, nothing saved"
     else:
@@ -59,7 +64,8 @@ def _simulate(args: argparse.Namespace) -> int:
         raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
     robot = robot_from_args(args)
     if args.motion == "free":
-        forces, motion, duration, start = None, None, args.duration, (None, None)
+        forces, motion, duration = None, None, args.duration
+        start: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
     else:
         motion = standard_motion(robot, args.motion, args.duration)
         motion.check_workspace(robot)
@@ -106,7 +112,9 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _motion_samples(args: argparse.Namespace, robot) -> tuple[np.ndarray, np.ndarray]:
+def _motion_samples(
+    args: argparse.Namespace, robot: StewartRobot
+) -> tuple[np.ndarray, np.ndarray]:
     """``(poses, times)`` of a simulation result file, or of a standard motion."""
     from stewart_pin.motion.simulation import SimulationResult
     from stewart_pin.motion.trajectories import standard_motion

@@ -100,6 +100,7 @@ from stewart_pin.kinematics.jacobians import (
     scaled_inverse_jacobian,
 )
 from stewart_pin.parameters.base import grouped_parameters
+from stewart_pin.protocols import RobotLike
 
 try:  # POSIX
     import fcntl
@@ -341,7 +342,7 @@ def _build(folder: Path, source: str, compiler: str, key: str) -> None:
             "size": size,
             "compiler": compiler_identity(compiler).splitlines()[0],
             "cflags": list(CFLAGS),
-            "casadi": cs.__version__,
+            "casadi": cs.__version__,  # type: ignore[attr-defined]  # missing from its stubs
             "generator": GENERATOR_VERSION,
         }
         tmp_m = _write_private(
@@ -470,7 +471,10 @@ class CompiledDynamics:
     """
 
     def __init__(
-        self, robot: Any, cache_dir: str | Path | None = None, compiler: str | bool | None = None
+        self,
+        robot: RobotLike,
+        cache_dir: str | Path | None = None,
+        compiler: str | bool | None = None,
     ) -> None:
         self.robot = robot
         desc = robot.description
@@ -569,7 +573,9 @@ class CompiledDynamics:
         chi = check_array(base_values, (len(self.parameter_names),), "base_values")
         return np.ascontiguousarray(chi)
 
-    def _run(self, which: str, pose: Any, twist: Any, x: Any, name: str, base_values: Any):
+    def _run(
+        self, which: str, pose: Any, twist: Any, x: Any, name: str, base_values: Any
+    ) -> np.ndarray:
         if self.kind != "compiled":
             return self._run_vm(which, pose, twist, x, name, self._chi(base_values))
         if (
@@ -617,7 +623,14 @@ class CompiledDynamics:
         return out if batched else out[0]
 
     def _run_one(
-        self, which: str, pose, twist, x, name: str, base_values: Any, batch: bool = False
+        self,
+        which: str,
+        pose: np.ndarray,
+        twist: np.ndarray,
+        x: np.ndarray,
+        name: str,
+        base_values: Any,
+        batch: bool = False,
     ) -> np.ndarray:
         """One state given as float arrays, copied into the preallocated buffers (``batch``:
         it came as a batch of one, for the error messages)."""
@@ -642,7 +655,16 @@ class CompiledDynamics:
             self._resolve(which, flags, pose, twist, x, name, T[None])
         return out
 
-    def _resolve(self, which, flags, pose, twist, x, name, T) -> None:
+    def _resolve(
+        self,
+        which: str,
+        flags: np.ndarray,
+        pose: Any,
+        twist: Any,
+        x: Any,
+        name: str,
+        T: np.ndarray,
+    ) -> None:
         """Raise the reference's error for flagged states (or accept them)."""
         bits = int(np.bitwise_or.reduce(flags)) if flags.size else 0
         desc = self._desc
@@ -672,7 +694,9 @@ class CompiledDynamics:
             setattr(self, attr, models.idm_guarded if which == "idm" else models.ddm_guarded)
         return getattr(self, attr)
 
-    def _run_vm(self, which: str, pose: Any, twist: Any, x: Any, name: str, chi: np.ndarray):
+    def _run_vm(
+        self, which: str, pose: Any, twist: Any, x: Any, name: str, chi: np.ndarray
+    ) -> np.ndarray:
         batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
         desc = self._desc
         inverse_geometry_batch(desc, T)
@@ -699,7 +723,7 @@ class CompiledDynamics:
 _BACKENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def compiled_backend(robot: Any, **kwargs: Any) -> CompiledDynamics:
+def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
     """The :class:`CompiledDynamics` of ``robot``, built on first use and kept with it
     (keyword arguments go to the constructor on that first call)."""
     backend = _BACKENDS.get(robot)

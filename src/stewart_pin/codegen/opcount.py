@@ -41,6 +41,8 @@ from typing import Any
 import casadi as cs
 
 from stewart_pin.codegen.symbolic import Stages, generate_models
+from stewart_pin.description import RobotDescription
+from stewart_pin.protocols import RobotLike
 
 _MUL = {cs.OP_MUL, cs.OP_SQ}
 _ADD = {cs.OP_ADD, cs.OP_SUB, cs.OP_TWICE}
@@ -170,11 +172,11 @@ def stage_counts(stages: Stages) -> StageCounts:
     )
 
 
-def _robot_description(robot: Any):
-    return getattr(robot, "description", robot)
+def _robot_description(robot: RobotLike | RobotDescription) -> RobotDescription:
+    return robot if isinstance(robot, RobotDescription) else robot.description
 
 
-def cost_dict(robot: Any) -> dict[str, Any]:
+def cost_dict(robot: RobotLike | RobotDescription) -> dict[str, Any]:
     """The operation counts of a robot's generated models (a :class:`StewartRobot` or a
     description), as plain data.
 
@@ -192,7 +194,9 @@ def cost_dict(robot: Any) -> dict[str, Any]:
     out: dict[str, Any] = {"robot": desc.name}
     for model in ("IDM", "DDM"):
         attr = model.lower()
-        entry = {p: count_operations(getattr(m, attr)).as_dict() for p, m in models.items()}
+        entry: dict[str, Any] = {
+            p: count_operations(getattr(m, attr)).as_dict() for p, m in models.items()
+        }
         entry["quaternion"] = count_operations(getattr(quat, attr)).as_dict()
         stages = stage_counts(getattr(models["base"], f"{attr}_stages"))
         entry["critical_path"] = stages.critical_path.as_dict()
@@ -221,7 +225,7 @@ def _row(label: str, c: dict[str, int]) -> str:
     )
 
 
-def cost_table(robot: Any) -> str:
+def cost_table(robot: RobotLike | RobotDescription) -> str:
     """The operation counts of a robot's generated IDM and DDM beside Table IV, as text."""
     d = cost_dict(robot)
     head = (

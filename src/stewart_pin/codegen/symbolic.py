@@ -48,7 +48,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import casadi as cs
 import numpy as np
@@ -111,6 +111,7 @@ AUX_DDM_SIZE = 54
 
 Scalar = Any  # a float or a 1x1 casadi.SX
 Vec = list  # three Scalars
+Mat = list[list[Scalar]]  # a 3x3 (or 6x6) matrix of Scalars, row-major
 
 
 # ---------------------------------------------------------------------------- constants
@@ -195,6 +196,11 @@ def _split(x: cs.SX) -> list:
 
 
 # ---------------------------------------------------------------------------- the pose
+def _column(xs: Sequence[Scalar]) -> cs.SX:
+    """The column SX of ``xs`` (casadi's stubs type ``vertcat`` as returning ``Sparsity``)."""
+    return cast(cs.SX, cs.vertcat(*xs))
+
+
 def pose_from_input(pose: cs.SX, rotation: str) -> tuple[Vec, list[list[Scalar]]]:
     """``(p, R)`` from the pose input: ``"matrix"`` is the 4x4 0Tp in row-major order (16),
     ``"quaternion"`` is ``[x, y, z, qx, qy, qz, qw]`` (7, unit quaternion, Pinocchio's
@@ -325,7 +331,9 @@ def _inertia(P: Sequence[Scalar]) -> list[list[Scalar]]:
     return [[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]]
 
 
-def _idm_shared(twist: Sequence[Scalar], accel: Sequence[Scalar], gravity: np.ndarray):
+def _idm_shared(
+    twist: Sequence[Scalar], accel: Sequence[Scalar], gravity: np.ndarray
+) -> tuple[Mat, Vec]:
     """``K = wd^ + w^ w^`` (so that ``A_Pi = vd + K L_i``) and ``vd - g``."""
     w, wd = list(twist[3:6]), list(accel[3:6])
     wxx, wyy, wzz = w[0] * w[0], w[1] * w[1], w[2] * w[2]
@@ -339,7 +347,17 @@ def _idm_shared(twist: Sequence[Scalar], accel: Sequence[Scalar], gravity: np.nd
     return K, vdg
 
 
-def _idm_leg(c, k, p, R, v, w, K, vdg, P):
+def _idm_leg(
+    c: ModelConstants,
+    k: int,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    K: Mat,
+    vdg: Vec,
+    P: dict[str, Scalar],
+) -> dict[str, list[Scalar]]:
     g = _leg_geometry(c, k, p, R)
     V = _add(v, _cross(w, g.L))
     Ag = _add(vdg, _matvec(K, g.L))  # acceleration of P_k minus gravity, F0
@@ -357,7 +375,7 @@ def _idm_leg(c, k, p, R, v, w, K, vdg, P):
     }
 
 
-def _idm_platform(R, w, wd, vdg, K, Pp):
+def _idm_platform(R: Mat, w: Vec, wd: Vec, vdg: Vec, K: Mat, Pp: Sequence[Scalar]) -> list[Scalar]:
     """``F_p`` (eq. 24) in F0 about O_p, with the grouped platform parameters."""
     M, MS = Pp[9], list(Pp[6:9])
     MS0 = _matvec(R, MS)
@@ -404,7 +422,9 @@ def _pivot_order(A: np.ndarray, nonzero: np.ndarray) -> list[tuple[int, int]]:
     return pivots
 
 
-def _lu_solve(A: list[list[Scalar]], b: list[Scalar], pivots) -> tuple[list, list, list]:
+def _lu_solve(
+    A: list[list[Scalar]], b: list[Scalar], pivots: Sequence[tuple[int, int]]
+) -> tuple[list[Scalar], list[Scalar], list[Scalar]]:
     """Solve ``A x = b`` by LU with the static ``pivots``; returns x, the multipliers and
     the pivots."""
     n = len(b)
@@ -434,7 +454,13 @@ def _lu_solve(A: list[list[Scalar]], b: list[Scalar], pivots) -> tuple[list, lis
     return out, mults, [U[k][k] for k in range(n)]
 
 
-def _idm_closure(rows, wrenches, Hz, F_p, pivots):
+def _idm_closure(
+    rows: Sequence[Sequence[Scalar]],
+    wrenches: Sequence[Sequence[Scalar]],
+    Hz: Sequence[Scalar],
+    F_p: Sequence[Scalar],
+    pivots: Sequence[tuple[int, int]],
+) -> tuple[list[Scalar], Scalar, list[Scalar], Scalar]:
     """``Gamma = H_z + Jp^T (F_p + sum wrench_i)`` (eq. 31)."""
     F = list(F_p)
     for wr in wrenches:
@@ -454,7 +480,16 @@ def _idm_closure(rows, wrenches, Hz, F_p, pivots):
 _UPPER6 = [(i, j) for i in range(6) for j in range(i, 6)]
 
 
-def _ddm_leg(c, k, p, R, v, w, gamma_k, P):
+def _ddm_leg(
+    c: ModelConstants,
+    k: int,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    gamma_k: Scalar,
+    P: dict[str, Scalar],
+) -> dict[str, list[Scalar]]:
     g = _leg_geometry(c, k, p, R)
     wL = _cross(w, g.L)
     V3 = _to_frame3(g, _add(v, wL))
@@ -496,19 +531,21 @@ def _ddm_leg(c, k, p, R, v, w, gamma_k, P):
     }
 
 
-def _ddm_platform(R, w, Pp, gravity: np.ndarray):
+def _ddm_platform(
+    R: Mat, w: Vec, Pp: Sequence[Scalar], gravity: np.ndarray
+) -> tuple[list[Scalar], list[Scalar]]:
     """``Ip`` (upper triangle, 21) and ``h_p`` (eq. 24-29 at zero acceleration), F0."""
     M, MS = Pp[9], list(Pp[6:9])
     g = [float(x) for x in gravity]
     MS0 = _matvec(R, MS)
     I = _inertia(Pp)
     RI = [[sum(R[i][m] * I[m][j] for m in range(3)) for j in range(3)] for i in range(3)]
-    I0 = [[None] * 3 for _ in range(3)]
+    I0: Mat = [[None] * 3 for _ in range(3)]
     for i in range(3):
         for j in range(i, 3):
             I0[i][j] = I0[j][i] = RI[i][0] * R[j][0] + RI[i][1] * R[j][1] + RI[i][2] * R[j][2]
     S = [[0.0, -MS0[2], MS0[1]], [MS0[2], 0.0, -MS0[0]], [-MS0[1], MS0[0], 0.0]]
-    Ip = [[None] * 6 for _ in range(6)]
+    Ip: Mat = [[None] * 6 for _ in range(6)]
     for i in range(3):
         for j in range(3):
             Ip[i][j] = M if i == j else 0.0
@@ -549,7 +586,13 @@ def _ldlt_solve(A: list[list[Scalar]], b: list[Scalar]) -> tuple[list[Scalar], l
     return x, D
 
 
-def _ddm_closure(rows, blocks, wrenches, Ip, hp):
+def _ddm_closure(
+    rows: Sequence[Sequence[Scalar]],
+    blocks: Sequence[Sequence[Scalar]],
+    wrenches: Sequence[Sequence[Scalar]],
+    Ip: Sequence[Scalar],
+    hp: Sequence[Scalar],
+) -> tuple[list[Scalar], list[Scalar]]:
     """``A_robot Vdot = Jp^-T Gamma - h_robot`` (eq. 35-37) by ``L D L^T``."""
     Au = list(Ip)
     for bl in blocks:
@@ -624,7 +667,9 @@ def _chi_values(c: ModelConstants, chi: cs.SX, parameters: str) -> list[Scalar]:
     raise InputError(f"parameters must be 'base', 'essential' or 'numeric', got {parameters!r}")
 
 
-def _function(name: str, inputs: list[tuple[str, cs.SX]], outputs: list[tuple[str, list]]):
+def _function(
+    name: str, inputs: list[tuple[str, cs.SX]], outputs: list[tuple[str, list[Scalar]]]
+) -> cs.Function:
     outs = [
         cs.vertcat(*[cs.SX(x) if not isinstance(x, cs.SX) else x for x in o]) for _, o in outputs
     ]
@@ -710,10 +755,10 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     )
 
     # ---- stages (fresh symbols at each interface)
-    def chi_of(s):
-        return _chi_values(c, cs.vertcat(*s), parameters)
+    def chi_of(s: Sequence[Scalar]) -> list[Scalar]:
+        return _chi_values(c, _column(s), parameters)
 
-    def leg_params(s, k):
+    def leg_params(s: Sequence[Scalar], k: int) -> dict[str, Scalar]:
         return _leg_parameters(chi_of(s), names, k)
 
     idm_stages = Stages(
@@ -731,7 +776,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 lambda ps, t, Kf, vg, s, k=k: _idm_leg(
                     c,
                     k,
-                    *pose_from_input(cs.vertcat(*ps), pose),
+                    *pose_from_input(_column(ps), pose),
                     t[:3],
                     t[3:],
                     _mat3(Kf),
@@ -753,7 +798,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             ],
             lambda ps, t, a, Kf, vg, s: {
                 "F_p": _idm_platform(
-                    pose_from_input(cs.vertcat(*ps), pose)[1],
+                    pose_from_input(_column(ps), pose)[1],
                     t[3:],
                     a[3:],
                     vg,
@@ -785,7 +830,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 lambda ps, t, gk, s, k=k: _ddm_leg(
                     c,
                     k,
-                    *pose_from_input(cs.vertcat(*ps), pose),
+                    *pose_from_input(_column(ps), pose),
                     t[:3],
                     t[3:],
                     gk[0],
@@ -801,7 +846,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 zip(
                     ("Ip", "hp"),
                     _ddm_platform(
-                        pose_from_input(cs.vertcat(*ps), pose)[1],
+                        pose_from_input(_column(ps), pose)[1],
                         t[3:],
                         _platform_parameters(chi_of(s), names),
                         c.gravity,
@@ -829,7 +874,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     )
 
 
-def _flat_shared(KV):
+def _flat_shared(KV: tuple[Mat, Vec]) -> tuple[list[Scalar], Vec]:
     K, vdg = KV
     return [x for r in K for x in r], vdg
 

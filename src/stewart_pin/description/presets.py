@@ -43,7 +43,9 @@ def _symmetric_geometry(rb: float, rp: float, db: float, dp: float) -> tuple[np.
     return B, P
 
 
-def _cylinder_link(mass: float, radius: float, length: float, axis: np.ndarray, start: float):
+def _cylinder_link(
+    mass: float, radius: float, length: float, axis: np.ndarray, start: float
+) -> np.ndarray:
     """Khalil parameters of a solid cylinder along ``axis`` (unit, in the link frame) whose
     centre is at ``(start + length / 2) * axis``."""
     axial = 0.5 * mass * radius**2

@@ -29,11 +29,11 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import (
-    _is_se3,
-    _ndim,
     check_array,
     check_pose,
     decode_utf8,
+    is_se3,
+    nested_ndim,
     project_rotation,
 )
 from stewart_pin._io import write_text_atomic
@@ -102,7 +102,9 @@ class RobotDescription:
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
     u_joint_limits: np.ndarray | None = None
     name: str = "stewart"
-    home_pose: np.ndarray | None = None
+    # None (or a pin.SE3) is accepted at construction; __post_init__ stores the 4x4 (the
+    # upright pose when None), so the attribute is always a pose.
+    home_pose: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
@@ -127,7 +129,7 @@ class RobotDescription:
                 set_(key, check_array(getattr(self, key), shape, key))
             if self.u_joint_limits is not None:
                 key = "u_joint_limits"
-                one = _ndim(self.u_joint_limits) == 2  # one (2, 2) for every leg
+                one = nested_ndim(self.u_joint_limits) == 2  # one (2, 2) for every leg
                 try:
                     lim = check_array(self.u_joint_limits, (2, 2) if one else (6, 2, 2), key)
                 except InputError as e:
@@ -135,7 +137,9 @@ class RobotDescription:
                 set_(key, np.broadcast_to(lim, (6, 2, 2)))
             if self.home_pose is not None:
                 key = "home_pose"
-                pose = self.home_pose.homogeneous if _is_se3(self.home_pose) else self.home_pose
+                pose: Any = self.home_pose
+                if is_se3(pose):
+                    pose = pose.homogeneous
                 T = check_array(pose, (4, 4), key).copy()
                 T[:3, :3] = project_rotation(T[:3, :3], "home_pose rotation block", stacklevel=4)
                 set_(key, check_pose(T, key))
@@ -454,7 +458,7 @@ def leg_base_rotation_from_axis(axis: Any, leg_direction: Any) -> np.ndarray:
         raise InputError("the U-joint axis must be non-zero")
     z = z / np.linalg.norm(z)
     x = x - (x @ z) * z
-    if np.linalg.norm(x) < 1e-9 * max(1.0, np.linalg.norm(leg_direction)):
+    if np.linalg.norm(x) < 1e-9 * max(1.0, float(np.linalg.norm(leg_direction))):
         raise InputError("leg_direction is parallel to the U-joint axis: that leg is singular")
     x = x / np.linalg.norm(x)
     return np.column_stack([x, np.cross(z, x), z])

@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from stewart_pin._typing import Accels, FloatArray, Forces, Poses, Twists
 from stewart_pin._vector import cross, skew
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import inertia_tensor
@@ -31,7 +32,7 @@ IDM_OUTPUT = "inverse dynamics Gamma"
 DDM_OUTPUT = "direct dynamics acceleration"
 
 
-def check_finite(value: np.ndarray, output: str) -> np.ndarray:
+def check_finite(value: FloatArray, output: str) -> FloatArray:
     """``value`` (a batch, leading axis N) when every entry is finite, else
     :class:`NumericalError` naming ``output`` and the first non-finite state.
 
@@ -55,11 +56,11 @@ class PlatformTerms:
         bias: (N, 6), ``[w x (w x MS); w x (I w)] - [M g; MS x g]``.
     """
 
-    inertia: np.ndarray
-    bias: np.ndarray
+    inertia: FloatArray
+    bias: FloatArray
 
 
-def platform_terms(desc: RobotDescription, poses: np.ndarray, twists: np.ndarray) -> PlatformTerms:
+def platform_terms(desc: RobotDescription, poses: Poses, twists: Twists) -> PlatformTerms:
     """Rotate the platform's parameters into F0 and form ``Ip`` and its bias (eq. 24-29)."""
     R = poses[:, :3, :3]
     p = desc.platform_inertia
@@ -84,8 +85,8 @@ def platform_terms(desc: RobotDescription, poses: np.ndarray, twists: np.ndarray
 
 
 def platform_energy(
-    desc: RobotDescription, poses: np.ndarray, twists: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+    desc: RobotDescription, poses: Poses, twists: Twists
+) -> tuple[FloatArray, FloatArray]:
     """Kinetic and potential energy of the platform, each (N,) [J]:
     ``1/2 (M v.v + w.I w) + v.(w x MS)`` and ``-g.(M p + MS)`` (zero at F0's origin)."""
     p = desc.platform_inertia
@@ -99,14 +100,15 @@ def platform_energy(
     return kinetic, potential
 
 
-def _wrench_at_origin(force: np.ndarray, L: np.ndarray) -> np.ndarray:
+def _wrench_at_origin(force: FloatArray, L: FloatArray) -> FloatArray:
     """``sum_i [f_i; L_i x f_i]``: forces (N, 6, 3) at P_i as one wrench (N, 6) about O_p."""
     return np.concatenate([force.sum(axis=1), cross(L, force).sum(axis=1)], axis=-1)
 
 
-def _transpose_solve(J_inv: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+def _transpose_solve(J_inv: FloatArray, wrench: FloatArray) -> FloatArray:
     """``Jp^T wrench = (Jp^-1)^-T wrench`` for batches."""
-    return np.linalg.solve(np.swapaxes(J_inv, 1, 2), wrench[..., None])[..., 0]
+    x = np.linalg.solve(np.swapaxes(J_inv, 1, 2), wrench[..., None])[..., 0]
+    return np.asarray(x, dtype=np.float64)  # float64 for the type checker
 
 
 @dataclass(frozen=True)
@@ -129,24 +131,24 @@ class InverseDynamicsResult:
     that the plain model (``gamma`` only) does not pay for them.
     """
 
-    gamma: np.ndarray
-    H: np.ndarray
-    H_x: np.ndarray
-    F_p: np.ndarray
-    F_leg: np.ndarray
-    J_inv: np.ndarray
+    gamma: FloatArray
+    H: FloatArray
+    H_x: FloatArray
+    F_p: FloatArray
+    F_leg: FloatArray
+    J_inv: FloatArray
     legs: LegState
 
     @cached_property
-    def leg_forces(self) -> np.ndarray:
+    def leg_forces(self) -> FloatArray:
         return -self.H_x + self.legs.frames.a * self.gamma[..., None]
 
     @cached_property
-    def platform_share(self) -> np.ndarray:
+    def platform_share(self) -> FloatArray:
         return _transpose_solve(self.J_inv, self.F_p)
 
     @cached_property
-    def leg_shares(self) -> np.ndarray:
+    def leg_shares(self) -> FloatArray:
         per_leg = np.concatenate([self.H_x, cross(self.legs.L, self.H_x)], axis=-1)
         J_T = np.swapaxes(self.J_inv, 1, 2)[:, None]
         return np.linalg.solve(J_T, per_leg[..., None])[..., 0]
@@ -155,9 +157,9 @@ class InverseDynamicsResult:
 def inverse_dynamics(
     desc: RobotDescription,
     legs_dyn: LegDynamics,
-    poses: np.ndarray,
-    twists: np.ndarray,
-    accels: np.ndarray,
+    poses: Poses,
+    twists: Twists,
+    accels: Accels,
     max_condition: float,
 ) -> InverseDynamicsResult:
     """``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) with every intermediate term.
@@ -166,6 +168,7 @@ def inverse_dynamics(
     legs = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
+    assert legs.qddot is not None  # accels given
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
     H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)  # J_3i^-T H_i
     plat = platform_terms(desc, poses, twists)
@@ -187,18 +190,18 @@ class CartesianDynamics:
         h_x: (N, 6, 3) each leg's Cartesian bias ``J_3i^-T h_i``.
     """
 
-    A_robot: np.ndarray
-    h_robot: np.ndarray
-    J_inv: np.ndarray
-    A_x: np.ndarray
-    h_x: np.ndarray
+    A_robot: FloatArray
+    h_robot: FloatArray
+    J_inv: FloatArray
+    A_x: FloatArray
+    h_x: FloatArray
 
 
 def cartesian_dynamics(
     desc: RobotDescription,
     legs_dyn: LegDynamics,
-    poses: np.ndarray,
-    twists: np.ndarray,
+    poses: Poses,
+    twists: Twists,
     max_condition: float,
 ) -> CartesianDynamics:
     """``A_robot`` and ``h_robot`` (eq. 36-37)."""
@@ -231,11 +234,11 @@ def cartesian_dynamics(
 def direct_dynamics(
     desc: RobotDescription,
     legs_dyn: LegDynamics,
-    poses: np.ndarray,
-    twists: np.ndarray,
-    gammas: np.ndarray,
+    poses: Poses,
+    twists: Twists,
+    gammas: Forces,
     max_condition: float,
-) -> tuple[np.ndarray, CartesianDynamics]:
+) -> tuple[FloatArray, CartesianDynamics]:
     """``Vdot_p = A_robot^-1 (Jp^-T Gamma - h_robot)`` (eq. 35) by Cholesky, classical, F0.
 
     Raises :class:`NumericalError` when ``A_robot`` or the acceleration is not finite."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._typing import FloatArray, JointValues
 from stewart_pin.description import RobotDescription
 from stewart_pin.models.pinocchio_models import build_legs_model
 
@@ -27,47 +28,50 @@ class LegDynamics:
         self.data = self.model.createData()
         # Revolute and prismatic joints have nq == nv, so q and v share the index.
         self.index = v_index.ravel()
-        self._blocks = v_index  # (6, 3)
+        self.blocks = v_index  # (6, 3): velocity index of each leg joint
 
-    def _pack(self, x: np.ndarray) -> np.ndarray:
+    def pack(self, x: FloatArray) -> FloatArray:
+        """Leg values (6, 3) -> the legs model's configuration or velocity vector (18,)."""
         out = np.empty(18)
         out[self.index] = x.ravel()
         return out
 
-    def _unpack(self, x: np.ndarray) -> np.ndarray:
+    def _unpack(self, x: FloatArray) -> FloatArray:
         return x[self.index].reshape(6, 3)
 
-    def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+    def inverse_dynamics(
+        self, q: JointValues, qdot: JointValues, qddot: JointValues
+    ) -> FloatArray:
         """``H_i = A_i qddot_i + h_i`` (N, 6, 3) [N m for q1, q2; N for q3] by RNEA."""
         m, d = self.model, self.data
         out = np.empty(q.shape)
         for n in range(q.shape[0]):
-            tau = pin.rnea(m, d, self._pack(q[n]), self._pack(qdot[n]), self._pack(qddot[n]))
+            tau = pin.rnea(m, d, self.pack(q[n]), self.pack(qdot[n]), self.pack(qddot[n]))
             out[n] = self._unpack(tau)
         return out
 
-    def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def mass_and_bias(self, q: JointValues, qdot: JointValues) -> tuple[FloatArray, FloatArray]:
         """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA and the nonlinear effects (Coriolis,
         centrifugal, gravity)."""
         m, d = self.model, self.data
         A = np.empty((*q.shape, 3))
         h = np.empty(q.shape)
-        rows = self._blocks[:, :, None]
-        cols = self._blocks[:, None, :]
+        rows = self.blocks[:, :, None]
+        cols = self.blocks[:, None, :]
         for n in range(q.shape[0]):
-            qn, vn = self._pack(q[n]), self._pack(qdot[n])
+            qn, vn = self.pack(q[n]), self.pack(qdot[n])
             M = pin.crba(m, d, qn)
             A[n] = M[rows, cols]
             h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
         return A, h
 
-    def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def energy(self, q: JointValues, qdot: JointValues) -> tuple[FloatArray, FloatArray]:
         """Kinetic and potential energy of the six legs together, each (N,) [J]; the
         potential is zero with every link's centre of mass at the origin of F0."""
         m, d = self.model, self.data
         kinetic, potential = np.empty(q.shape[0]), np.empty(q.shape[0])
         for n in range(q.shape[0]):
-            qn = self._pack(q[n])
-            kinetic[n] = pin.computeKineticEnergy(m, d, qn, self._pack(qdot[n]))
+            qn = self.pack(q[n])
+            kinetic[n] = pin.computeKineticEnergy(m, d, qn, self.pack(qdot[n]))
             potential[n] = pin.computePotentialEnergy(m, d, qn)
         return kinetic, potential

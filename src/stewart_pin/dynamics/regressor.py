@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._typing import Accels, FloatArray, JointValues, Poses, Twists
 from stewart_pin._vector import cross
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
@@ -33,18 +34,18 @@ STANDARD_NAMES: tuple[str, ...] = tuple(
 )
 
 
-def standard_parameters(desc: RobotDescription) -> np.ndarray:
+def standard_parameters(desc: RobotDescription) -> FloatArray:
     """The 190 standard parameters ``chi`` of a description, in the regressor's order."""
     return np.concatenate([desc.leg_inertia.reshape(-1), desc.platform_inertia])
 
 
-def with_standard_parameters(desc: RobotDescription, chi: np.ndarray) -> RobotDescription:
+def with_standard_parameters(desc: RobotDescription, chi: FloatArray) -> RobotDescription:
     """A copy of ``desc`` with its 190 inertial parameters replaced by ``chi`` (validated)."""
     chi = np.asarray(chi, dtype=float)
     return desc.replace(leg_inertia=chi[:180].reshape(6, 3, 10), platform_inertia=chi[180:])
 
 
-def _leg_columns(legs: LegDynamics) -> np.ndarray:
+def _leg_columns(legs: LegDynamics) -> FloatArray:
     """(6, 3, 10) columns of each leg body in Pinocchio's joint-torque regressor, permuted
     to Khalil's order."""
     model = legs.model
@@ -57,24 +58,24 @@ def _leg_columns(legs: LegDynamics) -> np.ndarray:
 
 
 def leg_regressors(
-    legs: LegDynamics, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray
-) -> np.ndarray:
+    legs: LegDynamics, q: JointValues, qd: JointValues, qdd: JointValues
+) -> FloatArray:
     """``Y_i`` with ``H_i = Y_i chi_i``: shape (N, 6, 3, 30), Khalil order, links 1..3."""
     cols = _leg_columns(legs).reshape(6, 30)
-    rows = legs._blocks  # (6, 3) velocity index of each leg joint
+    rows = legs.blocks  # (6, 3) velocity index of each leg joint
     out = np.empty((*q.shape, 30))
     m, d = legs.model, legs.data
     for n in range(q.shape[0]):
         Y = pin.computeJointTorqueRegressor(
-            m, d, legs._pack(q[n]), legs._pack(qd[n]), legs._pack(qdd[n])
+            m, d, legs.pack(q[n]), legs.pack(qd[n]), legs.pack(qdd[n])
         )
         out[n] = Y[rows[:, :, None], cols[:, None, :]]
     return out
 
 
 def platform_regressor(
-    desc: RobotDescription, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
-) -> np.ndarray:
+    desc: RobotDescription, poses: Poses, twists: Twists, accels: Accels
+) -> FloatArray:
     """``Y_p`` with ``F_p = Y_p chi_p`` (eq. 24): shape (N, 6, 10), wrench in F0 about O_p."""
     out = np.empty((poses.shape[0], 6, 10))
     for n in range(poses.shape[0]):
@@ -92,16 +93,17 @@ def platform_regressor(
 def regressor_batch(
     desc: RobotDescription,
     legs: LegDynamics,
-    poses: np.ndarray,
-    twists: np.ndarray,
-    accels: np.ndarray,
+    poses: Poses,
+    twists: Twists,
+    accels: Accels,
     max_condition: float,
-) -> np.ndarray:
+) -> FloatArray:
     """``W`` for validated batches: shape (N, 6, 190); :class:`NumericalError` when not
     finite."""
     state = leg_state(desc, poses, twists, accels)
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
+    assert state.qddot is not None  # accels given
     Y = leg_regressors(legs, state.q, state.qdot, state.qddot)  # (N, 6, 3, 30)
     Yx = np.einsum("nkji,nkjc->nkic", state.J_inv, Y)  # J_3i^-T Y_i at P_i, (N, 6, 3, 30)
     L = state.L[..., None, :]  # (N, 6, 1, 3)
@@ -111,4 +113,5 @@ def regressor_batch(
     F = np.empty((N, 6, N_STANDARD))
     F[:, :, :180] = np.moveaxis(wrench, 1, 2).reshape(N, 6, 180)
     F[:, :, 180:] = platform_regressor(desc, poses, twists, accels)
-    return check_finite(np.linalg.solve(np.swapaxes(J_inv, 1, 2), F), "regressor W")
+    W = np.asarray(np.linalg.solve(np.swapaxes(J_inv, 1, 2), F), dtype=np.float64)
+    return check_finite(W, "regressor W")

@@ -74,7 +74,9 @@ def state_table(
     return np.column_stack([times, poses[:, :3, 3], quat, twists, accels])
 
 
-def states_from_table(rows: np.ndarray) -> tuple[np.ndarray, ...]:
+def states_from_table(
+    rows: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(times, poses (N, 4, 4), twists, accels)`` from rows whose first 20 columns are
     :data:`STATE_COLUMNS` (quaternions already checked to be unit within tolerance)."""
     quat = rows[:, 4:8]
@@ -277,8 +279,8 @@ def read_npz(path: str | Path, shapes: Mapping[str, tuple[int | None, ...]]) -> 
                     )
         a = a.astype(np.float64)
         if not np.all(np.isfinite(a)):
-            bad = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
-            raise FileFormatError(f"{path}: array '{key}' holds {a[bad]} at index {bad}")
+            where = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+            raise FileFormatError(f"{path}: array '{key}' holds {a[where]} at index {where}")
         out[key] = a
     if count is not None and count[0] < 1:
         raise FileFormatError(f"{path}: no samples (at least one needed)")

@@ -312,7 +312,9 @@ def _inertial(body: ET.Element, params: np.ndarray) -> None:
     ET.SubElement(body, "inertial", pos=_vec(com), mass=_num(mass), fullinertia=_vec(full))
 
 
-def _geom(body: ET.Element, kind: str, rgba: str, size: Any, pos: Any = None, R: Any = None):
+def _geom(
+    body: ET.Element, kind: str, rgba: str, size: Any, pos: Any = None, R: Any = None
+) -> None:
     attrs = {"type": kind, "size": _vec(size)}
     if pos is not None:
         attrs["pos"] = _vec(pos)
@@ -322,7 +324,7 @@ def _geom(body: ET.Element, kind: str, rgba: str, size: Any, pos: Any = None, R:
     ET.SubElement(body, "geom", attrs)
 
 
-def _plate(body: ET.Element, points: np.ndarray, vs: VisualSizes, sign: float, rgba: str):
+def _plate(body: ET.Element, points: np.ndarray, vs: VisualSizes, sign: float, rgba: str) -> None:
     xyz, rpy, radius, length = plate_visual(points, vs, sign)
     _geom(body, "cylinder", rgba, (radius, length / 2), xyz, pin.rpy.rpyToMatrix(rpy))
 

@@ -83,15 +83,31 @@ def _inertial(link: ET.Element, params: np.ndarray) -> None:
     )
 
 
-def _visual(link: ET.Element, geometry: str, material: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **size):
+def _visual(
+    link: ET.Element,
+    geometry: str,
+    material: str,
+    xyz: Any = (0, 0, 0),
+    rpy: Any = (0, 0, 0),
+    **size: float,
+) -> None:
     el = ET.SubElement(link, "visual")
     _origin(el, xyz, rpy)
     geom = ET.SubElement(el, "geometry")
-    ET.SubElement(geom, geometry, **{k: _num(v) for k, v in size.items()})
+    ET.SubElement(geom, geometry, {k: _num(v) for k, v in size.items()})
     ET.SubElement(el, "material", name=material)
 
 
-def _joint(robot, name, kind, parent, child, xyz=(0, 0, 0), rpy=(0, 0, 0), limits=None):
+def _joint(
+    robot: ET.Element,
+    name: str,
+    kind: str,
+    parent: str,
+    child: str,
+    xyz: Any = (0, 0, 0),
+    rpy: Any = (0, 0, 0),
+    limits: Any = None,
+) -> ET.Element:
     el = ET.SubElement(robot, "joint", name=name, type=kind)
     ET.SubElement(el, "parent", link=parent)
     ET.SubElement(el, "child", link=child)

@@ -1,16 +1,17 @@
 """Platform state -> leg states: geometry and kinematics of the closed loop.
 
 :mod:`.geometry` holds the inverse geometry (leg vectors, lengths and joint values from a
-pose 0Tp, with the stroke and joint-limit checks) and the forward geometry (Newton on
-SE(3) from the actuator lengths); :mod:`.jacobians` the first and second order: Jp^-1
-(eq. 13), each leg's J_3i and its drift, the unit-free singularity measure and its
-check; :mod:`.workspace` samples reachable poses and states.
+pose 0Tp, with the stroke and joint-limit checks); :mod:`.forward_geometry` the forward
+geometry (Newton on SE(3) from the actuator lengths, using the Jacobian); :mod:`.jacobians`
+the first and second order: Jp^-1 (eq. 13), each leg's J_3i and its drift, the unit-free
+singularity measure and its check; :mod:`.workspace` samples reachable poses and states.
 
 Reads a :class:`~stewart_pin.description.RobotDescription`; knows no Pinocchio model
 and no dynamics.
 """
 
-from .geometry import forward_geometry, inverse_geometry, inverse_geometry_batch, leg_lengths
+from .forward_geometry import forward_geometry
+from .geometry import inverse_geometry, inverse_geometry_batch, leg_lengths
 from .jacobians import (
     MAX_CONDITION,
     LegState,

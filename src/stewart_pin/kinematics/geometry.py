@@ -1,4 +1,4 @@
-"""Inverse and forward geometric models (paper section II).
+"""Inverse geometric model (paper section II); the forward one is in :mod:`.forward_geometry`.
 
 Every function works on batches: poses ``(N, 4, 4)`` give leg values ``(N, 6, 3)``.
 
@@ -12,15 +12,12 @@ branch, used throughout, has ``q2i`` in ``(0, pi)`` and ``q1i`` in ``(-pi, pi]``
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
-import pinocchio as pin
 
-from stewart_pin._checks import check_array, check_pose, check_poses, check_scalar
+from stewart_pin._checks import check_poses
+from stewart_pin._typing import ArrayLike, FloatArray, JointValues, Poses
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import (
-    ConvergenceError,
     JointLimitError,
     SingularityError,
     StrokeLimitError,
@@ -38,9 +35,6 @@ LEG_SINGULARITY_SIN = 2e-2
 #: coincide and its joint rates grow like ``1 / q3``; the backends agree to 2e-12 at 5 %,
 #: 6e-11 at 2 %, 2e-9 at 1 % and 1e-5 at 0.1 % (same sweeps).
 LEG_MIN_LENGTH_RATIO = 5e-2
-#: Forward geometry: leg-length tolerance [m] and iteration cap of Newton-Raphson.
-FORWARD_TOLERANCE = 1e-12
-FORWARD_MAX_ITERATIONS = 50
 
 
 def characteristic_length(desc: RobotDescription) -> float:
@@ -57,20 +51,20 @@ def characteristic_length(desc: RobotDescription) -> float:
     return radius if radius > 0.0 else max(float(desc.size), np.finfo(float).tiny)
 
 
-def platform_points_in_base(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+def platform_points_in_base(desc: RobotDescription, poses: Poses) -> FloatArray:
     """``P_i`` in F0 for a batch of poses: shape (N, 6, 3) [m]."""
     R, p = poses[:, :3, :3], poses[:, :3, 3]
     return np.einsum("nij,kj->nki", R, desc.platform_points) + p[:, None, :]
 
 
-def leg_vectors(desc: RobotDescription, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def leg_vectors(desc: RobotDescription, poses: Poses) -> tuple[FloatArray, FloatArray]:
     """``(B_i P_i, L_i = O_p P_i)`` in F0, each shape (N, 6, 3) [m]."""
     R = poses[:, :3, :3]
     L = np.einsum("nij,kj->nki", R, desc.platform_points)
     return L + poses[:, None, :3, 3] - desc.base_points, L
 
 
-def leg_lengths(desc: RobotDescription, poses: Any) -> np.ndarray:
+def leg_lengths(desc: RobotDescription, poses: ArrayLike) -> FloatArray:
     """Leg lengths ``q3i = |B_i P_i|`` [m], shape (6,) or (N, 6)."""
     T, batched = check_poses(poses)
     lengths = np.linalg.norm(leg_vectors(desc, T)[0], axis=-1)
@@ -78,8 +72,8 @@ def leg_lengths(desc: RobotDescription, poses: Any) -> np.ndarray:
 
 
 def inverse_geometry_batch(
-    desc: RobotDescription, poses: np.ndarray, check_limits: bool = True
-) -> np.ndarray:
+    desc: RobotDescription, poses: Poses, check_limits: bool = True
+) -> FloatArray:
     """The 18 leg joint values for validated poses ``(N, 4, 4)``: shape (N, 6, 3).
 
     Raises:
@@ -123,7 +117,7 @@ def inverse_geometry_batch(
     return q
 
 
-def check_leg_limits(desc: RobotDescription, q: np.ndarray) -> None:
+def check_leg_limits(desc: RobotDescription, q: JointValues) -> None:
     """Raise :class:`StrokeLimitError` / :class:`JointLimitError` for leg values (N, 6, 3)."""
     lo, hi = desc.stroke
     bad = (q[..., 2] < lo) | (q[..., 2] > hi)
@@ -141,7 +135,9 @@ def check_leg_limits(desc: RobotDescription, q: np.ndarray) -> None:
                 )
 
 
-def inverse_geometry(desc: RobotDescription, pose: Any, check_limits: bool = True) -> np.ndarray:
+def inverse_geometry(
+    desc: RobotDescription, pose: ArrayLike, check_limits: bool = True
+) -> FloatArray:
     """Leg joint values for one pose (4x4 or ``pin.SE3``) -> (6, 3), or a batch -> (N, 6, 3).
 
     Columns ``q1i, q2i`` [rad] (default U-joint branch) and ``q3i`` [m].
@@ -149,63 +145,3 @@ def inverse_geometry(desc: RobotDescription, pose: Any, check_limits: bool = Tru
     T, batched = check_poses(pose)
     q = inverse_geometry_batch(desc, T, check_limits)
     return q if batched else q[0]
-
-
-def forward_geometry(
-    desc: RobotDescription,
-    lengths: Any,
-    guess: Any = None,
-    tol: float = FORWARD_TOLERANCE,
-    max_iterations: int = FORWARD_MAX_ITERATIONS,
-) -> np.ndarray:
-    """The platform pose 0Tp (4x4) whose leg lengths are ``lengths`` (shape (6,) [m]).
-
-    Newton-Raphson on the closure equations ``|B_i P_i(T)| = lengths_i``: the correction
-    twist ``dV`` solves ``Jp^-1 dV = lengths - |B_i P_i|``, applied as ``p += dv``,
-    ``R <- exp(dw) R`` (on SE(3), no drift off the manifold). It starts from ``guess``
-    (default: the description's home pose) and stops when every leg length is within
-    ``tol`` [m], raising :class:`ConvergenceError` after ``max_iterations``.
-
-    Raises:
-        StrokeLimitError: a requested length outside the stroke.
-        ConvergenceError: no convergence (the lengths may be unassemblable from the guess).
-        SingularityError: the iteration met a singular configuration.
-    """
-    from stewart_pin.kinematics.jacobians import (
-        inverse_jacobian_batch,  # kinematics imports this module
-    )
-
-    tol = check_scalar(tol, "tol", positive=True, unit="m")
-    max_iterations = int(
-        check_scalar(max_iterations, "max_iterations", integer=True, nonnegative=True)
-    )
-    target = check_array(lengths, (6,), "lengths")
-    lo, hi = desc.stroke
-    for k, value in enumerate(target):
-        if not lo <= value <= hi:
-            raise StrokeLimitError(k + 1, float(value), float(lo), float(hi))
-    T = check_pose(desc.home_pose if guess is None else guess, "guess").copy()
-    residual = np.inf
-    for iteration in range(max_iterations + 1):
-        d, _ = leg_vectors(desc, T[None])
-        error = target - np.linalg.norm(d[0], axis=-1)
-        residual = float(np.abs(error).max())
-        if residual <= tol:
-            return T
-        if iteration == max_iterations:
-            break
-        J_inv = inverse_jacobian_batch(desc, T[None])[0]
-        try:
-            step = np.linalg.solve(J_inv, error)
-        except np.linalg.LinAlgError as e:
-            raise SingularityError(
-                f"forward geometry met a singular Jp^-1 at iteration {iteration}"
-            ) from e
-        T[:3, 3] += step[:3]
-        T[:3, :3] = pin.exp3(step[3:]) @ T[:3, :3]
-    raise ConvergenceError(
-        f"forward geometry did not converge in {max_iterations} iterations (largest leg-length "
-        f"error {residual:.3g} m > tol {tol:g} m); give a guess closer to the solution",
-        max_iterations,
-        residual,
-    )

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_batch, check_poses
+from stewart_pin._typing import Accels, ArrayLike, FloatArray, JointValues, Poses, Twists
 from stewart_pin._vector import cross
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import InputError, SingularityError
@@ -50,22 +51,22 @@ class LegFrames:
     of frame 3i (its x axis is ``a2``, z axis ``a``).
     """
 
-    a: np.ndarray
-    a1: np.ndarray
-    a2: np.ndarray
-    y3: np.ndarray
-    sin_q2: np.ndarray
-    cos_q2: np.ndarray
+    a: FloatArray
+    a1: FloatArray
+    a2: FloatArray
+    y3: FloatArray
+    sin_q2: FloatArray
+    cos_q2: FloatArray
 
 
-def leg_frames(desc: RobotDescription, q: np.ndarray) -> LegFrames:
+def leg_frames(desc: RobotDescription, q: JointValues) -> LegFrames:
     """Leg directions and derivatives from leg joint values (N, 6, 3)."""
     c1, s1 = np.cos(q[..., 0]), np.sin(q[..., 0])
     c2, s2 = np.cos(q[..., 1]), np.sin(q[..., 1])
     zero = np.zeros_like(c1)
     R1 = desc.leg_base_rotations
 
-    def to_base(u: np.ndarray) -> np.ndarray:
+    def to_base(u: FloatArray) -> FloatArray:
         return np.einsum("kij,nkj->nki", R1, u)
 
     return LegFrames(
@@ -78,36 +79,36 @@ def leg_frames(desc: RobotDescription, q: np.ndarray) -> LegFrames:
     )
 
 
-def leg_rotations(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
+def leg_rotations(desc: RobotDescription, q: JointValues) -> FloatArray:
     """Orientation of frame 3i in F0, shape (N, 6, 3, 3): columns ``[x3, y3, z3 = a]``."""
     f = leg_frames(desc, q)
     return np.stack([f.a2, f.y3, f.a], axis=-1)
 
 
-def leg_jacobians(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
+def leg_jacobians(desc: RobotDescription, q: JointValues) -> FloatArray:
     """``J_3i`` in F0: velocity of the leg tip P_i from ``qdot_i``, shape (N, 6, 3, 3)."""
     f = leg_frames(desc, q)
     q3 = q[..., 2, None]
     return np.stack([q3 * f.a1, q3 * f.a2, f.a], axis=-1)
 
 
-def leg_inverse_jacobians(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
+def leg_inverse_jacobians(desc: RobotDescription, q: JointValues) -> FloatArray:
     """``J_3i^-1`` in F0 (eq. 16-17): shape (N, 6, 3, 3). Singular when sin q2i or q3i is 0."""
     return _leg_inverse_jacobians(leg_frames(desc, q), q)
 
 
-def _leg_inverse_jacobians(f: LegFrames, q: np.ndarray) -> np.ndarray:
+def _leg_inverse_jacobians(f: LegFrames, q: JointValues) -> FloatArray:
     q3 = q[..., 2, None]
     return np.stack([f.a1 / (q3 * f.sin_q2[..., None] ** 2), f.a2 / q3, f.a], axis=-2)
 
 
-def leg_drift(desc: RobotDescription, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+def leg_drift(desc: RobotDescription, q: JointValues, qdot: JointValues) -> FloatArray:
     """``Jdot_3i qdot_i`` in F0: the classical acceleration of P_i at ``qddot_i = 0``,
     shape (N, 6, 3) [m/s^2]."""
     return _leg_drift(leg_frames(desc, q), q, qdot)
 
 
-def _leg_drift(f: LegFrames, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+def _leg_drift(f: LegFrames, q: JointValues, qd: JointValues) -> FloatArray:
     d1, d2, d3 = (qd[..., j, None] for j in range(3))
     q3 = q[..., 2, None]
     # Second derivatives of a, from a = R1 [c1 s2, s1 s2, -c2]:
@@ -122,14 +123,14 @@ def _leg_drift(f: LegFrames, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     )
 
 
-def inverse_jacobian_batch(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+def inverse_jacobian_batch(desc: RobotDescription, poses: Poses) -> FloatArray:
     """``Jp^-1`` (eq. 13) for validated poses (N, 4, 4): rows ``[a_i^T, (L_i x a_i)^T]``."""
     d, L = leg_vectors(desc, poses)
     a = d / np.linalg.norm(d, axis=-1, keepdims=True)
     return np.concatenate([a, cross(L, a)], axis=-1)
 
 
-def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
+def inverse_jacobian(desc: RobotDescription, pose: ArrayLike) -> FloatArray:
     """``Jp^-1``: actuator velocities ``qdot_a = Jp^-1 V_p`` [m/s] from the twist; (6, 6)
     for one pose, (N, 6, 6) for a batch. Its transpose maps leg forces to the platform
     wrench about O_p in F0."""
@@ -138,7 +139,7 @@ def inverse_jacobian(desc: RobotDescription, pose: Any) -> np.ndarray:
     return J if batched else J[0]
 
 
-def scaled_inverse_jacobian(J_inv: np.ndarray, length: float) -> np.ndarray:
+def scaled_inverse_jacobian(J_inv: FloatArray, length: float) -> FloatArray:
     """``Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)``: Jp^-1 (..., 6, 6) acting on the twist
     ``[v, w l]`` (the angular velocity times the characteristic length ``l`` [m],
     :func:`stewart_pin.kinematics.geometry.characteristic_length`), so that every entry is
@@ -148,13 +149,13 @@ def scaled_inverse_jacobian(J_inv: np.ndarray, length: float) -> np.ndarray:
     return S
 
 
-def condition_number_batch(desc: RobotDescription, poses: np.ndarray) -> np.ndarray:
+def condition_number_batch(desc: RobotDescription, poses: Poses) -> FloatArray:
     """The singularity measure (:func:`condition_number`) of validated poses (N, 4, 4): (N,)."""
     J = scaled_inverse_jacobian(inverse_jacobian_batch(desc, poses), characteristic_length(desc))
     return np.linalg.cond(J)
 
 
-def condition_number(desc: RobotDescription, pose: Any) -> np.ndarray | float:
+def condition_number(desc: RobotDescription, pose: ArrayLike) -> FloatArray | float:
     """The singularity measure: the 2-norm condition number of Jp^-1 with its angular
     columns divided by the robot's characteristic length (its platform radius,
     :func:`stewart_pin.kinematics.geometry.characteristic_length`), 1 when isotropic, infinite at a
@@ -169,7 +170,7 @@ def condition_number(desc: RobotDescription, pose: Any) -> np.ndarray | float:
     return c if batched else float(c[0])
 
 
-def check_condition(J_inv: np.ndarray, max_condition: float, desc: RobotDescription) -> np.ndarray:
+def check_condition(J_inv: FloatArray, max_condition: float, desc: RobotDescription) -> FloatArray:
     """Raise :class:`SingularityError` where the singularity measure (:func:`condition_number`)
     of ``J_inv`` (N, 6, 6), Jp^-1 of ``desc`` at N poses, exceeds ``max_condition``.
     Returns the measures (N,)."""
@@ -189,8 +190,8 @@ def check_condition(J_inv: np.ndarray, max_condition: float, desc: RobotDescript
 
 
 def jacobian(
-    desc: RobotDescription, pose: Any, max_condition: float = MAX_CONDITION
-) -> np.ndarray:
+    desc: RobotDescription, pose: ArrayLike, max_condition: float = MAX_CONDITION
+) -> FloatArray:
     """``Jp = (Jp^-1)^-1``: platform twist from actuator velocities; (6, 6) or (N, 6, 6).
 
     Raises :class:`SingularityError` past ``max_condition``.
@@ -198,7 +199,7 @@ def jacobian(
     T, batched = check_poses(pose)
     J_inv = inverse_jacobian_batch(desc, T)
     check_condition(J_inv, max_condition, desc)
-    J = np.linalg.inv(J_inv)
+    J = np.asarray(np.linalg.inv(J_inv), dtype=np.float64)  # float64 for the type checker
     return J if batched else J[0]
 
 
@@ -208,20 +209,20 @@ class LegState:
     dynamics needs: frames, Jacobians (N, 6, 3, 3), the drift ``Jdot qdot`` (N, 6, 3) and
     ``L_i`` (N, 6, 3), all in F0."""
 
-    q: np.ndarray
-    qdot: np.ndarray
-    qddot: np.ndarray | None
+    q: JointValues
+    qdot: JointValues
+    qddot: JointValues | None
     frames: LegFrames
-    J_inv: np.ndarray
-    drift: np.ndarray
-    L: np.ndarray
+    J_inv: FloatArray
+    drift: FloatArray
+    L: FloatArray
 
 
 def leg_state(
     desc: RobotDescription,
-    poses: np.ndarray,
-    twists: np.ndarray,
-    accels: np.ndarray | None = None,
+    poses: Poses,
+    twists: Twists,
+    accels: Accels | None = None,
     check_limits: bool = True,
 ) -> LegState:
     """First and second order inverse kinematics of the legs (eq. 14-19), validated inputs.
@@ -246,8 +247,8 @@ def leg_state(
 
 
 def leg_kinematics(
-    desc: RobotDescription, pose: Any, twist: Any, accel: Any | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    desc: RobotDescription, pose: ArrayLike, twist: Any, accel: Any | None = None
+) -> tuple[FloatArray, FloatArray, FloatArray | None]:
     """``(q, qdot, qddot)`` of the legs, each (6, 3) for one state or (N, 6, 3) for a batch.
 
     Args:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -81,7 +82,7 @@ def sample_states(
     rng: np.random.Generator | int | None = None,
     speed: float | None = None,
     angular_speed: float = 1.0,
-    **pose_kwargs,
+    **pose_kwargs: Any,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(poses (n,4,4), twists (n,6), accels (n,6))``: random reachable poses with twists
     and classical accelerations drawn uniformly (linear parts up to ``speed`` [m/s],

@@ -22,6 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_array
+from stewart_pin.protocols import RobotLike
 
 Reference = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
 
@@ -44,7 +45,7 @@ class ComputedTorqueController:
         backend: the inverse model's backend, ``"pinocchio"`` or ``"compiled"``.
     """
 
-    model: object
+    model: RobotLike
     reference: Reference
     kp: np.ndarray | float = (2 * np.pi * 10.0) ** 2
     kd: np.ndarray | float = 2 * (2 * np.pi * 10.0)

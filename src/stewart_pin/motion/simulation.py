@@ -64,6 +64,7 @@ from stewart_pin.formats.csv_tables import (
 )
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
+from stewart_pin.protocols import RobotLike
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
@@ -223,7 +224,7 @@ _SIGN_CHANGE = "det Jp^-1 changes sign"
 
 class _Integrator:
     def __init__(
-        self, robot: Any, forces: ForceFunction, control_period: float | None, backend: str
+        self, robot: RobotLike, forces: ForceFunction, control_period: float | None, backend: str
     ):
         self.robot, self.forces, self.period, self.backend = robot, forces, control_period, backend
         self.held: tuple[int, np.ndarray] | None = None
@@ -293,7 +294,9 @@ class _Integrator:
             raise
         return new, err
 
-    def _trial(self, s, h, t_new, method, rtol, atol):
+    def _trial(
+        self, s: _State, h: float, t_new: float, method: str, rtol: float, atol: float
+    ) -> tuple[_State | None, float]:
         k = self.period_index(s.t)
         y0 = _chart_state(s.T, s.V)
         if method == "rk4":
@@ -303,19 +306,19 @@ class _Integrator:
             y1 = y0 + h / 6 * (s.dy + 2 * k2 + 2 * k3 + k4)
             poses, err, last = np.array([T2, T3, T4, _chart_pose(s.T, y1)]), 0.0, None
         else:
-            K, poses = [s.dy], []
+            K, stages = [s.dy], []
             for c, a in zip(_DP_C[1:], _DP_A[1:], strict=True):
                 y = y0 + h * sum(ai * ki for ai, ki in zip(a, K, strict=False))
                 dy, g, T = self.f(s.t + c * h, s.T, y, k)
                 K.append(dy)
-                poses.append(T)
+                stages.append(T)
             y1 = y  # FSAL: the last stage is the fifth-order solution
             Ks = np.array(K)
             scale = atol + rtol * np.maximum(np.abs(y0), np.abs(y1))
             err = float(np.sqrt(np.mean((h * (_DP_E @ Ks) / scale) ** 2)))
             if not err <= 1.0:
                 return None, err
-            poses, last = np.array(poses), (K[-1], g)
+            poses, last = np.array(stages), (K[-1], g)
         signs = self.det_signs(poses)
         if np.any(signs != s.sign):
             n = int(np.argmax(signs != s.sign))
@@ -336,7 +339,7 @@ class _Integrator:
 
 
 def simulate(
-    robot: Any,
+    robot: RobotLike,
     duration: float,
     pose: Any = None,
     twist: Any = None,
@@ -429,7 +432,18 @@ def simulate(
 class _Run:
     """The stepping loop of :func:`simulate` (validated arguments)."""
 
-    def __init__(self, robot, integ, duration, method, dt, rtol, atol, output_dt, progress):
+    def __init__(
+        self,
+        robot: RobotLike,
+        integ: _Integrator,
+        duration: float,
+        method: str,
+        dt: float,
+        rtol: float,
+        atol: float,
+        output_dt: float | None,
+        progress: Callable[[float], None] | None,
+    ) -> None:
         self.robot, self.integ, self.duration, self.method = robot, integ, duration, method
         self.dt, self.rtol, self.atol, self.output_dt = dt, rtol, atol, output_dt
         self.progress = progress
@@ -487,6 +501,7 @@ class _Run:
     def _joint_margin(self, q: np.ndarray) -> tuple[float, str]:
         """The smallest distance [rad] of a U-joint angle to its limits, and which."""
         lim = self.robot.description.u_joint_limits
+        assert lim is not None  # called only for a robot with U-joint limits
         m = np.minimum(q[:, :2] - lim[:, :, 0], lim[:, :, 1] - q[:, :2])
         k, j = np.unravel_index(int(np.argmin(m)), m.shape)
         end = "lower" if q[k, j] - lim[k, j, 0] <= lim[k, j, 1] - q[k, j] else "upper"
@@ -547,6 +562,7 @@ class _Run:
             s = self.integ.state(0.0, T, V)
             self.record(s)
             self._loop(s)
+            assert self.last is not None  # _loop accepted s at least
             self.record(self.last, final=True)
         except _Located as done:
             raise done.error from done.error.__cause__

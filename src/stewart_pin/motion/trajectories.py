@@ -36,6 +36,7 @@ import numpy as np
 from stewart_pin._checks import check_array, check_pose, check_poses
 from stewart_pin._vector import cross, skew
 from stewart_pin.exceptions import InputError, SingularityError, WorkspaceError
+from stewart_pin.protocols import RobotLike
 
 #: Below this rotation angle [rad] the SO(3) coefficient functions use Taylor series.
 _SERIES_ANGLE = 0.1
@@ -237,7 +238,7 @@ class CoordinateMotion:
         """``(T, V, A)`` at one time ``t`` [s] (a controller's reference)."""
         return _at(self, t)
 
-    def check_workspace(self, robot: Any, n_samples: int = 500) -> Trajectory:
+    def check_workspace(self, robot: RobotLike, n_samples: int = 500) -> Trajectory:
         """Sample the whole motion and raise :class:`WorkspaceError` (stroke, U-joint
         limits) or :class:`SingularityError` at the first sample that leaves the
         workspace, naming its time; returns the samples when all are reachable."""
@@ -257,7 +258,7 @@ class CoordinateMotion:
         return traj
 
 
-def _first_bad(robot: Any, poses: np.ndarray) -> int:
+def _first_bad(robot: RobotLike, poses: np.ndarray) -> int:
     for n, T in enumerate(poses):
         try:
             robot.inverse_geometry(T)
@@ -467,7 +468,9 @@ def _left_jacobian_rate(
 MOTION_KINDS = ("sinusoid", "minimum-jerk", "washout")
 
 
-def standard_motion(robot: Any, kind: str = "sinusoid", duration: float = 2.0) -> CoordinateMotion:
+def standard_motion(
+    robot: RobotLike, kind: str = "sinusoid", duration: float = 2.0
+) -> CoordinateMotion:
     """A demonstration motion about the home pose, scaled on the robot's mid-stroke ``s``:
 
     - ``sinusoid``: multi-axis sinusoids (4 % of s, 3 deg, 0.4-0.9 Hz) for ``duration``;
@@ -479,9 +482,9 @@ def standard_motion(robot: Any, kind: str = "sinusoid", duration: float = 2.0) -
     if kind == "sinusoid":
         return Sinusoids(
             T0,
-            [0.04 * s, 0.035 * s, 0.03 * s, *np.radians([3.0, 2.5, 3.0])],
-            [0.5, 0.7, 0.9, 0.4, 0.6, 0.8],
-            [0.0, 1.0, 2.0, 0.5, 1.5, 2.5],
+            np.array([0.04 * s, 0.035 * s, 0.03 * s, *np.radians([3.0, 2.5, 3.0])]),
+            np.array([0.5, 0.7, 0.9, 0.4, 0.6, 0.8]),
+            np.array([0.0, 1.0, 2.0, 0.5, 1.5, 2.5]),
             duration,
         )
     if kind == "minimum-jerk":

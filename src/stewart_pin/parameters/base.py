@@ -32,7 +32,12 @@ import scipy.linalg
 
 from stewart_pin.description import RobotDescription
 from stewart_pin.dynamics.regressor import N_STANDARD, STANDARD_NAMES, standard_parameters
-from stewart_pin.exceptions import BaseParameterWarning, IdentificationError, InputError
+from stewart_pin.exceptions import (
+    BaseParameterWarning,
+    IdentificationError,
+    InputError,
+)
+from stewart_pin.protocols import RobotLike
 
 #: Default numerical rank tolerance, relative to the largest singular value of the stacked
 #: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`).
@@ -89,7 +94,7 @@ class BaseParameters:
     K: np.ndarray
     kept: np.ndarray
     values: np.ndarray
-    robot: Any = field(default=None, repr=False, compare=False)
+    robot: RobotLike | None = field(default=None, repr=False, compare=False)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -299,7 +304,7 @@ class RankReport:
         )
 
 
-def stacked_regressor(robot: Any, n_states: int = 60, seed: int = 0) -> np.ndarray:
+def stacked_regressor(robot: RobotLike, n_states: int = 60, seed: int = 0) -> np.ndarray:
     """``W`` stacked over ``n_states`` random workspace states: (6 n_states, 190)."""
     from stewart_pin.kinematics.workspace import sample_states
 
@@ -313,7 +318,7 @@ _LENGTH_POWERS = np.tile(np.array([2, 2, 2, 2, 2, 2, 1, 1, 1, 0]), N_STANDARD //
 
 
 def numerical_base_parameters(
-    robot: Any, n_states: int = 60, seed: int = 0, tolerance: float = RANK_TOLERANCE
+    robot: RobotLike, n_states: int = 60, seed: int = 0, tolerance: float = RANK_TOLERANCE
 ) -> tuple[BaseParameters, RankReport]:
     """Base parameters by QR with column pivoting of the stacked regressor.
 
@@ -386,7 +391,7 @@ def numerical_base_parameters(
     return BaseParameters(names, K, kept, K @ chi, robot), report
 
 
-def base_parameters(robot: Any, method: str = "analytic", **kwargs: Any) -> BaseParameters:
+def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -> BaseParameters:
     """The base parameters of ``robot`` (a :class:`~stewart_pin.StewartRobot`), bound to it.
 
     Args:
@@ -431,7 +436,7 @@ class EssentialParameters:
 
 
 def essential_parameters(
-    robot: Any,
+    robot: RobotLike,
     threshold: float = 0.01,
     n_states: int = 100,
     seed: int = 0,
@@ -484,7 +489,7 @@ PAPER_ESSENTIAL_PER_LEG = ("ZZ1R", "XX2R", "ZZ2R", "MY2", "MX3", "MY3", "MZ3")
 
 
 def paper_essential_parameters(
-    robot: Any, n_states: int = 100, seed: int = 0
+    robot: RobotLike, n_states: int = 100, seed: int = 0
 ) -> EssentialParameters:
     """The paper's 52 essential parameters (Table III), with the relative force error of
     keeping only them (zero to round-off for a robot meeting the paper's assumptions).

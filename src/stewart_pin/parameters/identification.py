@@ -46,18 +46,21 @@ from stewart_pin.kinematics.geometry import inverse_geometry_batch, leg_vectors
 from stewart_pin.kinematics.jacobians import condition_number_batch
 from stewart_pin.motion.trajectories import FourierTrajectory, Trajectory
 from stewart_pin.parameters.base import RANK_TOLERANCE, BaseParameters, base_parameters
+from stewart_pin.protocols import RobotLike
 
 # ====================================================================== exciting trajectories
 
 
-def _base_of(robot: Any, base: BaseParameters | None) -> BaseParameters:
+def _base_of(robot: RobotLike, base: BaseParameters | None) -> BaseParameters:
     """``base`` (default the analytic set) bound to ``robot``."""
     if base is None:
         return base_parameters(robot, "analytic")
     return base if base.robot is robot else replace(base, robot=robot)
 
 
-def _stacked(base: BaseParameters, robot: Any, poses: Any, twists: Any, accels: Any) -> np.ndarray:
+def _stacked(
+    base: BaseParameters, robot: RobotLike, poses: Any, twists: Any, accels: Any
+) -> np.ndarray:
     """The base regressor stacked over the samples: (6 N, nb), rows sample-major."""
     W = base.reduce(robot.regressor(poses, twists, accels))
     return W.reshape(-1, W.shape[-1])
@@ -93,7 +96,7 @@ def regressor_condition_number(W: np.ndarray) -> float:
 class _Workspace:
     """How far a Fourier trajectory leaves the allowed workspace (0 when inside)."""
 
-    def __init__(self, robot: Any, times: np.ndarray, max_condition: float, margin: float):
+    def __init__(self, robot: RobotLike, times: np.ndarray, max_condition: float, margin: float):
         desc = robot.description
         lo, hi = desc.stroke
         m = margin * (hi - lo)
@@ -120,7 +123,7 @@ class _Workspace:
 
 
 def exciting_trajectory(
-    robot: Any,
+    robot: RobotLike,
     duration: float | None = None,
     n_harmonics: int = 5,
     base_frequency: float = 0.2,
@@ -304,7 +307,7 @@ class Measurements:
 
 
 def simulate_measurements(
-    robot: Any,
+    robot: RobotLike,
     trajectory: Trajectory,
     noise_std: float | Any = 0.0,
     seed: int | None = None,
@@ -470,7 +473,7 @@ class IdentificationResult:
 
 
 def identify(
-    robot: Any,
+    robot: RobotLike,
     measurements: Measurements,
     base: BaseParameters | None = None,
     weighted: bool = True,
@@ -575,7 +578,7 @@ def identify(
 
 
 def validation_error(
-    result: IdentificationResult, robot: Any, measurements: Measurements
+    result: IdentificationResult, robot: RobotLike, measurements: Measurements
 ) -> float:
     """The relative RMS force prediction error on ``measurements`` (another trajectory):
     ``|Gamma_measured - Gamma_predicted| / |Gamma_measured|`` over all samples and

@@ -233,6 +233,7 @@ class _Server:
         selector sees every byte)."""
         buffer = b""
         deadline = time.monotonic() + timeout
+        assert self.process.stdout is not None  # started with stdout=PIPE
         fd = self.process.stdout.fileno()
         with selectors.DefaultSelector() as sel:
             sel.register(fd, selectors.EVENT_READ)
@@ -323,6 +324,7 @@ class Viewer:
         the server sends it the whole scene as it connects. There is no time-out: until a
         browser connects, meshcat's server answers no other request."""
         self.start()
+        assert self._server is not None  # start() sets it
         self._server.wait_for_browser()
 
     @property

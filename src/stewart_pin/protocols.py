@@ -1,0 +1,85 @@
+"""What the layers above the dynamics need from a robot: :class:`RobotLike`.
+
+Simulation, trajectories, identification, base parameters, the independent check and
+the code generator take a robot and call back into it. They take this protocol rather
+than :class:`stewart_pin.robot.StewartRobot`, so that they import nothing above them (the
+facade wires them all) and a test double or another robot class can stand in.
+:class:`~stewart_pin.robot.StewartRobot` satisfies it.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+from stewart_pin._typing import ArrayLike, FloatArray, Forces, JointValues, Pose
+from stewart_pin.description import RobotDescription
+from stewart_pin.models.pinocchio_models import TreeModel
+
+__all__ = ["RobotLike"]
+
+
+class RobotLike(Protocol):
+    """A robot: its description, its singularity threshold, and its models.
+
+    Every method takes one state or a batch with a leading N axis and returns the same
+    (see :class:`stewart_pin.robot.StewartRobot` for the conventions).
+    """
+
+    #: The validated robot description.
+    description: RobotDescription
+    #: The singularity measure past which a pose counts as singular.
+    max_condition: float
+
+    @property
+    def home_pose(self) -> Pose:
+        """The home pose 0Tp (4, 4)."""
+        ...
+
+    @property
+    def tree(self) -> TreeModel:
+        """The Pinocchio tree with its loop-closure constraints."""
+        ...
+
+    def inverse_geometry(self, pose: ArrayLike, check_limits: bool = True) -> JointValues:
+        """Leg joint values (6, 3) or (N, 6, 3)."""
+        ...
+
+    def leg_lengths(self, pose: ArrayLike) -> FloatArray:
+        """Leg lengths [m], (6,) or (N, 6)."""
+        ...
+
+    def jacobian(self, pose: ArrayLike) -> FloatArray:
+        """``Jp`` (6, 6)."""
+        ...
+
+    def condition_number(self, pose: ArrayLike) -> float | FloatArray:
+        """The singularity measure of ``pose``."""
+        ...
+
+    def inverse_dynamics(
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike, *, backend: str = ...
+    ) -> Forces:
+        """Actuator forces Gamma [N], (6,) or (N, 6)."""
+        ...
+
+    def direct_dynamics(
+        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, *, backend: str = ...
+    ) -> FloatArray:
+        """Classical platform acceleration in F0, (6,) or (N, 6)."""
+        ...
+
+    def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
+        """The dynamic regressor ``W``, (6, 190) or (N, 6, 190)."""
+        ...
+
+    def sample_states(
+        self,
+        n: int,
+        rng: np.random.Generator | int | None = None,
+        translation: float | None = None,
+        rotation: float = 0.25,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``n`` random reachable states ``(poses, twists, accels)``."""
+        ...
