@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import re
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from helpers import leg_lengths_by_hand
 
 from stewart_pin import preset
-from stewart_pin.cli import main
+from stewart_pin.cli import build_parser, main
 from stewart_pin.models.pinocchio_models import load_tree
 
 
@@ -410,3 +411,30 @@ def test_validate_takes_the_sampling_range(tmp_path, capsys):
     assert err.count("\n") == 1 and "--translation, --rotation" in err
     assert main([*args, "--translation", "5e-4", "--rotation", "5e-4"]) == 0
     assert "PASSED" in capsys.readouterr().out
+
+
+def test_version_prints_the_package_version(capsys):
+    import stewart_pin
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"stewart-pin {stewart_pin.__version__}"
+
+
+def subcommand_parsers() -> dict[str, argparse.ArgumentParser]:
+    """Every subcommand's parser, by name."""
+    (sub,) = (a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(sub.choices)
+
+
+def test_every_help_shows_the_defaults():
+    parsers = subcommand_parsers()
+    assert {"urdf", "ik", "idm", "validate", "simulate", "identify", "demo"} <= set(parsers)
+    for name, parser in parsers.items():
+        text = " ".join(parser.format_help().split())  # unwrapped
+        for action in parser._actions:
+            has_value = action.option_strings and action.nargs != 0
+            if has_value and action.default not in (None, argparse.SUPPRESS):
+                shown = f"(default: {action.default})"
+                assert shown in text, f"stewart-pin {name} --help: {action.dest} {shown}"

@@ -230,9 +230,13 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--preset", default="simulator")
-    parser.add_argument("--batch", type=positive_int, default=10_000)
-    parser.add_argument("--repeats", type=positive_int, default=300)
+    parser.add_argument(
+        "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
+    )
+    parser.add_argument("--batch", type=positive_int, default=10_000, help="states per batch")
+    parser.add_argument(
+        "--repeats", type=positive_int, default=300, help="timed calls (the median is shown)"
+    )
     parser.add_argument("--quick", action="store_true", help="skip the 1 000 000-state batch")
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
 
@@ -254,7 +258,10 @@ def report(args: argparse.Namespace) -> dict[str, object]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     add_arguments(parser)
     report(parser.parse_args())
 

@@ -22,6 +22,7 @@ from stewart_pin.motion.control import ComputedTorqueController, tracking_errors
 from stewart_pin.motion.simulation import simulate
 from stewart_pin.motion.trajectories import standard_motion
 from stewart_pin.robot import StewartRobot
+from stewart_pin.viz.plots import INSTALL_HINT
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -32,7 +33,10 @@ def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _validation_figure(
     path: Path, t_idm: np.ndarray, err_idm: np.ndarray, t_ddm: np.ndarray, err_ddm: np.ndarray
 ) -> Path:
-    from matplotlib.figure import Figure
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as e:
+        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
 
     fig = Figure(figsize=(8, 3.5), layout="constrained")
     ax = fig.add_subplot()

@@ -6,6 +6,7 @@ velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i [N] 
 force of actuator i, positive when it extends the leg.
 
 Bad inputs exit with code 2 and a one-line message (``--debug`` shows the traceback).
+Every ``--help`` shows the options' defaults.
 """
 
 from __future__ import annotations
@@ -13,13 +14,39 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from typing import Any
 
+from stewart_pin import __version__
 from stewart_pin.cli import dynamics_cmds, geometry_cmds, motion_cmds, parameters_cmds
 from stewart_pin.exceptions import StewartPinError
 
 
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions as written; ``(default: X)`` after the help of every option that takes a
+    value and has a default (without one, the help says what happens: "default: one period").
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        help = action.help
+        if (
+            help is None
+            or "%(default)" in help
+            or not action.option_strings
+            or action.nargs == 0  # flags (--quiet) and --help / --version
+            or action.default is None
+            or action.default is argparse.SUPPRESS
+        ):
+            return help
+        return f"{help} (default: %(default)s)"
+
+
 class _Parser(argparse.ArgumentParser):
-    """Argument errors in one line, exit code 2."""
+    """Argument errors in one line, exit code 2; defaults shown in every ``--help`` (the
+    subcommands' parsers are of this class too)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
@@ -29,8 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="stewart-pin",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"stewart-pin {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in (geometry_cmds, dynamics_cmds, parameters_cmds, motion_cmds):

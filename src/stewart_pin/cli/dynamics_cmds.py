@@ -88,15 +88,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=non_negative_finite_float,
         metavar="M",
         help="half-side [m] of the cube (along F0's axes) in which the platform's origin is "
-        "drawn around the home pose (default 15 %% of the mid-stroke)",
+        "drawn around the home pose (default: 15 %% of the mid-stroke)",
     )
     p.add_argument(
         "--rotation",
         type=non_negative_finite_float,
         default=0.25,
         metavar="RAD",
-        help="largest component [rad] of the rotation vector applied to the home "
-        "orientation (default 0.25)",
+        help="largest component [rad] of the rotation vector applied to the home orientation",
     )
     p.add_argument(
         "--tol-idm",

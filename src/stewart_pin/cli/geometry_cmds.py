@@ -37,7 +37,7 @@ def _ik(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("urdf", help="write the URDF and its loop-closure sidecar")
     add_robot_args(p)
-    p.add_argument("-o", "--output", help="URDF path (default <name>.urdf)")
+    p.add_argument("-o", "--output", help="URDF path (default: <name>.urdf)")
     p.set_defaults(func=_urdf)
 
     p = sub.add_parser("ik", help="inverse geometry and Jp^-1 at a pose")

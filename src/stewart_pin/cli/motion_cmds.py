@@ -205,9 +205,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         "simulated so far beside the output, as <stem>.partial<suffix>.",
     )
     add_robot_args(p)
-    p.add_argument("--motion", choices=(*MOTION_KINDS, "free"), default="sinusoid")
+    p.add_argument(
+        "--motion",
+        choices=(*MOTION_KINDS, "free"),
+        default="sinusoid",
+        help="the motion tracked, or free (zero actuator force)",
+    )
     p.add_argument("--duration", type=positive_finite_float, default=2.0, help="[s]")
-    p.add_argument("--method", choices=("rk4", "adaptive"), default="rk4")
+    p.add_argument(
+        "--method", choices=("rk4", "adaptive"), default="rk4", help="the integrator on SE(3)"
+    )
     p.add_argument(
         "--dt", type=positive_finite_float, default=1e-3, help="step [s] (first step if adaptive)"
     )
@@ -227,7 +234,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--backend",
         choices=("compiled", "pinocchio"),
         default="compiled",
-        help="dynamic models: generated C (default, cached after the first build) or the "
+        help="dynamic models: generated C (compiled, cached after the first build) or the "
         "Pinocchio reference path",
     )
     p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
@@ -244,19 +251,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--motion", choices=MOTION_KINDS, default="sinusoid", help="else this motion")
     p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
     p.add_argument("--fps", type=positive_finite_float, default=30.0, help="key frames per second")
-    p.add_argument("-o", "--output", default="animation.html")
+    p.add_argument("-o", "--output", default="animation.html", help="HTML file to write")
     p.set_defaults(func=_animate)
 
     p = sub.add_parser("view", help="the robot live in meshcat (a local server on 127.0.0.1)")
     add_robot_args(p)
     p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
-    p.add_argument("--motion", choices=(*MOTION_KINDS, "none"), default="none")
+    p.add_argument(
+        "--motion",
+        choices=(*MOTION_KINDS, "none"),
+        default="none",
+        help="else this motion (none: the robot at rest)",
+    )
     p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
     p.add_argument("--open", action="store_true", help="open the page in the web browser")
     p.add_argument("--no-wait", action="store_true", help="show, then exit (no waiting)")
     p.set_defaults(func=_view)
 
     p = sub.add_parser("demo", help="the main demo: the whole workflow on a preset")
-    p.add_argument("--preset", default="simulator")
+    p.add_argument(
+        "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
+    )
     p.add_argument("-o", "--output", default="out", help="output folder")
     p.set_defaults(func=_demo)

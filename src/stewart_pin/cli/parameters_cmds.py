@@ -147,7 +147,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--method",
         choices=("analytic", "numerical"),
         default="analytic",
-        help="the paper's grouping rules (default) or QR of the stacked regressor",
+        help="the paper's grouping rules (analytic) or QR of the stacked regressor",
     )
     p.add_argument(
         "--states", type=positive_int, default=60, help="random states stacked for the rank"
@@ -156,7 +156,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--threshold",
         type=positive_finite_float,
         default=0.01,
-        help="essential parameters: largest relative force change allowed (default 1 %%)",
+        help="essential parameters: largest relative force change allowed (0.01: 1 %%)",
     )
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the random states")
     p.set_defaults(func=_cmd_base_params)
@@ -174,13 +174,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--noise",
         type=non_negative_finite_float,
-        help="force noise std [N] (default 1 %% of the RMS force)",
+        help="force noise std [N] (default: 1 %% of the RMS force)",
     )
     p.add_argument(
         "--seed", type=non_negative_int, default=0, help="seed of the trajectory and the noise"
     )
     p.add_argument("--samples", type=positive_int, default=200, help="samples of the trajectory")
-    p.add_argument("--duration", type=positive_finite_float, help="[s] (default one period)")
+    p.add_argument("--duration", type=positive_finite_float, help="[s] (default: one period)")
     p.add_argument("--harmonics", type=positive_int, default=5, help="Fourier harmonics per axis")
     p.add_argument(
         "--frequency", type=positive_finite_float, default=0.2, help="base frequency [Hz]"

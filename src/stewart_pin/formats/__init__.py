@@ -5,17 +5,18 @@ Every writer is atomic (:mod:`stewart_pin._io`) and writes no user text unescape
 every reader names the file and line of what it refuses (``FileFormatError``).
 
 Modules: :mod:`.urdf` (the 24-dof tree, ``*.closures.json``), :mod:`.xacro`,
-:mod:`.mjcf`, :mod:`.robot_files` (all of a robot's files into one folder),
-:mod:`.csv_tables`.
+:mod:`.mjcf`, :mod:`.robot_files` (all of a robot's files into one folder; the model
+files shipped as package data), :mod:`.csv_tables`.
 """
 
 from .mjcf import mjcf_string, write_mjcf
-from .robot_files import robot_file_names, write_robot_files
+from .robot_files import model_files, robot_file_names, write_robot_files
 from .urdf import read_closures, urdf_string, write_urdf
 from .xacro import write_xacro_args, xacro_args
 
 __all__ = [
     "mjcf_string",
+    "model_files",
     "read_closures",
     "robot_file_names",
     "urdf_string",

@@ -10,11 +10,14 @@ For a robot named ``<name>``:
 - ``<name>.xml``: the MJCF for MuJoCo (:mod:`stewart_pin.formats.mjcf`).
 
 ``scripts/generate_models.py`` writes them for the presets into ``models/urdf/``, and a test
-checks that the committed files are current.
+checks that the committed files are current. Those files and the xacro sources ship with
+the package: :func:`model_files`.
 """
 
 from __future__ import annotations
 
+import importlib.resources
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
 from stewart_pin._safe import file_in_folder
@@ -23,7 +26,31 @@ from stewart_pin.formats.mjcf import write_mjcf
 from stewart_pin.formats.urdf import write_urdf
 from stewart_pin.formats.xacro import write_xacro_args
 
-__all__ = ["robot_file_names", "write_robot_files"]
+__all__ = ["MODEL_FILES_PACKAGE", "model_files", "robot_file_names", "write_robot_files"]
+
+#: The package data holding the shipped model files (``models/`` of the source tree).
+MODEL_FILES_PACKAGE = "stewart_pin.model_files"
+
+
+def model_files() -> Traversable:
+    """The model files shipped with stewart-pin, a folder of :mod:`importlib.resources`:
+    ``package.xml`` and ``urdf/`` with the xacro sources (``stewart.urdf.xacro``,
+    ``stewart_leg.xacro``) and, for each preset, the files of :func:`robot_file_names`.
+
+    Read one with ``(model_files() / "urdf" / "paper.urdf").read_text()``, or get its
+    path with ``importlib.resources.as_file`` (a file on disk in an ordinary install, so
+    that a URDF finds its ``.closures.json`` beside it and xacro finds ``package.xml``
+    above it). Installed (wheel or editable), this is
+    the package :data:`MODEL_FILES_PACKAGE`; in a source checkout used without installing
+    (``PYTHONPATH=src``), the ``models/`` folder beside ``src/``.
+    """
+    try:
+        return importlib.resources.files(MODEL_FILES_PACKAGE)
+    except ModuleNotFoundError:
+        source = Path(__file__).resolve().parents[3] / "models"
+        if not (source / "package.xml").is_file():
+            raise
+        return source
 
 
 def robot_file_names(name: str) -> list[str]:
