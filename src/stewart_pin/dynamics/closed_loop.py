@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from stewart_pin._vector import cross, skew
+from stewart_pin._so3 import cross, skew
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import inertia_tensor
 from stewart_pin.dynamics.leg_dynamics import LegDynamics

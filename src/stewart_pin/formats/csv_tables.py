@@ -27,9 +27,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
+from stewart_pin._checks import check_increasing_times
 from stewart_pin._io import atomic_open
+from stewart_pin._so3 import quaternions_xyzw_from_rotations, rotations_from_quaternions_xyzw
 from stewart_pin.exceptions import FileFormatError
 
 STATE_COLUMNS: tuple[str, ...] = (
@@ -46,24 +47,9 @@ LENGTH_COLUMNS: tuple[str, ...] = tuple(f"l{i}" for i in range(1, 7))
 QUATERNION_TOLERANCE = 1e-6
 
 
-def quaternions_from_rotations(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``[x, y, z, w]`` with ``w >= 0`` of rotation matrices (N, 3, 3)."""
-    q = np.array([pin.Quaternion(r).coeffs() for r in R]).reshape(-1, 4)
-    q *= np.where(q[:, 3:] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def rotations_from_quaternions(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) of unit quaternions ``[x, y, z, w]`` (N, 4)."""
-    x, y, z, w = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=-2,
-    )
+#: Conversions between 0Rp and the ``qx qy qz qw`` columns (re-exported names).
+quaternions_from_rotations = quaternions_xyzw_from_rotations
+rotations_from_quaternions = rotations_from_quaternions_xyzw
 
 
 def state_table(
@@ -175,15 +161,12 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
                 f"within {QUATERNION_TOLERANCE:g}; write unit quaternions"
             )
     if "t" in columns:
-        t = rows[:, columns.index("t")]
-        bad = np.flatnonzero(np.diff(t) <= 0)
-        if bad.size:
-            r = int(bad[0]) + 1
-            raise FileFormatError(
-                f"{path}, line {line_numbers[r]}: time t = {float(t[r])!r} s does not "
-                f"increase (line {line_numbers[r - 1]} has t = {float(t[r - 1])!r} s); times "
-                "must be strictly increasing"
-            )
+        check_increasing_times(
+            rows[:, columns.index("t")],
+            label=lambda k: f"line {line_numbers[k]}: time t",
+            prefix=f"{path}, ",
+            error=FileFormatError,
+        )
     if rows.shape[0] < max(int(min_rows), 1):
         raise FileFormatError(
             f"{path}: {rows.shape[0]} data rows (after the header on line {header_line}), "
@@ -282,11 +265,9 @@ def read_npz(path: str | Path, shapes: Mapping[str, tuple[int | None, ...]]) -> 
         out[key] = a
     if count is not None and count[0] < 1:
         raise FileFormatError(f"{path}: no samples (at least one needed)")
-    if "t" in out and np.any(np.diff(out["t"]) <= 0):
-        k = int(np.flatnonzero(np.diff(out["t"]) <= 0)[0]) + 1
-        raise FileFormatError(
-            f"{path}: time t[{k}] = {float(out['t'][k])!r} s does not increase (t[{k - 1}] = "
-            f"{float(out['t'][k - 1])!r} s); times must be strictly increasing"
+    if "t" in out:
+        check_increasing_times(
+            out["t"], label=lambda k: f"time t[{k}]", prefix=f"{path}: ", error=FileFormatError
         )
     if "poses" in out and out["poses"].shape[1:] == (4, 4):
         T = out["poses"]

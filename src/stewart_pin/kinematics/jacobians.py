@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_batch, check_poses
-from stewart_pin._vector import cross
+from stewart_pin._so3 import cross
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import InputError, SingularityError
 from stewart_pin.kinematics.geometry import (

@@ -42,6 +42,7 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_scalar
 from stewart_pin._io import atomic_open
+from stewart_pin._so3 import so3_left_jacobian_inverse
 from stewart_pin.exceptions import (
     FileFormatError,
     InputError,
@@ -160,12 +161,6 @@ _NPZ_SHAPES = {
 }
 
 
-def _left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
-    """``J_l(xi)^-1`` of SO(3): ``dxi/dt = J_l^-1 w`` for ``R = exp(xi^) R_0``, w in F0."""
-    # J_l(xi) = J_r(-xi) = J_r(xi)^T, and pin.Jlog3(exp3(xi)) = J_r(xi)^-1.
-    return pin.Jlog3(pin.exp3(xi)).T
-
-
 def _chart_pose(T0: np.ndarray, y: np.ndarray) -> np.ndarray:
     T = np.eye(4)
     T[:3, :3] = pin.exp3(y[3:6]) @ T0[:3, :3]
@@ -251,7 +246,7 @@ class _Integrator:
         V = y[6:]
         g = self.gamma(t, T, V, k)
         acc = self.robot.direct_dynamics(T, V, g, backend=self.backend)
-        dy = np.concatenate([V[:3], _left_jacobian_inverse(y[3:6]) @ V[3:], acc])
+        dy = np.concatenate([V[:3], so3_left_jacobian_inverse(y[3:6]) @ V[3:], acc])
         return dy, g, T
 
     def det_signs(self, poses: np.ndarray) -> np.ndarray:
