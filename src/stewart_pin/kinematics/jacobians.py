@@ -78,12 +78,6 @@ def leg_frames(desc: RobotDescription, q: np.ndarray) -> LegFrames:
     )
 
 
-def leg_rotations(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
-    """Orientation of frame 3i in F0, shape (N, 6, 3, 3): columns ``[x3, y3, z3 = a]``."""
-    f = leg_frames(desc, q)
-    return np.stack([f.a2, f.y3, f.a], axis=-1)
-
-
 def leg_jacobians(desc: RobotDescription, q: np.ndarray) -> np.ndarray:
     """``J_3i`` in F0: velocity of the leg tip P_i from ``qdot_i``, shape (N, 6, 3, 3)."""
     f = leg_frames(desc, q)
