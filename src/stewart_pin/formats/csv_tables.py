@@ -43,6 +43,21 @@ STATE_COLUMNS: tuple[str, ...] = (
 FORCE_COLUMNS: tuple[str, ...] = tuple(f"gamma{i}" for i in range(1, 7))
 LENGTH_COLUMNS: tuple[str, ...] = tuple(f"l{i}" for i in range(1, 7))
 
+
+def _span(columns: tuple[str, ...], first: str, last: str) -> slice:
+    return slice(columns.index(first), columns.index(last) + 1)
+
+
+#: Where each quantity sits in a row of a table read in the column order
+#: ``STATE_COLUMNS + FORCE_COLUMNS (+ LENGTH_COLUMNS)`` (the one definition of the layout).
+TIME_COLUMN = STATE_COLUMNS.index("t")
+POSITION_SLICE = _span(STATE_COLUMNS, "x", "z")
+QUATERNION_SLICE = _span(STATE_COLUMNS, "qx", "qw")
+TWIST_SLICE = _span(STATE_COLUMNS, "vx", "wz")
+ACCEL_SLICE = _span(STATE_COLUMNS, "ax", "alphaz")
+FORCE_SLICE = slice(len(STATE_COLUMNS), len(STATE_COLUMNS) + len(FORCE_COLUMNS))
+LENGTH_SLICE = slice(FORCE_SLICE.stop, FORCE_SLICE.stop + len(LENGTH_COLUMNS))
+
 #: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
 QUATERNION_TOLERANCE = 1e-6
 
@@ -56,18 +71,20 @@ def state_table(
     times: np.ndarray, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
 ) -> np.ndarray:
     """The :data:`STATE_COLUMNS` block (N, 20) of a motion."""
-    quat = quaternions_from_rotations(poses[:, :3, :3])
+    quat = quaternions_xyzw_from_rotations(poses[:, :3, :3])
     return np.column_stack([times, poses[:, :3, 3], quat, twists, accels])
 
 
 def states_from_table(rows: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(times, poses (N, 4, 4), twists, accels)`` from rows whose first 20 columns are
     :data:`STATE_COLUMNS` (quaternions already checked to be unit within tolerance)."""
-    quat = rows[:, 4:8]
+    quat = rows[:, QUATERNION_SLICE]
     poses = np.tile(np.eye(4), (rows.shape[0], 1, 1))
-    poses[:, :3, 3] = rows[:, 1:4]
-    poses[:, :3, :3] = rotations_from_quaternions(quat / np.linalg.norm(quat, axis=1)[:, None])
-    return rows[:, 0], poses, rows[:, 8:14], rows[:, 14:20]
+    poses[:, :3, 3] = rows[:, POSITION_SLICE]
+    poses[:, :3, :3] = rotations_from_quaternions_xyzw(
+        quat / np.linalg.norm(quat, axis=1)[:, None]
+    )
+    return rows[:, TIME_COLUMN], poses, rows[:, TWIST_SLICE], rows[:, ACCEL_SLICE]
 
 
 def write_csv(path: str | Path, columns: Sequence[str], table: np.ndarray) -> Path:

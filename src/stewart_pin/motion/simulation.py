@@ -54,7 +54,9 @@ from stewart_pin.exceptions import (
 )
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
+    FORCE_SLICE,
     LENGTH_COLUMNS,
+    LENGTH_SLICE,
     STATE_COLUMNS,
     read_csv,
     read_npz,
@@ -86,6 +88,9 @@ MIN_STEP = 1e-12
 #: A leg reaching its stroke end is located to this fraction of the longest stroke length
 #: (1e-6 * 2.8 m = 2.8 um for the simulator preset); a U-joint limit to this many radians.
 LIMIT_TOLERANCE = 1e-6
+#: Slack when a ratio of times is rounded to an integer (t / period, period / dt,
+#: duration / dt): round-off in the division must not add or drop a sample.
+_RATIO_SLACK = 1e-9
 
 # Dormand-Prince 5(4) tableau.
 _DP_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1])
@@ -148,7 +153,7 @@ class SimulationResult:
             return cls(**read_npz(path, _NPZ_SHAPES))
         if path.suffix == ".csv":
             rows = read_csv(path, cls.CSV_COLUMNS)
-            return cls(*states_from_table(rows), rows[:, 20:26], rows[:, 26:32])
+            return cls(*states_from_table(rows), rows[:, FORCE_SLICE], rows[:, LENGTH_SLICE])
         raise FileFormatError(f"unknown result file type '{path.suffix}' (.npz, .csv)")
 
 
@@ -219,7 +224,7 @@ class _Integrator:
 
     def period_index(self, t: float) -> int:
         """Index of the control period holding ``t`` (0 without a control period)."""
-        return 0 if self.period is None else int(np.floor(t / self.period + 1e-9))
+        return 0 if self.period is None else int(np.floor(t / self.period + _RATIO_SLACK))
 
     def gamma(self, t: float, T: np.ndarray, V: np.ndarray, k: int) -> np.ndarray:
         """Forces at stage time ``t``; with a control period, the value sampled at the
@@ -404,7 +409,7 @@ def simulate(
             )
         if method == "rk4":
             ratio = control_period / dt
-            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            if abs(ratio - round(ratio)) > _RATIO_SLACK or round(ratio) < 1:
                 raise InputError(
                     f"control_period {control_period} s must be a whole multiple of dt {dt} s"
                 )
@@ -428,7 +433,7 @@ class _Run:
         # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
         self.h_min = max(MIN_STEP, 16 * np.finfo(float).eps * duration)
         self.tol = LIMIT_TOLERANCE * float(robot.description.stroke[1])
-        self.n_grid = max(1, int(np.ceil(duration / dt - 1e-9))) if method == "rk4" else 0
+        self.n_grid = max(1, int(np.ceil(duration / dt - _RATIO_SLACK))) if method == "rk4" else 0
 
     # ------------------------------------------------------------------ output
     def record(self, s: _State, final: bool = False) -> None:
@@ -438,7 +443,7 @@ class _Run:
             return
         out = self.output_dt
         if out is not None and not final:
-            if s.t < self.next_output - 1e-12 and s.t < self.duration - 1e-12:
+            if s.t < self.next_output - MIN_STEP and s.t < self.duration - MIN_STEP:
                 return
             self.next_output += out
         self.rows.append(s)
