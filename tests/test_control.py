@@ -78,19 +78,15 @@ def test_wrong_inertial_parameters_degrade_tracking(simulator):
     wrong[180:] *= 1.3
     wrong[:180] *= 0.7
     model = StewartRobot(with_standard_parameters(simulator.description, wrong))
-    exact = simulate(
-        simulator,
-        0.5,
-        forces=ComputedTorqueController(simulator, ref),
-        dt=1e-3,
-        control_period=1e-3,
-    )
-    biased = simulate(
-        simulator,
-        0.5,
-        forces=ComputedTorqueController(model, ref),
-        dt=1e-3,
-        control_period=1e-3,
+    exact, biased = (
+        simulate(
+            simulator,
+            0.5,
+            forces=ComputedTorqueController(controller_model, ref),
+            dt=1e-3,
+            control_period=1e-3,
+        )
+        for controller_model in (simulator, model)
     )
     e_exact = np.linalg.norm(tracking_errors(ref, exact.t, exact.poses)[0], axis=1).max()
     e_biased = np.linalg.norm(tracking_errors(ref, biased.t, biased.poses)[0], axis=1).max()
