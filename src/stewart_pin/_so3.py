@@ -122,9 +122,8 @@ def so3_log(R: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------- quaternions
 def quaternions_xyzw_from_rotations(R: np.ndarray) -> np.ndarray:
     """Unit quaternions ``[x, y, z, w]`` (N, 4) with ``w >= 0`` of rotation matrices (N, 3, 3)."""
-    q = np.array([pin.Quaternion(r).coeffs() for r in R]).reshape(-1, 4)
-    q *= np.where(q[:, 3:] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
+    q = np.array([pin.Quaternion(r).normalized().coeffs() for r in R]).reshape(-1, 4)
+    return q * np.where(q[:, 3:] < 0, -1.0, 1.0)
 
 
 def rotation_rows_from_quaternion_xyzw(x: Any, y: Any, z: Any, w: Any) -> list[list[Any]]:
@@ -150,9 +149,8 @@ def rotations_from_quaternions_xyzw(q: np.ndarray) -> np.ndarray:
 
 def quaternion_wxyz_from_rotation(R: np.ndarray) -> np.ndarray:
     """The unit quaternion ``(w, x, y, z)`` (4,) with ``w >= 0`` of one rotation matrix (3, 3)."""
-    x, y, z, w = pin.Quaternion(np.asarray(R, dtype=float)).normalized().coeffs()
-    q = np.array([w, x, y, z])
-    return -q if w < 0 else q
+    x, y, z, w = quaternions_xyzw_from_rotations(np.asarray(R, dtype=float)[None])[0]
+    return np.array([w, x, y, z])
 
 
 def rotation_from_quaternion_wxyz(q: np.ndarray) -> np.ndarray:
