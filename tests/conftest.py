@@ -6,12 +6,14 @@ first use, and the tests only read from them.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from stewart_pin import StewartRobot
+from stewart_pin.codegen import compiled as compiled_module
 
 #: Seeds of the general asymmetric robots used throughout.
 RANDOM_SEEDS = (0, 1, 2)
@@ -60,6 +62,25 @@ def general_robot(request: pytest.FixtureRequest) -> StewartRobot:
     """The robots without symmetry: the paper preset (asymmetric platform) and the random
     robots (oblique U-joint axes, full inertia tensors, offset first moments)."""
     return get_robot(request.param)
+
+
+#: The robots of the regressor and base-parameter tests.
+PARAMETER_ROBOTS = ("simulator", "paper", "random-1", "random-6")
+
+
+@pytest.fixture(scope="module", params=PARAMETER_ROBOTS)
+def parameter_robot(request: pytest.FixtureRequest) -> StewartRobot:
+    """Each of :data:`PARAMETER_ROBOTS`, built afresh for the module."""
+    return StewartRobot.from_preset(request.param)
+
+
+def fresh_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Body of a module's autouse ``cache_dir`` fixture: the compiled backends of the
+    module build into a fresh cache folder (the environment variable set meanwhile)."""
+    path = tmp_path_factory.mktemp("stewart-pin-cache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(compiled_module.CACHE_ENV, str(path))
+        yield path
 
 
 @pytest.fixture

@@ -47,6 +47,17 @@ def random_rotation(rng: np.random.Generator) -> np.ndarray:
     return Q if np.linalg.det(Q) > 0 else -Q
 
 
+def random_motion_states(n: int, seed: int = 0) -> tuple[np.ndarray, ...]:
+    """``(times, poses, twists, accels)`` of ``n`` random platform states (no robot: any
+    rotation, position, twist and acceleration), times 0.01 s apart."""
+    rng = np.random.default_rng(seed)
+    poses = np.tile(np.eye(4), (n, 1, 1))
+    for T in poses:
+        T[:3, :3] = pin.exp3(rng.normal(size=3))
+        T[:3, 3] = rng.normal(size=3)
+    return np.arange(n) * 0.01, poses, rng.normal(size=(n, 6)), rng.normal(size=(n, 6))
+
+
 def tip_frame(i: int) -> str:
     """Name of leg i's tip frame (0-based i): frame 3i, whose origin should be P_i."""
     return f"leg{i + 1}_link3"

@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 import pytest
+from helpers import random_motion_states
 
 import stewart_pin
 from stewart_pin import preset
@@ -123,13 +123,7 @@ def snapshot(folder: Path) -> dict[str, bytes]:
 
 
 # ---------------------------------------------------------------------- the writers
-def _states(n: int, seed: int) -> tuple[np.ndarray, ...]:
-    rng = np.random.default_rng(seed)
-    poses = np.tile(np.eye(4), (n, 1, 1))
-    for T in poses:
-        T[:3, :3] = pin.exp3(rng.normal(size=3))
-        T[:3, 3] = rng.normal(size=3)
-    return np.arange(n) * 0.01, poses, rng.normal(size=(n, 6)), rng.normal(size=(n, 6))
+_states = random_motion_states
 
 
 def _description(variant: int):

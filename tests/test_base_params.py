@@ -31,12 +31,10 @@ from stewart_pin.parameters.base import (
     stacked_regressor,
 )
 
-ROBOTS = ["simulator", "paper", "random-1", "random-6"]
 
-
-@pytest.fixture(scope="module", params=ROBOTS)
-def robot(request) -> StewartRobot:
-    return StewartRobot.from_preset(request.param)
+@pytest.fixture(scope="module")
+def robot(parameter_robot) -> StewartRobot:
+    return parameter_robot
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3, 4])

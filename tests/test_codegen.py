@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import get_robot
+from conftest import fresh_compile_cache, get_robot
 from helpers import rel_error
 
 from stewart_pin import StewartRobot
@@ -41,10 +41,7 @@ TOL = 1e-10  # relative to the largest value of the batch
 @pytest.fixture(scope="module", autouse=True)
 def cache_dir(tmp_path_factory: pytest.TempPathFactory):
     """Every backend of this module compiles into a fresh cache folder."""
-    path = tmp_path_factory.mktemp("stewart-pin-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(compiled_module.CACHE_ENV, str(path))
-        yield path
+    yield from fresh_compile_cache(tmp_path_factory)
 
 
 @pytest.fixture(scope="module")

@@ -15,12 +15,12 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import fresh_compile_cache
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics
-from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.exceptions import StewartPinError
 
 AGREE = 1e-9
@@ -40,10 +40,7 @@ _ROBOTS: dict[int, tuple[StewartRobot, CompiledDynamics, float]] = {}
 
 @pytest.fixture(scope="module", autouse=True)
 def cache_dir(tmp_path_factory: pytest.TempPathFactory):
-    path = tmp_path_factory.mktemp("stewart-pin-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(compiled_module.CACHE_ENV, str(path))
-        yield path
+    yield from fresh_compile_cache(tmp_path_factory)
     _ROBOTS.clear()
 
 

@@ -357,11 +357,16 @@ def test_docs_sidecar_excerpt_parses_and_matches_the_desktop_preset():
 
 
 def test_leg_models_from_one_parse_equal_each_built_alone():
-    from stewart_pin.models.pinocchio_models import build_leg_model, build_leg_models
+    from stewart_pin.formats.urdf import PLATFORM_JOINT, leg_joint
+    from stewart_pin.models.pinocchio_models import build_leg_models
 
     desc = get_robot("random-1").description
     for i, model in enumerate(build_leg_models(desc)):
-        alone = build_leg_model(desc, i)
+        # Leg i alone: a fresh parse of the URDF (build_tree), every other joint locked.
+        tree = build_tree(desc).model
+        others = [leg_joint(k + 1, j) for k in range(6) if k != i for j in (1, 2, 3)]
+        locked = [tree.getJointId(name) for name in (PLATFORM_JOINT, *others)]
+        alone = pin.buildReducedModel(tree, locked, pin.neutral(tree))
         assert list(model.names) == list(alone.names)
         for jid in range(1, model.njoints):
             np.testing.assert_array_equal(

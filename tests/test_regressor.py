@@ -20,12 +20,10 @@ from stewart_pin.dynamics.regressor import (
 )
 from stewart_pin.kinematics.workspace import sample_states
 
-ROBOTS = ["simulator", "paper", "random-1", "random-6"]
 
-
-@pytest.fixture(scope="module", params=ROBOTS)
-def robot(request) -> StewartRobot:
-    return StewartRobot.from_preset(request.param)
+@pytest.fixture(scope="module")
+def robot(parameter_robot) -> StewartRobot:
+    return parameter_robot
 
 
 def test_names_and_order():

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import fresh_compile_cache
 
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics
@@ -35,10 +36,7 @@ N_STATES = 8  # twists and accelerations per pose
 @pytest.fixture(scope="module", autouse=True)
 def cache_dir(tmp_path_factory: pytest.TempPathFactory):
     """The libraries of this module compile into a fresh cache folder."""
-    path = tmp_path_factory.mktemp("stewart-pin-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(compiled_module.CACHE_ENV, str(path))
-        yield path
+    yield from fresh_compile_cache(tmp_path_factory)
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -147,14 +145,26 @@ def leg_singularity_sweep(name: str, leg: int = 0, far_end: bool = False, sins=N
 def test_backends_agree_or_refuse_towards_a_leg_singularity(name, far_end):
     """Before the fix, sin q2 = 1e-5 was accepted and the compiled IDM was 7e-6 off."""
     threshold = geometry_module.LEG_SINGULARITY_SIN
-    for s, result in leg_singularity_sweep(name, 0, far_end):
-        if s >= threshold:
-            assert isinstance(result, float), f"sin q2 = {s:g}: {result}"
-            assert result <= AGREE, f"sin q2 = {s:g}: backends differ by {result:.3g}"
+    sweep_results = leg_singularity_sweep(name, 0, far_end)
+    message = "lies along its first U-joint axis"
+    for result in assert_agree_or_refuse(sweep_results, threshold, "sin q2", 1, message):
+        assert result.value < result.threshold == threshold
+
+
+def assert_agree_or_refuse(results, threshold: float, label: str, leg: int, message: str):
+    """At or above ``threshold`` the backends agree to :data:`AGREE`; below, both refuse
+    with a :class:`SingularityError` on ``leg`` whose text holds ``message``. Returns
+    the refusals."""
+    refused = []
+    for x, result in results:
+        if x >= threshold:
+            assert isinstance(result, float), f"{label} = {x:g}: {result}"
+            assert result <= AGREE, f"{label} = {x:g}: backends differ by {result:.3g}"
         else:
-            assert isinstance(result, SingularityError), f"sin q2 = {s:g} accepted"
-            assert result.leg == 1 and "lies along its first U-joint axis" in str(result)
-            assert result.value < result.threshold == threshold
+            assert isinstance(result, SingularityError), f"{label} = {x:g} accepted"
+            assert result.leg == leg and message in str(result)
+            refused.append(result)
+    return refused
 
 
 # ---------------------------------------------------------------------------- short leg
@@ -181,13 +191,9 @@ def short_leg_sweep(name: str, leg: int = 3, fractions=None):
 def test_backends_agree_or_refuse_towards_a_vanishing_leg(name):
     """Before the fix a leg of 1e-7 radius was accepted: the DDMs then differed by 600 %."""
     ratio = geometry_module.LEG_MIN_LENGTH_RATIO
-    for f, result in short_leg_sweep(name):
-        if f >= ratio:
-            assert isinstance(result, float), f"q3 = {f:g} radius: {result}"
-            assert result <= AGREE, f"q3 = {f:g} radius: backends differ by {result:.3g}"
-        else:
-            assert isinstance(result, SingularityError), f"q3 = {f:g} radius accepted"
-            assert result.leg == 4 and "has zero length or nearly" in str(result)
+    assert_agree_or_refuse(
+        short_leg_sweep(name), ratio, "q3 / radius", 4, "has zero length or nearly"
+    )
 
 
 # ---------------------------------------------------------------------------- parallel

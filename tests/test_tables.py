@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import random_motion_states
 
 from stewart_pin import FileFormatError
 from stewart_pin.formats.csv_tables import (
@@ -19,17 +20,8 @@ from stewart_pin.formats.csv_tables import (
 )
 
 
-def random_states(n: int, seed: int = 0):
-    rng = np.random.default_rng(seed)
-    poses = np.tile(np.eye(4), (n, 1, 1))
-    for T in poses:
-        T[:3, :3] = pin.exp3(rng.normal(size=3))
-        T[:3, 3] = rng.normal(size=3)
-    return np.arange(n) * 0.01, poses, rng.normal(size=(n, 6)), rng.normal(size=(n, 6))
-
-
 def test_quaternions_match_pinocchio():
-    _, poses, _, _ = random_states(20)
+    _, poses, _, _ = random_motion_states(20)
     q = quaternions_from_rotations(poses[:, :3, :3])
     assert np.all(q[:, 3] >= 0)
     for qi, T in zip(q, poses, strict=True):
@@ -39,7 +31,7 @@ def test_quaternions_match_pinocchio():
 
 
 def test_state_round_trip(tmp_path):
-    states = random_states(12)
+    states = random_motion_states(12)
     gammas = np.random.default_rng(1).normal(size=(12, 6)) * 100
     columns = STATE_COLUMNS + FORCE_COLUMNS
     path = write_csv(tmp_path / "s.csv", columns, np.column_stack([state_table(*states), gammas]))
@@ -50,7 +42,7 @@ def test_state_round_trip(tmp_path):
 
 
 def test_wrong_columns_and_values(tmp_path):
-    path = write_csv(tmp_path / "s.csv", STATE_COLUMNS, state_table(*random_states(3)))
+    path = write_csv(tmp_path / "s.csv", STATE_COLUMNS, state_table(*random_motion_states(3)))
     with pytest.raises(FileFormatError, match="missing columns 'gamma1'"):
         read_csv(path, STATE_COLUMNS + FORCE_COLUMNS)
     text = path.read_text().splitlines()

@@ -351,10 +351,6 @@ def test_validate_needs_the_models(random1):
         val.validate(_NoModels(random1), n_states=1)
 
 
-@pytest.mark.skipif(
-    not hasattr(StewartRobot, "inverse_dynamics"),
-    reason="StewartRobot.inverse_dynamics / direct_dynamics not written yet",
-)
 @pytest.mark.parametrize("name", ROBOTS)
 def test_paper_models_agree_with_the_constrained_tree(name):
     report = val.validate(_robot(name), n_states=30, seed=0)

@@ -316,7 +316,7 @@ def test_export_input_errors(simulator, tmp_path):
     poses = ramp_motion(simulator)
     with pytest.raises(InputError, match="times has 3 values"):
         viewer.export_html(tmp_path / "x.html", poses, TIMES[:3])
-    with pytest.raises(InputError, match="increase strictly"):
+    with pytest.raises(InputError, match="strictly increasing"):
         viewer.export_html(tmp_path / "x.html", poses, TIMES[::-1])
     with pytest.raises(InputError, match="fps"):
         viewer.export_html(tmp_path / "x.html", poses, TIMES, fps=0)

@@ -11,12 +11,13 @@ from __future__ import annotations
 import math
 import numbers
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from stewart_pin.exceptions import FileFormatError, InputError, StewartPinWarning
+from stewart_pin.exceptions import FileFormatError, InputError, StewartPinError, StewartPinWarning
 
 #: Tolerance on ``R^T R - I`` for a rotation matrix given by a user.
 ROTATION_TOLERANCE = 1e-9
@@ -304,6 +305,29 @@ def nested_ndim(value: Any) -> int:
 def _fmt(shape: tuple[int | None, ...]) -> str:
     dims = ["N" if s is None else str(s) for s in shape]
     return "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
+
+
+def check_increasing_times(
+    times: np.ndarray,
+    name: str = "times",
+    *,
+    label: Callable[[int], str] | None = None,
+    prefix: str = "",
+    error: type[StewartPinError] = InputError,
+) -> None:
+    """Raise ``error`` unless ``times`` (N,) [s] is strictly increasing (the one check of it).
+
+    The message names the first sample ``k`` not after its predecessor as ``label(k)``
+    (default ``name[k]``), after ``prefix`` (say the file's path).
+    """
+    bad = np.flatnonzero(~(np.diff(times) > 0))
+    if bad.size:
+        k = int(bad[0]) + 1
+        at = label or (lambda i: f"{name}[{i}]")
+        raise error(
+            f"{prefix}{at(k)} = {float(times[k])!r} s does not increase ({at(k - 1)} = "
+            f"{float(times[k - 1])!r} s); {name} must be strictly increasing"
+        )
 
 
 def check_states(pose: Any, *vectors: tuple[Any, str]) -> tuple[Any, ...]:

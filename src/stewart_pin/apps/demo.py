@@ -94,7 +94,7 @@ def run_demo(
         robot, motion.duration, T0, V0, ctrl, dt=1e-3, control_period=1e-3, backend="compiled"
     )
     files["simulation"] = result.save(out / "simulation.npz")
-    pos, rot = tracking_errors(motion, result.t, result.poses)
+    pos, rot = (np.linalg.norm(e, axis=1) for e in tracking_errors(motion, result.t, result.poses))
     say(
         f"== computed-torque simulation (1 kHz): tracking error {1e3 * pos.max():.3g} mm, "
         f"{np.degrees(rot.max()):.3g} deg"

@@ -74,6 +74,10 @@ __all__ = [
 #: Floor of the relative errors, as a fraction of the largest reference magnitude in the
 #: batch: ``err_n = max_k |a_nk - b_nk| / max(max_k |b_nk|, RELATIVE_FLOOR * max |b|)``.
 RELATIVE_FLOOR = 1e-6
+#: Default relative tolerances of :meth:`ValidationReport.passed`: the inverse model, and
+#: the direct model with the round trips (the one definition; the CLI's defaults).
+IDM_TOLERANCE = 1e-9
+DDM_TOLERANCE = 1e-8
 
 #: Settings of ``pin.constraintDynamics``: absolute accuracy, ``mu = 0`` (no proximal
 #: regularisation), one iteration: an exact KKT solve.
@@ -447,7 +451,7 @@ class ValidationReport:
     reference_error: float
     floor: float = RELATIVE_FLOOR
 
-    def passed(self, tol_idm: float = 1e-9, tol_ddm: float = 1e-8) -> bool:
+    def passed(self, tol_idm: float = IDM_TOLERANCE, tol_ddm: float = DDM_TOLERANCE) -> bool:
         """Whether the inverse model is within ``tol_idm`` and the direct model, the round
         trip and the reference's own round trip within ``tol_ddm`` (relative)."""
         return bool(
@@ -466,7 +470,7 @@ class ValidationReport:
             f"  direct dynamics   Vdot          {self.ddm_error:.3e}\n"
             f"  round trip        DDM(IDM)      {self.round_trip_error:.3e}\n"
             f"  reference         FD(ID) tree   {self.reference_error:.3e}\n"
-            f"  {verdict} at the default tolerances (IDM 1e-9, DDM 1e-8)"
+            f"  {verdict} at the default tolerances (IDM {IDM_TOLERANCE:g}, DDM {DDM_TOLERANCE:g})"
         )
 
 

@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from stewart_pin.check.constrained_dynamics import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.cli._common import (
     add_robot_args,
     check_output,
@@ -100,13 +101,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--tol-idm",
         type=non_negative_finite_float,
-        default=1e-9,
+        default=IDM_TOLERANCE,
         help="relative tolerance, inverse",
     )
     p.add_argument(
         "--tol-ddm",
         type=non_negative_finite_float,
-        default=1e-8,
+        default=DDM_TOLERANCE,
         help="relative tolerance, direct",
     )
     p.set_defaults(func=_validate)

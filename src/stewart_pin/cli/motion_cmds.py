@@ -95,7 +95,9 @@ def _simulate(args: argparse.Namespace) -> int:
     result.save(out)
     lines = [f"simulated {duration:g} s of '{robot.name}' ({args.motion}, {args.method}): {out}"]
     if motion is not None:
-        pos, rot = tracking_errors(motion, result.t, result.poses)
+        pos, rot = (
+            np.linalg.norm(e, axis=1) for e in tracking_errors(motion, result.t, result.poses)
+        )
         lines.append(
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )

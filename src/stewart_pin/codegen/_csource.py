@@ -164,10 +164,10 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
     arg[0] = T; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
     res[0] = g; res[1] = aux;
     %(idm)s(arg, res, iw, w, 0);
-    f |= sp_check_legs(aux + 0, aux + 6);
+    f |= sp_check_legs(aux + %(q3sq)d, aux + %(rho2)d);
     if (!(aux[%(growth)d] <= sp_growth_limit)) {
-      f |= sp_check_cond(aux + 12, max_cond, aux + 48, y) | SP_REPIVOTED;
-      for (k = 0; k < 6; ++k) g[k] = aux[54 + k] + y[k];
+      f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
+      for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
     } else {  /* the static LU is sound: its pivots give the determinant */
       f |= sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond);
     }
@@ -196,9 +196,9 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
     arg[0] = T; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;
     res[0] = a; res[1] = aux;
     %(ddm)s(arg, res, iw, w, 0);
-    f |= sp_check_legs(aux + 0, aux + 6);
-    f |= sp_check_cond(aux + 12, max_cond, 0, 0);
-    for (k = 0; k < 6; ++k) if (!(aux[48 + k] > 0.0)) f |= SP_NOT_PD;
+    f |= sp_check_legs(aux + %(q3sq)d, aux + %(rho2)d);
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+    for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
     if (!sp_finite6(a)) f |= SP_NONFINITE;
     flags[s] = f;
     any |= f;

@@ -71,6 +71,7 @@ from stewart_pin.codegen import _csource
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen.symbolic import (
     AUX_DDM_D,
+    AUX_DDM_SIZE,
     AUX_IDM_DET,
     AUX_IDM_F,
     AUX_IDM_FRO2,
@@ -78,6 +79,8 @@ from stewart_pin.codegen.symbolic import (
     AUX_IDM_HZ,
     AUX_IDM_SIZE,
     AUX_JINV,
+    AUX_Q3SQ,
+    AUX_RHO2,
     GENERATOR_VERSION,
     generate_models,
 )
@@ -196,7 +199,13 @@ def c_source(desc: Any) -> str:
         "growth_limit": GROWTH_LIMIT,
         "inv_length": 1.0 / characteristic_length(desc),
         "idm_naux": AUX_IDM_SIZE,
-        "ddm_naux": fd.size1_out(1),
+        "ddm_naux": AUX_DDM_SIZE,
+        "q3sq": AUX_Q3SQ.start,
+        "rho2": AUX_RHO2.start,
+        "jinv": AUX_JINV.start,
+        "idm_f": AUX_IDM_F.start,
+        "idm_hz": AUX_IDM_HZ.start,
+        "ddm_d": AUX_DDM_D.start,
         "growth": AUX_IDM_GROWTH,
         "det": AUX_IDM_DET,
         "fro2": AUX_IDM_FRO2,

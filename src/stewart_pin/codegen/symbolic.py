@@ -53,6 +53,7 @@ from typing import Any, cast
 import casadi as cs
 import numpy as np
 
+from stewart_pin._so3 import rotation_rows_from_quaternion_xyzw
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics.geometry import characteristic_length
@@ -210,16 +211,7 @@ def pose_from_input(pose: cs.SX, rotation: str) -> tuple[Vec, list[list[Scalar]]
             [pose[4 * i + j] for j in range(3)] for i in range(3)
         ]
     if rotation == "quaternion":
-        x, y, z, w = pose[3], pose[4], pose[5], pose[6]
-        x2, y2, z2 = x + x, y + y, z + z
-        xx, yy, zz = x * x2, y * y2, z * z2
-        xy, xz, yz = x * y2, x * z2, y * z2
-        wx, wy, wz = w * x2, w * y2, w * z2
-        R = [
-            [1.0 - (yy + zz), xy - wz, xz + wy],
-            [xy + wz, 1.0 - (xx + zz), yz - wx],
-            [xz - wy, yz + wx, 1.0 - (xx + yy)],
-        ]
+        R = rotation_rows_from_quaternion_xyzw(pose[3], pose[4], pose[5], pose[6])
         return [pose[0], pose[1], pose[2]], R
     raise InputError(f"rotation must be 'matrix' or 'quaternion', got {rotation!r}")
 

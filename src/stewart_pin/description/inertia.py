@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_scalar
-from stewart_pin._vector import skew
+from stewart_pin._so3 import rotation_from_quaternion_wxyz, skew
 from stewart_pin.exceptions import InertiaError, InputError
 
 #: Names of the 10 standard parameters, in Khalil's order.
@@ -184,7 +184,7 @@ def random_physical_khalil(
         )
     )
     q = rng.normal(size=4)
-    R = pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()
+    R = rotation_from_quaternion_wxyz(q)
     I_c = R @ np.diag(principal) @ R.T
     com = rng.uniform(-com_offset, com_offset, 3)
     return khalil_from_urdf_inertial(mass, com, I_c)

@@ -16,6 +16,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._so3 import rotation_from_quaternion_wxyz
 from stewart_pin.description.inertia import (
     khalil_from_urdf_inertial,
     random_physical_khalil,
@@ -215,7 +216,7 @@ def random_robot(seed: int = 0) -> RobotDescription:
     P_home_in_0 = P + np.array([0.0, 0.0, height])
     # Platform frame: origin offset from the centroid, orientation tilted.
     q = rng.normal(size=4)
-    R_home = pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()
+    R_home = rotation_from_quaternion_wxyz(q)
     R_home = _slerp_identity(R_home, 0.15)
     p_home = np.array([0.03, -0.02, height + 0.05])
     P_local = (P_home_in_0 - p_home) @ R_home

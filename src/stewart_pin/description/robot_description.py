@@ -70,11 +70,6 @@ NAME_RULE = (
     "without '..' or '--'"
 )
 
-#: Tolerance on the orthonormality of the leg base rotations (and the home pose's
-#: rotation block) kept as given. Up to ``max |R^T R - I| = 1e-4``
-#: (``stewart_pin._checks.ROTATION_PROJECTION_TOLERANCE``) they are projected onto SO(3)
-#: with a :class:`~stewart_pin.exceptions.StewartPinWarning`; beyond, refused.
-FRAME_TOLERANCE = 1e-9
 #: Relative distance (to the attachment circle's size) under which two attachment points
 #: are one joint centre, shared by their legs (as in 3-3 and 6-3 designs).
 POINT_TOLERANCE = 1e-9
@@ -222,8 +217,10 @@ class RobotDescription:
                     )
 
     def _check_frames(self, set_: Any) -> None:
-        """Leg base rotations: kept when orthonormal to :data:`FRAME_TOLERANCE`, projected
-        onto SO(3) with a warning up to ``max |R^T R - I| = 1e-4``, else refused."""
+        """Leg base rotations: kept when orthonormal to
+        :data:`~stewart_pin._checks.ROTATION_TOLERANCE`, projected onto SO(3) with a
+        :class:`~stewart_pin.exceptions.StewartPinWarning` up to ``max |R^T R - I| =``
+        :data:`~stewart_pin._checks.ROTATION_PROJECTION_TOLERANCE`, else refused."""
         out = np.empty((6, 3, 3))
         for i, R in enumerate(self.leg_base_rotations):
             try:

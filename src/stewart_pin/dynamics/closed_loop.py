@@ -13,8 +13,8 @@ from functools import cached_property
 
 import numpy as np
 
+from stewart_pin._so3 import cross, skew
 from stewart_pin._typing import Accels, FloatArray, Forces, Poses, Twists
-from stewart_pin._vector import cross, skew
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import inertia_tensor
 from stewart_pin.dynamics.leg_dynamics import LegDynamics

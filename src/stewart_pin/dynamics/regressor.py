@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._so3 import cross
 from stewart_pin._typing import Accels, FloatArray, JointValues, Poses, Twists
-from stewart_pin._vector import cross
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
 from stewart_pin.dynamics.closed_loop import check_finite

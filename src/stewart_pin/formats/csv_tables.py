@@ -27,9 +27,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
+from stewart_pin._checks import check_increasing_times
 from stewart_pin._io import atomic_open
+from stewart_pin._so3 import quaternions_xyzw_from_rotations, rotations_from_quaternions_xyzw
 from stewart_pin.exceptions import FileFormatError
 
 STATE_COLUMNS: tuple[str, ...] = (
@@ -42,35 +43,35 @@ STATE_COLUMNS: tuple[str, ...] = (
 FORCE_COLUMNS: tuple[str, ...] = tuple(f"gamma{i}" for i in range(1, 7))
 LENGTH_COLUMNS: tuple[str, ...] = tuple(f"l{i}" for i in range(1, 7))
 
+
+def _span(columns: tuple[str, ...], first: str, last: str) -> slice:
+    return slice(columns.index(first), columns.index(last) + 1)
+
+
+#: Where each quantity sits in a row of a table read in the column order
+#: ``STATE_COLUMNS + FORCE_COLUMNS (+ LENGTH_COLUMNS)`` (the one definition of the layout).
+TIME_COLUMN = STATE_COLUMNS.index("t")
+POSITION_SLICE = _span(STATE_COLUMNS, "x", "z")
+QUATERNION_SLICE = _span(STATE_COLUMNS, "qx", "qw")
+TWIST_SLICE = _span(STATE_COLUMNS, "vx", "wz")
+ACCEL_SLICE = _span(STATE_COLUMNS, "ax", "alphaz")
+FORCE_SLICE = slice(len(STATE_COLUMNS), len(STATE_COLUMNS) + len(FORCE_COLUMNS))
+LENGTH_SLICE = slice(FORCE_SLICE.stop, FORCE_SLICE.stop + len(LENGTH_COLUMNS))
+
 #: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
 QUATERNION_TOLERANCE = 1e-6
 
 
-def quaternions_from_rotations(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``[x, y, z, w]`` with ``w >= 0`` of rotation matrices (N, 3, 3)."""
-    q = np.array([pin.Quaternion(r).coeffs() for r in R]).reshape(-1, 4)
-    q *= np.where(q[:, 3:] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def rotations_from_quaternions(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) of unit quaternions ``[x, y, z, w]`` (N, 4)."""
-    x, y, z, w = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=-2,
-    )
+#: Conversions between 0Rp and the ``qx qy qz qw`` columns (re-exported names).
+quaternions_from_rotations = quaternions_xyzw_from_rotations
+rotations_from_quaternions = rotations_from_quaternions_xyzw
 
 
 def state_table(
     times: np.ndarray, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
 ) -> np.ndarray:
     """The :data:`STATE_COLUMNS` block (N, 20) of a motion."""
-    quat = quaternions_from_rotations(poses[:, :3, :3])
+    quat = quaternions_xyzw_from_rotations(poses[:, :3, :3])
     return np.column_stack([times, poses[:, :3, 3], quat, twists, accels])
 
 
@@ -79,11 +80,13 @@ def states_from_table(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(times, poses (N, 4, 4), twists, accels)`` from rows whose first 20 columns are
     :data:`STATE_COLUMNS` (quaternions already checked to be unit within tolerance)."""
-    quat = rows[:, 4:8]
+    quat = rows[:, QUATERNION_SLICE]
     poses = np.tile(np.eye(4), (rows.shape[0], 1, 1))
-    poses[:, :3, 3] = rows[:, 1:4]
-    poses[:, :3, :3] = rotations_from_quaternions(quat / np.linalg.norm(quat, axis=1)[:, None])
-    return rows[:, 0], poses, rows[:, 8:14], rows[:, 14:20]
+    poses[:, :3, 3] = rows[:, POSITION_SLICE]
+    poses[:, :3, :3] = rotations_from_quaternions_xyzw(
+        quat / np.linalg.norm(quat, axis=1)[:, None]
+    )
+    return rows[:, TIME_COLUMN], poses, rows[:, TWIST_SLICE], rows[:, ACCEL_SLICE]
 
 
 def write_csv(path: str | Path, columns: Sequence[str], table: np.ndarray) -> Path:
@@ -177,15 +180,12 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
                 f"within {QUATERNION_TOLERANCE:g}; write unit quaternions"
             )
     if "t" in columns:
-        t = rows[:, columns.index("t")]
-        bad = np.flatnonzero(np.diff(t) <= 0)
-        if bad.size:
-            r = int(bad[0]) + 1
-            raise FileFormatError(
-                f"{path}, line {line_numbers[r]}: time t = {float(t[r])!r} s does not "
-                f"increase (line {line_numbers[r - 1]} has t = {float(t[r - 1])!r} s); times "
-                "must be strictly increasing"
-            )
+        check_increasing_times(
+            rows[:, columns.index("t")],
+            label=lambda k: f"line {line_numbers[k]}: time t",
+            prefix=f"{path}, ",
+            error=FileFormatError,
+        )
     if rows.shape[0] < max(int(min_rows), 1):
         raise FileFormatError(
             f"{path}: {rows.shape[0]} data rows (after the header on line {header_line}), "
@@ -284,11 +284,9 @@ def read_npz(path: str | Path, shapes: Mapping[str, tuple[int | None, ...]]) -> 
         out[key] = a
     if count is not None and count[0] < 1:
         raise FileFormatError(f"{path}: no samples (at least one needed)")
-    if "t" in out and np.any(np.diff(out["t"]) <= 0):
-        k = int(np.flatnonzero(np.diff(out["t"]) <= 0)[0]) + 1
-        raise FileFormatError(
-            f"{path}: time t[{k}] = {float(out['t'][k])!r} s does not increase (t[{k - 1}] = "
-            f"{float(out['t'][k - 1])!r} s); times must be strictly increasing"
+    if "t" in out:
+        check_increasing_times(
+            out["t"], label=lambda k: f"time t[{k}]", prefix=f"{path}: ", error=FileFormatError
         )
     if "poses" in out and out["poses"].shape[1:] == (4, 4):
         T = out["poses"]

@@ -52,6 +52,7 @@ import pinocchio as pin
 
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
+from stewart_pin._so3 import quaternion_wxyz_from_rotation
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import (
     inertia_tensor,
@@ -289,11 +290,8 @@ def _vec(v: Any) -> str:
     return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
 
 
-def quaternion_wxyz(R: Any) -> np.ndarray:
-    """MuJoCo's ``(w, x, y, z)`` unit quaternion of a rotation matrix, with ``w >= 0``."""
-    x, y, z, w = pin.Quaternion(np.asarray(R, dtype=float)).normalized().coeffs()
-    q = np.array([w, x, y, z])
-    return -q if w < 0 else q
+#: MuJoCo's ``(w, x, y, z)`` unit quaternion of a rotation matrix, with ``w >= 0``.
+quaternion_wxyz = quaternion_wxyz_from_rotation
 
 
 def _body(parent: ET.Element, name: str, pos: Any = None, R: Any = None) -> ET.Element:

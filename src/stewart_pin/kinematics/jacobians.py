@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_batch, check_poses
+from stewart_pin._so3 import cross
 from stewart_pin._typing import Accels, ArrayLike, FloatArray, JointValues, Poses, Twists
-from stewart_pin._vector import cross
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import InputError, SingularityError
 from stewart_pin.kinematics.geometry import (
@@ -77,12 +77,6 @@ def leg_frames(desc: RobotDescription, q: JointValues) -> LegFrames:
         sin_q2=s2,
         cos_q2=c2,
     )
-
-
-def leg_rotations(desc: RobotDescription, q: JointValues) -> FloatArray:
-    """Orientation of frame 3i in F0, shape (N, 6, 3, 3): columns ``[x3, y3, z3 = a]``."""
-    f = leg_frames(desc, q)
-    return np.stack([f.a2, f.y3, f.a], axis=-1)
 
 
 def leg_jacobians(desc: RobotDescription, q: JointValues) -> FloatArray:

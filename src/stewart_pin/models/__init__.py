@@ -8,7 +8,6 @@ tree) stand on these models.
 
 from .pinocchio_models import (
     TreeModel,
-    build_leg_model,
     build_leg_models,
     build_legs_model,
     build_tree,
@@ -17,7 +16,6 @@ from .pinocchio_models import (
 
 __all__ = [
     "TreeModel",
-    "build_leg_model",
     "build_leg_models",
     "build_legs_model",
     "build_tree",

@@ -2,7 +2,7 @@
 
 - :func:`build_tree` : the 24-dof tree (platform free-flyer + 18 leg joints) with the six
   3D loop-closure constraints (``pin.RigidConstraintModel`` CONTACT_3D, LOCAL).
-- :func:`build_leg_model` / :func:`build_leg_models` : the 3-dof model of one leg / of each.
+- :func:`build_leg_models` : the 3-dof model of each leg.
 - :func:`build_legs_model` : the six legs side by side, fixed base, 18 dof: one RNEA /
   CRBA call on it is the six legs' RNEA / CRBA (the chains share no body).
 
@@ -155,17 +155,10 @@ def _reduced(model: pin.Model, keep_legs: list[int]) -> pin.Model:
     return reduced
 
 
-def build_leg_model(desc: RobotDescription, leg: int) -> pin.Model:
-    """The 3-dof model of leg ``leg`` (0-based), joints ``q1i, q2i, q3i`` in that order.
-
-    Its tip frame ``leg{i}_link3`` has its origin at P_i when q = inverse geometry.
-    """
-    tree = _model_from_urdf_text(urdf_string(desc), desc.gravity)
-    return _reduced(tree, [leg])
-
-
 def build_leg_models(desc: RobotDescription) -> list[pin.Model]:
-    """The six 3-dof leg models (as :func:`build_leg_model`), from one parse of the URDF."""
+    """The six 3-dof leg models, from one parse of the URDF: model ``i`` (0-based) has the
+    joints ``q1i, q2i, q3i`` in that order, and its tip frame ``leg{i}_link3`` has its
+    origin at P_i when q = inverse geometry."""
     tree = _model_from_urdf_text(urdf_string(desc), desc.gravity)
     return [_reduced(tree, [leg]) for leg in range(6)]
 

@@ -21,7 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin._checks import check_array
+from stewart_pin._checks import check_array, check_poses
+from stewart_pin._so3 import so3_log
+from stewart_pin.exceptions import InputError
 from stewart_pin.protocols import RobotLike
 
 Reference = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -66,8 +68,33 @@ class ComputedTorqueController:
 
 
 def tracking_errors(
-    reference: Reference, times: np.ndarray, poses: np.ndarray
+    reference: Reference | np.ndarray, times: np.ndarray, poses: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Position error norms [m] and rotation error angles [rad], each (K,), of a motion."""
-    errors = np.array([pose_error(reference(t)[0], T) for t, T in zip(times, poses, strict=True)])
-    return np.linalg.norm(errors[:, :3], axis=1), np.linalg.norm(errors[:, 3:], axis=1)
+    """Tracking errors of a motion, actual minus reference (the one definition of them).
+
+    Args:
+        reference: ``t -> (T_ref (4, 4), V_ref (6,), A_ref (6,))`` (a motion or a
+            :data:`Reference`), or the reference poses 0Tp_ref, shape (K, 4, 4).
+        times: shape (K,) [s], the instants of ``poses`` (where ``reference`` is called).
+        poses: shape (K, 4, 4), the actual platform poses 0Tp.
+
+    Returns:
+        ``(e_p, e_r)``, each (K, 3) in F0: ``e_p = p - p_ref`` [m] and
+        ``e_r = log3(R R_ref^T)`` [rad], the rotation vector turning the reference into the
+        actual orientation. Their norms (``np.linalg.norm(e, axis=1)``) are the position
+        error [m] and the rotation angle [rad]. (The control law's :func:`pose_error` is the
+        opposite, reference minus actual.)
+    """
+    T, _ = check_poses(poses, "poses")
+    t = check_array(times, (T.shape[0],), "times")
+    if callable(reference):
+        T_ref = np.array([reference(float(tk))[0] for tk in t]).reshape(-1, 4, 4)
+    else:
+        T_ref, _ = check_poses(reference, "reference")
+        if T_ref.shape != T.shape:
+            raise InputError(
+                f"reference has shape {T_ref.shape} but poses {T.shape}: give one each"
+            )
+    e_p = T[:, :3, 3] - T_ref[:, :3, 3]
+    e_r = so3_log(T[:, :3, :3] @ np.swapaxes(T_ref[:, :3, :3], 1, 2))
+    return e_p, e_r

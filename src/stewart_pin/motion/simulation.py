@@ -42,6 +42,7 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_scalar
 from stewart_pin._io import atomic_open
+from stewart_pin._so3 import so3_left_jacobian_inverse
 from stewart_pin.exceptions import (
     ConvergenceError,
     FileFormatError,
@@ -54,7 +55,9 @@ from stewart_pin.exceptions import (
 )
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
+    FORCE_SLICE,
     LENGTH_COLUMNS,
+    LENGTH_SLICE,
     STATE_COLUMNS,
     read_csv,
     read_npz,
@@ -87,6 +90,9 @@ MIN_STEP = 1e-12
 #: A leg reaching its stroke end is located to this fraction of the longest stroke length
 #: (1e-6 * 2.8 m = 2.8 um for the simulator preset); a U-joint limit to this many radians.
 LIMIT_TOLERANCE = 1e-6
+#: Slack when a ratio of times is rounded to an integer (t / period, period / dt,
+#: duration / dt): round-off in the division must not add or drop a sample.
+_RATIO_SLACK = 1e-9
 
 # Dormand-Prince 5(4) tableau.
 _DP_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1])
@@ -149,7 +155,7 @@ class SimulationResult:
             return cls(**read_npz(path, _NPZ_SHAPES))
         if path.suffix == ".csv":
             rows = read_csv(path, cls.CSV_COLUMNS)
-            return cls(*states_from_table(rows), rows[:, 20:26], rows[:, 26:32])
+            return cls(*states_from_table(rows), rows[:, FORCE_SLICE], rows[:, LENGTH_SLICE])
         raise _unknown_suffix(path)
 
 
@@ -165,12 +171,6 @@ _NPZ_SHAPES = {
     "poses": (None, 4, 4),
     **{k: (None, 6) for k in ("twists", "accels", "gammas", "lengths")},
 }
-
-
-def _left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
-    """``J_l(xi)^-1`` of SO(3): ``dxi/dt = J_l^-1 w`` for ``R = exp(xi^) R_0``, w in F0."""
-    # J_l(xi) = J_r(-xi) = J_r(xi)^T, and pin.Jlog3(exp3(xi)) = J_r(xi)^-1.
-    return pin.Jlog3(pin.exp3(xi)).T
 
 
 def _chart_pose(T0: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -231,7 +231,7 @@ class _Integrator:
 
     def period_index(self, t: float) -> int:
         """Index of the control period holding ``t`` (0 without a control period)."""
-        return 0 if self.period is None else int(np.floor(t / self.period + 1e-9))
+        return 0 if self.period is None else int(np.floor(t / self.period + _RATIO_SLACK))
 
     def gamma(self, t: float, T: np.ndarray, V: np.ndarray, k: int) -> np.ndarray:
         """Forces at stage time ``t``; with a control period, the value sampled at the
@@ -258,7 +258,7 @@ class _Integrator:
         V = y[6:]
         g = self.gamma(t, T, V, k)
         acc = self.robot.direct_dynamics(T, V, g, backend=self.backend)
-        dy = np.concatenate([V[:3], _left_jacobian_inverse(y[3:6]) @ V[3:], acc])
+        dy = np.concatenate([V[:3], so3_left_jacobian_inverse(y[3:6]) @ V[3:], acc])
         return dy, g, T
 
     def det_signs(self, poses: np.ndarray) -> np.ndarray:
@@ -418,7 +418,7 @@ def simulate(
             )
         if method == "rk4":
             ratio = control_period / dt
-            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            if abs(ratio - round(ratio)) > _RATIO_SLACK or round(ratio) < 1:
                 raise InputError(
                     f"control_period {control_period} s must be a whole multiple of dt {dt} s"
                 )
@@ -453,7 +453,7 @@ class _Run:
         # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
         self.h_min = max(MIN_STEP, 16 * np.finfo(float).eps * duration)
         self.tol = LIMIT_TOLERANCE * float(robot.description.stroke[1])
-        self.n_grid = max(1, int(np.ceil(duration / dt - 1e-9))) if method == "rk4" else 0
+        self.n_grid = max(1, int(np.ceil(duration / dt - _RATIO_SLACK))) if method == "rk4" else 0
 
     # ------------------------------------------------------------------ output
     def record(self, s: _State, final: bool = False) -> None:
@@ -463,7 +463,7 @@ class _Run:
             return
         out = self.output_dt
         if out is not None and not final:
-            if s.t < self.next_output - 1e-12 and s.t < self.duration - 1e-12:
+            if s.t < self.next_output - MIN_STEP and s.t < self.duration - MIN_STEP:
                 return
             self.next_output += out
         self.rows.append(s)

@@ -33,13 +33,15 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array, check_pose, check_poses
-from stewart_pin._vector import cross, skew
+from stewart_pin._checks import check_array, check_increasing_times, check_pose, check_poses
+from stewart_pin._so3 import (
+    so3_coefficients,
+    so3_exp,
+    so3_left_jacobian,
+    so3_left_jacobian_rate,
+)
 from stewart_pin.exceptions import InputError, SingularityError, WorkspaceError
 from stewart_pin.protocols import RobotLike
-
-#: Below this rotation angle [rad] the SO(3) coefficient functions use Taylor series.
-_SERIES_ANGLE = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,7 +75,7 @@ class Trajectory:
         }
         if poses.shape[0] != n:
             raise InputError(f"poses holds {poses.shape[0]} states but times has {n}")
-        check_increasing(times)
+        check_increasing_times(times)
         for key, value in arrays.items():
             value = np.array(value)  # a copy we own
             value.flags.writeable = False
@@ -81,17 +83,6 @@ class Trajectory:
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
-
-
-def check_increasing(times: np.ndarray, name: str = "times") -> None:
-    """Raise :class:`InputError` unless ``times`` (N,) is strictly increasing."""
-    bad = np.flatnonzero(np.diff(times) <= 0)
-    if bad.size:
-        k = int(bad[0]) + 1
-        raise InputError(
-            f"{name} must be strictly increasing: {name}[{k}] = {float(times[k])!r} s follows "
-            f"{name}[{k - 1}] = {float(times[k - 1])!r} s"
-        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,13 +188,13 @@ def _states(
     reference: np.ndarray, x: np.ndarray, xd: np.ndarray, xdd: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r, rd, rdd = x[:, 3:], xd[:, 3:], xdd[:, 3:]
-    coefs = _coefficients(r)  # shared by the exponential and the Jacobians
+    coefs = so3_coefficients(r)  # shared by the exponential and the Jacobians
     poses = np.tile(np.eye(4), (x.shape[0], 1, 1))
     poses[:, :3, :3] = so3_exp(r, coefs) @ reference[:3, :3]
     poses[:, :3, 3] = reference[:3, 3] + x[:, :3]
     J = so3_left_jacobian(r, coefs)
     w = np.einsum("nij,nj->ni", J, rd)
-    wd = np.einsum("nij,nj->ni", J, rdd) + _left_jacobian_rate(r, rd, coefs)
+    wd = np.einsum("nij,nj->ni", J, rdd) + so3_left_jacobian_rate(r, rd, coefs)
     twists = np.concatenate([xd[:, :3], w], axis=1)
     accels = np.concatenate([xdd[:, :3], wd], axis=1)
     return poses, twists, accels
@@ -300,8 +291,7 @@ class MinimumJerkKnots(CoordinateMotion):
             )
         for k, axis in enumerate(self.knots):
             times = np.array([float(t) for t, _ in axis])
-            if times.size and np.any(np.diff(times) <= 0):
-                raise InputError(f"knot times of coordinate {k} must increase, got {times}")
+            check_increasing_times(times, f"knot times of coordinate {k}")
 
     @property
     def duration(self) -> float:  # type: ignore[override]
@@ -398,70 +388,6 @@ class Sinusoids(CoordinateMotion):
             A * om * np.cos(arg),
             -A * om**2 * np.sin(arg),
         )
-
-
-# ---------------------------------------------------------------------- SO(3) helpers
-def _series(theta2: np.ndarray, coefs: list[float]) -> np.ndarray:
-    out = np.zeros_like(theta2)
-    for c in reversed(coefs):
-        out = out * theta2 + c
-    return out
-
-
-def _coefficients(r: np.ndarray) -> tuple[np.ndarray, ...]:
-    """``sin t / t, a, b, a'/t, b'/t`` at ``t = |r|`` for rotation vectors r (N, 3)."""
-    t = np.linalg.norm(r, axis=-1)
-    t2 = t * t
-    small = t < _SERIES_ANGLE
-    ts = np.where(small, 1.0, t)  # avoids 0/0 in the branch np.where discards
-    sinc = np.sinc(t / np.pi)
-    a = np.where(
-        small, _series(t2, [1 / 2, -1 / 24, 1 / 720, -1 / 40320]), (1 - np.cos(ts)) / ts**2
-    )
-    b = np.where(
-        small,
-        _series(t2, [1 / 6, -1 / 120, 1 / 5040, -1 / 362880]),
-        (ts - np.sin(ts)) / ts**3,
-    )
-    da = np.where(
-        small,
-        _series(t2, [-1 / 12, 1 / 180, -1 / 6720, 1 / 453600]),
-        (ts * np.sin(ts) - 2 * (1 - np.cos(ts))) / ts**4,
-    )
-    db = np.where(
-        small,
-        _series(t2, [-1 / 60, 1 / 1260, -1 / 60480, 1 / 4989600]),
-        ((1 - np.cos(ts)) * ts - 3 * (ts - np.sin(ts))) / ts**5,
-    )
-    return sinc, a, b, da, db
-
-
-def so3_exp(r: np.ndarray, coefs: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
-    """Rotation matrices ``exp([r]x)`` (Rodrigues) of rotation vectors r (N, 3) [rad]."""
-    sinc, a, _, _, _ = coefs or _coefficients(r)
-    K = skew(r)
-    return np.eye(3) + sinc[:, None, None] * K + a[:, None, None] * (K @ K)
-
-
-def so3_left_jacobian(r: np.ndarray, coefs: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
-    """``J_l(r)`` (N, 3, 3): ``w = J_l(r) r'`` is the angular velocity in F0 of ``exp(r) R0``."""
-    _, a, b, _, _ = coefs or _coefficients(r)
-    K = skew(r)
-    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
-
-
-def _left_jacobian_rate(
-    r: np.ndarray, rd: np.ndarray, coefs: tuple[np.ndarray, ...] | None = None
-) -> np.ndarray:
-    """``(dJ_l/dt) r'`` (N, 3) (module docstring)."""
-    _, _, b, da, db = coefs or _coefficients(r)
-    rdr = np.einsum("ni,ni->n", r, rd)
-    r_x_rd = cross(r, rd)
-    return (
-        (rdr * da)[:, None] * r_x_rd
-        + (rdr * db)[:, None] * cross(r, r_x_rd)
-        + b[:, None] * cross(rd, r_x_rd)
-    )
 
 
 #: The kinds :func:`standard_motion` builds.

@@ -36,6 +36,7 @@ from stewart_pin.exceptions import (
 )
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
+    FORCE_SLICE,
     STATE_COLUMNS,
     read_csv,
     state_table,
@@ -358,7 +359,7 @@ def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
     """
     rows = read_csv(path, CSV_COLUMNS, min_rows)
     try:
-        return Measurements(*states_from_table(rows), rows[:, 20:26])
+        return Measurements(*states_from_table(rows), rows[:, FORCE_SLICE])
     except InputError as e:  # pragma: no cover - read_csv's checks cover the format
         raise FileFormatError(f"{path}: {e}") from e
 

@@ -12,7 +12,6 @@ from stewart_pin.viz.plots import (
     plot_tracking_error,
     reference_poses,
     save_figures,
-    tracking_errors,
 )
 from stewart_pin.viz.viewer import CameraView, Viewer, tree_configuration, visual_model
 
@@ -25,7 +24,6 @@ __all__ = [
     "plot_tracking_error",
     "reference_poses",
     "save_figures",
-    "tracking_errors",
     "tree_configuration",
     "visual_model",
 ]

@@ -13,11 +13,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_poses
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import InputError
+from stewart_pin.motion.control import tracking_errors
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -94,34 +94,16 @@ def plot_lengths(t: Any, lengths: Any, stroke: Any = None) -> Figure:
     return fig
 
 
-def tracking_errors(poses: Any, reference: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Position and rotation errors of ``poses`` against ``reference`` (both (K, 4, 4)).
-
-    Returns:
-        ``(e_p, e_r)``, each (K, 3): ``e_p = p - p_ref`` [m] and ``e_r = log3(R R_ref^T)``
-        [rad], the rotation vector in F0 turning the reference into the actual orientation.
-    """
-    T, _ = check_poses(poses, "poses")
-    R_ref, _ = check_poses(reference, "reference")
-    if R_ref.shape != T.shape:
-        raise InputError(f"reference has shape {R_ref.shape} but poses {T.shape}: give one each")
-    e_p = T[:, :3, 3] - R_ref[:, :3, 3]
-    dR = T[:, :3, :3] @ np.swapaxes(R_ref[:, :3, :3], 1, 2)
-    e_r = np.array([pin.log3(R) for R in dR])
-    return e_p, e_r
-
-
 def plot_tracking_error(t: Any, poses: Any, reference: Any) -> Figure:
     """Tracking error against time: position [mm] (top) and rotation [deg] (bottom),
-    the three components in F0 and the norm (see :func:`tracking_errors`).
+    the three components in F0 and the norm (see
+    :func:`~stewart_pin.motion.control.tracking_errors`: actual minus reference).
 
     Args:
         t: shape (K,) [s]; poses, reference: shape (K, 4, 4), 0Tp and its reference.
     """
     t = check_array(t, (None,), "t")
-    e_p, e_r = tracking_errors(poses, reference)
-    if len(e_p) != len(t):
-        raise InputError(f"poses has {len(e_p)} samples but t has {len(t)}")
+    e_p, e_r = tracking_errors(reference, t, poses)
     fig, (ax_p, ax_r) = _figure(2)
     for ax, err in ((ax_p, 1e3 * e_p), (ax_r, np.degrees(e_r))):
         for k, axis in enumerate("xyz"):

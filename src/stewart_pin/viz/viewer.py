@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin._checks import check_array, check_pose, check_poses
+from stewart_pin._checks import check_array, check_increasing_times, check_pose, check_poses
 from stewart_pin._io import write_text_atomic
 from stewart_pin.exceptions import InputError, ViewerError
 from stewart_pin.formats.urdf import VisualSizes
@@ -112,11 +112,7 @@ def check_motion(poses: Any, times: Any) -> tuple[np.ndarray, np.ndarray]:
     t = check_array(times, (None,), "times")
     if len(t) != len(T):
         raise InputError(f"times has {len(t)} values but poses has {len(T)}: give one per pose")
-    if np.any(np.diff(t) <= 0):
-        k = int(np.argmax(np.diff(t) <= 0))
-        raise InputError(
-            f"times must increase strictly: times[{k + 1}] = {t[k + 1]} s after {t[k]} s"
-        )
+    check_increasing_times(t)
     return T, t
 
 
