@@ -88,7 +88,10 @@ class GeneralTreeSolver:
         out = np.empty((len(self.cmodels), 3))
         for k, cm in enumerate(self.cmodels):
             acc = []
-            for joint, M in ((cm.joint1_id, cm.joint1_placement), (cm.joint2_id, cm.joint2_placement)):
+            for joint, M in (
+                (cm.joint1_id, cm.joint1_placement),
+                (cm.joint2_id, cm.joint2_placement),
+            ):
                 vc = M.actInv(self.data.v[joint])
                 ac = M.actInv(self.data.a[joint])
                 R = self.data.oMi[joint].rotation @ M.rotation
@@ -176,7 +179,9 @@ def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     try:
         x = np.linalg.solve(A, b)
     except np.linalg.LinAlgError as e:
-        raise SingularityError(f"{what} is singular (a singular configuration)", np.inf, 0.0) from e
+        raise SingularityError(
+            f"{what} is singular (a singular configuration)", np.inf, 0.0
+        ) from e
     if not np.all(np.isfinite(x)):
         raise SingularityError(f"{what} gave non-finite values", np.inf, 0.0)
     return x

@@ -333,7 +333,7 @@ class LegArchitecture:
     def _check_structure(self) -> None:
         """The structure the named architecture's closed form relies on."""
         kinds = tuple(j.kind[0].upper() for j in self.joints)
-        j1, j2, j3 = self.joints
+        _, j2, j3 = self.joints
         tol = STRUCTURE_TOLERANCE
 
         def need(ok: bool, what: str) -> None:
@@ -354,8 +354,10 @@ class LegArchitecture:
             if self.name == "ups":
                 need(j2.d == 0.0, "intersecting U-joint axes (d2 = 0; else 'ups-offset')")
         elif self.name in ("rus", "pus"):
-            need(kinds == (("R",) if self.name == "rus" else ("P",)) + ("R", "R"),
-                 "joints R, R, R" if self.name == "rus" else "joints P, R, R")
+            need(
+                kinds == (("R",) if self.name == "rus" else ("P",)) + ("R", "R"),
+                "joints R, R, R" if self.name == "rus" else "joints P, R, R",
+            )
             need(j3.d == 0.0 and j3.r == 0.0, "intersecting U-joint axes (d3 = r3 = 0)")
             need(abs(math.sin(j3.alpha)) > 1e-6, "non-parallel U-joint axes (sin alpha3 != 0)")
             need(bool(np.linalg.norm(self.tip) > 0.0), "a rod of non-zero length (tip != 0)")
@@ -381,7 +383,9 @@ class LegArchitecture:
 
     def with_dynamics(self, dynamics: Sequence[JointDynamics]) -> LegArchitecture:
         """A copy with the three joints' dynamics replaced."""
-        joints = tuple(replace(j, dynamics=dyn) for j, dyn in zip(self.joints, dynamics, strict=True))
+        joints = tuple(
+            replace(j, dynamics=dyn) for j, dyn in zip(self.joints, dynamics, strict=True)
+        )
         return self.replace(joints=joints)
 
     def transforms(self, q: Any, T_0_0i: Any = None) -> list[np.ndarray]:
@@ -678,7 +682,9 @@ def _assemble(
     T0 = np.tile(np.eye(4), (6, 1, 1))
     T0[:, :3, :3], T0[:, :3, 3] = rotations, base_points
     P_home = np.array([leg.tip_position(q, T) for leg, q, T in zip(legs, q_home, T0, strict=True)])
-    legs = [leg.replace(branch=leg.branch_at(q), guess=q) for leg, q in zip(legs, q_home, strict=True)]
+    legs = [
+        leg.replace(branch=leg.branch_at(q), guess=q) for leg, q in zip(legs, q_home, strict=True)
+    ]
     home = np.eye(4)
     home[:3, :3], home[:3, 3] = R_home, p_home
     return GeneralHexapod(
@@ -694,6 +700,15 @@ def _assemble(
     )
 
 
+def _crank_rod_measure(leg: LegArchitecture, q: Any) -> float:
+    """``(P - C) . (z1 x (C - O1))`` normalised by the rod and crank lengths: 1 with the rod
+    along the crank tip's velocity, 0 at the reach limit (rod and crank aligned)."""
+    T1, T2, _ = leg.transforms(q)
+    P, C, O1, z1 = leg.tip_position(q), T2[:3, 3], T1[:3, 3], T1[:3, 2]
+    arm = np.cross(z1, C - O1)
+    return float((P - C) @ arm / (np.linalg.norm(P - C) * np.linalg.norm(arm)))
+
+
 def _ring(radius: float, angles_deg: Sequence[float], z: float = 0.0) -> np.ndarray:
     a = np.radians(np.asarray(angles_deg, float))
     return np.column_stack([radius * np.cos(a), radius * np.sin(a), np.full(len(a), z)])
@@ -706,6 +721,7 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
     on every body, and (``joint_terms``) every joint dynamics term non-zero, with gear and
     screw transmissions on the actuated joints."""
     rng = np.random.default_rng(seed)
+
     def dyn(kind_: str, transmission: bool = False) -> JointDynamics:
         if not joint_terms:
             return JointDynamics()
@@ -743,26 +759,46 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
             tangent = np.cross([0.0, 0.0, 1.0], radial) * (1 if k % 2 else -1)
             R = _frame_from_zx(radial + rng.uniform(-0.2, 0.2, 3), tangent)
             rotations.append(R)
-            crank = float(rng.uniform(0.025, 0.035))
-            rod = float(rng.uniform(0.09, 0.11))
-            leg = rus(crank, rod, dynamics=[dyn(REVOLUTE, True), dyn(REVOLUTE), dyn(REVOLUTE)])
-            j1, j2, j3 = leg.joints
-            leg = leg.replace(
-                joints=(
-                    replace(j1, alpha=float(rng.uniform(-0.2, 0.2)), d=float(rng.uniform(0, 0.01))),
-                    replace(j2, alpha=float(rng.uniform(-0.3, 0.3)), theta=float(rng.uniform(-0.3, 0.3)),
-                            r=float(rng.uniform(-0.01, 0.01))),
-                    replace(j3, alpha=math.pi / 2 + float(rng.uniform(-0.3, 0.3)),
-                            theta=float(rng.uniform(-0.3, 0.3))),
-                ),
-                tip=np.array([rod, *rng.uniform(-0.01, 0.01, 2)]),
-            )
-            # crank outwards-horizontal-ish, rod up and inwards.
             s = 1 if k % 2 else -1
-            q_home.append([float(rng.uniform(-0.2, 0.2)), s * (math.pi / 2 - 0.4)
-                           + float(rng.uniform(-0.15, 0.15)), -0.3 + float(rng.uniform(-0.1, 0.1))])
+            for _ in range(100):  # redraw until crank and rod are well apart (reach margin)
+                crank = float(rng.uniform(0.025, 0.035))
+                rod = float(rng.uniform(0.09, 0.11))
+                leg = rus(crank, rod, dynamics=[dyn(REVOLUTE, True), dyn(REVOLUTE), dyn(REVOLUTE)])
+                j1, j2, j3 = leg.joints
+                leg = leg.replace(
+                    joints=(
+                        replace(
+                            j1, alpha=float(rng.uniform(-0.2, 0.2)), d=float(rng.uniform(0, 0.01))
+                        ),
+                        replace(
+                            j2,
+                            alpha=float(rng.uniform(-0.3, 0.3)),
+                            theta=float(rng.uniform(-0.3, 0.3)),
+                            r=float(rng.uniform(-0.01, 0.01)),
+                        ),
+                        replace(
+                            j3,
+                            alpha=math.pi / 2 + float(rng.uniform(-0.3, 0.3)),
+                            theta=float(rng.uniform(-0.3, 0.3)),
+                        ),
+                    ),
+                    tip=np.array([rod, *rng.uniform(-0.01, 0.01, 2)]),
+                )
+                # crank outwards-horizontal-ish, rod up and inwards.
+                qh = [
+                    float(rng.uniform(-0.2, 0.2)),
+                    s * (math.pi / 2 - 0.4) + float(rng.uniform(-0.15, 0.15)),
+                    -0.3 + float(rng.uniform(-0.1, 0.1)),
+                ]
+                if abs(_crank_rod_measure(leg, qh)) > 0.7:
+                    break
+            q_home.append(qh)
             legs.append(leg)
-        link_sizes = ((0.01, 0.03, 0.015, 0.01), (0.002, 0.01, 0.01, 0.005), (0.01, 0.03, 0.05, 0.04))
+        link_sizes = (
+            (0.01, 0.03, 0.015, 0.01),
+            (0.002, 0.01, 0.01, 0.005),
+            (0.01, 0.03, 0.05, 0.04),
+        )
         platform = random_physical_khalil(rng, rng.uniform(0.8, 1.2), 0.06, 0.02)
         centre = np.array([0.005, -0.003, 0.1])
     elif kind == "pus":
@@ -773,23 +809,38 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
             R = _frame_from_zx(np.array([0.0, 0.0, 1.0]) + rng.uniform(-0.2, 0.2, 3), -radial)
             rotations.append(R)
             rod = float(rng.uniform(0.35, 0.45))
-            leg = pus(rod, float(rng.uniform(-0.2, 0.2)),
-                      dynamics=[dyn(PRISMATIC, True), dyn(REVOLUTE), dyn(REVOLUTE)])
+            leg = pus(
+                rod,
+                float(rng.uniform(-0.2, 0.2)),
+                dynamics=[dyn(PRISMATIC, True), dyn(REVOLUTE), dyn(REVOLUTE)],
+            )
             j1, j2, j3 = leg.joints
             leg = leg.replace(
                 joints=(
                     replace(j1, theta=float(rng.uniform(-0.3, 0.3))),
-                    replace(j2, alpha=math.pi / 2 + float(rng.uniform(-0.2, 0.2)),
-                            d=float(rng.uniform(0, 0.02)), r=float(rng.uniform(-0.02, 0.02))),
-                    replace(j3, alpha=math.pi / 2 + float(rng.uniform(-0.2, 0.2)),
-                            theta=float(rng.uniform(-0.3, 0.3))),
+                    replace(
+                        j2,
+                        alpha=math.pi / 2 + float(rng.uniform(-0.2, 0.2)),
+                        d=float(rng.uniform(0, 0.02)),
+                        r=float(rng.uniform(-0.02, 0.02)),
+                    ),
+                    replace(
+                        j3,
+                        alpha=math.pi / 2 + float(rng.uniform(-0.2, 0.2)),
+                        theta=float(rng.uniform(-0.3, 0.3)),
+                    ),
                 ),
                 tip=np.array([rod, *rng.uniform(-0.02, 0.02, 2)]),
             )
             # slide mid-height; rod inwards and up at about 45 degrees, tilted sideways.
             side = (1 if k % 2 else -1) * 0.3
-            q_home.append([float(rng.uniform(0.15, 0.25)), float(rng.uniform(0.8, 1.1)),
-                           side + float(rng.uniform(-0.1, 0.1))])
+            q_home.append(
+                [
+                    float(rng.uniform(0.15, 0.25)),
+                    float(rng.uniform(0.8, 1.1)),
+                    side + float(rng.uniform(-0.1, 0.1)),
+                ]
+            )
             legs.append(leg)
         link_sizes = ((0.5, 1.5, 0.05, 0.03), (0.1, 0.3, 0.03, 0.02), (0.3, 0.8, 0.2, 0.15))
         platform = random_physical_khalil(rng, rng.uniform(5.0, 15.0), 0.2, 0.05)
@@ -805,7 +856,10 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
     q_home = np.array(q_home)
     leg_inertia = np.array(
         [
-            [random_physical_khalil(rng, rng.uniform(lo, hi), size, off) for lo, hi, size, off in link_sizes]
+            [
+                random_physical_khalil(rng, rng.uniform(lo, hi), size, off)
+                for lo, hi, size, off in link_sizes
+            ]
             for _ in range(6)
         ]
     )
@@ -817,8 +871,16 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
     R_home = _rot(rng, 0.15)
     gravity = np.array([0.0, 0.0, -9.81]) + rng.uniform(-0.5, 0.5, 3)
     return _assemble(
-        f"random-{kind}-{seed}", B, rotations, legs, q_home, leg_inertia, platform, gravity,
-        R_home, centre,
+        f"random-{kind}-{seed}",
+        B,
+        rotations,
+        legs,
+        q_home,
+        leg_inertia,
+        platform,
+        gravity,
+        R_home,
+        centre,
     )
 
 
@@ -854,12 +916,25 @@ def ups_offset_preset(offset: float = 0.004) -> GeneralHexapod:
         leg = ups_offset(offset, tuple(desc.stroke), dynamics=(small, small, lead))
         u = desc.leg_base_rotations[i].T @ (P0[i] - desc.base_points[i])
         rho = math.hypot(u[0], u[1])
-        q_home.append([math.atan2(u[1], u[0]), math.atan2(rho - offset, -u[2]),
-                       math.hypot(rho - offset, u[2])])
+        q_home.append(
+            [
+                math.atan2(u[1], u[0]),
+                math.atan2(rho - offset, -u[2]),
+                math.hypot(rho - offset, u[2]),
+            ]
+        )
         legs.append(leg)
     return _assemble(
-        "ups-offset", desc.base_points, desc.leg_base_rotations, legs, np.array(q_home),
-        base.leg_inertia, desc.platform_inertia, desc.gravity, T[:3, :3], T[:3, 3],
+        "ups-offset",
+        desc.base_points,
+        desc.leg_base_rotations,
+        legs,
+        np.array(q_home),
+        base.leg_inertia,
+        desc.platform_inertia,
+        desc.gravity,
+        T[:3, :3],
+        T[:3, 3],
     )
 
 
@@ -877,7 +952,14 @@ def rus_preset() -> GeneralHexapod:
         s = -1 if k % 2 == 0 else 1
         tangent = s * np.cross([0.0, 0.0, 1.0], radial)
         rotations.append(_frame_from_zx(radial, tangent))  # crank axis radial, crank tangential
-        legs.append(rus(crank, rod, (-math.pi / 2, math.pi / 2), dynamics=(servo, JointDynamics(), JointDynamics())))
+        legs.append(
+            rus(
+                crank,
+                rod,
+                (-math.pi / 2, math.pi / 2),
+                dynamics=(servo, JointDynamics(), JointDynamics()),
+            )
+        )
         # q1 = 0: crank horizontal; q2: the rod up (frame 2's x along the crank, y2 = z x x)
         q_home.append([0.0, s * math.pi / 2 * 1.0, 0.0])
     rotations = np.array(rotations)
@@ -895,8 +977,18 @@ def rus_preset() -> GeneralHexapod:
     leg_inertia = np.tile(np.stack([link1, link2, link3]), (6, 1, 1))
     head = khalil_from_urdf_inertial(1.0, np.array([0.0, 0.0, 0.04]), np.diag([4e-3, 4e-3, 3e-3]))
     centre = np.array([0.0, 0.0, P_home[:, 2].mean()])
-    return _assemble("rus", B, rotations, legs, q_home, leg_inertia, head,
-                     np.array([0.0, 0.0, -9.81]), np.eye(3), centre)
+    return _assemble(
+        "rus",
+        B,
+        rotations,
+        legs,
+        q_home,
+        leg_inertia,
+        head,
+        np.array([0.0, 0.0, -9.81]),
+        np.eye(3),
+        centre,
+    )
 
 
 def pus_preset() -> GeneralHexapod:
@@ -904,7 +996,9 @@ def pus_preset() -> GeneralHexapod:
     on ball screws (5 mm lead), rods of 0.45 m to a 0.2 m platform of 8 kg."""
     B = _ring(0.4, [-12, 12, 108, 132, 228, 252])
     rod = 0.45
-    screw = JointDynamics(armature=0.5, viscous=50.0, coulomb=5.0, screw_lead=0.005, rotor_inertia=3e-5)
+    screw = JointDynamics(
+        armature=0.5, viscous=50.0, coulomb=5.0, screw_lead=0.005, rotor_inertia=3e-5
+    )
     legs, rotations, q_home = [], [], []
     for k, b in enumerate(B):
         radial = np.array([b[0], b[1], 0.0]) / np.hypot(b[0], b[1])
@@ -922,8 +1016,18 @@ def pus_preset() -> GeneralHexapod:
     leg_inertia = np.tile(np.stack([slide, cross_, rod_p]), (6, 1, 1))
     plate = khalil_from_urdf_inertial(8.0, np.array([0.0, 0.0, 0.03]), np.diag([0.1, 0.1, 0.18]))
     centre = np.array([0.0, 0.0, P_home[:, 2].mean()])
-    return _assemble("pus", B, rotations, legs, q_home, leg_inertia, plate,
-                     np.array([0.0, 0.0, -9.81]), np.eye(3), centre)
+    return _assemble(
+        "pus",
+        B,
+        rotations,
+        legs,
+        q_home,
+        leg_inertia,
+        plate,
+        np.array([0.0, 0.0, -9.81]),
+        np.eye(3),
+        centre,
+    )
 
 
 #: The general-leg presets (to be registered with the existing ones at integration).

@@ -76,9 +76,7 @@ class JointTermArrays:
         """Friction, spring and damper efforts (N, 6, 3), armature excluded;
         ``sign(0) = 0``."""
         return (
-            self.viscous * qdot
-            + self.coulomb * np.sign(qdot)
-            + self.stiffness * (q - self.rest)
+            self.viscous * qdot + self.coulomb * np.sign(qdot) + self.stiffness * (q - self.rest)
         )
 
     def dissipated_power(self, qdot: np.ndarray) -> np.ndarray:

@@ -43,8 +43,12 @@ def _add_leg(model: pin.Model, robot: GeneralHexapod, k: int) -> list[int]:
             placement = T0 * placement
         jm = pin.JointModelRZ() if joint.revolute else pin.JointModelPZ()
         jid = model.addJoint(parent, jm, placement, leg_joint_name(k + 1, j + 1))
-        model.appendBodyToJoint(jid, pin_inertia_from_khalil(robot.leg_inertia[k, j]), pin.SE3.Identity())
-        model.addFrame(pin.Frame(f"leg{k + 1}_link{j + 1}", jid, pin.SE3.Identity(), pin.FrameType.BODY))
+        model.appendBodyToJoint(
+            jid, pin_inertia_from_khalil(robot.leg_inertia[k, j]), pin.SE3.Identity()
+        )
+        model.addFrame(
+            pin.Frame(f"leg{k + 1}_link{j + 1}", jid, pin.SE3.Identity(), pin.FrameType.BODY)
+        )
         ids.append(jid)
         parent = jid
     model.addFrame(
@@ -118,7 +122,9 @@ def build_general_tree(robot: GeneralHexapod) -> GeneralTreeModel:
     model = pin.Model()
     model.name = robot.name
     ff = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), PLATFORM_JOINT)
-    model.appendBodyToJoint(ff, pin_inertia_from_khalil(robot.platform_inertia), pin.SE3.Identity())
+    model.appendBodyToJoint(
+        ff, pin_inertia_from_khalil(robot.platform_inertia), pin.SE3.Identity()
+    )
     model.addFrame(pin.Frame("platform", ff, pin.SE3.Identity(), pin.FrameType.BODY))
     leg_ids = [_add_leg(model, robot, k) for k in range(6)]
     _finish(model, robot, list(range(6)))
