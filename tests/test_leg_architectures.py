@@ -26,15 +26,13 @@ from stewart_pin.check.general_legs import (
     reference_energy,
     reference_inverse_dynamics,
 )
+from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
+from stewart_pin.description.general_presets import GENERAL_PRESETS, random_hexapod
 from stewart_pin.description.leg_architecture import (
-    GENERAL_PRESETS,
-    GeneralHexapod,
     Joint,
     JointDynamics,
     LegArchitecture,
-    general_from_description,
     prismatic,
-    random_hexapod,
     revolute,
     rus,
     ups,
@@ -230,6 +228,24 @@ def test_forward_geometry_inverts_inverse_geometry(kind):
         qa = lc.actuator_positions(h, pose)
         found = lc.forward_geometry(h, qa)
         np.testing.assert_allclose(found, pose, atol=1e-10)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_branches(kind):
+    """Each leg's inverse geometry lands on its documented branch (``branch_at``); the
+    other branch reaches the same points with other joint values."""
+    h, _, _ = _robot(kind)
+    T, _, _ = _states(h, 2, 10, *RANGES[kind])
+    P = np.einsum("nij,kj->nki", T[:, :3, :3], h.platform_points) + T[:, None, :3, 3]
+    q = lc.inverse_geometry(h, T)
+    flipped = h.replace(legs=tuple(leg.replace(branch=-leg.branch) for leg in h.legs))
+    q_other = lc.inverse_geometry(flipped, T)
+    for robot, joints in ((h, q), (flipped, q_other)):
+        np.testing.assert_allclose(lc.leg_forward(robot, joints).P, P, atol=1e-12)
+        for n in range(len(T)):
+            for k, leg in enumerate(robot.legs):
+                assert leg.branch_at(joints[n, k]) == leg.branch
+    assert np.abs(q - q_other).max() > 1e-3
 
 
 def test_custom_legs_newton_equals_closed_form():

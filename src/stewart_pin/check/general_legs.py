@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.description.leg_architecture import GeneralHexapod
+from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.exceptions import InputError, SingularityError
 from stewart_pin.models.leg_chains import GeneralTreeModel, build_general_tree
 

@@ -33,7 +33,7 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
 from stewart_pin._vector import cross, skew
-from stewart_pin.description.leg_architecture import GeneralHexapod
+from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.dynamics.closed_loop import check_finite, platform_energy, platform_terms
 from stewart_pin.exceptions import SingularityError
 from stewart_pin.kinematics.leg_chains import (

@@ -37,7 +37,8 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_poses, check_states
 from stewart_pin._vector import cross
-from stewart_pin.description.leg_architecture import GeneralHexapod, LegArchitecture
+from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_architecture import LegArchitecture
 from stewart_pin.exceptions import (
     ConvergenceError,
     LegJointLimitError,

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.inertia import pin_inertia_from_khalil
-from stewart_pin.description.leg_architecture import GeneralHexapod
 
 PLATFORM_JOINT = "platform_joint"
 
