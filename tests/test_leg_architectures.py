@@ -371,3 +371,17 @@ def test_unreachable_limits_and_singularities():
     # Newton on an unreachable point
     with pytest.raises(ConvergenceError):
         lc.solve_leg(h.legs[0], np.eye(4), np.array([[1.0, 1.0, 1.0]]), np.zeros((1, 3)))
+
+
+def test_reference_shares_no_algebra():
+    """The reference imports neither the closure layer nor the chain kinematics."""
+    import ast
+    import inspect
+
+    import stewart_pin.check.general_legs as ref
+
+    tree = ast.parse(inspect.getsource(ref))
+    imported = {
+        node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module
+    } | {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+    assert not any(m.startswith(("stewart_pin.dynamics", "stewart_pin.kinematics")) for m in imported)

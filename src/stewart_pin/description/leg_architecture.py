@@ -113,7 +113,7 @@ class JointDynamics:
             "rotor_inertia",
         ):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
                 raise JointDynamicsError(
                     f"joint dynamics {name} must be a real number, got {value!r}", name, value
                 )
@@ -218,7 +218,7 @@ class Joint:
             )
         for name in ("alpha", "d", "theta", "r", "lower", "upper"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
                 raise ArchitectureError(
                     f"joint {name} must be a real number, got {value!r}", name, value
                 )

@@ -128,9 +128,7 @@ class GeneralLegDynamics:
         rows, cols = self._blocks[:, :, None], self._blocks[:, None, :]
         for n in range(q.shape[0]):
             qn, vn = self._pack(q[n]), self._pack(qdot[n])
-            M = pin.crba(m, d, qn)
-            M = np.triu(M) + np.triu(M, 1).T
-            A[n] = M[rows, cols]
+            A[n] = pin.crba(m, d, qn)[rows, cols]  # the binding returns the full matrix
             h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
         return A, h + self.terms.efforts(q, qdot)
 
