@@ -59,6 +59,11 @@ REVOLUTE, PRISMATIC = "revolute", "prismatic"
 STRUCTURE_TOLERANCE = 1e-12
 
 
+def _is_real(value: Any) -> bool:
+    """A real number (Python or numpy), not a boolean."""
+    return not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+
+
 # ---------------------------------------------------------------------------- transforms
 def mdh_transform(alpha: float, d: float, theta: float, r: float) -> np.ndarray:
     """``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` as a 4x4 matrix (Khalil-Kleinfinger)."""
@@ -113,7 +118,7 @@ class JointDynamics:
             "rotor_inertia",
         ):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            if not _is_real(value):
                 raise JointDynamicsError(
                     f"joint dynamics {name} must be a real number, got {value!r}", name, value
                 )
@@ -218,7 +223,7 @@ class Joint:
             )
         for name in ("alpha", "d", "theta", "r", "lower", "upper"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            if not _is_real(value):
                 raise ArchitectureError(
                     f"joint {name} must be a real number, got {value!r}", name, value
                 )
