@@ -122,7 +122,8 @@ def _ring(radius: float, angles_deg: Sequence[float], z: float = 0.0) -> np.ndar
 
 def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> GeneralHexapod:
     """A general asymmetric robot of architecture ``kind`` (``ups``, ``ups-offset``,
-    ``rus``, ``pus``) for tests: perturbed placements and joint parameters, a rotated
+    ``rus``, ``pus``, or ``custom``: P-R-R legs with non-intersecting U axes, solved by
+    Newton's method) for tests: perturbed placements and joint parameters, a rotated
     platform frame away from the centroid, full inertia tensors and offset first moments
     on every body, and (``joint_terms``) every joint dynamics term non-zero, with gear and
     screw transmissions on the actuated joints."""
@@ -133,6 +134,30 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
             return JointDynamics()
         return random_joint_dynamics(rng, kind_, transmission=transmission)
 
+    rotations: Any
+    q_home: Any
+    legs: list[LegArchitecture]
+    if kind == "custom":
+        # A P-R-R leg whose last two axes do not intersect (d3, r3 != 0): no closed form.
+        base = random_hexapod("pus", seed, joint_terms)
+        legs = []
+        for leg in base.legs:
+            j1, j2, j3 = leg.joints
+            j3 = replace(j3, d=float(rng.uniform(0.005, 0.015)), r=float(rng.uniform(-0.01, 0.01)))
+            legs.append(leg.replace(name="custom", joints=(j1, j2, j3)))
+        T = base.home_pose
+        return _assemble(
+            f"random-custom-{seed}",
+            base.base_points,
+            base.leg_base_rotations,
+            legs,
+            np.array([leg.guess for leg in base.legs]),
+            base.leg_inertia,
+            base.platform_inertia,
+            base.gravity,
+            T[:3, :3],
+            T[:3, 3],
+        )
     if kind in ("ups", "ups-offset"):
         B = _ring(0.5, [-10, 10, 110, 130, 230, 250]) + rng.uniform(-0.04, 0.04, (6, 3))
         P0 = _ring(0.32, [-46, 46, 74, 166, 194, 286], 0.7) + rng.uniform(-0.03, 0.03, (6, 3))
@@ -254,7 +279,7 @@ def random_hexapod(kind: str, seed: int = 0, joint_terms: bool = True) -> Genera
     else:
         raise ArchitectureError(
             f"no random generator for architecture {kind!r}; choose one of "
-            "'ups', 'ups-offset', 'rus', 'pus'",
+            "'ups', 'ups-offset', 'rus', 'pus', 'custom'",
             "name",
             kind,
         )
@@ -315,8 +340,9 @@ def ups_offset_preset(offset: float = 0.004) -> GeneralHexapod:
         armature=0.02, viscous=20.0, coulomb=1.0, screw_lead=0.002, rotor_inertia=2e-6
     )
     small = JointDynamics(viscous=1e-3, coulomb=1e-3)
-    legs, q_home = [], []
-    T = desc.home_pose
+    legs: list[LegArchitecture] = []
+    q_home: Any = []
+    T = np.asarray(desc.home_pose)
     P0 = desc.platform_points @ T[:3, :3].T + T[:3, 3]
     for i in range(6):
         leg = ups_offset(offset, tuple(desc.stroke), dynamics=(small, small, lead))
@@ -352,7 +378,9 @@ def rus_preset() -> GeneralHexapod:
     servo = JointDynamics(
         armature=0.0, viscous=0.002, coulomb=0.005, gear_ratio=300.0, rotor_inertia=1e-8
     )
-    legs, rotations, q_home = [], [], []
+    rotations: Any = []
+    q_home: Any = []
+    legs: list[LegArchitecture] = []
     for k, b in enumerate(B):
         radial = np.array([b[0], b[1], 0.0]) / np.hypot(b[0], b[1])
         s = -1 if k % 2 == 0 else 1
@@ -405,7 +433,9 @@ def pus_preset() -> GeneralHexapod:
     screw = JointDynamics(
         armature=0.5, viscous=50.0, coulomb=5.0, screw_lead=0.005, rotor_inertia=3e-5
     )
-    legs, rotations, q_home = [], [], []
+    rotations: Any = []
+    q_home: Any = []
+    legs: list[LegArchitecture] = []
     for k, b in enumerate(B):
         radial = np.array([b[0], b[1], 0.0]) / np.hypot(b[0], b[1])
         rotations.append(_frame_from_zx(np.array([0.0, 0.0, 1.0]), -radial))
