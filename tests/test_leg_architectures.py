@@ -397,3 +397,31 @@ def test_reference_shares_no_algebra():
             imported.update(alias.name for alias in node.names)
     forbidden = ("stewart_pin.dynamics", "stewart_pin.kinematics")
     assert not any(m.startswith(forbidden) for m in imported)
+
+
+def test_serial_measure_is_sin_q2_for_ups():
+    """For 6-UPS the serial measure is today's ``sin q2i``."""
+    h, _, _ = _robot("ups")
+    T, _, _ = _states(h, 3, 11, *RANGES["ups"])
+    q = lc.inverse_geometry_batch(h, T)
+    frames = lc.leg_forward(h, q)
+    measure = lc.serial_measure(h, frames, lc.leg_jacobians(h, frames))
+    np.testing.assert_allclose(measure, np.abs(np.sin(q[..., 1])), atol=1e-12)
+
+
+def test_coulomb_is_zero_at_zero_velocity():
+    """``sign(0) = 0``: at rest the Coulomb friction adds nothing (inverse and direct)."""
+    h, g, _ = _robot("pus")
+    no_coulomb = h.replace(
+        legs=tuple(
+            leg.with_dynamics([replace(j.dynamics, coulomb=0.0) for j in leg.joints])
+            for leg in h.legs
+        )
+    )
+    g0 = GeneralDynamics(no_coulomb)
+    T, zero = h.home_pose, np.zeros(6)
+    np.testing.assert_array_equal(g.gravity_compensation(T), g0.gravity_compensation(T))
+    gamma = np.full(6, 3.0)
+    np.testing.assert_array_equal(
+        g.direct_dynamics(T, zero, gamma), g0.direct_dynamics(T, zero, gamma)
+    )
