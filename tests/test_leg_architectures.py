@@ -425,3 +425,18 @@ def test_coulomb_is_zero_at_zero_velocity():
     np.testing.assert_array_equal(
         g.direct_dynamics(T, zero, gamma), g0.direct_dynamics(T, zero, gamma)
     )
+
+
+def test_single_leg_model_matches_the_six_legs_model():
+    """One leg's 3-dof model gives that leg's block of the 18-dof model (armature too)."""
+    from stewart_pin.models.leg_chains import build_leg_chain
+
+    h, g, _ = _robot("rus")
+    rng = np.random.default_rng(12)
+    q, v, a = (rng.normal(size=(1, 6, 3)) for _ in range(3))
+    H = g.legs.inverse_dynamics(q, v, a) - g.legs.terms.efforts(q, v)
+    for k in (0, 5):
+        model = build_leg_chain(h, k)
+        np.testing.assert_allclose(model.armature, h.legs[k].armature, rtol=0)
+        tau = pin.rnea(model, model.createData(), q[0, k], v[0, k], a[0, k])
+        np.testing.assert_allclose(tau, H[0, k], rtol=1e-12, atol=1e-15)
