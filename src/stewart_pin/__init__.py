@@ -14,6 +14,7 @@ from stewart_pin.description.robot_description import (
 )
 from stewart_pin.exceptions import (
     ApproximationWarning,
+    ArchitectureError,
     BaseParameterWarning,
     CompilationError,
     ConvergenceError,
@@ -23,7 +24,10 @@ from stewart_pin.exceptions import (
     InertiaError,
     InputError,
     InputTypeError,
+    JointDynamicsError,
     JointLimitError,
+    LegJointLimitError,
+    LegReachError,
     NumericalError,
     RobotNameError,
     SimulationError,
@@ -44,6 +48,7 @@ __version__ = "0.1.0"
 __all__ = [
     "PRESETS",
     "ApproximationWarning",
+    "ArchitectureError",
     "BaseParameterWarning",
     "CompilationError",
     "ConvergenceError",
@@ -53,7 +58,10 @@ __all__ = [
     "InertiaError",
     "InputError",
     "InputTypeError",
+    "JointDynamicsError",
     "JointLimitError",
+    "LegJointLimitError",
+    "LegReachError",
     "NumericalError",
     "RobotDescription",
     "RobotNameError",

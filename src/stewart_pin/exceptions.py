@@ -13,11 +13,15 @@ expected, what was received and how to fix it::
     │   └── InputTypeError (TypeError)       an argument of the wrong kind of object
     ├── DescriptionError (ValueError)        an inconsistent robot description
     │   ├── InertiaError                     inertial parameters no rigid body can have
+    │   ├── ArchitectureError                a leg that is not three 1-dof joints as named
+    │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file
     ├── WorkspaceError (ValueError)          a pose the robot cannot reach
     │   ├── StrokeLimitError                 a leg length outside its stroke
-    │   └── JointLimitError                  a U-joint angle outside its limits
+    │   ├── JointLimitError                  a U-joint angle outside its limits
+    │   ├── LegReachError                    a general leg that cannot reach its P_i
+    │   └── LegJointLimitError               a general leg's joint outside its limits
     ├── SingularityError (ValueError)        at or too near a singularity
     ├── NumericalError (ArithmeticError)     finite inputs, non-finite result
     ├── ConvergenceError (RuntimeError)      an iteration that did not converge
@@ -66,6 +70,35 @@ class InertiaError(DescriptionError):
     def __init__(self, message: str, body: str = "") -> None:
         super().__init__(message)
         self.body = body
+
+
+class ArchitectureError(DescriptionError):
+    """A leg architecture that stewart-pin cannot model: a chain that is not three 1-dof
+    joints (revolute or prismatic), an actuated index outside 1..3, a branch other than
+    +1 / -1, or joint placements that do not fit the named architecture's closed form.
+
+    Attributes:
+        field: the offending field (``"joints"``, ``"actuated"``, ``"branch"``...).
+        value: the offending value, as received.
+    """
+
+    def __init__(self, message: str, field: str = "", value: object = None) -> None:
+        super().__init__(message)
+        self.field, self.value = field, value
+
+
+class JointDynamicsError(DescriptionError):
+    """Joint or actuator dynamics that no real joint has: a negative armature, friction,
+    stiffness or damping, a non-positive gear ratio or screw lead, both a gear ratio and
+    a screw lead.
+
+    Attributes:
+        field: the offending parameter (``"armature"``, ``"coulomb"``...); value: its value.
+    """
+
+    def __init__(self, message: str, field: str = "", value: object = None) -> None:
+        super().__init__(message)
+        self.field, self.value = field, value
 
 
 class RobotNameError(DescriptionError):
@@ -118,6 +151,36 @@ class JointLimitError(WorkspaceError):
         super().__init__(
             f"leg {leg} U-joint angle q{joint}{leg} = {value:.9g} rad is outside its limits "
             f"[{lower:.9g}, {upper:.9g}] rad"
+        )
+        self.leg, self.joint, self.value, self.lower, self.upper = leg, joint, value, lower, upper
+
+
+class LegReachError(WorkspaceError):
+    """A leg that cannot reach its platform point: the closed-form inverse geometry has
+    no real solution (a crank or slide too short or too far, a rod too short).
+
+    Attributes:
+        leg: leg index (1-based); value: the unreachable measure (e.g. ``|cos|`` > 1 of
+        the crank equation, or the negative discriminant of the slide's) [-].
+    """
+
+    def __init__(self, message: str, leg: int, value: float) -> None:
+        super().__init__(message)
+        self.leg, self.value = leg, value
+
+
+class LegJointLimitError(WorkspaceError):
+    """A joint of a general leg outside its limits.
+
+    Attributes:
+        leg: leg index (1-based); joint: 1, 2 or 3; value, lower, upper [rad or m].
+    """
+
+    def __init__(self, leg: int, joint: int, value: float, lower: float, upper: float) -> None:
+        super().__init__(
+            f"leg {leg} joint {joint} value {value:.9g} is outside its limits "
+            f"[{lower:.9g}, {upper:.9g}] (rad for a revolute joint, m for a prismatic one); "
+            "choose a pose closer to the workspace centre or widen the limits"
         )
         self.leg, self.joint, self.value, self.lower, self.upper = leg, joint, value, lower, upper
 

@@ -1,0 +1,355 @@
+"""Inverse and direct dynamics of robots with general three-joint legs, through the
+paper's closure layer (``general-legs.md``; eq. 20-38 with ``a_i`` replaced by the
+actuated row of ``J_i^-1 G_i``).
+
+Each leg's own dynamics come from Pinocchio on the 18-dof model of the six chains
+(:func:`stewart_pin.models.leg_chains.build_leg_chains`), with the joint terms:
+
+    H_i = A_i qddot_i + h_i,   A_i = CRBA (with the armature, ``model.armature``),
+    h_i = nonlinear effects + (Fv + D) qdot + Fc sign(qdot) + K (q - q0),
+
+``sign(0) = 0``: at zero joint velocity the Coulomb term is zero (no stiction), in the
+inverse and in the direct model (the direct model is explicit in the velocity).
+
+- IDM: ``Gamma = Jp^T (F_p + sum_i [I3; L_i^] J_i^-T H_i)``, the actuated joints' efforts
+  on the joint side [N or N m]; with a transmission, ``Gamma / ratio`` on the motor side.
+- DDM: ``A_robot Vdot + h_robot = Jp^-T Gamma``,
+  ``A_robot = Ip + sum G_i^T A_xi G_i``, ``A_xi = J_i^-T A_i J_i^-1``,
+  ``h_robot = platform bias + sum G_i^T (A_xi (w x (w x L_i) - Jdot_i qdot_i) + J_i^-T h_i)``,
+  solved by Cholesky.
+- Power: ``Gamma . qdot_a = dE/dt + sum (Fv + D) qdot^2 + Fc |qdot|`` with ``E`` the
+  kinetic energy (armature included), gravity's potential and the springs'.
+
+Batches throughout: poses (N, 4, 4), twists and classical accelerations (N, 6) in F0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from stewart_pin._checks import check_poses, check_states
+from stewart_pin._so3 import cross, skew
+from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_architecture import JointDynamics
+from stewart_pin.dynamics.closed_loop import check_finite, platform_energy, platform_terms
+from stewart_pin.exceptions import SingularityError
+from stewart_pin.kinematics.leg_chains import (
+    MAX_CONDITION,
+    LegKinematics,
+    check_parallel,
+    inverse_jacobian_from_legs,
+    leg_state,
+)
+from stewart_pin.models.leg_chains import build_leg_chains
+
+
+# ---------------------------------------------------------------------------- joint terms
+@dataclass(frozen=True)
+class JointTermArrays:
+    """The joint dynamics of the 18 joints as (6, 3) arrays."""
+
+    armature: np.ndarray
+    viscous: np.ndarray  # viscous friction + damper
+    coulomb: np.ndarray
+    stiffness: np.ndarray
+    rest: np.ndarray
+    ratio: np.ndarray  # transmission ratio (1 without)
+
+    @classmethod
+    def of(cls, robot: GeneralHexapod) -> JointTermArrays:
+        def get(f: Callable[[JointDynamics], float]) -> np.ndarray:
+            return np.array([[f(j.dynamics) for j in leg.joints] for leg in robot.legs])
+
+        return cls(
+            armature=get(lambda d: d.total_armature),
+            viscous=get(lambda d: d.viscous + d.damping),
+            coulomb=get(lambda d: d.coulomb),
+            stiffness=get(lambda d: d.stiffness),
+            rest=get(lambda d: d.rest_position),
+            ratio=get(lambda d: d.transmission_ratio),
+        )
+
+    def efforts(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """Friction, spring and damper efforts (N, 6, 3), armature excluded;
+        ``sign(0) = 0``."""
+        return (
+            self.viscous * qdot + self.coulomb * np.sign(qdot) + self.stiffness * (q - self.rest)
+        )
+
+    def dissipated_power(self, qdot: np.ndarray) -> np.ndarray:
+        """``sum (Fv + D) qdot^2 + Fc |qdot|`` over the 18 joints, (N,) [W]."""
+        return np.einsum("kj,nkj->n", self.viscous, qdot**2) + np.einsum(
+            "kj,nkj->n", self.coulomb, np.abs(qdot)
+        )
+
+    def spring_energy(self, q: np.ndarray) -> np.ndarray:
+        """``sum 1/2 K (q - q0)^2``, (N,) [J]."""
+        return 0.5 * np.einsum("kj,nkj->n", self.stiffness, (q - self.rest) ** 2)
+
+
+class GeneralLegDynamics:
+    """Pinocchio's RNEA / CRBA / nonlinear effects on the six chains plus the joint terms,
+    for batches (N, 6, 3)."""
+
+    def __init__(self, robot: GeneralHexapod) -> None:
+        self.robot = robot
+        self.model, v_index = build_leg_chains(robot)
+        self.data = self.model.createData()
+        self.index = v_index.ravel()
+        self._blocks = v_index
+        self.terms = JointTermArrays.of(robot)
+
+    def _pack(self, x: np.ndarray) -> np.ndarray:
+        out = np.empty(18)
+        out[self.index] = x.ravel()
+        return out
+
+    def _unpack(self, x: np.ndarray) -> np.ndarray:
+        return x[self.index].reshape(6, 3)
+
+    def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+        """``H_i`` (N, 6, 3) [N m or N]: RNEA (armature included) plus the joint terms."""
+        m, d = self.model, self.data
+        out = np.empty(q.shape)
+        for n in range(q.shape[0]):
+            tau = pin.rnea(m, d, self._pack(q[n]), self._pack(qdot[n]), self._pack(qddot[n]))
+            out[n] = self._unpack(tau)
+        return out + self.terms.efforts(q, qdot)
+
+    def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA with the armature, and the nonlinear
+        effects plus the joint terms."""
+        m, d = self.model, self.data
+        A = np.empty((*q.shape, 3))
+        h = np.empty(q.shape)
+        rows, cols = self._blocks[:, :, None], self._blocks[:, None, :]
+        for n in range(q.shape[0]):
+            qn, vn = self._pack(q[n]), self._pack(qdot[n])
+            A[n] = pin.crba(m, d, qn)[rows, cols]  # the binding returns the full matrix
+            h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
+        return A, h + self.terms.efforts(q, qdot)
+
+    def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Kinetic (armature included) and potential (gravity and springs) energy of the
+        six legs, each (N,) [J]; gravity's potential is zero at the origin of F0."""
+        m, d = self.model, self.data
+        kinetic, potential = np.empty(q.shape[0]), np.empty(q.shape[0])
+        for n in range(q.shape[0]):
+            qn, vn = self._pack(q[n]), self._pack(qdot[n])
+            M = pin.crba(m, d, qn)
+            M = np.triu(M) + np.triu(M, 1).T
+            kinetic[n] = 0.5 * vn @ M @ vn
+            potential[n] = pin.computePotentialEnergy(m, d, qn)
+        return kinetic, potential + self.terms.spring_energy(q)
+
+
+# ---------------------------------------------------------------------------- closure layer
+def _wrench_at_origin(force: np.ndarray, L: np.ndarray) -> np.ndarray:
+    return np.concatenate([force.sum(axis=1), cross(L, force).sum(axis=1)], axis=-1)
+
+
+def _transpose_solve(J_inv: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+    return np.linalg.solve(np.swapaxes(J_inv, 1, 2), wrench[..., None])[..., 0]
+
+
+@dataclass(frozen=True)
+class GeneralInverseDynamics:
+    """The inverse model with its intermediate terms (batches).
+
+    Attributes:
+        gamma: (N, 6) actuated joint efforts, joint side [N or N m].
+        motor: (N, 6) the same on the motor side, ``gamma / ratio`` (``gamma`` where a
+            joint has no transmission) [N m or N].
+        H: (N, 6, 3) each leg's ``H_i`` (joint terms included). H_x: (N, 6, 3)
+            ``J_i^-T H_i`` at P_i in F0. F_p: (N, 6) the platform's wrench about O_p.
+        J_inv: (N, 6, 6) ``Jp^-1``. legs: the :class:`LegKinematics` used.
+    """
+
+    gamma: np.ndarray
+    motor: np.ndarray
+    H: np.ndarray
+    H_x: np.ndarray
+    F_p: np.ndarray
+    J_inv: np.ndarray
+    legs: LegKinematics
+
+
+def inverse_dynamics_batch(
+    robot: GeneralHexapod,
+    legs_dyn: GeneralLegDynamics,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    accels: np.ndarray,
+    max_condition: float = MAX_CONDITION,
+) -> GeneralInverseDynamics:
+    """``Gamma = Jp^T (F_p + sum_i [I3; L_i^] J_i^-T H_i)`` for validated batches."""
+    legs = leg_state(robot, poses, twists, accels)
+    J_inv = inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
+    check_parallel(robot, J_inv, max_condition)
+    H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
+    H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)
+    plat = platform_terms(robot, poses, twists)  # type: ignore[arg-type] # duck-typed
+    F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
+    gamma = check_finite(
+        _transpose_solve(J_inv, F_p + _wrench_at_origin(H_x, legs.L)), "inverse dynamics Gamma"
+    )
+    ratio = legs_dyn.terms.ratio[np.arange(6), robot.actuated]
+    return GeneralInverseDynamics(gamma, gamma / ratio, H, H_x, F_p, J_inv, legs)
+
+
+@dataclass(frozen=True)
+class GeneralCartesianDynamics:
+    """``A_robot Vdot + h_robot = Jp^-T Gamma`` at a batch of states.
+
+    Attributes: A_robot (N, 6, 6), h_robot (N, 6), J_inv (N, 6, 6), A_x (N, 6, 3, 3),
+    h_x (N, 6, 3), legs (the :class:`LegKinematics`, ``qddot`` zero).
+    """
+
+    A_robot: np.ndarray
+    h_robot: np.ndarray
+    J_inv: np.ndarray
+    A_x: np.ndarray
+    h_x: np.ndarray
+    legs: LegKinematics
+
+
+def cartesian_dynamics_batch(
+    robot: GeneralHexapod,
+    legs_dyn: GeneralLegDynamics,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    max_condition: float = MAX_CONDITION,
+) -> GeneralCartesianDynamics:
+    """``A_robot`` and ``h_robot`` (general-legs.md, DDM) for validated batches."""
+    legs = leg_state(robot, poses, twists)
+    J_inv = inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
+    check_parallel(robot, J_inv, max_condition)
+    A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
+    Ji = legs.J_inv
+    A_x = np.einsum("nkji,nkjl,nklm->nkim", Ji, A, Ji)
+    h_x = np.einsum("nkji,nkj->nki", Ji, h)
+    L, w = legs.L, twists[:, None, 3:]
+    t = np.einsum("nkij,nkj->nki", A_x, cross(w, cross(w, L)) - legs.drift) + h_x
+    Lh = skew(L)
+    AL = A_x @ Lh
+    blocks = np.zeros((*L.shape[:2], 6, 6))
+    blocks[..., :3, :3] = A_x
+    blocks[..., :3, 3:] = -AL
+    blocks[..., 3:, :3] = Lh @ A_x
+    blocks[..., 3:, 3:] = -Lh @ AL
+    plat = platform_terms(robot, poses, twists)  # type: ignore[arg-type]
+    A_robot = plat.inertia + blocks.sum(axis=1)
+    h_robot = plat.bias + _wrench_at_origin(t, L)
+    return GeneralCartesianDynamics(
+        0.5 * (A_robot + np.swapaxes(A_robot, 1, 2)), h_robot, J_inv, A_x, h_x, legs
+    )
+
+
+def direct_dynamics_batch(
+    robot: GeneralHexapod,
+    legs_dyn: GeneralLegDynamics,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    gammas: np.ndarray,
+    max_condition: float = MAX_CONDITION,
+) -> np.ndarray:
+    """``Vdot = A_robot^-1 (Jp^-T Gamma - h_robot)`` (N, 6), classical in F0, by Cholesky;
+    ``gammas`` (N, 6) joint-side actuated efforts."""
+    cd = cartesian_dynamics_batch(robot, legs_dyn, poses, twists, max_condition)
+    check_finite(cd.A_robot, "direct dynamics A_robot")
+    rhs = np.einsum("nji,nj->ni", cd.J_inv, gammas) - cd.h_robot
+    try:
+        chol = np.linalg.cholesky(cd.A_robot)
+    except np.linalg.LinAlgError as e:
+        raise SingularityError(
+            "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
+        ) from e
+    y = np.linalg.solve(chol, rhs[..., None])
+    accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
+    return check_finite(accel, "direct dynamics acceleration")
+
+
+# ---------------------------------------------------------------------------- the model
+class GeneralDynamics:
+    """The dynamic models of a :class:`GeneralHexapod`, for one state or a batch.
+
+    Args:
+        robot: the robot. max_condition: the parallel singularity threshold.
+    """
+
+    def __init__(self, robot: GeneralHexapod, max_condition: float = MAX_CONDITION) -> None:
+        self.robot = robot
+        self.max_condition = max_condition
+        self.legs = GeneralLegDynamics(robot)
+
+    def inverse_dynamics(
+        self, pose: Any, twist: Any, accel: Any, details: bool = False, motor: bool = False
+    ) -> Any:
+        """Actuated joint efforts (6,) or (N, 6) [N or N m], joint side (``motor``: motor
+        side); ``details`` returns the :class:`GeneralInverseDynamics` (batched)."""
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        r = inverse_dynamics_batch(self.robot, self.legs, T, V, A, self.max_condition)
+        if details:
+            return r
+        out = r.motor if motor else r.gamma
+        return out if batched else out[0]
+
+    def direct_dynamics(self, pose: Any, twist: Any, gamma: Any) -> np.ndarray:
+        """The classical acceleration of the platform (6,) or (N, 6) under the joint-side
+        actuated efforts ``gamma`` (6,) or (N, 6)."""
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        out = direct_dynamics_batch(self.robot, self.legs, T, V, G, self.max_condition)
+        return out if batched else out[0]
+
+    def cartesian_dynamics(self, pose: Any, twist: Any) -> GeneralCartesianDynamics:
+        """``A_robot``, ``h_robot`` and their parts (batched, N = 1 for one state)."""
+        _, T, V = check_states(pose, (twist, "twist"))
+        return cartesian_dynamics_batch(self.robot, self.legs, T, V, self.max_condition)
+
+    def gravity_compensation(self, pose: Any) -> np.ndarray:
+        """The actuated efforts holding the platform still (gravity and springs)."""
+        T, batched = check_poses(pose)
+        zero = np.zeros((T.shape[0], 6))
+        g = inverse_dynamics_batch(self.robot, self.legs, T, zero, zero, self.max_condition)
+        return g.gamma if batched else g.gamma[0]
+
+    def energy(self, pose: Any, twist: Any) -> tuple[Any, Any]:
+        """Kinetic (armature included) and potential (gravity, springs) energy [J] of the
+        whole robot: floats, or (N,) arrays for a batch."""
+        batched, T, V = check_states(pose, (twist, "twist"))
+        legs = leg_state(self.robot, T, V)
+        k_legs, u_legs = self.legs.energy(legs.q, legs.qdot)
+        k_p, u_p = platform_energy(self.robot, T, V)  # type: ignore[arg-type]
+        k, u = k_legs + k_p, u_legs + u_p
+        return (k, u) if batched else (float(k[0]), float(u[0]))
+
+    def dissipated_power(self, pose: Any, twist: Any) -> Any:
+        """Power lost in friction and dampers [W], float or (N,)."""
+        batched, T, V = check_states(pose, (twist, "twist"))
+        legs = leg_state(self.robot, T, V)
+        p = self.legs.terms.dissipated_power(legs.qdot)
+        return p if batched else float(p[0])
+
+    def actuator_rates(self, pose: Any, twist: Any) -> np.ndarray:
+        """``qdot_a`` (6,) or (N, 6), the actuated joints' rates."""
+        batched, T, V = check_states(pose, (twist, "twist"))
+        legs = leg_state(self.robot, T, V)
+        qa = legs.qdot[:, np.arange(6), self.robot.actuated]
+        return qa if batched else qa[0]
+
+
+__all__ = [
+    "GeneralCartesianDynamics",
+    "GeneralDynamics",
+    "GeneralInverseDynamics",
+    "GeneralLegDynamics",
+    "JointTermArrays",
+    "cartesian_dynamics_batch",
+    "direct_dynamics_batch",
+    "inverse_dynamics_batch",
+]

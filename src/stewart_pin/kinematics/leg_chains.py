@@ -1,0 +1,602 @@
+"""Geometry and kinematics of general three-joint legs (``general-legs.md``), batched.
+
+Leg i is the chain of :class:`~stewart_pin.description.leg_architecture.LegArchitecture`
+placed at frame 0i (``[R_i, B_i]`` in F0). Arrays carry a leading batch axis N, then the
+leg (6) and the joint (3): joint values ``q`` (N, 6, 3) [rad or m].
+
+- :func:`leg_forward` : the joint frames and P_i in F0 from ``q``.
+- :func:`leg_jacobians` : ``J_i`` (3x3 in F0), ``V_Pi = J_i qdot_i``; columns
+  ``z_j x (P_i - O_j)`` (revolute) or ``z_j`` (prismatic).
+- :func:`leg_drift` : ``Jdot_i qdot_i``, the acceleration of P_i at ``qddot_i = 0``.
+- :func:`inverse_geometry` : closed forms for ``ups``, ``ups-offset`` (the leg's line
+  through the second U axis: exact), ``rus`` (crank equation ``A cos + B sin = K``, two
+  solutions), ``pus`` (a quadratic along the rail, two solutions), and Newton's method
+  (:func:`solve_leg`) for ``custom`` legs; the branch of each leg is in its description.
+- :func:`leg_kinematics` : ``qdot_i = J_i^-1 G_i V_p``,
+  ``qddot_i = J_i^-1 (G_i Vdot_p + w x (w x L_i) - Jdot_i qdot_i)``, ``G_i = [I3, -L_i^]``.
+- :func:`inverse_jacobian` : rows ``e_ai^T J_i^-1 G_i = [m_i^T, (L_i x m_i)^T]`` with
+  ``m_i = J_i^-T e_ai``.
+- :func:`forward_geometry` : the pose from the six actuated joint values (Newton on
+  SE(3), the correction twist from ``Jp^-1``).
+
+Singularities: serial (a leg's ``J_i``), measured by the smallest singular value of
+``J_i`` with each revolute column divided by its lever arm ``|P_i - O_j|`` (unit-free; for
+6-UPS it is ``sin q2i``, today's measure), refused under :data:`LEG_SINGULARITY`; parallel
+(``Jp^-1``), its condition number with the angular columns divided by the platform
+radius, refused over :data:`MAX_CONDITION`. Both raise :class:`SingularityError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from stewart_pin._checks import check_array, check_pose, check_poses, check_states
+from stewart_pin._so3 import cross
+from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_architecture import LegArchitecture
+from stewart_pin.exceptions import (
+    ConvergenceError,
+    LegJointLimitError,
+    LegReachError,
+    SingularityError,
+)
+
+#: Serial singularity threshold on the normalised smallest singular value of ``J_i``
+#: (``sin q2i`` for 6-UPS: the value of ``kinematics.geometry.LEG_SINGULARITY_SIN``).
+LEG_SINGULARITY = 2e-2
+#: Parallel singularity threshold on the unit-free condition number of ``Jp^-1``
+#: (``kinematics.jacobians.MAX_CONDITION``).
+MAX_CONDITION = 1e4
+#: Newton's method on a leg (custom legs): tolerance on |P_i error| [m] and iteration cap.
+LEG_TOLERANCE = 1e-13
+LEG_MAX_ITERATIONS = 50
+#: Forward geometry: tolerance on the actuated joint values [m or rad], iteration cap.
+FORWARD_TOLERANCE = 1e-12
+FORWARD_MAX_ITERATIONS = 50
+
+
+# ---------------------------------------------------------------------------- constants
+@dataclass(frozen=True)
+class ChainConstants:
+    """The six legs' joint parameters as arrays (6, 3), for batched evaluation."""
+
+    alpha: np.ndarray
+    d: np.ndarray
+    theta: np.ndarray
+    r: np.ndarray
+    revolute: np.ndarray  # bool (6, 3)
+    tip: np.ndarray  # (6, 3)
+    T0: np.ndarray  # (6, 4, 4) frame 0i in F0
+    actuated: np.ndarray  # (6,) 0-based
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @classmethod
+    def of(cls, robot: GeneralHexapod) -> ChainConstants:
+        get = lambda name: np.array(  # noqa: E731
+            [[getattr(j, name) for j in leg.joints] for leg in robot.legs], dtype=float
+        )
+        return cls(
+            alpha=get("alpha"),
+            d=get("d"),
+            theta=get("theta"),
+            r=get("r"),
+            revolute=np.array([[j.revolute for j in leg.joints] for leg in robot.legs]),
+            tip=np.array([leg.tip for leg in robot.legs]),
+            T0=robot.leg_base_poses,
+            actuated=robot.actuated,
+            lower=get("lower"),
+            upper=get("upper"),
+        )
+
+
+_CONSTANTS: dict[int, tuple[GeneralHexapod, ChainConstants]] = {}
+
+
+def constants(robot: GeneralHexapod) -> ChainConstants:
+    """The (cached) :class:`ChainConstants` of ``robot``."""
+    hit = _CONSTANTS.get(id(robot))
+    if hit is None or hit[0] is not robot:
+        hit = (robot, ChainConstants.of(robot))
+        _CONSTANTS[id(robot)] = hit
+        if len(_CONSTANTS) > 64:
+            _CONSTANTS.pop(next(iter(_CONSTANTS)))
+    return hit[1]
+
+
+def _mdh(alpha: Any, d: Any, theta: Any, r: Any) -> np.ndarray:
+    """Batched ``Rx(alpha) Tx(d) Rz(theta) Tz(r)``: (..., 4, 4)."""
+    ca, sa, ct, st = np.cos(alpha), np.sin(alpha), np.cos(theta), np.sin(theta)
+    shape = np.broadcast_shapes(np.shape(alpha), np.shape(theta), np.shape(r), np.shape(d))
+    T = np.zeros((*shape, 4, 4))
+    T[..., 0, 0], T[..., 0, 1], T[..., 0, 3] = ct, -st, d
+    T[..., 1, 0], T[..., 1, 1], T[..., 1, 2], T[..., 1, 3] = ca * st, ca * ct, -sa, -r * sa
+    T[..., 2, 0], T[..., 2, 1], T[..., 2, 2], T[..., 2, 3] = sa * st, sa * ct, ca, r * ca
+    T[..., 3, 3] = 1.0
+    return T
+
+
+# ---------------------------------------------------------------------------- forward
+@dataclass(frozen=True)
+class LegFrames:
+    """Joint frames of the legs in F0.
+
+    Attributes:
+        T: (N, 6, 3, 4, 4) frames 1i, 2i, 3i in F0.
+        P: (N, 6, 3) the spherical-joint centres P_i in F0 [m].
+    """
+
+    T: np.ndarray
+    P: np.ndarray
+
+    @property
+    def origins(self) -> np.ndarray:
+        return self.T[..., :3, 3]
+
+    @property
+    def axes(self) -> np.ndarray:
+        return self.T[..., :3, 2]
+
+
+def leg_forward(robot: GeneralHexapod, q: np.ndarray) -> LegFrames:
+    """Frames and tips of the legs at joint values ``q`` (N, 6, 3)."""
+    c = constants(robot)
+    theta = c.theta + np.where(c.revolute, q, 0.0)
+    r = c.r + np.where(c.revolute, 0.0, q)
+    local = _mdh(c.alpha, c.d, theta, r)  # (N, 6, 3, 4, 4)
+    T = np.empty_like(local)
+    T[:, :, 0] = c.T0 @ local[:, :, 0]
+    T[:, :, 1] = T[:, :, 0] @ local[:, :, 1]
+    T[:, :, 2] = T[:, :, 1] @ local[:, :, 2]
+    P = np.einsum("nkij,kj->nki", T[:, :, 2, :3, :3], c.tip) + T[:, :, 2, :3, 3]
+    return LegFrames(T, P)
+
+
+def leg_jacobians(robot: GeneralHexapod, frames: LegFrames) -> np.ndarray:
+    """``J_i`` (N, 6, 3, 3) in F0: ``V_Pi = J_i qdot_i``."""
+    c = constants(robot)
+    z, O = frames.axes, frames.origins
+    lever = frames.P[:, :, None, :] - O
+    cols = np.where(c.revolute[..., None], cross(z, lever), z)  # (N, 6, 3 joints, 3)
+    return np.swapaxes(cols, -1, -2)
+
+
+def leg_drift(robot: GeneralHexapod, frames: LegFrames, qdot: np.ndarray) -> np.ndarray:
+    """``Jdot_i qdot_i`` (N, 6, 3) [m/s^2]: the acceleration of P_i at ``qddot_i = 0``."""
+    c = constants(robot)
+    z, O = frames.axes, frames.origins
+    shape = frames.P.shape
+    w = np.zeros(shape)
+    wdot = np.zeros(shape)
+    acc = np.zeros(shape)
+    prev = np.broadcast_to(c.T0[:, :3, 3], shape)
+    for j in range(3):
+        rj = O[:, :, j] - prev
+        acc = acc + cross(wdot, rj) + cross(w, cross(w, rj))
+        zj, qd = z[:, :, j], qdot[:, :, j, None]
+        rev = c.revolute[:, j, None]
+        acc = acc + np.where(rev, 0.0, 2.0 * qd * cross(w, zj))
+        wdot = wdot + np.where(rev, qd * cross(w, zj), 0.0)
+        w = w + np.where(rev, qd * zj, 0.0)
+        prev = O[:, :, j]
+    rj = frames.P - prev
+    return acc + cross(wdot, rj) + cross(w, cross(w, rj))
+
+
+def serial_measure(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> np.ndarray:
+    """Each leg's unit-free distance to a serial singularity (N, 6): the smallest
+    singular value of ``J_i`` with revolute columns divided by ``|P_i - O_j|``."""
+    c = constants(robot)
+    lever = np.linalg.norm(frames.P[:, :, None, :] - frames.origins, axis=-1)
+    scale = np.where(c.revolute, np.where(lever > 0, lever, 1.0), 1.0)
+    return np.linalg.svd(J / scale[:, :, None, :], compute_uv=False)[..., -1]
+
+
+def check_serial(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> None:
+    """:class:`SingularityError` when a leg is at (or too near) a serial singularity."""
+    s = serial_measure(robot, frames, J)
+    bad = ~(s >= LEG_SINGULARITY)
+    if np.any(bad):
+        n, k = np.argwhere(bad)[0]
+        raise SingularityError(
+            f"leg {k + 1} is at or too near a serial singularity (normalised smallest "
+            f"singular value of its Jacobian {s[n, k]:.3g} < {LEG_SINGULARITY:g}) at state "
+            f"{n}: e.g. crank and rod aligned, or a leg along its first U-joint axis",
+            float(s[n, k]),
+            LEG_SINGULARITY,
+            leg=int(k + 1),
+        )
+
+
+# ---------------------------------------------------------------------------- inverse
+def _wrap(x: np.ndarray) -> np.ndarray:
+    return np.arctan2(np.sin(x), np.cos(x))
+
+
+def _pre_joint1(leg: LegArchitecture, P0i: np.ndarray) -> np.ndarray:
+    """P in the frame before joint 1's ``Rz(theta) Tz(r)``: ``(Rx(a1) Tx(d1))^-1 P``."""
+    j1 = leg.joints[0]
+    A = _mdh(j1.alpha, j1.d, 0.0, 0.0)
+    return (P0i - A[:3, 3]) @ A[:3, :3]
+
+
+def _reach_error(leg_index: int, value: np.ndarray, what: str) -> LegReachError:
+    n = int(np.argmax(value))
+    return LegReachError(
+        f"leg {leg_index + 1} cannot reach its platform point at state {n}: {what}; choose a "
+        "pose closer to the workspace centre (or longer cranks / rods)",
+        leg_index + 1,
+        float(value[n]),
+    )
+
+
+def _solve_u(leg: LegArchitecture, w: np.ndarray, k_leg: int) -> tuple[np.ndarray, np.ndarray]:
+    """The universal joint (joints 2, 3 with intersecting axes): ``q2, q3`` (N,) such that
+    ``Rz(psi2) Rx(alpha3) Rz(psi3) tip = w`` (w in frame 1 rotated by ``Rx(alpha2)``)."""
+    j2, j3 = leg.joints[1], leg.joints[2]
+    t = leg.tip
+    sa, ca = math.sin(j3.alpha), math.cos(j3.alpha)
+    a, b = sa * t[1], sa * t[0]
+    k = w[:, 2] - ca * t[2]
+    rad = math.hypot(a, b)
+    ratio = k / rad
+    if np.any(np.abs(ratio) > 1.0 + 1e-12):
+        raise _reach_error(k_leg, np.abs(ratio), "the universal joint cannot point the rod there")
+    psi3 = math.atan2(b, a) - np.arccos(np.clip(ratio, -1.0, 1.0))
+    c3, s3 = np.cos(psi3), np.sin(psi3)
+    vx = c3 * t[0] - s3 * t[1]
+    vy = ca * (s3 * t[0] + c3 * t[1]) - sa * t[2]
+    psi2 = np.arctan2(w[:, 1], w[:, 0]) - np.arctan2(vy, vx)
+    return _wrap(psi2 - j2.theta), _wrap(psi3 - j3.theta)
+
+
+def _inverse_leg(
+    leg: LegArchitecture, P0i: np.ndarray, k: int, guess: np.ndarray | None
+) -> np.ndarray:
+    """Closed form (named legs) or Newton (custom) for one leg: P0i (N, 3) -> q (N, 3)."""
+    n = P0i.shape[0]
+    q = np.empty((n, 3))
+    j1, j2, _ = leg.joints
+    b = leg.branch
+    if leg.name == "custom":
+        start = np.broadcast_to(leg.guess if guess is None else guess, (n, 3))
+        return solve_leg(leg, np.eye(4), P0i, start, leg_index=k)
+    p = _pre_joint1(leg, P0i)
+    if leg.name in ("ups", "ups-offset"):
+        p = p - np.array([0.0, 0.0, j1.r])
+        phi = np.arctan2(p[:, 1], p[:, 0]) + (0.0 if b > 0 else np.pi)
+        rho = b * np.hypot(p[:, 0], p[:, 1]) - j2.d
+        q[:, 0] = _wrap(phi - j1.theta)
+        q[:, 1] = np.arctan2(rho, -p[:, 2])
+        q[:, 2] = np.hypot(rho, p[:, 2])
+        return q
+    c = j2.placement()[:3, 3]  # origin of frame 2 in frame 1 (the U-joint centre)
+    ell2 = float(leg.tip @ leg.tip)
+    Rx2 = _mdh(j2.alpha, 0.0, 0.0, 0.0)[:3, :3]
+    if leg.name == "rus":
+        p = p - np.array([0.0, 0.0, j1.r])
+        A = p[:, 0] * c[0] + p[:, 1] * c[1]
+        B = p[:, 1] * c[0] - p[:, 0] * c[1]
+        K = 0.5 * (np.einsum("ni,ni->n", p, p) + c @ c - ell2) - p[:, 2] * c[2]
+        R = np.hypot(A, B)
+        ratio = np.abs(K) / np.where(R > 0, R, np.finfo(float).tiny)
+        if np.any(ratio > 1.0):
+            raise _reach_error(k, ratio, "the crank equation has no solution (|cos| > 1)")
+        phi = np.arctan2(B, A) - b * np.arccos(K / R)
+        q[:, 0] = _wrap(phi - j1.theta)
+        cp, sp = np.cos(phi), np.sin(phi)
+        # w = Rx(alpha2)^T (Rz(-phi) p - c)
+        local = np.stack([cp * p[:, 0] + sp * p[:, 1], -sp * p[:, 0] + cp * p[:, 1], p[:, 2]], -1)
+        w = (local - c) @ Rx2
+    else:  # pus
+        ct, st = math.cos(j1.theta), math.sin(j1.theta)
+        Rz1 = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+        e = p - (Rz1 @ c + np.array([0.0, 0.0, j1.r]))
+        disc = ell2 - e[:, 0] ** 2 - e[:, 1] ** 2
+        if np.any(disc < 0):
+            raise _reach_error(k, -disc, "the rod is too short to reach from the rail")
+        q[:, 0] = e[:, 2] - b * np.sqrt(disc)
+        rel = e - q[:, :1] * np.array([0.0, 0.0, 1.0])  # P - C in the rotated frame
+        w = (rel @ Rz1) @ Rx2
+    q[:, 1], q[:, 2] = _solve_u(leg, w, k)
+    return q
+
+
+def solve_leg(
+    leg: LegArchitecture,
+    T_0_0i: np.ndarray,
+    P: np.ndarray,
+    guess: np.ndarray,
+    tol: float = LEG_TOLERANCE,
+    max_iterations: int = LEG_MAX_ITERATIONS,
+    leg_index: int = 0,
+) -> np.ndarray:
+    """Newton's method for one leg: joint values (N, 3) placing the tip at ``P`` (N, 3).
+
+    Each step solves ``J_i dq = P - P(q)`` (F0 of ``T_0_0i``); it stops when
+    ``|P - P(q)| <= tol`` [m] for every state.
+
+    Raises:
+        ConvergenceError: after ``max_iterations`` (an unreachable point, or a guess on
+            another branch's side of a singularity).
+        SingularityError: a singular ``J_i`` on the way.
+    """
+    q = np.array(guess, dtype=float, copy=True)
+    P = np.asarray(P, dtype=float)
+    residual = np.inf
+    for iteration in range(max_iterations + 1):
+        Ts = [T_0_0i]
+        for joint, qj in zip(leg.joints, q.T, strict=True):
+            theta = joint.theta + (qj if joint.revolute else 0.0)
+            r = joint.r + (0.0 if joint.revolute else qj)
+            Ts.append(Ts[-1] @ _mdh(joint.alpha, joint.d, theta, r))
+        tip = Ts[-1][:, :3, :3] @ leg.tip + Ts[-1][:, :3, 3]
+        err = P - tip
+        residual = float(np.linalg.norm(err, axis=-1).max())
+        if residual <= tol:
+            return q
+        if iteration == max_iterations:
+            break
+        cols = []
+        for joint, T in zip(leg.joints, Ts[1:], strict=True):
+            z = T[:, :3, 2]
+            cols.append(np.cross(z, tip - T[:, :3, 3]) if joint.revolute else z)
+        J = np.stack(cols, -1)
+        try:
+            q += np.linalg.solve(J, err[..., None])[..., 0]
+        except np.linalg.LinAlgError as e:
+            raise SingularityError(
+                f"the numerical inverse geometry of leg {leg_index + 1} met a singular leg "
+                f"Jacobian at iteration {iteration}",
+                0.0,
+                LEG_SINGULARITY,
+                leg=leg_index + 1,
+            ) from e
+    raise ConvergenceError(
+        f"the numerical inverse geometry of leg {leg_index + 1} did not converge in "
+        f"{max_iterations} iterations (tip error {residual:.3g} m > tol {tol:g} m): the point "
+        "may be out of reach, or the guess too far",
+        max_iterations,
+        residual,
+    )
+
+
+def inverse_geometry_batch(
+    robot: GeneralHexapod, poses: np.ndarray, check_limits: bool = True
+) -> np.ndarray:
+    """Joint values (N, 6, 3) of validated poses (N, 4, 4), each leg on its branch.
+
+    Raises:
+        LegReachError: a leg cannot reach. LegJointLimitError: a joint outside its limits
+        (``check_limits``). ConvergenceError, SingularityError: from a custom leg's Newton.
+    """
+    R, p = poses[:, :3, :3], poses[:, :3, 3]
+    P = np.einsum("nij,kj->nki", R, robot.platform_points) + p[:, None, :]
+    P0i = np.einsum("kji,nkj->nki", robot.leg_base_rotations, P - robot.base_points)
+    q = np.empty(P.shape)
+    for k, leg in enumerate(robot.legs):
+        q[:, k] = _inverse_leg(leg, P0i[:, k], k, None)
+    if check_limits:
+        check_joint_limits(robot, q)
+    return q
+
+
+def check_joint_limits(robot: GeneralHexapod, q: np.ndarray) -> None:
+    """:class:`LegJointLimitError` for joint values (N, 6, 3) outside their limits."""
+    c = constants(robot)
+    bad = (q < c.lower) | (q > c.upper)
+    if np.any(bad):
+        n, k, j = np.argwhere(bad)[0]
+        raise LegJointLimitError(
+            int(k + 1), int(j + 1), float(q[n, k, j]), float(c.lower[k, j]), float(c.upper[k, j])
+        )
+
+
+def inverse_geometry(robot: GeneralHexapod, pose: Any, check_limits: bool = True) -> np.ndarray:
+    """Joint values for one pose -> (6, 3), or a batch of poses -> (N, 6, 3)."""
+    T, batched = check_poses(pose)
+    q = inverse_geometry_batch(robot, T, check_limits)
+    return q if batched else q[0]
+
+
+def actuator_positions(robot: GeneralHexapod, pose: Any, check_limits: bool = True) -> np.ndarray:
+    """The six actuated joint values (leg lengths for UPS, crank angles for RUS, slide
+    positions for PUS) [m or rad]: shape (6,) or (N, 6)."""
+    T, batched = check_poses(pose)
+    q = inverse_geometry_batch(robot, T, check_limits)
+    qa = np.take_along_axis(q, constants(robot).actuated[None, :, None], axis=2)[..., 0]
+    return qa if batched else qa[0]
+
+
+# ---------------------------------------------------------------------------- first, second order
+@dataclass(frozen=True)
+class LegKinematics:
+    """The legs' state from the platform's (general-legs.md), batched.
+
+    Attributes:
+        q, qdot, qddot: (N, 6, 3) joint values, rates, accelerations (qddot zero when no
+            platform acceleration was given).
+        J, J_inv: (N, 6, 3, 3) ``J_i`` and its inverse, in F0.
+        drift: (N, 6, 3) ``Jdot_i qdot_i``.
+        L: (N, 6, 3) ``L_i = 0Rp pL_i``, from O_p to P_i in F0.
+        frames: the :class:`LegFrames`.
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray
+    J: np.ndarray
+    J_inv: np.ndarray
+    drift: np.ndarray
+    L: np.ndarray
+    frames: LegFrames
+
+
+def leg_state(
+    robot: GeneralHexapod,
+    poses: np.ndarray,
+    twists: np.ndarray,
+    accels: np.ndarray | None = None,
+    check_limits: bool = False,
+) -> LegKinematics:
+    """The legs' joint values, rates and accelerations for validated batches."""
+    q = inverse_geometry_batch(robot, poses, check_limits)
+    frames = leg_forward(robot, q)
+    J = leg_jacobians(robot, frames)
+    check_serial(robot, frames, J)
+    J_inv = np.linalg.inv(J)
+    L = np.einsum("nij,kj->nki", poses[:, :3, :3], robot.platform_points)
+    v, w = twists[:, None, :3], twists[:, None, 3:]
+    qdot = np.einsum("nkij,nkj->nki", J_inv, v + cross(w, L))
+    drift = leg_drift(robot, frames, qdot)
+    if accels is None:
+        qddot = np.zeros_like(q)
+    else:
+        vd, wd = accels[:, None, :3], accels[:, None, 3:]
+        aP = vd + cross(wd, L) + cross(w, cross(w, L))
+        qddot = np.einsum("nkij,nkj->nki", J_inv, aP - drift)
+    return LegKinematics(q, qdot, qddot, J, J_inv, drift, L, frames)
+
+
+def leg_kinematics(
+    robot: GeneralHexapod, pose: Any, twist: Any, accel: Any = None
+) -> LegKinematics:
+    """:func:`leg_state` from one state or a batch (checked inputs; limits not checked)."""
+    if accel is None:
+        _, T, V = check_states(pose, (twist, "twist"))
+        return leg_state(robot, T, V)
+    _, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+    return leg_state(robot, T, V, A)
+
+
+def inverse_jacobian_from_legs(
+    robot: GeneralHexapod, J_inv: np.ndarray, L: np.ndarray
+) -> np.ndarray:
+    """``Jp^-1`` (N, 6, 6) from the legs' ``J_i^-1`` and ``L_i``: rows
+    ``[m_i, L_i x m_i]``, ``m_i = J_i^-T e_ai``."""
+    a = constants(robot).actuated
+    m = np.take_along_axis(J_inv, a[None, :, None, None], axis=2)[:, :, 0, :]
+    return np.concatenate([m, cross(L, m)], axis=-1)
+
+
+def inverse_jacobian_batch(robot: GeneralHexapod, poses: np.ndarray) -> np.ndarray:
+    """``Jp^-1`` (N, 6, 6) for validated poses: ``qdot_a = Jp^-1 V_p``."""
+    ks = leg_state(robot, poses, np.zeros((poses.shape[0], 6)))
+    return inverse_jacobian_from_legs(robot, ks.J_inv, ks.L)
+
+
+def inverse_jacobian(robot: GeneralHexapod, pose: Any) -> np.ndarray:
+    """``Jp^-1``: (6, 6) for one pose, (N, 6, 6) for a batch."""
+    T, batched = check_poses(pose)
+    J = inverse_jacobian_batch(robot, T)
+    return J if batched else J[0]
+
+
+def condition_number_batch(robot: GeneralHexapod, J_inv: np.ndarray) -> np.ndarray:
+    """Unit-free condition number of ``Jp^-1`` (N,): angular columns over the size."""
+    scaled = J_inv.copy()
+    scaled[..., 3:] /= robot.size
+    s = np.linalg.svd(scaled, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
+
+
+def check_parallel(
+    robot: GeneralHexapod, J_inv: np.ndarray, max_condition: float = MAX_CONDITION
+) -> None:
+    """:class:`SingularityError` (``leg=None``) at a parallel singularity."""
+    cond = condition_number_batch(robot, J_inv)
+    bad = ~(cond <= max_condition)
+    if np.any(bad):
+        n = int(np.argmax(bad))
+        raise SingularityError(
+            f"parallel singularity at state {n}: the condition number of Jp^-1 "
+            f"{cond[n]:.3g} exceeds {max_condition:g}",
+            float(cond[n]),
+            max_condition,
+            leg=None,
+        )
+
+
+# ---------------------------------------------------------------------------- forward geometry
+def forward_geometry(
+    robot: GeneralHexapod,
+    actuated: Any,
+    guess: Any = None,
+    tol: float = FORWARD_TOLERANCE,
+    max_iterations: int = FORWARD_MAX_ITERATIONS,
+) -> np.ndarray:
+    """The pose 0Tp (4x4) whose actuated joint values are ``actuated`` (6,) [m or rad].
+
+    Newton on SE(3) from ``guess`` (default the home pose): the correction twist solves
+    ``Jp^-1 dV = actuated - q_a(T)``, applied as ``p += dv``, ``R <- exp(dw) R``.
+
+    Raises:
+        ConvergenceError: no convergence within ``max_iterations``.
+        SingularityError, LegReachError: met on the way (a bad guess or unassemblable values).
+    """
+    target = check_array(actuated, (6,), "actuated")
+    T = check_pose(robot.home_pose if guess is None else guess, "guess").copy()
+    a = constants(robot).actuated
+    residual = np.inf
+    for iteration in range(max_iterations + 1):
+        ks = leg_state(robot, T[None], np.zeros((1, 6)))
+        error = target - ks.q[0, np.arange(6), a]
+        revolute = constants(robot).revolute[np.arange(6), a]
+        error = np.where(revolute, _wrap(error), error)
+        residual = float(np.abs(error).max())
+        if residual <= tol:
+            return T
+        if iteration == max_iterations:
+            break
+        J_inv = inverse_jacobian_from_legs(robot, ks.J_inv, ks.L)[0]
+        try:
+            step = np.linalg.solve(J_inv, error)
+        except np.linalg.LinAlgError as e:
+            raise SingularityError(
+                f"forward geometry met a singular Jp^-1 at iteration {iteration}", np.inf, np.inf
+            ) from e
+        T[:3, 3] += step[:3]
+        T[:3, :3] = pin.exp3(step[3:]) @ T[:3, :3]
+    raise ConvergenceError(
+        f"forward geometry did not converge in {max_iterations} iterations (largest actuated "
+        f"joint error {residual:.3g} > tol {tol:g}); give a guess closer to the solution",
+        max_iterations,
+        residual,
+    )
+
+
+__all__ = [
+    "FORWARD_MAX_ITERATIONS",
+    "FORWARD_TOLERANCE",
+    "LEG_MAX_ITERATIONS",
+    "LEG_SINGULARITY",
+    "LEG_TOLERANCE",
+    "MAX_CONDITION",
+    "ChainConstants",
+    "LegFrames",
+    "LegKinematics",
+    "actuator_positions",
+    "check_joint_limits",
+    "check_parallel",
+    "check_serial",
+    "condition_number_batch",
+    "forward_geometry",
+    "inverse_geometry",
+    "inverse_geometry_batch",
+    "inverse_jacobian",
+    "inverse_jacobian_batch",
+    "inverse_jacobian_from_legs",
+    "leg_drift",
+    "leg_forward",
+    "leg_jacobians",
+    "leg_kinematics",
+    "leg_state",
+    "serial_measure",
+    "solve_leg",
+]
