@@ -116,8 +116,11 @@ def inertia_scale(params: Any) -> float:
     its round-off is a few ``eps * S``). 0 for a massless body or a point mass at O."""
     p = np.asarray(params, dtype=float)
     mass, ms = p[9], p[6:9]
-    offset = float(ms @ ms / mass) if mass > 0 else 0.0  # M |c|^2 = |M c|^2 / M
-    return float(np.linalg.norm(inertia_tensor(p))) + offset
+    # Parameters near the float range (~1e154 and up) overflow to an infinite scale: the
+    # check then accepts, and the dynamics that overflow too raise NumericalError.
+    with np.errstate(over="ignore"):
+        offset = float(ms @ ms / mass) if mass > 0 else 0.0  # M |c|^2 = |M c|^2 / M
+        return float(np.linalg.norm(inertia_tensor(p))) + offset
 
 
 def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> np.ndarray:
