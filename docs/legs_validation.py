@@ -11,8 +11,7 @@ errors of:
 - DDM(IDM): the direct model on the inverse model's forces against the acceleration put in;
 - power: ``|Gamma . qdot_a - dE/dt - P_lost| / (|Gamma . qdot_a| + |dE/dt| + |P_lost|)``,
   ``dE/dt`` by five-point central differences (step 1e-3 s) of the tree's energy along an
-  exact SE(3)
-  trajectory through the state, ``P_lost`` the tree's dissipated power.
+  exact SE(3) trajectory through the state, ``P_lost`` the tree's dissipated power.
 
 Relative error of a state: ``max_k |a_k - b_k| / max_k |b_k|``. Run from the repository
 root (a few seconds)::
