@@ -16,7 +16,7 @@ errors of:
 Relative error of a state: ``max_k |a_k - b_k| / max_k |b_k|``. Run from the repository
 root (a few seconds)::
 
-    PYTHONPATH=src python docs/legs_validation.py [--seeds 3] [--states 10]
+    PYTHONPATH=src python scripts/legs_validation.py [--seeds 3] [--states 10]
 """
 
 from __future__ import annotations
