@@ -131,13 +131,14 @@ def next_point(desc: Any, k: int, j: int) -> np.ndarray:
 
 
 def travel(desc: Any, k: int, j: int, q_home: np.ndarray) -> tuple[float, float]:
-    """The drawn travel of joint j of leg k [m or rad]: its limits, an unbounded side
-    replaced by the home value -+ half the robot's size."""
+    """The drawn travel of joint j of leg k [m or rad]: its limits (an unbounded side
+    replaced by the home value -+ half the robot's size), stretched to include 0 (the
+    joint's origin: a U-P-S cylinder starts at its U-joint)."""
     joint = desc.legs[k].joints[j]
     half = 0.5 * robot_size(desc)
     lo = joint.lower if math.isfinite(joint.lower) else q_home[k, j] - half
     hi = joint.upper if math.isfinite(joint.upper) else q_home[k, j] + half
-    return float(lo), float(hi)
+    return min(float(lo), 0.0), max(float(hi), 0.0)
 
 
 def _segment_rpy(v: np.ndarray) -> np.ndarray:
