@@ -5,21 +5,30 @@ Every writer is atomic (:mod:`stewart_pin._io`) and writes no user text unescape
 every reader names the file and line of what it refuses (``FileFormatError``).
 
 Modules: :mod:`.urdf` (the 24-dof tree, ``*.closures.json``), :mod:`.xacro`,
-:mod:`.mjcf`, :mod:`.robot_files` (all of a robot's files into one folder; the model
-files shipped as package data), :mod:`.csv_tables`.
+:mod:`.mjcf`, :mod:`.general_urdf` and :mod:`.general_mjcf` (robots with general
+three-joint legs: ``urdf_string``, ``write_urdf``, ``mjcf_string`` and ``write_mjcf``
+dispatch to them for a robot carrying ``legs`` that is not ``is_ideal_ups``),
+:mod:`.robot_files` (all of a robot's files into one folder; the model files shipped as
+package data), :mod:`.csv_tables`.
 """
 
+from .general_mjcf import general_mjcf_string, write_general_mjcf
+from .general_urdf import general_urdf_string, write_general_urdf
 from .mjcf import mjcf_string, write_mjcf
 from .robot_files import model_files, robot_file_names, write_robot_files
 from .urdf import read_closures, urdf_string, write_urdf
 from .xacro import write_xacro_args, xacro_args
 
 __all__ = [
+    "general_mjcf_string",
+    "general_urdf_string",
     "mjcf_string",
     "model_files",
     "read_closures",
     "robot_file_names",
     "urdf_string",
+    "write_general_mjcf",
+    "write_general_urdf",
     "write_mjcf",
     "write_robot_files",
     "write_urdf",

@@ -381,7 +381,11 @@ def _leg(
 def mujoco_qpos(desc: RobotDescription, pose: Any) -> np.ndarray:
     """MuJoCo's ``qpos`` (25,) at a platform pose 0Tp (4x4): the 18 leg joints (leg 1
     first, ``q1i, q2i, q3i`` of the default U-joint branch, limits unchecked), then the
-    platform's ``[p [m], quat (w, x, y, z)]``."""
+    platform's ``[p [m], quat (w, x, y, z)]``. General legs: each leg's branch."""
+    from stewart_pin.formats import general_mjcf, general_urdf
+
+    if general_urdf.is_general(desc):
+        return general_mjcf.general_mujoco_qpos(desc, pose)
     T = np.asarray(pose, dtype=float)
     q_legs = inverse_geometry(desc, T, check_limits=False)
     return np.concatenate([q_legs.ravel(), T[:3, 3], quaternion_wxyz(T[:3, :3])])
@@ -395,9 +399,16 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
         pinocchio_layout: nest the platform in ``base_link`` (at the identity) so that
             Pinocchio's parser reads it; MuJoCo refuses such a file.
 
+    A robot with general legs (``legs`` and not ``is_ideal_ups``) gets
+    :func:`stewart_pin.formats.general_mjcf.general_mjcf_string`.
+
     The robot name goes into the ``model`` attribute only, escaped by ElementTree (and
     refused by :class:`InputError` if XML cannot hold it); the comments are fixed text.
     """
+    from stewart_pin.formats import general_mjcf, general_urdf
+
+    if general_urdf.is_general(desc):
+        return general_mjcf.general_mjcf_string(desc, pinocchio_layout)
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
     if pinocchio_layout:  # Pinocchio takes massless bodies: the description as it is

@@ -190,9 +190,16 @@ class VisualSizes:
 def urdf_string(desc: RobotDescription) -> str:
     """The URDF of the six-leg tree plus the platform (see the module docstring).
 
+    A robot with general legs (``legs`` and not ``is_ideal_ups``) gets
+    :func:`stewart_pin.formats.general_urdf.general_urdf_string`.
+
     The robot name goes into the ``name`` attribute only, escaped by ElementTree (and
     refused by :class:`InputError` if XML cannot hold it); the comments are fixed text.
     """
+    from stewart_pin.formats import general_urdf
+
+    if general_urdf.is_general(desc):
+        return general_urdf.general_urdf_string(desc)
     vs = VisualSizes.for_robot(desc)
     robot = ET.Element("robot", name=check_xml_text(desc.name, "robot name"))
     for name, rgba in (
@@ -279,7 +286,12 @@ def urdf_string(desc: RobotDescription) -> str:
 
 
 def closures_dict(desc: RobotDescription, urdf_name: str | None = None) -> dict[str, Any]:
-    """The loop-closure sidecar as a dict (see the module docstring)."""
+    """The loop-closure sidecar as a dict (see the module docstring); for general legs
+    :func:`stewart_pin.formats.general_urdf.general_closures_dict`."""
+    from stewart_pin.formats import general_urdf
+
+    if general_urdf.is_general(desc):
+        return general_urdf.general_closures_dict(desc, urdf_name)
     return {
         "format": CLOSURE_FORMAT,
         "version": 1,

@@ -43,7 +43,7 @@ from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import yaml_quoted
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import urdf_inertial_from_khalil
-from stewart_pin.exceptions import InputTypeError
+from stewart_pin.exceptions import ArchitectureError, InputTypeError
 from stewart_pin.formats.urdf import (
     URDF_EFFORT,
     URDF_VELOCITY,
@@ -74,7 +74,21 @@ def _plate(points: np.ndarray, vs: VisualSizes, sign: float) -> dict[str, Any]:
 
 def xacro_args(desc: RobotDescription) -> dict[str, Any]:
     """Every number of the URDF of ``desc``, as the xacro arguments (see the module
-    docstring): plain ``dict`` / ``list`` / ``float`` / ``str``."""
+    docstring): plain ``dict`` / ``list`` / ``float`` / ``str``.
+
+    The xacro source describes 6-UPS legs only: a robot with general legs raises
+    :class:`~stewart_pin.exceptions.ArchitectureError` (its URDF holds the same tree).
+    """
+    from stewart_pin.formats.general_urdf import is_general
+
+    if is_general(desc):
+        raise ArchitectureError(
+            f"robot {desc.name!r} has general legs; the xacro source "
+            "(models/urdf/stewart.urdf.xacro) describes 6-UPS legs only: use its URDF "
+            "(write_urdf), which holds the same tree and the sidecar its closures",
+            "legs",
+            None,
+        )
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
     legs = [

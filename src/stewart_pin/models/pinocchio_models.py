@@ -21,6 +21,7 @@ import pinocchio as pin
 from stewart_pin._checks import decode_utf8
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import FileFormatError
+from stewart_pin.formats.general_urdf import read_actuated_joints, read_joint_terms
 from stewart_pin.formats.urdf import (
     PLATFORM_JOINT,
     Closure,
@@ -60,11 +61,15 @@ class TreeModel:
     leg_v_index: np.ndarray
     platform_q_index: np.ndarray = field(default_factory=lambda: np.arange(7))
     platform_v_index: np.ndarray = field(default_factory=lambda: np.arange(6))
+    actuated: np.ndarray | None = None
 
     @property
     def actuated_v_index(self) -> np.ndarray:
-        """Velocity indices of the six prismatic joints q3i."""
-        return self.leg_v_index[:, 2]
+        """Velocity indices of the six actuated joints: q3i (6-UPS), or the joint of each
+        leg that ``actuated`` (6,) (0-based, from the sidecar of general legs) names."""
+        if self.actuated is None:
+            return self.leg_v_index[:, 2]
+        return self.leg_v_index[np.arange(6), self.actuated]
 
 
 def _leg_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
@@ -80,8 +85,19 @@ def _leg_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
     return q_idx, v_idx
 
 
-def tree_from_files(urdf_text: str, closures: list[Closure], gravity: np.ndarray) -> TreeModel:
-    """Build the closed-loop model from URDF text and parsed closures."""
+def tree_from_files(
+    urdf_text: str,
+    closures: list[Closure],
+    gravity: np.ndarray,
+    joint_terms: dict[str, dict[str, float]] | None = None,
+    actuated_joints: list[str] | None = None,
+) -> TreeModel:
+    """Build the closed-loop model from URDF text and parsed closures.
+
+    ``joint_terms`` (the sidecar's, general legs): ``model.armature`` of each named joint
+    is set to its ``armature``. ``actuated_joints``: the actuated joint of each leg
+    (default ``leg{i}_q3``).
+    """
     model = _model_from_urdf_text(urdf_text, gravity)
     if not model.existJointName(PLATFORM_JOINT):
         raise FileFormatError(f"the URDF has no floating joint '{PLATFORM_JOINT}'")
@@ -106,6 +122,21 @@ def tree_from_files(urdf_text: str, closures: list[Closure], gravity: np.ndarray
         cm.name = c.name
         constraints.append(cm)
     q_idx, v_idx = _leg_indices(model)
+    if joint_terms:
+        armature = np.array(model.armature, dtype=float)
+        for name, terms in joint_terms.items():
+            if not model.existJointName(name):
+                raise FileFormatError(f"the joint terms name an unknown joint '{name}'")
+            armature[model.idx_vs[model.getJointId(name)]] = terms["armature"]
+        model.armature = armature
+    actuated = None
+    if actuated_joints is not None:
+        actuated = np.empty(6, dtype=int)
+        for i in range(6):
+            found = [j for j in range(3) if leg_joint(i + 1, j + 1) in actuated_joints]
+            if len(found) != 1:
+                raise FileFormatError(f"expected one actuated joint in leg {i + 1}")
+            actuated[i] = found[0]
     return TreeModel(
         model=model,
         constraints=constraints,
@@ -114,6 +145,7 @@ def tree_from_files(urdf_text: str, closures: list[Closure], gravity: np.ndarray
         leg_v_index=v_idx,
         platform_q_index=np.arange(model.idx_qs[ff], model.idx_qs[ff] + 7),
         platform_v_index=np.arange(model.idx_vs[ff], model.idx_vs[ff] + 6),
+        actuated=actuated,
     )
 
 
@@ -126,10 +158,14 @@ def load_tree(urdf_path: str | Path, gravity: np.ndarray | None = None) -> TreeM
     """The closed-loop model from files on disk (``X.urdf`` and ``X.closures.json``).
 
     Gravity: ``gravity`` when given, else the sidecar's ``gravity``, else [0, 0, -9.81].
+    A sidecar with ``joint_terms`` (general legs) sets ``model.armature`` and the actuated
+    joints (its ``actuated_joints``).
     """
     urdf_path = Path(urdf_path)
     sidecar = urdf_path.with_name(urdf_path.name.removesuffix(".urdf") + ".closures.json")
     closures, recorded = read_sidecar(sidecar)
+    terms = read_joint_terms(sidecar)
+    actuated = read_actuated_joints(sidecar) if terms else None
     if gravity is not None:
         g = np.asarray(gravity, float)
     elif recorded is not None:
@@ -140,7 +176,7 @@ def load_tree(urdf_path: str | Path, gravity: np.ndarray | None = None) -> TreeM
         text = decode_utf8(urdf_path.read_bytes(), urdf_path)
     except OSError as e:
         raise FileFormatError(f"cannot read {urdf_path}: {e}") from e
-    return tree_from_files(text, closures, g)
+    return tree_from_files(text, closures, g, terms, actuated)
 
 
 def _reduced(model: pin.Model, keep_legs: list[int]) -> pin.Model:

@@ -1,0 +1,341 @@
+"""MJCF of a robot with general three-joint legs (duck-typed as in
+:mod:`stewart_pin.formats.general_urdf`).
+
+The same bodies, frames, names and inertials as the general URDF, and what URDF cannot
+hold:
+
+- each leg joint is a ``hinge`` (revolute) or ``slide`` (prismatic) about ``z`` of its MDH
+  frame, the body placed by the MDH placement (``pos``, ``quat``), with its dynamics:
+  ``armature`` = the joint-side armature (rotor inertia reflected through the
+  transmission), ``damping`` = viscous + damper coefficients, ``frictionloss`` = the
+  Coulomb coefficient (MuJoCo's dry friction is a constraint solved with the others, not
+  a smooth ``Fc sign(qdot)`` term: a slipping joint feels ``Fc``, a still one up to
+  ``Fc``), ``stiffness`` and ``springref`` = the spring and its rest position, ``range``
+  = the limits when both are finite (MuJoCo has no one-sided range: a half-bounded joint
+  is written unlimited);
+- sites ``leg{i}_tip`` (P_i in frame 3i: the leg's ``tip``) and ``platform_p{i}``, the six
+  loops ``<equality><connect>`` with :data:`~stewart_pin.formats.mjcf.LOOP_SOLREF` and
+  :data:`~stewart_pin.formats.mjcf.LOOP_SOLIMP`;
+- a ``<motor>`` ``leg{i}_motor`` (gear 1: the joint-side effort, N or N m) on each leg's
+  actuated joint, in leg order; the transmission ratio and rotor inertia are not
+  MuJoCo's (the motor-side effort is the joint-side one divided by the ratio; the rotor
+  inertia is in ``armature``);
+- ``<option gravity>`` and a ``home`` keyframe (the inverse geometry of the home pose).
+
+MuJoCo's ``qpos`` is the 18 leg joints (leg 1 first, q1i, q2i, q3i) then the platform's
+``[p, quat (w, x, y, z)]``; its free-joint velocity ``[v in F0, w in Fp]``.
+
+Bodies MuJoCo refuses are handled as :func:`stewart_pin.formats.mjcf.mujoco_inertials` does
+for 6-UPS (:func:`general_mujoco_inertials`): a massless link 1 or 2 gets no body (its
+joint goes to the next body, with ``pos`` and ``axis`` such that MuJoCo's sequential
+joint motion is the chain's: exact; its visuals are not drawn), a light rod takes a point
+mass at P_i (its ``tip``) from the platform (exact), what remains gets MuJoCo's smallest
+moments and mass. ``pinocchio_layout=True`` nests the platform, at the identity, in
+``base_link`` for Pinocchio's parser and writes the bodies as described.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stewart_pin._io import write_text_atomic
+from stewart_pin._safe import check_xml_text
+from stewart_pin.exceptions import ApproximationWarning
+from stewart_pin.formats.general_urdf import (
+    GeneralVisualSizes,
+    joint_placement,
+    leg_joint_values,
+    next_point,
+    robot_size,
+    travel,
+)
+from stewart_pin.formats.mjcf import (
+    _DOUBTFUL,
+    _FLOOR,
+    _LIGHT_ROD,
+    _MJ_MIN_INERTIA,
+    _MJ_MIN_MASS,
+    _RGBA,
+    LOOP_SOLIMP,
+    LOOP_SOLREF,
+    MujocoInertials,
+    _body,
+    _bounded,
+    _geom,
+    _inertial,
+    _khalil_from_pseudo,
+    _moments,
+    _num,
+    _plate,
+    _point_mass_capacity,
+    _pseudo_inertia,
+    _vec,
+    leg_tip_site,
+    platform_site,
+    quaternion_wxyz,
+)
+from stewart_pin.formats.urdf import BASE_LINK, PLATFORM_JOINT, PLATFORM_LINK, leg_joint, leg_link
+
+
+def _point_mass(params: np.ndarray, point: np.ndarray, mu: float) -> np.ndarray:
+    """The parameters with a point mass ``mu`` [kg] added at ``point`` (negative: taken)."""
+    q = np.r_[point, 1.0]
+    return _khalil_from_pseudo(_pseudo_inertia(params) + mu * np.outer(q, q))
+
+
+def general_mujoco_inertials(desc: Any) -> MujocoInertials:
+    """:func:`stewart_pin.formats.mjcf.mujoco_inertials` for general legs: the rods'
+    point masses go to and from P_i, the leg's ``tip`` in frame 3i."""
+    leg = np.array(desc.leg_inertia, dtype=float)
+    platform = np.array(desc.platform_inertia, dtype=float)
+    P = np.asarray(desc.platform_points, dtype=float)
+    tips = np.array([np.asarray(lg.tip, dtype=float) for lg in desc.legs])
+    exact: list[str] = []
+    has_body = np.ones((6, 3), dtype=bool)
+    has_body[:, :2] = leg[:, :2, 9] != 0.0
+    for k, j in zip(*np.nonzero(~has_body), strict=True):
+        exact.append(f"leg {k + 1} link {j + 1} is massless: its joint is on the next link")
+
+    light = leg[:, 2, 9] < _LIGHT_ROD * platform[9] / 6
+    if light.any():
+        mu = 0.5 * _point_mass_capacity(platform, P[light])
+        if mu > 0.0:
+            q = np.c_[P[light], np.ones(int(light.sum()))]
+            platform = _khalil_from_pseudo(_pseudo_inertia(platform) - mu * q.T @ q)
+            for k in np.nonzero(light)[0]:
+                leg[k, 2] = _point_mass(leg[k, 2], tips[k], mu)
+            legs = ", ".join(str(k + 1) for k in np.nonzero(light)[0])
+            exact.append(f"the rods of legs {legs} carry {mu:.6g} kg at P_i from the platform")
+    m_total = platform[9] + leg[has_body, 9].sum()
+    min_mass = max(_FLOOR * m_total, _MJ_MIN_MASS)
+    if platform[9] < min_mass:
+        for k in range(6):
+            mu = 0.5 * _point_mass_capacity(leg[k, 2], tips[k][None, :])
+            if mu > 0.0:
+                leg[k, 2] = _point_mass(leg[k, 2], tips[k], -mu)
+                platform = _point_mass(platform, P[k], mu)
+                exact.append(f"the platform carries {mu:.6g} kg at P_{k + 1} from rod {k + 1}")
+
+    size = robot_size(desc)
+    min_inertia = max(_FLOOR * m_total * size**2, _MJ_MIN_INERTIA)
+    too_small = min_inertia > _DOUBTFUL * m_total * size**2 or min_mass > _DOUBTFUL * m_total
+    approximate: list[str] = []
+    doubtful: list[str] = []
+    bodies = [
+        (f"leg {k + 1} link {j + 1}", leg[k, j])
+        for k, j in zip(*np.nonzero(has_body), strict=True)
+    ]
+    for name, params in [*bodies, ("platform", platform)]:
+        bounded = _bounded(params, min_inertia, min_mass)
+        if bounded is params:
+            continue
+        note = (
+            f"{name}: mass {params[9]:.6g} -> {bounded[9]:.6g} kg, principal moments "
+            f"{_moments(params)} -> {_moments(bounded)} kg m^2"
+        )
+        approximate.append(note)
+        in_loop = name == "platform" or name.endswith("link 3")
+        if too_small or (in_loop and bounded[9] != params[9]):
+            doubtful.append(note)
+        params[:] = bounded
+    return MujocoInertials(
+        leg, has_body, platform, tuple(exact), tuple(approximate), tuple(doubtful)
+    )
+
+
+def _joint(body: ET.Element, name: str, joint: Any, X: np.ndarray) -> None:
+    """A hinge or slide about ``z`` of the joint frame ``X`` (4x4, in the body frame)."""
+    attrs = {"name": name, "type": "hinge" if joint.revolute else "slide"}
+    if np.any(X[:3, 3] != 0.0):
+        attrs["pos"] = _vec(X[:3, 3])
+    attrs["axis"] = _vec(X[:3, 2]) if np.any(X[:3, :3] != np.eye(3)) else "0 0 1"
+    if math.isfinite(joint.lower) and math.isfinite(joint.upper):
+        attrs["range"] = _vec((joint.lower, joint.upper))
+    d = joint.dynamics
+    terms = {
+        "armature": d.total_armature,
+        "damping": d.viscous + d.damping,
+        "frictionloss": d.coulomb,
+        "stiffness": d.stiffness,
+    }
+    for key, value in terms.items():
+        if value != 0.0:
+            attrs[key] = _num(value)
+    if d.stiffness != 0.0:
+        attrs["springref"] = _num(d.rest_position)
+    ET.SubElement(body, "joint", attrs)
+
+
+def _fromto(body: ET.Element, a: np.ndarray, b: np.ndarray, radius: float, rgba: str) -> None:
+    if float(np.linalg.norm(b - a)) <= 1e-9:
+        return
+    ET.SubElement(
+        body,
+        "geom",
+        type="cylinder",
+        fromto=_vec(np.r_[a, b]),
+        size=_num(radius),
+        rgba=_RGBA[rgba],
+    )
+
+
+def _chain(transforms: list[np.ndarray]) -> np.ndarray:
+    """The product of 4x4 transforms in order (identity for none)."""
+    T = np.eye(4)
+    for X in transforms:
+        T = T @ X
+    return T
+
+
+def _leg(
+    base: ET.Element,
+    desc: Any,
+    k: int,
+    vs: GeneralVisualSizes,
+    inertia: np.ndarray,
+    has_body: np.ndarray,
+    q_home: np.ndarray,
+) -> None:
+    """Leg k's (0-based) bodies; a link without a body passes its joint to the next body."""
+    i = k + 1
+    leg = desc.legs[k]
+    parent, carried = base, []
+    parent_has_body = True
+    for j in range(3):
+        carried.append(j)
+        if not has_body[j]:
+            continue
+        placements = [joint_placement(desc, k, n) for n in carried]
+        T = _chain(placements)
+        body = _body(parent, leg_link(i, j + 1), T[:3, 3], T[:3, :3])
+        for m, n in enumerate(carried):
+            after = placements[m + 1 :]
+            X = np.linalg.inv(_chain(after))
+            _joint(body, leg_joint(i, n + 1), leg.joints[n], X)
+        _inertial(body, inertia[j])
+        # visuals of this link (those of merged massless links are not drawn)
+        _fromto(
+            body,
+            np.zeros(3),
+            next_point(desc, k, j),
+            vs.bar_radius,
+            "rod" if j == 2 else "cylinder",
+        )
+        joint = leg.joints[j]
+        if joint.revolute:
+            h = vs.joint_radius
+            _fromto(body, np.array([0, 0, -h]), np.array([0, 0, h]), 0.8 * h, "joint")
+        else:
+            c = vs.carriage / 2
+            _geom(body, "box", "joint", (c, c, c))
+            if len(carried) == 1 and parent_has_body:
+                lo, hi = travel(desc, k, j, q_home)
+                Tj = joint_placement(desc, k, j)
+                z = Tj[:3, 2]
+                _fromto(parent, Tj[:3, 3] + lo * z, Tj[:3, 3] + hi * z, vs.rail_radius, "cylinder")
+        if j == 2:
+            tip = np.asarray(leg.tip, dtype=float)
+            _geom(body, "sphere", "joint", (vs.joint_radius,), tip)
+            ET.SubElement(body, "site", name=leg_tip_site(i), pos=_vec(tip))
+        parent, carried, parent_has_body = body, [], True
+
+
+def general_mujoco_qpos(desc: Any, pose: Any) -> np.ndarray:
+    """MuJoCo's ``qpos`` (25,) at a platform pose 0Tp: the 18 leg joints from the inverse
+    geometry (each leg's branch, limits unchecked), then ``[p [m], quat (w, x, y, z)]``."""
+    T = np.asarray(pose, dtype=float)
+    q_legs = leg_joint_values(desc, T)
+    return np.concatenate([q_legs.ravel(), T[:3, 3], quaternion_wxyz(T[:3, :3])])
+
+
+def general_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
+    """The MJCF of a general-leg robot (module docstring); ``pinocchio_layout`` as for
+    :func:`stewart_pin.formats.mjcf.mjcf_string`."""
+    vs = GeneralVisualSizes.for_robot(desc)
+    q_home = leg_joint_values(desc)
+    if pinocchio_layout:
+        leg_inertia = np.asarray(desc.leg_inertia, dtype=float)
+        has_body = np.ones((6, 3), dtype=bool)
+        platform_inertia = np.asarray(desc.platform_inertia, dtype=float)
+    else:
+        inertials = general_mujoco_inertials(desc)
+        leg_inertia, has_body = inertials.leg, inertials.has_body
+        platform_inertia = inertials.platform
+        if inertials.doubtful:
+            warnings.warn(
+                f"robot {desc.name!r}: MuJoCo cannot hold some bodies as described, and the "
+                f"MJCF changes them enough to exceed the accuracy stated in docs/closures.md: "
+                f"{'; '.join(inertials.doubtful)}",
+                ApproximationWarning,
+                stacklevel=2,
+            )
+    root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
+    ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
+    ET.SubElement(root, "option", gravity=_vec(desc.gravity))
+    default = ET.SubElement(root, "default")
+    ET.SubElement(default, "geom", contype="0", conaffinity="0")
+    world = ET.SubElement(root, "worldbody")
+    base = _body(world, BASE_LINK)
+    ET.SubElement(base, "inertial", pos="0.0 0.0 0.0", mass="0.0", diaginertia="0.0 0.0 0.0")
+    _plate(base, np.asarray(desc.base_points, dtype=float), vs.plate(), -1.0, "base")
+    for k in range(6):
+        _leg(base, desc, k, vs, leg_inertia[k], has_body[k], q_home)
+
+    if pinocchio_layout:
+        platform = _body(base, PLATFORM_LINK)
+    else:
+        T = np.asarray(desc.home_pose, dtype=float)
+        platform = _body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
+    ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
+    _inertial(platform, platform_inertia)
+    _plate(platform, np.asarray(desc.platform_points, dtype=float), vs.plate(), 1.0, "platform")
+    for i in range(1, 7):
+        ET.SubElement(
+            platform, "site", name=platform_site(i), pos=_vec(desc.platform_points[i - 1])
+        )
+    equality = ET.SubElement(root, "equality")
+    for i in range(1, 7):
+        ET.SubElement(
+            equality,
+            "connect",
+            name=f"loop{i}",
+            site1=leg_tip_site(i),
+            site2=platform_site(i),
+            solref=_vec(LOOP_SOLREF),
+            solimp=_vec(LOOP_SOLIMP),
+        )
+    actuator = ET.SubElement(root, "actuator")
+    for i, leg in enumerate(desc.legs, start=1):
+        ET.SubElement(actuator, "motor", name=f"leg{i}_motor", joint=leg_joint(i, leg.actuated))
+    keyframe = ET.SubElement(root, "keyframe")
+    qpos = general_mujoco_qpos(desc, desc.home_pose)
+    ET.SubElement(keyframe, "key", name="home", qpos=_vec(qpos))
+    ET.indent(root)
+    layout = "Pinocchio's parser (MuJoCo refuses it)" if pinocchio_layout else "MuJoCo"
+    return (
+        "<!-- Generated by stewart-pin from the robot description; do not edit by hand. -->\n"
+        f"<!-- General legs. Layout for {layout}: see stewart_pin/formats/general_mjcf.py. "
+        "SI units, angles in rad. -->\n" + ET.tostring(root, encoding="unicode") + "\n"
+    )
+
+
+def write_general_mjcf(desc: Any, path: str | Path, pinocchio_layout: bool = False) -> Path:
+    """Write :func:`general_mjcf_string` to ``path`` (atomically); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(path, general_mjcf_string(desc, pinocchio_layout))
+    return path
+
+
+__all__ = [
+    "general_mjcf_string",
+    "general_mujoco_inertials",
+    "general_mujoco_qpos",
+    "write_general_mjcf",
+]
