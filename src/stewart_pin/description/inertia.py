@@ -59,8 +59,16 @@ def khalil_from_tensor(I_O: np.ndarray, ms: np.ndarray, mass: float) -> np.ndarr
 
 
 def pin_inertia_from_khalil(params: Any) -> pin.Inertia:
-    """A ``pin.Inertia`` from Khalil's 10 parameters (both about the frame origin)."""
+    """A ``pin.Inertia`` from Khalil's 10 parameters (both about the frame origin).
+
+    A massless body (mass 0, so first moments 0 for a physical body) gives
+    ``pin.Inertia.Zero()`` plus its rotational inertia, without dividing by the mass
+    (``FromDynamicParameters`` would return NaN for the centre of mass).
+    """
     p = check_array(params, (10,), "inertial parameters")
+    if p[9] == 0.0:
+        I_O = inertia_tensor(p)
+        return pin.Inertia(0.0, np.zeros(3), 0.5 * (I_O + I_O.T))
     return pin.Inertia.FromDynamicParameters(p[KHALIL_TO_PIN])
 
 
