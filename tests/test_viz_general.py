@@ -355,3 +355,57 @@ def test_chromium_shows_cranks_rails_and_rods(chromium, tmp_path):
         assert count > 100, found
         assert precision > 0.97, found
         assert legs_seen >= 4, found
+
+
+def test_live_viewer_draws_general_legs(tmp_path):
+    """The live viewer starts, displays and plays a pus robot and stops its server."""
+    from test_viz import child_pids
+
+    robot = pus_preset()
+    before = child_pids()
+    with Viewer(robot) as viewer:
+        assert viewer.start().startswith("http://127.0.0.1:")
+        T = robot.home_pose.copy()
+        T[2, 3] += 0.01
+        viewer.display(T)
+        viewer.play(motion(robot)[::5], TIMES[::5], speed=20.0)
+        with pytest.raises(LegReachError):
+            T[0, 3] += 2.0  # sideways: rods of 0.45 m from rails 0.8 m apart cannot reach
+            viewer.display(T)
+    assert viewer.url is None
+    assert child_pids() <= before
+
+
+def test_save_figures_of_general_legs(tmp_path, monkeypatch):
+    """With a general-leg robot, the actuator plot has no stroke lines and says so."""
+    from types import SimpleNamespace
+
+    import matplotlib.image
+
+    from stewart_pin.viz import plots
+
+    t = np.linspace(0.0, 1.0, 5)
+    result = SimpleNamespace(
+        t=t,
+        gammas=np.ones((5, 6)),
+        lengths=np.zeros((5, 6)),
+        poses=np.tile(np.eye(4), (5, 1, 1)),
+        twists=np.zeros((5, 6)),
+    )
+    robot = SimpleNamespace(description=rus_preset(), energy=lambda poses, twists: np.ones(5))
+    seen = {}
+    save = plots.plot_lengths
+
+    def spy(t, lengths, stroke=None):
+        seen["stroke"] = stroke
+        fig = save(t, lengths, stroke)
+        seen["fig"] = fig
+        return fig
+
+    monkeypatch.setattr(plots, "plot_lengths", spy)
+    paths = plots.save_figures(result, tmp_path, robot=robot)
+    assert seen["stroke"] is None
+    (ax,) = seen["fig"].axes
+    assert ax.get_title() == "Actuator positions" and len(ax.lines) == 6
+    assert set(paths) == {"forces", "lengths", "energy"}
+    assert matplotlib.image.imread(paths["lengths"]).shape[2] in (3, 4)
