@@ -211,18 +211,28 @@ def test_link_poses_follow_the_chains(exported):
 )
 def test_other_legs_end_on_the_platform(robot):
     """Every general leg (offset U joints, custom chains, inclined rails) is drawn: each
-    rod ends on P_i, every joint sphere on its chain's frame origin."""
+    rod ends on P_i, the U-joint sphere, crank and middle link on the chain's frame
+    origins; ups-offset has its offset as a crank, custom chains their middle links."""
     from stewart_pin.kinematics.leg_chains import inverse_geometry
 
     scene = LegScene(robot)
     poses = robot.home_pose[None]
     placed = scene.placements(poses)
+    if robot.legs[0].name == "ups-offset":
+        assert all(f"legs/leg{i}/crank" in placed.lengths for i in range(1, 7))
+        np.testing.assert_allclose(placed.lengths["legs/leg1/crank"], 0.004, atol=1e-15)
     q = inverse_geometry(robot, poses, check_limits=False)[0]
     P = poses[0, :3, :3] @ robot.platform_points.T + poses[0, :3, 3:]
     for i in range(6):
         M = placed.scaled(f"legs/leg{i + 1}/rod", 0)
         np.testing.assert_allclose(M[:3, 3] + M[:3, 1], P[:, i], atol=1e-12)
-        O2 = chain(robot, i, q[i])[1][:3, 3]
+        O1, O2, O3 = (F[:3, 3] for F in chain(robot, i, q[i]))
+        for link, (a, b) in {"crank": (O1, O2), "link2": (O2, O3)}.items():
+            node = f"legs/leg{i + 1}/{link}"
+            if node in placed.matrices:
+                M = placed.scaled(node, 0)
+                np.testing.assert_allclose(M[:3, 3], a, atol=1e-12)
+                np.testing.assert_allclose(M[:3, 3] + M[:3, 1], b, atol=1e-12)
         np.testing.assert_allclose(
             placed.matrices[f"legs/leg{i + 1}/ujoint"][0, :3, 3], O2, atol=1e-12
         )

@@ -9,15 +9,16 @@ origin and z_j the axis of frame ji in F0), the scene holds, under
 
 - ``axis`` (revolute joint 1, fixed): a short dark cylinder along z_1 at O_1, the motor
   shaft;
-- ``crank`` (revolute joint 1): a red box from O_1 (on the crank axis) to O_2 (the
-  universal joint), its depth along z_1; absent when O_1 = O_2 (6-UPS);
+- ``crank``: a red box from O_1 (on the crank axis) to O_2 (the universal joint), its
+  depth along z_1, when joint 2's placement has a translation or joint 2 is prismatic
+  (absent for 6-UPS; the short common normal of ``ups-offset``; on a slide, an arm);
 - ``rail`` (prismatic joint 1, fixed): a purple box along the rail axis over the joint's
   range (its limits, widened to the drawn values; without limits, the drawn values'
   range plus a margin);
 - ``slide`` (prismatic joint 1): a green box at O_1, oriented with frame 1i;
 - ``ujoint``: a dark sphere at O_2;
-- ``link2`` (when O_3 differs from O_2 and the tip is off frame 3i's origin): a grey
-  cylinder O_2 -> O_3;
+- ``link2`` (when joint 3 can move O_3 off O_2 and the tip is off frame 3i's origin):
+  a silver cylinder O_2 -> O_3;
 - ``rod``: a blue cylinder from the last joint centre (O_3, or O_2 when P_i = O_3 as for
   6-UPS) to P_i;
 - ``tip``: a dark sphere at P_i;
@@ -148,6 +149,12 @@ def _segments(
     return M, L
 
 
+def _offset(joint: Any) -> bool:
+    """Whether a joint's frame origin can leave the previous frame's origin (a prismatic
+    joint, or a placement with a translation)."""
+    return not joint.revolute or bool(np.linalg.norm(joint.placement()[:3, 3]) > MIN_SEGMENT)
+
+
 def _translations(p: np.ndarray) -> np.ndarray:
     M = np.tile(np.eye(4), (len(p), 1, 1))
     M[:, :3, 3] = p
@@ -170,20 +177,11 @@ class LegScene:
         T = np.asarray(robot.home_pose)[None] if poses is None else np.asarray(poses, float)
         q = self.joint_values(T)
         frames = leg_forward(robot, q)
-        O, P = frames.origins, frames.P  # (K, 6, 3, 3), (K, 6, 3)
-        self._rod_from_o3 = [
-            bool(np.any(np.linalg.norm(P[:, i] - O[:, i, 2], axis=-1) > MIN_SEGMENT))
-            for i in range(6)
-        ]
+        # Which segments a leg has follows from its structure, not from the drawn poses.
+        self._rod_from_o3 = [bool(np.linalg.norm(leg.tip) > MIN_SEGMENT) for leg in robot.legs]
+        self._crank = [_offset(leg.joints[1]) for leg in robot.legs]
         self._link2 = [
-            self._rod_from_o3[i]
-            and bool(np.any(np.linalg.norm(O[:, i, 2] - O[:, i, 1], axis=-1) > MIN_SEGMENT))
-            for i in range(6)
-        ]
-        self._crank = [
-            leg.joints[0].revolute
-            and bool(np.any(np.linalg.norm(O[:, i, 1] - O[:, i, 0], axis=-1) > MIN_SEGMENT))
-            for i, leg in enumerate(robot.legs)
+            self._rod_from_o3[i] and _offset(leg.joints[2]) for i, leg in enumerate(robot.legs)
         ]
         self._static = self._static_placements(q, frames)
         self.shapes = self._shapes()
@@ -232,8 +230,6 @@ class LegScene:
                 shapes.append(
                     Shape(f"{n}/axis", "cylinder", (0.8 * jr, 3.0 * jr), JOINT_DARK, False, False)
                 )
-                if self._crank[i]:
-                    shapes.append(Shape(f"{n}/crank", "box", (1.6 * w, w), CRANK_RED, True, True))
             else:
                 shapes.append(Shape(f"{n}/rail", "box", (w, w), RAIL_PURPLE, True, False))
                 shapes.append(
@@ -241,8 +237,8 @@ class LegScene:
                         f"{n}/slide", "box", (2.4 * w, 2.4 * w, 3.0 * w), SLIDE_GREEN, False, True
                     )
                 )
-                if bool(np.linalg.norm(leg.joints[1].placement()[:3, 3]) > MIN_SEGMENT):
-                    shapes.append(Shape(f"{n}/crank", "box", (1.6 * w, w), CRANK_RED, True, True))
+            if self._crank[i]:  # the crank; on a slide, an arm to an offset U joint
+                shapes.append(Shape(f"{n}/crank", "box", (1.6 * w, w), CRANK_RED, True, True))
             shapes.append(Shape(f"{n}/ujoint", "sphere", (jr,), JOINT_DARK, False, True))
             if self._link2[i]:
                 shapes.append(
@@ -269,7 +265,7 @@ class LegScene:
             n = f"legs/leg{i + 1}"
             if not leg.joints[0].revolute:
                 mats[f"{n}/slide"] = frames.T[:, i, 0]
-            if any(s.node == f"{n}/crank" for s in self.shapes):
+            if self._crank[i]:
                 mats[f"{n}/crank"], lengths[f"{n}/crank"] = _segments(
                     O[:, i, 0], O[:, i, 1], Z[:, i, 0]
                 )
