@@ -1,10 +1,12 @@
-"""Visualisation: the robot in meshcat (live or as a standalone HTML animation) and
+"""Visualisation: the robot in meshcat (live or as a standalone HTML animation; 6-UPS
+robots from their URDF, general three-joint legs by :class:`LegScene`) and
 matplotlib figures of simulated motions.
 
 Optional dependencies (``pip install stewart-pin[viz]``): meshcat for the viewer,
 matplotlib for the figures; each is imported where it is used.
 """
 
+from stewart_pin.viz.leg_scene import LegScene, general_robot
 from stewart_pin.viz.plots import (
     plot_energy,
     plot_forces,
@@ -17,7 +19,9 @@ from stewart_pin.viz.viewer import CameraView, Viewer, tree_configuration, visua
 
 __all__ = [
     "CameraView",
+    "LegScene",
     "Viewer",
+    "general_robot",
     "plot_energy",
     "plot_forces",
     "plot_lengths",

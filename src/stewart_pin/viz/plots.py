@@ -178,12 +178,20 @@ def save_figures(
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    general = robot is not None and _general_legs(robot)
     figures = {
         "forces": plot_forces(result.t, result.gammas),
         "lengths": plot_lengths(
-            result.t, result.lengths, None if robot is None else robot.description.stroke
+            result.t,
+            result.lengths,
+            None if robot is None or general else robot.description.stroke,
         ),
     }
+    if general:
+        # general legs: the actuated joint values (slides [m], cranks [rad]), no stroke
+        (ax,) = figures["lengths"].axes
+        ax.set_ylabel("actuated joint [m or rad]")
+        ax.set_title("Actuator positions")
     if reference is not None:
         reference = reference_poses(reference, result.t)
         figures["tracking_error"] = plot_tracking_error(result.t, result.poses, reference)
@@ -195,3 +203,10 @@ def save_figures(
         with atomic_open(paths[name], "wb") as handle:
             fig.savefig(handle, format="png", dpi=dpi)
     return paths
+
+
+def _general_legs(robot: Any) -> bool:
+    """Whether ``robot`` has general legs (drawn and plotted without a shared stroke)."""
+    from stewart_pin.viz.leg_scene import general_robot
+
+    return general_robot(robot) is not None

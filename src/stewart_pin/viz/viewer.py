@@ -15,6 +15,13 @@ process listening on 127.0.0.1 only (see :mod:`stewart_pin.viz._meshcat_server`:
 meshcat's camera orbits about the world origin (its controls aim at (0, 0, 0) whatever
 the camera's parent transform), so the viewer shifts the scene instead: the robot, grid
 and axes are translated by ``-target`` and the camera sits at ``eye - target``.
+
+Robots with general three-joint legs (a description with ``legs`` that are not all plain
+``ups`` legs, e.g. ``rus``, ``pus``, ``ups-offset``, or a
+:class:`~stewart_pin.description.general_hexapod.GeneralHexapod` itself) are drawn by
+:class:`~stewart_pin.viz.leg_scene.LegScene` instead: cranks, rails and slides, universal
+joints, rods and the plates placed from the legs' joint frames at the inverse geometry's
+joint values (no URDF). The 6-UPS robots keep the URDF drawing above.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ from stewart_pin._io import write_text_atomic
 from stewart_pin.exceptions import InputError, ViewerError
 from stewart_pin.formats.urdf import VisualSizes
 from stewart_pin.kinematics.geometry import platform_points_in_base
+from stewart_pin.viz.leg_scene import LegScene, general_robot
 
 if TYPE_CHECKING:
     from stewart_pin.robot import StewartRobot
@@ -151,12 +159,19 @@ class CameraView:
         plates; the eye lies along ``direction`` at the distance where the bounding
         sphere of that box fills meshcat's vertical field of view, times ``margin``.
         """
-        T, _ = check_poses(robot.home_pose if poses is None else poses, "poses")
-        desc = robot.description
-        points = np.concatenate(
-            [desc.base_points, platform_points_in_base(desc, T).reshape(-1, 3)]
-        )
-        pad = 3.0 * VisualSizes.for_robot(desc).joint_radius
+        general = general_robot(robot)
+        if general is not None:
+            T, _ = check_poses(general.home_pose if poses is None else poses, "poses")
+            scene = LegScene(general, T)
+            points = scene.extent_points(T)
+            pad = 3.0 * scene.sizes.joint_radius
+        else:
+            T, _ = check_poses(robot.home_pose if poses is None else poses, "poses")
+            desc = robot.description
+            points = np.concatenate(
+                [desc.base_points, platform_points_in_base(desc, T).reshape(-1, 3)]
+            )
+            pad = 3.0 * VisualSizes.for_robot(desc).joint_radius
         lo, hi = points.min(axis=0) - pad, points.max(axis=0) + pad
         target = (lo + hi) / 2
         radius = float(np.linalg.norm(hi - lo) / 2)
@@ -292,11 +307,18 @@ class Viewer:
         Viewer(robot).export_html("motion.html", result.poses, result.t)
     """
 
-    def __init__(self, robot: StewartRobot, camera: CameraView | None = None):
+    def __init__(self, robot: StewartRobot | Any, camera: CameraView | None = None):
         _require_meshcat()
         self.robot = robot
-        self.model: pin.Model = robot.tree.model
-        self.visual_model: pin.GeometryModel = visual_model(robot)
+        #: The robot with general legs when it is drawn by :class:`LegScene`, else None.
+        self.general = general_robot(robot)
+        if self.general is None:
+            self.model: pin.Model = robot.tree.model
+            self.visual_model: pin.GeometryModel = visual_model(robot)
+            self.home_pose = np.asarray(robot.home_pose)
+        else:
+            self.home_pose = np.asarray(self.general.home_pose)
+        self._scene: LegScene | None = None
         self.camera = camera or CameraView.fit(robot, margin=1.0)
         self._server: _Server | None = None
         self._viz: Any = None
@@ -308,7 +330,7 @@ class Viewer:
         if self._server is None or not self._server.alive:
             self._server = _Server()
             self._viz = self._load(self._server.visualizer, self.camera)
-            self._viz.display(tree_configuration(self.robot, self.robot.home_pose))
+            self._show(self.home_pose)
         if open:
             import webbrowser
 
@@ -340,7 +362,15 @@ class Viewer:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _load(self, visualizer: Any, camera: CameraView) -> Any:
+    def _load(self, visualizer: Any, camera: CameraView, poses: Any = None) -> Any:
+        """Draw the robot in ``visualizer`` and set the scene; returns Pinocchio's
+        visualiser (6-UPS) or ``visualizer`` itself (general legs; ``poses`` (K, 4, 4)
+        set the drawn range of rails without limits)."""
+        if self.general is not None:
+            self._scene = LegScene(self.general, poses)
+            self._scene.load(visualizer, ROOT_NODE)
+            _set_scene(visualizer, camera, self.robot)
+            return visualizer
         from pinocchio.visualize import MeshcatVisualizer
 
         viz = MeshcatVisualizer(self.model, None, self.visual_model)
@@ -356,11 +386,32 @@ class Viewer:
             _set_scene(self._server.visualizer, camera, self.robot)
 
     # ------------------------------------------------------------------ live
+    def _show(self, pose: np.ndarray) -> None:
+        """Draw at one validated pose (the server runs)."""
+        if self.general is not None:
+            assert self._scene is not None  # set by _load
+            self._scene.display(self._viz, ROOT_NODE, pose)
+        else:
+            self._viz.display(tree_configuration(self.robot, pose))
+
     def display(self, pose: Any) -> None:
         """Draw the robot at platform pose ``pose`` (0Tp, (4, 4) or ``pin.SE3``)."""
-        q = tree_configuration(self.robot, check_pose(pose))
+        T = check_pose(pose)
+        if self.general is None:
+            q = tree_configuration(self.robot, T)
+            self.start()
+            self._viz.display(q)
+            return
+        self.general_joint_values(T[None])  # reach errors before the server starts
         self.start()
-        self._viz.display(q)
+        self._show(T)
+
+    def general_joint_values(self, poses: np.ndarray) -> np.ndarray:
+        """Joint values (K, 6, 3) the general-leg drawing uses at poses (K, 4, 4)."""
+        assert self.general is not None
+        from stewart_pin.kinematics.leg_chains import inverse_geometry_batch
+
+        return inverse_geometry_batch(self.general, poses, check_limits=False)
 
     def play(self, poses: Any, times: Any, speed: float = 1.0) -> None:
         """Play a motion live, in real time divided by ``speed``; samples the display
@@ -373,17 +424,33 @@ class Viewer:
         T, t = check_motion(poses, times)
         if not speed > 0:
             raise InputError(f"speed must be positive, got {speed}")
-        q = tree_configuration(self.robot, T)
-        self.start()
+        if self.general is not None:
+            self.general_joint_values(T)  # reach errors before anything is drawn
+            self.start()
+            assert self._scene is not None
+            placed = self._scene.placements(T)
+            vis = self._viz
+
+            def show(k: int) -> None:
+                for node in placed.matrices:
+                    vis[f"{ROOT_NODE}/{node}"].set_transform(placed.scaled(node, k))
+
+        else:
+            q = tree_configuration(self.robot, T)
+            self.start()
+
+            def show(k: int) -> None:
+                self._viz.display(q[k])
+
         due = (t - t[0]) / speed
         t0 = time.perf_counter()
-        for k in range(len(q)):
+        for k in range(len(T)):
             now = time.perf_counter() - t0
-            if k + 1 < len(q) and now >= due[k + 1]:
+            if k + 1 < len(T) and now >= due[k + 1]:
                 continue
             if due[k] > now:
                 time.sleep(due[k] - now)
-            self._viz.display(q[k])
+            show(k)
 
     # ------------------------------------------------------------------ export
     def export_html(
@@ -416,13 +483,24 @@ class Viewer:
         if not fps > 0:
             raise InputError(f"fps must be positive, got {fps}")
         keep = frame_indices(t, fps)
-        q = tree_configuration(self.robot, T[keep])
+        if self.general is not None:
+            self.general_joint_values(T[keep])  # reach errors before the server starts
+        else:
+            q = tree_configuration(self.robot, T[keep])
         camera = camera or CameraView.fit(self.robot, T)
         with _Server(quiet=True) as server:
             vis = server.visualizer
-            viz = self._load(vis, camera)
-            viz.display(q[0])
-            animation = self.animation(vis, q, t[keep] - t[0], fps)
+            viz = self._load(vis, camera, T[keep])
+            if self.general is not None:
+                from meshcat.animation import Animation
+
+                assert self._scene is not None
+                self._scene.display(vis, ROOT_NODE, T[keep[0]])
+                animation = Animation(default_framerate=fps)
+                self._scene.animate(animation, vis, ROOT_NODE, T[keep], t[keep] - t[0], fps)
+            else:
+                viz.display(q[0])
+                animation = self.animation(vis, q, t[keep] - t[0], fps)
             vis.set_animation(animation, play=True, repetitions=_repetitions(loop))
             html = vis.static_html()
         path = Path(path)
@@ -456,7 +534,7 @@ def _repetitions(loop: bool) -> float:
     return float("inf") if loop else 1
 
 
-def _set_scene(visualizer: Any, camera: CameraView, robot: StewartRobot) -> None:
+def _set_scene(visualizer: Any, camera: CameraView, robot: StewartRobot | Any) -> None:
     """Set the background, shift the scene by ``-target``, put the camera at
     ``eye - target``.
 
@@ -472,10 +550,21 @@ def _set_scene(visualizer: Any, camera: CameraView, robot: StewartRobot) -> None
     visualizer[ROOT_NODE].set_transform(shift)
     # meshcat's grid: 20 m, cells of 0.5 m; scaled to cells of about a fifth of the robot,
     # and lowered under the base plate.
-    desc = robot.description
-    scale = float(np.clip(desc.size / 2.5, 1e-3, 1e3))
-    vs = VisualSizes.for_robot(desc)
-    floor = desc.base_points[:, 2].min() - vs.plate_thickness - 1.5 * vs.joint_radius
+    general = general_robot(robot)
+    if general is not None:
+        scene = LegScene(general)
+        scale = float(np.clip(general.size / 2.5, 1e-3, 1e3))
+        vs = scene.sizes
+        low = min(
+            general.base_points[:, 2].min(),
+            scene.extent_points(general.home_pose[None])[:, 2].min(),
+        )
+    else:
+        desc = robot.description
+        scale = float(np.clip(desc.size / 2.5, 1e-3, 1e3))
+        vs = VisualSizes.for_robot(desc)
+        low = desc.base_points[:, 2].min()
+    floor = low - vs.plate_thickness - 1.5 * vs.joint_radius
     visualizer["/Grid"].set_transform(_translation([0, 0, floor] - target, scale))
     visualizer["/Axes"].set_transform(_translation(-target, scale))
     visualizer["/Cameras/default"].set_transform(np.eye(4))
