@@ -440,3 +440,26 @@ def test_single_leg_model_matches_the_six_legs_model():
         np.testing.assert_allclose(model.armature, h.legs[k].armature, rtol=0)
         tau = pin.rnea(model, model.createData(), q[0, k], v[0, k], a[0, k])
         np.testing.assert_allclose(tau, H[0, k], rtol=1e-12, atol=1e-15)
+
+
+def test_a_vanishing_ups_leg_is_a_serial_singularity():
+    """The normalised Jacobian measure of a UPS leg is |sin q2| whatever its length, so a
+    leg shrinking to nothing needs its own rule: P_i within 5 % of the platform radius of
+    a revolute joint's origin (today's 6-UPS rule) is refused. Reference: the leg length
+    q3 itself, set in the test; a leg at 10 % of the radius passes."""
+    from stewart_pin.description import preset
+    from stewart_pin.description.general_hexapod import general_from_description
+    from stewart_pin.kinematics.leg_chains import check_serial, leg_forward, leg_jacobians
+
+    robot = general_from_description(preset("simulator"))
+    P = np.asarray(robot.platform_points)
+    radius = float(np.linalg.norm(P - P.mean(axis=0), axis=1).mean())
+    q = np.tile([0.3, 1.2, 1.0], (1, 6, 1))  # sin q2 = 0.93: far from the U singularity
+    q[0, 2, 2] = 0.10 * radius
+    frames = leg_forward(robot, q)
+    check_serial(robot, frames, leg_jacobians(robot, frames))  # 10 %: accepted
+    q[0, 2, 2] = 0.04 * radius
+    frames = leg_forward(robot, q)
+    with pytest.raises(SingularityError, match="leg 3 .* vanishing leg") as info:
+        check_serial(robot, frames, leg_jacobians(robot, frames))
+    assert info.value.leg == 3 and info.value.value == pytest.approx(0.04, rel=1e-12)

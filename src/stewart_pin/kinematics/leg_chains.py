@@ -45,6 +45,7 @@ from stewart_pin.exceptions import (
     LegReachError,
     SingularityError,
 )
+from stewart_pin.kinematics.geometry import LEG_MIN_LENGTH_RATIO
 
 #: Serial singularity threshold on the normalised smallest singular value of ``J_i``
 #: (``sin q2i`` for 6-UPS: the value of ``kinematics.geometry.LEG_SINGULARITY_SIN``).
@@ -198,7 +199,28 @@ def serial_measure(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> n
 
 
 def check_serial(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> None:
-    """:class:`SingularityError` when a leg is at (or too near) a serial singularity."""
+    """:class:`SingularityError` when a leg is at (or too near) a serial singularity: its
+    normalised Jacobian (:func:`serial_measure`) below :data:`LEG_SINGULARITY`, or a
+    vanishing lever, P_i closer to a revolute joint's origin than
+    :data:`~stewart_pin.kinematics.geometry.LEG_MIN_LENGTH_RATIO` of the platform radius
+    (for 6-UPS: a leg shorter than 5 % of it, today's rule; the normalised measure alone
+    would not see it, being ``|sin q2|`` whatever the length)."""
+    c = constants(robot)
+    P0 = np.asarray(robot.platform_points)
+    radius = float(np.linalg.norm(P0 - P0.mean(axis=0), axis=1).mean())
+    lever = np.linalg.norm(frames.P[:, :, None, :] - frames.origins, axis=-1)
+    short = c.revolute & ~(lever >= LEG_MIN_LENGTH_RATIO * radius)
+    if radius > 0 and np.any(short):
+        n, k, j = np.argwhere(short)[0]
+        raise SingularityError(
+            f"leg {k + 1} is at or too near a serial singularity at state {n}: P_{k + 1} is "
+            f"{lever[n, k, j]:.3g} m from the origin of its revolute joint {j + 1}, less than "
+            f"{LEG_MIN_LENGTH_RATIO:g} of the platform radius {radius:.3g} m (a vanishing leg: "
+            "its joint rates grow without bound)",
+            float(lever[n, k, j] / radius),
+            LEG_MIN_LENGTH_RATIO,
+            leg=int(k + 1),
+        )
     s = serial_measure(robot, frames, J)
     bad = ~(s >= LEG_SINGULARITY)
     if np.any(bad):
