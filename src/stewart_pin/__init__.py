@@ -36,6 +36,7 @@ from stewart_pin.exceptions import (
     StewartPinWarning,
     StrokeLimitError,
     UnsafeCacheError,
+    UnsupportedArchitectureError,
     ViewerError,
     WorkspaceError,
 )
@@ -72,6 +73,7 @@ __all__ = [
     "StewartRobot",
     "StrokeLimitError",
     "UnsafeCacheError",
+    "UnsupportedArchitectureError",
     "ViewerError",
     "WorkspaceError",
     "__version__",

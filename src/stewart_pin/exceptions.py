@@ -87,6 +87,16 @@ class ArchitectureError(DescriptionError):
         self.field, self.value = field, value
 
 
+class UnsupportedArchitectureError(ArchitectureError):
+    """A feature that is 6-UPS-only for now asked of a robot with general legs (the
+    compiled backend, the regressor and base parameters, identification, URDF export of
+    the 6-UPS tree...): the message names the feature and what works instead.
+
+    Attributes:
+        field: the feature. value: the robot's architecture (``"rus"``, ``"mixed"``...).
+    """
+
+
 class JointDynamicsError(DescriptionError):
     """Joint or actuator dynamics that no real joint has: a negative armature, friction,
     stiffness or damping, a non-positive gear ratio or screw lead, both a gear ratio and

@@ -50,6 +50,18 @@ class RobotLike(Protocol):
         """Leg lengths [m], (6,) or (N, 6)."""
         ...
 
+    def actuator_positions(self, pose: ArrayLike, check_limits: bool = False) -> FloatArray:
+        """The actuated joint values, (6,) or (N, 6) (leg lengths for 6-UPS)."""
+        ...
+
+    def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:
+        """``Jp^-1`` (6, 6) or (N, 6, 6)."""
+        ...
+
+    def limit_margin(self, pose: ArrayLike) -> tuple[float, str]:
+        """General legs: the smallest (unit-free) distance of a joint to its limits."""
+        ...
+
     def jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp`` (6, 6)."""
         ...

@@ -6,6 +6,16 @@ accepted); a twist is ``[v, w]`` (6,) of the origin of Fp in F0 [m/s, rad/s]; an
 acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma_3i`` [N] is
 positive when it extends leg i. Every method takes one state or a batch with a leading
 N axis, and returns the same.
+
+Two paths, chosen by :attr:`RobotDescription.is_ideal_ups`: the paper's ideal 6-UPS robot
+keeps its closed forms, its Pinocchio leg models and the compiled backend; a robot with
+general three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``,
+custom, mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
+:class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
+such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
+for a revolute one, joint side), and what is 6-UPS-only for now (the compiled backend,
+the regressor, the 6-UPS tree and URDF) raises
+:class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
 """
 
 from __future__ import annotations
@@ -30,16 +40,30 @@ from stewart_pin._typing import (
     Twists,
 )
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
 from stewart_pin.dynamics import closed_loop as closure
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
+from stewart_pin.dynamics.general_legs import (
+    GeneralCartesianDynamics,
+    GeneralDynamics,
+    GeneralInverseDynamics,
+)
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
-from stewart_pin.exceptions import InputError, InputTypeError, NumericalError
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    InputError,
+    InputTypeError,
+    NumericalError,
+    StewartPinError,
+    UnsupportedArchitectureError,
+)
 from stewart_pin.formats.urdf import urdf_string, write_urdf
-from stewart_pin.kinematics import geometry, workspace
+from stewart_pin.kinematics import geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import MAX_CONDITION, leg_state
+from stewart_pin.models.leg_chains import GeneralTreeModel, build_general_tree
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
     build_leg_models,
@@ -65,6 +89,60 @@ class StewartRobot:
             )
         self.description = description
         self.max_condition = check_scalar(max_condition, "max_condition", positive=True)
+        if not description.is_ideal_ups:
+            self._check_home()
+
+    # ------------------------------------------------------------------ architecture
+    @property
+    def is_ideal_ups(self) -> bool:
+        """Whether the robot is the paper's ideal 6-UPS (the closed-form, compiled path)."""
+        return self.description.is_ideal_ups
+
+    @property
+    def architecture(self) -> str:
+        """``"ups"``, ``"ups-offset"``, ``"rus"``, ``"pus"``, ``"custom"`` or ``"mixed"``."""
+        return self.description.architecture
+
+    @cached_property
+    def general(self) -> GeneralHexapod:
+        """The robot as general three-joint legs (for the ideal 6-UPS: its ``ups`` legs)."""
+        return general_from_description(self.description)
+
+    @cached_property
+    def general_dynamics(self) -> GeneralDynamics:
+        """The closure layer on general legs with joint dynamics (joint limits checked)."""
+        return GeneralDynamics(self.general, self.max_condition, check_limits=True)
+
+    @cached_property
+    def general_tree(self) -> GeneralTreeModel:
+        """The 24-dof Pinocchio tree of the general legs (``model.armature`` set) with its
+        six 3D loop closures: the independent check's model."""
+        return build_general_tree(self.general)
+
+    def _ideal_only(self, what: str, instead: str = "") -> UnsupportedArchitectureError:
+        """The error for a 6-UPS-only feature asked of a general robot."""
+        more = f"; {instead}" if instead else ""
+        return UnsupportedArchitectureError(
+            f"{what} is 6-UPS-only for now: robot '{self.name}' has {self.architecture} legs"
+            f"{more}",
+            what,
+            self.architecture,
+        )
+
+    def _check_home(self) -> None:
+        """A general robot's home pose must be reachable, inside the joint limits and away
+        from both singularities (:class:`ArchitectureError` naming the cause)."""
+        T = self.description.home_pose[None]
+        try:
+            legs = leg_chains.leg_state(self.general, T, np.zeros((1, 6)), check_limits=True)
+            J_inv = leg_chains.inverse_jacobian_from_legs(self.general, legs.J_inv, legs.L)
+            leg_chains.check_parallel(self.general, J_inv, self.max_condition)
+        except StewartPinError as e:
+            raise ArchitectureError(
+                f"robot '{self.name}': the home pose is not a valid pose of its legs: {e}",
+                "home_pose",
+                type(e).__name__,
+            ) from e
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -80,7 +158,9 @@ class StewartRobot:
 
     @classmethod
     def from_preset(cls, name: str, **kwargs: Any) -> StewartRobot:
-        """From a preset: ``simulator``, ``desktop``, ``paper`` or ``random-<seed>``."""
+        """From a preset: ``simulator``, ``desktop``, ``paper``, ``random-<seed>`` (ideal
+        6-UPS), ``ups-offset``, ``rus``, ``pus`` or ``random-<kind>-<seed>`` (general legs;
+        :func:`stewart_pin.description.presets.preset`)."""
         return cls(preset(name), **kwargs)
 
     def to_dict(self) -> dict[str, Any]:
@@ -105,59 +185,142 @@ class StewartRobot:
 
     # ------------------------------------------------------------------ files and models
     def urdf(self) -> str:
-        """The URDF text of the tree."""
+        """The URDF text of the tree (6-UPS)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("the URDF export of the facade")
         return urdf_string(self.description)
 
     def write_urdf(self, path: str | Path) -> tuple[Path, Path]:
-        """Write the URDF and its loop-closure sidecar ``*.closures.json``."""
+        """Write the URDF and its loop-closure sidecar ``*.closures.json`` (6-UPS)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("the URDF export of the facade")
         return write_urdf(self.description, path)
 
     @cached_property
     def tree(self) -> TreeModel:
-        """The 24-dof Pinocchio tree with its six 3D loop-closure constraints."""
+        """The 24-dof Pinocchio tree with its six 3D loop-closure constraints (6-UPS; a
+        general robot's is :attr:`general_tree`)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("robot.tree", "use robot.general_tree")
         return build_tree(self.description)
 
     @cached_property
     def leg_models(self) -> list[pin.Model]:
-        """The six 3-dof leg models."""
+        """The six 3-dof leg models (6-UPS)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("robot.leg_models", "use robot.general_tree")
         return build_leg_models(self.description)
 
     @cached_property
     def legs_model(self) -> tuple[pin.Model, IntArray]:
-        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index."""
+        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index
+        (6-UPS)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("robot.legs_model", "use robot.general_dynamics.legs.model")
         return build_legs_model(self.description)
 
     # ------------------------------------------------------------------ geometry
     def inverse_geometry(self, pose: ArrayLike, check_limits: bool = True) -> JointValues:
-        """Leg joint values (6, 3) (or (N, 6, 3)): columns q1i, q2i [rad], q3i [m]."""
+        """Leg joint values (6, 3) (or (N, 6, 3)): for 6-UPS columns q1i, q2i [rad], q3i
+        [m]; for general legs the three joints' values from the base [rad or m], each leg
+        on its branch (:func:`stewart_pin.kinematics.leg_chains.inverse_geometry`)."""
+        if not self.is_ideal_ups:
+            return leg_chains.inverse_geometry(self.general, pose, check_limits)
         return geometry.inverse_geometry(self.description, pose, check_limits)
 
     def leg_lengths(self, pose: ArrayLike) -> FloatArray:
-        """Leg lengths [m], (6,) or (N, 6), without stroke checks."""
+        """Leg lengths [m], (6,) or (N, 6), without stroke checks (6-UPS; for general legs
+        see :meth:`actuator_positions`)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("leg_lengths", "use robot.actuator_positions(pose)")
         return geometry.leg_lengths(self.description, pose)
 
+    def actuator_positions(self, pose: ArrayLike, check_limits: bool = False) -> FloatArray:
+        """The six actuated joint values, (6,) or (N, 6): leg lengths [m] for UPS (for the
+        ideal 6-UPS exactly :meth:`leg_lengths`), crank angles [rad] for RUS, slide
+        positions [m] for PUS. ``check_limits``: :class:`~stewart_pin.exceptions.WorkspaceError`
+        outside a joint's limits (default off, as :meth:`leg_lengths`)."""
+        if self.is_ideal_ups:
+            if check_limits:
+                q = geometry.inverse_geometry(self.description, pose, True)
+                return np.asarray(q[..., 2], dtype=np.float64)
+            return geometry.leg_lengths(self.description, pose)
+        return leg_chains.actuator_positions(self.general, pose, check_limits)
+
     def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None, **kwargs: Any) -> Pose:
-        """The pose 0Tp (4x4) with leg lengths ``lengths`` [m] (Newton-Raphson from ``guess``,
-        default the home pose); see
-        :func:`stewart_pin.kinematics.forward_geometry.forward_geometry`."""
+        """The pose 0Tp (4x4) with actuated joint values ``lengths`` (6,) (leg lengths [m]
+        for 6-UPS; :meth:`actuator_positions` in general), by Newton-Raphson from ``guess``,
+        default the home pose; see
+        :func:`stewart_pin.kinematics.forward_geometry.forward_geometry` and
+        :func:`stewart_pin.kinematics.leg_chains.forward_geometry`."""
+        if not self.is_ideal_ups:
+            return leg_chains.forward_geometry(self.general, lengths, guess, **kwargs)
         return forward_geometry(self.description, lengths, guess, **kwargs)
+
+    def limit_margin(self, pose: ArrayLike) -> tuple[float, str]:
+        """The smallest distance of a joint of a general robot to its limits at one pose,
+        and the sentence naming it: revolute joints in rad, prismatic ones divided by
+        :attr:`RobotDescription.stroke_mid` (unit-free); negative outside. The simulator
+        locates a limit with it."""
+        T = check_poses(pose)[0][0]
+        q = leg_chains.inverse_geometry(self.general, T, check_limits=False)
+        limits = np.array([leg.limits for leg in self.general.legs])  # (6, 3, 2)
+        revolute = np.array([[j.revolute for j in leg.joints] for leg in self.general.legs])
+        scale = np.where(revolute, 1.0, self.description.stroke_mid)
+        with np.errstate(invalid="ignore"):
+            lo, hi = (q - limits[..., 0]) / scale, (limits[..., 1] - q) / scale
+        m = np.minimum(lo, hi)
+        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
+        end = "lower" if lo[k, j] <= hi[k, j] else "upper"
+        unit = "rad" if revolute[k, j] else "m"
+        return float(m[k, j]), (
+            f"leg {k + 1} joint {j + 1} = {q[k, j]:.9g} {unit} reached its {end} limit "
+            f"[{limits[k, j, 0]:.9g}, {limits[k, j, 1]:.9g}] {unit}"
+        )
 
     # ------------------------------------------------------------------ kinematics
     def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:
-        """``Jp^-1`` (6, 6): ``qdot_a = Jp^-1 [v, w]`` (eq. 13)."""
+        """``Jp^-1`` (6, 6): ``qdot_a = Jp^-1 [v, w]`` (eq. 13; general legs: rows
+        ``e_ai^T J_i^-1 G_i``)."""
+        if not self.is_ideal_ups:
+            return leg_chains.inverse_jacobian(self.general, pose)
         return kinematics.inverse_jacobian(self.description, pose)
 
     def jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp`` (6, 6); raises :class:`SingularityError` past ``max_condition``."""
+        if not self.is_ideal_ups:
+            T, batched = check_poses(pose)
+            J_inv = leg_chains.inverse_jacobian_batch(self.general, T)
+            leg_chains.check_parallel(self.general, J_inv, self.max_condition)
+            J = np.asarray(np.linalg.inv(J_inv), dtype=np.float64)
+            return J if batched else J[0]
         return kinematics.jacobian(self.description, pose, self.max_condition)
 
     def condition_number(self, pose: ArrayLike) -> float | FloatArray:
         """The singularity measure: cond(Jp^-1), its angular columns divided by the platform
-        radius (unit-free; see :func:`stewart_pin.kinematics.jacobians.condition_number`)."""
+        radius (unit-free; see :func:`stewart_pin.kinematics.jacobians.condition_number`;
+        general legs: :func:`stewart_pin.kinematics.leg_chains.condition_number_batch`)."""
+        if not self.is_ideal_ups:
+            T, batched = check_poses(pose)
+            J_inv = leg_chains.inverse_jacobian_batch(self.general, T)
+            c = leg_chains.condition_number_batch(self.general, J_inv)
+            return c if batched else float(c[0])
         return kinematics.condition_number(self.description, pose)
+
+    def leg_state(
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
+    ) -> leg_chains.LegKinematics:
+        """The legs' joint values, rates, accelerations, ``J_i`` and their inverses (batch
+        arrays, N = 1 for one state), for any robot, through the general leg chains
+        (:func:`stewart_pin.kinematics.leg_chains.leg_kinematics`; limits not checked)."""
+        return leg_chains.leg_kinematics(self.general, pose, twist, accel)
 
     def leg_jacobians(self, pose: ArrayLike) -> FloatArray:
         """Each leg's Jacobian ``J_3i`` at P_i in F0, (6, 3, 3) (or (N, 6, 3, 3))."""
+        if not self.is_ideal_ups:
+            T, batched = check_poses(pose)
+            J = self.leg_state(T, np.zeros((T.shape[0], 6))).J
+            return J if batched else J[0]
         q = self.inverse_geometry(pose)
         J = kinematics.leg_jacobians(self.description, np.reshape(q, (-1, 6, 3)))
         return J if q.ndim == 3 else J[0]
@@ -166,6 +329,13 @@ class StewartRobot:
         self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
     ) -> tuple[JointValues, JointValues, JointValues | None]:
         """``(q, qdot, qddot)`` of the legs, each (6, 3) or (N, 6, 3) (eq. 14-19)."""
+        if not self.is_ideal_ups:
+            batched = check_poses(pose)[1]
+            ks = self.leg_state(pose, twist, accel)
+            qdd = None if accel is None else ks.qddot
+            if batched:
+                return ks.q, ks.qdot, qdd
+            return ks.q[0], ks.qdot[0], None if qdd is None else qdd[0]
         return kinematics.leg_kinematics(self.description, pose, twist, accel)
 
     def sample_poses(
@@ -179,8 +349,15 @@ class StewartRobot:
 
         Translations uniform in a cube of half-side ``translation`` [m] (default 15 % of the
         mid-stroke), rotations ``exp(w)`` with ``|w_k| <= rotation`` [rad]; poses outside
-        the stroke, the U-joint limits or past ``max_condition`` are redrawn.
+        the stroke, the U-joint limits or past ``max_condition`` are redrawn (general legs:
+        :func:`stewart_pin.kinematics.workspace.sample_general_poses`, the default
+        translation 15 % of the mean ``|B_i P_i|`` at home; unreachable poses, joint
+        limits and both singularities redrawn).
         """
+        if not self.is_ideal_ups:
+            return workspace.sample_general_poses(
+                self.description, self.general, n, rng, translation, rotation, self.max_condition
+            )
         return workspace.sample_poses(
             self.description, n, rng, translation, rotation, self.max_condition
         )
@@ -195,6 +372,16 @@ class StewartRobot:
         """``(poses (n, 4, 4), twists (n, 6), accels (n, 6))``: :meth:`sample_poses` with
         random twists and accelerations
         (:func:`stewart_pin.kinematics.workspace.sample_states`)."""
+        if not self.is_ideal_ups:
+            return workspace.sample_general_states(
+                self.description,
+                self.general,
+                n,
+                rng,
+                translation=translation,
+                rotation=rotation,
+                max_condition=self.max_condition,
+            )
         return workspace.sample_states(
             self.description,
             n,
@@ -207,7 +394,10 @@ class StewartRobot:
     # ------------------------------------------------------------------ dynamics
     @cached_property
     def leg_dynamics(self) -> LegDynamics:
-        """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``)."""
+        """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``; 6-UPS; a
+        general robot's are in :attr:`general_dynamics`)."""
+        if not self.is_ideal_ups:
+            raise self._ideal_only("robot.leg_dynamics", "use robot.general_dynamics")
         return LegDynamics(self.description)
 
     @overload
@@ -218,6 +408,7 @@ class StewartRobot:
         accel: ArrayLike,
         details: Literal[False] = False,
         backend: str = "pinocchio",
+        motor: bool = False,
     ) -> Forces: ...
 
     @overload
@@ -228,7 +419,8 @@ class StewartRobot:
         accel: ArrayLike,
         details: Literal[True],
         backend: str = "pinocchio",
-    ) -> InverseDynamicsResult: ...
+        motor: bool = False,
+    ) -> InverseDynamicsResult | GeneralInverseDynamics: ...
 
     @overload
     def inverse_dynamics(
@@ -238,7 +430,8 @@ class StewartRobot:
         accel: ArrayLike,
         details: bool = False,
         backend: str = "pinocchio",
-    ) -> Forces | InverseDynamicsResult: ...
+        motor: bool = False,
+    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics: ...
 
     def inverse_dynamics(
         self,
@@ -247,7 +440,8 @@ class StewartRobot:
         accel: ArrayLike,
         details: bool = False,
         backend: str = "pinocchio",
-    ) -> Forces | InverseDynamicsResult:
+        motor: bool = False,
+    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics:
         """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
 
         Args:
@@ -258,14 +452,30 @@ class StewartRobot:
                 (batch arrays) with the leg forces on the platform, each leg's share...
             backend: ``"pinocchio"`` (the reference: Pinocchio's RNEA on the legs and the
                 closure layer) or ``"compiled"`` (the generated closed-form model compiled
-                to C, :mod:`stewart_pin.codegen`; same checks, ~7 us per state).
+                to C, :mod:`stewart_pin.codegen`; same checks, ~7 us per state; 6-UPS only).
+            motor: general legs with a transmission (gear or screw) on an actuated joint:
+                the motor-side torque ``Gamma / ratio`` [N m] (joint side where there is
+                none); the ideal 6-UPS has none, so ``motor`` changes nothing there.
 
         Returns:
-            Gamma (6,) or (N, 6); positive extends the leg.
+            Gamma (6,) or (N, 6); positive extends the leg. General legs: the actuated
+            joints' efforts, joint side [N or N m]; ``details=True`` gives the
+            :class:`~stewart_pin.dynamics.general_legs.GeneralInverseDynamics` (its
+            ``joint_efforts`` (N, 6, 3): Gamma on the actuated joints, 0 on the passive
+            ones; ``H`` each leg's own joint efforts, joint terms included).
 
         Raises:
             NumericalError: finite inputs whose Gamma overflows (both backends).
+            UnsupportedArchitectureError: ``backend="compiled"`` on general legs.
         """
+        if not self.is_ideal_ups:
+            self._general_backend(backend)
+            with _quiet_overflow():
+                r = self.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
+            if details:
+                return r
+            out = check_finite(r.motor if motor else r.gamma, "inverse dynamics Gamma")
+            return out if check_poses(pose)[1] else out[0]
         if _compiled(backend, details):
             from stewart_pin.codegen import compiled_backend
 
@@ -288,11 +498,20 @@ class StewartRobot:
         Args:
             pose: 0Tp (4, 4) or (N, 4, 4); twist: (6,) or (N, 6); gamma: actuator forces
                 (6,) or (N, 6) [N].
-            backend: ``"pinocchio"`` (reference) or ``"compiled"`` (generated C).
+            backend: ``"pinocchio"`` (reference) or ``"compiled"`` (generated C, 6-UPS only).
+
+        General legs: ``gamma`` are the actuated joints' joint-side efforts [N or N m];
+        Coulomb friction is ``Fc sign(qdot)``, zero at zero joint velocity (no stiction).
 
         Raises:
             NumericalError: finite inputs whose acceleration overflows (both backends).
+            UnsupportedArchitectureError: ``backend="compiled"`` on general legs.
         """
+        if not self.is_ideal_ups:
+            self._general_backend(backend)
+            with _quiet_overflow():
+                out = self.general_dynamics.direct_dynamics(pose, twist, gamma)
+            return out
         if _compiled(backend):
             from stewart_pin.codegen import compiled_backend
 
@@ -304,9 +523,18 @@ class StewartRobot:
             )
         return accel if batched else accel[0]
 
-    def cartesian_dynamics(self, pose: ArrayLike, twist: ArrayLike) -> CartesianDynamics:
+    def cartesian_dynamics(
+        self, pose: ArrayLike, twist: ArrayLike
+    ) -> CartesianDynamics | GeneralCartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
-        :class:`NumericalError` when either is not finite."""
+        :class:`NumericalError` when either is not finite. General legs: a
+        :class:`~stewart_pin.dynamics.general_legs.GeneralCartesianDynamics`."""
+        if not self.is_ideal_ups:
+            with _quiet_overflow():
+                gcd = self.general_dynamics.cartesian_dynamics(pose, twist)
+            check_finite(gcd.A_robot, "cartesian dynamics A_robot")
+            check_finite(gcd.h_robot, "cartesian dynamics h_robot")
+            return gcd
         _, T, V = check_states(pose, (twist, "twist"))
         with _quiet_overflow():
             cd = closure.cartesian_dynamics(
@@ -328,7 +556,14 @@ class StewartRobot:
 
     def energy(self, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
         """Total mechanical energy of platform + legs [J]: kinetic plus gravitational
-        potential (zero with every centre of mass at the origin of F0)."""
+        potential (zero with every centre of mass at the origin of F0); general legs: the
+        armatures' kinetic energy and the joint springs' potential included."""
+        if not self.is_ideal_ups:
+            with _quiet_overflow():
+                k, u = self.general_dynamics.energy(pose, twist)
+            if np.ndim(k) == 0:
+                return float(check_finite(np.array([k + u]), "energy")[0])
+            return check_finite(np.asarray(k) + np.asarray(u), "energy")
         batched, T, V = check_states(pose, (twist, "twist"))
         with _quiet_overflow():
             legs = leg_state(self.description, T, V, check_limits=False)
@@ -337,12 +572,35 @@ class StewartRobot:
             total = check_finite(kin + pot + kin_p + pot_p, "energy")
         return total if batched else float(total[0])
 
+    def dissipated_power(self, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
+        """Power lost in the joints' friction and dampers [W]:
+        ``sum (Fv + D) qdot^2 + Fc |qdot|`` over the 18 joints; 0 for the ideal 6-UPS
+        (frictionless). With it the power balance reads
+        ``Gamma . qdot_a = dE/dt + dissipated_power``."""
+        if self.is_ideal_ups:
+            batched, T, _ = check_states(pose, (twist, "twist"))
+            return np.zeros(T.shape[0]) if batched else 0.0
+        power: FloatArray | float = self.general_dynamics.dissipated_power(pose, twist)
+        return power
+
+    def _general_backend(self, backend: str) -> None:
+        """A general robot takes the default backend only."""
+        if backend not in BACKENDS:
+            raise InputError(f"unknown backend '{backend}': choose one of {BACKENDS}")
+        if backend == "compiled":
+            raise self._ideal_only("the compiled backend", "use backend='pinocchio' (the default)")
+
     def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
         """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, 190) or (N, 6, 190).
 
         Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform;
         names in :data:`stewart_pin.dynamics.regressor.STANDARD_NAMES`.
         """
+        if not self.is_ideal_ups:
+            raise self._ideal_only(
+                "the dynamic regressor (and base parameters, identification)",
+                "identification of general legs is a later issue",
+            )
         from stewart_pin.dynamics.regressor import regressor_batch
 
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))

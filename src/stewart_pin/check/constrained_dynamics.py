@@ -45,7 +45,13 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_states
+from stewart_pin.check.general_legs import (
+    GeneralTreeSolver,
+    reference_direct_dynamics,
+    reference_inverse_dynamics,
+)
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.exceptions import (
     InputError,
     InputTypeError,
@@ -486,6 +492,34 @@ def _integer(value: Any, name: str, least: int) -> int:
     return x
 
 
+_GENERAL_SOLVERS: weakref.WeakKeyDictionary[Any, GeneralTreeSolver] = weakref.WeakKeyDictionary()
+
+
+def _general_reference(
+    robot: RobotLike, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The reference Gamma and Vdot of a robot with general legs: Pinocchio's constrained
+    tree with ``model.armature`` and the joint torques
+    (:class:`stewart_pin.check.general_legs.GeneralTreeSolver`).
+
+    The leg joint *positions* come from the robot's own inverse geometry
+    (``robot.inverse_geometry``, through :mod:`stewart_pin.kinematics.leg_chains`): that
+    part is not independent, but the solver checks with Pinocchio's forward kinematics
+    that they close the six loops (within
+    :data:`stewart_pin.check.general_legs.CLOSURE_TOLERANCE`); every rate, acceleration
+    and dynamic term is the tree's own.
+    """
+    try:
+        solver = _GENERAL_SOLVERS[robot]
+    except KeyError:
+        solver = GeneralTreeSolver(general_from_description(robot.description))
+        _GENERAL_SOLVERS[robot] = solver
+    q_legs = np.asarray(robot.inverse_geometry(poses, check_limits=False), dtype=float)
+    gamma_ref = reference_inverse_dynamics(solver, poses, twists, accels, q_legs)
+    accel_ref = reference_direct_dynamics(solver, poses, twists, gamma_ref, q_legs)
+    return gamma_ref, accel_ref
+
+
 def validate(
     robot: RobotLike,
     n_states: int = 200,
@@ -497,7 +531,10 @@ def validate(
 
     Draws ``n_states`` states with ``robot.sample_states`` (seeded; for a
     :class:`~stewart_pin.StewartRobot`, :func:`stewart_pin.kinematics.workspace.sample_states`),
-    computes the reference Gamma with :func:`constrained_inverse_dynamics`, then compares
+    computes the reference Gamma with :func:`constrained_inverse_dynamics` (general legs:
+    :class:`~stewart_pin.check.general_legs.GeneralTreeSolver`, the tree with the joint
+    dynamics, fed the robot's own leg joint positions, whose loop closure it checks; see
+    :func:`_general_reference`), then compares
     ``robot.inverse_dynamics(poses, twists, accels)`` with it, ``robot.direct_dynamics``
     under the reference Gamma with :func:`constrained_forward_dynamics`, and the round
     trip ``robot.direct_dynamics(robot.inverse_dynamics(...))`` with the drawn
@@ -533,8 +570,11 @@ def validate(
             f"{e} (validate: translation_range, rotation_range; stewart-pin validate: "
             "--translation, --rotation)"
         ) from e
-    gamma_ref, _ = constrained_inverse_dynamics(robot, poses, twists, accels)
-    accel_ref = constrained_forward_dynamics(robot, poses, twists, gamma_ref)
+    if robot.description.is_ideal_ups:
+        gamma_ref, _ = constrained_inverse_dynamics(robot, poses, twists, accels)
+        accel_ref = constrained_forward_dynamics(robot, poses, twists, gamma_ref)
+    else:
+        gamma_ref, accel_ref = _general_reference(robot, poses, twists, accels)
     gamma = np.asarray(robot.inverse_dynamics(poses, twists, accels), dtype=float)
     accel = np.asarray(robot.direct_dynamics(poses, twists, gamma_ref), dtype=float)
     round_trip = np.asarray(robot.direct_dynamics(poses, twists, gamma), dtype=float)

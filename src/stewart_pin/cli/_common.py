@@ -27,7 +27,7 @@ from stewart_pin._argtypes import (
     positive_finite_float,
     positive_int,
 )
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
 from stewart_pin.robot import StewartRobot
 
 __all__ = [
@@ -40,6 +40,7 @@ __all__ = [
     "positive_finite_float",
     "positive_int",
     "progress_bar",
+    "refuse_general",
     "robot_from_args",
 ]
 
@@ -93,15 +94,35 @@ def check_output(
 def add_robot_args(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument(
-        "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
+        "--preset",
+        default="simulator",
+        help="simulator, desktop, paper, random-<seed> (ideal 6-UPS); ups-offset, rus, pus, "
+        "random-<kind>-<seed> with kind ups, ups-offset, rus, pus or custom (general legs)",
     )
     g.add_argument("--description", help="a robot description file (.toml or .json)")
 
 
-def robot_from_args(args: argparse.Namespace) -> StewartRobot:
+def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> StewartRobot:
+    """The robot of ``--preset`` / ``--description``; with ``ideal_only`` (the command's
+    name), a robot with general legs is refused (:class:`UnsupportedArchitectureError`:
+    one line, exit code 2)."""
     if getattr(args, "description", None):
-        return StewartRobot.from_file(args.description)
-    return StewartRobot.from_preset(args.preset)
+        robot = StewartRobot.from_file(args.description)
+    else:
+        robot = StewartRobot.from_preset(args.preset)
+    if ideal_only is not None and not robot.is_ideal_ups:
+        raise refuse_general(ideal_only, robot)
+    return robot
+
+
+def refuse_general(command: str, robot: StewartRobot) -> UnsupportedArchitectureError:
+    """The error of a 6-UPS-only command given a robot with general legs."""
+    return UnsupportedArchitectureError(
+        f"{command} is 6-UPS-only for now: robot '{robot.name}' has {robot.architecture} legs "
+        "(general legs work with ik, idm, validate and simulate)",
+        command,
+        robot.architecture,
+    )
 
 
 def pose_from_args(values: Sequence[float] | None, robot: StewartRobot) -> np.ndarray:

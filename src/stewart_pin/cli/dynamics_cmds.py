@@ -32,9 +32,10 @@ def _idm(args: argparse.Namespace) -> int:
     gamma = robot.inverse_dynamics(poses, twists, accels)  # NumericalError if not finite
     write_csv(out, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
     peak = np.abs(gamma).max(axis=0)
+    unit = "N" if robot.is_ideal_ups else "N or N m (actuated joints, joint side)"
     print(
         f"inverse dynamics of {len(times)} states of {args.trajectory} on '{robot.name}': "
-        f"peak |Gamma_i| = {np.array2string(peak, precision=5)} N; wrote {out}"
+        f"peak |Gamma_i| = {np.array2string(peak, precision=5)} {unit}; wrote {out}"
     )
     return 0
 
@@ -117,15 +118,24 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _cost(args: argparse.Namespace) -> int:
     from stewart_pin.codegen import cost_table
 
-    print(cost_table(robot_from_args(args)))
+    print(cost_table(robot_from_args(args, "cost")))
     return 0
 
 
 def _bench(args: argparse.Namespace) -> int:
     from stewart_pin.apps.bench import report
+    from stewart_pin.description.presets import preset
+    from stewart_pin.exceptions import UnsupportedArchitectureError
 
     if args.json is not None:
         check_output(args.json, (".json",), what="--json")
+    desc = preset(args.preset)
+    if not desc.is_ideal_ups:
+        raise UnsupportedArchitectureError(
+            f"bench is 6-UPS-only for now: preset '{desc.name}' has {desc.architecture} legs",
+            "bench",
+            desc.architecture,
+        )
 
     report(args)
     return 0

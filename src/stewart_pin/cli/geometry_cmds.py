@@ -8,11 +8,19 @@ from pathlib import Path
 import numpy as np
 
 from stewart_pin._safe import file_in_folder
-from stewart_pin.cli._common import add_robot_args, finite_float, pose_from_args, robot_from_args
+from stewart_pin.cli._common import (
+    add_robot_args,
+    finite_float,
+    pose_from_args,
+    refuse_general,
+    robot_from_args,
+)
 
 
 def _urdf(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
+    if not robot.is_ideal_ups:
+        raise refuse_general("urdf", robot)
     # The default name comes from the robot: checked to stay in the working folder.
     out = Path(args.output) if args.output else file_in_folder(".", f"{robot.name}.urdf")
     urdf, sidecar = robot.write_urdf(out)
@@ -26,10 +34,20 @@ def _ik(args: argparse.Namespace) -> int:
     q = robot.inverse_geometry(T)
     np.set_printoptions(precision=6, suppress=True)
     print(f"pose 0Tp:\n{T}")
-    print("leg   q1 [rad]     q2 [rad]     q3 [m]")
-    for i, row in enumerate(q, 1):
-        print(f"{i:3d} {row[0]:12.6f} {row[1]:12.6f} {row[2]:12.6f}")
-    print(f"Jp^-1 (rows [a_i, L_i x a_i]), cond = {robot.condition_number(T):.4g}:")
+    if robot.is_ideal_ups:
+        print("leg   q1 [rad]     q2 [rad]     q3 [m]")
+        for i, row in enumerate(q, 1):
+            print(f"{i:3d} {row[0]:12.6f} {row[1]:12.6f} {row[2]:12.6f}")
+        print(f"Jp^-1 (rows [a_i, L_i x a_i]), cond = {robot.condition_number(T):.4g}:")
+    else:
+        print(f"{robot.architecture} legs; joint values [rad revolute, m prismatic], * actuated")
+        print("leg   q1           q2           q3")
+        for i, (row, leg) in enumerate(zip(q, robot.general.legs, strict=True), 1):
+            cells = [
+                f"{v:12.6f}{'*' if j + 1 == leg.actuated else ' '}" for j, v in enumerate(row)
+            ]
+            print(f"{i:3d} {''.join(cells)}")
+        print(f"Jp^-1 (rows e_ai^T J_i^-1 G_i), cond = {robot.condition_number(T):.4g}:")
     print(robot.inverse_jacobian(T))
     return 0
 

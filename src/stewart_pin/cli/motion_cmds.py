@@ -18,6 +18,7 @@ from stewart_pin.cli._common import (
     finite_float,
     positive_finite_float,
     progress_bar,
+    refuse_general,
     robot_from_args,
 )
 from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
@@ -63,6 +64,10 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
     robot = robot_from_args(args)
+    if args.backend is None:
+        args.backend = "compiled" if robot.is_ideal_ups else "pinocchio"
+    if args.plots and not robot.is_ideal_ups:
+        raise refuse_general("simulate --plots", robot)
     if args.motion == "free":
         forces, motion, duration = None, None, args.duration
         start: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
@@ -71,6 +76,8 @@ def _simulate(args: argparse.Namespace) -> int:
         motion.check_workspace(robot)
         model = robot
         if args.model_error:
+            if not robot.is_ideal_ups:
+                raise refuse_general("simulate --model-error", robot)
             chi = standard_parameters(robot.description) * (1.0 + args.model_error)
             model = type(robot)(with_standard_parameters(robot.description, chi))
         forces = ComputedTorqueController(model, motion, backend=args.backend)
@@ -101,10 +108,16 @@ def _simulate(args: argparse.Namespace) -> int:
         lines.append(
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )
-    lines.append(
-        f"peak |Gamma| {np.abs(result.gammas).max():.5g} N; leg lengths "
-        f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] m"
-    )
+    if robot.is_ideal_ups:
+        lines.append(
+            f"peak |Gamma| {np.abs(result.gammas).max():.5g} N; leg lengths "
+            f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] m"
+        )
+    else:
+        lines.append(
+            f"peak |Gamma| {np.abs(result.gammas).max():.5g} (N or N m, actuated joints); "
+            f"actuated joint values [{result.lengths.min():.5g}, {result.lengths.max():.5g}]"
+        )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
 
@@ -133,7 +146,7 @@ def _animate(args: argparse.Namespace) -> int:
     from stewart_pin.viz.viewer import Viewer
 
     path = check_output(args.output, (".html", ".htm"), [args.result])
-    robot = robot_from_args(args)
+    robot = robot_from_args(args, "animate")
     poses, times = _motion_samples(args, robot)
     out = Viewer(robot).export_html(path, poses, times, fps=args.fps)
     print(f"wrote {out} ({times[-1] - times[0]:.3g} s of motion): open it in a web browser")
@@ -145,7 +158,7 @@ def _view(args: argparse.Namespace) -> int:
 
     from stewart_pin.viz.viewer import Viewer
 
-    robot = robot_from_args(args)
+    robot = robot_from_args(args, "view")
     with _exit_on_hangup(), Viewer(robot) as viewer:
         url = viewer.start(open=args.open)
         print(f"meshcat viewer at {url} (local only); Ctrl-C to stop", flush=True)
@@ -235,9 +248,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--backend",
         choices=("compiled", "pinocchio"),
-        default="compiled",
-        help="dynamic models: generated C (compiled, cached after the first build) or the "
-        "Pinocchio reference path",
+        help="dynamic models: generated C (compiled, cached after the first build; 6-UPS "
+        "only) or the Pinocchio reference path (default: compiled for the ideal 6-UPS, "
+        "pinocchio for general legs)",
     )
     p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
     p.add_argument("--plots", help="folder for PNG plots")

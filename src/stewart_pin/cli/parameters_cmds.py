@@ -22,7 +22,7 @@ from stewart_pin.cli._common import robot_from_args as _robot
 def _cmd_base_params(args: argparse.Namespace) -> int:
     from stewart_pin.parameters.base import base_parameters, numerical_base_parameters
 
-    robot = _robot(args)
+    robot = _robot(args, "base-params")
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
     bp = numerical if args.method == "numerical" else base_parameters(robot, "analytic")
     print(f"robot '{robot.name}': {len(bp)} {args.method} base parameters of 190 standard")
@@ -65,7 +65,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     inputs = [args.csv, args.validation_csv, args.description]
     out = check_output(args.output, (), inputs, "-o") if args.output else None
-    robot = _robot(args)
+    robot = _robot(args, "identify")
     if not args.csv:  # the simulated measurements are written: check where, up front
         stem = out.with_name(out.stem + "_measurements.csv") if out else None
         measurements_path = check_output(

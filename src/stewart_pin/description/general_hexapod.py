@@ -4,8 +4,10 @@ The robot places each leg's frame 0i (``B_i`` and ``R_i`` in F0, today's 6-UPS
 convention ``0T1i = [R_i, B_i] Rz(q1i)`` for the ``ups`` legs), holds the six
 :class:`~stewart_pin.description.leg_architecture.LegArchitecture`, the 18 + 1 bodies'
 inertial parameters (Khalil's order, each link in its own MDH frame), gravity and a
-reachable home pose. :func:`general_from_description` turns a 6-UPS
-:class:`~stewart_pin.description.robot_description.RobotDescription` into the same robot.
+reachable home pose. :func:`general_from_description` turns any
+:class:`~stewart_pin.description.robot_description.RobotDescription` into the same robot
+(the resolved view the general-leg kinematics and dynamics read), and
+:meth:`GeneralHexapod.to_description` goes back.
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ import numpy as np
 
 from stewart_pin._checks import check_array, project_rotation
 from stewart_pin.description.inertia import check_physical
-from stewart_pin.description.leg_architecture import LegArchitecture, ups
+from stewart_pin.description.leg_architecture import LegArchitecture
+from stewart_pin.description.robot_description import RobotDescription
 from stewart_pin.exceptions import ArchitectureError, DescriptionError, InputError
 
 
@@ -112,24 +115,36 @@ class GeneralHexapod:
     def replace(self, **changes: Any) -> GeneralHexapod:
         return replace(self, **changes)
 
+    def to_description(self) -> RobotDescription:
+        """The same robot as a :class:`RobotDescription` with explicit ``legs``."""
+        return RobotDescription(
+            base_points=self.base_points,
+            platform_points=self.platform_points,
+            leg_base_rotations=self.leg_base_rotations,
+            stroke=None,
+            leg_inertia=self.leg_inertia,
+            platform_inertia=self.platform_inertia,
+            gravity=self.gravity,
+            name=self.name,
+            home_pose=self.home_pose,
+            legs=self.legs,
+        )
+
     def with_joint_dynamics(self, dynamics: Any) -> GeneralHexapod:
         """A copy with every joint's dynamics set: ``dynamics[i][j]`` for joint j of leg i."""
         legs = tuple(leg.with_dynamics(d) for leg, d in zip(self.legs, dynamics, strict=True))
         return self.replace(legs=legs)
 
 
-def general_from_description(desc: Any) -> GeneralHexapod:
-    """The :class:`GeneralHexapod` of a 6-UPS :class:`RobotDescription` (:func:`ups` legs
-    with the description's stroke and U-joint limits, no joint dynamics): the same robot."""
-    legs = []
-    for i in range(6):
-        lim = None if desc.u_joint_limits is None else desc.u_joint_limits[i]
-        legs.append(ups(tuple(desc.stroke), lim))
+def general_from_description(desc: RobotDescription) -> GeneralHexapod:
+    """The :class:`GeneralHexapod` view of any :class:`RobotDescription`: its ``legs``, or
+    for the ideal 6-UPS robot :func:`ups` legs with its stroke and U-joint limits and no
+    joint dynamics (:attr:`RobotDescription.leg_architectures`): the same robot."""
     return GeneralHexapod(
         base_points=desc.base_points,
         leg_base_rotations=desc.leg_base_rotations,
         platform_points=desc.platform_points,
-        legs=tuple(legs),
+        legs=desc.leg_architectures,
         leg_inertia=desc.leg_inertia,
         platform_inertia=desc.platform_inertia,
         gravity=desc.gravity,

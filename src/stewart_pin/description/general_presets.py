@@ -347,7 +347,8 @@ def ups_offset_preset(offset: float = 0.004) -> GeneralHexapod:
     T = np.asarray(desc.home_pose)
     P0 = desc.platform_points @ T[:3, :3].T + T[:3, 3]
     for i in range(6):
-        leg = ups_offset(offset, tuple(desc.stroke), dynamics=(small, small, lead))
+        stroke = desc.ideal_stroke("ups_offset_preset")
+        leg = ups_offset(offset, (stroke[0], stroke[1]), dynamics=(small, small, lead))
         u = desc.leg_base_rotations[i].T @ (P0[i] - desc.base_points[i])
         rho = math.hypot(u[0], u[1])
         q_home.append(

@@ -265,12 +265,52 @@ PRESETS: dict[str, Callable[[], RobotDescription]] = {
 }
 
 
+def _general(name: str) -> Callable[[], RobotDescription]:
+    def build() -> RobotDescription:
+        from stewart_pin.description.general_presets import GENERAL_PRESETS
+
+        return GENERAL_PRESETS[name]().to_description()
+
+    build.__name__ = name.replace("-", "_")
+    build.__doc__ = f"The general-leg preset ``{name}`` as a description with ``legs``."
+    return build
+
+
+#: The general-leg presets (:mod:`stewart_pin.description.general_presets`): a 6-UPS with
+#: offset U-joint axes, a 6-RUS desktop head, a 6-PUS positioner. Kept apart from
+#: :data:`PRESETS` (the ideal 6-UPS robots, whose robot files are committed in
+#: ``models/urdf``); :func:`preset` takes both.
+LEG_PRESETS: dict[str, Callable[[], RobotDescription]] = {
+    name: _general(name) for name in ("ups-offset", "rus", "pus")
+}
+#: Kinds of ``random-<kind>-<seed>``
+#: (:func:`~stewart_pin.description.general_presets.random_hexapod`).
+RANDOM_KINDS = ("ups", "ups-offset", "rus", "pus", "custom")
+#: Every preset name :func:`preset` takes, beside ``random-<seed>`` and
+#: ``random-<kind>-<seed>``.
+PRESET_NAMES = (*PRESETS, *LEG_PRESETS)
+
+
 def preset(name: str) -> RobotDescription:
-    """A named preset (``simulator``, ``desktop``, ``paper``) or ``random-<seed>``."""
+    """A named preset (``simulator``, ``desktop``, ``paper``: ideal 6-UPS; ``ups-offset``,
+    ``rus``, ``pus``: general legs with joint dynamics), ``random-<seed>`` (an asymmetric
+    ideal 6-UPS) or ``random-<kind>-<seed>`` with a kind of :data:`RANDOM_KINDS` (e.g.
+    ``random-rus-3``: an asymmetric general robot with every joint term non-zero)."""
+    if not isinstance(name, str):
+        raise DescriptionError(f"a preset name is a string, got {type(name).__name__}")
     if name in PRESETS:
         return PRESETS[name]()
+    if name in LEG_PRESETS:
+        return LEG_PRESETS[name]()
     if name.startswith("random-") and name[7:].isdigit():
         return random_robot(int(name[7:]))
+    if name.startswith("random-"):
+        kind, _, seed = name[7:].rpartition("-")
+        if kind in RANDOM_KINDS and seed.isdigit() and len(seed) <= 9:
+            from stewart_pin.description.general_presets import random_hexapod
+
+            return random_hexapod(kind, int(seed)).to_description()
     raise DescriptionError(
-        f"unknown preset '{name}'; choose one of {sorted(PRESETS)} or 'random-<seed>'"
+        f"unknown preset '{name}'; choose one of {list(PRESET_NAMES)}, 'random-<seed>' or "
+        f"'random-<kind>-<seed>' with a kind of {list(RANDOM_KINDS)}"
     )

@@ -38,12 +38,15 @@ from stewart_pin._checks import (
 )
 from stewart_pin._io import write_text_atomic
 from stewart_pin.description.inertia import check_physical
+from stewart_pin.description.leg_architecture import LegArchitecture, ups
+from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
 from stewart_pin.exceptions import (
     DescriptionError,
     FileFormatError,
     InertiaError,
     InputError,
     RobotNameError,
+    UnsupportedArchitectureError,
 )
 
 #: Keys of the dictionary form (``to_dict`` / ``from_dict``) that must be present.
@@ -56,9 +59,11 @@ REQUIRED_KEYS = (
     "platform_inertia",
     "gravity",
 )
-#: Optional keys: ``name`` (str), ``u_joint_limits`` ((2, 2) or (6, 2, 2) [rad]) and
-#: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess).
-OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose")
+#: Optional keys: ``name`` (str), ``u_joint_limits`` ((2, 2) or (6, 2, 2) [rad]),
+#: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess) and
+#: ``legs`` (six leg tables, :mod:`stewart_pin.description.leg_io`; with ``legs``,
+#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required).
+OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs")
 
 #: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
 #: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
@@ -86,12 +91,24 @@ class RobotDescription:
     the files written for it (``<name>.urdf``...): it follows :data:`NAME_RULE` (1 to 64
     characters among ``A-Z a-z 0-9 _ . -``, starting with a letter or a digit, without
     ``..`` or ``--``; :func:`check_robot_name`), else :class:`RobotNameError`.
+
+    ``legs``: ``None`` (the default) is the paper's ideal 6-UPS robot, its legs built from
+    ``stroke`` and ``u_joint_limits`` (:attr:`leg_architectures`); or six
+    :class:`~stewart_pin.description.leg_architecture.LegArchitecture` (or leg tables of
+    the file format) for general three-joint legs with joint dynamics. With ``legs``,
+    the joint limits live in the legs: ``stroke`` and ``u_joint_limits`` must be ``None``
+    (``desc.stroke`` is then ``None``; code paths that need the 6-UPS stroke refuse such
+    a robot with :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`), and
+    ``home_pose`` must be given (its reachability and distance to singularities are
+    checked by :class:`~stewart_pin.StewartRobot`, where the inverse geometry lives).
+    Frame 0i of leg i is placed at ``base_points[i]`` with ``leg_base_rotations[i]``;
+    ``leg_inertia[i, j]`` is link j+1 of leg i+1 in its own MDH frame.
     """
 
     base_points: np.ndarray
     platform_points: np.ndarray
     leg_base_rotations: np.ndarray
-    stroke: np.ndarray
+    stroke: np.ndarray | None
     leg_inertia: np.ndarray
     platform_inertia: np.ndarray
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
@@ -100,9 +117,12 @@ class RobotDescription:
     # None (or a pin.SE3) is accepted at construction; __post_init__ stores the 4x4 (the
     # upright pose when None), so the attribute is always a pose.
     home_pose: np.ndarray = None  # type: ignore[assignment]
+    legs: tuple[LegArchitecture, ...] | None = None
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
+        if self.legs is not None:
+            self._check_legs()
 
         def set_(key: str, value: np.ndarray) -> None:
             value = np.array(value, dtype=np.float64)
@@ -113,7 +133,7 @@ class RobotDescription:
             "base_points": (6, 3),
             "platform_points": (6, 3),
             "leg_base_rotations": (6, 3, 3),
-            "stroke": (2,),
+            **({} if self.legs is not None else {"stroke": (2,)}),
             "leg_inertia": (6, 3, 10),
             "platform_inertia": (10,),
             "gravity": (3,),
@@ -142,11 +162,12 @@ class RobotDescription:
             raise _field_error(key, f"robot description '{self.name}': {e}") from e
         self._check_points()
         self._check_frames(set_)
-        lo, hi = self.stroke
-        if not 0.0 < lo < hi:
-            raise _field_error(
-                "stroke", f"stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
-            )
+        if self.stroke is not None:
+            lo, hi = self.stroke
+            if not 0.0 < lo < hi:
+                raise _field_error(
+                    "stroke", f"stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
+                )
         if self.u_joint_limits is not None:
             bad = np.argwhere(self.u_joint_limits[..., 0] >= self.u_joint_limits[..., 1])
             if bad.size:
@@ -171,6 +192,24 @@ class RobotDescription:
             raise
 
     # ------------------------------------------------------------------ validation
+    def _check_legs(self) -> None:
+        """Six legs (parsed from tables when needed); no shared stroke or U-joint limits
+        beside them; an explicit home pose."""
+        object.__setattr__(self, "legs", legs_from_value(self.legs))
+        for key in ("stroke", "u_joint_limits"):
+            if getattr(self, key) is not None:
+                raise _field_error(
+                    key,
+                    f"robot description '{self.name}': {key} must be left out when legs are "
+                    "given (each leg's joint limits are its lower / upper)",
+                )
+        if self.home_pose is None:
+            raise _field_error(
+                "home_pose",
+                f"robot description '{self.name}': a robot with legs needs an explicit "
+                "home_pose (a reachable pose: the workspace centre)",
+            )
+
     def _check_points(self) -> None:
         """Attachment points: legs may share a joint centre (3-3, 6-3 designs), but at most
         :data:`MAX_LEGS_PER_POINT` of them, no two legs may share both ends, and neither
@@ -236,10 +275,13 @@ class RobotDescription:
         """The description as plain Python lists (JSON/TOML-ready), with the public keys."""
         d: dict[str, Any] = {"name": self.name}
         for key in REQUIRED_KEYS:
-            d[key] = getattr(self, key).tolist()
+            if getattr(self, key) is not None:
+                d[key] = getattr(self, key).tolist()
         for key in ("u_joint_limits", "home_pose"):
             if getattr(self, key) is not None:
                 d[key] = getattr(self, key).tolist()
+        if self.legs is not None:
+            d["legs"] = [leg_to_dict(leg) for leg in self.legs]
         return d
 
     @classmethod
@@ -247,14 +289,17 @@ class RobotDescription:
         """Build from the dictionary form; raises :class:`DescriptionError` on bad keys."""
         if not isinstance(d, dict):
             raise DescriptionError(f"a robot description must be a dict, got {type(d).__name__}")
-        missing = [k for k in REQUIRED_KEYS if k not in d]
+        required = [k for k in REQUIRED_KEYS if not ("legs" in d and k == "stroke")]
+        missing = [k for k in required if k not in d]
         unknown = [k for k in d if k not in REQUIRED_KEYS + OPTIONAL_KEYS]
         if missing or unknown:
             raise DescriptionError(
                 f"robot description keys: missing {missing}, unknown {unknown}; expected "
-                f"{list(REQUIRED_KEYS)} and optionally {list(OPTIONAL_KEYS)}"
+                f"{list(REQUIRED_KEYS)} and optionally {list(OPTIONAL_KEYS)} (stroke is "
+                "left out with legs)"
             )
         kwargs = {k: d[k] for k in REQUIRED_KEYS + OPTIONAL_KEYS if k in d}
+        kwargs.setdefault("stroke", None)
         return cls(**kwargs)
 
     def replace(self, **changes: Any) -> RobotDescription:
@@ -272,7 +317,11 @@ class RobotDescription:
         if suffix == ".json":
             write_text_atomic(path, json.dumps(d, indent=2) + "\n")
         elif suffix == ".toml":
-            write_text_atomic(path, FILE_HEADER + _toml(d))
+            legs = d.pop("legs", None)
+            text = FILE_HEADER + _toml(d)
+            if legs is not None:
+                text += LEGS_HEADER + legs_toml(legs)
+            write_text_atomic(path, text)
         else:
             raise FileFormatError(f"unknown description file type '{path.suffix}' (.toml, .json)")
         return path
@@ -326,8 +375,53 @@ class RobotDescription:
 
     @property
     def stroke_mid(self) -> float:
-        """Middle of the stroke [m]."""
+        """Middle of the stroke [m] (6-UPS); for general legs, the mean distance
+        ``|B_i P_i|`` at the home pose (the length scale sampling uses) [m]."""
+        if self.stroke is None:
+            T = self.home_pose
+            P = self.platform_points @ T[:3, :3].T + T[:3, 3]
+            return float(np.linalg.norm(P - self.base_points, axis=1).mean())
         return float(self.stroke.mean())
+
+    def ideal_stroke(self, what: str) -> np.ndarray:
+        """The shared stroke ``[min, max]`` [m] of the ideal 6-UPS robot, for 6-UPS-only
+        code (``what`` names it); :class:`UnsupportedArchitectureError` for general legs."""
+        if self.stroke is None:
+            raise UnsupportedArchitectureError(
+                f"{what} is 6-UPS-only for now: robot '{self.name}' has {self.architecture} "
+                "legs (no shared stroke; its joint limits are in its legs)",
+                what,
+                self.architecture,
+            )
+        return self.stroke
+
+    @property
+    def is_ideal_ups(self) -> bool:
+        """Whether this is the paper's ideal 6-UPS robot (``legs`` is ``None``): the fast
+        closed-form path, the compiled backend and the identification apply."""
+        return self.legs is None
+
+    @property
+    def leg_architectures(self) -> tuple[LegArchitecture, ...]:
+        """The six legs: ``legs``, or for the ideal 6-UPS robot :func:`ups` legs with its
+        stroke and U-joint limits and no joint dynamics."""
+        if self.legs is not None:
+            return self.legs
+        assert self.stroke is not None
+        lim = self.u_joint_limits
+        return tuple(
+            ups((float(self.stroke[0]), float(self.stroke[1])), None if lim is None else lim[i])
+            for i in range(6)
+        )
+
+    @property
+    def architecture(self) -> str:
+        """The legs' common architecture (``"ups"``, ``"ups-offset"``, ``"rus"``,
+        ``"pus"``, ``"custom"``), or ``"mixed"``."""
+        if self.legs is None:
+            return "ups"
+        names = {leg.name for leg in self.legs}
+        return names.pop() if len(names) == 1 else "mixed"
 
     @property
     def size(self) -> float:
@@ -395,6 +489,14 @@ FILE_HEADER = """\
 #   home_pose: 0Tp (4 x 4), the workspace centre.
 """
 
+LEGS_HEADER = """
+# legs: six leg tables (general three-joint legs; docs/description.md). Per leg:
+#   architecture, actuated (1..3), tip (P_i in frame 3i), branch (+1 / -1), guess, and
+#   three [[legs.joints]]: kind, MDH alpha d theta r, lower upper (omitted: none), and the
+#   joint dynamics armature viscous coulomb stiffness rest_position damping rotor_inertia
+#   (omitted: 0), gear_ratio or screw_lead (omitted: none).
+"""
+
 
 def _toml(d: dict[str, Any]) -> str:
     """TOML for the description's flat dict of strings and nested lists of floats, one
@@ -415,6 +517,7 @@ def _toml(d: dict[str, Any]) -> str:
 def _upright_home_pose(desc: RobotDescription) -> np.ndarray:
     """The default home pose: Fp parallel to F0, O_p above the centroids, mean leg length at
     mid-stroke (found by bisection on the height along the base z axis)."""
+    assert desc.stroke is not None  # only the ideal 6-UPS robot has a default home pose
     B, P = desc.base_points, desc.platform_points
     T = np.eye(4)
     T[:2, 3] = B.mean(axis=0)[:2] - P.mean(axis=0)[:2]

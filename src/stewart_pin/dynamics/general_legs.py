@@ -168,6 +168,8 @@ class GeneralInverseDynamics:
         H: (N, 6, 3) each leg's ``H_i`` (joint terms included). H_x: (N, 6, 3)
             ``J_i^-T H_i`` at P_i in F0. F_p: (N, 6) the platform's wrench about O_p.
         J_inv: (N, 6, 6) ``Jp^-1``. legs: the :class:`LegKinematics` used.
+        joint_efforts: (N, 6, 3) the actuators' effort on every joint, joint side:
+            ``gamma`` on the actuated joint, 0 on the two passive ones [N or N m].
     """
 
     gamma: np.ndarray
@@ -177,6 +179,7 @@ class GeneralInverseDynamics:
     F_p: np.ndarray
     J_inv: np.ndarray
     legs: LegKinematics
+    joint_efforts: np.ndarray
 
 
 def inverse_dynamics_batch(
@@ -186,9 +189,11 @@ def inverse_dynamics_batch(
     twists: np.ndarray,
     accels: np.ndarray,
     max_condition: float = MAX_CONDITION,
+    check_limits: bool = False,
 ) -> GeneralInverseDynamics:
-    """``Gamma = Jp^T (F_p + sum_i [I3; L_i^] J_i^-T H_i)`` for validated batches."""
-    legs = leg_state(robot, poses, twists, accels)
+    """``Gamma = Jp^T (F_p + sum_i [I3; L_i^] J_i^-T H_i)`` for validated batches
+    (``check_limits``: :class:`LegJointLimitError` outside a joint's limits)."""
+    legs = leg_state(robot, poses, twists, accels, check_limits)
     J_inv = inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
     check_parallel(robot, J_inv, max_condition)
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
@@ -199,7 +204,9 @@ def inverse_dynamics_batch(
         _transpose_solve(J_inv, F_p + _wrench_at_origin(H_x, legs.L)), "inverse dynamics Gamma"
     )
     ratio = legs_dyn.terms.ratio[np.arange(6), robot.actuated]
-    return GeneralInverseDynamics(gamma, gamma / ratio, H, H_x, F_p, J_inv, legs)
+    efforts = np.zeros(H.shape)
+    efforts[:, np.arange(6), robot.actuated] = gamma
+    return GeneralInverseDynamics(gamma, gamma / ratio, H, H_x, F_p, J_inv, legs, efforts)
 
 
 @dataclass(frozen=True)
@@ -224,9 +231,10 @@ def cartesian_dynamics_batch(
     poses: np.ndarray,
     twists: np.ndarray,
     max_condition: float = MAX_CONDITION,
+    check_limits: bool = False,
 ) -> GeneralCartesianDynamics:
     """``A_robot`` and ``h_robot`` (general-legs.md, DDM) for validated batches."""
-    legs = leg_state(robot, poses, twists)
+    legs = leg_state(robot, poses, twists, None, check_limits)
     J_inv = inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
     check_parallel(robot, J_inv, max_condition)
     A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
@@ -257,10 +265,11 @@ def direct_dynamics_batch(
     twists: np.ndarray,
     gammas: np.ndarray,
     max_condition: float = MAX_CONDITION,
+    check_limits: bool = False,
 ) -> np.ndarray:
     """``Vdot = A_robot^-1 (Jp^-T Gamma - h_robot)`` (N, 6), classical in F0, by Cholesky;
     ``gammas`` (N, 6) joint-side actuated efforts."""
-    cd = cartesian_dynamics_batch(robot, legs_dyn, poses, twists, max_condition)
+    cd = cartesian_dynamics_batch(robot, legs_dyn, poses, twists, max_condition, check_limits)
     check_finite(cd.A_robot, "direct dynamics A_robot")
     rhs = np.einsum("nji,nj->ni", cd.J_inv, gammas) - cd.h_robot
     try:
@@ -280,11 +289,21 @@ class GeneralDynamics:
 
     Args:
         robot: the robot. max_condition: the parallel singularity threshold.
+        check_limits: refuse states with a joint outside its limits
+            (:class:`LegJointLimitError`) in the inverse, direct and cartesian models
+            (:class:`~stewart_pin.StewartRobot` sets it, as its 6-UPS path checks the
+            stroke); energy and power are defined outside the limits too.
     """
 
-    def __init__(self, robot: GeneralHexapod, max_condition: float = MAX_CONDITION) -> None:
+    def __init__(
+        self,
+        robot: GeneralHexapod,
+        max_condition: float = MAX_CONDITION,
+        check_limits: bool = False,
+    ) -> None:
         self.robot = robot
         self.max_condition = max_condition
+        self.check_limits = check_limits
         self.legs = GeneralLegDynamics(robot)
 
     def inverse_dynamics(
@@ -293,7 +312,9 @@ class GeneralDynamics:
         """Actuated joint efforts (6,) or (N, 6) [N or N m], joint side (``motor``: motor
         side); ``details`` returns the :class:`GeneralInverseDynamics` (batched)."""
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        r = inverse_dynamics_batch(self.robot, self.legs, T, V, A, self.max_condition)
+        r = inverse_dynamics_batch(
+            self.robot, self.legs, T, V, A, self.max_condition, self.check_limits
+        )
         if details:
             return r
         out = r.motor if motor else r.gamma
@@ -303,19 +324,25 @@ class GeneralDynamics:
         """The classical acceleration of the platform (6,) or (N, 6) under the joint-side
         actuated efforts ``gamma`` (6,) or (N, 6)."""
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
-        out = direct_dynamics_batch(self.robot, self.legs, T, V, G, self.max_condition)
+        out = direct_dynamics_batch(
+            self.robot, self.legs, T, V, G, self.max_condition, self.check_limits
+        )
         return out if batched else out[0]
 
     def cartesian_dynamics(self, pose: Any, twist: Any) -> GeneralCartesianDynamics:
         """``A_robot``, ``h_robot`` and their parts (batched, N = 1 for one state)."""
         _, T, V = check_states(pose, (twist, "twist"))
-        return cartesian_dynamics_batch(self.robot, self.legs, T, V, self.max_condition)
+        return cartesian_dynamics_batch(
+            self.robot, self.legs, T, V, self.max_condition, self.check_limits
+        )
 
     def gravity_compensation(self, pose: Any) -> np.ndarray:
         """The actuated efforts holding the platform still (gravity and springs)."""
         T, batched = check_poses(pose)
         zero = np.zeros((T.shape[0], 6))
-        g = inverse_dynamics_batch(self.robot, self.legs, T, zero, zero, self.max_condition)
+        g = inverse_dynamics_batch(
+            self.robot, self.legs, T, zero, zero, self.max_condition, self.check_limits
+        )
         return g.gamma if batched else g.gamma[0]
 
     def energy(self, pose: Any, twist: Any) -> tuple[Any, Any]:

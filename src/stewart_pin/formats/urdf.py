@@ -180,7 +180,7 @@ class VisualSizes:
     @classmethod
     def for_robot(cls, desc: RobotDescription) -> VisualSizes:
         s = desc.size
-        lo, hi = (float(x) for x in desc.stroke)
+        lo, hi = (float(x) for x in desc.ideal_stroke("the 6-UPS URDF"))
         # Cylinder and rod overlap over the whole stroke (together longer than the longest
         # leg) and the rod never pokes out below B_i (shorter than the shortest leg).
         length = min(0.55 * hi, 0.95 * lo)

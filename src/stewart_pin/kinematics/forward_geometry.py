@@ -46,7 +46,7 @@ def forward_geometry(
         check_scalar(max_iterations, "max_iterations", integer=True, nonnegative=True)
     )
     target = check_array(lengths, (6,), "lengths")
-    lo, hi = desc.stroke
+    lo, hi = desc.ideal_stroke("the 6-UPS forward geometry")
     for k, value in enumerate(target):
         if not lo <= value <= hi:
             raise StrokeLimitError(k + 1, float(value), float(lo), float(hi))

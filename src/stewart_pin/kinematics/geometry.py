@@ -119,7 +119,7 @@ def inverse_geometry_batch(
 
 def check_leg_limits(desc: RobotDescription, q: JointValues) -> None:
     """Raise :class:`StrokeLimitError` / :class:`JointLimitError` for leg values (N, 6, 3)."""
-    lo, hi = desc.stroke
+    lo, hi = desc.ideal_stroke("the 6-UPS leg limit check")
     bad = (q[..., 2] < lo) | (q[..., 2] > hi)
     if np.any(bad):
         n, k = np.argwhere(bad)[0]

@@ -9,9 +9,15 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.exceptions import InputError, StewartPinError, WorkspaceError
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import MAX_CONDITION, check_condition, inverse_jacobian_batch
+from stewart_pin.kinematics.leg_chains import (
+    check_parallel,
+    inverse_jacobian_from_legs,
+    leg_state,
+)
 
 
 def _rng(rng: np.random.Generator | int | None) -> np.random.Generator:
@@ -90,9 +96,82 @@ def sample_states(
     ``angular_speed`` [rad/s] and that per second)."""
     rng = _rng(rng)
     poses = sample_poses(desc, n, rng, **pose_kwargs)
+    return poses, *_motion(desc, n, rng, speed, angular_speed)
+
+
+def _motion(
+    desc: RobotDescription,
+    n: int,
+    rng: np.random.Generator,
+    speed: float | None,
+    angular_speed: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Random twists and accelerations (n, 6) for :func:`sample_states`."""
     s = desc.stroke_mid if speed is None else _range(speed, "speed", "m/s")
     angular_speed = _range(angular_speed, "angular_speed", "rad/s")
     scale = np.array([s, s, s, angular_speed, angular_speed, angular_speed])
     twists = rng.uniform(-1, 1, (n, 6)) * scale
     accels = rng.uniform(-1, 1, (n, 6)) * scale * 3.0
-    return poses, twists, accels
+    return twists, accels
+
+
+# ---------------------------------------------------------------------------- general legs
+def sample_general_poses(
+    desc: RobotDescription,
+    robot: GeneralHexapod,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    translation: float | None = None,
+    rotation: float = 0.25,
+    max_condition: float = MAX_CONDITION,
+    max_draws: int = 100,
+) -> np.ndarray:
+    """:func:`sample_poses` for a robot with general legs (``robot``, the
+    :class:`GeneralHexapod` view of ``desc``): draws whose legs cannot reach, leave a
+    joint's limits, come within
+    :data:`~stewart_pin.kinematics.leg_chains.LEG_SINGULARITY` of a serial singularity or
+    pass ``max_condition`` (parallel) are redrawn. The default ``translation`` is 15 % of
+    :attr:`RobotDescription.stroke_mid` (for general legs the mean ``|B_i P_i|`` at home)."""
+    rng = _rng(rng)
+    half = (
+        0.15 * desc.stroke_mid if translation is None else _range(translation, "translation", "m")
+    )
+    rotation = _range(rotation, "rotation", "rad")
+    home = desc.home_pose
+    out: list[np.ndarray] = []
+    draws = 0
+    zero = np.zeros((1, 6))
+    while len(out) < n:
+        if draws >= max_draws * max(n, 1):
+            raise WorkspaceError(
+                f"only {len(out)} of {n} poses reachable after {draws} draws; reduce the "
+                f"translation ({half:g} m) or rotation ({rotation:g} rad) range"
+            )
+        draws += 1
+        T = home.copy()
+        T[:3, 3] += rng.uniform(-half, half, 3)
+        T[:3, :3] = pin.exp3(rng.uniform(-rotation, rotation, 3)) @ home[:3, :3]
+        try:
+            legs = leg_state(robot, T[None], zero, check_limits=True)
+            check_parallel(
+                robot, inverse_jacobian_from_legs(robot, legs.J_inv, legs.L), max_condition
+            )
+        except StewartPinError:
+            continue
+        out.append(T)
+    return np.array(out).reshape(n, 4, 4)
+
+
+def sample_general_states(
+    desc: RobotDescription,
+    robot: GeneralHexapod,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    speed: float | None = None,
+    angular_speed: float = 1.0,
+    **pose_kwargs: Any,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`sample_states` for general legs (:func:`sample_general_poses`)."""
+    rng = _rng(rng)
+    poses = sample_general_poses(desc, robot, n, rng, **pose_kwargs)
+    return poses, *_motion(desc, n, rng, speed, angular_speed)

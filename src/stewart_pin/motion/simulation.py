@@ -118,7 +118,8 @@ class SimulationResult:
     Attributes:
         t: (K,) [s]; poses: (K, 4, 4) 0Tp; twists: (K, 6) ``[v, w]`` in F0;
         accels: (K, 6) classical ``[dv/dt, dw/dt]`` in F0; gammas: (K, 6) actuator forces
-        [N]; lengths: (K, 6) leg lengths [m].
+        [N] (general legs: the actuated joints' efforts [N or N m]); lengths: (K, 6) leg
+        lengths [m] (general legs: the actuated joint values, ``actuator_positions``).
     """
 
     t: np.ndarray
@@ -263,6 +264,8 @@ class _Integrator:
 
     def det_signs(self, poses: np.ndarray) -> np.ndarray:
         """Signs of det Jp^-1 at poses (N, 4, 4)."""
+        if not self.robot.description.is_ideal_ups:  # general legs: through the facade
+            return np.sign(np.linalg.det(self.robot.inverse_jacobian(poses)))
         return np.sign(np.linalg.det(inverse_jacobian_batch(self.robot.description, poses)))
 
     def state(self, t: float, T: np.ndarray, V: np.ndarray, sign: float | None = None) -> _State:
@@ -452,7 +455,9 @@ class _Run:
         self.next_output = 0.0
         # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
         self.h_min = max(MIN_STEP, 16 * np.finfo(float).eps * duration)
-        self.tol = LIMIT_TOLERANCE * float(robot.description.stroke[1])
+        stroke = robot.description.stroke
+        # general legs: robot.limit_margin is unit-free (prismatic joints over stroke_mid)
+        self.tol = LIMIT_TOLERANCE * (1.0 if stroke is None else float(stroke[1]))
         self.n_grid = max(1, int(np.ceil(duration / dt - _RATIO_SLACK))) if method == "rk4" else 0
 
     # ------------------------------------------------------------------ output
@@ -477,6 +482,8 @@ class _Run:
         V = np.array([s.V for s in self.rows])
         A = np.array([s.dy[6:] for s in self.rows])
         G = np.array([s.gamma for s in self.rows])
+        if not self.robot.description.is_ideal_ups:
+            return SimulationResult(t, P, V, A, G, self.robot.actuator_positions(P))
         return SimulationResult(t, P, V, A, G, self.robot.leg_lengths(P))
 
     def stop(self, message: str, t: float) -> SimulationError:
@@ -489,7 +496,9 @@ class _Run:
     def _stroke_margin(self, q: np.ndarray) -> tuple[float, str]:
         """The smallest distance [m] of a leg length to its stroke ends (leg values (6, 3))
         and the sentence saying which."""
-        lo, hi = self.robot.description.stroke
+        stroke = self.robot.description.stroke
+        assert stroke is not None  # called for the ideal 6-UPS only
+        lo, hi = stroke
         m = np.minimum(q[:, 2] - lo, hi - q[:, 2])
         k = int(np.argmin(m))
         end = "lower" if q[k, 2] - lo <= hi - q[k, 2] else "upper"
@@ -517,6 +526,13 @@ class _Run:
         ``LIMIT_TOLERANCE`` times the longest stroke length (``LIMIT_TOLERANCE`` rad) of it;
         any event when the failing step is down to the shortest step."""
         e = failure.error
+        if isinstance(e, WorkspaceError) and not self.robot.description.is_ideal_ups:
+            margin, what = self.robot.limit_margin(s.T)
+            if margin <= LIMIT_TOLERANCE:
+                return self._stop(what, s.t, e)
+            if h <= self.h_min:
+                return self._stop(f"{e} (within the next {h:.2g} s)", s.t, e)
+            return None
         if isinstance(e, WorkspaceError):
             desc = self.robot.description
             q = inverse_geometry_batch(desc, s.T[None], check_limits=False)

@@ -99,7 +99,7 @@ class _Workspace:
 
     def __init__(self, robot: RobotLike, times: np.ndarray, max_condition: float, margin: float):
         desc = robot.description
-        lo, hi = desc.stroke
+        lo, hi = desc.ideal_stroke("identification")
         m = margin * (hi - lo)
         self.desc, self.times, self.max_condition = desc, times, max_condition
         self.lo, self.hi, self.width = lo + m, hi - m, hi - lo
@@ -211,7 +211,8 @@ def exciting_trajectory(
         return math.log(regressor_condition_number(W))
 
     desc = robot.description
-    half = 0.5 * float(desc.stroke[1] - desc.stroke[0])  # [m]
+    lo, hi = desc.ideal_stroke("identification")
+    half = 0.5 * float(hi - lo)  # [m]
     amplitude = np.array([half] * 3 + [min(0.5, half / desc.size)] * 3)  # [m, rad]
     harmonic = 1.0 / np.arange(1, n_harmonics + 1)
 
