@@ -268,7 +268,6 @@ def test_six_ups_only_features_refuse_general_legs():
         lambda: robot.regressor(T, z, z),
         lambda: robot.leg_lengths(T),
         lambda: robot.tree,
-        lambda: robot.urdf(),
     ):
         with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only for now"):
             call()
@@ -380,9 +379,27 @@ def test_cli_idm_on_rus(tmp_path, capsys):
     assert relative_error(rows[:, 1:], ref) < TOL
 
 
-@pytest.mark.parametrize("command", ["cost", "base-params", "urdf", "bench", "identify"])
+@pytest.mark.parametrize("command", ["cost", "base-params", "bench", "identify"])
 def test_cli_six_ups_only_commands_refuse(command, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main([command, "--preset", "rus"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "6-UPS-only" in err
+
+
+def test_cli_urdf_of_general_legs_loads_with_its_joint_terms(tmp_path, monkeypatch):
+    """`stewart-pin urdf --preset rus` writes the chains and the sidecar; Pinocchio's URDF
+    parser (through load_tree) builds the 25-dof tree whose armatures are the legs' own
+    (the sidecar carries what URDF cannot)."""
+    from stewart_pin.models.pinocchio_models import load_tree
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["urdf", "--preset", "rus", "-o", "rus.urdf"]) == 0
+    tree = load_tree(tmp_path / "rus.urdf")
+    desc = preset("rus")
+    expected = np.array([j.dynamics.total_armature for leg in desc.legs for j in leg.joints])
+    assert tree.model.nq == 25
+    flyer = np.zeros(6)  # the platform's free-flyer has no armature
+    np.testing.assert_allclose(
+        np.sort(tree.model.armature), np.sort(np.r_[expected, flyer]), rtol=1e-15, atol=0
+    )

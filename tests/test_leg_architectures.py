@@ -460,6 +460,6 @@ def test_a_vanishing_ups_leg_is_a_serial_singularity():
     check_serial(robot, frames, leg_jacobians(robot, frames))  # 10 %: accepted
     q[0, 2, 2] = 0.04 * radius
     frames = leg_forward(robot, q)
-    with pytest.raises(SingularityError, match="leg 3 .* vanishing leg") as info:
+    with pytest.raises(SingularityError, match=r"leg 3 .* vanishing leg") as info:
         check_serial(robot, frames, leg_jacobians(robot, frames))
     assert info.value.leg == 3 and info.value.value == pytest.approx(0.04, rel=1e-12)

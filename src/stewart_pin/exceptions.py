@@ -14,6 +14,7 @@ expected, what was received and how to fix it::
     ├── DescriptionError (ValueError)        an inconsistent robot description
     │   ├── InertiaError                     inertial parameters no rigid body can have
     │   ├── ArchitectureError                a leg that is not three 1-dof joints as named
+    │   │   └── UnsupportedArchitectureError a 6-UPS-only feature asked of general legs
     │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file

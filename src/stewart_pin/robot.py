@@ -185,15 +185,13 @@ class StewartRobot:
 
     # ------------------------------------------------------------------ files and models
     def urdf(self) -> str:
-        """The URDF text of the tree (6-UPS)."""
-        if not self.is_ideal_ups:
-            raise self._ideal_only("the URDF export of the facade")
+        """The URDF text of the tree (general legs: their chains, see
+        :mod:`stewart_pin.formats.general_urdf`)."""
         return urdf_string(self.description)
 
     def write_urdf(self, path: str | Path) -> tuple[Path, Path]:
-        """Write the URDF and its loop-closure sidecar ``*.closures.json`` (6-UPS)."""
-        if not self.is_ideal_ups:
-            raise self._ideal_only("the URDF export of the facade")
+        """Write the URDF and its loop-closure sidecar ``*.closures.json`` (general legs:
+        the sidecar also holds the joint terms URDF cannot)."""
         return write_urdf(self.description, path)
 
     @cached_property

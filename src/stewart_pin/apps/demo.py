@@ -14,7 +14,7 @@ import numpy as np
 from stewart_pin._io import atomic_open
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
-    constrained_inverse_dynamics,
+    reference_actuator_efforts,
 )
 from stewart_pin.formats.csv_tables import FORCE_COLUMNS, STATE_COLUMNS, state_table, write_csv
 from stewart_pin.formats.robot_files import write_robot_files
@@ -69,10 +69,11 @@ def run_demo(
     files: dict[str, Path] = {}
     say = print
 
-    say(
-        f"== robot '{robot.name}': stroke {robot.description.stroke} m, platform "
-        f"{robot.description.platform_inertia[9]:g} kg"
-    )
+    desc = robot.description
+    legs = f"stroke {desc.stroke} m" if desc.is_ideal_ups else f"{desc.architecture} legs"
+    say(f"== robot '{robot.name}': {legs}, platform {desc.platform_inertia[9]:g} kg")
+    # The compiled backend serves the ideal 6-UPS; general legs take the reference path.
+    backend = "compiled" if desc.is_ideal_ups else "pinocchio"
     for path in write_robot_files(robot.description, out):
         files[path.name] = path
 
@@ -86,12 +87,12 @@ def run_demo(
     files["forces"] = write_csv(
         out / "forces.csv", ("t", *FORCE_COLUMNS), np.column_stack([traj.times, gamma])
     )
-    say(f"== inverse dynamics along it: peak |Gamma| = {np.abs(gamma).max():.4g} N")
+    say(f"== inverse dynamics along it: peak |Gamma| = {np.abs(gamma).max():.4g} N or N m")
 
     T0, V0, _ = motion(0.0)
-    ctrl = ComputedTorqueController(robot, motion, backend="compiled")
+    ctrl = ComputedTorqueController(robot, motion, backend=backend)
     result = simulate(
-        robot, motion.duration, T0, V0, ctrl, dt=1e-3, control_period=1e-3, backend="compiled"
+        robot, motion.duration, T0, V0, ctrl, dt=1e-3, control_period=1e-3, backend=backend
     )
     files["simulation"] = result.save(out / "simulation.npz")
     pos, rot = (np.linalg.norm(e, axis=1) for e in tracking_errors(motion, result.t, result.poses))
@@ -101,7 +102,7 @@ def run_demo(
     )
 
     every = max(1, len(traj) // 100)
-    ref_gamma, _ = constrained_inverse_dynamics(
+    ref_gamma = reference_actuator_efforts(
         robot, traj.poses[::every], traj.twists[::every], traj.accels[::every]
     )
     err_idm = _relative(gamma[::every], ref_gamma)

@@ -356,6 +356,23 @@ def constrained_inverse_dynamics(
     return _unbatch(gammas, batched), _unbatch(forces, batched)
 
 
+def reference_actuator_efforts(robot: RobotLike, pose: Any, twist: Any, accel: Any) -> np.ndarray:
+    """The actuated joints' efforts from the constrained tree, for any leg architecture:
+    :func:`constrained_inverse_dynamics`'s ``gamma`` for the ideal 6-UPS, the KKT solve
+    of :class:`~stewart_pin.check.general_legs.GeneralTreeSolver` for general legs (with
+    the leg joint positions from the robot's inverse geometry: see
+    :func:`_general_reference`).
+
+    Returns:
+        shape (6,) or (N, 6) [N or N m], in the order of the legs.
+    """
+    if robot.description.is_ideal_ups:
+        return constrained_inverse_dynamics(robot, pose, twist, accel)[0]
+    batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+    q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+    return _unbatch(reference_inverse_dynamics(_general_solver(robot), T, V, A, q_legs), batched)
+
+
 def constrained_forward_dynamics(
     robot: RobotLike, pose: Any, twist: Any, gamma: Any
 ) -> np.ndarray:
@@ -365,7 +382,8 @@ def constrained_forward_dynamics(
         robot: the robot.
         pose: 0Tp, shape (4, 4) or (N, 4, 4).
         twist: ``[v, w]`` in F0, shape (6,) or (N, 6) [m/s, rad/s].
-        gamma: prismatic joint forces, shape (6,) or (N, 6) [N], positive extending.
+        gamma: actuator efforts, shape (6,) or (N, 6): prismatic joint forces [N],
+            positive extending (general legs: each actuated joint's effort [N or N m]).
 
     Returns:
         The classical acceleration ``[dv/dt, dw/dt]`` of O_p in F0, shape (6,) or (N, 6)
@@ -374,6 +392,11 @@ def constrained_forward_dynamics(
     Raises:
         InputError: bad shapes or values. SingularityError: a singular configuration.
     """
+    if not robot.description.is_ideal_ups:
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        solver = _general_solver(robot)
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        return _unbatch(reference_direct_dynamics(solver, T, V, G, q_legs), batched)
     s = tree_solver(robot)
     batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
     out = np.empty((len(T), 6))
@@ -495,6 +518,16 @@ def _integer(value: Any, name: str, least: int) -> int:
 _GENERAL_SOLVERS: weakref.WeakKeyDictionary[Any, GeneralTreeSolver] = weakref.WeakKeyDictionary()
 
 
+def _general_solver(robot: RobotLike) -> GeneralTreeSolver:
+    """The (cached, per robot) constrained tree of a robot with general legs."""
+    try:
+        return _GENERAL_SOLVERS[robot]
+    except KeyError:
+        solver = GeneralTreeSolver(general_from_description(robot.description))
+        _GENERAL_SOLVERS[robot] = solver
+        return solver
+
+
 def _general_reference(
     robot: RobotLike, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -509,11 +542,7 @@ def _general_reference(
     :data:`stewart_pin.check.general_legs.CLOSURE_TOLERANCE`); every rate, acceleration
     and dynamic term is the tree's own.
     """
-    try:
-        solver = _GENERAL_SOLVERS[robot]
-    except KeyError:
-        solver = GeneralTreeSolver(general_from_description(robot.description))
-        _GENERAL_SOLVERS[robot] = solver
+    solver = _general_solver(robot)
     q_legs = np.asarray(robot.inverse_geometry(poses, check_limits=False), dtype=float)
     gamma_ref = reference_inverse_dynamics(solver, poses, twists, accels, q_legs)
     accel_ref = reference_direct_dynamics(solver, poses, twists, gamma_ref, q_legs)

@@ -156,7 +156,7 @@ class GeneralTreeSolver:
             )
         )
         if not np.all(np.isfinite(ddq)):
-            raise SingularityError("pin.constraintDynamics: non-finite accelerations", np.inf, 0.0)
+            raise SingularityError("pin.constraintDynamics: non-finite accelerations")
         R = T[:3, :3]
         vl, wl = v[self.v_ff][:3], v[self.v_ff][3:]
         af = ddq[self.v_ff]

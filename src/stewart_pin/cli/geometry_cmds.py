@@ -12,15 +12,12 @@ from stewart_pin.cli._common import (
     add_robot_args,
     finite_float,
     pose_from_args,
-    refuse_general,
     robot_from_args,
 )
 
 
 def _urdf(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
-    if not robot.is_ideal_ups:
-        raise refuse_general("urdf", robot)
     # The default name comes from the robot: checked to stay in the working folder.
     out = Path(args.output) if args.output else file_in_folder(".", f"{robot.name}.urdf")
     urdf, sidecar = robot.write_urdf(out)

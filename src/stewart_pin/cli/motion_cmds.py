@@ -66,8 +66,6 @@ def _simulate(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     if args.backend is None:
         args.backend = "compiled" if robot.is_ideal_ups else "pinocchio"
-    if args.plots and not robot.is_ideal_ups:
-        raise refuse_general("simulate --plots", robot)
     if args.motion == "free":
         forces, motion, duration = None, None, args.duration
         start: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
@@ -146,7 +144,7 @@ def _animate(args: argparse.Namespace) -> int:
     from stewart_pin.viz.viewer import Viewer
 
     path = check_output(args.output, (".html", ".htm"), [args.result])
-    robot = robot_from_args(args, "animate")
+    robot = robot_from_args(args)
     poses, times = _motion_samples(args, robot)
     out = Viewer(robot).export_html(path, poses, times, fps=args.fps)
     print(f"wrote {out} ({times[-1] - times[0]:.3g} s of motion): open it in a web browser")
@@ -158,7 +156,7 @@ def _view(args: argparse.Namespace) -> int:
 
     from stewart_pin.viz.viewer import Viewer
 
-    robot = robot_from_args(args, "view")
+    robot = robot_from_args(args)
     with _exit_on_hangup(), Viewer(robot) as viewer:
         url = viewer.start(open=args.open)
         print(f"meshcat viewer at {url} (local only); Ctrl-C to stop", flush=True)

@@ -66,7 +66,9 @@ def robot_file_names(name: str) -> list[str]:
 
 def write_robot_files(desc: RobotDescription, folder: str | Path) -> list[Path]:
     """Write the description, URDF, closures, xacro arguments and MJCF of ``desc`` into
-    ``folder`` (created if needed); returns the paths, in :func:`robot_file_names` order.
+    ``folder`` (created if needed); returns the paths, in :func:`robot_file_names` order
+    (a robot with general legs has no xacro arguments: the xacro sources model the ideal
+    6-UPS leg).
 
     Every file is written atomically (a temporary file in ``folder``, then renamed). The
     file names come from the robot name and are checked to stay directly inside ``folder``
@@ -79,6 +81,9 @@ def write_robot_files(desc: RobotDescription, folder: str | Path) -> list[Path]:
     )
     desc.write(toml_path)
     urdf_path, closures_path = write_urdf(desc, urdf_path)
-    write_xacro_args(desc, yaml_path)
+    paths = [toml_path, urdf_path, closures_path]
+    if desc.is_ideal_ups:  # the xacro sources draw the ideal 6-UPS leg only
+        write_xacro_args(desc, yaml_path)
+        paths.append(yaml_path)
     write_mjcf(desc, xml_path)
-    return [toml_path, urdf_path, closures_path, yaml_path, xml_path]
+    return [*paths, xml_path]

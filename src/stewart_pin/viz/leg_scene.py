@@ -76,7 +76,10 @@ def general_robot(robot: Any) -> GeneralHexapod | None:
     legs = getattr(desc, "legs", None)
     if legs is None:
         return None
-    if (
+    ideal = getattr(desc, "is_ideal_ups", None)  # a RobotDescription says it itself
+    if ideal is True:
+        return None
+    if ideal is None and (
         hasattr(robot, "tree")
         and hasattr(robot, "urdf")
         and all(getattr(leg, "name", None) == "ups" for leg in legs)
