@@ -10,15 +10,18 @@ for the ideal 6-UPS the existing closed-form path.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+import stewart_pin
 from stewart_pin import (
     ArchitectureError,
     DescriptionError,
     FileFormatError,
     JointDynamicsError,
+    NumericalError,
     RobotDescription,
     StewartRobot,
     UnsupportedArchitectureError,
@@ -34,6 +37,7 @@ from stewart_pin.check.general_legs import (
 )
 from stewart_pin.cli import main
 from stewart_pin.description.general_hexapod import general_from_description
+from stewart_pin.description.leg_architecture import JointDynamics
 
 PRESETS = ("ups-offset", "rus", "pus")
 #: Random asymmetric robots with every joint term non-zero (gear and screw transmissions).
@@ -403,3 +407,74 @@ def test_cli_urdf_of_general_legs_loads_with_its_joint_terms(tmp_path, monkeypat
     np.testing.assert_allclose(
         np.sort(tree.model.armature), np.sort(np.r_[expected, flyer]), rtol=1e-15, atol=0
     )
+
+
+# ---------------------------------------------------------------------- review fixes
+def test_parameters_and_the_compiled_backend_refuse_general_legs():
+    """The paper's grouping rules assume R-R-P legs: a RUS robot gets a named error, not
+    88 wrongly grouped parameters; the compiled library is generated for 6-UPS legs."""
+    from stewart_pin.codegen.compiled import CompiledDynamics
+    from stewart_pin.parameters.base import analytic_base_parameters, essential_parameters
+
+    robot = StewartRobot.from_preset("rus")
+    for call in (
+        lambda: stewart_pin.base_parameters(robot),
+        lambda: stewart_pin.base_parameters(robot, "numerical"),
+        lambda: analytic_base_parameters(robot.description),
+        lambda: essential_parameters(robot),
+        lambda: CompiledDynamics(robot),
+    ):
+        with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only"):
+            call()
+
+
+def test_a_leg_file_must_say_its_branch(tmp_path):
+    """Both solutions of a RUS leg reach the same P_i with different forces: a file that
+    leaves the branch out is refused rather than silently assembled in +1."""
+    path = tmp_path / "rus.json"
+    preset("rus").write(path)
+    data = json.loads(path.read_text())
+    del data["legs"][2]["branch"]
+    path.write_text(json.dumps(data))
+    with pytest.raises(FileFormatError, match=r"leg 3.*'branch' is required"):
+        RobotDescription.read(path)
+
+
+def test_general_outputs_that_overflow_are_named_errors():
+    """Finite inputs whose result overflows: NumericalError, never NaN (issue 9 item 5)."""
+    import warnings
+
+    robot = StewartRobot.from_preset("rus")
+    T, huge = robot.home_pose, np.full(6, 1e200)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning escapes either
+        with pytest.raises(NumericalError, match="dissipated power"):
+            robot.dissipated_power(T, huge)
+        with pytest.raises(NumericalError, match="leg joint"):
+            robot.leg_kinematics(T, huge, np.zeros(6))
+
+
+def test_an_overflowing_transmission_is_a_joint_dynamics_error():
+    with pytest.raises(JointDynamicsError, match="overflows"):
+        JointDynamics(gear_ratio=1e200, rotor_inertia=1e-6)
+    assert JointDynamics(gear_ratio=np.int64(300), rotor_inertia=1e-8).total_armature == (
+        pytest.approx(300**2 * 1e-8, rel=1e-15)
+    )
+
+
+def test_coulomb_friction_at_a_joint_at_rest_does_not_follow_round_off():
+    """Pure heave of the RUS head from its symmetric home pose: joints at rest in exact
+    arithmetic come out as round-off rates; with Coulomb friction on every joint the model
+    and the constrained tree (each with its own kinematics) must agree, which they do only
+    if such a rate counts as zero (COULOMB_DEAD_BAND)."""
+    d = preset("rus")
+    legs = tuple(
+        leg.with_dynamics([replace(j.dynamics, coulomb=0.5) for j in leg.joints]) for leg in d.legs
+    )
+    robot = StewartRobot(d.replace(legs=legs))
+    T, V, A = robot.home_pose, np.array([0, 0, 0.05, 0, 0, 0.0]), np.zeros(6)
+    gamma = robot.inverse_dynamics(T, V, A)
+    ref = reference_inverse_dynamics(
+        _reference(robot), T[None], V[None], A[None], robot.inverse_geometry(T)[None]
+    )[0]
+    assert relative_error(gamma, ref) < TOL

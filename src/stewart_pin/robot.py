@@ -327,14 +327,22 @@ class StewartRobot:
         self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
     ) -> tuple[JointValues, JointValues, JointValues | None]:
         """``(q, qdot, qddot)`` of the legs, each (6, 3) or (N, 6, 3) (eq. 14-19)."""
-        if not self.is_ideal_ups:
-            batched = check_poses(pose)[1]
-            ks = self.leg_state(pose, twist, accel)
-            qdd = None if accel is None else ks.qddot
-            if batched:
-                return ks.q, ks.qdot, qdd
-            return ks.q[0], ks.qdot[0], None if qdd is None else qdd[0]
-        return kinematics.leg_kinematics(self.description, pose, twist, accel)
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow: NumericalError below
+            if not self.is_ideal_ups:
+                batched = check_poses(pose)[1]
+                ks = self.leg_state(pose, twist, accel)
+                q, qd, qdd = ks.q, ks.qdot, None if accel is None else ks.qddot
+            else:
+                batched = check_poses(pose)[1]
+                q, qd, qdd = kinematics.leg_kinematics(self.description, pose, twist, accel)
+                q, qd = np.reshape(q, (-1, 6, 3)), np.reshape(qd, (-1, 6, 3))
+                qdd = None if qdd is None else np.reshape(qdd, (-1, 6, 3))
+        check_finite(qd, "leg joint rates")
+        if qdd is not None:
+            check_finite(qdd, "leg joint accelerations")
+        if batched:
+            return q, qd, qdd
+        return q[0], qd[0], None if qdd is None else qdd[0]
 
     def sample_poses(
         self,
@@ -578,8 +586,10 @@ class StewartRobot:
         if self.is_ideal_ups:
             batched, T, _ = check_states(pose, (twist, "twist"))
             return np.zeros(T.shape[0]) if batched else 0.0
-        power: FloatArray | float = self.general_dynamics.dissipated_power(pose, twist)
-        return power
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow: NumericalError below
+            power = np.asarray(self.general_dynamics.dissipated_power(pose, twist), dtype=float)
+        checked = check_finite(np.atleast_1d(power), "dissipated power")
+        return checked if power.ndim else float(checked[0])
 
     def _general_backend(self, backend: str) -> None:
         """A general robot takes the default backend only."""

@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.exceptions import InputError, SingularityError
 from stewart_pin.models.leg_chains import GeneralTreeModel, build_general_tree
 
@@ -71,7 +72,7 @@ class GeneralTreeSolver:
         ql, vl = q[self.q_legs], v[self.v_legs]
         tau = np.zeros(self.nv)
         tau[self.v_legs] = (
-            self.viscous * vl + self.coulomb * np.sign(vl) + self.stiffness * (ql - self.rest)
+            self.viscous * vl + self.coulomb * coulomb_sign(vl) + self.stiffness * (ql - self.rest)
         )
         return tau
 

@@ -487,6 +487,7 @@ class CompiledDynamics:
     ) -> None:
         self.robot = robot
         desc = robot.description
+        desc.ideal_stroke("the compiled backend")  # generated for 6-UPS legs only, for now
         self._desc = desc
         bp = grouped_parameters(desc)
         self.parameter_names: tuple[str, ...] = bp.names

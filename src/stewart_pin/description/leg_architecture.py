@@ -55,6 +55,19 @@ from stewart_pin.exceptions import (
 ARCHITECTURES = ("ups", "ups-offset", "rus", "pus", "custom")
 #: Joint kinds.
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
+#: Joint rates [rad/s or m/s] at or below this magnitude count as zero for the Coulomb
+#: term ``Fc sign(qdot)``: a rate that is zero in exact arithmetic (a joint at rest in a
+#: symmetric motion) comes out of the kinematics as round-off (~1e-17), and its sign must
+#: not decide a full +-Fc. Used by the model and by the independent check alike.
+COULOMB_DEAD_BAND = 1e-12
+
+
+def coulomb_sign(qdot: np.ndarray) -> np.ndarray:
+    """``sign(qdot)`` with rates within :data:`COULOMB_DEAD_BAND` of zero counted as zero."""
+    qdot = np.asarray(qdot, dtype=float)
+    return np.where(np.abs(qdot) <= COULOMB_DEAD_BAND, 0.0, np.sign(qdot))
+
+
 #: Tolerance on the structural parameters a named architecture fixes (alpha = pi/2...).
 STRUCTURE_TOLERANCE = 1e-12
 
@@ -144,7 +157,7 @@ class JointDynamics:
                 continue
             if (
                 isinstance(value, bool)
-                or not isinstance(value, (int, float, np.floating))
+                or not isinstance(value, (int, float, np.integer, np.floating))
                 or not math.isfinite(value)
                 or value <= 0
             ):
@@ -154,6 +167,18 @@ class JointDynamics:
                     value,
                 )
             object.__setattr__(self, name, float(value))
+        try:
+            reflected = self.transmission_ratio**2 * self.rotor_inertia
+        except OverflowError:
+            reflected = math.inf
+        if not math.isfinite(self.armature + reflected):
+            raise JointDynamicsError(
+                f"joint dynamics: the reflected rotor inertia ratio^2 * rotor_inertia "
+                f"(ratio {self.transmission_ratio:.3g}, rotor_inertia {self.rotor_inertia:.3g}) "
+                "overflows; give a realistic gear_ratio / screw_lead",
+                "rotor_inertia",
+                self.rotor_inertia,
+            )
 
     @property
     def transmission_ratio(self) -> float:

@@ -153,6 +153,16 @@ def leg_from_dict(d: Any, i: int) -> LegArchitecture:
             kwargs[key] = d[key]
     if "branch" in d:
         kwargs["branch"] = d["branch"]
+    elif d["architecture"] != "custom":
+        # Two assembly modes reach the same P_i with different forces: a silent default
+        # could pick the one the robot is not built in. (custom legs follow their guess.)
+        raise ArchitectureError(
+            f"{where}: 'branch' is required (+1 or -1) for a {d['architecture']!r} leg: its "
+            "closed-form inverse geometry has two solutions and the file must say which the "
+            "robot is assembled in (see docs/legs.md, 'Branches')",
+            "branch",
+            None,
+        )
     try:
         return LegArchitecture(parsed, **kwargs)
     except ArchitectureError as e:

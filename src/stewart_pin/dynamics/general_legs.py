@@ -9,7 +9,8 @@ Each leg's own dynamics come from Pinocchio on the 18-dof model of the six chain
     h_i = nonlinear effects + (Fv + D) qdot + Fc sign(qdot) + K (q - q0),
 
 ``sign(0) = 0``: at zero joint velocity the Coulomb term is zero (no stiction), in the
-inverse and in the direct model (the direct model is explicit in the velocity).
+inverse and in the direct model (the direct model is explicit in the velocity); rates
+within :data:`~stewart_pin.description.leg_architecture.COULOMB_DEAD_BAND` count as zero.
 
 - IDM: ``Gamma = Jp^T (F_p + sum_i [I3; L_i^] J_i^-T H_i)``, the actuated joints' efforts
   on the joint side [N or N m]; with a transmission, ``Gamma / ratio`` on the motor side.
@@ -35,7 +36,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_poses, check_states
 from stewart_pin._so3 import cross, skew
 from stewart_pin.description.general_hexapod import GeneralHexapod
-from stewart_pin.description.leg_architecture import JointDynamics
+from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
 from stewart_pin.dynamics.closed_loop import check_finite, platform_energy, platform_terms
 from stewart_pin.exceptions import SingularityError
 from stewart_pin.kinematics.leg_chains import (
@@ -78,7 +79,9 @@ class JointTermArrays:
         """Friction, spring and damper efforts (N, 6, 3), armature excluded;
         ``sign(0) = 0``."""
         return (
-            self.viscous * qdot + self.coulomb * np.sign(qdot) + self.stiffness * (q - self.rest)
+            self.viscous * qdot
+            + self.coulomb * coulomb_sign(qdot)
+            + self.stiffness * (q - self.rest)
         )
 
     def dissipated_power(self, qdot: np.ndarray) -> np.ndarray:
@@ -275,9 +278,7 @@ def direct_dynamics_batch(
     try:
         chol = np.linalg.cholesky(cd.A_robot)
     except np.linalg.LinAlgError as e:
-        raise SingularityError(
-            "A_robot is not positive definite (massless robot or singular leg)", np.nan, 0.0
-        ) from e
+        raise SingularityError.not_positive_definite() from e
     y = np.linalg.solve(chol, rhs[..., None])
     accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
     return check_finite(accel, "direct dynamics acceleration")

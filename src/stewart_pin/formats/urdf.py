@@ -162,7 +162,7 @@ def joint_limits(desc: RobotDescription) -> np.ndarray:
         lim[:, :2] = desc.u_joint_limits
     else:
         lim[:, 0], lim[:, 1] = (-np.pi, np.pi), (0.0, np.pi)
-    lim[:, 2] = desc.stroke
+    lim[:, 2] = desc.ideal_stroke("the 6-UPS joint limits")
     return lim
 
 

@@ -375,7 +375,7 @@ def solve_leg(
             raise SingularityError(
                 f"the numerical inverse geometry of leg {leg_index + 1} met a singular leg "
                 f"Jacobian at iteration {iteration}",
-                0.0,
+                None,
                 LEG_SINGULARITY,
                 leg=leg_index + 1,
             ) from e
@@ -581,7 +581,7 @@ def forward_geometry(
             step = np.linalg.solve(J_inv, error)
         except np.linalg.LinAlgError as e:
             raise SingularityError(
-                f"forward geometry met a singular Jp^-1 at iteration {iteration}", np.inf, np.inf
+                f"forward geometry met a singular Jp^-1 at iteration {iteration}"
             ) from e
         T[:3, 3] += step[:3]
         T[:3, :3] = pin.exp3(step[3:]) @ T[:3, :3]

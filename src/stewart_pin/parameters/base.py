@@ -251,6 +251,7 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     a :class:`~stewart_pin.exceptions.BaseParameterWarning` names the legs: the numerical
     rank may or may not count them, and identification will not resolve them.
     """
+    desc.ideal_stroke("the analytic base parameters")  # the grouping assumes R-R-P legs
     lateral, total = gravity_ratios(desc)
     weak = [
         f"leg {i + 1} (|g x z1| / g0 = {lateral[i]:.3g})"
@@ -338,6 +339,7 @@ def numerical_base_parameters(
     lies within a factor :data:`RANK_MARGIN` of the threshold (an ill-determined rank:
     some parameter barely acts on these states).
     """
+    robot.description.ideal_stroke("the numerical base parameters")  # needs the regressor
     real = isinstance(tolerance, (int, float, np.integer, np.floating))
     if isinstance(tolerance, bool) or not real or not 0.0 < float(tolerance) < 1.0:
         raise InputError(
@@ -400,6 +402,7 @@ def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -
             :func:`analytic_base_parameters`) or ``"numerical"`` (QR; ``kwargs`` go to
             :func:`numerical_base_parameters`).
     """
+    robot.description.ideal_stroke("the base parameters")  # 6-UPS legs only, for now
     if method == "analytic":
         bp = analytic_base_parameters(robot.description)
     elif method == "numerical":
@@ -452,6 +455,7 @@ def essential_parameters(
     Parameters that vanish by symmetry (as the paper's symmetric links make many) go
     first, at zero cost. ``values`` are the robot's base values of the kept parameters.
     """
+    robot.description.ideal_stroke("the essential parameters")  # 6-UPS legs only, for now
     bp = base if base is not None else analytic_base_parameters(robot.description)
     W = bp.reduce(stacked_regressor(robot, n_states, seed))
     parts = W * bp.values  # column k: the forces parameter k accounts for
