@@ -428,9 +428,11 @@ def test_pinocchio_layout_gives_the_reference_dynamics(name, tmp_path):
     assert rel(got, expected) < 1e-12
 
 
-def test_xacro_arguments_refuse_general_legs():
-    from stewart_pin.exceptions import ArchitectureError
-    from stewart_pin.formats.xacro import xacro_args
+def test_xacro_arguments_of_general_legs_name_the_general_source(tmp_path):
+    # the rendering itself is checked against general_urdf_string in tests/test_xacro.py
+    from stewart_pin.formats.xacro import write_xacro_args, xacro_args
 
-    with pytest.raises(ArchitectureError, match="6-UPS legs only"):
-        xacro_args(rus_preset())
+    args = xacro_args(rus_preset())
+    assert [len(leg["joints"]) for leg in args["legs"]] == [3] * 6
+    text = write_xacro_args(rus_preset(), tmp_path / "r.xacro.yaml").read_text()
+    assert "stewart_general.urdf.xacro" in text

@@ -14,7 +14,12 @@ from stewart_pin.formats.robot_files import robot_file_names, write_robot_files
 MODELS = Path(__file__).resolve().parent.parent / "models" / "urdf"
 STALE = "stale: run python scripts/generate_models.py"
 #: Hand-written files in models/urdf/ (the xacro sources), not generated.
-SOURCES = {"stewart.urdf.xacro", "stewart_leg.xacro"}
+SOURCES = {
+    "stewart.urdf.xacro",
+    "stewart_leg.xacro",
+    "stewart_general.urdf.xacro",
+    "stewart_general_leg.xacro",
+}
 
 
 @pytest.mark.parametrize("name", sorted(PRESETS))

@@ -106,3 +106,129 @@ def test_args_file_is_required():
 
     with pytest.raises(XacroException, match="needs args_file"):
         xacrodoc.XacroDoc.from_file(XACRO)
+
+
+# ------------------------------------------------------------------------- general legs
+GENERAL_XACRO = XACRO.with_name("stewart_general.urdf.xacro")
+GENERAL_ROBOTS = ["rus", "pus", "ups-offset", "custom-3"]
+
+
+def make_general(name: str):
+    """A general preset through the facade, or "custom-<seed>": a random custom-leg robot
+    with every joint term non-zero (limits, damping, Coulomb friction)."""
+    if name.startswith("custom-"):
+        from stewart_pin.description.general_presets import random_hexapod
+
+        return random_hexapod("custom", int(name.removeprefix("custom-")), joint_terms=True)
+    from stewart_pin import StewartRobot
+
+    return StewartRobot.from_preset(name).description
+
+
+@pytest.fixture(scope="module", params=GENERAL_ROBOTS)
+def rendered_general(request, tmp_path_factory):
+    """``(description, args file, rendered URDF text)`` for each general robot."""
+    desc = make_general(request.param)
+    args_path = write_xacro_args(desc, tmp_path_factory.mktemp("xacro") / "robot.xacro.yaml")
+    doc = xacrodoc.XacroDoc.from_file(
+        GENERAL_XACRO, subargs={"args_file": str(args_path.resolve())}
+    )
+    return desc, args_path, doc.to_urdf_string()
+
+
+def test_general_args_file_reads_back_exactly(rendered_general):
+    desc, args_path, _ = rendered_general
+    assert yaml.safe_load(args_path.read_text()) == xacro_args(desc)
+    assert "stewart_general.urdf.xacro" in args_path.read_text().splitlines()[0]
+
+
+def test_general_rendered_xml_equals_writer_output(rendered_general):
+    # Same elements (visuals included), order and attribute strings.
+    from stewart_pin.formats.general_urdf import general_urdf_string
+
+    desc, _, text = rendered_general
+    assert canonical(ET.fromstring(text)) == canonical(ET.fromstring(general_urdf_string(desc)))
+
+
+def _joint_elements(text: str) -> dict[str, ET.Element]:
+    return {j.get("name"): j for j in ET.fromstring(text).iter("joint")}
+
+
+def test_general_joints_carry_the_description(rendered_general):
+    # Independent of the writers: origins from the MDH parameters, limits and dynamics
+    # from the legs' joints, to 1e-12.
+    from stewart_pin.description.leg_architecture import mdh_transform
+
+    desc, _, text = rendered_general
+    joints = _joint_elements(text)
+    for k, leg in enumerate(desc.legs):
+        for j, joint in enumerate(leg.joints):
+            el = joints[f"leg{k + 1}_q{j + 1}"]
+            assert el.get("type") == joint.kind
+            origin = el.find("origin")
+            T = np.eye(4)
+            T[:3, :3] = pin.rpy.rpyToMatrix(np.array(origin.get("rpy").split(), float))
+            T[:3, 3] = np.array(origin.get("xyz").split(), float)
+            expected = mdh_transform(joint.alpha, joint.d, joint.theta, joint.r)
+            if j == 0:
+                T0 = np.eye(4)
+                T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[k], desc.base_points[k]
+                expected = T0 @ expected
+            assert np.allclose(T, expected, rtol=0, atol=1e-12)
+            assert el.find("axis").get("xyz") == "0 0 1"
+            limit = el.find("limit")
+            for side, value in (("lower", joint.lower), ("upper", joint.upper)):
+                written = float(limit.get(side))
+                assert written == value if np.isfinite(value) else abs(written) == 1e9
+            dyn = el.find("dynamics")
+            d = joint.dynamics
+            assert float(dyn.get("damping")) == pytest.approx(d.viscous + d.damping, abs=1e-12)
+            assert float(dyn.get("friction")) == pytest.approx(d.coulomb, abs=1e-12)
+
+
+def test_general_pinocchio_models_agree(rendered_general):
+    from stewart_pin.formats.general_urdf import general_urdf_string
+
+    desc, _, text = rendered_general
+    a, b = pin.buildModelFromXML(text), pin.buildModelFromXML(general_urdf_string(desc))
+    assert a.name == b.name == desc.name
+    assert list(a.names) == list(b.names)
+    assert (a.nq, a.nv, a.njoints) == (b.nq, b.nv, b.njoints) == (25, 24, 20)
+    for j in range(1, a.njoints):
+        name = a.names[j]
+        assert a.joints[j].shortname() == b.joints[j].shortname(), name
+        assert a.parents[j] == b.parents[j], name
+        assert np.allclose(
+            a.jointPlacements[j].homogeneous, b.jointPlacements[j].homogeneous, rtol=0, atol=1e-12
+        ), name
+        Ia, Ib = a.inertias[j], b.inertias[j]
+        assert Ia.mass == pytest.approx(Ib.mass, rel=1e-12, abs=0.0), name
+        assert np.allclose(Ia.lever, Ib.lever, rtol=0, atol=1e-12), name
+        assert np.allclose(Ia.inertia, Ib.inertia, rtol=1e-12, atol=1e-15), name
+    for field in ("lowerPositionLimit", "upperPositionLimit", "damping", "friction"):
+        assert np.allclose(getattr(a, field), getattr(b, field), rtol=1e-12, atol=0), field
+
+
+def test_general_inertials_are_the_descriptions(rendered_general):
+    # Pinocchio's inertia of each leg link == the description's Khalil parameters
+    # (first moments m*c and inertia about the link origin), to 1e-12.
+    desc, _, text = rendered_general
+    model = pin.buildModelFromXML(text)
+    for k in range(6):
+        for j in range(3):
+            I = model.inertias[model.getJointId(f"leg{k + 1}_q{j + 1}")]
+            XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = np.asarray(desc.leg_inertia[k][j], float)
+            J = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
+            assert I.mass == pytest.approx(M, abs=1e-12)
+            assert np.allclose(I.mass * I.lever, [MX, MY, MZ], rtol=0, atol=1e-12)
+            c = I.lever
+            about_origin = I.inertia + I.mass * (c @ c * np.eye(3) - np.outer(c, c))
+            assert np.allclose(about_origin, J, rtol=0, atol=1e-12)
+
+
+def test_general_source_refuses_ups_arguments(tmp_path):
+    from xacro import XacroException
+
+    args_path = write_xacro_args(preset("desktop"), tmp_path / "ups.xacro.yaml")
+    with pytest.raises(XacroException, match="general legs"):
+        xacrodoc.XacroDoc.from_file(GENERAL_XACRO, subargs={"args_file": str(args_path.resolve())})

@@ -5,8 +5,8 @@ For a robot named ``<name>``:
 - ``<name>.toml``: the description (:meth:`RobotDescription.write`);
 - ``<name>.urdf`` and ``<name>.closures.json``: the tree and its loop closures
   (:mod:`stewart_pin.formats.urdf`);
-- ``<name>.xacro.yaml``: the arguments of ``models/urdf/stewart.urdf.xacro``
-  (:mod:`stewart_pin.formats.xacro`);
+- ``<name>.xacro.yaml``: the arguments of ``models/urdf/stewart.urdf.xacro`` (6-UPS) or
+  ``models/urdf/stewart_general.urdf.xacro`` (general legs) (:mod:`stewart_pin.formats.xacro`);
 - ``<name>.xml``: the MJCF for MuJoCo (:mod:`stewart_pin.formats.mjcf`).
 
 ``scripts/generate_models.py`` writes them for the presets into ``models/urdf/``, and a test
@@ -35,7 +35,8 @@ MODEL_FILES_PACKAGE = "stewart_pin.model_files"
 def model_files() -> Traversable:
     """The model files shipped with stewart-pin, a folder of :mod:`importlib.resources`:
     ``package.xml`` and ``urdf/`` with the xacro sources (``stewart.urdf.xacro``,
-    ``stewart_leg.xacro``) and, for each preset, the files of :func:`robot_file_names`.
+    ``stewart_leg.xacro``, ``stewart_general.urdf.xacro``, ``stewart_general_leg.xacro``)
+    and, for each preset, the files of :func:`robot_file_names`.
 
     Read one with ``(model_files() / "urdf" / "paper.urdf").read_text()``, or get its
     path with ``importlib.resources.as_file`` (a file on disk in an ordinary install, so
@@ -67,8 +68,8 @@ def robot_file_names(name: str) -> list[str]:
 def write_robot_files(desc: RobotDescription, folder: str | Path) -> list[Path]:
     """Write the description, URDF, closures, xacro arguments and MJCF of ``desc`` into
     ``folder`` (created if needed); returns the paths, in :func:`robot_file_names` order
-    (a robot with general legs has no xacro arguments: the xacro sources model the ideal
-    6-UPS leg).
+    (for a robot with general legs the xacro arguments are those of
+    ``models/urdf/stewart_general.urdf.xacro``).
 
     Every file is written atomically (a temporary file in ``folder``, then renamed). The
     file names come from the robot name and are checked to stay directly inside ``folder``
@@ -81,9 +82,6 @@ def write_robot_files(desc: RobotDescription, folder: str | Path) -> list[Path]:
     )
     desc.write(toml_path)
     urdf_path, closures_path = write_urdf(desc, urdf_path)
-    paths = [toml_path, urdf_path, closures_path]
-    if desc.is_ideal_ups:  # the xacro sources draw the ideal 6-UPS leg only
-        write_xacro_args(desc, yaml_path)
-        paths.append(yaml_path)
+    write_xacro_args(desc, yaml_path)
     write_mjcf(desc, xml_path)
-    return [*paths, xml_path]
+    return [toml_path, urdf_path, closures_path, yaml_path, xml_path]

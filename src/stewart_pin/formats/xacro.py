@@ -29,6 +29,11 @@ Render it with xacrodoc (``pip install xacrodoc``; the include uses
 
 Relative ``args_file`` paths are resolved against the current directory by xacrodoc and
 against the xacro file's directory by ROS's ``xacro``: pass an absolute path.
+
+A robot with general legs (RUS, PUS, offset UPS, custom: see
+:func:`stewart_pin.formats.general_urdf.is_general`) gets the arguments of
+``models/urdf/stewart_general.urdf.xacro`` instead (:func:`general_xacro_args`), which
+renders to :func:`stewart_pin.formats.general_urdf.general_urdf_string`.
 """
 
 from __future__ import annotations
@@ -40,10 +45,9 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._io import write_text_atomic
-from stewart_pin._safe import yaml_quoted
-from stewart_pin.description import RobotDescription
+from stewart_pin._safe import check_xml_text, yaml_quoted
 from stewart_pin.description.inertia import urdf_inertial_from_khalil
-from stewart_pin.exceptions import ArchitectureError, InputTypeError
+from stewart_pin.exceptions import InputTypeError
 from stewart_pin.formats.urdf import (
     URDF_EFFORT,
     URDF_VELOCITY,
@@ -52,7 +56,7 @@ from stewart_pin.formats.urdf import (
     plate_visual,
 )
 
-__all__ = ["write_xacro_args", "xacro_args", "yaml_string"]
+__all__ = ["general_xacro_args", "write_xacro_args", "xacro_args", "yaml_string"]
 
 
 def _floats(v: Any) -> list[Any]:
@@ -72,23 +76,17 @@ def _plate(points: np.ndarray, vs: VisualSizes, sign: float) -> dict[str, Any]:
     return {"xyz": _floats(xyz), "rpy": _floats(rpy), "radius": radius, "length": length}
 
 
-def xacro_args(desc: RobotDescription) -> dict[str, Any]:
+def xacro_args(desc: Any) -> dict[str, Any]:
     """Every number of the URDF of ``desc``, as the xacro arguments (see the module
     docstring): plain ``dict`` / ``list`` / ``float`` / ``str``.
 
-    The xacro source describes 6-UPS legs only: a robot with general legs raises
-    :class:`~stewart_pin.exceptions.ArchitectureError` (its URDF holds the same tree).
+    A robot with general legs gets :func:`general_xacro_args` (the arguments of
+    ``models/urdf/stewart_general.urdf.xacro``).
     """
     from stewart_pin.formats.general_urdf import is_general
 
     if is_general(desc):
-        raise ArchitectureError(
-            f"robot {desc.name!r} has general legs; the xacro source "
-            "(models/urdf/stewart.urdf.xacro) describes 6-UPS legs only: use its URDF "
-            "(write_urdf), which holds the same tree and the sidecar its closures",
-            "legs",
-            None,
-        )
+        return general_xacro_args(desc)
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
     legs = [
@@ -114,6 +112,123 @@ def xacro_args(desc: RobotDescription) -> dict[str, Any]:
             "rod_length": vs.rod_length,
         },
         "base_visual": _plate(desc.base_points, vs, -1.0),
+        "legs": legs,
+        "platform": platform,
+    }
+
+
+# ------------------------------------------------------------------------- general legs
+def _visual(shape: str, material: str, xyz: Any, rpy: Any, size: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "shape": shape,
+        "material": material,
+        "xyz": _floats(xyz),
+        "rpy": _floats(rpy),
+        "size": {k: _floats(v) if isinstance(v, tuple) else float(v) for k, v in size.items()},
+    }
+
+
+def _bar(a: np.ndarray, b: np.ndarray, radius: float, material: str) -> list[dict[str, Any]]:
+    """The bar of :mod:`stewart_pin.formats.general_urdf` from ``a`` to ``b`` (none when
+    they coincide)."""
+    from stewart_pin.formats.general_urdf import _segment_rpy
+
+    v = b - a
+    length = float(np.linalg.norm(v))
+    if length <= 1e-9:
+        return []
+    size = {"radius": radius, "length": length}
+    return [_visual("cylinder", material, (a + b) / 2, _segment_rpy(v), size)]
+
+
+def general_xacro_args(desc: Any) -> dict[str, Any]:
+    """The arguments of ``models/urdf/stewart_general.urdf.xacro`` for a robot with general
+    legs (duck-typed as :func:`stewart_pin.formats.general_urdf.general_urdf_string`)::
+
+        name: "rus"
+        effort: 1000000.0                   # URDF placeholder limits [N], [m/s]
+        velocity: 10.0
+        base_visuals: [visual, ...]         # the base disc, then rails of first joints
+        legs:                               # six of them, leg 1 first
+          - joints:                         # three, joint 1 first
+              - {type: "revolute" | "prismatic",
+                 xyz, rpy,                  # frame j in its parent's frame at zero value:
+                                            # MDH Rx(alpha) Tx(d) Rz(theta) Tz(r), preceded
+                                            # by [R_i, B_i] for joint 1 [m, rad]
+                 limits: [lower, upper],    # [rad] or [m]; unbounded: -+1e9
+                 damping, friction}         # viscous + damper, Coulomb [SI]
+            links: [{mass, com, inertia, visuals: [visual, ...]}] * 3   # link frames
+        platform: {mass, com, inertia, visuals: [visual]}
+
+    with ``visual = {shape: "cylinder" | "sphere" | "box", material, xyz, rpy, size:
+    {radius, length} | {radius} | {size: [x, y, z]}}``. Every number is the one
+    :func:`~stewart_pin.formats.general_urdf.general_urdf_string` writes, so the rendered
+    URDF is the same document. The terms URDF cannot hold (armature, stiffness, true
+    limits, transmission) stay in the ``.closures.json`` sidecar.
+    """
+    from stewart_pin.formats.general_urdf import (
+        GeneralVisualSizes,
+        _limit_values,
+        joint_placement,
+        leg_joint_values,
+        next_point,
+        travel,
+    )
+
+    vs = GeneralVisualSizes.for_robot(desc)
+    q_home = leg_joint_values(desc)
+    xyz, rpy, radius, length = plate_visual(np.asarray(desc.base_points), vs.plate(), -1.0)
+    base_visuals = [
+        _visual("cylinder", "base_grey", xyz, rpy, {"radius": radius, "length": length})
+    ]
+    legs = []
+    for k in range(6):
+        leg = desc.legs[k]
+        links: list[dict[str, Any]] = []
+        joints = []
+        for j, joint in enumerate(leg.joints):
+            link = _inertial(np.asarray(desc.leg_inertia[k][j], dtype=float))
+            material = "rod_silver" if j == 2 else "cylinder_blue"
+            visuals = _bar(np.zeros(3), next_point(desc, k, j), vs.bar_radius, material)
+            T = joint_placement(desc, k, j)
+            if joint.revolute:
+                size = {"radius": vs.joint_radius * 0.8, "length": vs.joint_radius * 2.0}
+                visuals.append(_visual("cylinder", "joint_dark", (0, 0, 0), (0, 0, 0), size))
+            else:
+                c = vs.carriage
+                box = {"size": (c, c, c)}
+                visuals.append(_visual("box", "joint_dark", (0, 0, 0), (0, 0, 0), box))
+                lo, hi = travel(desc, k, j, q_home)
+                z = T[:3, 2]
+                rail = _bar(T[:3, 3] + lo * z, T[:3, 3] + hi * z, vs.rail_radius, "cylinder_blue")
+                (base_visuals if j == 0 else links[j - 1]["visuals"]).extend(rail)
+            link["visuals"] = visuals
+            links.append(link)
+            dyn = joint.dynamics
+            joints.append(
+                {
+                    "type": str(joint.kind),
+                    "xyz": _floats(T[:3, 3]),
+                    "rpy": _floats(pin.rpy.matrixToRpy(T[:3, :3])),
+                    "limits": _floats(_limit_values(joint.lower, joint.upper)),
+                    "damping": float(dyn.viscous + dyn.damping),
+                    "friction": float(dyn.coulomb),
+                }
+            )
+        tip = np.asarray(leg.tip, dtype=float)
+        links[2]["visuals"].append(
+            _visual("sphere", "joint_dark", tip, (0, 0, 0), {"radius": vs.joint_radius})
+        )
+        legs.append({"joints": joints, "links": links})
+    platform = _inertial(np.asarray(desc.platform_inertia, dtype=float))
+    xyz, rpy, radius, length = plate_visual(np.asarray(desc.platform_points), vs.plate(), 1.0)
+    size = {"radius": radius, "length": length}
+    platform["visuals"] = [_visual("cylinder", "platform_orange", xyz, rpy, size)]
+    return {
+        "name": check_xml_text(desc.name, "robot name"),
+        "effort": float(URDF_EFFORT),
+        "velocity": float(URDF_VELOCITY),
+        "base_visuals": base_visuals,
         "legs": legs,
         "platform": platform,
     }
@@ -169,15 +284,19 @@ def yaml_string(args: dict[str, Any], header: str = "") -> str:
     return "\n".join([*comments, *_block(args, 0)]) + "\n"
 
 
-def write_xacro_args(desc: RobotDescription, path: str | Path) -> Path:
+def write_xacro_args(desc: Any, path: str | Path) -> Path:
     """Write :func:`xacro_args` of ``desc`` as YAML to ``path`` (atomically: a temporary
-    file in the folder, then renamed); returns the path."""
+    file in the folder, then renamed); returns the path. The header names the xacro
+    source to render: ``stewart.urdf.xacro`` (6-UPS) or ``stewart_general.urdf.xacro``."""
+    from stewart_pin.formats.general_urdf import is_general
+
     path = Path(path)
+    source = "stewart_general.urdf.xacro" if is_general(desc) else "stewart.urdf.xacro"
     header = (
-        "xacro arguments of the robot named below, for models/urdf/stewart.urdf.xacro.\n"
+        f"xacro arguments of the robot named below, for models/urdf/{source}.\n"
         "Generated by stewart-pin from the robot description; do not edit by hand.\n"
         "SI units: m, rad, kg; inertia [kg m^2] about the centre of mass, in the link frame.\n"
-        "Render: xacrodoc stewart.urdf.xacro args_file:=<absolute path of this file>"
+        f"Render: xacrodoc {source} args_file:=<absolute path of this file>"
     )
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, yaml_string(xacro_args(desc), header))
