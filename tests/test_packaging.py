@@ -205,3 +205,85 @@ def test_the_installed_wheel_reads_its_model_files(wheel, tmp_path):
     )
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.split() == ["25"]
+
+
+def _module_of(path: Path) -> str:
+    return ".".join(path.relative_to(SRC.parent).with_suffix("").parts).removesuffix(".__init__")
+
+
+def _is_module(dotted: str) -> bool:
+    """True when ``dotted`` (``stewart_pin.x.y``) is a module or package of src/."""
+    parts = dotted.split(".")[1:]
+    target = SRC.joinpath(*parts) if parts else SRC
+    return target.with_suffix(".py").is_file() or (target / "__init__.py").is_file()
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def private_names_read_across_modules() -> list[str]:
+    """Every ``from stewart_pin.m import _name`` (``_name`` not a module: private modules
+    such as ``_checks``, ``_so3``, ``formats._xml`` hold public names) and every
+    ``module._name`` on a stewart_pin module bound by an import, in another module."""
+    found = []
+    for path in sorted(SRC.rglob("*.py")):
+        here = _module_of(path)
+        package = here if path.name == "__init__.py" else here.rpartition(".")[0]
+        tree = ast.parse(path.read_text())
+        modules: set[str] = set()  # local names bound to stewart_pin modules
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    base = ".".join([*anchor, base] if base else anchor)
+                if not base.startswith("stewart_pin"):
+                    continue
+                for alias in node.names:
+                    full = f"{base}.{alias.name}"
+                    if _is_module(full):
+                        modules.add(alias.asname or alias.name)
+                    elif _private(alias.name) and base != here:
+                        found.append(f"{here}:{node.lineno}: from {base} import {alias.name}")
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.startswith("stewart_pin") and alias.asname:
+                        modules.add(alias.asname)
+        for node in ast.walk(tree):
+            if (
+                isinstance(node, ast.Attribute)
+                and isinstance(node.value, ast.Name)
+                and node.value.id in modules
+                and _private(node.attr)
+            ):
+                found.append(f"{here}:{node.lineno}: {node.value.id}.{node.attr}")
+    return found
+
+
+def test_no_module_reads_another_modules_private_names():
+    """House rule (issue 10): a name shared between modules is public, in the module that
+    owns it or a private module of the package (``_xml``, ``_checks``...)."""
+    assert private_names_read_across_modules() == []
+
+
+def test_the_private_name_scan_finds_a_private_import(tmp_path, monkeypatch):
+    """The scan above is not vacuous: a planted ``from ... import _name`` is reported."""
+    fake = tmp_path / "stewart_pin"
+    (fake / "formats").mkdir(parents=True)
+    (fake / "__init__.py").write_text("")
+    (fake / "formats" / "__init__.py").write_text("")
+    (fake / "formats" / "_xml.py").write_text("def num(x): return x\n")
+    (fake / "formats" / "a.py").write_text("def _helper(): pass\n")
+    (fake / "formats" / "b.py").write_text(
+        "from stewart_pin.formats._xml import num\n"
+        "from stewart_pin.formats import _xml, a\n"
+        "from stewart_pin.formats.a import _helper\n"
+        "from . import a as alias\n"
+        "alias._helper()\n"
+    )
+    monkeypatch.setattr(sys.modules[__name__], "SRC", fake)
+    assert private_names_read_across_modules() == [
+        "stewart_pin.formats.b:3: from stewart_pin.formats.a import _helper",
+        "stewart_pin.formats.b:5: alias._helper",
+    ]

@@ -47,6 +47,7 @@ import numpy as np
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
 from stewart_pin.exceptions import ApproximationWarning
+from stewart_pin.formats._xml import MJCF_RGBA, mjcf_body, mjcf_geom, mjcf_inertial, num, vec
 from stewart_pin.formats.general_urdf import (
     GeneralVisualSizes,
     joint_placement,
@@ -56,107 +57,34 @@ from stewart_pin.formats.general_urdf import (
     travel,
 )
 from stewart_pin.formats.mjcf import (
-    _DOUBTFUL,
-    _FLOOR,
-    _LIGHT_ROD,
-    _MJ_MIN_INERTIA,
-    _MJ_MIN_MASS,
-    _RGBA,
     LOOP_SOLIMP,
     LOOP_SOLREF,
     MujocoInertials,
-    _body,
-    _bounded,
-    _geom,
-    _inertial,
-    _khalil_from_pseudo,
-    _moments,
-    _num,
-    _plate,
-    _point_mass_capacity,
-    _pseudo_inertia,
-    _vec,
     leg_tip_site,
+    mujoco_inertials,
+    plate_geom,
     platform_site,
     quaternion_wxyz,
 )
 from stewart_pin.formats.urdf import BASE_LINK, PLATFORM_JOINT, PLATFORM_LINK, leg_joint, leg_link
 
 
-def _point_mass(params: np.ndarray, point: np.ndarray, mu: float) -> np.ndarray:
-    """The parameters with a point mass ``mu`` [kg] added at ``point`` (negative: taken)."""
-    q = np.r_[point, 1.0]
-    return _khalil_from_pseudo(_pseudo_inertia(params) + mu * np.outer(q, q))
-
-
 def general_mujoco_inertials(desc: Any) -> MujocoInertials:
     """:func:`stewart_pin.formats.mjcf.mujoco_inertials` for general legs: the rods'
-    point masses go to and from P_i, the leg's ``tip`` in frame 3i."""
-    leg = np.array(desc.leg_inertia, dtype=float)
-    platform = np.array(desc.platform_inertia, dtype=float)
-    P = np.asarray(desc.platform_points, dtype=float)
+    point masses go to and from P_i, the leg's ``tip`` in frame 3i; the length scale is
+    :func:`~stewart_pin.formats.general_urdf.robot_size`."""
     tips = np.array([np.asarray(lg.tip, dtype=float) for lg in desc.legs])
-    exact: list[str] = []
-    has_body = np.ones((6, 3), dtype=bool)
-    has_body[:, :2] = leg[:, :2, 9] != 0.0
-    for k, j in zip(*np.nonzero(~has_body), strict=True):
-        exact.append(f"leg {k + 1} link {j + 1} is massless: its joint is on the next link")
-
-    light = leg[:, 2, 9] < _LIGHT_ROD * platform[9] / 6
-    if light.any():
-        mu = 0.5 * _point_mass_capacity(platform, P[light])
-        if mu > 0.0:
-            q = np.c_[P[light], np.ones(int(light.sum()))]
-            platform = _khalil_from_pseudo(_pseudo_inertia(platform) - mu * q.T @ q)
-            for k in np.nonzero(light)[0]:
-                leg[k, 2] = _point_mass(leg[k, 2], tips[k], mu)
-            legs = ", ".join(str(k + 1) for k in np.nonzero(light)[0])
-            exact.append(f"the rods of legs {legs} carry {mu:.6g} kg at P_i from the platform")
-    m_total = platform[9] + leg[has_body, 9].sum()
-    min_mass = max(_FLOOR * m_total, _MJ_MIN_MASS)
-    if platform[9] < min_mass:
-        for k in range(6):
-            mu = 0.5 * _point_mass_capacity(leg[k, 2], tips[k][None, :])
-            if mu > 0.0:
-                leg[k, 2] = _point_mass(leg[k, 2], tips[k], -mu)
-                platform = _point_mass(platform, P[k], mu)
-                exact.append(f"the platform carries {mu:.6g} kg at P_{k + 1} from rod {k + 1}")
-
-    size = robot_size(desc)
-    min_inertia = max(_FLOOR * m_total * size**2, _MJ_MIN_INERTIA)
-    too_small = min_inertia > _DOUBTFUL * m_total * size**2 or min_mass > _DOUBTFUL * m_total
-    approximate: list[str] = []
-    doubtful: list[str] = []
-    bodies = [
-        (f"leg {k + 1} link {j + 1}", leg[k, j])
-        for k, j in zip(*np.nonzero(has_body), strict=True)
-    ]
-    for name, params in [*bodies, ("platform", platform)]:
-        bounded = _bounded(params, min_inertia, min_mass)
-        if bounded is params:
-            continue
-        note = (
-            f"{name}: mass {params[9]:.6g} -> {bounded[9]:.6g} kg, principal moments "
-            f"{_moments(params)} -> {_moments(bounded)} kg m^2"
-        )
-        approximate.append(note)
-        in_loop = name == "platform" or name.endswith("link 3")
-        if too_small or (in_loop and bounded[9] != params[9]):
-            doubtful.append(note)
-        params[:] = bounded
-    return MujocoInertials(
-        leg, has_body, platform, tuple(exact), tuple(approximate), tuple(doubtful)
-    )
+    return mujoco_inertials(desc, tips, robot_size(desc))
 
 
 def _joint(body: ET.Element, name: str, joint: Any, X: np.ndarray) -> None:
     """A hinge or slide about ``z`` of the joint frame ``X`` (4x4, in the body frame)."""
     attrs = {"name": name, "type": "hinge" if joint.revolute else "slide"}
     if np.any(X[:3, 3] != 0.0):
-        attrs["pos"] = _vec(X[:3, 3])
-    attrs["axis"] = _vec(X[:3, 2]) if np.any(X[:3, :3] != np.eye(3)) else "0 0 1"
+        attrs["pos"] = vec(X[:3, 3])
+    attrs["axis"] = vec(X[:3, 2]) if np.any(X[:3, :3] != np.eye(3)) else "0 0 1"
     if math.isfinite(joint.lower) and math.isfinite(joint.upper):
-        attrs["range"] = _vec((joint.lower, joint.upper))
+        attrs["range"] = vec((joint.lower, joint.upper))
     d = joint.dynamics
     terms = {
         "armature": d.total_armature,
@@ -166,9 +94,9 @@ def _joint(body: ET.Element, name: str, joint: Any, X: np.ndarray) -> None:
     }
     for key, value in terms.items():
         if value != 0.0:
-            attrs[key] = _num(value)
+            attrs[key] = num(value)
     if d.stiffness != 0.0:
-        attrs["springref"] = _num(d.rest_position)
+        attrs["springref"] = num(d.rest_position)
     ET.SubElement(body, "joint", attrs)
 
 
@@ -179,9 +107,9 @@ def _fromto(body: ET.Element, a: np.ndarray, b: np.ndarray, radius: float, rgba:
         body,
         "geom",
         type="cylinder",
-        fromto=_vec(np.r_[a, b]),
-        size=_num(radius),
-        rgba=_RGBA[rgba],
+        fromto=vec(np.r_[a, b]),
+        size=num(radius),
+        rgba=MJCF_RGBA[rgba],
     )
 
 
@@ -213,12 +141,12 @@ def _leg(
             continue
         placements = [joint_placement(desc, k, n) for n in carried]
         T = _chain(placements)
-        body = _body(parent, leg_link(i, j + 1), T[:3, 3], T[:3, :3])
+        body = mjcf_body(parent, leg_link(i, j + 1), T[:3, 3], T[:3, :3])
         for m, n in enumerate(carried):
             after = placements[m + 1 :]
             X = np.linalg.inv(_chain(after))
             _joint(body, leg_joint(i, n + 1), leg.joints[n], X)
-        _inertial(body, inertia[j])
+        mjcf_inertial(body, inertia[j])
         # visuals of this link (those of merged massless links are not drawn)
         _fromto(
             body,
@@ -233,7 +161,7 @@ def _leg(
             _fromto(body, np.array([0, 0, -h]), np.array([0, 0, h]), 0.8 * h, "joint")
         else:
             c = vs.carriage / 2
-            _geom(body, "box", "joint", (c, c, c))
+            mjcf_geom(body, "box", "joint", (c, c, c))
             if len(carried) == 1 and parent_has_body:
                 lo, hi = travel(desc, k, j, q_home)
                 Tj = joint_placement(desc, k, j)
@@ -241,8 +169,8 @@ def _leg(
                 _fromto(parent, Tj[:3, 3] + lo * z, Tj[:3, 3] + hi * z, vs.rail_radius, "cylinder")
         if j == 2:
             tip = np.asarray(leg.tip, dtype=float)
-            _geom(body, "sphere", "joint", (vs.joint_radius,), tip)
-            ET.SubElement(body, "site", name=leg_tip_site(i), pos=_vec(tip))
+            mjcf_geom(body, "sphere", "joint", (vs.joint_radius,), tip)
+            ET.SubElement(body, "site", name=leg_tip_site(i), pos=vec(tip))
         parent, carried, parent_has_body = body, [], True
 
 
@@ -277,27 +205,29 @@ def general_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
             )
     root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
-    ET.SubElement(root, "option", gravity=_vec(desc.gravity))
+    ET.SubElement(root, "option", gravity=vec(desc.gravity))
     default = ET.SubElement(root, "default")
     ET.SubElement(default, "geom", contype="0", conaffinity="0")
     world = ET.SubElement(root, "worldbody")
-    base = _body(world, BASE_LINK)
+    base = mjcf_body(world, BASE_LINK)
     ET.SubElement(base, "inertial", pos="0.0 0.0 0.0", mass="0.0", diaginertia="0.0 0.0 0.0")
-    _plate(base, np.asarray(desc.base_points, dtype=float), vs.plate(), -1.0, "base")
+    plate_geom(base, np.asarray(desc.base_points, dtype=float), vs.plate(), -1.0, "base")
     for k in range(6):
         _leg(base, desc, k, vs, leg_inertia[k], has_body[k], q_home)
 
     if pinocchio_layout:
-        platform = _body(base, PLATFORM_LINK)
+        platform = mjcf_body(base, PLATFORM_LINK)
     else:
         T = np.asarray(desc.home_pose, dtype=float)
-        platform = _body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
+        platform = mjcf_body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
     ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
-    _inertial(platform, platform_inertia)
-    _plate(platform, np.asarray(desc.platform_points, dtype=float), vs.plate(), 1.0, "platform")
+    mjcf_inertial(platform, platform_inertia)
+    plate_geom(
+        platform, np.asarray(desc.platform_points, dtype=float), vs.plate(), 1.0, "platform"
+    )
     for i in range(1, 7):
         ET.SubElement(
-            platform, "site", name=platform_site(i), pos=_vec(desc.platform_points[i - 1])
+            platform, "site", name=platform_site(i), pos=vec(desc.platform_points[i - 1])
         )
     equality = ET.SubElement(root, "equality")
     for i in range(1, 7):
@@ -307,15 +237,15 @@ def general_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
             name=f"loop{i}",
             site1=leg_tip_site(i),
             site2=platform_site(i),
-            solref=_vec(LOOP_SOLREF),
-            solimp=_vec(LOOP_SOLIMP),
+            solref=vec(LOOP_SOLREF),
+            solimp=vec(LOOP_SOLIMP),
         )
     actuator = ET.SubElement(root, "actuator")
     for i, leg in enumerate(desc.legs, start=1):
         ET.SubElement(actuator, "motor", name=f"leg{i}_motor", joint=leg_joint(i, leg.actuated))
     keyframe = ET.SubElement(root, "keyframe")
     qpos = general_mujoco_qpos(desc, desc.home_pose)
-    ET.SubElement(keyframe, "key", name="home", qpos=_vec(qpos))
+    ET.SubElement(keyframe, "key", name="home", qpos=vec(qpos))
     ET.indent(root)
     layout = "Pinocchio's parser (MuJoCo refuses it)" if pinocchio_layout else "MuJoCo"
     return (

@@ -45,6 +45,7 @@ from stewart_pin._checks import decode_utf8
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
 from stewart_pin.exceptions import FileFormatError
+from stewart_pin.formats._xml import Visual, num, urdf_inertial, urdf_origin, urdf_visual
 from stewart_pin.formats.urdf import (
     BASE_LINK,
     CLOSURE_FORMAT,
@@ -53,11 +54,6 @@ from stewart_pin.formats.urdf import (
     URDF_EFFORT,
     URDF_VELOCITY,
     VisualSizes,
-    _inertial,
-    _num,
-    _origin,
-    _vec,
-    _visual,
     leg_joint,
     leg_link,
     plate_visual,
@@ -150,23 +146,49 @@ def _segment_rpy(v: np.ndarray) -> np.ndarray:
     return np.asarray(pin.rpy.matrixToRpy(np.column_stack([x, np.cross(z, x), z])))
 
 
-def _bar(link: ET.Element, a: np.ndarray, b: np.ndarray, radius: float, material: str) -> None:
+def _bar(a: np.ndarray, b: np.ndarray, radius: float, material: str) -> list[Visual]:
+    """The cylinder from ``a`` to ``b`` [m] (none when they coincide)."""
     v = b - a
     length = float(np.linalg.norm(v))
     if length <= 1e-9:
-        return
-    _visual(
-        link,
-        "cylinder",
-        material,
-        (a + b) / 2,
-        _segment_rpy(v),
-        radius=radius,
-        length=length,
-    )
+        return []
+    size = {"radius": radius, "length": length}
+    return [Visual("cylinder", material, (a + b) / 2, _segment_rpy(v), size)]
 
 
-def _limit_values(lower: float, upper: float) -> tuple[float, float]:
+def leg_visuals(
+    desc: Any, k: int, vs: GeneralVisualSizes, q_home: np.ndarray
+) -> tuple[list[Visual], list[list[Visual]]]:
+    """The visuals of leg k (0-based), in the order written: ``(on_base, links)`` with
+    ``on_base`` the rail of a prismatic first joint (on ``base_link``) and ``links`` the
+    visuals of links 1..3 in their frames: each link's bar to the next joint (crank,
+    offsets) or to P_i (rod); a revolute joint's hinge (a short dark cylinder along its
+    axis); a prismatic joint's carriage (a box) on its link and its rail along the drawn
+    :func:`travel` on the parent; the sphere at P_i on link 3. Shared by the URDF and the
+    xacro arguments (:func:`stewart_pin.formats.xacro.general_xacro_args`)."""
+    leg = desc.legs[k]
+    on_base: list[Visual] = []
+    links: list[list[Visual]] = [[], [], []]
+    for j, joint in enumerate(leg.joints):
+        material = "rod_silver" if j == 2 else "cylinder_blue"
+        links[j] += _bar(np.zeros(3), next_point(desc, k, j), vs.bar_radius, material)
+        if joint.revolute:
+            size = {"radius": vs.joint_radius * 0.8, "length": vs.joint_radius * 2.0}
+            links[j].append(Visual("cylinder", "joint_dark", size=size))
+        else:
+            c = vs.carriage
+            links[j].append(Visual("box", "joint_dark", size={"size": (c, c, c)}))
+            lo, hi = travel(desc, k, j, q_home)
+            T = joint_placement(desc, k, j)
+            z = T[:3, 2]
+            rail = _bar(T[:3, 3] + lo * z, T[:3, 3] + hi * z, vs.rail_radius, "cylinder_blue")
+            (on_base if j == 0 else links[j - 1]).extend(rail)
+    tip = np.asarray(leg.tip, dtype=float)
+    links[2].append(Visual("sphere", "joint_dark", tip, size={"radius": vs.joint_radius}))
+    return on_base, links
+
+
+def limit_values(lower: float, upper: float) -> tuple[float, float]:
     return (
         lower if math.isfinite(lower) else -URDF_UNBOUNDED,
         upper if math.isfinite(upper) else URDF_UNBOUNDED,
@@ -193,75 +215,55 @@ def general_urdf_string(desc: Any) -> str:
 
     base = ET.SubElement(robot, "link", name=BASE_LINK)
     xyz, rpy, radius, length = plate_visual(np.asarray(desc.base_points), vs.plate(), -1.0)
-    _visual(base, "cylinder", "base_grey", xyz, rpy, radius=radius, length=length)
+    disc = {"radius": radius, "length": length}
+    urdf_visual(base, Visual("cylinder", "base_grey", xyz, rpy, disc))
 
     for i in range(1, 7):
         k = i - 1
         leg = desc.legs[k]
         parents = [BASE_LINK] + [leg_link(i, j) for j in (1, 2)]
         links = [ET.SubElement(robot, "link", name=leg_link(i, j)) for j in (1, 2, 3)]
-        parent_elements = [base, links[0], links[1]]
-        for j, (joint, link) in enumerate(zip(leg.joints, links, strict=True)):
-            _inertial(link, np.asarray(desc.leg_inertia[k][j], dtype=float))
-            # the link's bar to the next joint (crank, offsets) or to P_i (rod)
-            material = "rod_silver" if j == 2 else "cylinder_blue"
-            _bar(link, np.zeros(3), next_point(desc, k, j), vs.bar_radius, material)
+        on_base, visuals = leg_visuals(desc, k, vs, q_home)
+        for j, link in enumerate(links):
+            urdf_inertial(link, np.asarray(desc.leg_inertia[k][j], dtype=float))
+        for visual in on_base:
+            urdf_visual(base, visual)
+        for link, link_visuals in zip(links, visuals, strict=True):
+            for visual in link_visuals:
+                urdf_visual(link, visual)
+        for j, joint in enumerate(leg.joints):
             T = joint_placement(desc, k, j)
-            if joint.revolute:  # the hinge: a short dark cylinder along its axis
-                _visual(
-                    link,
-                    "cylinder",
-                    "joint_dark",
-                    radius=vs.joint_radius * 0.8,
-                    length=vs.joint_radius * 2.0,
-                )
-            else:  # the carriage on its slide, and the rail on the parent along the travel
-                box = ET.SubElement(link, "visual")
-                _origin(box)
-                c = vs.carriage
-                ET.SubElement(ET.SubElement(box, "geometry"), "box", size=_vec((c, c, c)))
-                ET.SubElement(box, "material", name="joint_dark")
-                lo, hi = travel(desc, k, j, q_home)
-                z = T[:3, 2]
-                _bar(
-                    parent_elements[j],
-                    T[:3, 3] + lo * z,
-                    T[:3, 3] + hi * z,
-                    vs.rail_radius,
-                    "cylinder_blue",
-                )
             el = ET.SubElement(robot, "joint", name=leg_joint(i, j + 1), type=str(joint.kind))
             ET.SubElement(el, "parent", link=parents[j])
             ET.SubElement(el, "child", link=leg_link(i, j + 1))
-            _origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
+            urdf_origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
             ET.SubElement(el, "axis", xyz="0 0 1")
-            lo_w, hi_w = _limit_values(joint.lower, joint.upper)
+            lo_w, hi_w = limit_values(joint.lower, joint.upper)
             ET.SubElement(
                 el,
                 "limit",
-                lower=_num(lo_w),
-                upper=_num(hi_w),
-                effort=_num(URDF_EFFORT),
-                velocity=_num(URDF_VELOCITY),
+                lower=num(lo_w),
+                upper=num(hi_w),
+                effort=num(URDF_EFFORT),
+                velocity=num(URDF_VELOCITY),
             )
             dyn = joint.dynamics
             ET.SubElement(
                 el,
                 "dynamics",
-                damping=_num(dyn.viscous + dyn.damping),
-                friction=_num(dyn.coulomb),
+                damping=num(dyn.viscous + dyn.damping),
+                friction=num(dyn.coulomb),
             )
-        tip = np.asarray(leg.tip, dtype=float)
-        _visual(links[2], "sphere", "joint_dark", tip, radius=vs.joint_radius)
 
     platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
-    _inertial(platform, np.asarray(desc.platform_inertia, dtype=float))
+    urdf_inertial(platform, np.asarray(desc.platform_inertia, dtype=float))
     xyz, rpy, radius, length = plate_visual(np.asarray(desc.platform_points), vs.plate(), 1.0)
-    _visual(platform, "cylinder", "platform_orange", xyz, rpy, radius=radius, length=length)
+    disc = {"radius": radius, "length": length}
+    urdf_visual(platform, Visual("cylinder", "platform_orange", xyz, rpy, disc))
     el = ET.SubElement(robot, "joint", name=PLATFORM_JOINT, type="floating")
     ET.SubElement(el, "parent", link=BASE_LINK)
     ET.SubElement(el, "child", link=PLATFORM_LINK)
-    _origin(el)
+    urdf_origin(el)
     ET.indent(robot)
     text = ET.tostring(robot, encoding="unicode")
     return (

@@ -61,6 +61,7 @@ from stewart_pin.description.inertia import (
     urdf_inertial_from_khalil,
 )
 from stewart_pin.exceptions import ApproximationWarning
+from stewart_pin.formats._xml import mjcf_body, mjcf_geom, mjcf_inertial, vec
 from stewart_pin.formats.urdf import (
     BASE_LINK,
     PLATFORM_JOINT,
@@ -86,14 +87,6 @@ __all__ = [
     "write_mjcf",
 ]
 
-#: Colours of the visual geoms (those of the URDF's materials).
-_RGBA = {
-    "base": "0.35 0.35 0.38 1",
-    "cylinder": "0.20 0.40 0.80 1",
-    "rod": "0.80 0.80 0.82 1",
-    "joint": "0.15 0.15 0.15 1",
-    "platform": "0.95 0.55 0.15 1",
-}
 _R_X90 = pin.rpy.rpyToMatrix(np.pi / 2, 0.0, 0.0)
 
 #: ``solref`` of the six loop constraints: a time constant far below any step, which
@@ -190,7 +183,20 @@ def _bounded(params: np.ndarray, min_inertia: float, min_mass: float) -> np.ndar
     return khalil_from_urdf_inertial(max(mass, min_mass), com, axes @ np.diag(raised) @ axes.T)
 
 
-def mujoco_inertials(desc: RobotDescription) -> MujocoInertials:
+def _point_mass(params: np.ndarray, point: np.ndarray, mu: float) -> np.ndarray:
+    """The parameters with a point mass ``mu`` [kg] added at ``point`` (in the body frame;
+    ``mu`` < 0: taken). At the frame origin only the mass changes (written as such)."""
+    if not np.any(point):
+        out = params.copy()
+        out[9] += mu
+        return out
+    q = np.r_[point, 1.0]
+    return _khalil_from_pseudo(_pseudo_inertia(params) + mu * np.outer(q, q))
+
+
+def mujoco_inertials(
+    desc: Any, tips: np.ndarray | None = None, size: float | None = None
+) -> MujocoInertials:
     """The inertials written in the MuJoCo layout, which refuses moving bodies without mass
     or with a vanishing principal moment (massless links, point masses, thin rods, flat
     plates at the triangle inequality). Bodies MuJoCo takes are written as described;
@@ -207,9 +213,18 @@ def mujoco_inertials(desc: RobotDescription) -> MujocoInertials:
        at least MuJoCo's bounds (an approximation, reported in ``approximate``; in
        ``doubtful`` too when MuJoCo's bounds exceed 1e-6 of the robot's scale, a tiny
        robot, or when a rod or the platform must be given mass).
+
+    Args:
+        desc: the robot (``leg_inertia`` (6, 3, 10) in the link frames, ``platform_inertia``
+            (10,) in Fp, ``platform_points`` (6, 3) in Fp, and ``size`` unless given).
+        tips: (6, 3) P_i in frame 3i of each rod [m], where a rod's point mass goes; default
+            the origin of frame 3i (6-UPS). General legs pass each leg's ``tip``.
+        size: the robot's length scale [m]; default ``desc.size``.
     """
     leg = np.array(desc.leg_inertia, dtype=float)
     platform = np.array(desc.platform_inertia, dtype=float)
+    P = np.asarray(desc.platform_points, dtype=float)
+    rod_tips = np.zeros((6, 3)) if tips is None else np.asarray(tips, dtype=float)
     exact: list[str] = []
 
     has_body = np.ones((6, 3), dtype=bool)
@@ -219,12 +234,13 @@ def mujoco_inertials(desc: RobotDescription) -> MujocoInertials:
 
     light = leg[:, 2, 9] < _LIGHT_ROD * platform[9] / 6
     if light.any():
-        points = desc.platform_points[light]
+        points = P[light]
         mu = 0.5 * _point_mass_capacity(platform, points)
         if mu > 0.0:
             q = np.c_[points, np.ones(len(points))]
             platform = _khalil_from_pseudo(_pseudo_inertia(platform) - mu * q.T @ q)
-            leg[light, 2, 9] += mu
+            for k in np.nonzero(light)[0]:
+                leg[k, 2] = _point_mass(leg[k, 2], rod_tips[k], mu)
             legs = ", ".join(str(k + 1) for k in np.nonzero(light)[0])
             exact.append(f"the rods of legs {legs} carry {mu:.6g} kg at P_i from the platform")
     m_total = platform[9] + leg[has_body, 9].sum()
@@ -232,17 +248,18 @@ def mujoco_inertials(desc: RobotDescription) -> MujocoInertials:
     if platform[9] < min_mass:
         J = _pseudo_inertia(platform)
         for k in range(6):
-            mu = 0.5 * _point_mass_capacity(leg[k, 2], np.zeros((1, 3)))
+            mu = 0.5 * _point_mass_capacity(leg[k, 2], rod_tips[k][None, :])
             if mu > 0.0:
-                leg[k, 2, 9] -= mu
-                q = np.r_[desc.platform_points[k], 1.0]
+                leg[k, 2] = _point_mass(leg[k, 2], rod_tips[k], -mu)
+                q = np.r_[P[k], 1.0]
                 J += mu * np.outer(q, q)
                 exact.append(f"the platform carries {mu:.6g} kg at P_{k + 1} from rod {k + 1}")
         platform = _khalil_from_pseudo(J)
 
-    min_inertia = max(_FLOOR * m_total * desc.size**2, _MJ_MIN_INERTIA)
+    scale = float(desc.size if size is None else size)
+    min_inertia = max(_FLOOR * m_total * scale**2, _MJ_MIN_INERTIA)
     # MuJoCo's absolute bounds above a millionth of the robot's own scale (a tiny robot).
-    too_small = min_inertia > _DOUBTFUL * m_total * desc.size**2 or min_mass > _DOUBTFUL * m_total
+    too_small = min_inertia > _DOUBTFUL * m_total * scale**2 or min_mass > _DOUBTFUL * m_total
     approximate: list[str] = []
     doubtful: list[str] = []
     bodies = [
@@ -282,54 +299,21 @@ def platform_site(i: int) -> str:
     return f"platform_p{i}"
 
 
-def _num(x: float) -> str:
-    return repr(float(x))
-
-
-def _vec(v: Any) -> str:
-    return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())
-
-
 #: MuJoCo's ``(w, x, y, z)`` unit quaternion of a rotation matrix, with ``w >= 0``.
 quaternion_wxyz = quaternion_wxyz_from_rotation
 
 
-def _body(parent: ET.Element, name: str, pos: Any = None, R: Any = None) -> ET.Element:
-    attrs = {"name": name}
-    if pos is not None:
-        attrs["pos"] = _vec(pos)
-    if R is not None:
-        attrs["quat"] = _vec(quaternion_wxyz(R))
-    return ET.SubElement(parent, "body", attrs)
-
-
-def _inertial(body: ET.Element, params: np.ndarray) -> None:
-    mass, com, I = urdf_inertial_from_khalil(params)
-    # MuJoCo's order: Ixx Iyy Izz Ixy Ixz Iyz, about the centre of mass.
-    full = (I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])
-    ET.SubElement(body, "inertial", pos=_vec(com), mass=_num(mass), fullinertia=_vec(full))
-
-
-def _geom(
-    body: ET.Element, kind: str, rgba: str, size: Any, pos: Any = None, R: Any = None
+def plate_geom(
+    body: ET.Element, points: np.ndarray, vs: VisualSizes, sign: float, rgba: str
 ) -> None:
-    attrs = {"type": kind, "size": _vec(size)}
-    if pos is not None:
-        attrs["pos"] = _vec(pos)
-    if R is not None:
-        attrs["quat"] = _vec(quaternion_wxyz(R))
-    attrs["rgba"] = _RGBA[rgba]
-    ET.SubElement(body, "geom", attrs)
-
-
-def _plate(body: ET.Element, points: np.ndarray, vs: VisualSizes, sign: float, rgba: str) -> None:
+    """The disc of :func:`stewart_pin.formats.urdf.plate_visual` as a cylinder geom."""
     xyz, rpy, radius, length = plate_visual(points, vs, sign)
-    _geom(body, "cylinder", rgba, (radius, length / 2), xyz, pin.rpy.rpyToMatrix(rpy))
+    mjcf_geom(body, "cylinder", rgba, (radius, length / 2), xyz, pin.rpy.rpyToMatrix(rpy))
 
 
 def _joint(body: ET.Element, name: str, kind: str, limits: np.ndarray, axis: Any = None) -> None:
-    axis = "0 0 1" if axis is None else _vec(axis)
-    ET.SubElement(body, "joint", name=name, type=kind, axis=axis, range=_vec(limits))
+    axis = "0 0 1" if axis is None else vec(axis)
+    ET.SubElement(body, "joint", name=name, type=kind, axis=axis, range=vec(limits))
 
 
 def _leg(
@@ -358,22 +342,22 @@ def _leg(
         fixed = [desc.leg_base_rotations[k] if n == 0 else _R_X90 for n in carried]
         pos = desc.base_points[k] if carried[0] == 0 else None
         X = np.linalg.multi_dot([np.eye(3), *fixed])
-        body = _body(parent, leg_link(i, j + 1), pos, fixed[0] if len(fixed) == 1 else X)
+        body = mjcf_body(parent, leg_link(i, j + 1), pos, fixed[0] if len(fixed) == 1 else X)
         for m, n in enumerate(carried):
             after = fixed[m + 1 :]
             axis = None if not after else np.linalg.multi_dot([np.eye(3), *after]).T[:, 2]
             _joint(body, leg_joint(i, n + 1), kinds[n], lim[k, n], axis)
-        _inertial(body, inertia[j])
+        mjcf_inertial(body, inertia[j])
         if 0 in carried and j < 2:  # the U-joint sphere at B_i (not on the sliding rod)
-            _geom(body, "sphere", "joint", (vs.joint_radius,))
+            mjcf_geom(body, "sphere", "joint", (vs.joint_radius,))
         if j == 1:
             # The cylinder body runs along -y2 (the leg direction in frame 2i) from B_i.
             size = (vs.cylinder_radius, vs.body_length / 2)
-            _geom(body, "cylinder", "cylinder", size, (0.0, -vs.body_length / 2, 0.0), _R_X90)
+            mjcf_geom(body, "cylinder", "cylinder", size, (0.0, -vs.body_length / 2, 0.0), _R_X90)
         if j == 2:
             size = (vs.rod_radius, vs.rod_length / 2)
-            _geom(body, "cylinder", "rod", size, (0.0, 0.0, -vs.rod_length / 2))
-            _geom(body, "sphere", "joint", (vs.joint_radius,))
+            mjcf_geom(body, "cylinder", "rod", size, (0.0, 0.0, -vs.rod_length / 2))
+            mjcf_geom(body, "sphere", "joint", (vs.joint_radius,))
             ET.SubElement(body, "site", name=leg_tip_site(i), pos="0.0 0.0 0.0")
         parent, carried = body, []
 
@@ -428,30 +412,30 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
             )
     root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
-    ET.SubElement(root, "option", gravity=_vec(desc.gravity))
+    ET.SubElement(root, "option", gravity=vec(desc.gravity))
     default = ET.SubElement(root, "default")
     ET.SubElement(default, "geom", contype="0", conaffinity="0")
     world = ET.SubElement(root, "worldbody")
 
-    base = _body(world, BASE_LINK)
+    base = mjcf_body(world, BASE_LINK)
     # A static body; the explicit (null) inertial is for Pinocchio's parser, which
     # otherwise looks for geoms to compute one from.
     ET.SubElement(base, "inertial", pos="0.0 0.0 0.0", mass="0.0", diaginertia="0.0 0.0 0.0")
-    _plate(base, desc.base_points, vs, -1.0, "base")
+    plate_geom(base, desc.base_points, vs, -1.0, "base")
     for i in range(1, 7):
         _leg(base, desc, i, vs, lim, leg_inertia[i - 1], has_body[i - 1])
 
     if pinocchio_layout:
-        platform = _body(base, PLATFORM_LINK)
+        platform = mjcf_body(base, PLATFORM_LINK)
     else:
         T = desc.home_pose
-        platform = _body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
+        platform = mjcf_body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
     ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
-    _inertial(platform, platform_inertia)
-    _plate(platform, desc.platform_points, vs, 1.0, "platform")
+    mjcf_inertial(platform, platform_inertia)
+    plate_geom(platform, desc.platform_points, vs, 1.0, "platform")
     for i in range(1, 7):
         ET.SubElement(
-            platform, "site", name=platform_site(i), pos=_vec(desc.platform_points[i - 1])
+            platform, "site", name=platform_site(i), pos=vec(desc.platform_points[i - 1])
         )
 
     equality = ET.SubElement(root, "equality")
@@ -462,14 +446,14 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
             name=f"loop{i}",
             site1=leg_tip_site(i),
             site2=platform_site(i),
-            solref=_vec(LOOP_SOLREF),
-            solimp=_vec(LOOP_SOLIMP),
+            solref=vec(LOOP_SOLREF),
+            solimp=vec(LOOP_SOLIMP),
         )
     actuator = ET.SubElement(root, "actuator")
     for i in range(1, 7):
         ET.SubElement(actuator, "motor", name=f"leg{i}_motor", joint=leg_joint(i, 3))
     keyframe = ET.SubElement(root, "keyframe")
-    ET.SubElement(keyframe, "key", name="home", qpos=_vec(mujoco_qpos(desc, desc.home_pose)))
+    ET.SubElement(keyframe, "key", name="home", qpos=vec(mujoco_qpos(desc, desc.home_pose)))
 
     ET.indent(root)
     layout = "Pinocchio's parser (MuJoCo refuses it)" if pinocchio_layout else "MuJoCo"

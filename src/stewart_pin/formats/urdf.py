@@ -32,8 +32,8 @@ from stewart_pin._checks import check_array, decode_utf8
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.inertia import urdf_inertial_from_khalil
 from stewart_pin.exceptions import FileFormatError, InputError
+from stewart_pin.formats._xml import Visual, num, urdf_inertial, urdf_origin, urdf_visual
 
 BASE_LINK = "base_link"
 PLATFORM_LINK = "platform"
@@ -54,50 +54,6 @@ def leg_joint(i: int, j: int) -> str:
     return f"leg{i}_q{j}"
 
 
-def _num(x: float) -> str:
-    return repr(float(x))
-
-
-def _vec(v: Any) -> str:
-    return " ".join(_num(x) for x in v)
-
-
-def _origin(parent: ET.Element, xyz: Any = (0, 0, 0), rpy: Any = (0, 0, 0)) -> None:
-    ET.SubElement(parent, "origin", xyz=_vec(xyz), rpy=_vec(rpy))
-
-
-def _inertial(link: ET.Element, params: np.ndarray) -> None:
-    mass, com, I = urdf_inertial_from_khalil(params)
-    el = ET.SubElement(link, "inertial")
-    _origin(el, com)
-    ET.SubElement(el, "mass", value=_num(mass))
-    ET.SubElement(
-        el,
-        "inertia",
-        ixx=_num(I[0, 0]),
-        ixy=_num(I[0, 1]),
-        ixz=_num(I[0, 2]),
-        iyy=_num(I[1, 1]),
-        iyz=_num(I[1, 2]),
-        izz=_num(I[2, 2]),
-    )
-
-
-def _visual(
-    link: ET.Element,
-    geometry: str,
-    material: str,
-    xyz: Any = (0, 0, 0),
-    rpy: Any = (0, 0, 0),
-    **size: float,
-) -> None:
-    el = ET.SubElement(link, "visual")
-    _origin(el, xyz, rpy)
-    geom = ET.SubElement(el, "geometry")
-    ET.SubElement(geom, geometry, {k: _num(v) for k, v in size.items()})
-    ET.SubElement(el, "material", name=material)
-
-
 def _joint(
     robot: ET.Element,
     name: str,
@@ -111,17 +67,17 @@ def _joint(
     el = ET.SubElement(robot, "joint", name=name, type=kind)
     ET.SubElement(el, "parent", link=parent)
     ET.SubElement(el, "child", link=child)
-    _origin(el, xyz, rpy)
+    urdf_origin(el, xyz, rpy)
     if kind != "floating":
         ET.SubElement(el, "axis", xyz="0 0 1")
     if limits is not None:
         ET.SubElement(
             el,
             "limit",
-            lower=_num(limits[0]),
-            upper=_num(limits[1]),
-            effort=_num(URDF_EFFORT),
-            velocity=_num(URDF_VELOCITY),
+            lower=num(limits[0]),
+            upper=num(limits[1]),
+            effort=num(URDF_EFFORT),
+            velocity=num(URDF_VELOCITY),
         )
     return el
 
@@ -213,34 +169,26 @@ def urdf_string(desc: RobotDescription) -> str:
 
     base = ET.SubElement(robot, "link", name=BASE_LINK)
     xyz, rpy, radius, length = plate_visual(desc.base_points, vs, -1.0)
-    _visual(base, "cylinder", "base_grey", xyz, rpy, radius=radius, length=length)
+    disc = {"radius": radius, "length": length}
+    urdf_visual(base, Visual("cylinder", "base_grey", xyz, rpy, disc))
 
     lim = joint_limits(desc)
     for i in range(1, 7):
         k = i - 1
         links = [ET.SubElement(robot, "link", name=leg_link(i, j)) for j in (1, 2, 3)]
         for link, params in zip(links, desc.leg_inertia[k], strict=True):
-            _inertial(link, params)
-        _visual(links[0], "sphere", "joint_dark", radius=vs.joint_radius)
+            urdf_inertial(link, params)
+        urdf_visual(links[0], Visual("sphere", "joint_dark", size={"radius": vs.joint_radius}))
         # The cylinder body runs along -y2 (the leg direction in frame 2i) from B_i.
-        _visual(
-            links[1],
-            "cylinder",
-            "cylinder_blue",
-            (0.0, -vs.body_length / 2, 0.0),
-            (np.pi / 2, 0.0, 0.0),
-            radius=vs.cylinder_radius,
-            length=vs.body_length,
+        body = {"radius": vs.cylinder_radius, "length": vs.body_length}
+        body_xyz = (0.0, -vs.body_length / 2, 0.0)
+        urdf_visual(
+            links[1], Visual("cylinder", "cylinder_blue", body_xyz, (np.pi / 2, 0.0, 0.0), body)
         )
-        _visual(
-            links[2],
-            "cylinder",
-            "rod_silver",
-            (0.0, 0.0, -vs.rod_length / 2),
-            radius=vs.rod_radius,
-            length=vs.rod_length,
-        )
-        _visual(links[2], "sphere", "joint_dark", radius=vs.joint_radius)
+        rod = {"radius": vs.rod_radius, "length": vs.rod_length}
+        rod_xyz = (0.0, 0.0, -vs.rod_length / 2)
+        urdf_visual(links[2], Visual("cylinder", "rod_silver", rod_xyz, size=rod))
+        urdf_visual(links[2], Visual("sphere", "joint_dark", size={"radius": vs.joint_radius}))
         R1 = desc.leg_base_rotations[k]
         _joint(
             robot,
@@ -272,9 +220,10 @@ def urdf_string(desc: RobotDescription) -> str:
         )
 
     platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
-    _inertial(platform, desc.platform_inertia)
+    urdf_inertial(platform, desc.platform_inertia)
     xyz, rpy, radius, length = plate_visual(desc.platform_points, vs, 1.0)
-    _visual(platform, "cylinder", "platform_orange", xyz, rpy, radius=radius, length=length)
+    disc = {"radius": radius, "length": length}
+    urdf_visual(platform, Visual("cylinder", "platform_orange", xyz, rpy, disc))
     _joint(robot, PLATFORM_JOINT, "floating", BASE_LINK, PLATFORM_LINK)
     ET.indent(robot)
     return (

@@ -48,6 +48,7 @@ from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text, yaml_quoted
 from stewart_pin.description.inertia import urdf_inertial_from_khalil
 from stewart_pin.exceptions import InputTypeError
+from stewart_pin.formats._xml import Visual
 from stewart_pin.formats.urdf import (
     URDF_EFFORT,
     URDF_VELOCITY,
@@ -118,27 +119,16 @@ def xacro_args(desc: Any) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------- general legs
-def _visual(shape: str, material: str, xyz: Any, rpy: Any, size: dict[str, Any]) -> dict[str, Any]:
+def _visual(visual: Visual) -> dict[str, Any]:
+    """A :class:`~stewart_pin.formats._xml.Visual` as the xacro ``visual`` mapping."""
+    size = visual.size
     return {
-        "shape": shape,
-        "material": material,
-        "xyz": _floats(xyz),
-        "rpy": _floats(rpy),
+        "shape": visual.shape,
+        "material": visual.material,
+        "xyz": _floats(visual.xyz),
+        "rpy": _floats(visual.rpy),
         "size": {k: _floats(v) if isinstance(v, tuple) else float(v) for k, v in size.items()},
     }
-
-
-def _bar(a: np.ndarray, b: np.ndarray, radius: float, material: str) -> list[dict[str, Any]]:
-    """The bar of :mod:`stewart_pin.formats.general_urdf` from ``a`` to ``b`` (none when
-    they coincide)."""
-    from stewart_pin.formats.general_urdf import _segment_rpy
-
-    v = b - a
-    length = float(np.linalg.norm(v))
-    if length <= 1e-9:
-        return []
-    size = {"radius": radius, "length": length}
-    return [_visual("cylinder", material, (a + b) / 2, _segment_rpy(v), size)]
 
 
 def general_xacro_args(desc: Any) -> dict[str, Any]:
@@ -168,62 +158,45 @@ def general_xacro_args(desc: Any) -> dict[str, Any]:
     """
     from stewart_pin.formats.general_urdf import (
         GeneralVisualSizes,
-        _limit_values,
         joint_placement,
         leg_joint_values,
-        next_point,
-        travel,
+        leg_visuals,
+        limit_values,
     )
 
     vs = GeneralVisualSizes.for_robot(desc)
     q_home = leg_joint_values(desc)
     xyz, rpy, radius, length = plate_visual(np.asarray(desc.base_points), vs.plate(), -1.0)
-    base_visuals = [
-        _visual("cylinder", "base_grey", xyz, rpy, {"radius": radius, "length": length})
-    ]
+    disc = {"radius": radius, "length": length}
+    base_visuals = [_visual(Visual("cylinder", "base_grey", xyz, rpy, disc))]
     legs = []
     for k in range(6):
         leg = desc.legs[k]
+        on_base, visuals = leg_visuals(desc, k, vs, q_home)
+        base_visuals += [_visual(v) for v in on_base]
         links: list[dict[str, Any]] = []
         joints = []
         for j, joint in enumerate(leg.joints):
             link = _inertial(np.asarray(desc.leg_inertia[k][j], dtype=float))
-            material = "rod_silver" if j == 2 else "cylinder_blue"
-            visuals = _bar(np.zeros(3), next_point(desc, k, j), vs.bar_radius, material)
-            T = joint_placement(desc, k, j)
-            if joint.revolute:
-                size = {"radius": vs.joint_radius * 0.8, "length": vs.joint_radius * 2.0}
-                visuals.append(_visual("cylinder", "joint_dark", (0, 0, 0), (0, 0, 0), size))
-            else:
-                c = vs.carriage
-                box = {"size": (c, c, c)}
-                visuals.append(_visual("box", "joint_dark", (0, 0, 0), (0, 0, 0), box))
-                lo, hi = travel(desc, k, j, q_home)
-                z = T[:3, 2]
-                rail = _bar(T[:3, 3] + lo * z, T[:3, 3] + hi * z, vs.rail_radius, "cylinder_blue")
-                (base_visuals if j == 0 else links[j - 1]["visuals"]).extend(rail)
-            link["visuals"] = visuals
+            link["visuals"] = [_visual(v) for v in visuals[j]]
             links.append(link)
+            T = joint_placement(desc, k, j)
             dyn = joint.dynamics
             joints.append(
                 {
                     "type": str(joint.kind),
                     "xyz": _floats(T[:3, 3]),
                     "rpy": _floats(pin.rpy.matrixToRpy(T[:3, :3])),
-                    "limits": _floats(_limit_values(joint.lower, joint.upper)),
+                    "limits": _floats(limit_values(joint.lower, joint.upper)),
                     "damping": float(dyn.viscous + dyn.damping),
                     "friction": float(dyn.coulomb),
                 }
             )
-        tip = np.asarray(leg.tip, dtype=float)
-        links[2]["visuals"].append(
-            _visual("sphere", "joint_dark", tip, (0, 0, 0), {"radius": vs.joint_radius})
-        )
         legs.append({"joints": joints, "links": links})
     platform = _inertial(np.asarray(desc.platform_inertia, dtype=float))
     xyz, rpy, radius, length = plate_visual(np.asarray(desc.platform_points), vs.plate(), 1.0)
-    size = {"radius": radius, "length": length}
-    platform["visuals"] = [_visual("cylinder", "platform_orange", xyz, rpy, size)]
+    disc = {"radius": radius, "length": length}
+    platform["visuals"] = [_visual(Visual("cylinder", "platform_orange", xyz, rpy, disc))]
     return {
         "name": check_xml_text(desc.name, "robot name"),
         "effort": float(URDF_EFFORT),
