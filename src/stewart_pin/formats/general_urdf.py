@@ -42,21 +42,20 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import decode_utf8
-from stewart_pin._io import write_text_atomic
-from stewart_pin._safe import check_xml_text
 from stewart_pin.exceptions import FileFormatError
 from stewart_pin.formats._xml import Visual, num, urdf_inertial, urdf_origin, urdf_visual
 from stewart_pin.formats.urdf import (
     BASE_LINK,
     CLOSURE_FORMAT,
-    PLATFORM_JOINT,
     PLATFORM_LINK,
     URDF_EFFORT,
     URDF_VELOCITY,
     VisualSizes,
+    add_platform,
     leg_joint,
     leg_link,
-    plate_visual,
+    robot_with_base,
+    write_with_sidecar,
 )
 
 #: The bound written for an unbounded side of a joint's limits [rad or m].
@@ -203,20 +202,7 @@ def general_urdf_string(desc: Any) -> str:
     """
     vs = GeneralVisualSizes.for_robot(desc)
     q_home = leg_joint_values(desc)
-    robot = ET.Element("robot", name=check_xml_text(desc.name, "robot name"))
-    for name, rgba in (
-        ("base_grey", "0.35 0.35 0.38 1"),
-        ("cylinder_blue", "0.20 0.40 0.80 1"),
-        ("rod_silver", "0.80 0.80 0.82 1"),
-        ("joint_dark", "0.15 0.15 0.15 1"),
-        ("platform_orange", "0.95 0.55 0.15 1"),
-    ):
-        ET.SubElement(ET.SubElement(robot, "material", name=name), "color", rgba=rgba)
-
-    base = ET.SubElement(robot, "link", name=BASE_LINK)
-    xyz, rpy, radius, length = plate_visual(np.asarray(desc.base_points), vs.plate(), -1.0)
-    disc = {"radius": radius, "length": length}
-    urdf_visual(base, Visual("cylinder", "base_grey", xyz, rpy, disc))
+    robot, base = robot_with_base(desc.name, np.asarray(desc.base_points), vs.plate())
 
     for i in range(1, 7):
         k = i - 1
@@ -255,15 +241,7 @@ def general_urdf_string(desc: Any) -> str:
                 friction=num(dyn.coulomb),
             )
 
-    platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
-    urdf_inertial(platform, np.asarray(desc.platform_inertia, dtype=float))
-    xyz, rpy, radius, length = plate_visual(np.asarray(desc.platform_points), vs.plate(), 1.0)
-    disc = {"radius": radius, "length": length}
-    urdf_visual(platform, Visual("cylinder", "platform_orange", xyz, rpy, disc))
-    el = ET.SubElement(robot, "joint", name=PLATFORM_JOINT, type="floating")
-    ET.SubElement(el, "parent", link=BASE_LINK)
-    ET.SubElement(el, "child", link=PLATFORM_LINK)
-    urdf_origin(el)
+    add_platform(robot, desc.platform_inertia, np.asarray(desc.platform_points), vs.plate())
     ET.indent(robot)
     text = ET.tostring(robot, encoding="unicode")
     return (
@@ -386,14 +364,9 @@ def read_actuated_joints(path: str | Path) -> list[str]:
 def write_general_urdf(desc: Any, path: str | Path) -> tuple[Path, Path]:
     """Write the URDF of a general-leg robot and its sidecar beside it (atomically);
     returns both paths."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = general_urdf_string(desc)
-    sidecar = path.with_name(path.name.removesuffix(".urdf") + ".closures.json")
-    closures = json.dumps(general_closures_dict(desc, path.name), indent=2) + "\n"
-    write_text_atomic(path, text)
-    write_text_atomic(sidecar, closures)
-    return path, sidecar
+    return write_with_sidecar(
+        path, lambda: general_urdf_string(desc), lambda n: general_closures_dict(desc, n)
+    )
 
 
 __all__ = [

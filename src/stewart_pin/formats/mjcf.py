@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -395,11 +396,49 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
         return general_mjcf.general_mjcf_string(desc, pinocchio_layout)
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
-    if pinocchio_layout:  # Pinocchio takes massless bodies: the description as it is
-        leg_inertia, has_body = desc.leg_inertia, np.ones((6, 3), dtype=bool)
-        platform_inertia = desc.platform_inertia
+
+    def write_leg(base: ET.Element, k: int, inertia: np.ndarray, has_body: np.ndarray) -> None:
+        _leg(base, desc, k + 1, vs, lim, inertia, has_body)
+
+    return closed_loop_mjcf(
+        desc,
+        None if pinocchio_layout else mujoco_inertials(desc),
+        vs,
+        write_leg,
+        [leg_joint(i, 3) for i in range(1, 7)],
+        lambda: mujoco_qpos(desc, desc.home_pose),
+        "Layout for "
+        + ("Pinocchio's parser (MuJoCo refuses it)" if pinocchio_layout else "MuJoCo")
+        + ": see stewart_pin/mjcf.py. SI units, angles in rad.",
+    )
+
+
+def closed_loop_mjcf(
+    desc: Any,
+    inertials: MujocoInertials | None,
+    plate_sizes: VisualSizes,
+    write_leg: Callable[[ET.Element, int, np.ndarray, np.ndarray], None],
+    motor_joints: Sequence[str],
+    home_qpos: Callable[[], np.ndarray],
+    comment: str,
+) -> str:
+    """The MJCF document shared by the 6-UPS and general-leg writers: ``<compiler>``,
+    ``<option gravity>``, the static ``base_link`` (null inertial, base disc) carrying the
+    legs that ``write_leg(base, k, inertia (3, 10), has_body (3,))`` writes for k = 0..5,
+    the ``platform`` with its free joint, inertial, disc and sites ``platform_p{i}``, the
+    six ``connect`` loops, a motor on each of ``motor_joints`` and the ``home`` keyframe
+    (``home_qpos()``), after a fixed header and the ``comment`` line (fixed text).
+
+    ``inertials``: the MuJoCo layout's bodies (:func:`mujoco_inertials`), whose doubtful
+    changes are warned about (:class:`ApproximationWarning`); ``None``: Pinocchio's
+    layout (the platform nested, at the identity, in ``base_link``; the bodies as
+    described).
+    """
+    if inertials is None:  # Pinocchio takes massless bodies: the description as it is
+        leg_inertia = np.asarray(desc.leg_inertia, dtype=float)
+        has_body = np.ones((6, 3), dtype=bool)
+        platform_inertia = np.asarray(desc.platform_inertia, dtype=float)
     else:
-        inertials = mujoco_inertials(desc)
         leg_inertia, has_body = inertials.leg, inertials.has_body
         platform_inertia = inertials.platform
         if inertials.doubtful:
@@ -408,7 +447,7 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
                 f"MJCF changes them enough to exceed the accuracy stated in docs/closures.md: "
                 f"{'; '.join(inertials.doubtful)}",
                 ApproximationWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
     root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
@@ -421,22 +460,21 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
     # A static body; the explicit (null) inertial is for Pinocchio's parser, which
     # otherwise looks for geoms to compute one from.
     ET.SubElement(base, "inertial", pos="0.0 0.0 0.0", mass="0.0", diaginertia="0.0 0.0 0.0")
-    plate_geom(base, desc.base_points, vs, -1.0, "base")
-    for i in range(1, 7):
-        _leg(base, desc, i, vs, lim, leg_inertia[i - 1], has_body[i - 1])
+    plate_geom(base, np.asarray(desc.base_points, dtype=float), plate_sizes, -1.0, "base")
+    for k in range(6):
+        write_leg(base, k, leg_inertia[k], has_body[k])
 
-    if pinocchio_layout:
+    if inertials is None:
         platform = mjcf_body(base, PLATFORM_LINK)
     else:
-        T = desc.home_pose
+        T = np.asarray(desc.home_pose, dtype=float)
         platform = mjcf_body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
     ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
     mjcf_inertial(platform, platform_inertia)
-    plate_geom(platform, desc.platform_points, vs, 1.0, "platform")
+    points = np.asarray(desc.platform_points, dtype=float)
+    plate_geom(platform, points, plate_sizes, 1.0, "platform")
     for i in range(1, 7):
-        ET.SubElement(
-            platform, "site", name=platform_site(i), pos=vec(desc.platform_points[i - 1])
-        )
+        ET.SubElement(platform, "site", name=platform_site(i), pos=vec(points[i - 1]))
 
     equality = ET.SubElement(root, "equality")
     for i in range(1, 7):
@@ -450,18 +488,15 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
             solimp=vec(LOOP_SOLIMP),
         )
     actuator = ET.SubElement(root, "actuator")
-    for i in range(1, 7):
-        ET.SubElement(actuator, "motor", name=f"leg{i}_motor", joint=leg_joint(i, 3))
+    for i, joint in enumerate(motor_joints, start=1):
+        ET.SubElement(actuator, "motor", name=f"leg{i}_motor", joint=joint)
     keyframe = ET.SubElement(root, "keyframe")
-    ET.SubElement(keyframe, "key", name="home", qpos=vec(mujoco_qpos(desc, desc.home_pose)))
+    ET.SubElement(keyframe, "key", name="home", qpos=vec(home_qpos()))
 
     ET.indent(root)
-    layout = "Pinocchio's parser (MuJoCo refuses it)" if pinocchio_layout else "MuJoCo"
     return (
         "<!-- Generated by stewart-pin from the robot description; do not edit by hand. -->\n"
-        f"<!-- Layout for {layout}: see stewart_pin/mjcf.py. SI units, angles in rad. -->\n"
-        + ET.tostring(root, encoding="unicode")
-        + "\n"
+        f"<!-- {comment} -->\n" + ET.tostring(root, encoding="unicode") + "\n"
     )
 
 

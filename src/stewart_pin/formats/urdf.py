@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -108,6 +109,46 @@ def plate_visual(
     return xyz, rpy, float(radius), vs.plate_thickness
 
 
+def plate_disc(points: np.ndarray, vs: VisualSizes, sign: float, material: str) -> Visual:
+    """The disc of :func:`plate_visual` as a cylinder :class:`Visual`."""
+    xyz, rpy, radius, length = plate_visual(np.asarray(points, dtype=float), vs, sign)
+    return Visual("cylinder", material, xyz, rpy, {"radius": radius, "length": length})
+
+
+#: The URDF materials (name, rgba).
+MATERIALS = (
+    ("base_grey", "0.35 0.35 0.38 1"),
+    ("cylinder_blue", "0.20 0.40 0.80 1"),
+    ("rod_silver", "0.80 0.80 0.82 1"),
+    ("joint_dark", "0.15 0.15 0.15 1"),
+    ("platform_orange", "0.95 0.55 0.15 1"),
+)
+
+
+def robot_with_base(
+    name: str, base_points: np.ndarray, vs: VisualSizes
+) -> tuple[ET.Element, ET.Element]:
+    """The ``<robot>`` element (``name`` checked by :func:`check_xml_text`) with the
+    :data:`MATERIALS`, and its ``base_link`` drawn as the base disc (returned second)."""
+    robot = ET.Element("robot", name=check_xml_text(name, "robot name"))
+    for material, rgba in MATERIALS:
+        ET.SubElement(ET.SubElement(robot, "material", name=material), "color", rgba=rgba)
+    base = ET.SubElement(robot, "link", name=BASE_LINK)
+    urdf_visual(base, plate_disc(base_points, vs, -1.0, "base_grey"))
+    return robot, base
+
+
+def add_platform(
+    robot: ET.Element, params: np.ndarray, points: np.ndarray, vs: VisualSizes
+) -> None:
+    """The ``platform`` link (Khalil parameters ``params`` in Fp, the platform disc through
+    ``points``) and its floating joint to ``base_link``."""
+    platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
+    urdf_inertial(platform, np.asarray(params, dtype=float))
+    urdf_visual(platform, plate_disc(points, vs, 1.0, "platform_orange"))
+    _joint(robot, PLATFORM_JOINT, "floating", BASE_LINK, PLATFORM_LINK)
+
+
 def joint_limits(desc: RobotDescription) -> np.ndarray:
     """Limits written for q1i, q2i [rad] and q3i [m]: shape (6, 3, 2) ``[lower, upper]``.
 
@@ -157,20 +198,7 @@ def urdf_string(desc: RobotDescription) -> str:
     if general_urdf.is_general(desc):
         return general_urdf.general_urdf_string(desc)
     vs = VisualSizes.for_robot(desc)
-    robot = ET.Element("robot", name=check_xml_text(desc.name, "robot name"))
-    for name, rgba in (
-        ("base_grey", "0.35 0.35 0.38 1"),
-        ("cylinder_blue", "0.20 0.40 0.80 1"),
-        ("rod_silver", "0.80 0.80 0.82 1"),
-        ("joint_dark", "0.15 0.15 0.15 1"),
-        ("platform_orange", "0.95 0.55 0.15 1"),
-    ):
-        ET.SubElement(ET.SubElement(robot, "material", name=name), "color", rgba=rgba)
-
-    base = ET.SubElement(robot, "link", name=BASE_LINK)
-    xyz, rpy, radius, length = plate_visual(desc.base_points, vs, -1.0)
-    disc = {"radius": radius, "length": length}
-    urdf_visual(base, Visual("cylinder", "base_grey", xyz, rpy, disc))
+    robot, _ = robot_with_base(desc.name, desc.base_points, vs)
 
     lim = joint_limits(desc)
     for i in range(1, 7):
@@ -219,12 +247,7 @@ def urdf_string(desc: RobotDescription) -> str:
             limits=lim[k, 2],
         )
 
-    platform = ET.SubElement(robot, "link", name=PLATFORM_LINK)
-    urdf_inertial(platform, desc.platform_inertia)
-    xyz, rpy, radius, length = plate_visual(desc.platform_points, vs, 1.0)
-    disc = {"radius": radius, "length": length}
-    urdf_visual(platform, Visual("cylinder", "platform_orange", xyz, rpy, disc))
-    _joint(robot, PLATFORM_JOINT, "floating", BASE_LINK, PLATFORM_LINK)
+    add_platform(robot, desc.platform_inertia, desc.platform_points, vs)
     ET.indent(robot)
     return (
         '<?xml version="1.0"?>\n'
@@ -334,11 +357,20 @@ def write_urdf(desc: RobotDescription, path: str | Path) -> tuple[Path, Path]:
     Each file is written atomically (a temporary file in the folder, then renamed): an
     error leaves the previous file in place, never a truncated one.
     """
+    return write_with_sidecar(path, lambda: urdf_string(desc), lambda n: closures_dict(desc, n))
+
+
+def write_with_sidecar(
+    path: str | Path, urdf: Callable[[], str], closures: Callable[[str], dict[str, Any]]
+) -> tuple[Path, Path]:
+    """Write ``urdf()`` to ``path`` and ``closures(file name)`` as JSON to the sidecar
+    ``<stem>.closures.json`` beside it, each atomically, both computed before either is
+    written; returns both paths."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = urdf_string(desc)
+    text = urdf()
     sidecar = path.with_name(path.name.removesuffix(".urdf") + ".closures.json")
-    closures = json.dumps(closures_dict(desc, path.name), indent=2) + "\n"
+    sidecar_text = json.dumps(closures(path.name), indent=2) + "\n"
     write_text_atomic(path, text)
-    write_text_atomic(sidecar, closures)
+    write_text_atomic(sidecar, sidecar_text)
     return path, sidecar

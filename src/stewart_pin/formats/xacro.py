@@ -54,6 +54,7 @@ from stewart_pin.formats.urdf import (
     URDF_VELOCITY,
     VisualSizes,
     joint_limits,
+    plate_disc,
     plate_visual,
 )
 
@@ -166,9 +167,7 @@ def general_xacro_args(desc: Any) -> dict[str, Any]:
 
     vs = GeneralVisualSizes.for_robot(desc)
     q_home = leg_joint_values(desc)
-    xyz, rpy, radius, length = plate_visual(np.asarray(desc.base_points), vs.plate(), -1.0)
-    disc = {"radius": radius, "length": length}
-    base_visuals = [_visual(Visual("cylinder", "base_grey", xyz, rpy, disc))]
+    base_visuals = [_visual(plate_disc(desc.base_points, vs.plate(), -1.0, "base_grey"))]
     legs = []
     for k in range(6):
         leg = desc.legs[k]
@@ -194,9 +193,8 @@ def general_xacro_args(desc: Any) -> dict[str, Any]:
             )
         legs.append({"joints": joints, "links": links})
     platform = _inertial(np.asarray(desc.platform_inertia, dtype=float))
-    xyz, rpy, radius, length = plate_visual(np.asarray(desc.platform_points), vs.plate(), 1.0)
-    disc = {"radius": radius, "length": length}
-    platform["visuals"] = [_visual(Visual("cylinder", "platform_orange", xyz, rpy, disc))]
+    disc = plate_disc(desc.platform_points, vs.plate(), 1.0, "platform_orange")
+    platform["visuals"] = [_visual(disc)]
     return {
         "name": check_xml_text(desc.name, "robot name"),
         "effort": float(URDF_EFFORT),
