@@ -31,7 +31,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
 from stewart_pin.description.general_hexapod import GeneralHexapod
@@ -43,6 +42,7 @@ from stewart_pin.dynamics.closed_loop import (
     platform_energy,
     platform_terms,
 )
+from stewart_pin.dynamics.leg_dynamics import LegDynamics
 from stewart_pin.kinematics.leg_chains import (
     MAX_CONDITION,
     LegKinematics,
@@ -99,59 +99,31 @@ class JointTermArrays:
         return 0.5 * np.einsum("kj,nkj->n", self.stiffness, (q - self.rest) ** 2)
 
 
-class GeneralLegDynamics:
+class GeneralLegDynamics(LegDynamics):
     """Pinocchio's RNEA / CRBA / nonlinear effects on the six chains plus the joint terms,
-    for batches (N, 6, 3)."""
+    for batches (N, 6, 3): :class:`~stewart_pin.dynamics.leg_dynamics.LegDynamics`'s loops
+    on the general chains (:func:`~stewart_pin.models.leg_chains.build_leg_chains`)."""
 
     def __init__(self, robot: GeneralHexapod) -> None:
         self.robot = robot
-        self.model, v_index = build_leg_chains(robot)
-        self.data = self.model.createData()
-        self.index = v_index.ravel()
-        self._blocks = v_index
+        self._attach(*build_leg_chains(robot))
         self.terms = JointTermArrays.of(robot)
-
-    def _pack(self, x: np.ndarray) -> np.ndarray:
-        out = np.empty(18)
-        out[self.index] = x.ravel()
-        return out
-
-    def _unpack(self, x: np.ndarray) -> np.ndarray:
-        return x[self.index].reshape(6, 3)
 
     def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
         """``H_i`` (N, 6, 3) [N m or N]: RNEA (armature included) plus the joint terms."""
-        m, d = self.model, self.data
-        out = np.empty(q.shape)
-        for n in range(q.shape[0]):
-            tau = pin.rnea(m, d, self._pack(q[n]), self._pack(qdot[n]), self._pack(qddot[n]))
-            out[n] = self._unpack(tau)
-        return out + self.terms.efforts(q, qdot)
+        return super().inverse_dynamics(q, qdot, qddot) + self.terms.efforts(q, qdot)
 
     def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA with the armature, and the nonlinear
         effects plus the joint terms."""
-        m, d = self.model, self.data
-        A = np.empty((*q.shape, 3))
-        h = np.empty(q.shape)
-        rows, cols = self._blocks[:, :, None], self._blocks[:, None, :]
-        for n in range(q.shape[0]):
-            qn, vn = self._pack(q[n]), self._pack(qdot[n])
-            A[n] = pin.crba(m, d, qn)[rows, cols]  # the binding returns the full matrix
-            h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
+        A, h = super().mass_and_bias(q, qdot)
         return A, h + self.terms.efforts(q, qdot)
 
     def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Kinetic (armature included) and potential (gravity and springs) energy of the
-        six legs, each (N,) [J]; gravity's potential is zero at the origin of F0."""
-        m, d = self.model, self.data
-        kinetic, potential = np.empty(q.shape[0]), np.empty(q.shape[0])
-        for n in range(q.shape[0]):
-            qn, vn = self._pack(q[n]), self._pack(qdot[n])
-            M = pin.crba(m, d, qn)
-            M = np.triu(M) + np.triu(M, 1).T
-            kinetic[n] = 0.5 * vn @ M @ vn
-            potential[n] = pin.computePotentialEnergy(m, d, qn)
+        """Kinetic (armature included: Pinocchio >= 4.1 counts ``model.armature``) and
+        potential (gravity and springs) energy of the six legs, each (N,) [J]; gravity's
+        potential is zero at the origin of F0."""
+        kinetic, potential = super().energy(q, qdot)
         return kinetic, potential + self.terms.spring_energy(q)
 
 
