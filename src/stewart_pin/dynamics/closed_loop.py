@@ -1,6 +1,13 @@
 """The paper's closure layer: Cartesian projection of the legs, the platform's
 Newton-Euler equations, and the inverse and direct dynamic models (eq. 20-38).
 
+The closure kernel (:func:`closure_inverse_dynamics`, :func:`closure_cartesian_dynamics`,
+:func:`closure_direct_dynamics`) sees only "a leg with three joints, one actuated": each
+leg's Jacobian inverse ``J_i^-1`` (3x3, ``qdot_i = J_i^-1 v_Pi``), its ``L_i`` (O_p to P_i
+in F0), its own ``H_i`` or ``(A_i, h_i)`` (joint terms included) and drift
+``Jdot_i qdot_i``, with ``Jp^-1`` and the platform's terms. The ideal 6-UPS path below and
+the general legs (:mod:`.general_legs`) both call it.
+
 All functions take validated batches: poses (N, 4, 4), twists (N, 6), classical
 accelerations (N, 6), forces (N, 6); every 6-vector is ``[linear, angular]`` in F0, and
 every wrench is about O_p (the origin of Fp).
@@ -111,6 +118,91 @@ def _transpose_solve(J_inv: FloatArray, wrench: FloatArray) -> FloatArray:
     return np.asarray(x, dtype=np.float64)  # float64 for the type checker
 
 
+# ---------------------------------------------------------------------------- closure kernel
+def closure_inverse_dynamics(
+    J_inv: FloatArray,
+    leg_J_inv: FloatArray,
+    L: FloatArray,
+    H: FloatArray,
+    plat: PlatformTerms,
+    accels: Accels,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``Gamma = Jp^T (F_p + sum_i [I3; L_i^] J_i^-T H_i)`` (eq. 22-24, 31-32).
+
+    Args:
+        J_inv: ``Jp^-1`` (N, 6, 6). leg_J_inv: each leg's ``J_i^-1`` (N, 6, 3, 3).
+        L: (N, 6, 3) O_p to P_i in F0 [m]. H: (N, 6, 3) each leg's own inverse dynamics
+        (joint terms included). plat: the platform's terms. accels: (N, 6) classical.
+
+    Returns:
+        ``(gamma (N, 6), H_x (N, 6, 3), F_p (N, 6), F_leg (N, 6))``; :class:`NumericalError`
+        when Gamma is not finite.
+    """
+    H_x = np.einsum("nkji,nkj->nki", leg_J_inv, H)  # J_i^-T H_i
+    F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
+    F_leg = _wrench_at_origin(H_x, L)
+    gamma = check_finite(_transpose_solve(J_inv, F_p + F_leg), IDM_OUTPUT)
+    return gamma, H_x, F_p, F_leg
+
+
+def closure_cartesian_dynamics(
+    leg_J_inv: FloatArray,
+    A: FloatArray,
+    h: FloatArray,
+    L: FloatArray,
+    drift: FloatArray,
+    twists: Twists,
+    plat: PlatformTerms,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``A_robot = Ip + sum G_i^T A_xi G_i`` and
+    ``h_robot = bias + sum G_i^T (A_xi (w x (w x L_i) - Jdot_i qdot_i) + J_i^-T h_i)``
+    (eq. 33-37), ``A_xi = J_i^-T A_i J_i^-1``, ``G_i = [I3, -L_i^]``.
+
+    Args:
+        leg_J_inv: (N, 6, 3, 3) ``J_i^-1``. A: (N, 6, 3, 3) and h: (N, 6, 3), each leg's
+        mass matrix and bias (joint terms included). L: (N, 6, 3). drift: (N, 6, 3)
+        ``Jdot_i qdot_i`` (the tip acceleration at zero joint acceleration) in F0.
+        twists: (N, 6). plat: the platform's terms.
+
+    Returns:
+        ``(A_robot (N, 6, 6) symmetrised, h_robot (N, 6), A_x (N, 6, 3, 3), h_x (N, 6, 3))``.
+    """
+    A_x = np.einsum("nkji,nkjl,nklm->nkim", leg_J_inv, A, leg_J_inv)
+    h_x = np.einsum("nkji,nkj->nki", leg_J_inv, h)
+    w = twists[:, None, 3:]
+    # Centripetal acceleration of P_i on the platform minus the leg drift (eq. 34).
+    c = cross(w, cross(w, L)) - drift
+    t = np.einsum("nkij,nkj->nki", A_x, c) + h_x
+    Lh = skew(L)  # (N, 6, 3, 3)
+    AL = A_x @ Lh
+    blocks = np.zeros((*L.shape[:2], 6, 6))
+    blocks[..., :3, :3] = A_x
+    blocks[..., :3, 3:] = -AL
+    blocks[..., 3:, :3] = Lh @ A_x
+    blocks[..., 3:, 3:] = -Lh @ AL
+    A_robot = plat.inertia + blocks.sum(axis=1)
+    h_robot = plat.bias + _wrench_at_origin(t, L)
+    return 0.5 * (A_robot + np.swapaxes(A_robot, 1, 2)), h_robot, A_x, h_x
+
+
+def closure_direct_dynamics(
+    A_robot: FloatArray, h_robot: FloatArray, J_inv: FloatArray, gammas: Forces
+) -> FloatArray:
+    """``Vdot_p = A_robot^-1 (Jp^-T Gamma - h_robot)`` (eq. 35) by Cholesky, (N, 6).
+
+    Raises :class:`NumericalError` when ``A_robot`` or the acceleration is not finite,
+    :class:`SingularityError` when ``A_robot`` is not positive definite."""
+    check_finite(A_robot, "direct dynamics A_robot")
+    rhs = np.einsum("nji,nj->ni", J_inv, gammas) - h_robot
+    try:
+        chol = np.linalg.cholesky(A_robot)
+    except np.linalg.LinAlgError as e:
+        raise SingularityError.not_positive_definite() from e
+    y = np.linalg.solve(chol, rhs[..., None])
+    accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
+    return check_finite(accel, DDM_OUTPUT)
+
+
 @dataclass(frozen=True)
 class InverseDynamicsResult:
     """The inverse dynamic model with its intermediate terms (batches).
@@ -170,11 +262,8 @@ def inverse_dynamics(
     check_condition(J_inv, max_condition, desc)
     assert legs.qddot is not None  # accels given
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
-    H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)  # J_3i^-T H_i
     plat = platform_terms(desc, poses, twists)
-    F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
-    F_leg = _wrench_at_origin(H_x, legs.L)
-    gamma = check_finite(_transpose_solve(J_inv, F_p + F_leg), IDM_OUTPUT)
+    gamma, H_x, F_p, F_leg = closure_inverse_dynamics(J_inv, legs.J_inv, legs.L, H, plat, accels)
     return InverseDynamicsResult(gamma, H, H_x, F_p, F_leg, J_inv, legs)
 
 
@@ -209,26 +298,11 @@ def cartesian_dynamics(
     J_inv = inverse_jacobian_batch(desc, poses)
     check_condition(J_inv, max_condition, desc)
     A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
-    Ji = legs.J_inv
-    A_x = np.einsum("nkji,nkjl,nklm->nkim", Ji, A, Ji)
-    h_x = np.einsum("nkji,nkj->nki", Ji, h)
-    L, w = legs.L, twists[:, None, 3:]
-    # Centripetal acceleration of P_i on the platform minus the leg drift (eq. 34).
-    c = cross(w, cross(w, L)) - legs.drift
-    t = np.einsum("nkij,nkj->nki", A_x, c) + h_x
-    Lh = skew(L)  # (N, 6, 3, 3)
-    AL = A_x @ Lh
-    blocks = np.zeros((*L.shape[:2], 6, 6))
-    blocks[..., :3, :3] = A_x
-    blocks[..., :3, 3:] = -AL
-    blocks[..., 3:, :3] = Lh @ A_x
-    blocks[..., 3:, 3:] = -Lh @ AL
     plat = platform_terms(desc, poses, twists)
-    A_robot = plat.inertia + blocks.sum(axis=1)
-    h_robot = plat.bias + _wrench_at_origin(t, L)
-    return CartesianDynamics(
-        0.5 * (A_robot + np.swapaxes(A_robot, 1, 2)), h_robot, J_inv, A_x, h_x
+    A_robot, h_robot, A_x, h_x = closure_cartesian_dynamics(
+        legs.J_inv, A, h, legs.L, legs.drift, twists, plat
     )
+    return CartesianDynamics(A_robot, h_robot, J_inv, A_x, h_x)
 
 
 def direct_dynamics(
@@ -243,12 +317,5 @@ def direct_dynamics(
 
     Raises :class:`NumericalError` when ``A_robot`` or the acceleration is not finite."""
     cd = cartesian_dynamics(desc, legs_dyn, poses, twists, max_condition)
-    check_finite(cd.A_robot, "direct dynamics A_robot")
-    rhs = np.einsum("nji,nj->ni", cd.J_inv, gammas) - cd.h_robot
-    try:
-        chol = np.linalg.cholesky(cd.A_robot)
-    except np.linalg.LinAlgError as e:
-        raise SingularityError.not_positive_definite() from e
-    y = np.linalg.solve(chol, rhs[..., None])
-    accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
-    return check_finite(accel, DDM_OUTPUT), cd
+    accel = closure_direct_dynamics(cd.A_robot, cd.h_robot, cd.J_inv, gammas)
+    return accel, cd

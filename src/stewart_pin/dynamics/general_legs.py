@@ -31,14 +31,18 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
-from stewart_pin._so3 import cross, skew
 from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
-from stewart_pin.dynamics.closed_loop import check_finite, platform_energy, platform_terms
-from stewart_pin.exceptions import SingularityError
+from stewart_pin.dynamics.closed_loop import (
+    closure_cartesian_dynamics,
+    closure_direct_dynamics,
+    closure_inverse_dynamics,
+    platform_energy,
+    platform_terms,
+)
+from stewart_pin.dynamics.leg_dynamics import LegDynamics
 from stewart_pin.kinematics.leg_chains import (
     MAX_CONDITION,
     LegKinematics,
@@ -95,71 +99,37 @@ class JointTermArrays:
         return 0.5 * np.einsum("kj,nkj->n", self.stiffness, (q - self.rest) ** 2)
 
 
-class GeneralLegDynamics:
+class GeneralLegDynamics(LegDynamics):
     """Pinocchio's RNEA / CRBA / nonlinear effects on the six chains plus the joint terms,
-    for batches (N, 6, 3)."""
+    for batches (N, 6, 3): :class:`~stewart_pin.dynamics.leg_dynamics.LegDynamics`'s loops
+    on the general chains (:func:`~stewart_pin.models.leg_chains.build_leg_chains`)."""
 
     def __init__(self, robot: GeneralHexapod) -> None:
         self.robot = robot
-        self.model, v_index = build_leg_chains(robot)
-        self.data = self.model.createData()
-        self.index = v_index.ravel()
-        self._blocks = v_index
+        self._attach(*build_leg_chains(robot))
         self.terms = JointTermArrays.of(robot)
-
-    def _pack(self, x: np.ndarray) -> np.ndarray:
-        out = np.empty(18)
-        out[self.index] = x.ravel()
-        return out
-
-    def _unpack(self, x: np.ndarray) -> np.ndarray:
-        return x[self.index].reshape(6, 3)
 
     def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
         """``H_i`` (N, 6, 3) [N m or N]: RNEA (armature included) plus the joint terms."""
-        m, d = self.model, self.data
-        out = np.empty(q.shape)
-        for n in range(q.shape[0]):
-            tau = pin.rnea(m, d, self._pack(q[n]), self._pack(qdot[n]), self._pack(qddot[n]))
-            out[n] = self._unpack(tau)
-        return out + self.terms.efforts(q, qdot)
+        return super().inverse_dynamics(q, qdot, qddot) + self.terms.efforts(q, qdot)
 
     def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA with the armature, and the nonlinear
         effects plus the joint terms."""
-        m, d = self.model, self.data
-        A = np.empty((*q.shape, 3))
-        h = np.empty(q.shape)
-        rows, cols = self._blocks[:, :, None], self._blocks[:, None, :]
-        for n in range(q.shape[0]):
-            qn, vn = self._pack(q[n]), self._pack(qdot[n])
-            A[n] = pin.crba(m, d, qn)[rows, cols]  # the binding returns the full matrix
-            h[n] = self._unpack(pin.nonLinearEffects(m, d, qn, vn))
+        A, h = super().mass_and_bias(q, qdot)
         return A, h + self.terms.efforts(q, qdot)
 
     def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Kinetic (armature included) and potential (gravity and springs) energy of the
-        six legs, each (N,) [J]; gravity's potential is zero at the origin of F0."""
-        m, d = self.model, self.data
-        kinetic, potential = np.empty(q.shape[0]), np.empty(q.shape[0])
-        for n in range(q.shape[0]):
-            qn, vn = self._pack(q[n]), self._pack(qdot[n])
-            M = pin.crba(m, d, qn)
-            M = np.triu(M) + np.triu(M, 1).T
-            kinetic[n] = 0.5 * vn @ M @ vn
-            potential[n] = pin.computePotentialEnergy(m, d, qn)
+        """Kinetic (armature included: Pinocchio >= 4.1 counts ``model.armature``) and
+        potential (gravity and springs) energy of the six legs, each (N,) [J]; gravity's
+        potential is zero at the origin of F0."""
+        kinetic, potential = super().energy(q, qdot)
         return kinetic, potential + self.terms.spring_energy(q)
 
 
 # ---------------------------------------------------------------------------- closure layer
-def _wrench_at_origin(force: np.ndarray, L: np.ndarray) -> np.ndarray:
-    return np.concatenate([force.sum(axis=1), cross(L, force).sum(axis=1)], axis=-1)
-
-
-def _transpose_solve(J_inv: np.ndarray, wrench: np.ndarray) -> np.ndarray:
-    return np.linalg.solve(np.swapaxes(J_inv, 1, 2), wrench[..., None])[..., 0]
-
-
+# The paper's closure layer itself is shared with the 6-UPS path:
+# :func:`~stewart_pin.dynamics.closed_loop.closure_inverse_dynamics` and its siblings.
 @dataclass(frozen=True)
 class GeneralInverseDynamics:
     """The inverse model with its intermediate terms (batches).
@@ -200,12 +170,8 @@ def inverse_dynamics_batch(
     J_inv = inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
     check_parallel(robot, J_inv, max_condition)
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
-    H_x = np.einsum("nkji,nkj->nki", legs.J_inv, H)
     plat = platform_terms(robot, poses, twists)  # type: ignore[arg-type] # duck-typed
-    F_p = np.einsum("nij,nj->ni", plat.inertia, accels) + plat.bias
-    gamma = check_finite(
-        _transpose_solve(J_inv, F_p + _wrench_at_origin(H_x, legs.L)), "inverse dynamics Gamma"
-    )
+    gamma, H_x, F_p, _ = closure_inverse_dynamics(J_inv, legs.J_inv, legs.L, H, plat, accels)
     ratio = legs_dyn.terms.ratio[np.arange(6), robot.actuated]
     efforts = np.zeros(H.shape)
     efforts[:, np.arange(6), robot.actuated] = gamma
@@ -241,24 +207,11 @@ def cartesian_dynamics_batch(
     J_inv = inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
     check_parallel(robot, J_inv, max_condition)
     A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
-    Ji = legs.J_inv
-    A_x = np.einsum("nkji,nkjl,nklm->nkim", Ji, A, Ji)
-    h_x = np.einsum("nkji,nkj->nki", Ji, h)
-    L, w = legs.L, twists[:, None, 3:]
-    t = np.einsum("nkij,nkj->nki", A_x, cross(w, cross(w, L)) - legs.drift) + h_x
-    Lh = skew(L)
-    AL = A_x @ Lh
-    blocks = np.zeros((*L.shape[:2], 6, 6))
-    blocks[..., :3, :3] = A_x
-    blocks[..., :3, 3:] = -AL
-    blocks[..., 3:, :3] = Lh @ A_x
-    blocks[..., 3:, 3:] = -Lh @ AL
-    plat = platform_terms(robot, poses, twists)  # type: ignore[arg-type]
-    A_robot = plat.inertia + blocks.sum(axis=1)
-    h_robot = plat.bias + _wrench_at_origin(t, L)
-    return GeneralCartesianDynamics(
-        0.5 * (A_robot + np.swapaxes(A_robot, 1, 2)), h_robot, J_inv, A_x, h_x, legs
+    plat = platform_terms(robot, poses, twists)  # type: ignore[arg-type] # duck-typed
+    A_robot, h_robot, A_x, h_x = closure_cartesian_dynamics(
+        legs.J_inv, A, h, legs.L, legs.drift, twists, plat
     )
+    return GeneralCartesianDynamics(A_robot, h_robot, J_inv, A_x, h_x, legs)
 
 
 def direct_dynamics_batch(
@@ -273,15 +226,7 @@ def direct_dynamics_batch(
     """``Vdot = A_robot^-1 (Jp^-T Gamma - h_robot)`` (N, 6), classical in F0, by Cholesky;
     ``gammas`` (N, 6) joint-side actuated efforts."""
     cd = cartesian_dynamics_batch(robot, legs_dyn, poses, twists, max_condition, check_limits)
-    check_finite(cd.A_robot, "direct dynamics A_robot")
-    rhs = np.einsum("nji,nj->ni", cd.J_inv, gammas) - cd.h_robot
-    try:
-        chol = np.linalg.cholesky(cd.A_robot)
-    except np.linalg.LinAlgError as e:
-        raise SingularityError.not_positive_definite() from e
-    y = np.linalg.solve(chol, rhs[..., None])
-    accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
-    return check_finite(accel, "direct dynamics acceleration")
+    return closure_direct_dynamics(cd.A_robot, cd.h_robot, cd.J_inv, gammas)
 
 
 # ---------------------------------------------------------------------------- the model

@@ -24,7 +24,12 @@ class LegDynamics:
     """
 
     def __init__(self, desc: RobotDescription) -> None:
-        self.model, v_index = build_legs_model(desc)
+        self._attach(*build_legs_model(desc))
+
+    def _attach(self, model: pin.Model, v_index: np.ndarray) -> None:
+        """Use ``model``, six 3-dof chains whose joint j of leg i has velocity index
+        ``v_index[i, j]`` (the general legs' chains share this class's loops)."""
+        self.model = model
         self.data = self.model.createData()
         # Revolute and prismatic joints have nq == nv, so q and v share the index.
         self.index = v_index.ravel()

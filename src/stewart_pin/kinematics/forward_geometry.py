@@ -6,13 +6,15 @@ itself builds on the inverse geometry.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_scalar
-from stewart_pin._typing import ArrayLike, Pose
+from stewart_pin._typing import ArrayLike, FloatArray, Pose
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import ConvergenceError, SingularityError, StrokeLimitError
+from stewart_pin.exceptions import StrokeLimitError
+from stewart_pin.kinematics._se3_newton import newton_se3
 from stewart_pin.kinematics.geometry import leg_vectors
 from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
 
@@ -51,27 +53,11 @@ def forward_geometry(
         if not lo <= value <= hi:
             raise StrokeLimitError(k + 1, float(value), float(lo), float(hi))
     T = check_pose(desc.home_pose if guess is None else guess, "guess").copy()
-    residual = np.inf
-    for iteration in range(max_iterations + 1):
+
+    def evaluate(T: Pose) -> tuple[FloatArray, Callable[[], FloatArray]]:
         d, _ = leg_vectors(desc, T[None])
-        error = target - np.linalg.norm(d[0], axis=-1)
-        residual = float(np.abs(error).max())
-        if residual <= tol:
-            return T
-        if iteration == max_iterations:
-            break
-        J_inv = inverse_jacobian_batch(desc, T[None])[0]
-        try:
-            step = np.linalg.solve(J_inv, error)
-        except np.linalg.LinAlgError as e:
-            raise SingularityError(
-                f"forward geometry met a singular Jp^-1 at iteration {iteration}"
-            ) from e
-        T[:3, 3] += step[:3]
-        T[:3, :3] = pin.exp3(step[3:]) @ T[:3, :3]
-    raise ConvergenceError(
-        f"forward geometry did not converge in {max_iterations} iterations (largest leg-length "
-        f"error {residual:.3g} m > tol {tol:g} m); give a guess closer to the solution",
-        max_iterations,
-        residual,
-    )
+        return target - np.linalg.norm(d[0], axis=-1), lambda: inverse_jacobian_batch(
+            desc, T[None]
+        )[0]
+
+    return newton_se3(T, evaluate, tol, max_iterations, "leg-length error", "m")

@@ -29,11 +29,11 @@ radius, refused over :data:`MAX_CONDITION`. Both raise :class:`SingularityError`
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_pose, check_poses, check_states
 from stewart_pin._so3 import cross
@@ -45,6 +45,7 @@ from stewart_pin.exceptions import (
     LegReachError,
     SingularityError,
 )
+from stewart_pin.kinematics._se3_newton import newton_se3
 from stewart_pin.kinematics.geometry import LEG_MIN_LENGTH_RATIO
 
 #: Serial singularity threshold on the normalised smallest singular value of ``J_i``
@@ -565,32 +566,16 @@ def forward_geometry(
     target = check_array(actuated, (6,), "actuated")
     T = check_pose(robot.home_pose if guess is None else guess, "guess").copy()
     a = constants(robot).actuated
-    residual = np.inf
-    for iteration in range(max_iterations + 1):
+    revolute = constants(robot).revolute[np.arange(6), a]
+
+    def evaluate(T: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
         ks = leg_state(robot, T[None], np.zeros((1, 6)))
         error = target - ks.q[0, np.arange(6), a]
-        revolute = constants(robot).revolute[np.arange(6), a]
-        error = np.where(revolute, _wrap(error), error)
-        residual = float(np.abs(error).max())
-        if residual <= tol:
-            return T
-        if iteration == max_iterations:
-            break
-        J_inv = inverse_jacobian_from_legs(robot, ks.J_inv, ks.L)[0]
-        try:
-            step = np.linalg.solve(J_inv, error)
-        except np.linalg.LinAlgError as e:
-            raise SingularityError(
-                f"forward geometry met a singular Jp^-1 at iteration {iteration}"
-            ) from e
-        T[:3, 3] += step[:3]
-        T[:3, :3] = pin.exp3(step[3:]) @ T[:3, :3]
-    raise ConvergenceError(
-        f"forward geometry did not converge in {max_iterations} iterations (largest actuated "
-        f"joint error {residual:.3g} > tol {tol:g}); give a guess closer to the solution",
-        max_iterations,
-        residual,
-    )
+        return np.where(revolute, _wrap(error), error), lambda: inverse_jacobian_from_legs(
+            robot, ks.J_inv, ks.L
+        )[0]
+
+    return newton_se3(T, evaluate, tol, max_iterations, "actuated joint error")
 
 
 __all__ = [

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -37,24 +38,18 @@ def _range(value: object, name: str, unit: str) -> float:
     return x
 
 
-def sample_poses(
+def _draw_poses(
     desc: RobotDescription,
     n: int,
-    rng: np.random.Generator | int | None = None,
-    translation: float | None = None,
-    rotation: float = 0.25,
-    max_condition: float = MAX_CONDITION,
-    max_draws: int = 100,
+    rng: np.random.Generator | int | None,
+    translation: float | None,
+    rotation: float,
+    max_draws: int,
+    accept: Callable[[np.ndarray], object],
 ) -> np.ndarray:
-    """``n`` reachable poses 0Tp (n, 4, 4) drawn around ``desc.home_pose``.
-
-    The displacement is uniform in a cube of half-side ``translation`` [m] (default 15 % of
-    the mid-stroke) along F0's axes, the rotation ``exp(w) R_home`` with each ``w_k``
-    uniform in ``[-rotation, rotation]`` [rad]. Draws that leave the stroke or the U-joint
-    limits, or pass ``max_condition``, are rejected; after ``max_draws * n`` draws the
-    function raises :class:`WorkspaceError`. ``translation`` and ``rotation`` must be
-    finite and >= 0 (:class:`InputError`).
-    """
+    """The sampling loop of :func:`sample_poses` and :func:`sample_general_poses`: draws
+    around the home pose until ``n`` pass ``accept(T[None])`` (which raises a
+    :class:`StewartPinError` to reject)."""
     rng = _rng(rng)
     half = (
         0.15 * desc.stroke_mid if translation is None else _range(translation, "translation", "m")
@@ -74,12 +69,37 @@ def sample_poses(
         T[:3, 3] += rng.uniform(-half, half, 3)
         T[:3, :3] = pin.exp3(rng.uniform(-rotation, rotation, 3)) @ home[:3, :3]
         try:
-            inverse_geometry_batch(desc, T[None])
-            check_condition(inverse_jacobian_batch(desc, T[None]), max_condition, desc)
+            accept(T[None])
         except StewartPinError:
             continue
         out.append(T)
     return np.array(out).reshape(n, 4, 4)
+
+
+def sample_poses(
+    desc: RobotDescription,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    translation: float | None = None,
+    rotation: float = 0.25,
+    max_condition: float = MAX_CONDITION,
+    max_draws: int = 100,
+) -> np.ndarray:
+    """``n`` reachable poses 0Tp (n, 4, 4) drawn around ``desc.home_pose``.
+
+    The displacement is uniform in a cube of half-side ``translation`` [m] (default 15 % of
+    the mid-stroke) along F0's axes, the rotation ``exp(w) R_home`` with each ``w_k``
+    uniform in ``[-rotation, rotation]`` [rad]. Draws that leave the stroke or the U-joint
+    limits, or pass ``max_condition``, are rejected; after ``max_draws * n`` draws the
+    function raises :class:`WorkspaceError`. ``translation`` and ``rotation`` must be
+    finite and >= 0 (:class:`InputError`).
+    """
+
+    def accept(T: np.ndarray) -> None:
+        inverse_geometry_batch(desc, T)
+        check_condition(inverse_jacobian_batch(desc, T), max_condition, desc)
+
+    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept)
 
 
 def sample_states(
@@ -132,34 +152,13 @@ def sample_general_poses(
     :data:`~stewart_pin.kinematics.leg_chains.LEG_SINGULARITY` of a serial singularity or
     pass ``max_condition`` (parallel) are redrawn. The default ``translation`` is 15 % of
     :attr:`RobotDescription.stroke_mid` (for general legs the mean ``|B_i P_i|`` at home)."""
-    rng = _rng(rng)
-    half = (
-        0.15 * desc.stroke_mid if translation is None else _range(translation, "translation", "m")
-    )
-    rotation = _range(rotation, "rotation", "rad")
-    home = desc.home_pose
-    out: list[np.ndarray] = []
-    draws = 0
     zero = np.zeros((1, 6))
-    while len(out) < n:
-        if draws >= max_draws * max(n, 1):
-            raise WorkspaceError(
-                f"only {len(out)} of {n} poses reachable after {draws} draws; reduce the "
-                f"translation ({half:g} m) or rotation ({rotation:g} rad) range"
-            )
-        draws += 1
-        T = home.copy()
-        T[:3, 3] += rng.uniform(-half, half, 3)
-        T[:3, :3] = pin.exp3(rng.uniform(-rotation, rotation, 3)) @ home[:3, :3]
-        try:
-            legs = leg_state(robot, T[None], zero, check_limits=True)
-            check_parallel(
-                robot, inverse_jacobian_from_legs(robot, legs.J_inv, legs.L), max_condition
-            )
-        except StewartPinError:
-            continue
-        out.append(T)
-    return np.array(out).reshape(n, 4, 4)
+
+    def accept(T: np.ndarray) -> None:
+        legs = leg_state(robot, T, zero, check_limits=True)
+        check_parallel(robot, inverse_jacobian_from_legs(robot, legs.J_inv, legs.L), max_condition)
+
+    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept)
 
 
 def sample_general_states(
