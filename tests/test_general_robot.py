@@ -257,9 +257,19 @@ def test_simulation_stops_at_a_joint_limit():
     from stewart_pin.motion.simulation import simulate
 
     robot = StewartRobot.from_preset("pus")  # slides on [0, 0.5] m, home at 0.25 m
-    with pytest.raises(SimulationError, match="limit") as info:
+    with pytest.raises(SimulationError, match="lower limit") as info:
         simulate(robot, 3.0, forces=lambda t, T, V: np.full(6, -2000.0), dt=5e-3)
-    assert info.value.result.t[-1] < 3.0
+    result = info.value.result
+    assert result.t[-1] < 3.0
+    # The limit is located: at the last state some slide is within 1e-4 m of its lower
+    # limit (0 m; measured 4.4e-7 m), none beyond it (the slides recomputed from the pose).
+    legs = robot.description.legs
+    lower = min(leg.joints[leg.actuated - 1].lower for leg in legs)
+    assert lower == 0.0
+    q = robot.actuator_positions(result.poses[-1])
+    assert q.min() >= lower
+    assert q.min() - lower <= 1e-4
+    np.testing.assert_allclose(result.lengths[-1], q, rtol=0, atol=1e-12)
 
 
 # ---------------------------------------------------------------------- refusals
