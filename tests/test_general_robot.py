@@ -488,3 +488,51 @@ def test_coulomb_friction_at_a_joint_at_rest_does_not_follow_round_off():
         _reference(robot), T[None], V[None], A[None], robot.inverse_geometry(T)[None]
     )[0]
     assert relative_error(gamma, ref) < TOL
+
+
+# ---------------------------------------------------------------------- one-line CLI errors
+BAD_TOML_LEGS = {
+    # a 1e300 crank: |c|^2 overflows in the closed form (was RuntimeWarnings, then an error)
+    "rus crank of 1e300 m": ("rus", "d = 0.03", "d = 1e300", "leg 1 inverse geometry q"),
+    # a rod along z3, the second U-joint axis: |tip_xy| sin(alpha3) == 0 (was a divide by
+    # zero warning, then a misleading 'cannot reach')
+    "rus rod along z3": (
+        "rus",
+        "tip = [0.1, 0.0, 0.0]",
+        "tip = [0.0, 0.0, 0.1]",
+        "a 'rus' leg needs a rod not along its second U-joint axis",
+    ),
+    "pus rod along z3": (
+        "pus",
+        "tip = [0.45, 0.0, 0.0]",
+        "tip = [0.0, 0.0, 0.45]",
+        "a 'pus' leg needs a rod not along its second U-joint axis",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", BAD_TOML_LEGS)
+def test_cli_bad_leg_is_one_line(case, tmp_path, capsys):
+    """Overflowing or degenerate legs: exactly one stderr line, exit 2, no RuntimeWarning."""
+    import warnings
+
+    name, old, new, message = BAD_TOML_LEGS[case]
+    path = preset(name).write(tmp_path / f"{name}.toml")
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    capsys.readouterr()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["validate", "--description", str(path), "--states", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "error:" in err and message in err, err
+    assert "Warning" not in err
+
+
+def test_rod_along_the_second_u_axis_is_refused():
+    from stewart_pin.description.leg_architecture import rus
+
+    leg = rus(crank=0.03, rod=0.1)
+    with pytest.raises(ArchitectureError, match="rod not along its second U-joint axis"):
+        leg.replace(tip=np.array([0.0, 0.0, 0.1]))

@@ -392,6 +392,11 @@ class LegArchitecture:
             need(j3.d == 0.0 and j3.r == 0.0, "intersecting U-joint axes (d3 = r3 = 0)")
             need(abs(math.sin(j3.alpha)) > 1e-6, "non-parallel U-joint axes (sin alpha3 != 0)")
             need(bool(np.linalg.norm(self.tip) > 0.0), "a rod of non-zero length (tip != 0)")
+            # a rod along the second U-joint axis (z3) is not pointed by that joint
+            need(
+                math.hypot(self.tip[0], self.tip[1]) > 1e-6 * float(np.linalg.norm(self.tip)),
+                "a rod not along its second U-joint axis (tip_x, tip_y not both 0)",
+            )
 
     # ------------------------------------------------------------------ derived
     @property
