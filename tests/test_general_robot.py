@@ -107,6 +107,19 @@ def test_ideal_ups_file_unchanged(tmp_path):
     assert "[[legs]]" not in text and "legs:" not in text
 
 
+@pytest.mark.parametrize("name", ["rus", "pus", "ups-offset"])
+def test_general_file_header_fits_the_robot(name, tmp_path):
+    """The TOML header of a robot with general legs neither lists ``stroke`` nor
+    ``u_joint_limits`` as keys of the file (they must be left out) and says the home pose
+    is required; the 6-UPS header still describes them."""
+    text = preset(name).write(tmp_path / "g.toml").read_text()
+    header = text[: text.index("name = ")]
+    assert "# stroke:" not in header and "Optional: u_joint_limits" not in header
+    assert "No stroke nor u_joint_limits" in header and "home_pose (required)" in header
+    ups = preset("paper").write(tmp_path / "p.toml").read_text()
+    assert "# stroke: [min, max] leg length" in ups
+
+
 def test_explicit_ups_legs_equal_the_ideal_path():
     """The ideal 6-UPS with explicit ups() legs and zero joint terms goes through the
     general path and gives today's closed-form results."""
@@ -250,6 +263,9 @@ def test_computed_torque_tracks_on_rus():
     assert np.linalg.norm(e_p, axis=1).max() < 1e-6  # [m], of a 4 mm motion
     assert np.linalg.norm(e_r, axis=1).max() < 1e-5  # [rad], of a 0.05 rad motion
     np.testing.assert_allclose(result.lengths, robot.actuator_positions(result.poses))
+    # the stored "lengths" are the crank angles [rad] (home at -pi/2 .. pi/2), by their name
+    assert result.actuator_positions is result.lengths
+    assert np.abs(result.lengths).max() < np.pi / 2
 
 
 def test_simulation_stops_at_a_joint_limit():

@@ -118,8 +118,11 @@ class SimulationResult:
     Attributes:
         t: (K,) [s]; poses: (K, 4, 4) 0Tp; twists: (K, 6) ``[v, w]`` in F0;
         accels: (K, 6) classical ``[dv/dt, dw/dt]`` in F0; gammas: (K, 6) actuator forces
-        [N] (general legs: the actuated joints' efforts [N or N m]); lengths: (K, 6) leg
-        lengths [m] (general legs: the actuated joint values, ``actuator_positions``).
+        [N] (general legs: the actuated joints' efforts [N or N m]); lengths: (K, 6) the
+        actuated joint positions (``robot.actuator_positions``): leg lengths [m] for a
+        6-UPS robot, crank angles [rad] for RUS legs, slide positions [m] for PUS legs
+        (the name, and the CSV columns ``l1 .. l6``, are kept for compatibility; the
+        alias :attr:`actuator_positions` says what they are).
     """
 
     t: np.ndarray
@@ -129,13 +132,20 @@ class SimulationResult:
     gammas: np.ndarray
     lengths: np.ndarray
 
-    #: Columns of the CSV form (see :mod:`stewart_pin.formats.csv_tables`).
+    @property
+    def actuator_positions(self) -> np.ndarray:
+        """(K, 6) the actuated joint positions [m or rad]: :attr:`lengths` by its name."""
+        return self.lengths
+
+    #: Columns of the CSV form (see :mod:`stewart_pin.formats.csv_tables`); ``l1 .. l6``
+    #: hold :attr:`actuator_positions` (crank angles [rad] for RUS legs).
     CSV_COLUMNS = STATE_COLUMNS + FORCE_COLUMNS + LENGTH_COLUMNS
 
     def save(self, path: str | Path) -> Path:
         """Write ``.npz`` (arrays as named here) or ``.csv`` (:data:`CSV_COLUMNS`: time,
-        O_p position, quaternion of 0Rp (x, y, z, w), twist, classical acceleration, forces,
-        leg lengths; SI units)."""
+        O_p position, quaternion of 0Rp (x, y, z, w), twist, classical acceleration, forces
+        (actuated joint efforts), actuated joint positions ``l1 .. l6``: leg lengths for
+        6-UPS, crank angles [rad] for RUS, slide positions for PUS; SI units)."""
         path = Path(path)
         if path.suffix == ".npz":
             with atomic_open(path, "wb") as handle:
