@@ -552,3 +552,27 @@ def test_rod_along_the_second_u_axis_is_refused():
     leg = rus(crank=0.03, rod=0.1)
     with pytest.raises(ArchitectureError, match="rod not along its second U-joint axis"):
         leg.replace(tip=np.array([0.0, 0.0, 0.1]))
+
+
+def test_simulate_compiled_on_general_legs_is_refused_before_the_run(tmp_path, capsys):
+    """``simulate --backend compiled --preset rus`` refuses before the run starts (it used to
+    stop at t = 0 with 'forces raised'): one line, exit 2, no partial result file."""
+    from stewart_pin.motion.control import ComputedTorqueController
+    from stewart_pin.motion.simulation import simulate
+
+    out = tmp_path / "sim.npz"
+    capsys.readouterr()
+    code = main(
+        ["simulate", "--preset", "rus", "--backend", "compiled", "--quiet", "-o", str(out)]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "6-UPS-only" in err and "t = " not in err, err
+    assert not list(tmp_path.iterdir())  # nothing run, nothing saved
+    robot = StewartRobot.from_preset("rus")
+    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
+        simulate(robot, 0.1, backend="compiled")
+    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
+        ComputedTorqueController(
+            robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="compiled"
+        )

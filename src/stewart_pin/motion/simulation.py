@@ -67,6 +67,7 @@ from stewart_pin.formats.csv_tables import (
 )
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
+from stewart_pin.motion.control import check_backend
 from stewart_pin.protocols import RobotLike
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
@@ -390,7 +391,10 @@ def simulate(
 
     Raises:
         InputError: a duration, step, tolerance or period that is not finite and
-            positive, a step below :data:`MIN_STEP`, or more than :data:`MAX_STEPS` steps.
+            positive, a step below :data:`MIN_STEP`, or more than :data:`MAX_STEPS` steps;
+            an unknown backend.
+        UnsupportedArchitectureError: ``backend="compiled"`` for general legs (before the
+            run starts).
         SimulationError: the run stopped; ``.result`` holds the accepted states up to
             then and ``__cause__`` the named error. Stops: a leg reaching its stroke end or
             a U-joint its limit (located to :data:`LIMIT_TOLERANCE`), cond(Jp^-1) passing
@@ -411,6 +415,7 @@ def simulate(
         output_dt = check_scalar(output_dt, "output_dt", positive=True, unit="s")
     if method not in ("rk4", "adaptive"):
         raise InputError(f"unknown method '{method}': 'rk4' or 'adaptive'")
+    check_backend(robot, backend, "simulate")
     for fn, name in ((forces, "forces"), (progress, "progress")):
         if fn is not None and not callable(fn):
             raise InputError(f"{name} must be a function, got {type(fn).__name__}")
