@@ -576,3 +576,45 @@ def test_simulate_compiled_on_general_legs_is_refused_before_the_run(tmp_path, c
         ComputedTorqueController(
             robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="compiled"
         )
+
+
+def test_revolute_limits_are_compared_modulo_two_pi():
+    """The same RUS robot with its cranks' zero turned by -3.2 rad (theta1 - 3.2, limits
+    + 3.2: [1.63, 4.77] rad, past pi): the inverse geometry wraps to (-pi, pi], and used to
+    refuse the home pose; the crank angles are now the originals + 3.2 (in the limits) and
+    the dynamics are the original robot's (the same physical robot)."""
+    from dataclasses import replace as dc_replace
+
+    from stewart_pin.description.leg_architecture import wrap_into_limits
+
+    d = preset("rus")
+    shift = 3.2
+    legs = []
+    for leg in d.legs:
+        j1, j2, j3 = leg.joints
+        j1 = dc_replace(j1, theta=j1.theta - shift, lower=j1.lower + shift, upper=j1.upper + shift)
+        guess = np.asarray(leg.guess) + np.array([shift, 0.0, 0.0])
+        legs.append(leg.replace(joints=(j1, j2, j3), guess=guess))
+    original, turned = StewartRobot(d), StewartRobot(d.replace(legs=tuple(legs)))
+    P, V, A = original.sample_states(6, 2)
+    q0 = original.actuator_positions(P)
+    q = turned.actuator_positions(P)
+    assert q.max() > np.pi  # values the (-pi, pi] wrap used to refuse
+    np.testing.assert_allclose(q, q0 + shift, rtol=0, atol=1e-12)
+    G0 = original.inverse_dynamics(P, V, A)
+    np.testing.assert_allclose(
+        turned.inverse_dynamics(P, V, A), G0, rtol=0, atol=1e-9 * np.abs(G0).max()
+    )
+    # the rule itself: inside unchanged; outside, the representative in (or nearest) the limits
+    rev = np.ones((6, 3), bool)
+    lo, hi = np.full((6, 3), 3.0), np.full((6, 3), 3.4)
+    x = np.full((6, 3), -3.0)  # = 3.283 rad
+    np.testing.assert_allclose(wrap_into_limits(x, rev, lo, hi), x + 2 * np.pi)
+    x = np.full((6, 3), 0.5)  # 2.5 rad below the limits, 0.5 + 2 pi 3.38 above: kept
+    np.testing.assert_array_equal(wrap_into_limits(x, rev, lo, hi), x)
+    x = np.full((6, 3), -2.8)  # = 3.483: nearest the upper limit
+    np.testing.assert_allclose(wrap_into_limits(x, rev, lo, hi), x + 2 * np.pi)
+    assert np.array_equal(wrap_into_limits(x, ~rev, lo, hi), x)  # prismatic: unchanged
+    inf = np.full((6, 3), np.inf)
+    np.testing.assert_array_equal(wrap_into_limits(x, rev, -inf, inf), x)  # no limits
+    np.testing.assert_allclose(wrap_into_limits(x, rev, lo, inf), x + 2 * np.pi)  # lower only

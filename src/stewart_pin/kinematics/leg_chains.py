@@ -38,7 +38,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_array, check_pose, check_poses, check_states
 from stewart_pin._so3 import cross
 from stewart_pin.description.general_hexapod import GeneralHexapod
-from stewart_pin.description.leg_architecture import LegArchitecture
+from stewart_pin.description.leg_architecture import LegArchitecture, wrap_into_limits
 from stewart_pin.exceptions import (
     ConvergenceError,
     LegJointLimitError,
@@ -418,6 +418,9 @@ def inverse_geometry_batch(
     q = np.empty(P.shape)
     for k, leg in enumerate(robot.legs):
         q[:, k] = _inverse_leg(leg, P0i[:, k], k, None)
+    lim = np.array([leg.limits for leg in robot.legs])  # revolute values modulo 2 pi
+    rev = np.array([[j.revolute for j in leg.joints] for leg in robot.legs])
+    q = wrap_into_limits(q, rev, lim[..., 0], lim[..., 1])
     if check_limits:
         check_joint_limits(robot, q)
     return q
