@@ -107,6 +107,19 @@ def test_ideal_ups_file_unchanged(tmp_path):
     assert "[[legs]]" not in text and "legs:" not in text
 
 
+@pytest.mark.parametrize("name", ["rus", "pus", "ups-offset"])
+def test_general_file_header_fits_the_robot(name, tmp_path):
+    """The TOML header of a robot with general legs neither lists ``stroke`` nor
+    ``u_joint_limits`` as keys of the file (they must be left out) and says the home pose
+    is required; the 6-UPS header still describes them."""
+    text = preset(name).write(tmp_path / "g.toml").read_text()
+    header = text[: text.index("name = ")]
+    assert "# stroke:" not in header and "Optional: u_joint_limits" not in header
+    assert "No stroke nor u_joint_limits" in header and "home_pose (required)" in header
+    ups = preset("paper").write(tmp_path / "p.toml").read_text()
+    assert "# stroke: [min, max] leg length" in ups
+
+
 def test_explicit_ups_legs_equal_the_ideal_path():
     """The ideal 6-UPS with explicit ups() legs and zero joint terms goes through the
     general path and gives today's closed-form results."""
@@ -250,6 +263,9 @@ def test_computed_torque_tracks_on_rus():
     assert np.linalg.norm(e_p, axis=1).max() < 1e-6  # [m], of a 4 mm motion
     assert np.linalg.norm(e_r, axis=1).max() < 1e-5  # [rad], of a 0.05 rad motion
     np.testing.assert_allclose(result.lengths, robot.actuator_positions(result.poses))
+    # the stored "lengths" are the crank angles [rad] (home at -pi/2 .. pi/2), by their name
+    assert result.actuator_positions is result.lengths
+    assert np.abs(result.lengths).max() < np.pi / 2
 
 
 def test_simulation_stops_at_a_joint_limit():
@@ -257,9 +273,19 @@ def test_simulation_stops_at_a_joint_limit():
     from stewart_pin.motion.simulation import simulate
 
     robot = StewartRobot.from_preset("pus")  # slides on [0, 0.5] m, home at 0.25 m
-    with pytest.raises(SimulationError, match="limit") as info:
+    with pytest.raises(SimulationError, match="lower limit") as info:
         simulate(robot, 3.0, forces=lambda t, T, V: np.full(6, -2000.0), dt=5e-3)
-    assert info.value.result.t[-1] < 3.0
+    result = info.value.result
+    assert result.t[-1] < 3.0
+    # The limit is located: at the last state some slide is within 1e-4 m of its lower
+    # limit (0 m; measured 4.4e-7 m), none beyond it (the slides recomputed from the pose).
+    legs = robot.description.legs
+    lower = min(leg.joints[leg.actuated - 1].lower for leg in legs)
+    assert lower == 0.0
+    q = robot.actuator_positions(result.poses[-1])
+    assert q.min() >= lower
+    assert q.min() - lower <= 1e-4
+    np.testing.assert_allclose(result.lengths[-1], q, rtol=0, atol=1e-12)
 
 
 # ---------------------------------------------------------------------- refusals
@@ -478,3 +504,117 @@ def test_coulomb_friction_at_a_joint_at_rest_does_not_follow_round_off():
         _reference(robot), T[None], V[None], A[None], robot.inverse_geometry(T)[None]
     )[0]
     assert relative_error(gamma, ref) < TOL
+
+
+# ---------------------------------------------------------------------- one-line CLI errors
+BAD_TOML_LEGS = {
+    # a 1e300 crank: |c|^2 overflows in the closed form (was RuntimeWarnings, then an error)
+    "rus crank of 1e300 m": ("rus", "d = 0.03", "d = 1e300", "leg 1 inverse geometry q"),
+    # a rod along z3, the second U-joint axis: |tip_xy| sin(alpha3) == 0 (was a divide by
+    # zero warning, then a misleading 'cannot reach')
+    "rus rod along z3": (
+        "rus",
+        "tip = [0.1, 0.0, 0.0]",
+        "tip = [0.0, 0.0, 0.1]",
+        "a 'rus' leg needs a rod not along its second U-joint axis",
+    ),
+    "pus rod along z3": (
+        "pus",
+        "tip = [0.45, 0.0, 0.0]",
+        "tip = [0.0, 0.0, 0.45]",
+        "a 'pus' leg needs a rod not along its second U-joint axis",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", BAD_TOML_LEGS)
+def test_cli_bad_leg_is_one_line(case, tmp_path, capsys):
+    """Overflowing or degenerate legs: exactly one stderr line, exit 2, no RuntimeWarning."""
+    import warnings
+
+    name, old, new, message = BAD_TOML_LEGS[case]
+    path = preset(name).write(tmp_path / f"{name}.toml")
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    capsys.readouterr()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["validate", "--description", str(path), "--states", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "error:" in err and message in err, err
+    assert "Warning" not in err
+
+
+def test_rod_along_the_second_u_axis_is_refused():
+    from stewart_pin.description.leg_architecture import rus
+
+    leg = rus(crank=0.03, rod=0.1)
+    with pytest.raises(ArchitectureError, match="rod not along its second U-joint axis"):
+        leg.replace(tip=np.array([0.0, 0.0, 0.1]))
+
+
+def test_simulate_compiled_on_general_legs_is_refused_before_the_run(tmp_path, capsys):
+    """``simulate --backend compiled --preset rus`` refuses before the run starts (it used to
+    stop at t = 0 with 'forces raised'): one line, exit 2, no partial result file."""
+    from stewart_pin.motion.control import ComputedTorqueController
+    from stewart_pin.motion.simulation import simulate
+
+    out = tmp_path / "sim.npz"
+    capsys.readouterr()
+    code = main(
+        ["simulate", "--preset", "rus", "--backend", "compiled", "--quiet", "-o", str(out)]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "6-UPS-only" in err and "t = " not in err, err
+    assert not list(tmp_path.iterdir())  # nothing run, nothing saved
+    robot = StewartRobot.from_preset("rus")
+    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
+        simulate(robot, 0.1, backend="compiled")
+    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
+        ComputedTorqueController(
+            robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="compiled"
+        )
+
+
+def test_revolute_limits_are_compared_modulo_two_pi():
+    """The same RUS robot with its cranks' zero turned by -3.2 rad (theta1 - 3.2, limits
+    + 3.2: [1.63, 4.77] rad, past pi): the inverse geometry wraps to (-pi, pi], and used to
+    refuse the home pose; the crank angles are now the originals + 3.2 (in the limits) and
+    the dynamics are the original robot's (the same physical robot)."""
+    from dataclasses import replace as dc_replace
+
+    from stewart_pin.description.leg_architecture import wrap_into_limits
+
+    d = preset("rus")
+    shift = 3.2
+    legs = []
+    for leg in d.legs:
+        j1, j2, j3 = leg.joints
+        j1 = dc_replace(j1, theta=j1.theta - shift, lower=j1.lower + shift, upper=j1.upper + shift)
+        guess = np.asarray(leg.guess) + np.array([shift, 0.0, 0.0])
+        legs.append(leg.replace(joints=(j1, j2, j3), guess=guess))
+    original, turned = StewartRobot(d), StewartRobot(d.replace(legs=tuple(legs)))
+    P, V, A = original.sample_states(6, 2)
+    q0 = original.actuator_positions(P)
+    q = turned.actuator_positions(P)
+    assert q.max() > np.pi  # values the (-pi, pi] wrap used to refuse
+    np.testing.assert_allclose(q, q0 + shift, rtol=0, atol=1e-12)
+    G0 = original.inverse_dynamics(P, V, A)
+    np.testing.assert_allclose(
+        turned.inverse_dynamics(P, V, A), G0, rtol=0, atol=1e-9 * np.abs(G0).max()
+    )
+    # the rule itself: inside unchanged; outside, the representative in (or nearest) the limits
+    rev = np.ones((6, 3), bool)
+    lo, hi = np.full((6, 3), 3.0), np.full((6, 3), 3.4)
+    x = np.full((6, 3), -3.0)  # = 3.283 rad
+    np.testing.assert_allclose(wrap_into_limits(x, rev, lo, hi), x + 2 * np.pi)
+    x = np.full((6, 3), 0.5)  # 2.5 rad below the limits, 0.5 + 2 pi 3.38 above: kept
+    np.testing.assert_array_equal(wrap_into_limits(x, rev, lo, hi), x)
+    x = np.full((6, 3), -2.8)  # = 3.483: nearest the upper limit
+    np.testing.assert_allclose(wrap_into_limits(x, rev, lo, hi), x + 2 * np.pi)
+    assert np.array_equal(wrap_into_limits(x, ~rev, lo, hi), x)  # prismatic: unchanged
+    inf = np.full((6, 3), np.inf)
+    np.testing.assert_array_equal(wrap_into_limits(x, rev, -inf, inf), x)  # no limits
+    np.testing.assert_allclose(wrap_into_limits(x, rev, lo, inf), x + 2 * np.pi)  # lower only

@@ -382,7 +382,16 @@ def test_unreachable_limits_and_singularities():
 
 
 def test_reference_shares_no_algebra():
-    """The reference imports neither the closure layer nor the chain kinematics."""
+    """check/general_legs.py (the reference) imports nothing from ``stewart_pin.dynamics``
+    nor ``stewart_pin.kinematics``: it does not reuse the closure algebra (eqs. of the
+    paper), the leg Jacobians or the drift terms of the code under test.
+
+    It is *not* fully independent: the reference and the code build their leg models with
+    the same models/leg_chains.py helpers (MDH frames, inertias, joint dynamics), and the
+    leg joint positions it is given come from the code's inverse geometry. The fully
+    independent model is MuJoCo's, from the exported MJCF, in a KKT solve:
+    tests/test_general_export.py::test_mujoco_kkt_inverse_dynamics.
+    """
     import ast
     import inspect
 

@@ -5,8 +5,11 @@ sin q2 -> 0, from either side), a vanishing leg (q3 -> 0) and a parallel singula
 (det Jp^-1 -> 0). At every pose, the compiled backend and the reference (Pinocchio) path
 either both accept the state and agree to ``AGREE`` (IDM, DDM on the IDM's forces and on
 random forces), or both raise the same :class:`SingularityError`: never a silent
-disagreement. The sweeps straddle each threshold, so that the states just inside it are
-checked. Run this file as a script to print the worst disagreement of each sweep.
+disagreement. At every accepted state the compiled IDM and DDM also agree with the
+independent constrained tree (Pinocchio, check/constrained_dynamics.py) to
+``TREE_AGREE``. The sweeps straddle each threshold, so that the states just inside it are
+checked. Run this file as a script to print the worst disagreements of each sweep
+(backends / tree).
 
 The singularity measure is unit-free: a robot scaled by 1e-6, 1e-3 or 1e3 has the measure
 of the original at the corresponding pose, and is accepted.
@@ -14,12 +17,18 @@ of the original at the corresponding pose, and is accepted.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 import pytest
 from conftest import fresh_compile_cache
 
 from stewart_pin import StewartRobot
+from stewart_pin.check.constrained_dynamics import (
+    constrained_forward_dynamics,
+    constrained_inverse_dynamics,
+)
 from stewart_pin.codegen import CompiledDynamics
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.description.presets import preset
@@ -30,6 +39,11 @@ from stewart_pin.kinematics.workspace import sample_states
 
 ROBOTS = ("simulator", "desktop", "random-0", "random-1")
 AGREE = 1e-9  # relative, per state: max |compiled - reference| / max |reference|
+# The same, compiled vs Pinocchio's constrained tree (check/constrained_dynamics.py, none
+# of the paper's algebra): IDM and DDM on random forces. Measured worst over the accepted
+# states of every sweep (``python tests/test_singularities.py``): 1.5e-12 (parallel sweep
+# at 0.99 x max, random-0); the tree keeps its digits up to the thresholds.
+TREE_AGREE = 1e-9
 N_STATES = 8  # twists and accelerations per pose
 
 
@@ -64,9 +78,19 @@ def measure(desc, T: np.ndarray) -> float:
     return float(np.linalg.cond(np.hstack([a, np.cross(L, a) / platform_radius(desc)])))
 
 
-def check_pose(robot, backend, T, V, A, G_rand) -> float | SingularityError:
+@dataclass(frozen=True)
+class Agreed:
+    """An accepted pose: the worst relative disagreement of the compiled backend with the
+    reference path (``backends``) and with the constrained tree (``tree``)."""
+
+    backends: float
+    tree: float
+
+
+def check_pose(robot, backend, T, V, A, G_rand) -> Agreed | SingularityError:
     """Both backends at (T, V[k], A[k]): the worst relative disagreement over the IDM, the
-    DDM on the IDM's forces and the DDM on random forces, or the (common) error."""
+    DDM on the IDM's forces and the DDM on random forces, and that of the compiled IDM
+    and DDM (random forces) with the constrained tree; or the (common) error."""
     P = np.repeat(T[None], len(V), axis=0)
     try:
         G = robot.inverse_dynamics(P, V, A)
@@ -81,15 +105,26 @@ def check_pose(robot, backend, T, V, A, G_rand) -> float | SingularityError:
             assert str(e.value) == str(ref_error)
         return ref_error
     worst = 0.0
+    got_idm = backend.inverse_dynamics(P, V, A)
+    got_ddm = backend.direct_dynamics(P, V, G_rand)
     for ref, got in (
-        (G, backend.inverse_dynamics(P, V, A)),
+        (G, got_idm),
         (robot.direct_dynamics(P, V, G), backend.direct_dynamics(P, V, G)),
-        (robot.direct_dynamics(P, V, G_rand), backend.direct_dynamics(P, V, G_rand)),
+        (robot.direct_dynamics(P, V, G_rand), got_ddm),
     ):
         assert np.all(np.isfinite(got)) and np.all(np.isfinite(ref))
         err = np.abs(got - ref).max(axis=1) / np.abs(ref).max(axis=1)
         worst = max(worst, float(err.max()))
-    return worst
+    # The independent constrained tree (none of the paper's algebra): its IDM, and its DDM
+    # on the random forces, against the compiled backend's.
+    tree = 0.0
+    for ref, got in (
+        (constrained_inverse_dynamics(robot, P, V, A)[0], got_idm),
+        (constrained_forward_dynamics(robot, P, V, G_rand), got_ddm),
+    ):
+        err = np.abs(got - ref).max(axis=1) / np.abs(ref).max(axis=1)
+        tree = max(tree, float(err.max()))
+    return Agreed(worst, tree)
 
 
 def states(base, robot, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -158,8 +193,9 @@ def assert_agree_or_refuse(results, threshold: float, label: str, leg: int, mess
     refused = []
     for x, result in results:
         if x >= threshold:
-            assert isinstance(result, float), f"{label} = {x:g}: {result}"
-            assert result <= AGREE, f"{label} = {x:g}: backends differ by {result:.3g}"
+            assert isinstance(result, Agreed), f"{label} = {x:g}: {result}"
+            assert result.backends <= AGREE, f"{label} = {x:g}: backends differ by {result}"
+            assert result.tree <= TREE_AGREE, f"{label} = {x:g}: tree differs by {result}"
         else:
             assert isinstance(result, SingularityError), f"{label} = {x:g} accepted"
             assert result.leg == leg and message in str(result)
@@ -254,12 +290,13 @@ def test_backends_agree_or_refuse_towards_a_parallel_singularity(name):
     assert max(x for x, _ in sweep_) > 1e8  # it reaches the singularity itself
     for x, result in sweep_:
         if x <= 1.0:
-            assert isinstance(result, float), f"measure {x:g} x max: {result}"
-            assert result <= AGREE, f"measure {x:g} x max: backends differ by {result:.3g}"
+            assert isinstance(result, Agreed), f"measure {x:g} x max: {result}"
+            assert result.backends <= AGREE, f"measure {x:g} x max: backends differ: {result}"
+            assert result.tree <= TREE_AGREE, f"measure {x:g} x max: tree differs: {result}"
         else:
             assert isinstance(result, SingularityError), f"measure {x:g} x max accepted"
             assert result.leg is None and "parallel singularity" in str(result)
-    assert sum(isinstance(r, float) and x > 0.4 for x, r in sweep_) >= 2  # near the limit
+    assert sum(isinstance(r, Agreed) and x > 0.4 for x, r in sweep_) >= 2  # near the limit
 
 
 # ---------------------------------------------------------------------------- unit-free measure
@@ -351,7 +388,8 @@ if __name__ == "__main__":
                 lambda n=n: parallel_singularity_sweep(n, **kw.get("parallel", {})),
             ),
         ):
-            rows = [(x, r) for x, r in run() if isinstance(r, float)]
-            worst = max(r for _, r in rows)
-            cells = "  ".join(f"{x:.3g}: {r:.1e}" for x, r in rows)
-            print(f"{n:10s} {label:27s} worst {worst:.1e} | {cells}", flush=True)
+            rows = [(x, r) for x, r in run() if isinstance(r, Agreed)]
+            worst = max(r.backends for _, r in rows)
+            tree = max(r.tree for _, r in rows)
+            cells = "  ".join(f"{x:.3g}: {r.backends:.1e}/{r.tree:.1e}" for x, r in rows)
+            print(f"{n:10s} {label:27s} worst {worst:.1e} tree {tree:.1e} | {cells}", flush=True)

@@ -56,7 +56,11 @@ def _save_partial(error: SimulationError, out: Path) -> SimulationError:
 
 def _simulate(args: argparse.Namespace) -> int:
     from stewart_pin.dynamics.regressor import standard_parameters, with_standard_parameters
-    from stewart_pin.motion.control import ComputedTorqueController, tracking_errors
+    from stewart_pin.motion.control import (
+        ComputedTorqueController,
+        check_backend,
+        tracking_errors,
+    )
     from stewart_pin.motion.simulation import simulate
     from stewart_pin.motion.trajectories import standard_motion
 
@@ -66,6 +70,7 @@ def _simulate(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     if args.backend is None:
         args.backend = "compiled" if robot.is_ideal_ups else "pinocchio"
+    check_backend(robot, args.backend, "simulate")  # before the run starts, one line
     if args.motion == "free":
         forces, motion, duration = None, None, args.duration
         start: tuple[np.ndarray | None, np.ndarray | None] = (None, None)

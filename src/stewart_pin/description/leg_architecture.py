@@ -72,6 +72,34 @@ def coulomb_sign(qdot: np.ndarray) -> np.ndarray:
 STRUCTURE_TOLERANCE = 1e-12
 
 
+def wrap_into_limits(
+    q: np.ndarray, revolute: np.ndarray, lower: np.ndarray, upper: np.ndarray
+) -> np.ndarray:
+    """Revolute joint values taken modulo 2 pi into their limits.
+
+    A revolute joint value ``q`` [rad] outside ``[lower, upper]`` is replaced by its
+    representative ``q + 2 pi k`` inside the interval when one exists (the smallest one
+    above ``lower``; with ``lower = -inf``, the largest below ``upper``), else by the
+    representative nearest the interval (so that a refusal names the nearest limit).
+    Values inside their limits, prismatic joints and joints without limits are unchanged.
+
+    Args:
+        q: joint values, shape (..., 6, 3) [rad or m].
+        revolute: bool, shape (6, 3). lower, upper: limits, shape (6, 3) [rad or m].
+
+    Returns:
+        the values, shape of ``q``.
+    """
+    two_pi = 2.0 * math.pi
+    with np.errstate(invalid="ignore"):  # inf - inf for joints without limits: not used
+        above_lower = lower + np.mod(q - lower, two_pi)
+        rep = np.where(np.isfinite(lower), above_lower, upper - np.mod(upper - q, two_pi))
+        below = rep - two_pi
+        rep = np.where((rep > upper) & (lower - below < rep - upper), below, rep)
+    change = revolute & np.isfinite(rep) & ((q < lower) | (q > upper))
+    return np.where(change, rep, q)
+
+
 def _is_real(value: Any) -> bool:
     """A real number (Python or numpy), not a boolean."""
     return not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
@@ -225,7 +253,10 @@ class Joint:
         kind: ``"revolute"`` or ``"prismatic"``.
         alpha, d, theta, r: ``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` [rad, m, rad, m]; the
             joint value adds to ``theta`` (revolute) or ``r`` (prismatic).
-        lower, upper: limits of the joint value [rad or m] (infinite: none).
+        lower, upper: limits of the joint value [rad or m] (infinite: none). A revolute
+            joint's value is an angle, compared with its limits modulo 2 pi (see
+            :func:`wrap_into_limits`): limits such as ``[3.0, 3.4]`` rad, outside the
+            inverse geometry's ``(-pi, pi]``, are allowed.
         dynamics: the joint's :class:`JointDynamics`.
     """
 
@@ -392,6 +423,11 @@ class LegArchitecture:
             need(j3.d == 0.0 and j3.r == 0.0, "intersecting U-joint axes (d3 = r3 = 0)")
             need(abs(math.sin(j3.alpha)) > 1e-6, "non-parallel U-joint axes (sin alpha3 != 0)")
             need(bool(np.linalg.norm(self.tip) > 0.0), "a rod of non-zero length (tip != 0)")
+            # a rod along the second U-joint axis (z3) is not pointed by that joint
+            need(
+                math.hypot(self.tip[0], self.tip[1]) > 1e-6 * float(np.linalg.norm(self.tip)),
+                "a rod not along its second U-joint axis (tip_x, tip_y not both 0)",
+            )
 
     # ------------------------------------------------------------------ derived
     @property

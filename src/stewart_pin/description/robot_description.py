@@ -318,7 +318,7 @@ class RobotDescription:
             write_text_atomic(path, json.dumps(d, indent=2) + "\n")
         elif suffix == ".toml":
             legs = d.pop("legs", None)
-            text = FILE_HEADER + _toml(d)
+            text = (FILE_HEADER if legs is None else GENERAL_FILE_HEADER) + _toml(d)
             if legs is not None:
                 text += LEGS_HEADER + legs_toml(legs)
             write_text_atomic(path, text)
@@ -487,6 +487,20 @@ FILE_HEADER = """\
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. Optional: u_joint_limits [[q1min, q1max], [q2min, q2max]] (rad),
 #   home_pose: 0Tp (4 x 4), the workspace centre.
+"""
+
+#: The header of a robot with general legs: no stroke, no U-joint limits (the joint limits
+#: live in the legs), a required home pose.
+GENERAL_FILE_HEADER = """\
+# stewart-pin robot description, general legs (SI units: m, kg, kg m^2, m/s^2; rad).
+# base_points: B_i, origin of leg frame 0i, in F0 (6 x 3). platform_points: P_i in Fp
+#   (6 x 3). leg_base_rotations: orientation in F0 of leg frame 0i (6 x 3 x 3), from which
+#   joint 1's MDH transform starts.
+# leg_inertia: 6 legs x 3 links x 10 standard parameters, Khalil's order
+#   XX XY XZ YY YZ ZZ MX MY MZ M, in each link's MDH frame about its origin.
+# platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
+# gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose, the workspace
+#   centre. No stroke nor u_joint_limits: each joint's limits are in [[legs.joints]].
 """
 
 LEGS_HEADER = """

@@ -38,11 +38,12 @@ import numpy as np
 from stewart_pin._checks import check_array, check_pose, check_poses, check_states
 from stewart_pin._so3 import cross
 from stewart_pin.description.general_hexapod import GeneralHexapod
-from stewart_pin.description.leg_architecture import LegArchitecture
+from stewart_pin.description.leg_architecture import LegArchitecture, wrap_into_limits
 from stewart_pin.exceptions import (
     ConvergenceError,
     LegJointLimitError,
     LegReachError,
+    NumericalError,
     SingularityError,
 )
 from stewart_pin.kinematics._se3_newton import newton_se3
@@ -284,11 +285,24 @@ def _inverse_leg(
     """Closed form (named legs) or Newton (custom) for one leg: P0i (N, 3) -> q (N, 3)."""
     n = P0i.shape[0]
     q = np.empty((n, 3))
-    j1, j2, _ = leg.joints
-    b = leg.branch
     if leg.name == "custom":
         start = np.broadcast_to(leg.guess if guess is None else guess, (n, 3))
         return solve_leg(leg, np.eye(4), P0i, start, leg_index=k)
+    try:  # an overflow (e.g. a length of 1e300) is a named error, never a RuntimeWarning
+        with np.errstate(over="raise", divide="raise", invalid="raise"):
+            q = _closed_form(leg, P0i, k, q)
+    except FloatingPointError:
+        raise NumericalError(f"leg {k + 1} inverse geometry q", None) from None
+    if not np.all(np.isfinite(q)):
+        bad = ~np.all(np.isfinite(q), axis=1)
+        raise NumericalError(f"leg {k + 1} inverse geometry q", int(np.argmax(bad)))
+    return q
+
+
+def _closed_form(leg: LegArchitecture, P0i: np.ndarray, k: int, q: np.ndarray) -> np.ndarray:
+    """The closed forms of the named legs, filling ``q`` (N, 3)."""
+    j1, j2, _ = leg.joints
+    b = leg.branch
     p = _pre_joint1(leg, P0i)
     if leg.name in ("ups", "ups-offset"):
         p = p - np.array([0.0, 0.0, j1.r])
@@ -307,8 +321,9 @@ def _inverse_leg(
         B = p[:, 1] * c[0] - p[:, 0] * c[1]
         K = 0.5 * (np.einsum("ni,ni->n", p, p) + c @ c - ell2) - p[:, 2] * c[2]
         R = np.hypot(A, B)
-        ratio = np.abs(K) / np.where(R > 0, R, np.finfo(float).tiny)
-        if np.any(ratio > 1.0):
+        if np.any(np.abs(K) > R):
+            with np.errstate(divide="ignore", over="ignore"):  # |K| / 0 = inf: unreachable
+                ratio = np.where(np.abs(K) > R, np.abs(K) / R, 0.0)
             raise _reach_error(k, ratio, "the crank equation has no solution (|cos| > 1)")
         phi = np.arctan2(B, A) - b * np.arccos(K / R)
         q[:, 0] = _wrap(phi - j1.theta)
@@ -404,6 +419,9 @@ def inverse_geometry_batch(
     q = np.empty(P.shape)
     for k, leg in enumerate(robot.legs):
         q[:, k] = _inverse_leg(leg, P0i[:, k], k, None)
+    lim = np.array([leg.limits for leg in robot.legs])  # revolute values modulo 2 pi
+    rev = np.array([[j.revolute for j in leg.joints] for leg in robot.legs])
+    q = wrap_into_limits(q, rev, lim[..., 0], lim[..., 1])
     if check_limits:
         check_joint_limits(robot, q)
     return q

@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_poses
 from stewart_pin._so3 import so3_log
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
 from stewart_pin.protocols import RobotLike
 
 Reference = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -32,6 +32,25 @@ Reference = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
 def pose_error(T_ref: np.ndarray, T: np.ndarray) -> np.ndarray:
     """``[p_ref - p, log(R_ref R^T)]`` (6,) [m, rad], the rotation error in F0."""
     return np.concatenate([T_ref[:3, 3] - T[:3, 3], pin.log3(T_ref[:3, :3] @ T[:3, :3].T)])
+
+
+BACKENDS = ("pinocchio", "compiled")
+
+
+def check_backend(robot: RobotLike, backend: str, what: str) -> None:
+    """Refuse, before anything runs, a backend the robot cannot use: an unknown name
+    (:class:`InputError`), or ``"compiled"`` for a robot with general legs (the generated
+    C is 6-UPS-only for now: :class:`UnsupportedArchitectureError`)."""
+    if backend not in BACKENDS:
+        raise InputError(f"{what}: unknown backend {backend!r}: 'pinocchio' or 'compiled'")
+    desc = robot.description
+    if backend == "compiled" and not desc.is_ideal_ups:
+        raise UnsupportedArchitectureError(
+            f"{what} with backend 'compiled' is 6-UPS-only for now: robot '{desc.name}' has "
+            f"{desc.architecture} legs; use backend 'pinocchio'",
+            f"{what} backend 'compiled'",
+            desc.architecture,
+        )
 
 
 @dataclass
@@ -54,6 +73,7 @@ class ComputedTorqueController:
     backend: str = "pinocchio"
 
     def __post_init__(self) -> None:
+        check_backend(self.model, self.backend, "the computed-torque controller")
         self.kp = check_array(np.broadcast_to(self.kp, (6,)), (6,), "kp")
         self.kd = check_array(np.broadcast_to(self.kd, (6,)), (6,), "kd")
 

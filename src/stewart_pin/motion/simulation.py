@@ -67,6 +67,7 @@ from stewart_pin.formats.csv_tables import (
 )
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
+from stewart_pin.motion.control import check_backend
 from stewart_pin.protocols import RobotLike
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
@@ -118,8 +119,11 @@ class SimulationResult:
     Attributes:
         t: (K,) [s]; poses: (K, 4, 4) 0Tp; twists: (K, 6) ``[v, w]`` in F0;
         accels: (K, 6) classical ``[dv/dt, dw/dt]`` in F0; gammas: (K, 6) actuator forces
-        [N] (general legs: the actuated joints' efforts [N or N m]); lengths: (K, 6) leg
-        lengths [m] (general legs: the actuated joint values, ``actuator_positions``).
+        [N] (general legs: the actuated joints' efforts [N or N m]); lengths: (K, 6) the
+        actuated joint positions (``robot.actuator_positions``): leg lengths [m] for a
+        6-UPS robot, crank angles [rad] for RUS legs, slide positions [m] for PUS legs
+        (the name, and the CSV columns ``l1 .. l6``, are kept for compatibility; the
+        alias :attr:`actuator_positions` says what they are).
     """
 
     t: np.ndarray
@@ -129,13 +133,20 @@ class SimulationResult:
     gammas: np.ndarray
     lengths: np.ndarray
 
-    #: Columns of the CSV form (see :mod:`stewart_pin.formats.csv_tables`).
+    @property
+    def actuator_positions(self) -> np.ndarray:
+        """(K, 6) the actuated joint positions [m or rad]: :attr:`lengths` by its name."""
+        return self.lengths
+
+    #: Columns of the CSV form (see :mod:`stewart_pin.formats.csv_tables`); ``l1 .. l6``
+    #: hold :attr:`actuator_positions` (crank angles [rad] for RUS legs).
     CSV_COLUMNS = STATE_COLUMNS + FORCE_COLUMNS + LENGTH_COLUMNS
 
     def save(self, path: str | Path) -> Path:
         """Write ``.npz`` (arrays as named here) or ``.csv`` (:data:`CSV_COLUMNS`: time,
-        O_p position, quaternion of 0Rp (x, y, z, w), twist, classical acceleration, forces,
-        leg lengths; SI units)."""
+        O_p position, quaternion of 0Rp (x, y, z, w), twist, classical acceleration, forces
+        (actuated joint efforts), actuated joint positions ``l1 .. l6``: leg lengths for
+        6-UPS, crank angles [rad] for RUS, slide positions for PUS; SI units)."""
         path = Path(path)
         if path.suffix == ".npz":
             with atomic_open(path, "wb") as handle:
@@ -380,7 +391,10 @@ def simulate(
 
     Raises:
         InputError: a duration, step, tolerance or period that is not finite and
-            positive, a step below :data:`MIN_STEP`, or more than :data:`MAX_STEPS` steps.
+            positive, a step below :data:`MIN_STEP`, or more than :data:`MAX_STEPS` steps;
+            an unknown backend.
+        UnsupportedArchitectureError: ``backend="compiled"`` for general legs (before the
+            run starts).
         SimulationError: the run stopped; ``.result`` holds the accepted states up to
             then and ``__cause__`` the named error. Stops: a leg reaching its stroke end or
             a U-joint its limit (located to :data:`LIMIT_TOLERANCE`), cond(Jp^-1) passing
@@ -401,6 +415,7 @@ def simulate(
         output_dt = check_scalar(output_dt, "output_dt", positive=True, unit="s")
     if method not in ("rk4", "adaptive"):
         raise InputError(f"unknown method '{method}': 'rk4' or 'adaptive'")
+    check_backend(robot, backend, "simulate")
     for fn, name in ((forces, "forces"), (progress, "progress")):
         if fn is not None and not callable(fn):
             raise InputError(f"{name} must be a function, got {type(fn).__name__}")
