@@ -13,7 +13,8 @@ temporary file in the folder, renamed into place). The columns:
   F0 [m/s, rad/s]; ``ax ay az alphax alphay alphaz``, the classical acceleration in F0
   [m/s^2, rad/s^2];
 - :data:`FORCE_COLUMNS`: ``gamma1 .. gamma6``, the actuator forces [N];
-- :data:`LENGTH_COLUMNS`: ``l1 .. l6``, the leg lengths [m].
+- :data:`LENGTH_COLUMNS`: ``l1 .. l6``, the actuated joint positions: leg lengths [m] for
+  6-UPS, crank angles [rad] for 6-RUS, slide positions [m] for 6-PUS.
 """
 
 from __future__ import annotations
