@@ -66,25 +66,36 @@ def test_rendered_xml_equals_writer_output(rendered):
     assert canonical(ET.fromstring(text)) == canonical(ET.fromstring(urdf_string(desc)))
 
 
-def test_pinocchio_models_agree(rendered):
-    desc, _, text = rendered
-    a, b = pin.buildModelFromXML(text), pin.buildModelFromXML(urdf_string(desc))
-    assert a.name == b.name == desc.name
+def assert_models_agree(a: pin.Model, b: pin.Model, name: str, fields: tuple[str, ...]) -> None:
+    """Two Pinocchio models of the same robot, joint by joint, to 1e-12: names, joint
+    types, parents, placements, inertias, and the per-joint ``fields`` (limits, damping)."""
+    assert a.name == b.name == name
     assert list(a.names) == list(b.names)
     assert (a.nq, a.nv, a.njoints) == (b.nq, b.nv, b.njoints) == (25, 24, 20)
     for j in range(1, a.njoints):
-        name = a.names[j]
-        assert a.joints[j].shortname() == b.joints[j].shortname(), name
-        assert a.parents[j] == b.parents[j], name
+        joint = a.names[j]
+        assert a.joints[j].shortname() == b.joints[j].shortname(), joint
+        assert a.parents[j] == b.parents[j], joint
         assert np.allclose(
             a.jointPlacements[j].homogeneous, b.jointPlacements[j].homogeneous, rtol=0, atol=1e-12
-        ), name
+        ), joint
         Ia, Ib = a.inertias[j], b.inertias[j]
-        assert Ia.mass == pytest.approx(Ib.mass, rel=1e-12, abs=0.0), name
-        assert np.allclose(Ia.lever, Ib.lever, rtol=0, atol=1e-12), name
-        assert np.allclose(Ia.inertia, Ib.inertia, rtol=1e-12, atol=1e-15), name
-    for limit in ("lowerPositionLimit", "upperPositionLimit", "effortLimit", "velocityLimit"):
-        assert np.allclose(getattr(a, limit), getattr(b, limit), rtol=1e-12, atol=0), limit
+        assert Ia.mass == pytest.approx(Ib.mass, rel=1e-12, abs=0.0), joint
+        assert np.allclose(Ia.lever, Ib.lever, rtol=0, atol=1e-12), joint
+        assert np.allclose(Ia.inertia, Ib.inertia, rtol=1e-12, atol=1e-15), joint
+    for field in fields:
+        assert np.allclose(getattr(a, field), getattr(b, field), rtol=1e-12, atol=0), field
+
+
+def test_pinocchio_models_agree(rendered):
+    desc, _, text = rendered
+    a, b = pin.buildModelFromXML(text), pin.buildModelFromXML(urdf_string(desc))
+    assert_models_agree(
+        a,
+        b,
+        desc.name,
+        ("lowerPositionLimit", "upperPositionLimit", "effortLimit", "velocityLimit"),
+    )
     assert [f.name for f in a.frames] == [f.name for f in b.frames]
 
 
@@ -191,22 +202,9 @@ def test_general_pinocchio_models_agree(rendered_general):
 
     desc, _, text = rendered_general
     a, b = pin.buildModelFromXML(text), pin.buildModelFromXML(general_urdf_string(desc))
-    assert a.name == b.name == desc.name
-    assert list(a.names) == list(b.names)
-    assert (a.nq, a.nv, a.njoints) == (b.nq, b.nv, b.njoints) == (25, 24, 20)
-    for j in range(1, a.njoints):
-        name = a.names[j]
-        assert a.joints[j].shortname() == b.joints[j].shortname(), name
-        assert a.parents[j] == b.parents[j], name
-        assert np.allclose(
-            a.jointPlacements[j].homogeneous, b.jointPlacements[j].homogeneous, rtol=0, atol=1e-12
-        ), name
-        Ia, Ib = a.inertias[j], b.inertias[j]
-        assert Ia.mass == pytest.approx(Ib.mass, rel=1e-12, abs=0.0), name
-        assert np.allclose(Ia.lever, Ib.lever, rtol=0, atol=1e-12), name
-        assert np.allclose(Ia.inertia, Ib.inertia, rtol=1e-12, atol=1e-15), name
-    for field in ("lowerPositionLimit", "upperPositionLimit", "damping", "friction"):
-        assert np.allclose(getattr(a, field), getattr(b, field), rtol=1e-12, atol=0), field
+    assert_models_agree(
+        a, b, desc.name, ("lowerPositionLimit", "upperPositionLimit", "damping", "friction")
+    )
 
 
 def test_general_inertials_are_the_descriptions(rendered_general):
