@@ -5,6 +5,8 @@ loop-closure Jacobians), compared with the paper's models.
 Shares no algebra with :mod:`stewart_pin.dynamics`, :mod:`stewart_pin.codegen` or the
 Jacobians of :mod:`stewart_pin.kinematics`: a check that reused the code it checks would
 prove nothing (the layering contract in ``pyproject.toml`` enforces it).
+:mod:`.general_legs` is the same check for general legs: the constrained tree with the
+armatures and the joint torques (friction, springs, dampers).
 """
 
 from .constrained_dynamics import (

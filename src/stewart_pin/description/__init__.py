@@ -10,8 +10,16 @@ Khalil's, Pinocchio's and URDF's conventions and checks them for physical consis
 Nothing here knows Pinocchio models, kinematics or dynamics: every other room reads a
 description.
 
+A leg is any chain of three 1-dof joints ending in a spherical joint on the platform:
+:mod:`.leg_architecture` holds the joints (modified-DH placement, limits, armature,
+friction, springs, transmissions), the legs and their builders (``ups``, ``ups_offset``,
+``rus``, ``pus``); ``RobotDescription.legs`` is ``None`` for the paper's ideal 6-UPS.
+
 Modules: :mod:`.robot_description` (``RobotDescription``, the file format),
-:mod:`.inertia`, :mod:`.presets`.
+:mod:`.leg_architecture`, :mod:`.leg_io` (the ``[[legs]]`` file section), :mod:`.inertia`,
+:mod:`.presets` (6-UPS presets, and the names of the general ones),
+:mod:`.general_presets` (``ups-offset``, ``rus``, ``pus``, random general robots),
+:mod:`.general_hexapod` (the resolved view of a robot's legs).
 """
 
 from .inertia import KHALIL_NAMES, check_physical, inertia_tensor, random_physical_khalil

@@ -4,7 +4,8 @@
 :mod:`.closed_loop` is the paper's projection: leg forces to the platform (eq. 20-23),
 the platform's Newton-Euler (eq. 24), the inverse model Gamma = Jp^T (F_p + F_leg) and
 the direct model with A_robot, h_robot (eq. 36-38); :mod:`.regressor` gives the 6 x 190
-regressor W with Gamma = W chi.
+regressor W with Gamma = W chi. :mod:`.general_legs` gives any three-joint leg's H_i with
+its joint terms (armature, friction, springs, dampers) to the same closure kernel.
 
 Stands on :mod:`stewart_pin.kinematics` and :mod:`stewart_pin.models`; knows no
 simulator, screen or command line.

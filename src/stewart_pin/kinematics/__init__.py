@@ -5,6 +5,9 @@ pose 0Tp, with the stroke and joint-limit checks); :mod:`.forward_geometry` the 
 geometry (Newton on SE(3) from the actuator lengths, using the Jacobian); :mod:`.jacobians`
 the first and second order: Jp^-1 (eq. 13), each leg's J_3i and its drift, the unit-free
 singularity measure and its check; :mod:`.workspace` samples reachable poses and states.
+:mod:`.leg_chains` is the same for any three-joint leg (closed-form inverse geometry of
+the named legs, a Newton solver for others, J_i, Jp^-1 rows ``e_ai^T J_i^-1 G_i``, serial
+and parallel singularities); one private SE(3) Newton serves both forward geometries.
 
 Reads a :class:`~stewart_pin.description.RobotDescription`; knows no Pinocchio model
 and no dynamics.

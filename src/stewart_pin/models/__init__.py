@@ -3,7 +3,8 @@ six 3D loop closures (``RigidConstraintModel``), each 3-dof leg, and the 18-dof 
 the six legs used by the leg dynamics.
 
 Both the dynamics (each leg's H_i, A_i, h_i) and the independent check (the constrained
-tree) stand on these models.
+tree) stand on these models. :mod:`.leg_chains` builds the same for general legs with the
+Pinocchio API (each chain, the 18-dof set, the tree with ``model.armature``).
 """
 
 from .pinocchio_models import (
