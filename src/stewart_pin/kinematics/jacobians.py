@@ -119,7 +119,12 @@ def _leg_drift(f: LegFrames, q: JointValues, qd: JointValues) -> FloatArray:
 
 def inverse_jacobian_batch(desc: RobotDescription, poses: Poses) -> FloatArray:
     """``Jp^-1`` (eq. 13) for validated poses (N, 4, 4): rows ``[a_i^T, (L_i x a_i)^T]``."""
-    d, L = leg_vectors(desc, poses)
+    return inverse_jacobian_from_vectors(*leg_vectors(desc, poses))
+
+
+def inverse_jacobian_from_vectors(d: FloatArray, L: FloatArray) -> FloatArray:
+    """``Jp^-1`` (N, 6, 6) from the leg vectors ``B_i P_i`` and ``L_i`` (N, 6, 3) of
+    :func:`~stewart_pin.kinematics.geometry.leg_vectors` (eq. 13)."""
     a = d / np.linalg.norm(d, axis=-1, keepdims=True)
     return np.concatenate([a, cross(L, a)], axis=-1)
 
@@ -183,6 +188,32 @@ def check_condition(J_inv: FloatArray, max_condition: float, desc: RobotDescript
     return c
 
 
+def check_singularity(J_inv: FloatArray, max_condition: float, desc: RobotDescription) -> None:
+    """The decision of :func:`check_condition` (raise :class:`SingularityError` where the
+    singularity measure of ``J_inv`` (N, 6, 6) exceeds ``max_condition``), mostly without
+    its SVD.
+
+    With ``S`` the scaled Jp^-1 (:func:`scaled_inverse_jacobian`), the measure is
+    ``cond_2(S) = ||S||_2 ||S^-1||_2 <= ||S||_F ||S^-1||_F``: when that cheap bound (one
+    LU inverse per state) is at most ``max_condition`` at every state, every state is
+    accepted, as the exact measure would; otherwise (a bound above the threshold, a
+    singular or non-finite ``S``) :func:`check_condition` computes the exact SVD measure
+    of the whole batch and decides. The accept/refuse decision, and the error raised,
+    are therefore those of :func:`check_condition`; the bound is at most ``sqrt(6)`` times
+    the measure, so it only falls back within that factor of the threshold.
+    """
+    S = scaled_inverse_jacobian(J_inv, characteristic_length(desc))
+    try:
+        with np.errstate(all="ignore"):
+            S_inv = np.linalg.inv(S)
+            bound = np.sqrt(np.einsum("nij,nij->n", S, S) * np.einsum("nij,nij->n", S_inv, S_inv))
+        if bool(np.all(bound <= max_condition)):
+            return
+    except np.linalg.LinAlgError:
+        pass
+    check_condition(J_inv, max_condition, desc)
+
+
 def jacobian(
     desc: RobotDescription, pose: ArrayLike, max_condition: float = MAX_CONDITION
 ) -> FloatArray:
@@ -218,14 +249,18 @@ def leg_state(
     twists: Twists,
     accels: Accels | None = None,
     check_limits: bool = True,
+    vectors: tuple[FloatArray, FloatArray] | None = None,
 ) -> LegState:
     """First and second order inverse kinematics of the legs (eq. 14-19), validated inputs.
+
+    ``vectors``: the poses' ``(B_i P_i, L_i)`` when the caller has them already
+    (:func:`~stewart_pin.kinematics.geometry.leg_vectors`), so that they are computed once.
 
     ``qdot_i = J_3i^-1 (v + w x L_i)``;
     ``qddot_i = J_3i^-1 (vdot + wdot x L_i + w x (w x L_i) - Jdot_3i qdot_i)``.
     """
-    q = inverse_geometry_batch(desc, poses, check_limits)
-    _, L = leg_vectors(desc, poses)
+    d, L = leg_vectors(desc, poses) if vectors is None else vectors
+    q = inverse_geometry_batch(desc, poses, check_limits, vectors=d)
     f = leg_frames(desc, q)
     J_inv = _leg_inverse_jacobians(f, q)
     v, w = twists[:, None, :3], twists[:, None, 3:]
