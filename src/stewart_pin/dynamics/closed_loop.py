@@ -109,13 +109,9 @@ def platform_terms(desc: RobotDescription, poses: Poses, twists: Twists) -> Plat
     Ip[:, 3:, :3] = S
     Ip[:, 3:, 3:] = I0
     w, g = twists[:, 3:], desc.gravity
-    bias = np.concatenate(
-        [
-            cross(w, cross(w, MS)) - mass * g,
-            cross(w, np.einsum("nij,nj->ni", I0, w)) - cross(MS, g),
-        ],
-        axis=-1,
-    )
+    bias = np.empty((R.shape[0], 6))
+    bias[:, :3] = cross(w, cross(w, MS)) - mass * g
+    bias[:, 3:] = cross(w, np.einsum("nij,nj->ni", I0, w)) - cross(MS, g)
     return PlatformTerms(Ip, bias)
 
 
@@ -293,7 +289,7 @@ def inverse_dynamics(
     geometry, the leg kinematics and Jp^-1."""
     vectors = leg_vectors(desc, poses)
     legs = leg_state(desc, poses, twists, accels, vectors=vectors)
-    J_inv = inverse_jacobian_from_vectors(*vectors)
+    J_inv = inverse_jacobian_from_vectors(*vectors, lengths=legs.q[..., 2])
     check_singularity(J_inv, max_condition, desc)
     assert legs.qddot is not None  # accels given
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
@@ -332,7 +328,7 @@ def cartesian_dynamics(
     singularity decided as in :func:`inverse_dynamics`."""
     vectors = leg_vectors(desc, poses)
     legs = leg_state(desc, poses, twists, vectors=vectors)
-    J_inv = inverse_jacobian_from_vectors(*vectors)
+    J_inv = inverse_jacobian_from_vectors(*vectors, lengths=legs.q[..., 2])
     check_singularity(J_inv, max_condition, desc)
     A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
     plat = platform_terms(desc, poses, twists)

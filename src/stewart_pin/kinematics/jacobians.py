@@ -119,10 +119,14 @@ def inverse_jacobian_batch(desc: RobotDescription, poses: Poses) -> FloatArray:
     return inverse_jacobian_from_vectors(*leg_vectors(desc, poses))
 
 
-def inverse_jacobian_from_vectors(d: FloatArray, L: FloatArray) -> FloatArray:
+def inverse_jacobian_from_vectors(
+    d: FloatArray, L: FloatArray, lengths: FloatArray | None = None
+) -> FloatArray:
     """``Jp^-1`` (N, 6, 6) from the leg vectors ``B_i P_i`` and ``L_i`` (N, 6, 3) of
-    :func:`~stewart_pin.kinematics.geometry.leg_vectors` (eq. 13)."""
-    a = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    :func:`~stewart_pin.kinematics.geometry.leg_vectors` (eq. 13); ``lengths`` (N, 6), when
+    given, must be ``|B_i P_i|`` as the inverse geometry computed them (``q3i``)."""
+    norm = np.linalg.norm(d, axis=-1) if lengths is None else lengths
+    a = d / norm[..., None]
     return np.concatenate([a, cross(L, a)], axis=-1)
 
 
@@ -261,13 +265,14 @@ def leg_state(
     f = leg_frames(desc, q)
     J_inv = _leg_inverse_jacobians(f, q)
     v, w = twists[:, None, :3], twists[:, None, 3:]
-    V_P = v + cross(w, L)
+    w_L = cross(w, L)
+    V_P = v + w_L
     qdot = np.einsum("nkij,nkj->nki", J_inv, V_P)
     drift = _leg_drift(f, q, qdot)
     qddot = None
     if accels is not None:
         vd, wd = accels[:, None, :3], accels[:, None, 3:]
-        Vdot_P = vd + cross(wd, L) + cross(w, cross(w, L))
+        Vdot_P = vd + cross(wd, L) + cross(w, w_L)
         qddot = np.einsum("nkij,nkj->nki", J_inv, Vdot_P - drift)
     return LegState(q, qdot, qddot, f, J_inv, drift, L)
 
