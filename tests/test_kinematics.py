@@ -317,3 +317,28 @@ def test_leg_kinematics_input_errors(desktop):
         desktop.leg_kinematics(T, np.zeros((2, 6)))
     with pytest.raises(InputError, match="accel has 1 states but pose has 3"):
         desktop.leg_kinematics(np.stack([T] * 3), np.zeros((3, 6)), np.zeros(6))
+
+
+def test_cheap_singularity_bound_keeps_the_exact_decision(robot: StewartRobot) -> None:
+    """check_singularity (Frobenius bound, SVD only past it) accepts and refuses exactly
+    where the SVD condition number of the scaled Jp^-1 (numpy's, computed here) says: at
+    thresholds just above and just below each state's measure, and far above it."""
+    from stewart_pin.kinematics.geometry import characteristic_length
+    from stewart_pin.kinematics.jacobians import check_singularity
+
+    desc = robot.description
+    poses, _, _ = sample_states(desc, 20, 11)
+    for T in poses:
+        J = robot.inverse_jacobian(T)[None]
+        S = J.copy()
+        S[..., 3:] /= characteristic_length(desc)
+        c = float(np.linalg.cond(S[0]))
+        check_singularity(J, 1e6 * c, desc)  # the bound suffices
+        check_singularity(J, c * (1 + 1e-9), desc)  # the bound exceeds it: exact decides
+        with pytest.raises(SingularityError):
+            check_singularity(J, c * (1 - 1e-9), desc)
+    # Exactly singular (two equal rows): refused, with the exact measure's error.
+    J = robot.inverse_jacobian(poses[0])[None].copy()
+    J[0, 1] = J[0, 0]
+    with pytest.raises(SingularityError):
+        check_singularity(J, 1e12, desc)

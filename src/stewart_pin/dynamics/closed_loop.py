@@ -15,8 +15,10 @@ every wrench is about O_p (the origin of Fp).
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -26,10 +28,11 @@ from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import inertia_tensor
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
 from stewart_pin.exceptions import NumericalError, SingularityError
+from stewart_pin.kinematics.geometry import leg_vectors
 from stewart_pin.kinematics.jacobians import (
     LegState,
-    check_condition,
-    inverse_jacobian_batch,
+    check_singularity,
+    inverse_jacobian_from_vectors,
     leg_state,
 )
 
@@ -67,27 +70,48 @@ class PlatformTerms:
     bias: FloatArray
 
 
+#: The platform's inertia tensor in Fp and ``M I3``, per description (computed once: the
+#: descriptions are immutable).
+_PLATFORM: weakref.WeakKeyDictionary[Any, tuple[FloatArray, FloatArray]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _platform_constants(desc: RobotDescription) -> tuple[FloatArray, FloatArray]:
+    """``(I (3, 3) about O_p in Fp, M I3)`` of ``desc``'s platform, cached per description."""
+    try:
+        return _PLATFORM[desc]
+    except KeyError:
+        pass
+    except TypeError:  # neither hashable nor weakly referenceable: no cache
+        p = desc.platform_inertia
+        return inertia_tensor(p), p[9] * np.eye(3)
+    p = desc.platform_inertia
+    consts = (inertia_tensor(p), p[9] * np.eye(3))
+    for c in consts:
+        c.flags.writeable = False
+    _PLATFORM[desc] = consts
+    return consts
+
+
 def platform_terms(desc: RobotDescription, poses: Poses, twists: Twists) -> PlatformTerms:
     """Rotate the platform's parameters into F0 and form ``Ip`` and its bias (eq. 24-29)."""
     R = poses[:, :3, :3]
     p = desc.platform_inertia
     mass = p[9]
+    I_p, mass_eye = _platform_constants(desc)
     MS = R @ p[6:9]  # (N, 3)
-    I0 = R @ inertia_tensor(p) @ np.swapaxes(R, 1, 2)
+    I0 = R @ I_p @ np.swapaxes(R, 1, 2)
     S = skew(MS)
-    Ip = np.zeros((R.shape[0], 6, 6))
-    Ip[:, :3, :3] = mass * np.eye(3)
+    Ip = np.empty((R.shape[0], 6, 6))
+    Ip[:, :3, :3] = mass_eye
     Ip[:, :3, 3:] = -S
     Ip[:, 3:, :3] = S
     Ip[:, 3:, 3:] = I0
     w, g = twists[:, 3:], desc.gravity
-    bias = np.concatenate(
-        [
-            cross(w, cross(w, MS)) - mass * g,
-            cross(w, np.einsum("nij,nj->ni", I0, w)) - cross(MS, g),
-        ],
-        axis=-1,
-    )
+    bias = np.empty((R.shape[0], 6))
+    bias[:, :3] = cross(w, cross(w, MS)) - mass * g
+    bias[:, 3:] = cross(w, np.einsum("nij,nj->ni", I0, w)) - cross(MS, g)
     return PlatformTerms(Ip, bias)
 
 
@@ -256,10 +280,17 @@ def inverse_dynamics(
 ) -> InverseDynamicsResult:
     """``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) with every intermediate term.
 
-    Raises :class:`NumericalError` when Gamma is not finite (finite inputs that overflow)."""
-    legs = leg_state(desc, poses, twists, accels)
-    J_inv = inverse_jacobian_batch(desc, poses)
-    check_condition(J_inv, max_condition, desc)
+    Raises :class:`NumericalError` when Gamma is not finite (finite inputs that overflow),
+    :class:`SingularityError` past ``max_condition`` (decided as
+    :func:`~stewart_pin.kinematics.jacobians.check_condition` does, by its cheap bound
+    :func:`~stewart_pin.kinematics.jacobians.check_singularity` where that suffices).
+
+    The leg vectors ``B_i P_i``, ``L_i`` are computed once and shared by the inverse
+    geometry, the leg kinematics and Jp^-1."""
+    vectors = leg_vectors(desc, poses)
+    legs = leg_state(desc, poses, twists, accels, vectors=vectors)
+    J_inv = inverse_jacobian_from_vectors(*vectors, lengths=legs.q[..., 2])
+    check_singularity(J_inv, max_condition, desc)
     assert legs.qddot is not None  # accels given
     H = legs_dyn.inverse_dynamics(legs.q, legs.qdot, legs.qddot)
     plat = platform_terms(desc, poses, twists)
@@ -293,10 +324,12 @@ def cartesian_dynamics(
     twists: Twists,
     max_condition: float,
 ) -> CartesianDynamics:
-    """``A_robot`` and ``h_robot`` (eq. 36-37)."""
-    legs = leg_state(desc, poses, twists)
-    J_inv = inverse_jacobian_batch(desc, poses)
-    check_condition(J_inv, max_condition, desc)
+    """``A_robot`` and ``h_robot`` (eq. 36-37); the leg vectors computed once, the
+    singularity decided as in :func:`inverse_dynamics`."""
+    vectors = leg_vectors(desc, poses)
+    legs = leg_state(desc, poses, twists, vectors=vectors)
+    J_inv = inverse_jacobian_from_vectors(*vectors, lengths=legs.q[..., 2])
+    check_singularity(J_inv, max_condition, desc)
     A, h = legs_dyn.mass_and_bias(legs.q, legs.qdot)
     plat = platform_terms(desc, poses, twists)
     A_robot, h_robot, A_x, h_x = closure_cartesian_dynamics(

@@ -12,6 +12,9 @@ branch, used throughout, has ``q2i`` in ``(0, pi)`` and ``q1i`` in ``(-pi, pi]``
 
 from __future__ import annotations
 
+import weakref
+from typing import Any
+
 import numpy as np
 
 from stewart_pin._checks import check_poses
@@ -37,6 +40,10 @@ LEG_SINGULARITY_SIN = 2e-2
 LEG_MIN_LENGTH_RATIO = 5e-2
 
 
+#: Per-robot constants computed once: descriptions are immutable (read-only arrays).
+_LENGTHS: weakref.WeakKeyDictionary[Any, float] = weakref.WeakKeyDictionary()
+
+
 def characteristic_length(desc: RobotDescription) -> float:
     """The robot's characteristic length [m]: its platform radius, the mean distance of the
     platform attachment points P_i from their centroid (independent of where Fp is placed;
@@ -44,8 +51,20 @@ def characteristic_length(desc: RobotDescription) -> float:
 
     It makes the singularity measures unit-free: the angular columns of Jp^-1 are divided
     by it (:func:`stewart_pin.kinematics.jacobians.condition_number`) and the shortest leg is a
-    fraction of it (:data:`LEG_MIN_LENGTH_RATIO`).
+    fraction of it (:data:`LEG_MIN_LENGTH_RATIO`). Computed once per description (they are
+    immutable) when the description can be weakly referenced and hashed.
     """
+    try:
+        return _LENGTHS[desc]
+    except KeyError:
+        length = _characteristic_length(desc)
+        _LENGTHS[desc] = length
+        return length
+    except TypeError:  # not hashable or not weakly referenceable: compute each time
+        return _characteristic_length(desc)
+
+
+def _characteristic_length(desc: RobotDescription) -> float:
     P = desc.platform_points
     radius = float(np.linalg.norm(P - P.mean(axis=0), axis=1).mean())
     return radius if radius > 0.0 else max(float(desc.size), np.finfo(float).tiny)
@@ -72,9 +91,15 @@ def leg_lengths(desc: RobotDescription, poses: ArrayLike) -> FloatArray:
 
 
 def inverse_geometry_batch(
-    desc: RobotDescription, poses: Poses, check_limits: bool = True
+    desc: RobotDescription,
+    poses: Poses,
+    check_limits: bool = True,
+    vectors: FloatArray | None = None,
 ) -> FloatArray:
     """The 18 leg joint values for validated poses ``(N, 4, 4)``: shape (N, 6, 3).
+
+    ``vectors``: the poses' ``B_i P_i`` (N, 6, 3) when the caller has them already
+    (:func:`leg_vectors`), so that they are not computed again.
 
     Raises:
         StrokeLimitError: a leg length outside the stroke (when ``check_limits``).
@@ -82,7 +107,7 @@ def inverse_geometry_batch(
         SingularityError: a leg along its first U-joint axis (``sin q2i`` below
             :data:`LEG_SINGULARITY_SIN`) or nearly zero-length (:data:`LEG_MIN_LENGTH_RATIO`).
     """
-    d, _ = leg_vectors(desc, poses)
+    d = leg_vectors(desc, poses)[0] if vectors is None else vectors
     q3 = np.linalg.norm(d, axis=-1)
     min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
     if np.any(~(q3 >= min_length)):

@@ -60,23 +60,20 @@ class LegFrames:
 
 
 def leg_frames(desc: RobotDescription, q: JointValues) -> LegFrames:
-    """Leg directions and derivatives from leg joint values (N, 6, 3)."""
+    """Leg directions and derivatives from leg joint values (N, 6, 3).
+
+    The four vectors are written in frame 1i into one (N, 6, 4, 3) array and rotated into
+    F0 by one ``einsum`` (a few numpy calls whatever N: one state costs little more than
+    the Python overhead)."""
     c1, s1 = np.cos(q[..., 0]), np.sin(q[..., 0])
     c2, s2 = np.cos(q[..., 1]), np.sin(q[..., 1])
-    zero = np.zeros_like(c1)
-    R1 = desc.leg_base_rotations
-
-    def to_base(u: FloatArray) -> FloatArray:
-        return np.einsum("kij,nkj->nki", R1, u)
-
-    return LegFrames(
-        a=to_base(np.stack([c1 * s2, s1 * s2, -c2], -1)),
-        a1=to_base(np.stack([-s1 * s2, c1 * s2, zero], -1)),
-        a2=to_base(np.stack([c1 * c2, s1 * c2, s2], -1)),
-        y3=to_base(np.stack([s1, -c1, zero], -1)),
-        sin_q2=s2,
-        cos_q2=c2,
-    )
+    u = np.empty((*q.shape[:-1], 4, 3))
+    u[..., 0, 0], u[..., 0, 1], u[..., 0, 2] = c1 * s2, s1 * s2, -c2  # a
+    u[..., 1, 0], u[..., 1, 1], u[..., 1, 2] = -s1 * s2, c1 * s2, 0.0  # a1 = da/dq1
+    u[..., 2, 0], u[..., 2, 1], u[..., 2, 2] = c1 * c2, s1 * c2, s2  # a2 = da/dq2
+    u[..., 3, 0], u[..., 3, 1], u[..., 3, 2] = s1, -c1, 0.0  # y3
+    f0 = np.einsum("kij,nkmj->mnki", desc.leg_base_rotations, u)
+    return LegFrames(a=f0[0], a1=f0[1], a2=f0[2], y3=f0[3], sin_q2=s2, cos_q2=c2)
 
 
 def leg_jacobians(desc: RobotDescription, q: JointValues) -> FloatArray:
@@ -119,8 +116,17 @@ def _leg_drift(f: LegFrames, q: JointValues, qd: JointValues) -> FloatArray:
 
 def inverse_jacobian_batch(desc: RobotDescription, poses: Poses) -> FloatArray:
     """``Jp^-1`` (eq. 13) for validated poses (N, 4, 4): rows ``[a_i^T, (L_i x a_i)^T]``."""
-    d, L = leg_vectors(desc, poses)
-    a = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return inverse_jacobian_from_vectors(*leg_vectors(desc, poses))
+
+
+def inverse_jacobian_from_vectors(
+    d: FloatArray, L: FloatArray, lengths: FloatArray | None = None
+) -> FloatArray:
+    """``Jp^-1`` (N, 6, 6) from the leg vectors ``B_i P_i`` and ``L_i`` (N, 6, 3) of
+    :func:`~stewart_pin.kinematics.geometry.leg_vectors` (eq. 13); ``lengths`` (N, 6), when
+    given, must be ``|B_i P_i|`` as the inverse geometry computed them (``q3i``)."""
+    norm = np.linalg.norm(d, axis=-1) if lengths is None else lengths
+    a = d / norm[..., None]
     return np.concatenate([a, cross(L, a)], axis=-1)
 
 
@@ -183,6 +189,32 @@ def check_condition(J_inv: FloatArray, max_condition: float, desc: RobotDescript
     return c
 
 
+def check_singularity(J_inv: FloatArray, max_condition: float, desc: RobotDescription) -> None:
+    """The decision of :func:`check_condition` (raise :class:`SingularityError` where the
+    singularity measure of ``J_inv`` (N, 6, 6) exceeds ``max_condition``), mostly without
+    its SVD.
+
+    With ``S`` the scaled Jp^-1 (:func:`scaled_inverse_jacobian`), the measure is
+    ``cond_2(S) = ||S||_2 ||S^-1||_2 <= ||S||_F ||S^-1||_F``: when that cheap bound (one
+    LU inverse per state) is at most ``max_condition`` at every state, every state is
+    accepted, as the exact measure would; otherwise (a bound above the threshold, a
+    singular or non-finite ``S``) :func:`check_condition` computes the exact SVD measure
+    of the whole batch and decides. The accept/refuse decision, and the error raised,
+    are therefore those of :func:`check_condition`; the bound is at most ``sqrt(6)`` times
+    the measure, so it only falls back within that factor of the threshold.
+    """
+    S = scaled_inverse_jacobian(J_inv, characteristic_length(desc))
+    try:
+        with np.errstate(all="ignore"):
+            S_inv = np.linalg.inv(S)
+            bound = np.sqrt(np.einsum("nij,nij->n", S, S) * np.einsum("nij,nij->n", S_inv, S_inv))
+        if bool(np.all(bound <= max_condition)):
+            return
+    except np.linalg.LinAlgError:
+        pass
+    check_condition(J_inv, max_condition, desc)
+
+
 def jacobian(
     desc: RobotDescription, pose: ArrayLike, max_condition: float = MAX_CONDITION
 ) -> FloatArray:
@@ -218,24 +250,29 @@ def leg_state(
     twists: Twists,
     accels: Accels | None = None,
     check_limits: bool = True,
+    vectors: tuple[FloatArray, FloatArray] | None = None,
 ) -> LegState:
     """First and second order inverse kinematics of the legs (eq. 14-19), validated inputs.
+
+    ``vectors``: the poses' ``(B_i P_i, L_i)`` when the caller has them already
+    (:func:`~stewart_pin.kinematics.geometry.leg_vectors`), so that they are computed once.
 
     ``qdot_i = J_3i^-1 (v + w x L_i)``;
     ``qddot_i = J_3i^-1 (vdot + wdot x L_i + w x (w x L_i) - Jdot_3i qdot_i)``.
     """
-    q = inverse_geometry_batch(desc, poses, check_limits)
-    _, L = leg_vectors(desc, poses)
+    d, L = leg_vectors(desc, poses) if vectors is None else vectors
+    q = inverse_geometry_batch(desc, poses, check_limits, vectors=d)
     f = leg_frames(desc, q)
     J_inv = _leg_inverse_jacobians(f, q)
     v, w = twists[:, None, :3], twists[:, None, 3:]
-    V_P = v + cross(w, L)
+    w_L = cross(w, L)
+    V_P = v + w_L
     qdot = np.einsum("nkij,nkj->nki", J_inv, V_P)
     drift = _leg_drift(f, q, qdot)
     qddot = None
     if accels is not None:
         vd, wd = accels[:, None, :3], accels[:, None, 3:]
-        Vdot_P = vd + cross(wd, L) + cross(w, cross(w, L))
+        Vdot_P = vd + cross(wd, L) + cross(w, w_L)
         qddot = np.einsum("nkij,nkj->nki", J_inv, Vdot_P - drift)
     return LegState(q, qdot, qddot, f, J_inv, drift, L)
 

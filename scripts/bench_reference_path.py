@@ -1,0 +1,119 @@
+"""Time the reference (``backend="pinocchio"``) 6-UPS models and check them against a
+saved run.
+
+Medians [us per state] of one-state and batch IDM / DDM through ``StewartRobot`` on a
+preset, beside ``pin.constraintDynamics`` on the closed-loop tree in the same run (the
+ratio column), with the helpers of :mod:`stewart_pin.apps.bench`.
+
+``--save FILE`` writes the IDM and DDM outputs of 200 random states of the simulator,
+desktop, paper and random-1 presets (``.npz``); ``--compare FILE`` recomputes them and
+prints the largest relative difference to the saved ones (to show a rewrite changes
+nothing but round-off).
+
+Usage: ``python scripts/bench_reference_path.py [--preset simulator] [--batch 10000]
+[--repeats 300] [--save before.npz | --compare before.npz]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from stewart_pin import StewartRobot
+from stewart_pin.apps.bench import median_us
+from stewart_pin.check.constrained_dynamics import tree_solver, tree_state
+from stewart_pin.kinematics.workspace import sample_states
+
+PRESETS = ("simulator", "desktop", "paper", "random-1")
+
+
+def timings(preset: str, batch: int, repeats: int) -> dict[str, float]:
+    robot = StewartRobot.from_preset(preset)
+    poses, twists, accels = sample_states(robot.description, batch, 0)
+    gammas = robot.inverse_dynamics(poses, twists, accels)
+    T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
+    solver = tree_solver(robot)
+    q, v = tree_state(robot, T, V)
+    tau = np.zeros(solver.nv)
+    tau[solver.v_act] = G
+    reps = max(3, min(repeats, 5))
+    return {
+        "pin.constraintDynamics (raw call)": median_us(
+            lambda: pin.constraintDynamics(
+                solver.model,
+                solver.data,
+                q,
+                v,
+                tau,
+                solver.cmodels,
+                solver.cdatas,
+                solver.settings,
+            ),
+            repeats,
+        ),
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), repeats),
+        f"IDM batch {batch}": median_us(
+            lambda: robot.inverse_dynamics(poses, twists, accels), reps, batch
+        ),
+        f"DDM batch {batch}": median_us(
+            lambda: robot.direct_dynamics(poses, twists, gammas), reps, batch
+        ),
+    }
+
+
+def outputs() -> dict[str, np.ndarray]:
+    """IDM and DDM of 200 random states per preset (the DDM given the IDM's forces plus a
+    perturbation, so that it does not merely return the accelerations)."""
+    out = {}
+    rng = np.random.default_rng(7)
+    for name in PRESETS:
+        robot = StewartRobot.from_preset(name)
+        poses, twists, accels = sample_states(robot.description, 200, 3)
+        gammas = robot.inverse_dynamics(poses, twists, accels)
+        gammas2 = gammas + rng.normal(size=gammas.shape) * np.abs(gammas).mean()
+        out[f"{name}/idm"] = gammas
+        out[f"{name}/idm1"] = np.array(
+            [robot.inverse_dynamics(*s) for s in zip(poses, twists, accels, strict=True)]
+        )
+        out[f"{name}/ddm"] = robot.direct_dynamics(poses, twists, gammas2)
+        out[f"{name}/ddm1"] = np.array(
+            [robot.direct_dynamics(*s) for s in zip(poses, twists, gammas2, strict=True)]
+        )
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="simulator")
+    parser.add_argument("--batch", type=int, default=10_000)
+    parser.add_argument("--repeats", type=int, default=300)
+    parser.add_argument("--save", type=Path, help="write the outputs of 200 states here")
+    parser.add_argument("--compare", type=Path, help="compare the outputs with this file")
+    args = parser.parse_args()
+    if args.save or args.compare:
+        now = outputs()
+        if args.save:
+            np.savez(args.save, **now)  # a measurement artefact, not a project file
+            print(f"wrote {args.save}")
+        if args.compare:
+            before = np.load(args.compare)
+            for key, x in now.items():
+                y = before[key]
+                rel = np.max(np.abs(x - y)) / np.max(np.abs(y))
+                print(f"{key:24s} max |after - before| / max |before| = {rel:.2e}")
+        return
+    rows = timings(args.preset, args.batch, args.repeats)
+    ref = rows["pin.constraintDynamics (raw call)"]
+    print(
+        f"preset '{args.preset}', median time per state [us] and ratio to pin.constraintDynamics"
+    )
+    for name, t in rows.items():
+        print(f"{name:40s} {t:10.2f} {t / ref:8.2f}")
+
+
+if __name__ == "__main__":
+    main()
