@@ -92,6 +92,16 @@ class StewartRobot:
         if not description.is_ideal_ups:
             self._check_home()
 
+    def _compiled_backend(self) -> Any:
+        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics`, kept on the robot
+        after the first call (saves the import and the registry look-up per call)."""
+        backend = self.__dict__.get("_compiled")
+        if backend is None or backend._desc is not self.description:
+            from stewart_pin.codegen import compiled_backend
+
+            backend = self._compiled = compiled_backend(self)
+        return backend
+
     # ------------------------------------------------------------------ architecture
     @property
     def is_ideal_ups(self) -> bool:
@@ -483,9 +493,7 @@ class StewartRobot:
             out = check_finite(r.motor if motor else r.gamma, "inverse dynamics Gamma")
             return out if check_poses(pose)[1] else out[0]
         if _compiled(backend, details):
-            from stewart_pin.codegen import compiled_backend
-
-            return compiled_backend(self).inverse_dynamics(pose, twist, accel)
+            return self._compiled_backend().inverse_dynamics(pose, twist, accel)
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with _quiet_overflow():
             res = closure.inverse_dynamics(
@@ -519,9 +527,7 @@ class StewartRobot:
                 out = self.general_dynamics.direct_dynamics(pose, twist, gamma)
             return out
         if _compiled(backend):
-            from stewart_pin.codegen import compiled_backend
-
-            return compiled_backend(self).direct_dynamics(pose, twist, gamma)
+            return self._compiled_backend().direct_dynamics(pose, twist, gamma)
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
         with _quiet_overflow():
             accel, _ = closure.direct_dynamics(
