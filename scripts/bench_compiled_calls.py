@@ -10,6 +10,8 @@ Median wall-clock time [us] per state, all in one run, on one preset (default
   1000 states in one thread (the C work alone, the call's cost spread out);
 - one state through ``CompiledDynamics.inverse_dynamics`` / ``direct_dynamics`` and through
   the facade ``robot.inverse_dynamics(..., backend="compiled")`` / ``direct_dynamics``;
+- the single-state entry ``sp_idm_one`` / ``sp_ddm_one`` called on prepared arguments
+  (what ``CompiledDynamics`` calls for one state);
 - per state at batches of 10 000 and 100 000 states, with the backend's thread count
   (``STEWART_PIN_THREADS``, default ``os.cpu_count()``) and with one thread.
 
@@ -20,6 +22,7 @@ Usage: ``python scripts/bench_compiled_calls.py [--preset simulator] [--repeats 
 from __future__ import annotations
 
 import argparse
+import ctypes
 import json
 from pathlib import Path
 
@@ -30,7 +33,7 @@ from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
 from stewart_pin.apps.bench import machine, median_us
 from stewart_pin.check.constrained_dynamics import tree_solver, tree_state
-from stewart_pin.codegen import compiled_backend
+from stewart_pin.codegen import CompiledDynamics, compiled_backend
 from stewart_pin.kinematics.workspace import sample_states
 
 
@@ -63,6 +66,7 @@ def run(preset: str, repeats: int) -> dict[str, object]:
     idx = np.arange(big) % poses.shape[0]
     P, V, A = (np.ascontiguousarray(a[idx]) for a in (poses, twists, accels))
     backend = compiled_backend(robot)
+    serial = CompiledDynamics(robot, threads=1)
     G = backend.inverse_dynamics(P, V, A)
     T0, V0, A0, G0 = P[0].copy(), V[0].copy(), A[0].copy(), G[0].copy()
     solver = tree_solver(robot)
@@ -90,6 +94,12 @@ def run(preset: str, repeats: int) -> dict[str, object]:
             rows[f"{name} C function via ctypes, {label}"] = median_us(
                 lambda fn=fn, args=args: fn(*args), repeats if n == 1 else 200, n
             )
+        one = backend._c_one[which]  # type: ignore[attr-defined]
+        block = T0.tobytes() + V0.tobytes() + X0.tobytes()
+        args1 = (block, backend._chi_ptr, ctypes.c_double(1e4), backend._one_out_ptr)  # type: ignore[attr-defined]
+        rows[f"{name} single-state C entry via ctypes (prepared arguments)"] = median_us(
+            lambda f=one, a=args1: f(*a), repeats
+        )
         method = backend.inverse_dynamics if which == "idm" else backend.direct_dynamics
         facade = robot.inverse_dynamics if which == "idm" else robot.direct_dynamics
         rows[f"{name} single, CompiledDynamics"] = median_us(
@@ -99,9 +109,11 @@ def run(preset: str, repeats: int) -> dict[str, object]:
             lambda f=facade, x=X0: f(T0, V0, x, backend="compiled"), repeats
         )
         for n, reps in ((10_000, 50), (100_000, 10)):
-            rows[f"{name} batch {n}, per state ({getattr(backend, 'threads', 1)} threads)"] = (
-                median_us(lambda m=method, n=n, x=X: m(P[:n], V[:n], x[:n]), reps, n)
-            )
+            for b in (backend, serial):
+                m = b.inverse_dynamics if which == "idm" else b.direct_dynamics
+                rows[f"{name} batch {n}, per state ({b.threads} threads)"] = median_us(
+                    lambda m=m, n=n, x=X: m(P[:n], V[:n], x[:n]), reps, n
+                )
     reference = rows["pin.constraintDynamics (raw call)"]
     return {
         "preset": preset,
