@@ -93,14 +93,14 @@ class StewartRobot:
             self._check_home()
 
     def _compiled_backend(self) -> Any:
-        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics`, kept on the robot
-        after the first call (saves the import and the registry look-up per call)."""
-        backend = self.__dict__.get("_compiled")
-        if backend is None or backend._desc is not self.description:
+        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept by
+        :func:`~stewart_pin.codegen.compiled_backend` with a weak reference to the robot,
+        so the robot stays picklable); the import is done once per process."""
+        if not _COMPILED_BACKEND:
             from stewart_pin.codegen import compiled_backend
 
-            backend = self._compiled = compiled_backend(self)
-        return backend
+            _COMPILED_BACKEND.append(compiled_backend)
+        return _COMPILED_BACKEND[0](self)
 
     # ------------------------------------------------------------------ architecture
     @property
@@ -624,6 +624,9 @@ class StewartRobot:
 
 
 BACKENDS = ("pinocchio", "compiled")
+#: :func:`stewart_pin.codegen.compiled_backend`, imported on first use (saves the import
+#: statement on every compiled call).
+_COMPILED_BACKEND: list[Any] = []
 
 
 def _quiet_overflow() -> np.errstate:
