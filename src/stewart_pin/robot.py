@@ -92,6 +92,16 @@ class StewartRobot:
         if not description.is_ideal_ups:
             self._check_home()
 
+    def _compiled_backend(self) -> Any:
+        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept by
+        :func:`~stewart_pin.codegen.compiled_backend` with a weak reference to the robot,
+        so the robot stays picklable); the import is done once per process."""
+        if not _COMPILED_BACKEND:
+            from stewart_pin.codegen import compiled_backend
+
+            _COMPILED_BACKEND.append(compiled_backend)
+        return _COMPILED_BACKEND[0](self)
+
     # ------------------------------------------------------------------ architecture
     @property
     def is_ideal_ups(self) -> bool:
@@ -483,9 +493,7 @@ class StewartRobot:
             out = check_finite(r.motor if motor else r.gamma, "inverse dynamics Gamma")
             return out if check_poses(pose)[1] else out[0]
         if _compiled(backend, details):
-            from stewart_pin.codegen import compiled_backend
-
-            return compiled_backend(self).inverse_dynamics(pose, twist, accel)
+            return self._compiled_backend().inverse_dynamics(pose, twist, accel)
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with _quiet_overflow():
             res = closure.inverse_dynamics(
@@ -519,9 +527,7 @@ class StewartRobot:
                 out = self.general_dynamics.direct_dynamics(pose, twist, gamma)
             return out
         if _compiled(backend):
-            from stewart_pin.codegen import compiled_backend
-
-            return compiled_backend(self).direct_dynamics(pose, twist, gamma)
+            return self._compiled_backend().direct_dynamics(pose, twist, gamma)
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
         with _quiet_overflow():
             accel, _ = closure.direct_dynamics(
@@ -618,6 +624,9 @@ class StewartRobot:
 
 
 BACKENDS = ("pinocchio", "compiled")
+#: :func:`stewart_pin.codegen.compiled_backend`, imported on first use (saves the import
+#: statement on every compiled call).
+_COMPILED_BACKEND: list[Any] = []
 
 
 def _quiet_overflow() -> np.errstate:

@@ -20,6 +20,12 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
 - ``NOT_PD`` (DDM): a pivot of ``A_robot = L D L^T`` is not positive;
 - ``NONFINITE``: a non-finite result.
 
+``sp_idm_one`` / ``sp_ddm_one`` run one state packed in one read-only input block (the
+single-state call from Python passes the bytes of its three arrays, no numpy buffer
+addresses to take). The batch loops keep no state between calls, so
+disjoint slices of a batch run concurrently (the caller's thread pool: ctypes releases the
+GIL around each call).
+
 The margins make the guard flag generously: a flagged state is decided by the reference
 checks in Python, so the compiled path raises exactly what the reference path raises.
 """
@@ -204,5 +210,20 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
     any |= f;
   }
   return any;
+}
+
+/* One state packed in one input buffer (the single-state call from Python, which passes
+   the bytes of the pose (16, row-major), the twist (6) and the accel or gamma (6) in one
+   read-only block): the result (6) goes to out. Returns the state's flag. */
+SP_EXPORT int sp_idm_one(const double* in, const double* chi, double max_cond, double* out) {
+  int f;
+  sp_idm_batch(1, in, in + 16, in + 22, chi, max_cond, out, &f);
+  return f;
+}
+
+SP_EXPORT int sp_ddm_one(const double* in, const double* chi, double max_cond, double* out) {
+  int f;
+  sp_ddm_batch(1, in, in + 16, in + 22, chi, max_cond, out, &f);
+  return f;
 }
 """

@@ -27,6 +27,16 @@ library; no text from a description or an argument enters the source). Integrity
   ``fcntl`` lock on the key folder's ``.lock`` file, so concurrent processes neither see a
   half-written library nor build it twice.
 
+Calls. A single state (native float64 arrays) is passed to ``sp_idm_one`` / ``sp_ddm_one``
+as the bytes of its three arrays in one block, the result written into a preallocated
+buffer per backend whose address is taken once (a plain ctypes call on prepared
+arguments); the C guard does the validation (the Python checks run only for a state it
+flags, to raise the reference's error). A batch of N states runs the C loop on
+:attr:`CompiledDynamics.threads` threads (``$STEWART_PIN_THREADS``, default
+``os.cpu_count()``; pass ``threads=`` to the constructor), each on a contiguous slice of at
+least :data:`THREAD_MIN_STATES` states; ctypes releases the GIL around each call, so the
+slices run in parallel (process-wide pool, the calling thread takes the first slice).
+
 Without a C compiler (or when compiling or loading fails), the same functions run in
 CasADi's virtual machine: correct, slower, with one warning giving the reason.
 
@@ -51,6 +61,7 @@ import contextlib
 import ctypes
 import hashlib
 import json
+import math
 import os
 import shutil
 import stat
@@ -60,6 +71,7 @@ import threading
 import warnings
 import weakref
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -87,6 +99,7 @@ from stewart_pin.codegen.symbolic import (
 from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
 from stewart_pin.exceptions import (
     CompilationError,
+    InputError,
     NumericalError,
     SingularityError,
     UnsafeCacheError,
@@ -116,6 +129,10 @@ CACHE_ENV = "STEWART_PIN_CACHE"
 CFLAGS = ("-O2", "-fno-math-errno", "-fPIC", "-shared", "-fvisibility=hidden")
 #: Libraries linked (after the source).
 LDLIBS = ("-lm",)
+#: Environment variable: threads sharing a compiled batch (default ``os.cpu_count()``).
+THREADS_ENV = "STEWART_PIN_THREADS"
+#: Fewest states per thread for a batch to be split (below, the hand-off costs more).
+THREAD_MIN_STATES = 512
 #: States per CasADi VM call in the fallback.
 VM_CHUNK = 4096
 
@@ -411,6 +428,40 @@ def build_library(
     return folder / _LIB_NAME, why is not None
 
 
+def _positive_threads(value: Any) -> int:
+    try:
+        n = int(value)
+    except (TypeError, ValueError):
+        n = 0
+    if n < 1 or (isinstance(value, float) and value != n):
+        raise InputError(f"threads must be a positive integer, got {value!r}")
+    return n
+
+
+def default_threads() -> int:
+    """Threads sharing a compiled batch: ``$STEWART_PIN_THREADS`` if set (a positive
+    integer; anything else raises :class:`~stewart_pin.exceptions.InputError`), else
+    ``os.cpu_count()`` (1 when unknown)."""
+    env = os.environ.get(THREADS_ENV)
+    if env is not None and env.strip():
+        return _positive_threads(env.strip())
+    return os.cpu_count() or 1
+
+
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+_POOLS_LOCK = threading.Lock()
+
+
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """A process-wide pool of ``threads - 1`` workers (the caller runs one slice itself)."""
+    with _POOLS_LOCK:
+        pool = _POOLS.get(threads)
+        if pool is None:
+            pool = ThreadPoolExecutor(threads - 1, thread_name_prefix="stewart-pin-c")
+            _POOLS[threads] = pool
+        return pool
+
+
 def _warn_once(reason: str) -> None:
     if reason not in _WARNED:
         _WARNED.add(reason)
@@ -451,6 +502,10 @@ class CompiledDynamics:
         cache_dir: the cache folder (default :func:`cache_root`).
         compiler: the C compiler to use (default :func:`find_compiler`); ``False`` forces
             the virtual machine.
+        threads: threads sharing a batch (default :func:`default_threads`:
+            ``$STEWART_PIN_THREADS``, else ``os.cpu_count()``); batches of fewer than
+            :data:`THREAD_MIN_STATES` states per thread, and single states, run in the
+            calling thread.
 
     Raises:
         UnsafeCacheError: the cache folder or a file in it could have been written by
@@ -473,6 +528,7 @@ class CompiledDynamics:
     ``direct_dynamics`` (see the module docstring).
 
     Attributes:
+        threads: the threads a large batch is split across (see ``threads`` above).
         kind: ``"compiled"`` or ``"vm"``. reason: why the VM is used (``None`` if compiled).
         library: the shared library's path. compiled_now: whether this construction
             compiled it (``False``: found in the cache).
@@ -484,8 +540,10 @@ class CompiledDynamics:
         robot: RobotLike,
         cache_dir: str | Path | None = None,
         compiler: str | bool | None = None,
+        threads: int | None = None,
     ) -> None:
         self.robot = robot
+        self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.description
         desc.ideal_stroke("the compiled backend")  # generated for 6-UPS legs only, for now
         self._desc = desc
@@ -533,21 +591,21 @@ class CompiledDynamics:
             fn.restype = ctypes.c_int
         self._lib = lib
         self._c = {"idm": lib.sp_idm_batch, "ddm": lib.sp_ddm_batch}
-        # Single-state buffers with their addresses taken once (numpy's .ctypes.data costs
-        # about a microsecond per array); a lock makes them safe across threads.
+        # The single-state entries are called without argument types (ctypes converts
+        # nothing then: the fastest call): a bytes block (passed as a pointer to its own
+        # read-only storage, without a copy; the C side only reads it) and prepared
+        # c_void_p / c_double objects.
+        one = {name: lib[f"sp_{name}_one"] for name in ("idm", "ddm")}
+        for fn in one.values():
+            fn.restype = ctypes.c_int
+        self._c_one = one
+        # The single-state result buffer with its address taken once (numpy's .ctypes.data
+        # costs about a microsecond per array); a lock makes it safe across threads.
         self._lock = threading.Lock()
-        self._one = np.zeros(16 + 6 + 6 + 6)
-        self._one_T = self._one[:16].reshape(4, 4)
-        self._one_V, self._one_X, self._one_out = (
-            self._one[16:22],
-            self._one[22:28],
-            self._one[28:34],
-        )
-        self._one_flag = np.zeros(1, dtype=np.int32)
-        base = self._one.ctypes.data
-        self._one_ptr = (base, base + 16 * 8, base + 22 * 8, base + 28 * 8)
-        self._one_flag_ptr = self._one_flag.ctypes.data
-        self._chi_ptr = self.base_values.ctypes.data
+        self._one_out = np.zeros(6)
+        self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
+        self._chi_ptr = ctypes.c_void_p(self.base_values.ctypes.data)
+        self._max_cond = (math.nan, ctypes.c_double(math.nan))
 
     # ------------------------------------------------------------------ public API
     def inverse_dynamics(
@@ -592,7 +650,9 @@ class CompiledDynamics:
             type(pose) is np.ndarray
             and type(twist) is np.ndarray
             and type(x) is np.ndarray
-            and pose.dtype.kind == twist.dtype.kind == x.dtype.kind == "f"
+            and pose.dtype is _F64  # native float64 (others take the general path)
+            and twist.dtype is _F64
+            and x.dtype is _F64
         ):
             if pose.shape == (4, 4) and twist.shape == (6,) and x.shape == (6,):
                 return self._run_one(which, pose, twist, x, name, base_values)
@@ -618,19 +678,56 @@ class CompiledDynamics:
         n = 1 if not batched else T.shape[0]
         out = np.empty((n, 6))
         flags = np.empty(n, dtype=np.int32)
-        any_flag = self._c[which](
-            n,
-            T.ctypes.data,
-            V.ctypes.data,
-            X.ctypes.data,
-            chi.ctypes.data,
-            self.robot.max_condition,
-            out.ctypes.data,
-            flags.ctypes.data,
-        )
+        any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
         if any_flag or self._limits:
             self._resolve(which, flags, pose, twist, x, name, T.reshape(-1, 4, 4))
         return out if batched else out[0]
+
+    def _call_batch(
+        self,
+        which: str,
+        n: int,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+        chi: np.ndarray,
+        out: np.ndarray,
+        flags: np.ndarray,
+    ) -> int:
+        """The C loop over ``n`` states (C-contiguous float64 buffers); a batch of at least
+        :data:`THREAD_MIN_STATES` states per thread is split into :attr:`threads` slices
+        that run concurrently (ctypes releases the GIL during each call). Returns the OR of
+        the flags."""
+        fn = self._c[which]
+        pT, pV, pX, pc = T.ctypes.data, V.ctypes.data, X.ctypes.data, chi.ctypes.data
+        po, pf = out.ctypes.data, flags.ctypes.data
+        max_cond = self.robot.max_condition
+        parts = min(self.threads, n // THREAD_MIN_STATES)
+        if parts <= 1:
+            return int(fn(n, pT, pV, pX, pc, max_cond, po, pf))
+        bounds = [n * k // parts for k in range(parts + 1)]
+
+        def part(k: int) -> int:
+            s, m = bounds[k], bounds[k + 1] - bounds[k]
+            return int(
+                fn(
+                    m,
+                    pT + 128 * s,
+                    pV + 48 * s,
+                    pX + 48 * s,
+                    pc,
+                    max_cond,
+                    po + 48 * s,
+                    pf + 4 * s,
+                )
+            )
+
+        pool = _pool(self.threads)
+        futures = [pool.submit(part, k) for k in range(1, parts)]
+        any_flag = part(0)  # the calling thread takes the first slice
+        for f in futures:
+            any_flag |= f.result()
+        return any_flag
 
     def _run_one(
         self,
@@ -642,27 +739,26 @@ class CompiledDynamics:
         base_values: Any,
         batch: bool = False,
     ) -> np.ndarray:
-        """One state given as float arrays, copied into the preallocated buffers (``batch``:
-        it came as a batch of one, for the error messages)."""
+        """One state given as native float64 arrays: their bytes go to the C function in one
+        block, the result comes back through the preallocated buffer (``batch``: it came as
+        a batch of one, for the error messages)."""
         chi_ptr = self._chi_ptr
         if base_values is not None:
             chi = self._chi(base_values)
-            chi_ptr = chi.ctypes.data
-        pT, pV, pX, pout = self._one_ptr
+            chi_ptr = ctypes.c_void_p(chi.ctypes.data)
+        block = pose.tobytes() + twist.tobytes() + x.tobytes()  # float64, C order
+        max_cond = self.robot.max_condition
+        if max_cond != self._max_cond[0]:
+            self._max_cond = (max_cond, ctypes.c_double(max_cond))
+        c_max_cond = self._max_cond[1]
         with self._lock:
-            self._one_T[...] = pose
-            self._one_V[...] = twist
-            self._one_X[...] = x
-            any_flag = self._c[which](
-                1, pT, pV, pX, chi_ptr, self.robot.max_condition, pout, self._one_flag_ptr
-            )
+            flag = self._c_one[which](block, chi_ptr, c_max_cond, self._one_out_ptr)
             out = self._one_out.copy()
-            flags = self._one_flag.copy()
-            T = self._one_T.copy() if any_flag or self._limits else None
-        if T is not None:
+        if flag or self._limits:
+            T = np.frombuffer(block, count=16).reshape(1, 4, 4).copy()
             if batch:
                 pose, twist, x = pose[None], twist[None], x[None]
-            self._resolve(which, flags, pose, twist, x, name, T[None])
+            self._resolve(which, np.array([flag], dtype=np.int32), pose, twist, x, name, T)
         return out
 
     def _resolve(

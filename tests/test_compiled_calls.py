@@ -1,0 +1,74 @@
+"""The compiled backend's call paths (issue 14, item 3): the single-state entry and the
+batch split across threads give the reference's results and errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import fresh_compile_cache, get_robot
+from helpers import rel_error
+
+from stewart_pin.codegen import CompiledDynamics
+from stewart_pin.codegen import compiled as compiled_module
+from stewart_pin.exceptions import InputError, StrokeLimitError
+from stewart_pin.kinematics.workspace import sample_states
+
+TOL = 1e-10  # relative to the largest value of the batch (as in test_codegen.py)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def cache_dir(tmp_path_factory: pytest.TempPathFactory):
+    yield from fresh_compile_cache(tmp_path_factory)
+
+
+def test_threaded_batch_matches_reference_and_one_thread() -> None:
+    robot = get_robot("simulator")
+    n = 4 * compiled_module.THREAD_MIN_STATES + 3  # uneven slices
+    P, V, A = sample_states(robot.description, n, 5)
+    reference = robot.inverse_dynamics(P, V, A)  # Pinocchio legs + closure layer
+    one, two = CompiledDynamics(robot, threads=1), CompiledDynamics(robot, threads=2)
+    assert (one.threads, two.threads) == (1, 2)
+    G1, G2 = one.inverse_dynamics(P, V, A), two.inverse_dynamics(P, V, A)
+    assert rel_error(G2, reference) < TOL
+    np.testing.assert_array_equal(G1, G2)  # same C per state, whatever the slice
+    D2 = two.direct_dynamics(P, V, reference)
+    assert rel_error(D2, A) < 1e-8
+    np.testing.assert_array_equal(D2, one.direct_dynamics(P, V, reference))
+
+
+def test_threaded_batch_error_in_a_later_slice_is_the_reference_error() -> None:
+    robot = get_robot("simulator")
+    n = 2 * compiled_module.THREAD_MIN_STATES
+    P, V, A = sample_states(robot.description, n, 6)
+    P = P.copy()
+    P[n - 1, 2, 3] += 10.0  # the last state, in the second thread's slice: legs too long
+    with pytest.raises(StrokeLimitError) as ref:
+        robot.inverse_dynamics(P, V, A)
+    with pytest.raises(StrokeLimitError) as got:
+        CompiledDynamics(robot, threads=2).inverse_dynamics(P, V, A)
+    assert str(got.value) == str(ref.value)
+
+
+def test_single_state_entry_matches_reference() -> None:
+    robot = get_robot("paper")
+    P, V, A = sample_states(robot.description, 20, 7)
+    backend = CompiledDynamics(robot)
+    for k in range(20):
+        reference = robot.inverse_dynamics(P[k], V[k], A[k])
+        assert rel_error(backend.inverse_dynamics(P[k], V[k], A[k]), reference) < TOL
+        # non-contiguous and float32 inputs take the other paths, same values
+        assert rel_error(backend.inverse_dynamics(P[k].T.T, V[k], A[k]), reference) < TOL
+        Pt = np.asfortranarray(P[k])
+        assert rel_error(backend.inverse_dynamics(Pt, V[k], A[k]), reference) < TOL
+
+
+def test_threads_setting(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(compiled_module.THREADS_ENV, "3")
+    assert compiled_module.default_threads() == 3
+    monkeypatch.setenv(compiled_module.THREADS_ENV, "zero")
+    with pytest.raises(InputError, match="threads"):
+        compiled_module.default_threads()
+    monkeypatch.delenv(compiled_module.THREADS_ENV)
+    assert compiled_module.default_threads() >= 1
+    with pytest.raises(InputError, match="threads"):
+        CompiledDynamics(get_robot("simulator"), threads=0)
