@@ -27,12 +27,10 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
-from stewart_pin.apps.bench import machine, median_us
-from stewart_pin.check.constrained_dynamics import tree_solver, tree_state
+from stewart_pin.apps.bench import constraint_dynamics_call, machine, median_us
 from stewart_pin.codegen import CompiledDynamics, compiled_backend
 from stewart_pin.kinematics.workspace import sample_states
 
@@ -69,23 +67,9 @@ def run(preset: str, repeats: int) -> dict[str, object]:
     serial = CompiledDynamics(robot, threads=1)
     G = backend.inverse_dynamics(P, V, A)
     T0, V0, A0, G0 = P[0].copy(), V[0].copy(), A[0].copy(), G[0].copy()
-    solver = tree_solver(robot)
-    q, v = tree_state(robot, T0, V0)
-    tau = np.zeros(solver.nv)
-    tau[solver.v_act] = G0
     rows: dict[str, float] = {}
     rows["pin.constraintDynamics (raw call)"] = median_us(
-        lambda: pin.constraintDynamics(
-            solver.model,
-            solver.data,
-            q,
-            v,
-            tau,
-            solver.cmodels,
-            solver.cdatas,
-            solver.settings,
-        ),
-        repeats,
+        constraint_dynamics_call(robot, T0, V0, G0), repeats
     )
     for which, X, X0 in (("idm", A, A0), ("ddm", G, G0)):
         name = which.upper()

@@ -20,11 +20,9 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin import StewartRobot
-from stewart_pin.apps.bench import median_us
-from stewart_pin.check.constrained_dynamics import tree_solver, tree_state
+from stewart_pin.apps.bench import constraint_dynamics_call, median_us
 from stewart_pin.kinematics.workspace import sample_states
 
 PRESETS = ("simulator", "desktop", "paper", "random-1")
@@ -35,24 +33,10 @@ def timings(preset: str, batch: int, repeats: int) -> dict[str, float]:
     poses, twists, accels = sample_states(robot.description, batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels)
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
-    solver = tree_solver(robot)
-    q, v = tree_state(robot, T, V)
-    tau = np.zeros(solver.nv)
-    tau[solver.v_act] = G
     reps = max(3, min(repeats, 5))
     return {
         "pin.constraintDynamics (raw call)": median_us(
-            lambda: pin.constraintDynamics(
-                solver.model,
-                solver.data,
-                q,
-                v,
-                tau,
-                solver.cmodels,
-                solver.cdatas,
-                solver.settings,
-            ),
-            repeats,
+            constraint_dynamics_call(robot, T, V, G), repeats
         ),
         "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
         "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), repeats),

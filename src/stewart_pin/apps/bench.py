@@ -63,6 +63,20 @@ def median_us(fn: Callable[[], object], repeats: int, per: int = 1) -> float:
     return statistics.median(times) / per * 1e6
 
 
+def constraint_dynamics_call(
+    robot: StewartRobot, pose: np.ndarray, twist: np.ndarray, gamma: np.ndarray
+) -> Callable[[], object]:
+    """One raw ``pin.constraintDynamics`` call on the robot's closed-loop tree at a platform
+    state (pose (4, 4), twist (6,), actuator forces (6,) [N]): the yardstick every row is
+    divided by. Leg rates from the loop constraints (:func:`tree_state`)."""
+    solver = tree_solver(robot)
+    q, v = tree_state(robot, pose, twist)
+    tau = np.zeros(solver.nv)
+    tau[solver.v_act] = gamma
+    args = (solver.model, solver.data, q, v, tau, solver.cmodels, solver.cdatas)
+    return partial(pin.constraintDynamics, *args, solver.settings)
+
+
 def machine() -> dict[str, object]:
     return {
         "python": platform.python_version(),
@@ -174,8 +188,6 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     solver = tree_solver(robot)
     q, v = tree_state(robot, T, V)
-    tau = np.zeros(solver.nv)
-    tau[solver.v_act] = G
     batch_repeats = max(3, min(repeats, 5))
     rows = {
         "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
@@ -187,17 +199,7 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
             lambda: robot.direct_dynamics(poses, twists, gammas), batch_repeats, batch
         ),
         "pin.constraintDynamics (raw call)": median_us(
-            lambda: pin.constraintDynamics(
-                solver.model,
-                solver.data,
-                q,
-                v,
-                tau,
-                solver.cmodels,
-                solver.cdatas,
-                solver.settings,
-            ),
-            repeats,
+            constraint_dynamics_call(robot, T, V, G), repeats
         ),
         "pin.rnea on the 24-dof tree (raw call)": median_us(
             lambda: pin.rnea(solver.model, solver.data, q, v, np.zeros(solver.nv)), repeats
