@@ -63,7 +63,7 @@ from stewart_pin.kinematics import geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import MAX_CONDITION, leg_state
-from stewart_pin.models.leg_chains import GeneralTreeModel, build_general_tree
+from stewart_pin.models.leg_chains import build_general_tree
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
     build_leg_models,
@@ -124,7 +124,7 @@ class StewartRobot:
         return GeneralDynamics(self.general, self.max_condition, check_limits=True)
 
     @cached_property
-    def general_tree(self) -> GeneralTreeModel:
+    def general_tree(self) -> TreeModel:
         """The 24-dof Pinocchio tree of the general legs (``model.armature`` set) with its
         six 3D loop closures: the independent check's model."""
         return build_general_tree(self.general)

@@ -33,7 +33,8 @@ import pinocchio as pin
 from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.exceptions import InputError, SingularityError
-from stewart_pin.models.leg_chains import GeneralTreeModel, build_general_tree
+from stewart_pin.models.leg_chains import build_general_tree
+from stewart_pin.models.pinocchio_models import TreeModel
 
 #: Largest loop-closure error [m] accepted for the given leg joint positions.
 CLOSURE_TOLERANCE = 1e-9
@@ -42,7 +43,7 @@ CLOSURE_TOLERANCE = 1e-9
 class GeneralTreeSolver:
     """Pinocchio data for one general robot's tree, constraints initialised once."""
 
-    def __init__(self, robot: GeneralHexapod, tree: GeneralTreeModel | None = None) -> None:
+    def __init__(self, robot: GeneralHexapod, tree: TreeModel | None = None) -> None:
         self.robot = robot
         self.tree = build_general_tree(robot) if tree is None else tree
         self.model = self.tree.model

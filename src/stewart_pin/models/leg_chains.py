@@ -17,13 +17,12 @@ each joint's armature (rotor inertia reflected through its transmission): Pinocc
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pinocchio as pin
 
 from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.inertia import pin_inertia_from_khalil
+from stewart_pin.models.pinocchio_models import TreeModel
 
 PLATFORM_JOINT = "platform_joint"
 
@@ -93,32 +92,11 @@ def build_leg_chains(robot: GeneralHexapod) -> tuple[pin.Model, np.ndarray]:
     return model, index
 
 
-@dataclass
-class GeneralTreeModel:
-    """The closed-loop robot: six leg chains and a free-flyer platform (24 dof).
-
-    Attributes:
-        model: the tree (nq = 25, nv = 24).
-        constraints: six 3D point constraints (leg tip frame == P_i on the platform),
-            ``RigidConstraintModel`` CONTACT_3D in LOCAL, joint1 the leg's last joint.
-        platform_joint: joint id of the free-flyer.
-        leg_q_index, leg_v_index: (6, 3) indices of q_ji in ``q`` and ``v``.
-        platform_q_index (7,), platform_v_index (6,): the free-flyer's.
-        actuated_v_index: (6,) velocity indices of the actuated joints.
-    """
-
-    model: pin.Model
-    constraints: list[pin.RigidConstraintModel]
-    platform_joint: int
-    leg_q_index: np.ndarray
-    leg_v_index: np.ndarray
-    platform_q_index: np.ndarray
-    platform_v_index: np.ndarray
-    actuated_v_index: np.ndarray
-
-
-def build_general_tree(robot: GeneralHexapod) -> GeneralTreeModel:
-    """The 24-dof tree with its six loop closures and ``model.armature``."""
+def build_general_tree(robot: GeneralHexapod) -> TreeModel:
+    """The 24-dof tree with its six loop closures and ``model.armature``: the same
+    :class:`~stewart_pin.models.pinocchio_models.TreeModel` as the 6-UPS tree's, with each
+    leg's actuated joint in ``actuated`` (0-based), the loops closed at the legs' tips
+    (``RigidConstraintModel`` CONTACT_3D in LOCAL, joint1 the leg's last joint)."""
     model = pin.Model()
     model.name = robot.name
     ff = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), PLATFORM_JOINT)
@@ -143,7 +121,7 @@ def build_general_tree(robot: GeneralHexapod) -> GeneralTreeModel:
         constraints.append(cm)
     q_idx = np.array([[model.idx_qs[j] for j in ids] for ids in leg_ids])
     v_idx = np.array([[model.idx_vs[j] for j in ids] for ids in leg_ids])
-    return GeneralTreeModel(
+    return TreeModel(
         model=model,
         constraints=constraints,
         platform_joint=ff,
@@ -151,13 +129,12 @@ def build_general_tree(robot: GeneralHexapod) -> GeneralTreeModel:
         leg_v_index=v_idx,
         platform_q_index=np.arange(model.idx_qs[ff], model.idx_qs[ff] + 7),
         platform_v_index=np.arange(model.idx_vs[ff], model.idx_vs[ff] + 6),
-        actuated_v_index=v_idx[np.arange(6), robot.actuated],
+        actuated=robot.actuated,
     )
 
 
 __all__ = [
     "PLATFORM_JOINT",
-    "GeneralTreeModel",
     "build_general_tree",
     "build_leg_chain",
     "build_leg_chains",
