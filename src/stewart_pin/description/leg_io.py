@@ -15,6 +15,7 @@ A leg table: ``architecture`` (one of
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from typing import Any
@@ -29,17 +30,7 @@ LEG_KEYS = ("architecture", "actuated", "tip", "branch", "guess", "joints")
 #: Keys of a joint table: placement and limits.
 JOINT_KEYS = ("kind", "alpha", "d", "theta", "r", "lower", "upper")
 #: Keys of a joint table: the joint dynamics (omitted = 0, transmissions omitted = none).
-DYNAMICS_KEYS = (
-    "armature",
-    "viscous",
-    "coulomb",
-    "stiffness",
-    "rest_position",
-    "damping",
-    "gear_ratio",
-    "screw_lead",
-    "rotor_inertia",
-)
+DYNAMICS_KEYS = tuple(f.name for f in dataclasses.fields(JointDynamics))
 
 
 def leg_to_dict(leg: LegArchitecture) -> dict[str, Any]:
