@@ -86,3 +86,32 @@ def tree_configuration(model: pin.Model, T: np.ndarray, q_legs: np.ndarray) -> n
 def rel_error(a: np.ndarray, b: np.ndarray) -> float:
     """``max |a - b| / max |b|``: the relative error the tests state their tolerances in."""
     return float(np.abs(np.asarray(a) - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+def mujoco_leg_dofs(m) -> np.ndarray:
+    """The 18 leg joints' velocity indices of an exported MJCF, leg by leg (``leg{i}_q{j}``)."""
+    return np.array([m.joint(f"leg{i}_q{j}").dofadr[0] for i in range(1, 7) for j in (1, 2, 3)])
+
+
+def mujoco_set_loop_state(m, data, qpos: np.ndarray, T: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """A consistent MuJoCo state of an exported hexapod: ``qpos`` (from the inverse
+    geometry), the free joint's velocity ``[v of O_p in F0, w in Fp]`` from the twist ``V``
+    (6,) in F0, and the 18 leg rates from MuJoCo's own site Jacobians (leg tip minus P_i
+    velocity = 0 on each loop: ``Jc qvel = 0``). Returns ``Jc`` (18, nv)."""
+    import mujoco
+
+    data.qpos[:] = qpos
+    ff = m.joint("platform_joint").dofadr[0]
+    data.qvel[:] = 0.0
+    data.qvel[ff : ff + 3], data.qvel[ff + 3 : ff + 6] = V[:3], T[:3, :3].T @ V[3:]
+    mujoco.mj_kinematics(m, data)
+    mujoco.mj_comPos(m, data)
+    Jc = np.zeros((18, m.nv))
+    tip, point = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    for k in range(6):
+        mujoco.mj_jacSite(m, data, tip, None, m.site(f"leg{k + 1}_tip").id)
+        mujoco.mj_jacSite(m, data, point, None, m.site(f"platform_p{k + 1}").id)
+        Jc[3 * k : 3 * k + 3] = tip - point
+    legs, F = mujoco_leg_dofs(m), np.arange(ff, ff + 6)
+    data.qvel[legs] = np.linalg.solve(Jc[:, legs], -Jc[:, F] @ data.qvel[F])
+    return Jc

@@ -26,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import mujoco_leg_dofs, mujoco_set_loop_state
 
 from stewart_pin.check.general_legs import (
     GeneralTreeSolver,
@@ -257,26 +258,7 @@ def set_state(m, data, h: GeneralHexapod, T: np.ndarray, V: np.ndarray) -> np.nd
     """A consistent state: qpos from the inverse geometry, the free joint's velocity ``[v
     in F0, w in Fp]``, the leg rates from MuJoCo's site Jacobians (``Jc qvel = 0``).
     Returns ``Jc`` (18, nv)."""
-    data.qpos[:] = mujoco_qpos(h, T)
-    ff = m.joint("platform_joint").dofadr[0]
-    data.qvel[:] = 0.0
-    data.qvel[ff : ff + 3], data.qvel[ff + 3 : ff + 6] = V[:3], T[:3, :3].T @ V[3:]
-    mujoco.mj_kinematics(m, data)
-    mujoco.mj_comPos(m, data)
-    Jc = np.zeros((18, m.nv))
-    tip, point = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    for k in range(6):
-        mujoco.mj_jacSite(m, data, tip, None, m.site(f"leg{k + 1}_tip").id)
-        mujoco.mj_jacSite(m, data, point, None, m.site(f"platform_p{k + 1}").id)
-        Jc[3 * k : 3 * k + 3] = tip - point
-    legs = leg_dofs(m)
-    F = np.arange(ff, ff + 6)
-    data.qvel[legs] = np.linalg.solve(Jc[:, legs], -Jc[:, F] @ data.qvel[F])
-    return Jc
-
-
-def leg_dofs(m) -> np.ndarray:
-    return np.array([m.joint(f"leg{i}_q{j}").dofadr[0] for i in range(1, 7) for j in (1, 2, 3)])
+    return mujoco_set_loop_state(m, data, mujoco_qpos(h, T), T, V)
 
 
 def mujoco_kkt_inverse_dynamics(m, data, h: GeneralHexapod, T, V, A) -> np.ndarray:
@@ -302,7 +284,7 @@ def mujoco_kkt_inverse_dynamics(m, data, h: GeneralHexapod, T, V, A) -> np.ndarr
             acc.append(jac @ data.qvel)
         drift[3 * k : 3 * k + 3] = acc[0] - acc[1]
     ff = m.joint("platform_joint").dofadr[0]
-    F, L = np.arange(ff, ff + 6), leg_dofs(m)
+    F, L = np.arange(ff, ff + 6), mujoco_leg_dofs(m)
     a_F = np.r_[A[:3], T[:3, :3].T @ A[3:]]
     S = np.zeros((6, nv))
     for i, leg in enumerate(h.legs):

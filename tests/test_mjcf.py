@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
+from helpers import mujoco_set_loop_state
 
 from stewart_pin import StewartRobot
 from stewart_pin.description.inertia import khalil_from_urdf_inertial, urdf_inertial_from_khalil
@@ -258,18 +259,7 @@ def set_state(m, data, desc, T: np.ndarray, V: np.ndarray) -> None:
     """A consistent MuJoCo state: qpos from the inverse geometry, the free joint's velocity
     ``[v of O_p in F0, w in Fp]`` from the twist, and the 18 leg rates from MuJoCo's own
     site Jacobians (leg tip minus P_i velocity = 0 on each loop)."""
-    data.qpos[:] = mujoco_qpos(desc, T)
-    data.qvel[:] = 0.0
-    data.qvel[18:21], data.qvel[21:24] = V[:3], T[:3, :3].T @ V[3:]
-    mujoco.mj_kinematics(m, data)
-    mujoco.mj_comPos(m, data)
-    Jc = np.zeros((18, m.nv))
-    tip, point = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    for k in range(6):
-        mujoco.mj_jacSite(m, data, tip, None, m.site(f"leg{k + 1}_tip").id)
-        mujoco.mj_jacSite(m, data, point, None, m.site(f"platform_p{k + 1}").id)
-        Jc[3 * k : 3 * k + 3] = tip - point
-    data.qvel[:18] = np.linalg.solve(Jc[:, :18], -Jc[:, 18:] @ data.qvel[18:])
+    mujoco_set_loop_state(m, data, mujoco_qpos(desc, T), T, V)
 
 
 def mujoco_accelerations(desc, xml: str, poses, twists, gammas) -> np.ndarray:
