@@ -30,7 +30,10 @@ expected, what was received and how to fix it::
     ├── IdentificationError (ValueError)     measurements that identify nothing
     ├── CompilationError (RuntimeError)      the C library not built or loaded
     │   └── UnsafeCacheError                 a cache others could write to
-    └── ViewerError (RuntimeError)           the 3-D viewer's server did not start
+    ├── ViewerError (RuntimeError)           the 3-D viewer's server did not start
+    ├── PayloadError (ValueError)            a payload model that cannot be mounted
+    │   └── UnknownPayloadError              a payload name no installed package knows
+    └── MissingDependencyError (ImportError) an optional package is not installed
 
     StewartPinWarning (UserWarning)          input accepted after a correction
     ├── BaseParameterWarning                 base parameters that barely act
@@ -365,3 +368,37 @@ class BaseParameterWarning(StewartPinWarning):
 class ApproximationWarning(StewartPinWarning):
     """An export that cannot hold the robot exactly and changes it (e.g. the MJCF of a
     body MuJoCo refuses as described: see :func:`stewart_pin.formats.mjcf.mujoco_inertials`)."""
+
+
+# ---------------------------------------------------------------------------- payloads
+class PayloadError(StewartPinError, ValueError):
+    """A payload (a robot mounted on the platform, :mod:`stewart_pin.models.payload`) that
+    cannot be used: a model with a floating base, a URDF Pinocchio cannot parse, a joint
+    state of the wrong size or outside the configuration space."""
+
+
+class UnknownPayloadError(PayloadError):
+    """A payload name that is neither a file nor a robot of example-robot-data.
+
+    Attributes:
+        name: the name given.
+        available: the robot names example-robot-data provides (sorted).
+    """
+
+    def __init__(self, message: str, name: str = "", available: tuple[str, ...] = ()) -> None:
+        super().__init__(message)
+        self.name, self.available = name, available
+
+
+class MissingDependencyError(StewartPinError, ImportError):
+    """An optional package a feature needs is not installed; the message names the extra
+    that brings it (e.g. ``pip install "stewart-pin[payload]"``).
+
+    Attributes:
+        package: the missing distribution (e.g. ``"example-robot-data"``).
+        extra: the stewart-pin extra that installs it (e.g. ``"payload"``).
+    """
+
+    def __init__(self, message: str, package: str = "", extra: str = "") -> None:
+        super().__init__(message)
+        self.package, self.extra = package, extra

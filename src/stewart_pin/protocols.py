@@ -9,15 +9,16 @@ facade wires them all) and a test double or another robot class can stand in.
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
 from stewart_pin._typing import ArrayLike, FloatArray, Forces, JointValues, Pose
 from stewart_pin.description import RobotDescription
+from stewart_pin.models.payload import Payload
 from stewart_pin.models.pinocchio_models import TreeModel
 
-__all__ = ["RobotLike"]
+__all__ = ["PayloadRobotLike", "RobotLike"]
 
 
 class RobotLike(Protocol):
@@ -94,4 +95,57 @@ class RobotLike(Protocol):
         rotation: float = 0.25,
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``n`` random reachable states ``(poses, twists, accels)``."""
+        ...
+
+
+class PayloadRobotLike(Protocol):
+    """A hexapod carrying a payload (:class:`stewart_pin.payload_robot.PayloadRobot`):
+    what the simulation, the independent check and the viewer need from it."""
+
+    #: The hexapod.
+    robot: RobotLike
+    #: The payload and its placement on the platform.
+    payload: Payload
+
+    @property
+    def name(self) -> str:
+        """``"<hexapod>+<payload>"``."""
+        ...
+
+    def inverse_dynamics(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        q: ArrayLike,
+        qd: ArrayLike,
+        qdd: ArrayLike,
+        details: bool = False,
+        backend: str = "pinocchio",
+    ) -> Any:
+        """``PayloadEfforts(gamma, tau)``: actuator efforts and the payload's torques."""
+        ...
+
+    def direct_dynamics(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        gamma: ArrayLike,
+        q: ArrayLike,
+        qd: ArrayLike,
+        qdd: ArrayLike = None,
+        *,
+        tau: ArrayLike = None,
+    ) -> Any:
+        """``PayloadAcceleration(accel, qdd, tau)``, prescribed ``qdd`` or given ``tau``."""
+        ...
+
+    def sample_states(
+        self,
+        n: int,
+        rng: np.random.Generator | int | None = None,
+        translation: float | None = None,
+        rotation: float = 0.25,
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """``(poses, twists, accels, q, qd, qdd)``: random states of both."""
         ...

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Literal, overload
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 import pinocchio as pin
@@ -70,6 +70,9 @@ from stewart_pin.models.pinocchio_models import (
     build_legs_model,
     build_tree,
 )
+
+if TYPE_CHECKING:
+    from stewart_pin.payload_robot import PayloadRobot
 
 
 class StewartRobot:
@@ -621,6 +624,22 @@ class StewartRobot:
         with _quiet_overflow():
             W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
         return W if batched else W[0]
+
+    # ------------------------------------------------------------------ payload
+    def with_payload(self, payload: Any, placement: Any = None) -> PayloadRobot:
+        """This hexapod carrying ``payload`` on its platform: a
+        :class:`~stewart_pin.payload_robot.PayloadRobot` (see ``docs/payloads.md``).
+
+        Args:
+            payload: a robot name of example-robot-data (``"ur5"``, ``"panda"``; needs
+                ``pip install "stewart-pin[payload]"``), a URDF path, a fixed-base
+                ``pin.Model`` or a :class:`~stewart_pin.models.payload.Payload`.
+            placement: ``T_p_b`` (4, 4) or ``pin.SE3``, the payload's base frame in
+                ``Fp`` (default identity).
+        """
+        from stewart_pin.payload_robot import PayloadRobot
+
+        return PayloadRobot(self, payload, placement)
 
 
 BACKENDS = ("pinocchio", "compiled")
