@@ -31,11 +31,13 @@ from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
 from stewart_pin.robot import StewartRobot
 
 __all__ = [
+    "add_payload_args",
     "add_robot_args",
     "check_output",
     "finite_float",
     "non_negative_finite_float",
     "non_negative_int",
+    "payload_robot_from_args",
     "pose_from_args",
     "positive_finite_float",
     "positive_int",
@@ -147,3 +149,37 @@ def progress_bar(total: float, unit: str, enabled: bool = True) -> Iterator[Any]
 
         bar.to = to
         yield bar
+
+
+def add_payload_args(p: argparse.ArgumentParser) -> None:
+    """``--payload NAME`` and ``--payload-placement x y z roll pitch yaw``."""
+    p.add_argument(
+        "--payload",
+        metavar="NAME",
+        help="a robot carried on the platform: a name of example-robot-data (ur5, panda, "
+        'so101...; pip install "stewart-pin[payload]") or a URDF file',
+    )
+    p.add_argument(
+        "--payload-placement",
+        type=finite_float,
+        nargs=6,
+        metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
+        help="the payload's base frame in the platform frame Fp [m, rad] (default: on Fp)",
+    )
+
+
+def payload_robot_from_args(args: argparse.Namespace, robot: StewartRobot) -> Any:
+    """The :class:`~stewart_pin.payload_robot.PayloadRobot` of ``--payload`` on ``robot``,
+    or ``None`` without ``--payload``."""
+    name = getattr(args, "payload", None)
+    if not name:
+        if getattr(args, "payload_placement", None) is not None:
+            raise InputError("--payload-placement needs --payload")
+        return None
+    placement = None
+    values = getattr(args, "payload_placement", None)
+    if values is not None:
+        placement = np.eye(4)
+        placement[:3, :3] = pin.rpy.rpyToMatrix(*values[3:])
+        placement[:3, 3] = values[:3]
+    return robot.with_payload(name, placement)

@@ -8,10 +8,12 @@ import numpy as np
 
 from stewart_pin.check.constrained_dynamics import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.cli._common import (
+    add_payload_args,
     add_robot_args,
     check_output,
     non_negative_finite_float,
     non_negative_int,
+    payload_robot_from_args,
     positive_int,
     robot_from_args,
 )
@@ -44,13 +46,25 @@ def _validate(args: argparse.Namespace) -> int:
     from stewart_pin.check.constrained_dynamics import validate
 
     robot = robot_from_args(args)
-    report = validate(
-        robot,
-        n_states=args.states,
-        seed=args.seed,
-        translation_range=args.translation,
-        rotation_range=args.rotation,
-    )
+    carrier = payload_robot_from_args(args, robot)
+    if carrier is not None:
+        from stewart_pin.check.payload import validate_payload
+
+        report = validate_payload(
+            carrier,
+            n_states=args.states,
+            seed=args.seed,
+            translation_range=args.translation,
+            rotation_range=args.rotation,
+        )
+    else:
+        report = validate(
+            robot,
+            n_states=args.states,
+            seed=args.seed,
+            translation_range=args.translation,
+            rotation_range=args.rotation,
+        )
     print(report)
     ok = report.passed(args.tol_idm, args.tol_ddm)
     print(
@@ -80,9 +94,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="compare the paper's models with Pinocchio's constrained dynamics",
         description="Random workspace states: the inverse model against the constrained "
         "inverse dynamics of the 24-dof tree with six loop closures, the direct model "
-        "against pin.constraintDynamics. Exit code 1 when a tolerance is exceeded.",
+        "against pin.constraintDynamics. With --payload, the coupled models of the hexapod "
+        "and the robot it carries against the whole tree (legs, platform and payload, six "
+        "loop closures). Exit code 1 when a tolerance is exceeded.",
     )
     add_robot_args(p)
+    add_payload_args(p)
     p.add_argument("--states", type=positive_int, default=200, help="random states")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the states")
     p.add_argument(
