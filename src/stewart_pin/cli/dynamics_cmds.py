@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -47,6 +48,7 @@ def _validate(args: argparse.Namespace) -> int:
 
     robot = robot_from_args(args)
     carrier = payload_robot_from_args(args, robot)
+    report: Any
     if carrier is not None:
         from stewart_pin.check.payload import validate_payload
 
