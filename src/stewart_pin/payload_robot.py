@@ -47,7 +47,7 @@ from stewart_pin.models.payload import Payload, load_payload
 if TYPE_CHECKING:
     from stewart_pin.robot import StewartRobot
 
-__all__ = ["PayloadRobot", "PayloadStates"]
+__all__ = ["PayloadRobot", "PayloadStates", "default_placement"]
 
 
 class PayloadStates(NamedTuple):
@@ -63,6 +63,14 @@ class PayloadStates(NamedTuple):
     qdd: FloatArray
 
 
+def default_placement(description: RobotDescription) -> FloatArray:
+    """``T_p_b`` (4, 4) of a payload mounted on the platform's centre: origin at the
+    centroid of the platform joints ``P_i`` (in ``Fp``), axes along ``Fp``'s."""
+    T = np.eye(4)
+    T[:3, 3] = np.asarray(description.platform_points, dtype=float).mean(axis=0)
+    return T
+
+
 def _quiet() -> np.errstate:
     return np.errstate(over="ignore", invalid="ignore")
 
@@ -75,7 +83,9 @@ class PayloadRobot:
         payload: a :class:`~stewart_pin.models.payload.Payload`, a ``pin.Model`` with a
             fixed base, a URDF path, or a robot name of example-robot-data (``"ur5"``).
         placement: ``T_p_b`` (4, 4) or ``pin.SE3``, the payload's base frame in ``Fp``
-            (default: the payload's own placement, identity for a new one).
+            (default: a :class:`Payload` keeps its own; anything else is mounted at
+            :func:`default_placement`, the centroid of the platform joints, axes along
+            ``Fp``'s).
 
     Example::
 
@@ -88,6 +98,8 @@ class PayloadRobot:
         if not hasattr(robot, "inverse_dynamics") or not hasattr(robot, "description"):
             raise InputError(f"PayloadRobot takes a StewartRobot, got {type(robot).__name__}")
         self.robot = robot
+        if placement is None and not isinstance(payload, Payload):
+            placement = default_placement(robot.description)
         self.payload: Payload = load_payload(payload, placement)
 
     def __repr__(self) -> str:

@@ -164,7 +164,8 @@ def add_payload_args(p: argparse.ArgumentParser) -> None:
         type=finite_float,
         nargs=6,
         metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
-        help="the payload's base frame in the platform frame Fp [m, rad] (default: on Fp)",
+        help="the payload's base frame in the platform frame Fp [m, rad] (default: at the "
+        "centroid of the platform joints, axes along Fp's)",
     )
 
 

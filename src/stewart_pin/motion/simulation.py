@@ -71,6 +71,9 @@ from stewart_pin.motion.control import check_backend
 from stewart_pin.protocols import RobotLike
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
+#: ``accel = dynamics(t, pose, twist, gamma)``: a direct model that depends on time (a
+#: payload running its own joint trajectory, :mod:`stewart_pin.motion.payload`).
+DirectModel = Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
 __all__ = [
     "LIMIT_TOLERANCE",
@@ -236,10 +239,16 @@ _SIGN_CHANGE = "det Jp^-1 changes sign"
 
 class _Integrator:
     def __init__(
-        self, robot: RobotLike, forces: ForceFunction, control_period: float | None, backend: str
+        self,
+        robot: RobotLike,
+        forces: ForceFunction,
+        control_period: float | None,
+        backend: str,
+        dynamics: DirectModel | None = None,
     ):
         self.robot, self.forces, self.period, self.backend = robot, forces, control_period, backend
         self.held: tuple[int, np.ndarray] | None = None
+        self.dynamics = dynamics
 
     def period_index(self, t: float) -> int:
         """Index of the control period holding ``t`` (0 without a control period)."""
@@ -269,7 +278,10 @@ class _Integrator:
         T = _chart_pose(T0, y)
         V = y[6:]
         g = self.gamma(t, T, V, k)
-        acc = self.robot.direct_dynamics(T, V, g, backend=self.backend)
+        if self.dynamics is None:
+            acc = self.robot.direct_dynamics(T, V, g, backend=self.backend)
+        else:
+            acc = check_array(self.dynamics(t, T, V, g), (6,), "dynamics(t, pose, twist, gamma)")
         dy = np.concatenate([V[:3], so3_left_jacobian_inverse(y[3:6]) @ V[3:], acc])
         return dy, g, T
 
@@ -366,6 +378,7 @@ def simulate(
     output_dt: float | None = None,
     progress: Callable[[float], None] | None = None,
     backend: str = "pinocchio",
+    dynamics: DirectModel | None = None,
 ) -> SimulationResult:
     """Integrate the direct dynamic model from ``(pose, twist)`` for ``duration`` [s].
 
@@ -388,6 +401,10 @@ def simulate(
             bar's hook).
         backend: the direct model's backend, ``"pinocchio"`` or ``"compiled"`` (see
             :meth:`StewartRobot.direct_dynamics`).
+        dynamics: ``accel = dynamics(t, pose, twist, gamma)`` (6,), a direct model used
+            instead of ``robot.direct_dynamics`` (``robot`` still gives the limits and
+            singularities): e.g. a payload running its own joint trajectory
+            (:func:`stewart_pin.motion.payload.simulate_payload`).
 
     Raises:
         InputError: a duration, step, tolerance or period that is not finite and
@@ -416,7 +433,7 @@ def simulate(
     if method not in ("rk4", "adaptive"):
         raise InputError(f"unknown method '{method}': 'rk4' or 'adaptive'")
     check_backend(robot, backend, "simulate")
-    for fn, name in ((forces, "forces"), (progress, "progress")):
+    for fn, name in ((forces, "forces"), (progress, "progress"), (dynamics, "dynamics")):
         if fn is not None and not callable(fn):
             raise InputError(f"{name} must be a function, got {type(fn).__name__}")
     if dt < MIN_STEP:
@@ -442,7 +459,9 @@ def simulate(
                 )
     T = check_pose(robot.home_pose if pose is None else pose, "pose")
     V = np.zeros(6) if twist is None else check_array(twist, (6,), "twist")
-    integ = _Integrator(robot, forces or (lambda t, T, V: np.zeros(6)), control_period, backend)
+    integ = _Integrator(
+        robot, forces or (lambda t, T, V: np.zeros(6)), control_period, backend, dynamics
+    )
     run = _Run(robot, integ, duration, method, dt, rtol, atol, output_dt, progress)
     return run.go(T, V)
 
