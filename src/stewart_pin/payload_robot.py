@@ -63,11 +63,19 @@ class PayloadStates(NamedTuple):
     qdd: FloatArray
 
 
+#: Height of the default mount above the platform joints' plane, a fraction of the
+#: robot's size: the top face of the platform as the viewer draws it.
+DECK_HEIGHT = 0.1
+
+
 def default_placement(description: RobotDescription) -> FloatArray:
-    """``T_p_b`` (4, 4) of a payload mounted on the platform's centre: origin at the
-    centroid of the platform joints ``P_i`` (in ``Fp``), axes along ``Fp``'s."""
+    """``T_p_b`` (4, 4) of a payload mounted on the platform's deck: origin above the
+    centroid of the platform joints ``P_i``, by :data:`DECK_HEIGHT` times the robot's
+    size along ``Fp``'s z axis (the top face of the drawn platform), axes along
+    ``Fp``'s."""
     T = np.eye(4)
     T[:3, 3] = np.asarray(description.platform_points, dtype=float).mean(axis=0)
+    T[2, 3] += DECK_HEIGHT * float(description.size)
     return T
 
 
@@ -84,8 +92,8 @@ class PayloadRobot:
             fixed base, a URDF path, or a robot name of example-robot-data (``"ur5"``).
         placement: ``T_p_b`` (4, 4) or ``pin.SE3``, the payload's base frame in ``Fp``
             (default: a :class:`Payload` keeps its own; anything else is mounted at
-            :func:`default_placement`, the centroid of the platform joints, axes along
-            ``Fp``'s).
+            :func:`default_placement`, on the platform's deck above the centroid of the
+            platform joints, axes along ``Fp``'s).
 
     Example::
 

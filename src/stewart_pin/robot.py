@@ -635,8 +635,8 @@ class StewartRobot:
                 ``pip install "stewart-pin[payload]"``), a URDF path, a fixed-base
                 ``pin.Model`` or a :class:`~stewart_pin.models.payload.Payload`.
             placement: ``T_p_b`` (4, 4) or ``pin.SE3``, the payload's base frame in
-                ``Fp`` (default: on the centroid of the platform joints, axes along
-                ``Fp``'s; a ``Payload`` keeps its own).
+                ``Fp`` (default: on the platform's deck above the centroid of the platform
+                joints, axes along ``Fp``'s; a ``Payload`` keeps its own).
         """
         from stewart_pin.payload_robot import PayloadRobot
 

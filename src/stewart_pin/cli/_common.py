@@ -164,8 +164,9 @@ def add_payload_args(p: argparse.ArgumentParser) -> None:
         type=finite_float,
         nargs=6,
         metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
-        help="the payload's base frame in the platform frame Fp [m, rad] (default: at the "
-        "centroid of the platform joints, axes along Fp's)",
+        help="the payload's base frame in the platform frame Fp [m, rad] (default: on the "
+        "platform's deck, 0.1 x the robot's size above the centroid of the platform joints, "
+        "axes along Fp's)",
     )
 
 

@@ -8,14 +8,16 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from stewart_pin.cli._common import (
+    add_payload_args,
     add_robot_args,
     check_output,
     finite_float,
+    payload_robot_from_args,
     positive_finite_float,
     progress_bar,
     refuse_general,
@@ -71,6 +73,9 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.backend is None:
         args.backend = "compiled" if robot.is_ideal_ups else "pinocchio"
     check_backend(robot, args.backend, "simulate")  # before the run starts, one line
+    carrier = payload_robot_from_args(args, robot)
+    if carrier is not None:
+        return _simulate_payload(args, carrier, out)
     if args.motion == "free":
         forces, motion, duration = None, None, args.duration
         start: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
@@ -130,6 +135,86 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _payload_joints(args: argparse.Namespace, carrier: Any, duration: float) -> Any:
+    """The payload's joint motion of the command line: every joint sweeping a quarter of
+    its half-range about the middle of its range (``JointMotion.sweep``)."""
+    from stewart_pin.motion.payload import JointMotion
+
+    return JointMotion.sweep(carrier.payload, args.payload_fraction, args.payload_period, duration)
+
+
+def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
+    """``simulate --payload``: the hexapod under computed torque with the coupled inverse
+    model while the payload runs its own joint motion (prescribed)."""
+    from stewart_pin.motion.control import tracking_errors
+    from stewart_pin.motion.payload import (
+        PayloadComputedTorque,
+        payload_path,
+        simulate_payload,
+    )
+    from stewart_pin.motion.trajectories import standard_motion
+
+    robot = carrier.robot
+    if args.model_error:
+        raise InputError("simulate --payload takes no --model-error (the model is exact)")
+    if args.motion == "free":
+        motion, duration = None, args.duration
+        start: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
+    else:
+        motion = standard_motion(robot, args.motion, args.duration)
+        motion.check_workspace(robot)
+        duration = motion.duration
+        T0, V0, _ = motion(0.0)
+        start = (T0, V0)
+    joints = _payload_joints(args, carrier, duration)
+    forces = (
+        None
+        if motion is None
+        else PayloadComputedTorque(carrier, motion, backend=args.backend, joints=joints)
+    )
+    side = payload_path(out)
+    try:
+        with progress_bar(duration, "s", not args.quiet) as bar:
+            sim = simulate_payload(
+                carrier,
+                duration,
+                joints,
+                *start,
+                forces=forces,
+                method=args.method,
+                dt=args.dt,
+                control_period=args.control_period if forces is not None else None,
+                progress=bar.to,
+            )
+    except SimulationError as e:
+        raise _save_partial(e, out) from e
+    sim.save(out)
+    lines = [
+        f"simulated {duration:g} s of '{carrier.name}' ({args.motion}, {args.method}; the "
+        f"payload's {carrier.nv} joints sweeping {args.payload_fraction:g} of their range "
+        f"every {args.payload_period:g} s): {out}, payload joints in {side}"
+    ]
+    if motion is not None:
+        pos, rot = (
+            np.linalg.norm(e, axis=1)
+            for e in tracking_errors(motion, sim.result.t, sim.result.poses)
+        )
+        lines.append(
+            f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
+        )
+    lines.append(
+        f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g}; peak |payload torque| "
+        f"{np.abs(sim.tau).max():.5g}"
+    )
+    if args.plots:
+        from stewart_pin.viz.plots import save_figures
+
+        paths = save_figures(sim.result, Path(args.plots), reference=motion)
+        lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
+    print("\n".join(lines))
+    return 0
+
+
 def _motion_samples(
     args: argparse.Namespace, robot: StewartRobot
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -145,13 +230,42 @@ def _motion_samples(
     return traj.poses, traj.times
 
 
+def _payload_samples(
+    args: argparse.Namespace, carrier: Any, times: np.ndarray
+) -> np.ndarray | None:
+    """The payload's configurations at ``times``: from the result's payload sidecar, or
+    the command line's joint motion; ``None`` (home, held) for a result without one."""
+    from stewart_pin.motion.payload import PayloadSimulation, payload_path
+
+    if args.result:
+        if not payload_path(args.result).is_file():
+            print(f"note: no {payload_path(args.result)}: the payload is drawn at home")
+            return None
+        t, q = PayloadSimulation.load_joints(args.result, carrier.payload)
+        if len(t) != len(times) or not np.allclose(t, times, rtol=0, atol=1e-12):
+            raise InputError(
+                f"{payload_path(args.result)} does not match {args.result}: another run's"
+            )
+        return q
+    joints = _payload_joints(args, carrier, float(times[-1] - times[0]) or 1.0)
+    return joints.sample(times - times[0])[0]
+
+
 def _animate(args: argparse.Namespace) -> int:
     from stewart_pin.viz.viewer import Viewer
 
     path = check_output(args.output, (".html", ".htm"), [args.result])
     robot = robot_from_args(args)
+    carrier = payload_robot_from_args(args, robot)
     poses, times = _motion_samples(args, robot)
-    out = Viewer(robot).export_html(path, poses, times, fps=args.fps)
+    if carrier is not None:
+        from stewart_pin.viz.payload_scene import PayloadViewer
+
+        q = _payload_samples(args, carrier, times)
+        viewer = PayloadViewer(carrier, meshes=not args.payload_shapes)
+        out = viewer.export_html(path, poses, times, q, fps=args.fps)
+    else:
+        out = Viewer(robot).export_html(path, poses, times, fps=args.fps)
     print(f"wrote {out} ({times[-1] - times[0]:.3g} s of motion): open it in a web browser")
     return 0
 
@@ -159,10 +273,16 @@ def _animate(args: argparse.Namespace) -> int:
 def _view(args: argparse.Namespace) -> int:
     import time
 
+    from stewart_pin.viz.payload_scene import PayloadViewer
     from stewart_pin.viz.viewer import Viewer
 
     robot = robot_from_args(args)
-    with _exit_on_hangup(), Viewer(robot) as viewer:
+    carrier = payload_robot_from_args(args, robot)
+    if carrier is not None:
+        viewer: Viewer = PayloadViewer(carrier, meshes=not args.payload_shapes)
+    else:
+        viewer = Viewer(robot)
+    with _exit_on_hangup(), viewer:
         url = viewer.start(open=args.open)
         print(f"meshcat viewer at {url} (local only); Ctrl-C to stop", flush=True)
         viewer.display(robot.home_pose)
@@ -172,7 +292,10 @@ def _view(args: argparse.Namespace) -> int:
             poses, times = _motion_samples(args, robot)
             if not args.no_wait:
                 viewer.wait()
-            viewer.play(poses, times)
+            if isinstance(viewer, PayloadViewer):
+                viewer.play(poses, times, _payload_samples(args, carrier, times))
+            else:
+                viewer.play(poses, times)
         if args.no_wait:
             return 0
         try:
@@ -256,6 +379,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "pinocchio for general legs)",
     )
     p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
+    add_payload_motion_args(p)
     p.add_argument("--plots", help="folder for PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_simulate)
@@ -270,6 +394,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
     p.add_argument("--fps", type=positive_finite_float, default=30.0, help="key frames per second")
     p.add_argument("-o", "--output", default="animation.html", help="HTML file to write")
+    add_payload_motion_args(p, drawing=True)
     p.set_defaults(func=_animate)
 
     p = sub.add_parser("view", help="the robot live in meshcat (a local server on 127.0.0.1)")
@@ -284,6 +409,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
     p.add_argument("--open", action="store_true", help="open the page in the web browser")
     p.add_argument("--no-wait", action="store_true", help="show, then exit (no waiting)")
+    add_payload_motion_args(p, drawing=True)
     p.set_defaults(func=_view)
 
     p = sub.add_parser("demo", help="the main demo: the whole workflow on a preset")
@@ -292,3 +418,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("-o", "--output", default="out", help="output folder")
     p.set_defaults(func=_demo)
+
+
+def add_payload_motion_args(p: argparse.ArgumentParser, drawing: bool = False) -> None:
+    """``--payload`` and the payload's joint motion (and, to draw, ``--payload-shapes``)."""
+    add_payload_args(p)
+    p.add_argument(
+        "--payload-fraction",
+        type=positive_finite_float,
+        default=0.25,
+        help="the payload's joints sweep this fraction of their half-range (<= 1)",
+    )
+    p.add_argument(
+        "--payload-period",
+        type=positive_finite_float,
+        default=1.0,
+        help="period [s] of the payload's joint sweep",
+    )
+    if drawing:
+        p.add_argument(
+            "--payload-shapes",
+            action="store_true",
+            help="draw the payload with simple shapes, not its meshes (a smaller HTML page)",
+        )

@@ -399,10 +399,21 @@ class Payload:
 
     # ------------------------------------------------------------------ configurations
     def home_configuration(self) -> np.ndarray:
-        """Pinocchio's neutral configuration moved inside the joint limits, (nq,)."""
-        q = np.array(pin.neutral(self.model))
-        lo, hi = self._limits()
-        return np.asarray(np.clip(q, lo, hi), dtype=float)
+        """The middle of each joint's range, (nq,): a joint with finite limits (within
+        ``+-2 pi``) at the middle of them, any other at Pinocchio's neutral value (a
+        continuous joint at angle 0)."""
+        q = np.array(pin.neutral(self.model), dtype=float)
+        lo = np.array(self.model.lowerPositionLimit, dtype=float)
+        hi = np.array(self.model.upperPositionLimit, dtype=float)
+        for j in range(1, self.model.njoints):
+            joint = self.model.joints[j]
+            if joint.nq != joint.nv:
+                continue
+            k = slice(joint.idx_q, joint.idx_q + joint.nq)
+            ok = np.isfinite(lo[k]) & np.isfinite(hi[k]) & (lo[k] <= hi[k])
+            ok &= (np.abs(lo[k]) <= 2 * np.pi + 1e-9) & (np.abs(hi[k]) <= 2 * np.pi + 1e-9)
+            q[k] = np.where(ok, 0.5 * (lo[k] + hi[k]), q[k])
+        return q
 
     def random_configurations(
         self, n: int, rng: np.random.Generator | int | None = None

@@ -113,6 +113,48 @@ class JointMotion:
         return cls(payload, q, s, T if duration is None else duration)
 
     @classmethod
+    def sweep(
+        cls,
+        payload: Payload,
+        fraction: float = 0.25,
+        period: float = 1.0,
+        duration: float | None = None,
+    ) -> JointMotion:
+        """Every joint swinging about the home configuration (the middle of its range) by
+        ``fraction`` of its half-range (a joint without finite limits: of pi, and at most
+        pi) in a sinusoid of ``period`` [s], joint k ahead by ``k / nv`` of a period
+        (already moving at t = 0): within the limits by construction (``fraction`` in
+        (0, 1])."""
+        f = check_scalar(fraction, "fraction", positive=True)
+        if f > 1.0:
+            raise InputError(f"fraction must be in (0, 1], got {fraction}")
+        T = check_scalar(period, "period", positive=True, unit="s")
+        model, nv = payload.model, payload.nv
+        half = np.full(nv, np.pi)
+        lo, hi = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
+        for j in range(1, model.njoints):
+            joint = model.joints[j]
+            if joint.nq == joint.nv:
+                qs = slice(joint.idx_q, joint.idx_q + joint.nq)
+                vs = slice(joint.idx_v, joint.idx_v + joint.nv)
+                width = 0.5 * (hi[qs] - lo[qs])
+                ok = np.isfinite(width) & (width >= 0)
+                half[vs] = np.where(ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi)
+        a = f * half
+        w = 2 * np.pi / T
+        phase = 2 * np.pi * np.arange(nv) / max(nv, 1)
+
+        def s(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            x = w * t + phase
+            return (
+                a * np.sin(x),
+                a * w * np.cos(x),
+                -a * w * w * np.sin(x),
+            )
+
+        return cls(payload, payload.home_configuration(), s, T if duration is None else duration)
+
+    @classmethod
     def point_to_point(
         cls,
         payload: Payload,
@@ -191,7 +233,8 @@ class PayloadComputedTorque(ComputedTorqueController):
         if self.joints is None:
             raise InputError("PayloadComputedTorque needs the payload's joints (a JointMotion)")
         q, qd, qdd = self.joints(t)
-        out = self.model.inverse_dynamics(  # type: ignore[call-arg] # a PayloadRobotLike
+        carrier: Any = self.model  # a PayloadRobotLike
+        out = carrier.inverse_dynamics(
             T, V, self.command(t, T, V), q, qd, qdd, backend=self.backend
         )
         return np.asarray(out.gamma, dtype=float)

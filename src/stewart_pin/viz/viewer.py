@@ -152,12 +152,14 @@ class CameraView:
         poses: Any = None,
         direction: Any = VIEW_DIRECTION,
         margin: float = 0.85,
+        extra_points: Any = None,
     ) -> CameraView:
         """A view of the whole robot at every pose of ``poses`` (default the home pose).
 
         The target is the centre of the box around the base and platform joints and
-        plates; the eye lies along ``direction`` at the distance where the bounding
-        sphere of that box fills meshcat's vertical field of view, times ``margin``.
+        plates (and ``extra_points`` (M, 3) in F0, e.g. a payload's); the eye lies along
+        ``direction`` at the distance where the bounding sphere of that box fills
+        meshcat's vertical field of view, times ``margin``.
         """
         general = general_robot(robot)
         if general is not None:
@@ -172,6 +174,8 @@ class CameraView:
                 [desc.base_points, platform_points_in_base(desc, T).reshape(-1, 3)]
             )
             pad = 3.0 * VisualSizes.for_robot(desc).joint_radius
+        if extra_points is not None:
+            points = np.concatenate([points, check_array(extra_points, (None, 3), "points")])
         lo, hi = points.min(axis=0) - pad, points.max(axis=0) + pad
         target = (lo + hi) / 2
         radius = float(np.linalg.norm(hi - lo) / 2)
@@ -401,10 +405,12 @@ class Viewer:
             q = tree_configuration(self.robot, T)
             self.start()
             self._viz.display(q)
+            self._extra_display(T)
             return
         self.general_joint_values(T[None])  # reach errors before the server starts
         self.start()
         self._show(T)
+        self._extra_display(T)
 
     def general_joint_values(self, poses: np.ndarray) -> np.ndarray:
         """Joint values (K, 6, 3) the general-leg drawing uses at poses (K, 4, 4)."""
@@ -451,6 +457,7 @@ class Viewer:
             if due[k] > now:
                 time.sleep(due[k] - now)
             show(k)
+            self._extra_frame(T[k], k)
 
     # ------------------------------------------------------------------ export
     def export_html(
@@ -501,12 +508,33 @@ class Viewer:
             else:
                 viz.display(q[0])
                 animation = self.animation(vis, q, t[keep] - t[0], fps)
+            self._extra_animation(animation, vis, T, keep, t[keep] - t[0], fps)
             vis.set_animation(animation, play=True, repetitions=_repetitions(loop))
             html = vis.static_html()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(path, html)
         return path
+
+    # Hooks drawing more than the hexapod (a payload on the platform:
+    # stewart_pin.viz.payload_scene.PayloadViewer); nothing here.
+    def _extra_display(self, pose: np.ndarray) -> None:
+        """After :meth:`display` drew the robot at ``pose``."""
+
+    def _extra_frame(self, pose: np.ndarray, k: int) -> None:
+        """After :meth:`play` drew sample ``k`` (at ``pose``)."""
+
+    def _extra_animation(
+        self,
+        animation: Any,
+        visualizer: Any,
+        poses: np.ndarray,
+        keep: np.ndarray,
+        times: np.ndarray,
+        fps: float,
+    ) -> None:
+        """Before :meth:`export_html` sets ``animation`` (the kept samples ``poses[keep]``
+        at ``times`` [s])."""
 
     def animation(self, visualizer: Any, q: np.ndarray, times: np.ndarray, fps: float) -> Any:
         """A ``meshcat.animation.Animation`` moving each visual object of the robot through
