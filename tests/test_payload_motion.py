@@ -94,7 +94,7 @@ def test_sweep_stays_within_the_joint_limits_and_a_large_sinusoid_is_refused():
     q = motion.sample(np.linspace(0, 0.5, 101))[0]
     lo, hi = np.asarray(p.model.lowerPositionLimit), np.asarray(p.model.upperPositionLimit)
     assert np.all(q >= lo - 1e-12) and np.all(q <= hi + 1e-12)
-    with pytest.raises(PayloadError, match="joint .panda_.* outside its limits"):
+    with pytest.raises(PayloadError, match=r"joint .panda_.* outside its limits"):
         JointMotion.sinusoid(p, 3.0, 1.0).check_limits()
     with pytest.raises(InputError, match="fraction"):
         JointMotion.sweep(p, 1.5)
@@ -246,7 +246,7 @@ def _commands(html: str) -> list[dict]:
 
 
 def test_exported_animation_moves_the_arm_with_the_platform(exported):
-    path, viewer, poses, t, q = exported
+    path, viewer, poses, _, q = exported
     (anim,) = [c for c in _commands(path.read_text()) if c["type"] == "set_animation"]
     clips = {a["path"]: a["clip"] for a in anim["animations"]}
     arm = [p for p in clips if "/payload/visual" in p]
