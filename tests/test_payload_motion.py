@@ -326,3 +326,24 @@ def test_cli_payload_placement_needs_a_payload(capsys):
         ["validate", "--preset", "desktop", "--payload-placement", "0", "0", "0", "0", "0", "0"]
     )
     assert code == 2 and "--payload-placement needs --payload" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------- the demo
+def test_payload_demo_compensates_the_arm_and_writes_its_files(tmp_path, capsys):
+    from stewart_pin.apps.payload_demo import reach_motion, run_payload_demo
+
+    files = run_payload_demo(
+        "paper", "panda", tmp_path, animation=False, duration=0.3, hold=0.06, dt=3e-3
+    )
+    assert files["figure"].stat().st_size > 10_000
+    data = np.load(files["arrays"])
+    t, moving, still = data["t"], data["gamma_moving"], data["gamma_still"]
+    assert t[-1] == pytest.approx(0.36)
+    # while the arm holds its goal, its motion takes nothing more; during the move, a lot
+    held = t > 0.3 + 1e-9
+    np.testing.assert_allclose(moving[held], still[held], rtol=1e-12, atol=1e-9)
+    assert np.abs(moving - still).max() > 0.2 * np.abs(still).max()
+    assert data["base_error"].max() < 0.05 * data["base_error_ignorant"].max()
+    assert "compensates" in capsys.readouterr().out
+    # the reach motion stays within the joint limits
+    reach_motion(carrier("paper", "panda").payload, 0.3).check_limits()

@@ -102,10 +102,15 @@ class PayloadRobotLike(Protocol):
     """A hexapod carrying a payload (:class:`stewart_pin.payload_robot.PayloadRobot`):
     what the simulation, the independent check and the viewer need from it."""
 
-    #: The hexapod.
-    robot: RobotLike
-    #: The payload and its placement on the platform.
-    payload: Payload
+    @property
+    def robot(self) -> RobotLike:
+        """The hexapod."""
+        ...
+
+    @property
+    def payload(self) -> Payload:
+        """The payload and its placement on the platform."""
+        ...
 
     @property
     def name(self) -> str:

@@ -327,6 +327,11 @@ def _exit_on_hangup() -> Iterator[None]:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    if args.payload:
+        from stewart_pin.apps.payload_demo import run_payload_demo
+
+        run_payload_demo(args.preset, args.payload, Path(args.output))
+        return 0
     from stewart_pin.apps.demo import run_demo
 
     run_demo(args.preset, Path(args.output))
@@ -417,6 +422,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
     )
     p.add_argument("-o", "--output", default="out", help="output folder")
+    p.add_argument(
+        "--payload",
+        metavar="NAME",
+        help="instead, the payload demo: this arm of example-robot-data (e.g. panda, with "
+        "--preset paper) makes a fast move on the hexapod, which keeps its base still",
+    )
     p.set_defaults(func=_demo)
 
 

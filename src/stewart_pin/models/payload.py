@@ -415,6 +415,26 @@ class Payload:
             q[k] = np.where(ok, 0.5 * (lo[k] + hi[k]), q[k])
         return q
 
+    def half_ranges(self) -> np.ndarray:
+        """Each degree of freedom's half-range (nv,) [rad or m]: half the distance between
+        its joint's limits, at most pi; pi for a joint without finite limits (or a
+        continuous one)."""
+        half = np.full(self.nv, np.pi)
+        lo = np.asarray(self.model.lowerPositionLimit, dtype=float)
+        hi = np.asarray(self.model.upperPositionLimit, dtype=float)
+        for j in range(1, self.model.njoints):
+            joint = self.model.joints[j]
+            if joint.nq != joint.nv:
+                continue
+            width = 0.5 * (
+                hi[joint.idx_q : joint.idx_q + joint.nq] - lo[joint.idx_q : joint.idx_q + joint.nq]
+            )
+            ok = np.isfinite(width) & (width >= 0)
+            half[joint.idx_v : joint.idx_v + joint.nv] = np.where(
+                ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi
+            )
+        return half
+
     def random_configurations(
         self, n: int, rng: np.random.Generator | int | None = None
     ) -> np.ndarray:

@@ -129,17 +129,8 @@ class JointMotion:
         if f > 1.0:
             raise InputError(f"fraction must be in (0, 1], got {fraction}")
         T = check_scalar(period, "period", positive=True, unit="s")
-        model, nv = payload.model, payload.nv
-        half = np.full(nv, np.pi)
-        lo, hi = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
-        for j in range(1, model.njoints):
-            joint = model.joints[j]
-            if joint.nq == joint.nv:
-                qs = slice(joint.idx_q, joint.idx_q + joint.nq)
-                vs = slice(joint.idx_v, joint.idx_v + joint.nv)
-                width = 0.5 * (hi[qs] - lo[qs])
-                ok = np.isfinite(width) & (width >= 0)
-                half[vs] = np.where(ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi)
+        nv = payload.nv
+        half = payload.half_ranges()
         a = f * half
         w = 2 * np.pi / T
         phase = 2 * np.pi * np.arange(nv) / max(nv, 1)
@@ -227,6 +218,9 @@ class PayloadComputedTorque(ComputedTorqueController):
         joints: the payload's joint trajectory the controller expects (its model's).
     """
 
+    #: the hexapod carrying the payload (a PayloadRobotLike), whose coupled inverse
+    #: model the law uses
+    model: Any
     joints: JointMotion | None = None
 
     def __call__(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
