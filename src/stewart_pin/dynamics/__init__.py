@@ -6,6 +6,8 @@ the platform's Newton-Euler (eq. 24), the inverse model Gamma = Jp^T (F_p + F_le
 the direct model with A_robot, h_robot (eq. 36-38); :mod:`.regressor` gives the 6 x 190
 regressor W with Gamma = W chi. :mod:`.general_legs` gives any three-joint leg's H_i with
 its joint terms (armature, friction, springs, dampers) to the same closure kernel.
+:mod:`.payload` adds a payload moving on the platform (its reaction from Pinocchio's RNEA
+with the platform's motion as its base motion; the coupled mass matrix).
 
 Stands on :mod:`stewart_pin.kinematics` and :mod:`stewart_pin.models`; knows no
 simulator, screen or command line.

@@ -5,6 +5,8 @@ the six legs used by the leg dynamics.
 Both the dynamics (each leg's H_i, A_i, h_i) and the independent check (the constrained
 tree) stand on these models. :mod:`.leg_chains` builds the same for general legs with the
 Pinocchio API (each chain, the 18-dof set, the tree with ``model.armature``).
+:mod:`.payload` loads a payload (a fixed-base model: a ``pin.Model``, a URDF, a robot of
+example-robot-data) and appends it to a model's body.
 """
 
 from .pinocchio_models import (

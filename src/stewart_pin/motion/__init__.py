@@ -1,6 +1,8 @@
 """Motion of the platform: reference trajectories (minimum jerk, washout, sinusoids,
 Fourier series) with exact twists and classical accelerations, the SE(3) integrators of
-the direct model (RK4, Dormand-Prince), and computed-torque control.
+the direct model (RK4, Dormand-Prince), and computed-torque control. :mod:`.payload`:
+a payload's joint trajectories, computed torque with the coupled model, and the
+simulation of a hexapod whose payload runs its own trajectory.
 
 The simulator and the controller take any robot with the dynamics of
 :class:`stewart_pin.robot.StewartRobot` (a protocol, :mod:`stewart_pin._typing`).

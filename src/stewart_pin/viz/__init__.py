@@ -1,6 +1,6 @@
 """Visualisation: the robot in meshcat (live or as a standalone HTML animation; 6-UPS
-robots from their URDF, general three-joint legs by :class:`LegScene`) and
-matplotlib figures of simulated motions.
+robots from their URDF, general three-joint legs by :class:`LegScene`; a payload on the
+platform by :mod:`.payload_scene`) and matplotlib figures of simulated motions.
 
 Optional dependencies (``pip install stewart-pin[viz]``): meshcat for the viewer,
 matplotlib for the figures; each is imported where it is used.
