@@ -262,6 +262,17 @@ BAD_NUMBERS = [
     ("bench", "--repeats", "0"),
     ("ik", "--pose", "nan"),
     ("ik", "--pose", "inf"),
+    # payloads (docs/payloads.md)
+    ("validate", "--payload-placement", "nan"),
+    *(
+        (command, option, value)
+        for command in ("simulate", "animate", "view")
+        for option, value in (
+            ("--payload-placement", "inf"),
+            ("--payload-fraction", "0"),
+            ("--payload-period", "nan"),
+        )
+    ),
 ]
 
 
@@ -269,7 +280,7 @@ BAD_NUMBERS = [
     "command, option, value", BAD_NUMBERS, ids=[" ".join(c) for c in BAD_NUMBERS]
 )
 def test_bad_number_argument_exits_2_with_one_line(command, option, value, capsys):
-    if option == "--pose":
+    if option in ("--pose", "--payload-placement"):
         argv = [command, option, value, "0", "0", "0", "0", "0"]
     else:
         argv = [command, f"{option}={value}"]  # '--tol-idm -1e-9' would read as an option
