@@ -45,6 +45,7 @@ from stewart_pin.exceptions import (
 )
 from stewart_pin.motion.simulation import simulate
 from stewart_pin.parameters.base import base_parameters, essential_parameters
+from stewart_pin.payload_robot import PayloadRobot
 from stewart_pin.robot import StewartRobot
 
 __version__ = "0.1.0"
@@ -69,6 +70,7 @@ __all__ = [
     "MissingDependencyError",
     "NumericalError",
     "PayloadError",
+    "PayloadRobot",
     "RobotDescription",
     "RobotNameError",
     "SimulationError",

@@ -288,6 +288,15 @@ def reference_prescribed_dynamics(
 
 
 # ---------------------------------------------------------------------------- the check
+def _count(value: Any, name: str, least: int) -> int:
+    """``value`` as an int >= ``least`` (integral floats accepted), else InputError."""
+    if isinstance(value, (bool, str, bytes)) or not isinstance(value, (int, float, np.number)):
+        raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
+    if not np.isfinite(value) or value != int(value) or int(value) < least:
+        raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
+    return int(value)
+
+
 @dataclass(frozen=True)
 class PayloadValidationReport:
     """The coupled models of a hexapod and its payload against the whole constrained tree,
@@ -363,10 +372,8 @@ def validate_payload(
     Raises:
         InputError: a bad ``n_states``. WorkspaceError: too few reachable poses.
     """
-    from stewart_pin.check.constrained_dynamics import _integer
-
-    n_states = _integer(n_states, "n_states", 1)
-    seed = None if seed is None else _integer(seed, "seed", 0)
+    n_states = _count(n_states, "n_states", 1)
+    seed = None if seed is None else _count(seed, "seed", 0)
     rng = np.random.default_rng(seed)
     try:
         P, V, A, q, qd, qdd = robot.sample_states(

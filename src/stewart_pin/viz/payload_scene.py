@@ -30,7 +30,6 @@ from stewart_pin._checks import check_poses
 from stewart_pin.exceptions import InputError
 from stewart_pin.models.payload import Payload
 from stewart_pin.protocols import PayloadRobotLike
-from stewart_pin.viz.leg_scene import _hex, _segments
 from stewart_pin.viz.viewer import ROOT_NODE, CameraView, Viewer
 
 __all__ = ["PayloadScene", "PayloadViewer"]
@@ -40,6 +39,22 @@ ARM_GREY = (0.62, 0.64, 0.68)
 JOINT_BLUE = (0.15, 0.30, 0.60)
 #: Three.js cylinders lie along y; coal's along z.
 _Z_TO_Y = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, -1.0, 0, 0], [0, 0, 0, 1.0]])
+
+
+def _hex(rgb: tuple[float, float, float]) -> int:
+    r, g, b = (round(255 * c) for c in rgb)
+    return (r << 16) | (g << 8) | b
+
+
+def _along_y(end: np.ndarray) -> np.ndarray:
+    """A rotation (4, 4) whose y axis points along ``end`` (non-zero, (3,))."""
+    y = end / np.linalg.norm(end)
+    other = np.array([1.0, 0.0, 0.0]) if abs(y[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    z = other - (other @ y) * y
+    z /= np.linalg.norm(z)
+    M = np.eye(4)
+    M[:3, 0], M[:3, 1], M[:3, 2] = np.cross(y, z), y, z
+    return M
 
 
 @dataclass(frozen=True)
@@ -168,12 +183,12 @@ class PayloadScene:
             for end in ends:
                 if np.linalg.norm(end) < 1e-9:
                     continue
-                M, L = _segments(np.zeros((1, 3)), end[None], np.array([0.0, 0.0, 1.0]))
-                shape = np.diag([1.0, float(L[0]), 1.0, 1.0])
-                shape[1, 3] = 0.0
+                shape = np.diag([1.0, float(np.linalg.norm(end)), 1.0, 1.0])
                 cyl = np.eye(4)
                 cyl[1, 3] = 0.5  # the unit cylinder from y = 0 to y = 1
-                out.append(_Visual(j, M[0], shape @ cyl, g.Cylinder(1.0, r), ARM_GREY, 1.0))
+                out.append(
+                    _Visual(j, _along_y(end), shape @ cyl, g.Cylinder(1.0, r), ARM_GREY, 1.0)
+                )
         return out
 
     def placements(self, poses: Any, q: Any) -> np.ndarray:
