@@ -41,7 +41,7 @@ from stewart_pin.dynamics.payload import (
     coupled_mass_matrix,
     prescribed_direct_dynamics,
 )
-from stewart_pin.exceptions import InputError, PayloadError
+from stewart_pin.exceptions import InputError, InputTypeError, PayloadError
 from stewart_pin.models.payload import Payload, load_payload
 
 if TYPE_CHECKING:
@@ -104,7 +104,7 @@ class PayloadRobot:
 
     def __init__(self, robot: StewartRobot, payload: Any, placement: Any = None) -> None:
         if not hasattr(robot, "inverse_dynamics") or not hasattr(robot, "description"):
-            raise InputError(f"PayloadRobot takes a StewartRobot, got {type(robot).__name__}")
+            raise InputTypeError(f"PayloadRobot takes a StewartRobot, got {type(robot).__name__}")
         self.robot = robot
         if placement is None and not isinstance(payload, Payload):
             placement = default_placement(robot.description)
