@@ -264,7 +264,10 @@ def _leg_rules(
             w_prev = _angular_velocity(leg, s, j - 1)
             along = np.einsum("si,si->s", w_prev, s.z[:, j - 1])[:, None]
             norm = np.linalg.norm(s.qd, axis=1)[:, None]
-            if _null_combinations(along / norm, GEOMETRY_TOLERANCE, []).shape[1]:
+            found_a: list[float] = []
+            perpendicular = _null_combinations(along / norm, GEOMETRY_TOLERANCE, found_a)
+            weak.extend((f"leg {i} joint {j} (armature)", x) for x in found_a)
+            if perpendicular.shape[1]:
                 g.relate(joint_index(i, j, "IA"), {_link(i, j, _ZZ): 1.0})
             # 2. YY_j, MZ_j, M_j into link j-1
             g.relate(_link(i, j, _YY), {_link(i, j, _XX): -1.0, **to_parent(e[_XX] + e[_YY])})
