@@ -275,6 +275,20 @@ SP_DERIVATIVE_BATCH(sp_idm_derivatives_batch, %(idm)s, %(idm_sz_arg)d, %(idm_sz_
                     %(idm_sz_iw)d, %(idm_sz_w)d)
 SP_DERIVATIVE_BATCH(sp_ddm_derivatives_batch, %(ddm)s, %(ddm_sz_arg)d, %(ddm_sz_res)d,
                     %(ddm_sz_iw)d, %(ddm_sz_w)d)
+
+/* One state packed in one read-only block (pose 16 row-major, twist 6, x 6): the
+   single-state call from Python, as compiled.py's sp_idm_one. Returns the state's flag. */
+SP_EXPORT int sp_idm_derivatives_one(const double* in, const double* chi, double* out) {
+  int f;
+  sp_idm_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
+  return f;
+}
+
+SP_EXPORT int sp_ddm_derivatives_one(const double* in, const double* chi, double* out) {
+  int f;
+  sp_ddm_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
+  return f;
+}
 """
 
 
@@ -403,6 +417,18 @@ class CompiledDerivatives:
             fn.restype = ctypes.c_int
             self._c[which] = fn
         self._lib = lib
+        # The single-state entries without argument types (the fastest ctypes call): a
+        # bytes block and prepared pointers; the result buffer's address taken once, a lock
+        # making it safe across threads (as compiled.py does).
+        self._c_one = {}
+        for which in ("idm", "ddm"):
+            one = lib[f"{_NAMES[which]}_one"]
+            one.restype = ctypes.c_int
+            self._c_one[which] = one
+        self._lock = threading.Lock()
+        self._one_out = np.zeros(_NOUT)
+        self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
+        self._chi_ptr = ctypes.c_void_p(self._values.base_values.ctypes.data)
 
     # ------------------------------------------------------------------ public API
     def inverse_dynamics_derivatives(
@@ -433,6 +459,8 @@ class CompiledDerivatives:
             batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
         else:
             batched, T, V, X = arrays
+            if not batched and self.kind == "compiled":
+                return self._run_one(which, T, V, X, base_values, chi)
         T, V, X = (np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X))
         n = T.size // 16
         out = np.empty((n, _NOUT))
@@ -448,6 +476,26 @@ class CompiledDerivatives:
         if not batched:
             return blocks[0, 0], blocks[0, 1], blocks[0, 2]
         return blocks[:, 0], blocks[:, 1], blocks[:, 2]
+
+    def _run_one(
+        self,
+        which: str,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+        base_values: Any,
+        chi: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One state of native float64 arrays through the single-state entry."""
+        chi_ptr = self._chi_ptr if base_values is None else ctypes.c_void_p(chi.ctypes.data)
+        block = T.tobytes() + V.tobytes() + X.tobytes()  # float64, C order
+        with self._lock:
+            flag = self._c_one[which](block, chi_ptr, self._one_out_ptr)
+            out = self._one_out.copy()
+        if flag:
+            raise NumericalError(_OUTPUTS[which], 0, 1, 1)
+        blocks = out.reshape(3, 6, 6)
+        return blocks[0], blocks[1], blocks[2]
 
     def _call_batch(
         self,
