@@ -51,13 +51,12 @@ import pinocchio as pin
 from stewart_pin._checks import check_states
 from stewart_pin.check.constrained_dynamics import (
     TreeSolver,
-    _solve,
-    _state,
     constrained_inverse_dynamics,
+    constraint_jacobian,
     tree_solver,
+    tree_state,
 )
-from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import NumericalError
+from stewart_pin.exceptions import NumericalError, SingularityError
 from stewart_pin.protocols import RobotLike
 
 __all__ = [
@@ -125,6 +124,17 @@ def _padded(robot: RobotLike, s: TreeSolver) -> _PaddedTree:
         return padded
 
 
+def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``A^-1 b`` for the legs' constraint Jacobian; singular: a leg singularity."""
+    try:
+        x = np.linalg.solve(A, b)
+    except np.linalg.LinAlgError as e:
+        raise SingularityError("the legs' constraint Jacobian is singular") from e
+    if not np.all(np.isfinite(x)):
+        raise SingularityError("the legs' constraint Jacobian gave non-finite values")
+    return x
+
+
 def _hat(u: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
 
@@ -153,14 +163,16 @@ def _constraint_velocity_dq(s: TreeSolver, q: np.ndarray, v: np.ndarray) -> np.n
 
 
 def _direct_one(
+    robot: RobotLike,
     s: TreeSolver,
     padded: _PaddedTree,
-    desc: RobotDescription,
     T: np.ndarray,
     twist: np.ndarray,
     gamma: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    q, v, Jc, R = _state(s, desc, T, twist)
+    q, v = tree_state(robot, T, twist)
+    Jc = constraint_jacobian(robot, q)  # (also brings the constraint datas to q)
+    R = T[:3, :3]
     ff, legs = s.v_ff, s.v_legs
     tau = np.zeros(s.nv)
     tau[s.v_act] = gamma
@@ -170,14 +182,14 @@ def _direct_one(
     # tangents of q and v: the legs follow the platform on the constraint manifold
     dq = np.zeros((s.nv, 6))
     dq[ff] = P
-    dq[legs] = _solve(Jl, -Jf @ P, "the legs' constraint Jacobian")
+    dq[legs] = _solve(Jl, -Jf @ P)
     dv_twist = dq.copy()  # the same linear map takes the twist to v
     v_l, w_l = v[ff][:3], v[ff][3:]
     dv = np.zeros((s.nv, 6))
     dv[ff[:3], 3:] = R.T @ _hat(twist[:3])
     dv[ff[3:], 3:] = R.T @ _hat(twist[3:])
-    Cq = _constraint_velocity_dq(s, q, v)  # after _state: the constraint datas are current
-    dv[legs] = _solve(Jl, -(Cq @ dq + Jf @ dv[ff]), "the legs' constraint Jacobian")
+    Cq = _constraint_velocity_dq(s, q, v)
+    dv[legs] = _solve(Jl, -(Cq @ dq + Jf @ dv[ff]))
     # platform classical acceleration [R (a_lin + w_l x v_l), R a_ang]
     B = _blocks(R)
     a = ddq[ff]
@@ -217,7 +229,7 @@ def constrained_direct_dynamics_derivatives(
     batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
     outs = [np.empty((len(T), 6)), *(np.empty((len(T), 6, 6)) for _ in range(3))]
     for n in range(len(T)):
-        one = _direct_one(s, padded, robot.description, T[n], V[n], G[n])
+        one = _direct_one(robot, s, padded, T[n], V[n], G[n])
         for out, x in zip(outs, one, strict=True):
             out[n] = x
     for out in outs:
@@ -256,7 +268,7 @@ def tree_derivatives_call(
     a platform state, q, v and tau prepared beforehand: the benchmark's yardstick for the
     derivatives (a function of no arguments)."""
     s = tree_solver(robot)
-    q, v, _, _ = _state(s, robot.description, np.asarray(pose), np.asarray(twist))
+    q, v = tree_state(robot, pose, twist)
     tau = np.zeros(s.nv)
     tau[s.v_act] = gamma
     model, data, cms, cds, settings = s.model, s.data, s.cmodels, s.cdatas, s.settings

@@ -849,3 +849,9 @@ def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
         backend = CompiledDynamics(robot, **kwargs)
         _BACKENDS[robot] = backend
     return backend
+
+
+def thread_pool(threads: int) -> ThreadPoolExecutor:
+    """The process-wide pool of ``threads - 1`` workers that compiled batches split over
+    (the value models here, the derivatives of :mod:`.derivatives`)."""
+    return _pool(threads)

@@ -58,11 +58,9 @@ import numpy as np
 from stewart_pin._checks import check_states
 from stewart_pin.codegen.compiled import (
     CompiledDynamics,
-    _pool,
-    _positive_threads,
     build_source_library,
     compiled_backend,
-    default_threads,
+    thread_pool,
 )
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import (
@@ -376,12 +374,12 @@ class CompiledDerivatives:
         threads: int | None = None,
     ) -> None:
         self.robot = robot
-        self.threads = default_threads() if threads is None else _positive_threads(threads)
         self.symbolic = symbolic_derivatives(symbolic_models_for(robot))
         if cache_dir is None and compiler is None and threads is None:
             self._values = compiled_backend(robot)
         else:
             self._values = CompiledDynamics(robot, cache_dir, compiler, threads)
+        self.threads: int = self._values.threads  # checked there
         self._desc = robot.description
         self.kind, self.reason = "vm", None
         self.library: Path | None = None
@@ -524,7 +522,7 @@ class CompiledDerivatives:
                 fn(m, pT + 128 * s, pV + 48 * s, pX + 48 * s, pc, po + 8 * _NOUT * s, pf + 4 * s)
             )
 
-        pool = _pool(self.threads)
+        pool = thread_pool(self.threads)
         futures = [pool.submit(part, k) for k in range(1, parts)]
         any_flag = part(0)
         for f in futures:
