@@ -107,6 +107,11 @@ def _central_differences(f, T, V, X, h_pose: float, h_twist: float, h_x: float):
     return [(y[w, :, 0] - y[w, :, 1]).T / (2 * h) for w, h in enumerate((h_pose, h_twist, h_x))]
 
 
+def _reference(method):
+    """A robot method on the reference path (Pinocchio legs and the closure layer)."""
+    return lambda *args: method(*args, backend="pinocchio")
+
+
 def _steps(robot: StewartRobot) -> tuple[float, float]:
     size = robot.description.size
     return 1e-5 * size, 1e-4  # pose [m, rad scaled alike], twist [m/s, rad/s]
@@ -119,7 +124,7 @@ def test_inverse_dynamics_derivatives_equal_central_differences(name):
     P, V, A = robot.sample_states(N_STATES, 11)
     d = backend.inverse_dynamics_derivatives(P, V, A)
     assert d.pose.shape == d.twist.shape == d.accel.shape == (N_STATES, 6, 6)
-    assert _rel(d.gamma, robot.inverse_dynamics(P, V, A)) < 1e-10
+    assert _rel(d.gamma, robot.inverse_dynamics(P, V, A, backend="pinocchio")) < 1e-10
     h_pose, h_twist = _steps(robot)
     for n in range(N_STATES):
         fd = _central_differences(robot.inverse_dynamics, P[n], V[n], A[n], h_pose, h_twist, 1.0)
@@ -131,14 +136,14 @@ def test_inverse_dynamics_derivatives_equal_central_differences(name):
 def test_direct_dynamics_derivatives_equal_central_differences(name):
     robot, backend = _backend(name)
     P, V, A = robot.sample_states(N_STATES, 12)
-    G = robot.inverse_dynamics(P, V, A)
+    G = robot.inverse_dynamics(P, V, A, backend="pinocchio")
     d = backend.direct_dynamics_derivatives(P, V, G)
     assert _rel(d.accel, A) < 1e-8
     h_pose, h_twist = _steps(robot)
     h_gamma = 1e-3 * float(np.abs(G).max())  # Vdot is affine in Gamma: any step
     for n in range(N_STATES):
         fd = _central_differences(
-            robot.direct_dynamics, P[n], V[n], G[n], h_pose, h_twist, h_gamma
+            _reference(robot.direct_dynamics), P[n], V[n], G[n], h_pose, h_twist, h_gamma
         )
         for got, ref in zip((d.pose[n], d.twist[n], d.gamma[n]), fd, strict=True):
             assert _rel(got, ref) < TOL
@@ -220,9 +225,8 @@ def test_gamma_rate_along_a_motion_is_the_chain_rule():
         T0, V0, A0 = _motion(robot, t - h)
         assert np.allclose((V1 - V0) / (2 * h), Vd, rtol=0, atol=1e-7)  # the motion itself
         jerk = (A1 - A0) / (2 * h)
-        gamma_rate = (robot.inverse_dynamics(T1, V1, A1) - robot.inverse_dynamics(T0, V0, A0)) / (
-            2 * h
-        )
+        idm = _reference(robot.inverse_dynamics)
+        gamma_rate = (idm(T1, V1, A1) - idm(T0, V0, A0)) / (2 * h)
         d = robot.inverse_dynamics_derivatives(T, V, Vd)
         chain = d.pose @ V + d.twist @ Vd + d.accel @ jerk
         assert np.abs(chain - gamma_rate).max() < TOL * np.abs(gamma_rate).max()
@@ -260,7 +264,7 @@ def test_derivatives_raise_the_value_models_errors():
     P = P.copy()
     P[2, 2, 3] += 10.0  # legs far too long
     with pytest.raises(StrokeLimitError) as ref:
-        robot.inverse_dynamics(P, V, A)
+        robot.inverse_dynamics(P, V, A, backend="pinocchio")
     with pytest.raises(StrokeLimitError) as got:
         robot.inverse_dynamics_derivatives(P, V, A)
     assert str(got.value) == str(ref.value)

@@ -68,7 +68,7 @@ def test_optimal_motion_forces_are_the_reference_inverse_dynamics(limited):
     """At each node, the reference IDM of the NLP's state and acceleration gives back the
     force held from that node."""
     robot, m = limited
-    gamma = robot.inverse_dynamics(m.poses[:-1], m.twists[:-1], m.accels[:-1])
+    gamma = robot.inverse_dynamics(m.poses[:-1], m.twists[:-1], m.accels[:-1], backend="pinocchio")
     assert np.abs(gamma - m.gammas).max() < 1e-9 * MAX_EFFORT
 
 

@@ -111,11 +111,14 @@ class OptimalMotion:
         k = int(np.floor(t / self.control_period + _INDEX_SLACK))
         return self.gammas[min(max(k, 0), len(self.gammas) - 1)].copy()
 
-    def simulate(self, robot: RobotLike, substeps: int | None = None) -> SimulationResult:
+    def simulate(
+        self, robot: RobotLike, substeps: int | None = None, backend: str = "pinocchio"
+    ) -> SimulationResult:
         """The open-loop simulation of the optimised forces from the start state: RK4 with
         ``substeps`` steps per interval (default the transcription's), forces sampled and
-        held every :attr:`control_period` (:func:`~stewart_pin.motion.simulation.simulate`
-        with the reference direct model)."""
+        held every :attr:`control_period` (:func:`~stewart_pin.motion.simulation.simulate`;
+        ``backend`` its direct model's, by default the reference path, which shares no
+        code with the generated model the optimisation used)."""
         n = self.substeps if substeps is None else int(substeps)
         if n < 1:
             raise InputError(f"substeps must be a positive integer, got {substeps!r}")
@@ -129,6 +132,7 @@ class OptimalMotion:
             method="rk4",
             dt=period / n,
             control_period=period,
+            backend=backend,
         )
 
     def deviation(self, result: SimulationResult) -> tuple[float, float]:
