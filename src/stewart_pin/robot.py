@@ -538,6 +538,30 @@ class StewartRobot:
             )
         return accel if batched else accel[0]
 
+    # ------------------------------------------------------------------ derivatives
+    def inverse_dynamics_derivatives(
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike
+    ) -> InverseDynamicsDerivatives:
+        """Gamma and its exact Jacobians ``.pose``, ``.twist``, ``.accel`` (6, 6) (or
+        (N, 6, 6)) in the platform state, from CasADi's differentiation of the compiled
+        closed form (:mod:`stewart_pin.codegen.derivatives`; built on first use).
+
+        ``.pose`` is with respect to ``delta = [dp, dtheta]`` in F0 (``p + dp``,
+        ``R <- exp(dtheta^) R``), so that along a motion
+        ``dGamma/dt = D.pose @ [v, w] + D.twist @ Vdot + D.accel @ dVdot/dt`` (Vdot the
+        classical acceleration). Arguments and errors as :meth:`inverse_dynamics`;
+        :class:`UnsupportedArchitectureError` for general legs, for now."""
+        return _derivatives(self).inverse_dynamics_derivatives(pose, twist, accel)
+
+    def direct_dynamics_derivatives(
+        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
+    ) -> DirectDynamicsDerivatives:
+        """The classical acceleration ``.accel`` and its exact Jacobians ``.pose``,
+        ``.twist``, ``.gamma`` (6, 6) (or (N, 6, 6)); the pose chart as in
+        :meth:`inverse_dynamics_derivatives`. Arguments and errors as
+        :meth:`direct_dynamics`."""
+        return _derivatives(self).direct_dynamics_derivatives(pose, twist, gamma)
+
     def cartesian_dynamics(
         self, pose: ArrayLike, twist: ArrayLike
     ) -> CartesianDynamics | GeneralCartesianDynamics:
@@ -671,3 +695,17 @@ def _compiled(backend: str, details: bool = False) -> bool:
             "details=True needs backend='pinocchio' (the compiled model returns Gamma)"
         )
     return backend == "compiled"
+
+
+if TYPE_CHECKING:
+    from stewart_pin.codegen.derivatives import (
+        DirectDynamicsDerivatives,
+        InverseDynamicsDerivatives,
+    )
+
+
+def _derivatives(robot: StewartRobot) -> Any:
+    """The robot's :class:`~stewart_pin.codegen.derivatives.CompiledDerivatives`."""
+    from stewart_pin.codegen.derivatives import derivatives_backend
+
+    return derivatives_backend(robot)

@@ -7,17 +7,26 @@
 - :func:`compiled_backend` / :class:`CompiledDynamics` (:mod:`.compiled`): the models
   compiled to C and called through :mod:`ctypes`, one state or batches, with a CasADi
   virtual-machine fallback when no C compiler is available.
+- :class:`CompiledDerivatives` / :func:`derivatives_backend` (:mod:`.derivatives`): the exact
+  Jacobians of both models in the platform state (pose chart, twist, third argument), by
+  CasADi's algorithmic differentiation of the generated models, compiled the same way.
 
 Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
 """
 
 from stewart_pin.codegen.compiled import CompiledDynamics, cache_root, compiled_backend
+from stewart_pin.codegen.derivatives import (
+    CompiledDerivatives,
+    derivatives_backend,
+    symbolic_derivatives,
+)
 from stewart_pin.codegen.opcount import OperationCount, cost_dict, cost_table, count_operations
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import CompilationError, UnsafeCacheError  # their old home
 
 __all__ = [
     "CompilationError",
+    "CompiledDerivatives",
     "CompiledDynamics",
     "OperationCount",
     "SymbolicModels",
@@ -27,5 +36,7 @@ __all__ = [
     "cost_dict",
     "cost_table",
     "count_operations",
+    "derivatives_backend",
     "generate_models",
+    "symbolic_derivatives",
 ]

@@ -70,7 +70,7 @@ import tempfile
 import threading
 import warnings
 import weakref
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -398,11 +398,23 @@ def build_library(
     by someone else, and :class:`CompilationError` when no compiler is found or the
     compilation fails. See the module docstring for the cache's rules.
     """
+    return build_source_library(lambda: c_source(desc), cache_dir, compiler, load)
+
+
+def build_source_library(
+    source_of: Callable[[], str],
+    cache_dir: str | Path | None = None,
+    compiler: str | None = None,
+    load: Any = None,
+) -> tuple[Path, bool]:
+    """:func:`build_library` for any generated C source (``source_of()``, called once a
+    compiler is found): the same cache folder, key, integrity rules, lock and build (the
+    exact derivatives of :mod:`.derivatives` use it)."""
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")
     root = Path(cache_dir) if cache_dir is not None else cache_root()
-    source = c_source(desc)
+    source = source_of()
     key = cache_key(source, compiler)
     folder = root / key
     try:
@@ -837,3 +849,9 @@ def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
         backend = CompiledDynamics(robot, **kwargs)
         _BACKENDS[robot] = backend
     return backend
+
+
+def thread_pool(threads: int) -> ThreadPoolExecutor:
+    """The process-wide pool of ``threads - 1`` workers that compiled batches split over
+    (the value models here, the derivatives of :mod:`.derivatives`)."""
+    return _pool(threads)

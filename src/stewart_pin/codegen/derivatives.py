@@ -1,0 +1,565 @@
+"""Exact derivatives of the closed-form models in the platform state, generated and compiled.
+
+For the inverse model ``Gamma = IDM(x, V, Vdot)`` and the direct model
+``Vdot = DDM(x, V, Gamma)`` this module gives the (6, 6) Jacobians with respect to the
+pose ``x``, the twist ``V = [v, w]`` (velocity of O_p and angular velocity, F0) and the third
+argument (the classical acceleration ``Vdot = [dv/dt, dw/dt]`` in F0, or the actuator
+efforts Gamma).
+
+The pose derivative is taken in the chart ``delta = [dp, dtheta]`` (6,) in F0 [m, rad]::
+
+    p <- p + dp,    R <- exp(dtheta^) R
+
+the frame of the twist, so that along any motion ``d delta / dt = [v, w]`` (``dp/dt = v``,
+``dR/dt = w^ R``) and ``dV/dt = Vdot`` (the classical acceleration is the time derivative
+of the twist's components). Along a motion, then::
+
+    dGamma/dt = D.pose @ V + D.twist @ Vdot + D.accel @ dVdot/dt     (IDM)
+    dVdot/dt  = D.pose @ V + D.twist @ Vdot + D.gamma @ dGamma/dt    (DDM)
+
+How. The perturbation is injected symbolically into the generated model's pose input
+(:func:`perturbed_pose`: ``p + dp`` and ``(I + dtheta^) R``, which has the same first
+derivative at ``delta = 0`` as ``exp(dtheta^) R``), CasADi's algorithmic differentiation
+(reverse mode: six sweeps over the straight-line code) gives the Jacobian with respect to
+``[delta, V, Vdot]``, evaluated at ``delta = 0`` by substitution (SX folds the zeros), and
+common sub-expressions are eliminated. Nothing here knows the robot's architecture: it
+takes any :class:`~.symbolic.SymbolicModels` whose ``idm`` / ``ddm`` have the signature
+``(pose (16, row-major 0Tp), twist (6), accel | gamma (6), base_parameters) -> (6)``.
+Which robots have such models is decided in one place, :func:`symbolic_models_for`.
+
+Compiled. :class:`CompiledDerivatives` compiles the two Jacobian functions into one shared
+library per robot through :func:`.compiled.build_source_library` (the cache, its key, its
+integrity rules, lock and build of :mod:`.compiled`), with a batch loop in C that flags
+non-finite results, and runs batches on :attr:`CompiledDerivatives.threads` threads
+(the process-wide pool of :mod:`.compiled`). Without a C compiler it evaluates the same
+functions in CasADi's virtual machine, with one warning.
+
+Guards. Each call first evaluates the value (``.gamma`` / ``.accel``) with the compiled
+value model of the robot (:func:`~.compiled.compiled_backend`), which raises exactly what
+the reference path raises for the state (bad input, stroke or joint limits, leg or parallel
+singularities, a direct model that is not positive definite, overflow); only then are the
+derivatives computed, and a non-finite one raises
+:class:`~stewart_pin.exceptions.NumericalError`.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+import warnings
+import weakref
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import casadi as cs
+import numpy as np
+
+from stewart_pin._checks import check_states
+from stewart_pin.codegen.compiled import (
+    CompiledDynamics,
+    build_source_library,
+    compiled_backend,
+    thread_pool,
+)
+from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
+from stewart_pin.exceptions import (
+    CompilationError,
+    InputError,
+    NumericalError,
+    UnsafeCacheError,
+    UnsupportedArchitectureError,
+)
+from stewart_pin.protocols import RobotLike
+
+__all__ = [
+    "CompiledDerivatives",
+    "DirectDynamicsDerivatives",
+    "InverseDynamicsDerivatives",
+    "SymbolicDerivatives",
+    "derivatives_backend",
+    "derivatives_c_source",
+    "perturbed_pose",
+    "symbolic_derivatives",
+    "symbolic_models_for",
+]
+
+#: Fewest states per thread for a batch of derivatives to be split (a state costs about
+#: ten value evaluations, so fewer than the value models' threshold).
+THREAD_MIN_STATES = 64
+#: States per CasADi VM call in the fallback.
+VM_CHUNK = 1024
+#: Numbers per state of the compiled output: the three (6, 6) Jacobians, row-major.
+_NOUT = 108
+_NAMES = {"idm": "sp_idm_derivatives", "ddm": "sp_ddm_derivatives"}
+_OUTPUTS = {"idm": "inverse dynamics derivatives", "ddm": "direct dynamics derivatives"}
+_WARNED: set[str] = set()
+
+
+# ---------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class InverseDynamicsDerivatives:
+    """The inverse model and its Jacobians at a state (or a batch: a leading N axis).
+
+    Attributes:
+        gamma: Gamma (6,) [N] (general legs: joint-side efforts [N or N m]).
+        pose: ``dGamma/d delta`` (6, 6) [N/m | N/rad], ``delta = [dp, dtheta]`` in F0 (see
+            the module docstring).
+        twist: ``dGamma/dV`` (6, 6) [N s/m | N s/rad].
+        accel: ``dGamma/dVdot`` (6, 6) [N s^2/m | N s^2/rad] (the inertia seen by the
+            actuators, ``Jp^T A_robot``).
+    """
+
+    gamma: np.ndarray
+    pose: np.ndarray
+    twist: np.ndarray
+    accel: np.ndarray
+
+
+@dataclass(frozen=True)
+class DirectDynamicsDerivatives:
+    """The direct model and its Jacobians at a state (or a batch: a leading N axis).
+
+    Attributes:
+        accel: the classical acceleration ``Vdot = [dv/dt, dw/dt]`` (6,) in F0.
+        pose: ``dVdot/d delta`` (6, 6), ``delta = [dp, dtheta]`` in F0.
+        twist: ``dVdot/dV`` (6, 6).
+        gamma: ``dVdot/dGamma`` (6, 6) (``A_robot^-1 Jp^-T``).
+    """
+
+    accel: np.ndarray
+    pose: np.ndarray
+    twist: np.ndarray
+    gamma: np.ndarray
+
+
+# ---------------------------------------------------------------------------- symbolic
+def perturbed_pose(pose: cs.SX, delta: cs.SX) -> cs.SX:
+    """The pose input (16, row-major 0Tp) moved by ``delta = [dp, dtheta]`` in F0, to first
+    order: ``p + dp`` and ``(I + dtheta^) R`` (the same derivative at ``delta = 0`` as
+    ``exp(dtheta^) R``; only that derivative is used)."""
+    T = cs.reshape(pose, 4, 4).T  # CasADi reshapes column-major: the transpose is 0Tp
+    R, p = T[:3, :3], T[:3, 3]
+    moved = cs.SX.zeros(4, 4)
+    moved[:3, :3] = R + cs.mtimes(cs.skew(delta[3:]), R)
+    moved[:3, 3] = p + delta[:3]
+    moved[3, :] = T[3, :]
+    return cs.reshape(moved.T, 16, 1)
+
+
+@dataclass(frozen=True)
+class SymbolicDerivatives:
+    """The Jacobians of a robot's generated models as CasADi SX functions.
+
+    Attributes:
+        idm: ``(pose, twist, accel, base_parameters) -> (d_pose, d_twist, d_accel)``, each
+            (6, 6): the derivatives of Gamma (see :class:`InverseDynamicsDerivatives`).
+        ddm: ``(pose, twist, gamma, base_parameters) -> (d_pose, d_twist, d_gamma)``: those
+            of the classical acceleration.
+        idm_flat, ddm_flat: the same with one output (108,), the three Jacobians row-major
+            one after the other (what gets compiled).
+        models: the models they differentiate.
+    """
+
+    idm: cs.Function
+    ddm: cs.Function
+    idm_flat: cs.Function
+    ddm_flat: cs.Function
+    models: SymbolicModels
+
+
+def _jacobians(model: cs.Function, name: str) -> tuple[cs.Function, cs.Function]:
+    n_in = model.n_in()
+    if n_in != 4 or model.size1_in(0) != 16 or any(model.size1_in(k) != 6 for k in (1, 2)):
+        raise InputError(
+            f"{model.name()} must take (pose (16, row-major 0Tp), twist (6), 6-vector, "
+            f"parameters), got sizes {[model.size1_in(k) for k in range(n_in)]}: generate "
+            "the models with pose='matrix'"
+        )
+    names = [model.name_in(k) for k in range(4)]
+    x = [cs.SX.sym(n, model.size1_in(k)) for k, n in enumerate(names)]
+    delta = cs.SX.sym("delta", 6)
+    out = model(perturbed_pose(x[0], delta), x[1], x[2], x[3])
+    J = cs.jacobian(out, cs.vertcat(delta, x[1], x[2]))
+    J = cs.substitute(J, delta, cs.DM.zeros(6))
+    blocks = [J[:, 6 * k : 6 * k + 6] for k in range(3)]
+    out_names = ["d_pose", "d_twist", f"d_{names[2]}"]
+    flat = cs.cse(cs.vertcat(*[cs.vec(b.T) for b in blocks]))  # row-major blocks
+    split = cs.cse(blocks)
+    return (
+        cs.Function(f"{name}_matrices", x, split, names, out_names),
+        cs.Function(name, x, [flat], names, ["derivatives"]),
+    )
+
+
+_SYMBOLIC: dict[int, SymbolicDerivatives] = {}
+_SYMBOLIC_SIZE = 16
+
+
+def symbolic_derivatives(models: SymbolicModels) -> SymbolicDerivatives:
+    """The Jacobians of ``models`` (any architecture's, with a matrix pose input), built
+    once per models object."""
+    key = id(models)
+    found = _SYMBOLIC.get(key)
+    if found is not None and found.models is models:
+        return found
+    if len(_SYMBOLIC) >= _SYMBOLIC_SIZE:
+        _SYMBOLIC.pop(next(iter(_SYMBOLIC)))
+    idm, idm_flat = _jacobians(models.idm, _NAMES["idm"])
+    ddm, ddm_flat = _jacobians(models.ddm, _NAMES["ddm"])
+    result = SymbolicDerivatives(idm, ddm, idm_flat, ddm_flat, models)
+    _SYMBOLIC[key] = result
+    return result
+
+
+def symbolic_models_for(robot: RobotLike) -> SymbolicModels:
+    """The generated closed-form models the derivatives of ``robot`` are built from.
+
+    This is the one place that says which architectures have them: the ideal 6-UPS
+    (:func:`~.symbolic.generate_models`). General legs get theirs with the generator for
+    every leg architecture (issue 14, item 2); until then
+    :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
+    """
+    desc = robot.description
+    if not desc.is_ideal_ups:
+        raise UnsupportedArchitectureError(
+            "exact derivatives (inverse_dynamics_derivatives, direct_dynamics_derivatives) "
+            f"are 6-UPS-only for now: robot '{desc.name}' has {desc.architecture} legs, whose "
+            "closed-form models are not generated yet; use finite differences of "
+            "robot.inverse_dynamics / direct_dynamics (pose chart p + dp, exp(dtheta^) R)",
+            "exact derivatives",
+            desc.architecture,
+        )
+    return generate_models(desc)
+
+
+# ---------------------------------------------------------------------------- C source
+_TEMPLATE = r"""
+/* ---- stewart-pin: batch loops of the exact derivatives (see codegen/derivatives.py) ---- */
+#include <math.h>
+
+#ifndef SP_EXPORT
+#define SP_EXPORT __attribute__((visibility("default")))
+#endif
+
+#define SP_NONFINITE 32
+#define SP_NOUT %(nout)d
+
+/* n states: pose (n x 16), twist (n x 6), x (n x 6), chi -> out (n x SP_NOUT), flags (n).
+   Returns the OR of the flags (SP_NONFINITE: a non-finite derivative). */
+#define SP_DERIVATIVE_BATCH(NAME, FN, SZ_ARG, SZ_RES, SZ_IW, SZ_W)                      \
+SP_EXPORT int NAME(long long n, const double* pose, const double* twist,                 \
+                   const double* x, const double* chi, double* out, int* flags) {        \
+  const casadi_real* arg[SZ_ARG + 1];                                                    \
+  casadi_real* res[SZ_RES + 1];                                                          \
+  casadi_int iw[SZ_IW + 1];                                                              \
+  casadi_real w[SZ_W + 1];                                                               \
+  int any = 0, k, f;                                                                     \
+  long long s;                                                                           \
+  for (s = 0; s < n; ++s) {                                                              \
+    double* o = out + (long long)SP_NOUT * s;                                            \
+    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = x + 6 * s; arg[3] = chi;    \
+    res[0] = o;                                                                          \
+    FN(arg, res, iw, w, 0);                                                              \
+    f = 0;                                                                               \
+    for (k = 0; k < SP_NOUT; ++k) if (!isfinite(o[k])) { f = SP_NONFINITE; break; }      \
+    flags[s] = f;                                                                        \
+    any |= f;                                                                            \
+  }                                                                                      \
+  return any;                                                                            \
+}
+
+SP_DERIVATIVE_BATCH(sp_idm_derivatives_batch, %(idm)s, %(idm_sz_arg)d, %(idm_sz_res)d,
+                    %(idm_sz_iw)d, %(idm_sz_w)d)
+SP_DERIVATIVE_BATCH(sp_ddm_derivatives_batch, %(ddm)s, %(ddm_sz_arg)d, %(ddm_sz_res)d,
+                    %(ddm_sz_iw)d, %(ddm_sz_w)d)
+
+/* One state packed in one read-only block (pose 16 row-major, twist 6, x 6): the
+   single-state call from Python, as compiled.py's sp_idm_one. Returns the state's flag. */
+SP_EXPORT int sp_idm_derivatives_one(const double* in, const double* chi, double* out) {
+  int f;
+  sp_idm_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
+  return f;
+}
+
+SP_EXPORT int sp_ddm_derivatives_one(const double* in, const double* chi, double* out) {
+  int f;
+  sp_ddm_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
+  return f;
+}
+"""
+
+
+def derivatives_c_source(derivs: SymbolicDerivatives) -> str:
+    """The C source of a robot's derivative library: CasADi's code of ``idm_flat`` and
+    ``ddm_flat`` and the batch loops above (numbers only: no text from a description)."""
+    cg = cs.CodeGenerator(
+        "stewart_derivatives.c",
+        {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
+    )
+    fi, fd = derivs.idm_flat, derivs.ddm_flat
+    cg.add(fi)
+    cg.add(fd)
+    wrapper = _TEMPLATE % {
+        "nout": _NOUT,
+        "idm": fi.name(),
+        "ddm": fd.name(),
+        **{f"idm_sz_{k}": getattr(fi, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
+        **{f"ddm_sz_{k}": getattr(fd, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
+    }
+    return f"/* Generated by stewart-pin (codegen/derivatives.py). */\n{cg.dump()}\n{wrapper}"
+
+
+# ---------------------------------------------------------------------------- backend
+def _warn_once(reason: str) -> None:
+    if reason not in _WARNED:
+        _WARNED.add(reason)
+        warnings.warn(
+            f"stewart-pin compiled derivatives unavailable ({reason}); using CasADi's "
+            "virtual machine instead (same results, slower)",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+
+
+_F64 = np.dtype(np.float64)
+
+
+def _native(pose: Any, twist: Any, x: Any) -> tuple[bool, Any, Any, Any] | None:
+    """``(batched, pose, twist, x)`` when all three are float64 arrays of one state's or one
+    batch's shapes (what the value model has just validated), else None."""
+    if not all(type(a) is np.ndarray and a.dtype is _F64 for a in (pose, twist, x)):
+        return None
+    if pose.shape == (4, 4) and twist.shape == (6,) and x.shape == (6,):
+        return False, pose, twist, x
+    n = pose.shape[0] if pose.ndim == 3 else -1
+    if pose.shape[1:] == (4, 4) and twist.shape == (n, 6) and x.shape == (n, 6):
+        return True, pose, twist, x
+    return None
+
+
+class CompiledDerivatives:
+    """The exact derivatives of a robot's inverse and direct models, compiled to C (or in
+    CasADi's virtual machine).
+
+    Args:
+        robot: a :class:`~stewart_pin.StewartRobot` whose architecture has generated models
+            (:func:`symbolic_models_for`; otherwise
+            :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`).
+        cache_dir, compiler, threads: as for :class:`~.compiled.CompiledDynamics` (the value
+            models that guard each call are built with the same settings).
+
+    Methods (one state: ``pose`` (4, 4) / ``pin.SE3``, vectors (6,); a batch: (N, 4, 4) and
+    (N, 6); results with the same leading axis):
+
+    - ``inverse_dynamics_derivatives(pose, twist, accel, base_values=None)`` ->
+      :class:`InverseDynamicsDerivatives`;
+    - ``direct_dynamics_derivatives(pose, twist, gamma, base_values=None)`` ->
+      :class:`DirectDynamicsDerivatives`.
+
+    ``base_values`` replaces the robot's base parameters (as for the value models).
+    Errors: those of the value models for the state, then
+    :class:`~stewart_pin.exceptions.NumericalError` for a non-finite derivative.
+
+    Attributes:
+        kind: ``"compiled"`` or ``"vm"``; reason: why the VM is used. library: the shared
+        library's path; compiled_now: whether this construction compiled it. threads.
+    """
+
+    def __init__(
+        self,
+        robot: RobotLike,
+        cache_dir: str | Path | None = None,
+        compiler: str | bool | None = None,
+        threads: int | None = None,
+    ) -> None:
+        self.robot = robot
+        self.symbolic = symbolic_derivatives(symbolic_models_for(robot))
+        if cache_dir is None and compiler is None and threads is None:
+            self._values = compiled_backend(robot)
+        else:
+            self._values = CompiledDynamics(robot, cache_dir, compiler, threads)
+        self.threads: int = self._values.threads  # checked there
+        self._desc = robot.description
+        self.kind, self.reason = "vm", None
+        self.library: Path | None = None
+        self.compiled_now = False
+        if compiler is False:
+            self.reason = "compiler disabled"
+        else:
+            try:
+                self.library, self.compiled_now = build_source_library(
+                    lambda: derivatives_c_source(self.symbolic),
+                    cache_dir,
+                    compiler if isinstance(compiler, str) else None,
+                    self._load,
+                )
+                self.kind = "compiled"
+            except UnsafeCacheError:
+                raise
+            except (CompilationError, OSError, AttributeError) as e:
+                self.reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        if self.kind == "vm":
+            _warn_once(self.reason or "unknown")
+
+    def __repr__(self) -> str:
+        return f"CompiledDerivatives({self.robot!r}, kind={self.kind!r})"
+
+    def _load(self, path: Path) -> None:
+        lib = ctypes.CDLL(str(path))
+        argtypes: list[Any] = [ctypes.c_longlong, *[ctypes.c_void_p] * 6]
+        self._c = {}
+        for which in ("idm", "ddm"):
+            fn = lib[f"{_NAMES[which]}_batch"]
+            fn.argtypes = argtypes
+            fn.restype = ctypes.c_int
+            self._c[which] = fn
+        self._lib = lib
+        # The single-state entries without argument types (the fastest ctypes call): a
+        # bytes block and prepared pointers; the result buffer's address taken once, a lock
+        # making it safe across threads (as compiled.py does).
+        self._c_one = {}
+        for which in ("idm", "ddm"):
+            one = lib[f"{_NAMES[which]}_one"]
+            one.restype = ctypes.c_int
+            self._c_one[which] = one
+        self._lock = threading.Lock()
+        self._one_out = np.zeros(_NOUT)
+        self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
+        self._chi_ptr = ctypes.c_void_p(self._values.base_values.ctypes.data)
+
+    # ------------------------------------------------------------------ public API
+    def inverse_dynamics_derivatives(
+        self, pose: Any, twist: Any, accel: Any, base_values: Any = None
+    ) -> InverseDynamicsDerivatives:
+        """Gamma and its Jacobians (see :class:`InverseDynamicsDerivatives`)."""
+        gamma = self._values.inverse_dynamics(pose, twist, accel, base_values)
+        d = self._run("idm", pose, twist, accel, "accel", base_values)
+        return InverseDynamicsDerivatives(gamma, *d)
+
+    def direct_dynamics_derivatives(
+        self, pose: Any, twist: Any, gamma: Any, base_values: Any = None
+    ) -> DirectDynamicsDerivatives:
+        """The classical acceleration and its Jacobians (see
+        :class:`DirectDynamicsDerivatives`)."""
+        accel = self._values.direct_dynamics(pose, twist, gamma, base_values)
+        d = self._run("ddm", pose, twist, gamma, "gamma", base_values)
+        return DirectDynamicsDerivatives(accel, *d)
+
+    # ------------------------------------------------------------------ internals
+    def _run(
+        self, which: str, pose: Any, twist: Any, x: Any, name: str, base_values: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The three Jacobians of a state or batch the value model has accepted."""
+        chi = self._values._chi(base_values)
+        arrays = _native(pose, twist, x)  # already checked by the value model
+        if arrays is None:
+            batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
+        else:
+            batched, T, V, X = arrays
+            if not batched and self.kind == "compiled":
+                return self._run_one(which, T, V, X, base_values, chi)
+        T, V, X = (np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X))
+        n = T.size // 16
+        out = np.empty((n, _NOUT))
+        flags = np.zeros(n, dtype=np.int32)
+        if self.kind == "compiled":
+            any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
+        else:
+            any_flag = self._run_vm(which, n, T, V, X, chi, out, flags)
+        if any_flag:
+            bad = flags != 0
+            raise NumericalError(_OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), n)
+        blocks = out.reshape(n, 3, 6, 6)
+        if not batched:
+            return blocks[0, 0], blocks[0, 1], blocks[0, 2]
+        return blocks[:, 0], blocks[:, 1], blocks[:, 2]
+
+    def _run_one(
+        self,
+        which: str,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+        base_values: Any,
+        chi: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One state of native float64 arrays through the single-state entry."""
+        chi_ptr = self._chi_ptr if base_values is None else ctypes.c_void_p(chi.ctypes.data)
+        block = T.tobytes() + V.tobytes() + X.tobytes()  # float64, C order
+        with self._lock:
+            flag = self._c_one[which](block, chi_ptr, self._one_out_ptr)
+            out = self._one_out.copy()
+        if flag:
+            raise NumericalError(_OUTPUTS[which], 0, 1, 1)
+        blocks = out.reshape(3, 6, 6)
+        return blocks[0], blocks[1], blocks[2]
+
+    def _call_batch(
+        self,
+        which: str,
+        n: int,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+        chi: np.ndarray,
+        out: np.ndarray,
+        flags: np.ndarray,
+    ) -> int:
+        """The C loop over ``n`` states, split into :attr:`threads` slices of at least
+        :data:`THREAD_MIN_STATES` states (ctypes releases the GIL during each call)."""
+        fn = self._c[which]
+        pT, pV, pX, pc = T.ctypes.data, V.ctypes.data, X.ctypes.data, chi.ctypes.data
+        po, pf = out.ctypes.data, flags.ctypes.data
+        parts = min(self.threads, n // THREAD_MIN_STATES)
+        if parts <= 1:
+            return int(fn(n, pT, pV, pX, pc, po, pf))
+        bounds = [n * k // parts for k in range(parts + 1)]
+
+        def part(k: int) -> int:
+            s, m = bounds[k], bounds[k + 1] - bounds[k]
+            return int(
+                fn(m, pT + 128 * s, pV + 48 * s, pX + 48 * s, pc, po + 8 * _NOUT * s, pf + 4 * s)
+            )
+
+        pool = thread_pool(self.threads)
+        futures = [pool.submit(part, k) for k in range(1, parts)]
+        any_flag = part(0)
+        for f in futures:
+            any_flag |= f.result()
+        return any_flag
+
+    def _run_vm(
+        self,
+        which: str,
+        n: int,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+        chi: np.ndarray,
+        out: np.ndarray,
+        flags: np.ndarray,
+    ) -> int:
+        f = self.symbolic.idm_flat if which == "idm" else self.symbolic.ddm_flat
+        T2 = T.reshape(n, 16)
+        V2, X2 = V.reshape(n, 6), X.reshape(n, 6)
+        for s in range(0, n, VM_CHUNK):
+            e = min(n, s + VM_CHUNK)
+            out[s:e] = np.array(f(T2[s:e].T, V2[s:e].T, X2[s:e].T, chi)).T
+        flags[:] = np.where(np.isfinite(out).all(axis=1), 0, 32)
+        return int(flags.any())
+
+
+_BACKENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_BACKENDS_LOCK = threading.Lock()
+
+
+def derivatives_backend(robot: RobotLike) -> CompiledDerivatives:
+    """The :class:`CompiledDerivatives` of ``robot``, built on first use and kept with it
+    (a weak reference: the robot stays picklable)."""
+    with _BACKENDS_LOCK:
+        backend = _BACKENDS.get(robot)
+        if backend is None or backend._desc is not robot.description:
+            backend = CompiledDerivatives(robot)
+            _BACKENDS[robot] = backend
+        return backend

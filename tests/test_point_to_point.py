@@ -1,0 +1,128 @@
+"""Minimum-effort point-to-point motions (issue 14, item 6).
+
+Independent references: the open-loop simulation of the optimised forces with the
+project's simulator on the *reference* direct model (Pinocchio's leg dynamics and the
+closure layer, not the generated code the NLP used), and the reference inverse model at
+the nodes. Tolerances: 1e-6 m / rad against the simulation with the transcription's step
+(the same RK4 order, a different SO(3) integration: ~1e-9 measured), 1e-5 m / rad with a
+step twenty times finer (the transcription's own error, ~2e-7 measured).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import get_robot
+
+from stewart_pin import StewartRobot
+from stewart_pin.exceptions import (
+    ConvergenceError,
+    InputError,
+    UnsupportedArchitectureError,
+)
+from stewart_pin.planning import OptimalMotion, optimal_point_to_point
+
+#: Limits for the simulator preset below the unconstrained optimum's peaks (about
+#: 5730 N and 0.49 m/s on this motion), so that both are active.
+MAX_EFFORT = 5200.0  # [N]
+MAX_SPEED = 0.45  # [m/s]
+
+
+def _goal(robot: StewartRobot) -> np.ndarray:
+    T = robot.home_pose
+    T[:3, 3] += [0.15, -0.1, 0.1]
+    T[:3, :3] = pin.exp3(np.array([0.1, 0.15, -0.2])) @ T[:3, :3]
+    return T
+
+
+@pytest.fixture(scope="module")
+def limited() -> tuple[StewartRobot, OptimalMotion]:
+    robot = get_robot("simulator")
+    motion = optimal_point_to_point(
+        robot, robot.home_pose, _goal(robot), 1.0, max_effort=MAX_EFFORT, max_speed=MAX_SPEED
+    )
+    return robot, motion
+
+
+def test_optimal_motion_converges_and_reaches_the_goal_at_rest(limited):
+    robot, m = limited
+    assert m.status == "Solve_Succeeded" and m.iterations > 0
+    assert m.t.shape == (31,) and m.gammas.shape == (30, 6) and m.poses.shape == (31, 4, 4)
+    np.testing.assert_allclose(m.poses[0], robot.home_pose, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(m.poses[-1], _goal(robot), rtol=0, atol=1e-8)
+    np.testing.assert_allclose(m.twists[[0, -1]], 0.0, rtol=0, atol=1e-8)
+
+
+def test_optimal_motion_satisfies_the_limits_and_uses_them(limited):
+    _, m = limited
+    assert np.abs(m.gammas).max() <= MAX_EFFORT  # bounds honoured exactly (no relaxation)
+    assert np.abs(m.gammas).max() >= MAX_EFFORT * (1 - 1e-6)  # the limit is active
+    assert np.abs(m.actuator_speeds).max() <= MAX_SPEED * (1 + 1e-8)
+    assert np.abs(m.actuator_speeds).max() >= MAX_SPEED * (1 - 1e-6)
+    lo, hi = m.length_bounds
+    assert m.leg_lengths.min() >= lo - 1e-9 and m.leg_lengths.max() <= hi + 1e-9
+
+
+def test_optimal_motion_forces_are_the_reference_inverse_dynamics(limited):
+    """At each node, the reference IDM of the NLP's state and acceleration gives back the
+    force held from that node."""
+    robot, m = limited
+    gamma = robot.inverse_dynamics(m.poses[:-1], m.twists[:-1], m.accels[:-1], backend="pinocchio")
+    assert np.abs(gamma - m.gammas).max() < 1e-9 * MAX_EFFORT
+
+
+def test_open_loop_simulation_tracks_the_optimised_motion(limited):
+    robot, m = limited
+    dp, dr = m.deviation(m.simulate(robot))
+    assert dp < 1e-6 and dr < 1e-6
+    dp, dr = m.deviation(m.simulate(robot, substeps=20))
+    assert dp < 1e-5 and dr < 1e-5
+    assert m.forces(0.0).tolist() == m.gammas[0].tolist()
+    assert m.forces(m.control_period * 3).tolist() == m.gammas[3].tolist()  # held from t_3
+    assert m.forces(m.duration).tolist() == m.gammas[-1].tolist()
+
+
+def test_limits_cost_effort(limited):
+    """Without the limits the optimum costs no more, and goes past them."""
+    robot, m = limited
+    free = optimal_point_to_point(robot, robot.home_pose, _goal(robot), 1.0)
+    assert free.cost <= m.cost * (1 + 1e-9)
+    assert (
+        np.abs(free.gammas).max() > MAX_EFFORT and np.abs(free.actuator_speeds).max() > MAX_SPEED
+    )
+
+
+def test_impossible_limits_raise_convergence_error():
+    robot = get_robot("simulator")
+    with pytest.raises(ConvergenceError, match="IPOPT found no optimal motion") as e:
+        optimal_point_to_point(
+            robot, robot.home_pose, _goal(robot), 1.0, max_effort=100.0, max_iterations=30
+        )
+    assert e.value.iterations is not None and e.value.iterations > 0
+
+
+def test_bad_arguments_raise_input_errors():
+    robot = get_robot("simulator")
+    T0, T1 = robot.home_pose, _goal(robot)
+    with pytest.raises(InputError, match="duration"):
+        optimal_point_to_point(robot, T0, T1, -1.0)
+    with pytest.raises(InputError, match="intervals"):
+        optimal_point_to_point(robot, T0, T1, 1.0, intervals=1)
+    with pytest.raises(InputError, match="max_effort"):
+        optimal_point_to_point(robot, T0, T1, 1.0, max_effort=[1.0, 2.0])
+    with pytest.raises(InputError, match="max_speed"):
+        optimal_point_to_point(robot, T0, T1, 1.0, max_speed=-1.0)
+    with pytest.raises(InputError, match="hessian"):
+        optimal_point_to_point(robot, T0, T1, 1.0, hessian="bfgs")
+    lo, hi = robot.description.stroke
+    with pytest.raises(InputError, match="margin"):
+        optimal_point_to_point(robot, T0, T1, 1.0, margin=0.5 * (hi - lo))
+    with pytest.raises(InputError, match="goal_pose has leg lengths"):
+        optimal_point_to_point(robot, T0, T1, 1.0, margin=0.2 * (hi - lo))
+
+
+def test_general_legs_are_not_supported_yet():
+    robot = StewartRobot.from_preset("rus")
+    with pytest.raises(UnsupportedArchitectureError):
+        optimal_point_to_point(robot, robot.home_pose, robot.home_pose, 1.0)
