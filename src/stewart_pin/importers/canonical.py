@@ -7,6 +7,8 @@ its axis. An importer sees joint axes, not frames, so it places them by these ru
 at the zero configuration, every joint value 0, in F0; ``z_j`` is joint j's axis with the
 file's positive direction, so joint values mean what they mean in the file):
 
+0. Two consecutive axes within :data:`PARALLEL_TOLERANCE` of parallel are made parallel
+   (the second turned onto the first).
 1. A prismatic joint's line is placed through a point of the next line: joint 3's
    through the spherical-joint centre P_i (the tip at q = 0), joint 2's through the point
    ``c_3`` of line 3 nearest P_i, joint 1's through origin ``o_2``.
@@ -53,10 +55,15 @@ from stewart_pin.description.leg_architecture import (
     mdh_transform,
 )
 from stewart_pin.description.robot_description import RobotDescription
-from stewart_pin.exceptions import ArchitectureError, NumericalError
+from stewart_pin.exceptions import ArchitectureError
 
-#: ``|z_j x z_{j+1}|`` at or below which two joint axes count as parallel.
-PARALLEL_TOLERANCE = 1e-9
+#: ``|z_j x z_{j+1}|`` (the sine of their angle) at or below which two joint axes are made
+#: parallel: the frames of the modified-DH form of two axes at an angle ``delta`` lie about
+#: ``1 / delta`` times the robot's size away, where a link's inertia about its frame origin
+#: keeps ``~1e-16 / delta^2`` of its relative precision; axes a file means to be parallel
+#: and rounds (``delta`` ~1e-6) are made parallel instead, which moves the robot by
+#: ``delta`` (reported by the importer).
+PARALLEL_TOLERANCE = 1e-4
 #: Angles [rad] within this of 0, ±pi/2, pi, and lengths within this times the robot's
 #: size of 0, are set to those values.
 SNAP = 1e-12
@@ -75,12 +82,15 @@ class CanonicalChain:
         tip: (3,) P_i in frame 3i [m].
         frames: (3, 4, 4) frames 1i..3i in F0 at the zero configuration, rebuilt from
             ``base`` and ``params`` (the frames the link inertias are expressed in).
+        snapped: the largest angle [rad] by which an axis was turned to make it parallel
+            to its neighbour (0 when none was).
     """
 
     base: np.ndarray
     params: np.ndarray
     tip: np.ndarray
     frames: np.ndarray
+    snapped: float = 0.0
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -139,6 +149,13 @@ def canonical_chain(
     z = np.array([_unit(np.asarray(v, dtype=float)) for v in axes])
     P = np.asarray(tip_point, dtype=float)
     prismatic = [k == PRISMATIC for k in kinds]
+    # nearly parallel axes (rounded numbers) are made parallel: 0. rule of the docstring
+    snapped = 0.0
+    for j in (0, 1):
+        if np.linalg.norm(np.cross(z[j], z[j + 1])) <= PARALLEL_TOLERANCE:
+            target = z[j] if z[j] @ z[j + 1] > 0 else -z[j]
+            snapped = max(snapped, float(np.linalg.norm(z[j + 1] - target)))
+            z[j + 1] = target
 
     # 1. prismatic lines through the next line's point
     if prismatic[2]:
@@ -232,11 +249,14 @@ def canonical_chain(
     )
     err = max(err, float(np.abs(frames[2, :3, :3] @ tip + frames[2, :3, 3] - P).max()))
     if not err <= SELF_CHECK * scale:
-        raise NumericalError(
-            f"canonical modified-DH form: the rebuilt frames miss the joint axes by {err:.3g} m "
-            f"(more than {SELF_CHECK:g} of the size {scale:.3g} m)"
+        raise ArchitectureError(
+            f"canonical modified-DH form of {', '.join(names)}: the frames rebuilt from the "
+            f"parameters miss the joint axes by {err:.3g} m (more than {SELF_CHECK:g} of the "
+            f"size {scale:.3g} m): nearly parallel axes whose common normal lies far away",
+            "joints",
+            tuple(names),
         )
-    return CanonicalChain(base, params, tip, frames)
+    return CanonicalChain(base, params, tip, frames, snapped)
 
 
 # ------------------------------------------------------------------------------ inertia

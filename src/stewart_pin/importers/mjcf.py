@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin.exceptions import FileFormatError, ModelImportError, NumericalError
+from stewart_pin.exceptions import FileFormatError, ModelImportError
 from stewart_pin.importers.topology import (
     BALL,
     FREE,
@@ -164,10 +164,10 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
 
     # the zero configuration
     q_zero = np.array(m.qpos0, dtype=float)
-    hinge, slide = mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE
-    ball, free = mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_FREE
+    hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+    ball = int(mujoco.mjtJoint.mjJNT_BALL)
     for j in range(m.njnt):
-        if m.jnt_type[j] in (hinge, slide):
+        if int(m.jnt_type[j]) in (hinge, slide):
             q_zero[m.jnt_qposadr[j]] = 0.0
     data.qpos[:] = q_zero
     mujoco.mj_kinematics(m, data)
@@ -262,8 +262,8 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
         index[b] = len(bodies) - 1
 
     closures: list[TreeClosure] = []
-    connect, weld = mujoco.mjtEq.mjEQ_CONNECT, mujoco.mjtEq.mjEQ_WELD
-    site_obj = mujoco.mjtObj.mjOBJ_SITE
+    connect, weld = int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)
+    site_obj = int(mujoco.mjtObj.mjOBJ_SITE)
     for e in range(m.neq):
         ename = name("mjOBJ_EQUALITY", e)
         if not m.eq_active0[e]:
@@ -299,7 +299,7 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
             closures.append(TreeClosure(ename, "weld", index[b1], index[b2], T_1_2=T_1_2))
 
     actuators: list[TreeActuator] = []
-    joint_trn = mujoco.mjtTrn.mjTRN_JOINT
+    joint_trn = int(mujoco.mjtTrn.mjTRN_JOINT)
     for a in range(m.nu):
         aname = name("mjOBJ_ACTUATOR", a)
         if int(m.actuator_trntype[a]) != joint_trn:
@@ -351,9 +351,11 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
             np.abs(T[:3, :3] - data.xmat[b].reshape(3, 3)).max()
         )
         if not err <= 1e-9 * (1.0 + float(np.abs(data.xpos[b]).max())):
-            raise NumericalError(
+            raise ModelImportError(
                 f"MJCF reader: body {shown(name('mjOBJ_BODY', b))} is placed {err:.3g} away "
-                "from MuJoCo's own kinematics at the reference configuration (a bug)"
+                "from MuJoCo's own kinematics at the reference configuration (an internal "
+                "inconsistency of stewart-pin's reader: please report it with the file)",
+                (name("mjOBJ_BODY", b),),
             )
     return model
 

@@ -80,6 +80,8 @@ MASSLESS = 1e-9
 #: Three hinge axes meet in one point when each passes within this fraction of the size of
 #: the point nearest to all three.
 INTERSECTION_TOLERANCE = 1e-9
+#: Axes made parallel by more than this angle [rad] are reported (below: round-off).
+PARALLEL_NOTICE = 1e-12
 #: Loop residuals at or below this fraction of the size are round-off: no warning.
 EXACT_CLOSURE = 1e-9
 #: Default largest loop residual accepted, as a fraction of the platform's size (the mean
@@ -628,7 +630,7 @@ def recognise(
     for e in edges:
         into.setdefault(e.child, []).append(e)
     for e in into.get(P, []):
-        if e.joint.one_dof:
+        if not e.spherical and e.joint.one_dof:
             welds = [
                 c.name
                 for c in model.closures
@@ -989,7 +991,7 @@ def build(
     leg_of_joint: dict[str, int] = {}
     for k, leg in enumerate(rec.legs):
         for e in leg.edges:
-            if e.joint.one_dof:
+            if not e.spherical:
                 leg_of_joint[e.joint.name] = k
     spherical_joints = {
         h.name: k
@@ -1201,7 +1203,21 @@ def build(
                 link_params = [np.zeros(10), removed[0], removed[1]]
                 refs = [None, None, model.values.get(e1.joint.name, 0.0)]
 
-        chain = canonical_chain(kinds, anchors, axes, tip_zero, rec.scale, names)
+        try:
+            chain = canonical_chain(kinds, anchors, axes, tip_zero, rec.scale, names)
+        except ArchitectureError as err:
+            raise ModelImportError(str(err), tuple(link_bodies), tuple(names)) from err
+        if chain.snapped > PARALLEL_NOTICE:
+            warnings.warn(
+                f"leg through {_names(names)}: two joint axes {chain.snapped:.2g} rad from "
+                "parallel are made parallel (the file's rounding, as read; the robot turns "
+                "by that angle; see docs/importing.md)",
+                ModelImportWarning,
+                stacklevel=3,
+            )
+            model.notes.append(
+                f"axes of {_names(names)} made parallel (turned by {chain.snapped:.2g} rad)"
+            )
         joints: list[Joint] = []
         dyns: list[JointDynamics] = []
         a_act = act_of_leg[k]
