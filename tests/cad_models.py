@@ -419,12 +419,14 @@ def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool =
 
 
 def _tree_platform(w, robot, W_rod, Wp, L, ind):
-    """The platform inside leg 1's rod, through a ball at the rod's tip."""
-    rel = _rel(W_rod, Wp)
-    tip = W_rod @ np.array([0.0, 0.0, L, 1.0])
-    tip_in_p = np.linalg.inv(Wp) @ tip
-    out = [f'{ind}<body name="platform" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n']
-    out.append(f'{ind}  <joint name="ball_p1" type="ball" pos="{w.v(tip_in_p[:3])}" damping="0"/>\n')
-    out.extend(_platform_contents(w, robot, Wp, ind + "  ", "ss"))
-    out.append(f"{ind}</body>\n")
+    """The platform inside leg 1's rod: a socket body at the rod's tip (on its axis) with
+    the ball joint, the platform fixed to it (import with ``platform="platform"``)."""
+    W_socket = W_rod @ np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, L], [0, 0, 0, 1.0]])
+    rel = _rel(W_socket, Wp)
+    out = [f'{ind}<body name="socket1" pos="0 0 {w.n(L)}">\n']
+    out.append(f'{ind}  <joint name="ball_p1" type="ball" damping="0"/>\n')
+    out.append(f'{ind}  <geom type="sphere" size="0.004" density="7800"/>\n')
+    out.append(f'{ind}  <body name="platform" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n')
+    out.extend(_platform_contents(w, robot, Wp, ind + "    ", "ss"))
+    out.append(f"{ind}  </body>\n{ind}</body>\n")
     return out

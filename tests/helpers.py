@@ -134,12 +134,16 @@ def _rotvec(R: np.ndarray) -> np.ndarray:
     return np.asarray(pin.log3(R))
 
 
-def mujoco_closed_state(m, data, body: str, T: np.ndarray, V: np.ndarray, guess=None) -> None:
+def mujoco_closed_state(
+    m, data, body: str, T: np.ndarray, V: np.ndarray, guess=None, no_spin=()
+) -> None:
     """Put ``data`` in a loop-consistent state of any MuJoCo hexapod, by MuJoCo's own
     constraint definitions: Gauss-Newton on ``qpos`` (``mj_integratePos`` steps) until the
     equality rows' ``efc_pos`` vanish and ``body`` is at the pose ``T`` (4x4, F0), then
     ``qvel`` with the equality rows' velocity 0 and ``body``'s twist ``V = [v of its origin,
-    w]`` in F0 (least squares: the minimum-norm rate of a free spin)."""
+    w]`` in F0. ``no_spin``: ``(body name, axis in that body)`` of rods between two
+    spherical joints, whose angular velocity about their axis is set to 0 (the state the
+    equivalent universal-joint leg describes; else the minimum-norm rate)."""
     import mujoco
 
     data.qpos[:] = m.qpos0 if guess is None else guess
@@ -161,8 +165,15 @@ def mujoco_closed_state(m, data, body: str, T: np.ndarray, V: np.ndarray, guess=
     mujoco.mj_fwdPosition(m, data)
     _, J_eq = _mujoco_equality(m, data)
     mujoco.mj_jacBody(m, data, jacp, jacr, bid)
-    rhs = np.r_[np.zeros(len(J_eq)), V]
-    data.qvel[:] = np.linalg.lstsq(np.r_[J_eq, jacp, jacr], rhs, rcond=None)[0]
+    spins = []
+    for name, axis in no_spin:
+        rod = m.body(name).id
+        jr = np.zeros((3, m.nv))
+        mujoco.mj_jacBody(m, data, None, jr, rod)
+        spins.append((data.xmat[rod].reshape(3, 3) @ np.asarray(axis, float)) @ jr)
+    rows = np.vstack([J_eq, jacp, jacr, *spins]) if spins else np.r_[J_eq, jacp, jacr]
+    rhs = np.r_[np.zeros(len(J_eq)), V, np.zeros(len(spins))]
+    data.qvel[:] = np.linalg.lstsq(rows, rhs, rcond=None)[0]
 
 
 def mujoco_constraint_rows(m, data) -> tuple[np.ndarray, np.ndarray]:

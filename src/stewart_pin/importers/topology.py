@@ -440,6 +440,15 @@ def recognise(
     :class:`ModelImportError` naming the bodies and joints that do not fit."""
     links, link_of = _links(model)
     ground = link_of[0]
+    forced: int | None = None
+    if platform is not None:  # the body whose frame is Fp: its link's frame
+        matches = [b for b, body in enumerate(model.bodies) if body.name == platform]
+        if not matches:
+            raise ModelImportError(
+                f"no body named {shown(platform)} (the platform asked for)", (platform,)
+            )
+        forced = link_of[matches[-1]]
+        links[forced] = _reroot(links[forced], matches[-1])
     scale = _scale(model)
     moving = [lk for i, lk in enumerate(links) if i != ground]
     mass = float(sum(lk.inertia[9] for lk in moving)) or 1.0
@@ -588,14 +597,8 @@ def recognise(
         for i in (cn.a, cn.b):
             if i != ground:
                 count[i] = count.get(i, 0) + 1
-    if platform is not None:
-        matches = [b for b, body in enumerate(model.bodies) if body.name == platform]
-        if not matches:
-            raise ModelImportError(
-                f"no body named {shown(platform)} (the platform asked for)", (platform,)
-            )
-        P = link_of[matches[-1]]
-        links[P] = _reroot(links[P], matches[-1], model)
+    if forced is not None:
+        P = forced
     else:
         six = [i for i, n in count.items() if n == 6]
         if len(six) != 1:
@@ -745,7 +748,7 @@ def recognise(
     return Recognition(links, link_of, ground, P, legs, scale, mass, dropped)
 
 
-def _reroot(link: Link, root: int, model: KinematicModel) -> Link:
+def _reroot(link: Link, root: int) -> Link:
     """The link with its frame moved to body ``root``'s (the platform asked for)."""
     T = np.linalg.inv(link.rel[root])
     rel = {b: T @ R for b, R in link.rel.items()}
