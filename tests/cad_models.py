@@ -149,8 +149,15 @@ HEADER = """<mujoco model="{name}">
 """
 
 
-def _joint_attrs(w: Writer, kind: str, W_body: np.ndarray, frame: np.ndarray, name: str,
-                 cls: str, extra: str = "") -> str:
+def _joint_attrs(
+    w: Writer,
+    kind: str,
+    W_body: np.ndarray,
+    frame: np.ndarray,
+    name: str,
+    cls: str,
+    extra: str = "",
+) -> str:
     """A hinge or slide about z of ``frame`` (F0), written in the body at ``W_body``."""
     T = np.linalg.inv(W_body) @ frame
     jt = "hinge" if kind == "revolute" else "slide"
@@ -160,8 +167,15 @@ def _joint_attrs(w: Writer, kind: str, W_body: np.ndarray, frame: np.ndarray, na
     )
 
 
-def cad_mjcf(robot, loops: str, seed: int = 0, digits: int = 5, terms: bool = True,
-             gravity=(0.0, 0.0, -9.81), reference_keyframe: bool = False) -> str:
+def cad_mjcf(
+    robot,
+    loops: str,
+    seed: int = 0,
+    digits: int = 5,
+    terms: bool = True,
+    gravity=(0.0, 0.0, -9.81),
+    reference_keyframe: bool = False,
+) -> str:
     """A CAD-like MJCF of ``robot`` (a ``GeneralHexapod``) with the loop convention
     ``loops`` (module docstring)."""
     assert loops in LOOPS
@@ -206,7 +220,9 @@ def cad_mjcf(robot, loops: str, seed: int = 0, digits: int = 5, terms: bool = Tr
                 W = frame @ w.odd(0.3 * s)
             rel = _rel(W_prev, W)
             name = f"leg{k + 1}_b{j + 1}"
-            text.append(f'{indent}<body name="{name}" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n')
+            text.append(
+                f'{indent}<body name="{name}" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n'
+            )
             indent += "  "
             cls = "actuated" if j + 1 == leg.actuated else "passive"
             extra = ""
@@ -214,15 +230,23 @@ def cad_mjcf(robot, loops: str, seed: int = 0, digits: int = 5, terms: bool = Tr
                 extra = ' range="-70 70"' + (' ref="7"' if k % 2 == 0 else "")
             elif j + 1 == leg.actuated:
                 extra = ' range="-0.08 0.08"'
-            text.append(indent + _joint_attrs(w, leg.joints[j].kind, W, frame, f"leg{k + 1}_j{j + 1}", cls, extra) + "\n")
+            text.append(
+                indent
+                + _joint_attrs(w, leg.joints[j].kind, W, frame, f"leg{k + 1}_j{j + 1}", cls, extra)
+                + "\n"
+            )
             # the link's inertia (Khalil, in its MDH frame) in the body
             T_body_frame = np.linalg.inv(W) @ frame
             if j == 0 and k == 1:
                 # an extra body fixed to link 1 (a motor housing), lumped
-                text.append(f'{indent}<geom type="box" size="0.01 0.006 0.004" pos="{w.v(T_body_frame[:3, 3])}"/>\n')
+                text.append(
+                    f'{indent}<geom type="box" size="0.01 0.006 0.004" pos="{w.v(T_body_frame[:3, 3])}"/>\n'
+                )
             text.append(indent + w.inertial(robot.leg_inertia[k, j], T_body_frame) + "\n")
             if j == 0:
-                text.append(f'{indent}<body name="leg{k + 1}_housing" pos="{w.v(w.rng.uniform(-0.01, 0.01, 3))}">\n')
+                text.append(
+                    f'{indent}<body name="leg{k + 1}_housing" pos="{w.v(w.rng.uniform(-0.01, 0.01, 3))}">\n'
+                )
                 text.append(f'{indent}  <geom type="sphere" size="0.006" density="1500"/>\n')
                 text.append(f"{indent}</body>\n")
             W_prev = W
@@ -238,37 +262,57 @@ def cad_mjcf(robot, loops: str, seed: int = 0, digits: int = 5, terms: bool = Tr
             We[:3, :3] = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
             We[:3, 3] = tip
             rel = _rel(W_prev, We)
-            text.append(f'{indent}<body name="rod{k + 1}_end" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n')
+            text.append(
+                f'{indent}<body name="rod{k + 1}_end" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n'
+            )
             if loops == "weld-ball":
                 text.append(f'{indent}  <joint name="ball{k + 1}" type="ball" damping="0"/>\n')
                 text.append(f'{indent}  <geom type="sphere" size="0.004" density="7800"/>\n')
             elif loops == "weld-hinges":
                 A = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
                 for h in range(3):
-                    text.append(f'{indent}  <joint name="s{k + 1}_{"xyz"[h]}" type="hinge" axis="{w.v(A[:, h])}" damping="0"/>\n')
+                    text.append(
+                        f'{indent}  <joint name="s{k + 1}_{"xyz"[h]}" type="hinge" axis="{w.v(A[:, h])}" damping="0"/>\n'
+                    )
                 text.append(f'{indent}  <geom type="sphere" size="0.004" density="7800"/>\n')
             else:  # weld-hinge-bodies
                 A = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
-                text.append(f'{indent}  <inertial pos="0 0 0" mass="1e-12" diaginertia="1e-14 1e-14 1e-14"/>\n')
-                text.append(f'{indent}  <joint name="s{k + 1}_x" type="hinge" axis="{w.v(A[:, 0])}" damping="0"/>\n')
+                text.append(
+                    f'{indent}  <inertial pos="0 0 0" mass="1e-12" diaginertia="1e-14 1e-14 1e-14"/>\n'
+                )
+                text.append(
+                    f'{indent}  <joint name="s{k + 1}_x" type="hinge" axis="{w.v(A[:, 0])}" damping="0"/>\n'
+                )
                 text.append(f'{indent}  <body name="rod{k + 1}_cross">\n')
-                text.append(f'{indent}    <inertial pos="0 0 0" mass="1e-12" diaginertia="1e-14 1e-14 1e-14"/>\n')
-                text.append(f'{indent}    <joint name="s{k + 1}_y" type="hinge" axis="{w.v(A[:, 1])}" damping="0"/>\n')
+                text.append(
+                    f'{indent}    <inertial pos="0 0 0" mass="1e-12" diaginertia="1e-14 1e-14 1e-14"/>\n'
+                )
+                text.append(
+                    f'{indent}    <joint name="s{k + 1}_y" type="hinge" axis="{w.v(A[:, 1])}" damping="0"/>\n'
+                )
                 text.append(f'{indent}    <body name="rod{k + 1}_socket">\n')
-                text.append(f'{indent}      <joint name="s{k + 1}_z" type="hinge" axis="{w.v(A[:, 2])}" damping="0"/>\n')
+                text.append(
+                    f'{indent}      <joint name="s{k + 1}_z" type="hinge" axis="{w.v(A[:, 2])}" damping="0"/>\n'
+                )
                 text.append(f'{indent}      <geom type="sphere" size="0.004" density="7800"/>\n')
                 text.append(f"{indent}    </body>\n{indent}  </body>\n")
             text.append(f"{indent}</body>\n")
         if loops.startswith("tree") and k == 0:
             rel = _rel(W_prev, Wp)
             tip_in_p = np.linalg.inv(Wp) @ np.r_[tip, 1.0]
-            text.append(f'{indent}<body name="platform" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n')
+            text.append(
+                f'{indent}<body name="platform" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n'
+            )
             if loops == "tree-ball":
-                text.append(f'{indent}  <joint name="ball1" type="ball" pos="{w.v(tip_in_p[:3])}" damping="0"/>\n')
+                text.append(
+                    f'{indent}  <joint name="ball1" type="ball" pos="{w.v(tip_in_p[:3])}" damping="0"/>\n'
+                )
             else:
                 A = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
                 for h in range(3):
-                    text.append(f'{indent}  <joint name="s1_{"xyz"[h]}" type="hinge" pos="{w.v(tip_in_p[:3])}" axis="{w.v(A[:, h])}" damping="0"/>\n')
+                    text.append(
+                        f'{indent}  <joint name="s1_{"xyz"[h]}" type="hinge" pos="{w.v(tip_in_p[:3])}" axis="{w.v(A[:, h])}" damping="0"/>\n'
+                    )
             text.extend(_platform_contents(w, robot, Wp, indent + "  ", loops, tips_later=True))
             text.append(f"{indent}</body>\n")
         for c in reversed(closes):
@@ -276,17 +320,23 @@ def cad_mjcf(robot, loops: str, seed: int = 0, digits: int = 5, terms: bool = Tr
             text.append(f"{indent}{c}\n")
     text.append("    </body>\n")
     if not loops.startswith("tree"):
-        text.append(f'    <body name="platform" pos="{w.v(Wp[:3, 3])}" {w.orientation(Wp[:3, :3])}>\n')
+        text.append(
+            f'    <body name="platform" pos="{w.v(Wp[:3, 3])}" {w.orientation(Wp[:3, :3])}>\n'
+        )
         text.append('      <freejoint name="platform_free"/>\n')
         text.extend(_platform_contents(w, robot, Wp, "      ", loops))
         text.append("    </body>\n")
     text.append("  </worldbody>\n  <equality>\n")
     for k in range(6):
         if loops == "connect-site" or (loops.startswith("tree") and k != 0):
-            text.append(f'    <connect name="loop{k + 1}" site1="rod{k + 1}_tip" site2="plate_p{k + 1}"/>\n')
+            text.append(
+                f'    <connect name="loop{k + 1}" site1="rod{k + 1}_tip" site2="plate_p{k + 1}"/>\n'
+            )
         elif loops == "connect-body":
             tip_in_rod = np.linalg.inv(rods[k]) @ np.r_[tips[k], 1.0]
-            text.append(f'    <connect name="loop{k + 1}" body1="leg{k + 1}_b3" body2="platform" anchor="{w.v(tip_in_rod[:3])}"/>\n')
+            text.append(
+                f'    <connect name="loop{k + 1}" body1="leg{k + 1}_b3" body2="platform" anchor="{w.v(tip_in_rod[:3])}"/>\n'
+            )
         elif loops.startswith("weld"):
             end = f"rod{k + 1}_socket" if loops == "weld-hinge-bodies" else f"rod{k + 1}_end"
             text.append(f'    <weld name="loop{k + 1}" body1="platform" body2="{end}"/>\n')
@@ -296,18 +346,23 @@ def cad_mjcf(robot, loops: str, seed: int = 0, digits: int = 5, terms: bool = Tr
         leg = robot.legs[k]
         joint = f"leg{k + 1}_j{leg.actuated}"
         gear = ("", ' gear="50"', "", ' gear="2.5"', ' gear="120"', "")[n]
-        extra = {"position": ' kp="3"', "velocity": ' kv="0.5"', "general": ' gainprm="1"'}.get(kinds[n], "")
+        extra = {"position": ' kp="3"', "velocity": ' kv="0.5"', "general": ' gainprm="1"'}.get(
+            kinds[n], ""
+        )
         text.append(f'    <{kinds[n]} name="act{n + 1}" joint="{joint}"{gear}{extra}/>\n')
     text.append("  </actuator>\n</mujoco>\n")
     return "".join(text)
 
 
-def _platform_contents(w: Writer, robot, Wp: np.ndarray, indent: str, loops: str,
-                       tips_later: bool = False) -> list[str]:
+def _platform_contents(
+    w: Writer, robot, Wp: np.ndarray, indent: str, loops: str, tips_later: bool = False
+) -> list[str]:
     T_home = np.asarray(robot.home_pose)
     T_body_Fp = np.linalg.inv(Wp) @ T_home
     out = [indent + w.inertial(robot.platform_inertia, T_body_Fp) + "\n"]
-    out.append(f'{indent}<body name="camera" pos="{w.v(w.rng.uniform(-0.02, 0.02, 3))}" {w.orientation(np.eye(3))}>\n')
+    out.append(
+        f'{indent}<body name="camera" pos="{w.v(w.rng.uniform(-0.02, 0.02, 3))}" {w.orientation(np.eye(3))}>\n'
+    )
     out.append(f'{indent}  <geom type="box" size="0.015 0.01 0.008" density="1200"/>\n')
     out.append(f"{indent}</body>\n")
     P = robot.platform_points @ T_home[:3, :3].T + T_home[:3, 3]
@@ -318,8 +373,9 @@ def _platform_contents(w: Writer, robot, Wp: np.ndarray, indent: str, loops: str
 
 
 # ------------------------------------------------------------------------------ S-S legs
-def _symmetric_rod(w: Writer, mass: float, radius: float, length: float, start: float,
-                   asymmetric: bool) -> str:
+def _symmetric_rod(
+    w: Writer, mass: float, radius: float, length: float, start: float, asymmetric: bool
+) -> str:
     """A solid cylinder along z from ``start`` (body frame on the axis)."""
     axial = 0.5 * mass * radius**2
     transverse = mass * (3 * radius**2 + length**2) / 12.0
@@ -338,8 +394,14 @@ def _frame_z(z: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool = False,
-            connect: bool = True) -> str:
+def ss_mjcf(
+    robot,
+    kind: str,
+    seed: int = 0,
+    digits: int = 5,
+    asymmetric: bool = False,
+    connect: bool = True,
+) -> str:
     """A CAD-like MJCF of legs with a rod between two spherical joints: ``rss`` (from a
     ``rus`` robot: crank, ball at the crank tip, rod), ``pss`` (from a ``pus`` robot: slide,
     ball, rod), ``sps`` (from a ``ups`` robot: ball at B_i, cylinder, slide, piston). The
@@ -354,8 +416,14 @@ def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool =
     Wp = T_home @ w.odd(0.2 * s)
     text = [
         HEADER.format(
-            name=f"cad-{kind}", gravity="0 0 -9.81", passive_damping="0", armature="0.0031",
-            damping="0.041", friction="0.013", stiffness="0", springref="0",
+            name=f"cad-{kind}",
+            gravity="0 0 -9.81",
+            passive_damping="0",
+            armature="0.0031",
+            damping="0.041",
+            friction="0.013",
+            stiffness="0",
+            springref="0",
         )
     ]
     text.append('    <body name="base">\n')
@@ -366,8 +434,15 @@ def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool =
         if kind in ("rss", "pss"):
             frame = F[k, 0]
             W1 = frame @ w.odd(0.3 * s)
-            text.append(f'{ind}<body name="leg{i}_b1" pos="{w.v(W1[:3, 3])}" {w.orientation(W1[:3, :3])}>\n')
-            text.append(ind + "  " + _joint_attrs(w, leg.joints[0].kind, W1, frame, f"leg{i}_j1", "actuated") + "\n")
+            text.append(
+                f'{ind}<body name="leg{i}_b1" pos="{w.v(W1[:3, 3])}" {w.orientation(W1[:3, :3])}>\n'
+            )
+            text.append(
+                ind
+                + "  "
+                + _joint_attrs(w, leg.joints[0].kind, W1, frame, f"leg{i}_j1", "actuated")
+                + "\n"
+            )
             T_body_frame = np.linalg.inv(W1) @ frame
             text.append(ind + "  " + w.inertial(robot.leg_inertia[k, 0], T_body_frame) + "\n")
             C = F[k, 2][:3, 3]  # the U-joint centre: origin of frames 2 and 3
@@ -376,9 +451,13 @@ def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool =
             Wr[:3, 3] = C
             rel = _rel(W1, Wr)
             L = float(np.linalg.norm(P[k] - C))
-            text.append(f'{ind}  <body name="leg{i}_rod" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n')
+            text.append(
+                f'{ind}  <body name="leg{i}_rod" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n'
+            )
             text.append(f'{ind}    <joint name="ball{i}" type="ball" damping="0"/>\n')
-            text.append(f'{ind}    {_symmetric_rod(w, 0.02, 0.003, L, 0.0, asymmetric and k == 2)}\n')
+            text.append(
+                f"{ind}    {_symmetric_rod(w, 0.02, 0.003, L, 0.0, asymmetric and k == 2)}\n"
+            )
             if connect or k != 0:
                 text.append(f'{ind}    <site name="rod{i}_tip" pos="0 0 {w.n(L)}"/>\n')
             else:
@@ -390,12 +469,18 @@ def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool =
             Wc[:3, :3] = _frame_z(P[k] - B, rng)
             Wc[:3, 3] = B
             L = float(np.linalg.norm(P[k] - B))
-            text.append(f'{ind}<body name="leg{i}_cylinder" pos="{w.v(B)}" {w.orientation(Wc[:3, :3])}>\n')
+            text.append(
+                f'{ind}<body name="leg{i}_cylinder" pos="{w.v(B)}" {w.orientation(Wc[:3, :3])}>\n'
+            )
             text.append(f'{ind}  <joint name="ball{i}" type="ball" damping="0"/>\n')
-            text.append(f'{ind}  {_symmetric_rod(w, 1.5, 0.03, 0.5 * L, 0.0, asymmetric and k == 2)}\n')
+            text.append(
+                f"{ind}  {_symmetric_rod(w, 1.5, 0.03, 0.5 * L, 0.0, asymmetric and k == 2)}\n"
+            )
             text.append(f'{ind}  <body name="leg{i}_piston">\n')
-            text.append(f'{ind}    <joint name="leg{i}_j3" class="actuated" type="slide" axis="0 0 1" range="-0.1 0.1"/>\n')
-            text.append(f'{ind}    {_symmetric_rod(w, 0.8, 0.015, 0.6 * L, 0.4 * L, False)}\n')
+            text.append(
+                f'{ind}    <joint name="leg{i}_j3" class="actuated" type="slide" axis="0 0 1" range="-0.1 0.1"/>\n'
+            )
+            text.append(f"{ind}    {_symmetric_rod(w, 0.8, 0.015, 0.6 * L, 0.4 * L, False)}\n")
             if connect or k != 0:
                 text.append(f'{ind}    <site name="rod{i}_tip" pos="0 0 {w.n(L)}"/>\n')
             else:
@@ -403,13 +488,17 @@ def ss_mjcf(robot, kind: str, seed: int = 0, digits: int = 5, asymmetric: bool =
             text.append(f"{ind}  </body>\n{ind}</body>\n")
     text.append("    </body>\n")
     if connect:
-        text.append(f'    <body name="platform" pos="{w.v(Wp[:3, 3])}" {w.orientation(Wp[:3, :3])}>\n')
+        text.append(
+            f'    <body name="platform" pos="{w.v(Wp[:3, 3])}" {w.orientation(Wp[:3, :3])}>\n'
+        )
         text.append("      <freejoint/>\n")
         text.extend(_platform_contents(w, robot, Wp, "      ", "ss"))
         text.append("    </body>\n")
     text.append("  </worldbody>\n  <equality>\n")
     for k in range(0 if connect else 1, 6):
-        text.append(f'    <connect name="loop{k + 1}" site1="rod{k + 1}_tip" site2="plate_p{k + 1}"/>\n')
+        text.append(
+            f'    <connect name="loop{k + 1}" site1="rod{k + 1}_tip" site2="plate_p{k + 1}"/>\n'
+        )
     text.append("  </equality>\n  <actuator>\n")
     for k in range(6):
         joint = f"leg{k + 1}_j1" if kind != "sps" else f"leg{k + 1}_j3"
@@ -426,7 +515,9 @@ def _tree_platform(w, robot, W_rod, Wp, L, ind):
     out = [f'{ind}<body name="socket1" pos="0 0 {w.n(L)}">\n']
     out.append(f'{ind}  <joint name="ball_p1" type="ball" damping="0"/>\n')
     out.append(f'{ind}  <geom type="sphere" size="0.004" density="7800"/>\n')
-    out.append(f'{ind}  <body name="platform" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n')
+    out.append(
+        f'{ind}  <body name="platform" pos="{w.v(rel[:3, 3])}" {w.orientation(rel[:3, :3])}>\n'
+    )
     out.extend(_platform_contents(w, robot, Wp, ind + "    ", "ss"))
     out.append(f"{ind}  </body>\n{ind}</body>\n")
     return out

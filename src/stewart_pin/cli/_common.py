@@ -108,9 +108,9 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
 
 
 def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> StewartRobot:
-    """The robot of ``--preset`` / ``--description`` / ``--model`` (imported); with ``ideal_only`` (the command's
-    name), a robot with general legs is refused (:class:`UnsupportedArchitectureError`:
-    one line, exit code 2)."""
+    """The robot of ``--preset`` / ``--description`` / ``--model`` (imported); with
+    ``ideal_only`` (the command's name), a robot with general legs is refused
+    (:class:`UnsupportedArchitectureError`: one line, exit code 2)."""
     if getattr(args, "description", None):
         robot = StewartRobot.from_file(args.description)
     elif getattr(args, "model", None):

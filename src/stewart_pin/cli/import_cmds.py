@@ -28,9 +28,10 @@ def _import(args: argparse.Namespace) -> int:
                 closures = [tuple(pair.split("=", 1)) for pair in args.closure_pairs]
             result = import_urdf(args.model, closures, args.actuated, **options)  # type: ignore[arg-type]
         else:
-            keyframe: str | int | None = args.keyframe
-            if keyframe is not None and keyframe.isdigit():
-                keyframe = int(keyframe)
+            text: str | None = args.keyframe
+            keyframe: str | int | None = text
+            if text is not None and text.isdigit():
+                keyframe = int(text)
             result = import_mjcf(args.model, keyframe=keyframe, **options)  # type: ignore[arg-type]
         robot = StewartRobot(result.description)  # the home pose checked as for any robot
     print(result.report)
@@ -58,9 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--keyframe", help="MJCF: the reference keyframe, a name or an index (default: home)"
     )
-    p.add_argument(
-        "--closures", help="URDF: the closure sidecar (default: <stem>.closures.json)"
-    )
+    p.add_argument("--closures", help="URDF: the closure sidecar (default: <stem>.closures.json)")
     p.add_argument(
         "--closure-pairs",
         nargs="+",

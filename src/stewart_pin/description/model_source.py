@@ -124,7 +124,9 @@ class ModelSource:
         object.__setattr__(
             self,
             "legs",
-            tuple(leg if isinstance(leg, LegSource) else leg_source_from_dict(leg) for leg in legs),
+            tuple(
+                leg if isinstance(leg, LegSource) else leg_source_from_dict(leg) for leg in legs
+            ),
         )
 
     def to_dict(self) -> dict[str, Any]:

@@ -331,9 +331,7 @@ def canonical_description(desc: RobotDescription) -> RobotDescription:
     for k, leg in enumerate(g.legs):
         frames = leg_zero_frames(g, k)
         tip_point = frames[2, :3, :3] @ leg.tip + frames[2, :3, 3]
-        chain = canonical_chain(
-            leg.kinds, frames[:, :3, 3], frames[:, :3, 2], tip_point, scale
-        )
+        chain = canonical_chain(leg.kinds, frames[:, :3, 3], frames[:, :3, 2], tip_point, scale)
         joints = tuple(
             replace(j, alpha=p[0], d=p[1], theta=p[2], r=p[3])
             for j, p in zip(leg.joints, chain.params, strict=True)

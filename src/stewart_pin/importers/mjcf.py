@@ -112,7 +112,11 @@ def load_model(source: Any) -> tuple[Any, str]:
             f"{type(source).__name__}"
         )
     try:
-        spec = mujoco.MjSpec.from_string(text) if text is not None else mujoco.MjSpec.from_file(str(path))
+        spec = (
+            mujoco.MjSpec.from_string(text)
+            if text is not None
+            else mujoco.MjSpec.from_file(str(path))
+        )
     except Exception as e:  # MuJoCo raises ValueError with its own message
         where = str(path) if path is not None else "the MJCF text"
         raise FileFormatError(f"MuJoCo cannot read {where}: {e}") from e
@@ -143,7 +147,9 @@ def _drop_visuals(mujoco: Any, spec: Any) -> None:
         if not (body.explicitinertial or mode == false):
             continue
         for geom in list(body.geoms):
-            if geom.type == mujoco.mjtGeom.mjGEOM_MESH and (not geom.name or geom.name not in referred):
+            if geom.type == mujoco.mjtGeom.mjGEOM_MESH and (
+                not geom.name or geom.name not in referred
+            ):
                 spec.delete(geom)
 
 
@@ -210,7 +216,9 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
         bname = name("mjOBJ_BODY", b)
         pose = _pose(xpos[b], xmat[b])
         R_i = _quat_matrix(m.body_iquat[b])
-        inertia = _khalil(float(m.body_mass[b]), np.array(m.body_ipos[b]), R_i, np.array(m.body_inertia[b]))
+        inertia = _khalil(
+            float(m.body_mass[b]), np.array(m.body_ipos[b]), R_i, np.array(m.body_inertia[b])
+        )
         parent = index[int(m.body_parentid[b])]
         jids = range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
         if m.body_jntnum[b] == 0:
@@ -256,7 +264,9 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
                 frees[jname] = T
             last = n == m.body_jntnum[b] - 1
             bodies.append(
-                TreeBody(bname, parent, J, pose, inertia if last else np.zeros(10), virtual=not last)
+                TreeBody(
+                    bname, parent, J, pose, inertia if last else np.zeros(10), virtual=not last
+                )
             )
             parent = len(bodies) - 1
         index[b] = len(bodies) - 1

@@ -66,7 +66,6 @@ from stewart_pin.exceptions import (
 from stewart_pin.importers.canonical import (
     canonical_chain,
     classify,
-    pseudo_inertia,
     transform_inertia,
 )
 
@@ -319,7 +318,8 @@ class Edge:
     def label(self) -> str:
         if self.hinges:
             return "hinges " + _names([h.name for h in self.hinges])
-        return f"{'ball joint' if self.joint.kind == BALL else self.joint.kind} {shown(self.joint.name)}"
+        kind = "ball joint" if self.joint.kind == BALL else self.joint.kind
+        return f"{kind} {shown(self.joint.name)}"
 
 
 @dataclass
@@ -410,10 +410,10 @@ def _links(model: KinematicModel) -> tuple[list[Link], list[int]]:
         stack = [root]
         while stack:
             b = stack.pop()
-            for c, T in rigid[b]:
-                if c not in rel:
-                    rel[c] = rel[b] @ T
-                    stack.append(c)
+            for other, T_rel in rigid[b]:
+                if other not in rel:
+                    rel[other] = rel[b] @ T_rel
+                    stack.append(other)
         inertia = np.zeros(10)
         for b in members:
             inertia += transform_inertia(model.bodies[b].inertia, rel[b])
@@ -433,9 +433,7 @@ def _scale(model: KinematicModel) -> float:
     return s if s > 0 else 1.0
 
 
-def recognise(
-    model: KinematicModel, platform: str | None = None
-) -> Recognition:
+def recognise(model: KinematicModel, platform: str | None = None) -> Recognition:
     """Find the base, the platform and the six legs (module docstring); raises
     :class:`ModelImportError` naming the bodies and joints that do not fit."""
     links, link_of = _links(model)
@@ -723,9 +721,7 @@ def recognise(
     in_legs = {i for leg in legs for i in leg.links} | {
         i for leg in legs for e in leg.edges for i in e.inner
     }
-    extra = [
-        i for i in range(len(links)) if i not in in_legs and i not in (ground, P)
-    ]
+    extra = [i for i in range(len(links)) if i not in in_legs and i not in (ground, P)]
     # the inner links of merged hinge joints at the platform
     for cn in at_platform:
         if cn.edge is not None:
@@ -836,8 +832,7 @@ class ImportReport:
             + (f" ({shown(self.file)})" if self.file else "")
             + f": {kind}, platform {shown(self.platform)} (Fp), base {shown(self.base)} (F0)",
             f"reference configuration: {self.reference}; loop residuals [m] (tolerance "
-            f"{self.closure_tolerance:.3g} m): "
-            + " ".join(f"{r:.2e}" for r in self.residuals),
+            f"{self.closure_tolerance:.3g} m): " + " ".join(f"{r:.2e}" for r in self.residuals),
         ]
         for i, leg in enumerate(self.legs, start=1):
             joints = ", ".join(
@@ -1058,15 +1053,22 @@ def build(
         order.append(k)
     missing = [k for k in range(6) if k not in act_of_leg]
     if missing:
-        names = [
-            n for k in missing for e in rec.legs[k].edges for n in ([e.joint.name] if e.joint.one_dof else [])
+        idle = [
+            n
+            for k in missing
+            for e in rec.legs[k].edges
+            for n in ([e.joint.name] if not e.spherical else [])
         ]
         raise ModelImportError(
-            f"{len(missing)} leg(s) without an actuator (joints {_names(names)}): each leg "
+            f"{len(missing)} leg(s) without an actuator (joints {_names(idle)}): each leg "
             "needs one actuated 1-dof joint"
-            + (" (give them with actuated=[...] or <transmission>)" if model.format == "urdf" else ""),
+            + (
+                " (give them with actuated=[...] or <transmission>)"
+                if model.format == "urdf"
+                else ""
+            ),
             tuple(n for k in missing for n in link_names(rec.legs[k].links[-1])),
-            tuple(names),
+            tuple(idle),
         )
 
     # platform
@@ -1128,14 +1130,16 @@ def build(
             d = tip_zero - C
             if np.linalg.norm(d) <= 1e-9 * rec.scale:
                 raise ModelImportError(
-                    f"the two spherical joints of a rod ({s1.label}, {cn.label}) have one "
-                    "centre",
+                    f"the two spherical joints of a rod ({s1.label}, {cn.label}) have one centre",
                     tuple(link_names(s1.child)),
                 )
             d = d / np.linalg.norm(d)
             rod_links = [s1.child] if leg.shape == "JS" else [s1.child, e1.child]
             if leg.shape == "SJ":
-                if e1.joint.kind != PRISMATIC or np.linalg.norm(np.cross(e1.joint.axis, d)) > AXIS_TOLERANCE:
+                if (
+                    e1.joint.kind != PRISMATIC
+                    or np.linalg.norm(np.cross(e1.joint.axis, d)) > AXIS_TOLERANCE
+                ):
                     raise ModelImportError(
                         f"leg through {s1.label} and {e1.label}: between two spherical joints "
                         "stewart-pin reads a slide along the line through their centres "
@@ -1151,8 +1155,9 @@ def build(
                 asym = max(asym, s_a)
                 removed.append(remove_spin(params0, C, d))
             if asym > spin_tolerance:
+                rod_names = [n for li in rod_links for n in link_names(li)]
                 message = (
-                    f"leg through {s1.label}: the rod {_names([n for li in rod_links for n in link_names(li)])} "
+                    f"leg through {s1.label}: the rod {_names(rod_names)} "
                     f"between two spherical joints is not symmetric about its axis (asymmetry "
                     f"{asym:.3g} > {spin_tolerance:g}): the equivalent universal-joint leg "
                     "(spin removed) is not exact"
@@ -1165,7 +1170,9 @@ def build(
                         spin_tolerance,
                         tuple(n for li in rod_links for n in link_names(li)),
                     )
-                warnings.warn(message + "; its inertia is made symmetric", ModelImportWarning, stacklevel=3)
+                warnings.warn(
+                    message + "; its inertia is made symmetric", ModelImportWarning, stacklevel=3
+                )
             if leg.shape == "JS":
                 z1 = e1.joint.axis
                 if e1.joint.kind == REVOLUTE:
@@ -1182,7 +1189,11 @@ def build(
                 base_name = s1.joint.name if not s1.hinges else s1.hinges[0].name
                 names = [e1.joint.name, f"{base_name} (U axis 1)", f"{base_name} (U axis 2)"]
                 file_joints = [e1.joint, None, None]
-                link_bodies = [", ".join(link_names(e1.child)), "", ", ".join(link_names(s1.child))]
+                link_bodies = [
+                    ", ".join(link_names(e1.child)),
+                    "",
+                    ", ".join(link_names(s1.child)),
+                ]
                 link_params = [
                     transform_inertia(links[e1.child].inertia, link_zero(e1.child)),
                     np.zeros(10),
@@ -1202,7 +1213,11 @@ def build(
                 base_name = s1.joint.name if not s1.hinges else s1.hinges[0].name
                 names = [f"{base_name} (U axis 1)", f"{base_name} (U axis 2)", e1.joint.name]
                 file_joints = [None, None, e1.joint]
-                link_bodies = ["", ", ".join(link_names(s1.child)), ", ".join(link_names(e1.child))]
+                link_bodies = [
+                    "",
+                    ", ".join(link_names(s1.child)),
+                    ", ".join(link_names(e1.child)),
+                ]
                 link_params = [np.zeros(10), removed[0], removed[1]]
                 refs = [None, None, model.values.get(e1.joint.name, 0.0)]
 
@@ -1260,20 +1275,25 @@ def build(
                         ) from err
             dyns.append(dyn)
             try:
-                joints.append(
-                    Joint(kinds[j], *(float(v) for v in chain.params[j]), lo, hi, dyn)
-                )
+                alpha, d_j, theta, r_j = (float(v) for v in chain.params[j])
+                joints.append(Joint(kinds[j], alpha, d_j, theta, r_j, lo, hi, dyn))
             except ArchitectureError as err:
-                raise ModelImportError(
-                    f"joint {shown(names[j])}: {err}", (), (names[j],)
-                ) from err
+                raise ModelImportError(f"joint {shown(names[j])}: {err}", (), (names[j],)) from err
         # link inertias in the canonical frames
         for j in range(3):
             leg_inertia[len(reports), j] = transform_inertia(
                 link_params[j], np.linalg.inv(chain.frames[j])
             )
         # reference joint values (the U angles of an S-S leg solved from the rod)
-        q_ref = _reference_values(joints, actuated_index, chain, refs, side_leg if leg.shape == "JJJ" else side_plat, T_home, p_in_P)
+        q_ref = _reference_values(
+            joints,
+            actuated_index,
+            chain,
+            refs,
+            side_leg if leg.shape == "JJJ" else side_plat,
+            T_home,
+            p_in_P,
+        )
         q_refs[len(reports)] = q_ref
         arch = classify(tuple(joints), actuated_index, chain.tip, q_ref)
         arch = arch.replace(branch=arch.branch_at(q_ref))
@@ -1287,7 +1307,9 @@ def build(
                 spherical += f" in rod end {shown(b_rod_end.name)}"
         reports.append(
             LegReport(
-                leg.shape.replace("JJJ", "three 1-dof joints").replace("JS", "R-S-S" if kinds[0] == REVOLUTE else "P-S-S").replace("SJ", "S-P-S"),
+                leg.shape.replace("JJJ", "three 1-dof joints")
+                .replace("JS", "R-S-S" if kinds[0] == REVOLUTE else "P-S-S")
+                .replace("SJ", "S-P-S"),
                 (kinds[0], kinds[1], kinds[2]),
                 (names[0], names[1], names[2]),
                 (link_bodies[0], link_bodies[1], link_bodies[2]),
@@ -1302,7 +1324,14 @@ def build(
                 arch.name,
             )
         )
-        sources.append(LegSource((link_bodies[0], link_bodies[1], link_bodies[2]), (names[0], names[1], names[2]), a_act.name, spherical))
+        sources.append(
+            LegSource(
+                (link_bodies[0], link_bodies[1], link_bodies[2]),
+                (names[0], names[1], names[2]),
+                a_act.name,
+                spherical,
+            )
+        )
 
     # loop residuals at the reference configuration
     Pp = np.array(size_points)
@@ -1337,9 +1366,9 @@ def build(
     }
     for k in order:
         for li in rec.legs[k].links:
-            extra = [n for n in link_names(li) if n != model.body_label(links[li].root)]
-            if extra:
-                lumped.setdefault("leg links", []).extend(extra)
+            fixed = [n for n in link_names(li) if n != model.body_label(links[li].root)]
+            if fixed:
+                lumped.setdefault("leg links", []).extend(fixed)
     notes = list(model.notes) + [f"dropped {x}" for x in rec.dropped]
 
     robot = robot_name(model.name) if name is None else check_robot_name(name)
@@ -1354,7 +1383,16 @@ def build(
         tuple(sources),
     )
     desc, ideal = _description(
-        robot, base_pts, base_rot, plat_pts, legs_out, leg_inertia, platform_inertia, model.gravity, T_home, source
+        robot,
+        base_pts,
+        base_rot,
+        plat_pts,
+        legs_out,
+        leg_inertia,
+        platform_inertia,
+        model.gravity,
+        T_home,
+        source,
     )
     architectures = {leg.name for leg in legs_out}
     report = ImportReport(

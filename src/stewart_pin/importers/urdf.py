@@ -238,7 +238,9 @@ def read_urdf(
         parent = queue.pop(0)
         for j in by_parent.get(parent, []):
             if j.child not in links:
-                raise ModelImportError(f"{path}: joint {shown(j.name)} names no link {shown(j.child)}")
+                raise ModelImportError(
+                    f"{path}: joint {shown(j.name)} names no link {shown(j.child)}"
+                )
             if j.mimic is not None:
                 raise ModelImportError(
                     f"joint {shown(j.name)} mimics {shown(j.mimic.joint)}: stewart-pin reads "
@@ -289,7 +291,9 @@ def read_urdf(
 
     def body_of(link: str, what: str) -> int:
         if link not in index:
-            raise ModelImportError(f"{what} names no link or frame {shown(link)} of {path}", (link,))
+            raise ModelImportError(
+                f"{what} names no link or frame {shown(link)} of {path}", (link,)
+            )
         return index[link]
 
     if sidecar is not None:
@@ -324,7 +328,10 @@ def read_urdf(
                 )
             tree_closures.append(
                 TreeClosure(
-                    f"closing_{key}", "point", body_of(pair["1"], "closing"), body_of(pair["2"], "closing")
+                    f"closing_{key}",
+                    "point",
+                    body_of(pair["1"], "closing"),
+                    body_of(pair["2"], "closing"),
                 )
             )
 
@@ -363,15 +370,19 @@ def read_urdf(
             T = check_array(data["home_pose"], (4, 4), "home_pose")
         except InputError as e:
             raise FileFormatError(f"{source}: 'home_pose' must be a 4x4 pose: {e}") from e
-        for b in bodies:
-            if b.joint is not None and b.joint.kind == FREE:
-                free[b.joint.name] = T
+        for tree_body in bodies:
+            if tree_body.joint is not None and tree_body.joint.kind == FREE:
+                free[tree_body.joint.name] = T
         reference = "the sidecar's home configuration"
     positions = data.get("home_joint_positions", {})
     if not isinstance(positions, dict):
         raise FileFormatError(f"{source}: 'home_joint_positions' must be an object")
     for key, value in positions.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
             raise FileFormatError(f"{source}: home position of {shown(str(key))} must be a number")
         values[str(key)] = float(value)
 
