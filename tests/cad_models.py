@@ -379,10 +379,10 @@ def _symmetric_rod(
     """A solid cylinder along z from ``start`` (body frame on the axis)."""
     axial = 0.5 * mass * radius**2
     transverse = mass * (3 * radius**2 + length**2) / 12.0
-    ty = transverse * (1.3 if asymmetric else 1.0)
+    off = 0.004 if asymmetric else 0.0  # a centre of mass off the axis
     return (
-        f'<inertial pos="0 0 {w.n(start + length / 2)}" mass="{w.g(mass)}" '
-        f'diaginertia="{w.g(transverse)} {w.g(ty)} {w.g(axial)}"/>'
+        f'<inertial pos="{w.n(off)} 0 {w.n(start + length / 2)}" mass="{w.g(mass)}" '
+        f'diaginertia="{w.g(transverse)} {w.g(transverse)} {w.g(axial)}"/>'
     )
 
 

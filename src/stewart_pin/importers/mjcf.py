@@ -130,27 +130,40 @@ def load_model(source: Any) -> tuple[Any, str]:
 
 
 def _drop_visuals(mujoco: Any, spec: Any) -> None:
-    """``discardvisual``, and the mesh geoms of bodies whose inertia is explicit (they
-    add nothing to the dynamics) unless something refers to them."""
+    """``discardvisual``, and the mesh geoms that add nothing to the dynamics (unless
+    something refers to them): in bodies whose inertia is explicit, with a zero mass or
+    density, or outside the compiler's ``inertiagrouprange``; so that their mesh files are
+    never opened."""
     spec.compiler.discardvisual = True
-    auto = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_AUTO
-    false = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     mode = spec.compiler.inertiafromgeom
-    if mode not in (auto, false):
-        return
+    if mode == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE:
+        explicit_counts = False
+    else:
+        explicit_counts = True
+    never = mode == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    low, high = (int(x) for x in spec.compiler.inertiagrouprange)
     referred: set[str] = set()
     for pair in spec.pairs:
         referred.update({pair.geomname1, pair.geomname2})
     for sensor in spec.sensors:
         referred.update({sensor.objname, sensor.refname})
+    mesh = mujoco.mjtGeom.mjGEOM_MESH
     for body in spec.bodies:
-        if not (body.explicitinertial or mode == false):
-            continue
         for geom in list(body.geoms):
-            if geom.type == mujoco.mjtGeom.mjGEOM_MESH and (
-                not geom.name or geom.name not in referred
+            if geom.type != mesh or (geom.name and geom.name in referred):
+                continue
+            no_mass = geom.mass == 0 or (geom.mass < 0 and geom.density == 0)
+            if (
+                never
+                or (explicit_counts and body.explicitinertial)
+                or no_mass
+                or not low <= int(geom.group) <= high
             ):
                 spec.delete(geom)
+    used = {geom.meshname for geom in spec.geoms if geom.type == mesh}
+    for asset in list(spec.meshes):
+        if asset.name not in used:
+            spec.delete(asset)
 
 
 def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:

@@ -601,6 +601,8 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         six = [i for i, n in count.items() if n == 6]
         if len(six) != 1:
             best = max(count.items(), key=lambda kv: kv[1], default=(None, 0))
+            if best[0] is not None:
+                _weld_where_a_ball_should_be(model, links, link_of, edges, best[0])
             where = (
                 f"the link of {_names(link_names(best[0]))} has {best[1]}"
                 if best[0] is not None
@@ -742,6 +744,32 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
             tuple(joints),
         )
     return Recognition(links, link_of, ground, P, legs, scale, mass, dropped)
+
+
+def _weld_where_a_ball_should_be(
+    model: KinematicModel, links: list[Link], link_of: list[int], edges: list[Edge], P: int
+) -> None:
+    """Raise the error of a weld that joins a body moved by a 1-dof joint to the link
+    ``P`` (the platform's): a leg closed rigidly where a spherical joint should be."""
+    for e in edges:
+        if e.child != P or e.spherical or not e.joint.one_dof:
+            continue
+        body = e.body
+        welds = [
+            c
+            for c in model.closures
+            if c.kind == "weld" and link_of[c.body1] == P and link_of[c.body2] == P
+        ]
+        if welds:
+            names = tuple(c.name for c in welds)
+            raise ModelImportError(
+                f"body {shown(model.body_label(body))} (moved by the {e.joint.kind} joint "
+                f"{shown(e.joint.name)}) is welded to the platform by {_names(names)}: a "
+                "closure must be a point (a connect), or the weld of a rod end that carries a "
+                "ball joint (or three hinges); a weld where a ball should be",
+                (model.body_label(body),),
+                (e.joint.name, *names),
+            )
 
 
 def _reroot(link: Link, root: int) -> Link:
