@@ -521,3 +521,151 @@ def _tree_platform(w, robot, W_rod, Wp, L, ind):
     out.extend(_platform_contents(w, robot, Wp, ind + "    ", "ss"))
     out.append(f"{ind}  </body>\n{ind}</body>\n")
     return out
+
+
+# ------------------------------------------------------------------------------ URDF
+def _leg_base(robot, k: int) -> np.ndarray:
+    T0 = np.eye(4)
+    T0[:3, :3], T0[:3, 3] = robot.leg_base_rotations[k], robot.base_points[k]
+    return T0
+
+
+def _rpy(R: np.ndarray) -> np.ndarray:
+    return Rotation.from_matrix(R).as_euler("xyz")  # URDF: fixed-axis roll, pitch, yaw
+
+
+def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
+             closing: str = "closing", transmissions: bool = True) -> str:
+    """A URDF of ``robot`` (a ``GeneralHexapod``) as onshape-to-robot writes one: link frames
+    at odd places (each joint's frame is its child link's, axis given in it), rounded
+    numbers, inertials with a rotated ``<inertial>`` frame, fixed extra links (a housing on
+    each link 1, a camera on the platform), ``<dynamics damping friction>``, and the loops
+    as fixed frames ``closing_<k>_1`` (on the leg) / ``closing_<k>_2`` (on the platform)
+    (``closing`` renames them: ``"tip"`` gives ``tip_<k>`` / ``socket_<k>``).
+
+    ``style``: ``"floating"`` (the platform on a floating joint, six closing pairs; its
+    ``<origin>`` the home pose) or ``"tree-hinges"`` (the platform hanging from leg 1
+    through three revolute joints with massless links between them, five closing pairs).
+    ``transmissions``: one ``<transmission>`` per leg (shuffled order, reductions)."""
+    rng = np.random.default_rng(seed)
+    w = Writer(rng, digits)
+    F, _ = _frames(robot)
+    s = max(robot.size, 0.02)
+    T_home = np.asarray(robot.home_pose)
+    P = robot.platform_points @ T_home[:3, :3].T + T_home[:3, 3]
+    Wp = T_home @ w.odd(0.2 * s)
+    if style == "tree-hinges":  # URDF: a joint's axis runs through its child's origin
+        Wp[:3, 3] = robot.legs[0].tip_position(_frames(robot)[1][0], _leg_base(robot, 0))
+    out = [f'<?xml version="1.0"?>\n<robot name="onshape-{style}">\n']
+    out.append('  <link name="world"/>\n  <joint name="world_fix" type="fixed">\n'
+               '    <parent link="world"/><child link="base_link"/>\n'
+               '    <origin xyz="0 0 0.002" rpy="0 0 0"/>\n  </joint>\n')  # fmt: skip
+    base = np.eye(4)
+    base[2, 3] = 0.002
+    out.append('  <link name="base_link">\n    <inertial><origin xyz="0 0 0"/><mass value="3"/>'
+               '<inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.2"/></inertial>\n'
+               '    <visual><geometry><mesh filename="package://robot/base.stl"/></geometry>'
+               '</visual>\n  </link>\n')  # fmt: skip
+
+    def inertial(params: np.ndarray, T_link_frame: np.ndarray) -> str:
+        p = transform_khalil(params, T_link_frame[:3, :3], T_link_frame[:3, 3])
+        m, c, I_c = urdf_inertial_from_khalil(p)
+        Ri = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
+        I = Ri.T @ I_c @ Ri  # the tensor in a rotated inertial frame
+        return (
+            f'<inertial><origin xyz="{w.v(c)}" rpy="{" ".join(f"{x:.9f}" for x in _rpy(Ri))}"/>'
+            f'<mass value="{w.g(m, 9)}"/><inertia ixx="{w.g(I[0, 0], 9)}" ixy="{w.g(I[0, 1], 9)}" '
+            f'ixz="{w.g(I[0, 2], 9)}" iyy="{w.g(I[1, 1], 9)}" iyz="{w.g(I[1, 2], 9)}" '
+            f'izz="{w.g(I[2, 2], 9)}"/></inertial>'
+        )
+
+    def joint(name, kind, parent, child, T_parent, T_child, axis_frame, dyn=True):
+        rel = np.linalg.inv(T_parent) @ T_child
+        axis = (np.linalg.inv(T_child) @ axis_frame)[:3, 2]
+        limit = '<limit lower="-1" upper="1" effort="100" velocity="10"/>' if kind != "fixed" else ""
+        dynamics = '<dynamics damping="0.0125" friction="0.0075"/>' if dyn and kind != "fixed" else ""
+        ax = f'<axis xyz="{w.v(axis)}"/>' if kind != "fixed" else ""
+        return (
+            f'  <joint name="{name}" type="{kind}">\n    <parent link="{parent}"/><child link="{child}"/>\n'
+            f'    <origin xyz="{w.v(rel[:3, 3])}" rpy="{" ".join(f"{x:.9f}" for x in _rpy(rel[:3, :3]))}"/>'
+            f"\n    {ax}{limit}{dynamics}\n  </joint>\n"
+        )
+
+    def frame_link(name, parent, T_parent, point):
+        T = np.eye(4)
+        T[:3, 3] = point
+        return (
+            f'  <link name="{name}"/>\n'
+            + joint(f"{name}_frame", "fixed", parent, name, T_parent, T, T)
+        )
+
+    ends = ("closing_{k}_1", "closing_{k}_2") if closing == "closing" else ("tip_{k}", "socket_{k}")
+    for k in range(6):
+        leg = robot.legs[k]
+        parent, W_prev = "base_link", base
+        parallel = [abs(math.sin(leg.joints[n].alpha)) < 1e-12 for n in (1, 2)]
+        for j in range(3):
+            aligned = (j < 2 and parallel[j]) or (j > 0 and parallel[j - 1])
+            offset = w.aligned(0.3 * s) if aligned else w.odd(0.3 * s)
+            # URDF: the joint's axis runs through its child's origin (moved along it only)
+            offset[:3, 3] = [0.0, 0.0, offset[2, 3]]
+            W = F[k, j] @ offset
+            name = f"leg{k + 1}_link{j + 1}"
+            out.append(f'  <link name="{name}">\n    {inertial(robot.leg_inertia[k, j], np.linalg.inv(W) @ F[k, j])}\n  </link>\n')
+            out.append(joint(f"leg{k + 1}_q{j + 1}", "revolute" if leg.joints[j].revolute else "prismatic",
+                             parent, name, W_prev, W, F[k, j]))  # fmt: skip
+            if j == 0:
+                out.append(f'  <link name="leg{k + 1}_housing">\n    <inertial><origin xyz="0 0 0"/>'
+                           '<mass value="0.01"/><inertia ixx="1e-6" ixy="0" ixz="0" iyy="1e-6" '
+                           'iyz="0" izz="1e-6"/></inertial>\n  </link>\n')  # fmt: skip
+                H = W.copy()
+                H[:3, 3] += rng.uniform(-0.01, 0.01, 3)
+                out.append(joint(f"leg{k + 1}_housing_fix", "fixed", name, f"leg{k + 1}_housing", W, H, H))
+            parent, W_prev = name, W
+        tip = F[k, 2][:3, :3] @ leg.tip + F[k, 2][:3, 3]
+        if style == "tree-hinges" and k == 0:
+            A = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
+            prev, Tprev = parent, W_prev
+            for h in range(2):
+                Th = np.eye(4)
+                Th[:3, :3], Th[:3, 3] = A, tip
+                Th = Th @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1.0]]) if h else Th
+                hn = f"ball1_link{h + 1}"
+                out.append(f'  <link name="{hn}"/>\n')
+                axis_frame = np.eye(4)
+                axis_frame[:3, :3] = _frame_z(A[:, h], rng)
+                axis_frame[:3, 3] = tip
+                out.append(joint(f"ball1_{'xyz'[h]}", "revolute", prev, hn, Tprev, Th, axis_frame, dyn=False).replace('<limit lower="-1" upper="1"', '<limit lower="-3" upper="3"'))
+                prev, Tprev = hn, Th
+            axis_frame = np.eye(4)
+            axis_frame[:3, :3] = _frame_z(A[:, 2], rng)
+            axis_frame[:3, 3] = tip
+            out.append(joint("ball1_z", "revolute", prev, "platform", Tprev, Wp, axis_frame, dyn=False).replace('<limit lower="-1" upper="1"', '<limit lower="-3" upper="3"'))
+        else:
+            out.append(frame_link(ends[0].format(k=k + 1), parent, W_prev, tip))
+    out.append(f'  <link name="platform">\n    {inertial(robot.platform_inertia, np.linalg.inv(Wp) @ T_home)}\n  </link>\n')
+    if style == "floating":
+        out.append(joint("platform_free", "floating", "world", "platform", np.eye(4), Wp, Wp, dyn=False))
+    out.append('  <link name="camera">\n    <inertial><origin xyz="0.001 0 0.01"/><mass value="0.2"/>'
+               '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="2e-4" iyz="0" izz="1e-4"/></inertial>\n'
+               '  </link>\n')  # fmt: skip
+    C = Wp.copy()
+    C[:3, 3] += rng.uniform(-0.02, 0.02, 3)
+    out.append(joint("camera_fix", "fixed", "platform", "camera", Wp, C, C))
+    for k in range(6):
+        if style == "tree-hinges" and k == 0:
+            continue
+        out.append(frame_link(ends[1].format(k=k + 1), "platform", Wp, P[k]))
+    if transmissions:
+        for n, k in enumerate(rng.permutation(6)):
+            leg = robot.legs[k]
+            reduction = (1, 20, 1, 3.5, 1, 80)[n]
+            out.append(
+                f'  <transmission name="tr{n + 1}"><type>transmission_interface/SimpleTransmission'
+                f'</type><joint name="leg{k + 1}_q{leg.actuated}"><hardwareInterface>'
+                f'EffortJointInterface</hardwareInterface></joint><actuator name="motor{n + 1}">'
+                f"<mechanicalReduction>{reduction}</mechanicalReduction></actuator>"
+                "</transmission>\n"
+            )
+    out.append("</robot>\n")
+    return "".join(out)

@@ -80,9 +80,10 @@ def _yourdfpy() -> Any:
     return yourdfpy
 
 
-def _strict_parse(path: Path) -> None:
-    """Refuse a file that is not well-formed XML, or whose ``<inertia>`` / ``<mass>``
-    miss attributes (yourdfpy would default them to 1 kg m^2 / 0 kg)."""
+def _strict_parse(path: Path) -> Any:
+    """The file's root element; refuses a file that is not well-formed XML, or whose
+    ``<inertia>`` / ``<mass>`` miss attributes (yourdfpy would default them to 1 kg m^2 /
+    0 kg)."""
     from lxml import etree
 
     parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False)
@@ -101,6 +102,35 @@ def _strict_parse(path: Path) -> None:
     for el in root.iter("mass"):
         if el.get("value") is None:
             raise FileFormatError(f"{path} line {el.sourceline}: <mass> has no value")
+    return root
+
+
+def _transmissions(root: Any, path: Path) -> list[TreeActuator]:
+    """The ``<transmission>`` elements in order: the first joint each drives and its
+    ``mechanicalReduction`` (under ``<actuator>``, or under ``<joint>`` in the older
+    format; 1 without one). yourdfpy 0.0.x does not read them."""
+    out: list[TreeActuator] = []
+    for n, t in enumerate(root.findall("transmission")):
+        joint = t.find("joint")
+        if joint is None or not joint.get("name"):
+            raise FileFormatError(
+                f"{path} line {t.sourceline}: <transmission> without a <joint name=...>"
+            )
+        reduction = t.find("actuator/mechanicalReduction")
+        if reduction is None:
+            reduction = joint.find("mechanicalReduction")
+        gear = 1.0
+        if reduction is not None:
+            try:
+                gear = float((reduction.text or "").strip())
+            except ValueError as e:
+                raise FileFormatError(
+                    f"{path} line {reduction.sourceline}: mechanicalReduction "
+                    f"{shown(reduction.text or '')} is not a number"
+                ) from e
+        name = t.get("name") or f"transmission{n + 1}"
+        out.append(TreeActuator(str(name), str(joint.get("name")), gear))
+    return out
 
 
 def _khalil(inertial: Any) -> np.ndarray:
@@ -180,7 +210,7 @@ def read_urdf(
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"no URDF file {path}")
-    _strict_parse(path)
+    root_element = _strict_parse(path)
     yourdfpy = _yourdfpy()
     try:
         urdf = yourdfpy.URDF.load(
@@ -336,14 +366,7 @@ def read_urdf(
             )
 
     # actuated joints: argument (caller), sidecar, transmissions
-    actuators: list[TreeActuator] = []
-    for t in robot.transmission or []:
-        if not t.joints:
-            continue
-        gear = 1.0
-        if t.actuators and t.actuators[0].mechanical_reduction is not None:
-            gear = float(t.actuators[0].mechanical_reduction)
-        actuators.append(TreeActuator(str(t.name), str(t.joints[0].name), gear))
+    actuators = _transmissions(root_element, path)
     actuated: list[str] | None = None
     if "actuated_joints" in data:
         names_ = data["actuated_joints"]
