@@ -43,7 +43,10 @@ def main() -> None:
 
     def ratios(robot: StewartRobot) -> np.ndarray:
         return np.array(
-            [leg.joints[leg.actuated - 1].dynamics.transmission_ratio for leg in robot.general.legs]
+            [
+                leg.joints[leg.actuated - 1].dynamics.transmission_ratio
+                for leg in robot.general.legs
+            ]
         )
 
     def mujoco_errors(xml: str, ranges, platform: str = "platform", no_spin=()) -> tuple:
@@ -57,7 +60,9 @@ def main() -> None:
             g = robot.inverse_dynamics(T, V, A, motor=True)
             worst_i = max(worst_i, rel_error(g, g_ref))
             A_ref = mujoco_kkt(m, data, platform, gamma=g_ref)
-            worst_d = max(worst_d, rel_error(robot.direct_dynamics(T, V, g * ratios(robot)), A_ref))
+            worst_d = max(
+                worst_d, rel_error(robot.direct_dynamics(T, V, g * ratios(robot)), A_ref)
+            )
         return robot.architecture, worst_i, worst_d
 
     print(f"{'file':34s} {'legs':8s} {'IDM':>9s} {'DDM':>9s}")
@@ -84,7 +89,9 @@ def main() -> None:
             path = folder / f"{arch}-{style}.urdf"
             path.write_text(cad_urdf(make(), style, seed=1))
             robot = StewartRobot.from_urdf(path, armature=ARMATURE)
-            pairs = [p for p in pairs_of() if not (style == "tree-hinges" and p[0] == "closing_1_1")]
+            pairs = [
+                p for p in pairs_of() if not (style == "tree-hinges" and p[0] == "closing_1_1")
+            ]
             ref = PinReference(path, pairs, ARMATURE)
             worst_i = worst_d = 0.0
             for T, V, A in states(robot, RANGES[arch], args.states, seed=11):
@@ -95,7 +102,9 @@ def main() -> None:
                 A_ref = ref.kkt(q, v, gamma=g_ref)
                 A_got = robot.direct_dynamics(T, V, g * ratios(robot))
                 worst_d = max(worst_d, rel_error(A_got, A_ref))
-            print(f"URDF {arch:4s} {style:24s} {robot.architecture:8s} {worst_i:9.1e} {worst_d:9.1e}")
+            print(
+                f"URDF {arch:4s} {style:24s} {robot.architecture:8s} {worst_i:9.1e} {worst_d:9.1e}"
+            )
 
 
 if __name__ == "__main__":

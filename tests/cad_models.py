@@ -1,3 +1,4 @@
+# ruff: noqa: E501 (lines of XML kept whole, as they appear in the files written)
 """Hexapod MJCF files written the way CAD exports and hand-written models look, for the
 import tests: body frames at odd angles to the joint axes, numbers rounded to a few
 digits, orientations as ``euler`` (degrees), ``axisangle``, ``xyaxes`` and ``quat``,
@@ -534,8 +535,14 @@ def _rpy(R: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(R).as_euler("xyz")  # URDF: fixed-axis roll, pitch, yaw
 
 
-def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
-             closing: str = "closing", transmissions: bool = True) -> str:
+def cad_urdf(
+    robot,
+    style: str = "floating",
+    seed: int = 0,
+    digits: int = 6,
+    closing: str = "closing",
+    transmissions: bool = True,
+) -> str:
     """A URDF of ``robot`` (a ``GeneralHexapod``) as onshape-to-robot writes one: link frames
     at odd places (each joint's frame is its child link's, axis given in it), rounded
     numbers, inertials with a rotated ``<inertial>`` frame, fixed extra links (a housing on
@@ -582,8 +589,12 @@ def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
     def joint(name, kind, parent, child, T_parent, T_child, axis_frame, dyn=True):
         rel = np.linalg.inv(T_parent) @ T_child
         axis = (np.linalg.inv(T_child) @ axis_frame)[:3, 2]
-        limit = '<limit lower="-1" upper="1" effort="100" velocity="10"/>' if kind != "fixed" else ""
-        dynamics = '<dynamics damping="0.0125" friction="0.0075"/>' if dyn and kind != "fixed" else ""
+        limit = (
+            '<limit lower="-1" upper="1" effort="100" velocity="10"/>' if kind != "fixed" else ""
+        )
+        dynamics = (
+            '<dynamics damping="0.0125" friction="0.0075"/>' if dyn and kind != "fixed" else ""
+        )
         ax = f'<axis xyz="{w.v(axis)}"/>' if kind != "fixed" else ""
         return (
             f'  <joint name="{name}" type="{kind}">\n    <parent link="{parent}"/><child link="{child}"/>\n'
@@ -594,12 +605,13 @@ def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
     def frame_link(name, parent, T_parent, point):
         T = np.eye(4)
         T[:3, 3] = point
-        return (
-            f'  <link name="{name}"/>\n'
-            + joint(f"{name}_frame", "fixed", parent, name, T_parent, T, T)
+        return f'  <link name="{name}"/>\n' + joint(
+            f"{name}_frame", "fixed", parent, name, T_parent, T, T
         )
 
-    ends = ("closing_{k}_1", "closing_{k}_2") if closing == "closing" else ("tip_{k}", "socket_{k}")
+    ends = (
+        ("closing_{k}_1", "closing_{k}_2") if closing == "closing" else ("tip_{k}", "socket_{k}")
+    )
     for k in range(6):
         leg = robot.legs[k]
         parent, W_prev = "base_link", base
@@ -611,7 +623,9 @@ def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
             offset[:3, 3] = [0.0, 0.0, offset[2, 3]]
             W = F[k, j] @ offset
             name = f"leg{k + 1}_link{j + 1}"
-            out.append(f'  <link name="{name}">\n    {inertial(robot.leg_inertia[k, j], np.linalg.inv(W) @ F[k, j])}\n  </link>\n')
+            out.append(
+                f'  <link name="{name}">\n    {inertial(robot.leg_inertia[k, j], np.linalg.inv(W) @ F[k, j])}\n  </link>\n'
+            )
             out.append(joint(f"leg{k + 1}_q{j + 1}", "revolute" if leg.joints[j].revolute else "prismatic",
                              parent, name, W_prev, W, F[k, j]))  # fmt: skip
             if j == 0:
@@ -620,7 +634,9 @@ def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
                            'iyz="0" izz="1e-6"/></inertial>\n  </link>\n')  # fmt: skip
                 H = W.copy()
                 H[:3, 3] += rng.uniform(-0.01, 0.01, 3)
-                out.append(joint(f"leg{k + 1}_housing_fix", "fixed", name, f"leg{k + 1}_housing", W, H, H))
+                out.append(
+                    joint(f"leg{k + 1}_housing_fix", "fixed", name, f"leg{k + 1}_housing", W, H, H)
+                )
             parent, W_prev = name, W
         tip = F[k, 2][:3, :3] @ leg.tip + F[k, 2][:3, 3]
         if style == "tree-hinges" and k == 0:
@@ -629,23 +645,39 @@ def cad_urdf(robot, style: str = "floating", seed: int = 0, digits: int = 6,
             for h in range(2):
                 Th = np.eye(4)
                 Th[:3, :3], Th[:3, 3] = A, tip
-                Th = Th @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1.0]]) if h else Th
+                Th = (
+                    Th @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1.0]])
+                    if h
+                    else Th
+                )
                 hn = f"ball1_link{h + 1}"
                 out.append(f'  <link name="{hn}"/>\n')
                 axis_frame = np.eye(4)
                 axis_frame[:3, :3] = _frame_z(A[:, h], rng)
                 axis_frame[:3, 3] = tip
-                out.append(joint(f"ball1_{'xyz'[h]}", "revolute", prev, hn, Tprev, Th, axis_frame, dyn=False).replace('<limit lower="-1" upper="1"', '<limit lower="-3" upper="3"'))
+                out.append(
+                    joint(
+                        f"ball1_{'xyz'[h]}", "revolute", prev, hn, Tprev, Th, axis_frame, dyn=False
+                    ).replace('<limit lower="-1" upper="1"', '<limit lower="-3" upper="3"')
+                )
                 prev, Tprev = hn, Th
             axis_frame = np.eye(4)
             axis_frame[:3, :3] = _frame_z(A[:, 2], rng)
             axis_frame[:3, 3] = tip
-            out.append(joint("ball1_z", "revolute", prev, "platform", Tprev, Wp, axis_frame, dyn=False).replace('<limit lower="-1" upper="1"', '<limit lower="-3" upper="3"'))
+            out.append(
+                joint(
+                    "ball1_z", "revolute", prev, "platform", Tprev, Wp, axis_frame, dyn=False
+                ).replace('<limit lower="-1" upper="1"', '<limit lower="-3" upper="3"')
+            )
         else:
             out.append(frame_link(ends[0].format(k=k + 1), parent, W_prev, tip))
-    out.append(f'  <link name="platform">\n    {inertial(robot.platform_inertia, np.linalg.inv(Wp) @ T_home)}\n  </link>\n')
+    out.append(
+        f'  <link name="platform">\n    {inertial(robot.platform_inertia, np.linalg.inv(Wp) @ T_home)}\n  </link>\n'
+    )
     if style == "floating":
-        out.append(joint("platform_free", "floating", "world", "platform", np.eye(4), Wp, Wp, dyn=False))
+        out.append(
+            joint("platform_free", "floating", "world", "platform", np.eye(4), Wp, Wp, dyn=False)
+        )
     out.append('  <link name="camera">\n    <inertial><origin xyz="0.001 0 0.01"/><mass value="0.2"/>'
                '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="2e-4" iyz="0" izz="1e-4"/></inertial>\n'
                '  </link>\n')  # fmt: skip

@@ -262,6 +262,8 @@ BAD_NUMBERS = [
     ("bench", "--repeats", "0"),
     ("ik", "--pose", "nan"),
     ("ik", "--pose", "inf"),
+    ("import", "--closure-tolerance", "0"),
+    ("import", "--closure-tolerance", "nan"),
 ]
 
 

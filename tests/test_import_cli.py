@@ -40,7 +40,9 @@ def test_import_prints_what_it_recognised_and_writes_the_description(cad_file, t
     assert "'leg1_j1' (P*)" in text  # the actuated slide, starred
     assert "spherical: ball joint 'ball" in text
     assert "joint terms: q1: armature 0.0021, viscous 0.037, coulomb 0.011" in text
-    lumped = next(line for line in text.splitlines() if line.startswith("lumped into the platform"))
+    lumped = next(
+        line for line in text.splitlines() if line.startswith("lumped into the platform")
+    )
     assert "'rod1_end'" in lumped and "'camera'" in lumped  # welded rod ends, fixed camera
     assert "loop residuals [m]" in text
     assert "warning: model 'cad-weld-ball'" not in text  # exact loops: nothing to warn
@@ -80,7 +82,11 @@ def test_robot_commands_take_a_model(cad_file, capsys):
     assert main(["ik", "--model", str(cad_file)]) == 0
     text = capsys.readouterr().out
     q = robot.inverse_geometry(robot.home_pose)
-    rows = [line.split() for line in text.splitlines() if line[:3].strip() in "123456" and line[:3].strip()]
+    rows = [
+        line.split()
+        for line in text.splitlines()
+        if line[:3].strip() in "123456" and line[:3].strip()
+    ]
     got = np.array([[float(x.rstrip("*")) for x in row[1:4]] for row in rows[:6]])
     np.testing.assert_allclose(got, q, atol=1e-6)
 
@@ -93,7 +99,9 @@ def test_model_from_our_own_writer(tmp_path, capsys):
 
 def test_import_errors_are_one_line_exit_2(tmp_path, capsys):
     bad = tmp_path / "bad.xml"
-    bad.write_text("<mujoco><worldbody><body name='a'><joint/><geom size='1'/></body></worldbody></mujoco>")
+    bad.write_text(
+        "<mujoco><worldbody><body name='a'><joint/><geom size='1'/></body></worldbody></mujoco>"
+    )
     assert main(["import", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("stewart-pin import: error: not six legs") and err.count("\n") == 1

@@ -341,7 +341,12 @@ def test_source_records_names_and_survives_toml(tmp_path):
     xml = cad_mjcf(source("rus"), "weld-ball", seed=3)
     desc = imported(xml).description
     src = desc.source
-    assert (src.format, src.model, src.platform, src.base) == ("mjcf", "cad-weld-ball", "platform", "world")
+    assert (src.format, src.model, src.platform, src.base) == (
+        "mjcf",
+        "cad-weld-ball",
+        "platform",
+        "world",
+    )
     assert src.reference == "qpos0"
     assert src.legs[0].spherical.startswith("ball joint")
     path = desc.write(tmp_path / "r.toml")
@@ -402,11 +407,13 @@ def test_loops_that_do_not_close_are_refused_with_the_residuals():
     xml = cad_mjcf(source("pus"), "connect-site", seed=3)
     m = mujoco.MjModel.from_xml_string(xml)
     site = m.site("plate_p4")
-    moved = site.pos + [0.02, 0.0, 0.0]
+    moved = site.pos + np.array([0.02, 0.0, 0.0])
     old = " ".join(f"{x:.5f}".rstrip("0").rstrip(".") for x in site.pos)
     assert f'name="plate_p4" pos="{old}"' in xml
-    bad = xml.replace(f'name="plate_p4" pos="{old}"', f'name="plate_p4" pos="{moved[0]} {moved[1]} {moved[2]}"')
-    with pytest.raises(LoopClosureError, match="leg .: 0.02 m") as info:
+    bad = xml.replace(
+        f'name="plate_p4" pos="{old}"', f'name="plate_p4" pos="{moved[0]} {moved[1]} {moved[2]}"'
+    )
+    with pytest.raises(LoopClosureError, match=r"leg .: 0.02 m") as info:
         import_mjcf(bad)
     r = np.array(info.value.residuals)
     assert r.shape == (6,) and np.sum(r > 0.01) == 1 and info.value.tolerance < 0.01
@@ -420,7 +427,7 @@ def test_nearly_parallel_axes_are_made_parallel_with_a_warning():
     axis = m.joint("leg2_j2").axis
     text = " ".join(f"{x:.5f}".rstrip("0").rstrip(".") if x else "0" for x in axis)
     assert text in xml
-    tilted = axis + [2e-6, -1e-6, 0.0]
+    tilted = axis + np.array([2e-6, -1e-6, 0.0])
     bad = xml.replace(text, " ".join(repr(float(x)) for x in tilted), 1)
     with pytest.warns(ModelImportWarning, match="made parallel"):
         import_mjcf(bad)
@@ -450,9 +457,9 @@ def test_visual_meshes_are_ignored_and_mesh_inertias_are_mujocos(tmp_path):
     robot = imported(str(path))
     # MuJoCo's own model, the visual mesh taken out (it has no file)
     m = mujoco.MjModel.from_xml_string(
-        xml.replace('<mesh name="shell" file="missing_visual.stl"/>', "").replace(
-            '<geom type="mesh" mesh="shell" mass="0"/>', ""
-        ).replace('file="cube.obj"', f'file="{tmp_path / "cube.obj"}"')
+        xml.replace('<mesh name="shell" file="missing_visual.stl"/>', "")
+        .replace('<geom type="mesh" mesh="shell" mass="0"/>', "")
+        .replace('file="cube.obj"', f'file="{tmp_path / "cube.obj"}"')
     )
     # MuJoCo's mesh volume (float32 vertices) of the 2 cm cube of density 5000
     assert m.body_mass[m.body("camera").id] == pytest.approx(5000 * 0.02**3, rel=1e-6)
@@ -529,7 +536,7 @@ def test_not_six_legs():
     for element in [*spec.equalities, *spec.actuators]:
         if element.name in ("loop6",) or getattr(element, "target", "") == "leg6_j1":
             spec.delete(element)
-    with pytest.raises(ModelImportError, match="not six legs.*has 5"):
+    with pytest.raises(ModelImportError, match=r"not six legs.*has 5"):
         import_mjcf(spec.compile())
 
 
@@ -541,7 +548,8 @@ def test_chain_of_two_or_four_joints_names_its_joints():
         import_mjcf(two)
     assert "leg2_j3" in info.value.joints
     four = xml.replace(
-        '<joint name="leg3_j2"', '<joint name="leg3_extra" type="hinge" axis="1 0 0"/><joint name="leg3_j2"'
+        '<joint name="leg3_j2"',
+        '<joint name="leg3_extra" type="hinge" axis="1 0 0"/><joint name="leg3_j2"',
     )
     with pytest.raises(ModelImportError, match=r"4 one-dof joint\(s\)") as info:
         import_mjcf(four)
@@ -569,15 +577,17 @@ def test_actuator_on_a_passive_joint_or_none_on_a_leg():
     with pytest.raises(ModelImportError, match="without an actuator") as info:
         import_mjcf(none)
     assert joint in info.value.joints
-    two = xml.replace("  </actuator>", f'    <motor name="extra" joint="{joint[:-1]}2"/>\n  </actuator>')
+    two = xml.replace(
+        "  </actuator>", f'    <motor name="extra" joint="{joint[:-1]}2"/>\n  </actuator>'
+    )
     with pytest.raises(ModelImportError, match="two actuated joints"):
         import_mjcf(two)
 
 
 def test_floating_base_is_refused():
     xml = cad_mjcf(source("pus"), "connect-site", seed=3)
-    floating = xml.replace('<geom type="cylinder" size="0.12 0.004" density="2000"/>',
-                           '<freejoint name="base_free"/><geom type="cylinder" size="0.12 0.004" density="2000"/>')  # fmt: skip
+    plate = '<geom type="cylinder" size="0.12 0.004" density="2000"/>'
+    floating = xml.replace(plate, '<freejoint name="base_free"/>' + plate)
     with pytest.raises(ModelImportError, match="a floating base") as info:
         import_mjcf(floating)
     assert info.value.joints == ("base_free",)
@@ -589,7 +599,10 @@ def test_floating_base_is_refused():
 def test_extra_moving_bodies_are_named():
     xml = cad_mjcf(source("pus"), "connect-site", seed=3)
     extra = xml.replace(
-        '<body name="camera"', '<body name="gimbal"><joint name="pan" type="hinge"/><geom size="0.01"/></body>\n<body name="camera"', 1
+        '<body name="camera"',
+        '<body name="gimbal"><joint name="pan" type="hinge"/><geom size="0.01"/></body>\n'
+        '<body name="camera"',
+        1,
     )
     with pytest.raises(ModelImportError, match="extra moving bodies 'gimbal'") as info:
         import_mjcf(extra)
@@ -600,13 +613,39 @@ def test_unsupported_elements_are_refused():
     xml = cad_mjcf(source("pus"), "connect-site", seed=3)
     with pytest.raises(ModelImportError, match="gravity compensation"):
         import_mjcf(xml.replace('<body name="camera"', '<body name="camera" gravcomp="1"', 1))
-    joint_eq = xml.replace("  </equality>", '    <joint joint1="leg1_j2" joint2="leg2_j2"/>\n  </equality>')
+    joint_eq = xml.replace(
+        "  </equality>", '    <joint joint1="leg1_j2" joint2="leg2_j2"/>\n  </equality>'
+    )
     with pytest.raises(ModelImportError, match="is a joint: stewart-pin reads connect"):
         import_mjcf(joint_eq)
     ball = cad_mjcf(source("pus"), "weld-ball", seed=3).replace(
-        '<joint name="ball2" type="ball" damping="0"/>', '<joint name="ball2" type="ball" damping="0.1"/>'
+        '<joint name="ball2" type="ball" damping="0"/>',
+        '<joint name="ball2" type="ball" damping="0.1"/>',
     )
     with pytest.raises(ModelImportError, match="ball joint 'ball2' carries joint terms"):
         import_mjcf(ball)
     with pytest.raises(stewart_pin.FileFormatError, match="MuJoCo cannot read"):
         import_mjcf("<mujoco><worldbody><body></mujoco>")
+
+
+def test_docs_example_servo_head():
+    """docs/importing.md's worked example: the file in tests/data, the report and forces it
+    prints, and the dynamics against MuJoCo's model of the file."""
+    from pathlib import Path
+
+    path = Path(__file__).parent / "data" / "servo_head.xml"
+    result = import_mjcf(path)
+    text = str(result.report)
+    assert "MJCF model 'servo-head' ('servo_head.xml'): rus legs" in text
+    assert "leg 1 (rus, R-S-S): 'servo1' (R*), 'ball1 (U axis 1)' (R)" in text
+    robot = StewartRobot(result.description)
+    T = robot.home_pose
+    gamma = robot.inverse_dynamics(
+        T, np.array([0.01, 0, 0, 0, 0, 0.2]), np.array([0, 0, 0.5, 0, 0.3, 0])
+    )
+    np.testing.assert_allclose(
+        gamma, [-0.0801, 0.1268, -0.0932, 0.1352, -0.0905, 0.1411], atol=6e-5
+    )
+    xml = path.read_text()
+    rods = [(f"rod{i}", (0, 0, 1)) for i in range(1, 7)]
+    check_against_mujoco(xml, robot, (0.003, 0.03), no_spin=rods)

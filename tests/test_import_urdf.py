@@ -84,7 +84,9 @@ class PinReference:
             J, Jp = self._rows(q)
             r = [d.oMf[a].translation - d.oMf[b].translation for a, b in self.pairs]
             M = d.oMf[self.platform]
-            r = np.r_[np.concatenate(r), M.translation - T[:3, 3], pin.log3(M.rotation @ T[:3, :3].T)]
+            r = np.r_[
+                np.concatenate(r), M.translation - T[:3, 3], pin.log3(M.rotation @ T[:3, :3].T)
+            ]
             if np.abs(r).max() < 1e-14:
                 break
             q = pin.integrate(m, q, -np.linalg.lstsq(np.r_[J, Jp], r, rcond=None)[0])
@@ -130,7 +132,9 @@ def write(tmp_path, text, name="robot.urdf"):
 
 
 def pairs_of(closing="closing"):
-    ends = ("closing_{k}_1", "closing_{k}_2") if closing == "closing" else ("tip_{k}", "socket_{k}")
+    ends = (
+        ("closing_{k}_1", "closing_{k}_2") if closing == "closing" else ("tip_{k}", "socket_{k}")
+    )
     return [(ends[0].format(k=k), ends[1].format(k=k)) for k in range(1, 7)]
 
 
@@ -162,7 +166,9 @@ def test_onshape_style_urdf_matches_pinocchio_kkt(arch, style, tmp_path):
     src = robot.description.source
     root = ET.parse(path).getroot()
     order = [t.find("joint").get("name") for t in root.findall("transmission")]
-    assert [leg.joints[robot.general.legs[i].actuated - 1] for i, leg in enumerate(src.legs)] == order
+    assert [
+        leg.joints[robot.general.legs[i].actuated - 1] for i, leg in enumerate(src.legs)
+    ] == order
 
 
 def test_closures_as_pairs_and_actuated_by_argument(tmp_path):
@@ -206,7 +212,9 @@ def test_urdf_frames_are_the_files(tmp_path):
     for i, leg in enumerate(desc.source.legs):
         k = leg.spherical.removeprefix("closure 'closing_").rstrip("'")
         socket = data.oMf[model.getFrameId(f"closing_{k}_2")]
-        np.testing.assert_allclose(Tp.actInv(socket).translation, desc.platform_points[i], atol=1e-14)
+        np.testing.assert_allclose(
+            Tp.actInv(socket).translation, desc.platform_points[i], atol=1e-14
+        )
 
 
 # --- 5. round trips -------------------------------------------------------------------------
@@ -247,7 +255,9 @@ def test_urdf_errors_name_what_does_not_fit(tmp_path):
     no_ixx = text.replace('<inertia ixx="0.1" ', "<inertia ", 1)
     with pytest.raises(FileFormatError, match="<inertia> misses ixx"):
         import_urdf(write(tmp_path, no_ixx, "b.urdf"))
-    planar = text.replace('<joint name="camera_fix" type="fixed">', '<joint name="camera_fix" type="planar">')
+    planar = text.replace(
+        '<joint name="camera_fix" type="fixed">', '<joint name="camera_fix" type="planar">'
+    )
     with pytest.raises(ModelImportError, match="'camera_fix' is 'planar'"):
         import_urdf(write(tmp_path, planar, "c.urdf"))
     mimic = text.replace(
@@ -270,7 +280,9 @@ def test_urdf_errors_name_what_does_not_fit(tmp_path):
 
 def test_continuous_joints_are_unlimited_revolute_joints(tmp_path):
     text = cad_urdf(SOURCES["rus"](), seed=1)
-    text = text.replace('<joint name="leg2_q3" type="revolute">', '<joint name="leg2_q3" type="continuous">')
+    text = text.replace(
+        '<joint name="leg2_q3" type="revolute">', '<joint name="leg2_q3" type="continuous">'
+    )
     desc = StewartRobot.from_urdf(write(tmp_path, text)).description
     k = [leg.joints[2] for leg in desc.source.legs].index("leg2_q3")
     joint = desc.legs[k].joints[2]

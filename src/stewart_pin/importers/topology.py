@@ -149,8 +149,8 @@ class TreeJoint:
             assert R_zero is not None
             M[:3, :3] = R_zero @ np.asarray(value, dtype=float) @ R_zero.T
             M[:3, 3] = self.anchor - M[:3, :3] @ self.anchor
-        else:
-            raise ValueError(self.kind)  # pragma: no cover (free joints are set directly)
+        else:  # free joints are placed directly (KinematicModel.poses)
+            raise ModelImportError(f"joint {shown(self.name)}: a {self.kind} joint has no motion")
         return M
 
 
