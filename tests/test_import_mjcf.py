@@ -649,3 +649,11 @@ def test_docs_example_servo_head():
     xml = path.read_text()
     rods = [(f"rod{i}", (0, 0, 1)) for i in range(1, 7)]
     check_against_mujoco(xml, robot, (0.003, 0.03), no_spin=rods)
+
+
+def test_source_survives_json(tmp_path):
+    desc = imported(cad_mjcf(source("ups"), "tree-ball", seed=3)).description
+    back = RobotDescription.read(desc.write(tmp_path / "r.json"))
+    assert back.source == desc.source and back.source.legs[0].spherical.startswith("ball")
+    with pytest.raises(stewart_pin.DescriptionError, match="model source keys"):
+        RobotDescription.from_dict({**desc.to_dict(), "source": {"format": "mjcf"}})
