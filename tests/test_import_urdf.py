@@ -276,6 +276,12 @@ def test_urdf_errors_name_what_does_not_fit(tmp_path):
         import_urdf(write(tmp_path, text, "f.urdf"), actuated=["nope"] * 6)
     with pytest.raises(FileFormatError, match="no URDF file"):
         import_urdf(tmp_path / "missing.urdf")
+    start = text.index('<link name="leg2_link2">')
+    mass_at = text.index("<mass value=", start)
+    end = text.index("/>", mass_at)
+    massless = text[:mass_at] + '<mass value="0"' + text[end:]
+    with pytest.raises(ModelImportError, match="(?s)massless body.*the file's body 'leg2_link2'"):
+        import_urdf(write(tmp_path, massless, "g.urdf"))
 
 
 def test_continuous_joints_are_unlimited_revolute_joints(tmp_path):

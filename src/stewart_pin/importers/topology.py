@@ -34,6 +34,7 @@ configuration and writes the description, with the ideal 6-UPS form when it fits
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -56,6 +57,7 @@ from stewart_pin.description.robot_description import (
 )
 from stewart_pin.exceptions import (
     ArchitectureError,
+    DescriptionError,
     JointDynamicsError,
     LoopClosureError,
     ModelImportError,
@@ -454,8 +456,8 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
 
     def massless(link: Link) -> bool:
         p = link.inertia
-        moments = abs(p[0]) + abs(p[3]) + abs(p[5])
-        return p[9] <= MASSLESS * mass and moments <= MASSLESS * mass * scale**2 * 10
+        moments = max(abs(p[0]), abs(p[3]), abs(p[5]))
+        return p[9] <= MASSLESS * mass and moments <= MASSLESS * mass * scale**2
 
     def link_names(i: int) -> list[str]:
         return [model.body_label(b) for b in links[i].bodies if not model.bodies[b].virtual]
@@ -1111,7 +1113,6 @@ def build(
     plat_pts = np.zeros((6, 3))
     reports: list[LegReport] = []
     sources: list[LegSource] = []
-    q_refs = np.zeros((6, 3))
     residual_points: list[tuple[np.ndarray, np.ndarray]] = []
     for k in order:
         leg = rec.legs[k]
@@ -1322,7 +1323,6 @@ def build(
             T_home,
             p_in_P,
         )
-        q_refs[len(reports)] = q_ref
         arch = classify(tuple(joints), actuated_index, chain.tip, q_ref)
         arch = arch.replace(branch=arch.branch_at(q_ref))
         legs_out.append(arch)
@@ -1335,9 +1335,11 @@ def build(
                 spherical += f" in rod end {shown(b_rod_end.name)}"
         reports.append(
             LegReport(
-                leg.shape.replace("JJJ", "three 1-dof joints")
-                .replace("JS", "R-S-S" if kinds[0] == REVOLUTE else "P-S-S")
-                .replace("SJ", "S-P-S"),
+                {
+                    "JJJ": "three 1-dof joints",
+                    "JS": "R-S-S" if kinds[0] == REVOLUTE else "P-S-S",
+                    "SJ": "S-P-S",
+                }[leg.shape],
                 (kinds[0], kinds[1], kinds[2]),
                 (names[0], names[1], names[2]),
                 (link_bodies[0], link_bodies[1], link_bodies[2]),
@@ -1410,18 +1412,30 @@ def build(
         tuple(n for names_ in lumped.values() for n in names_),
         tuple(sources),
     )
-    desc, ideal = _description(
-        robot,
-        base_pts,
-        base_rot,
-        plat_pts,
-        legs_out,
-        leg_inertia,
-        platform_inertia,
-        model.gravity,
-        T_home,
-        source,
-    )
+    try:
+        desc, ideal = _description(
+            robot,
+            base_pts,
+            base_rot,
+            plat_pts,
+            legs_out,
+            leg_inertia,
+            platform_inertia,
+            model.gravity,
+            T_home,
+            source,
+        )
+    except DescriptionError as err:
+        where = getattr(err, "body", "")
+        match = re.fullmatch(r"leg (\d) link (\d)", where)
+        names_ = [sources[int(match[1]) - 1].bodies[int(match[2]) - 1]] if match else []
+        if where == "platform":
+            names_ = [source.platform]
+        raise ModelImportError(
+            f"the robot read from the file is not valid: {err}"
+            + (f" (the file's body {_names(names_)})" if names_ else ""),
+            tuple(names_),
+        ) from err
     architectures = {leg.name for leg in legs_out}
     report = ImportReport(
         model.format,
