@@ -280,7 +280,7 @@ def test_urdf_errors_name_what_does_not_fit(tmp_path):
     mass_at = text.index("<mass value=", start)
     end = text.index("/>", mass_at)
     massless = text[:mass_at] + '<mass value="0"' + text[end:]
-    with pytest.raises(ModelImportError, match="(?s)massless body.*the file's body 'leg2_link2'"):
+    with pytest.raises(ModelImportError, match=r"(?s)massless body.*the file's body 'leg2_link2'"):
         import_urdf(write(tmp_path, massless, "g.urdf"))
 
 

@@ -4,8 +4,9 @@
 - :func:`import_mjcf`, :func:`import_urdf`, :func:`import_model` (by the file's suffix):
   the description and an :class:`~.topology.ImportReport` of what was recognised, lumped,
   corrected and ignored. ``StewartRobot.from_mjcf`` / ``from_urdf`` wrap them.
-- :mod:`.topology`: the neutral kinematic tree both readers produce, the recognition of
-  the base, the platform and six legs in it, and the description built from them.
+- :mod:`.tree`: the neutral kinematic tree both readers produce; :mod:`.topology`: the
+  recognition of the base, the platform and six legs in it; :mod:`.build`: the
+  description built from them and the import report.
 - :mod:`.canonical`: the canonical modified-DH form of a leg chosen from its joint axes,
   and :func:`~.canonical.canonical_description` (any description in that form).
 - :mod:`.mjcf` (through MuJoCo) and :mod:`.urdf` (through yourdfpy; loop closures from the
@@ -22,15 +23,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from stewart_pin.importers.canonical import canonical_description
-from stewart_pin.importers.topology import (
+from stewart_pin.importers.build import (
     CLOSURE_TOLERANCE,
     SPIN_TOLERANCE,
     ImportReport,
     ImportResult,
     build,
-    recognise,
 )
+from stewart_pin.importers.canonical import canonical_description
+from stewart_pin.importers.topology import recognise
 
 __all__ = [
     "CLOSURE_TOLERANCE",

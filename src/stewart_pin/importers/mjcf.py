@@ -1,5 +1,5 @@
 """MJCF in: a MuJoCo model read through MuJoCo itself, as the neutral tree of
-:mod:`stewart_pin.importers.topology`.
+:mod:`stewart_pin.importers.tree`.
 
 MuJoCo's compiler resolves what the file says: defaults and classes, ``fullinertia``,
 ``quat`` / ``euler`` / ``axisangle`` / ``xyaxes`` / ``zaxis`` orientations and the
@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin.exceptions import FileFormatError, ModelImportError
-from stewart_pin.importers.topology import (
+from stewart_pin.importers.tree import (
     BALL,
     FREE,
     KinematicModel,

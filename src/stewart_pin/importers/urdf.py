@@ -1,5 +1,5 @@
 """URDF in: a URDF read with yourdfpy, and its loop closures, as the neutral tree of
-:mod:`stewart_pin.importers.topology`.
+:mod:`stewart_pin.importers.tree`.
 
 URDF holds a tree; a hexapod's loops come from elsewhere (:func:`read_urdf`):
 
@@ -43,7 +43,7 @@ from stewart_pin.exceptions import (
 )
 from stewart_pin.formats.general_urdf import JOINT_TERMS_KEY
 from stewart_pin.formats.urdf import parse_closures
-from stewart_pin.importers.topology import (
+from stewart_pin.importers.tree import (
     FREE,
     KinematicModel,
     TreeActuator,
@@ -59,7 +59,7 @@ CLOSING_FRAME = re.compile(r"closing_(.+)_([12])")
 
 @dataclass
 class UrdfRead:
-    """What :func:`read_urdf` gives :func:`~stewart_pin.importers.topology.build`."""
+    """What :func:`read_urdf` gives :func:`~stewart_pin.importers.build.build`."""
 
     model: KinematicModel
     actuated: list[str] | None
