@@ -283,8 +283,8 @@ def build(
             if not e.spherical:
                 leg_of_joint[e.joint.name] = k
     spherical_joints = {
-        h.name: k
-        for k, leg in enumerate(rec.legs)
+        h.name
+        for leg in rec.legs
         for e in [*leg.edges, *([leg.connection.edge] if leg.connection.edge else [])]
         if e.spherical
         for h in (e.hinges or (e.joint,))
@@ -303,9 +303,8 @@ def build(
     for a in acts:
         if a.joint in spherical_joints:
             raise ModelImportError(
-                f"actuator {shown(a.name)} drives {shown(a.joint)}, a joint of the spherical "
-                f"joint of leg {spherical_joints[a.joint] + 1} (a passive joint): actuate "
-                "one of the leg's three 1-dof joints",
+                f"actuator {shown(a.name)} drives {shown(a.joint)}, a hinge of a spherical "
+                "joint (a passive joint): actuate one of the leg's three 1-dof joints",
                 (),
                 (a.name, a.joint),
             )
