@@ -6,6 +6,14 @@ first use, and the tests only read from them.
 
 from __future__ import annotations
 
+import os
+
+# One BLAS thread per process: the suite's matrices are small, and on a shared 2-core
+# machine OpenBLAS' thread pool made the identification tests' SVDs ~6x slower. Set before
+# NumPy is imported (a user's own setting wins).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 from collections.abc import Callable, Iterator
 from pathlib import Path
 

@@ -115,3 +115,143 @@ def mujoco_set_loop_state(m, data, qpos: np.ndarray, T: np.ndarray, V: np.ndarra
     legs, F = mujoco_leg_dofs(m), np.arange(ff, ff + 6)
     data.qvel[legs] = np.linalg.solve(Jc[:, legs], -Jc[:, F] @ data.qvel[F])
     return Jc
+
+
+# --- any MuJoCo model of a hexapod: loop-consistent states and an exact KKT solve -------------
+
+
+def _mujoco_equality(m, data):
+    """MuJoCo's equality rows at the current state: ``(efc_pos, efc_J)`` of the rows of type
+    equality (``mj_fwdPosition`` computed)."""
+    import mujoco
+
+    eq = np.asarray(data.efc_type) == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    J = np.asarray(data.efc_J).reshape(data.nefc, m.nv)[eq]
+    return np.asarray(data.efc_pos)[eq], J
+
+
+def _rotvec(R: np.ndarray) -> np.ndarray:
+    return np.asarray(pin.log3(R))
+
+
+def mujoco_closed_state(
+    m, data, body: str, T: np.ndarray, V: np.ndarray, guess=None, no_spin=()
+) -> None:
+    """Put ``data`` in a loop-consistent state of any MuJoCo hexapod, by MuJoCo's own
+    constraint definitions: Gauss-Newton on ``qpos`` (``mj_integratePos`` steps) until the
+    equality rows' ``efc_pos`` vanish and ``body`` is at the pose ``T`` (4x4, F0), then
+    ``qvel`` with the equality rows' velocity 0 and ``body``'s twist ``V = [v of its origin,
+    w]`` in F0. ``no_spin``: ``(body name, axis in that body)`` of rods between two
+    spherical joints, whose angular velocity about their axis is set to 0 (the state the
+    equivalent universal-joint leg describes; else the minimum-norm rate)."""
+    import mujoco
+
+    data.qpos[:] = m.qpos0 if guess is None else guess
+    data.qvel[:] = 0.0
+    bid = m.body(body).id
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    for _ in range(60):
+        mujoco.mj_fwdPosition(m, data)
+        r_eq, J_eq = _mujoco_equality(m, data)
+        mujoco.mj_jacBody(m, data, jacp, jacr, bid)
+        R = data.xmat[bid].reshape(3, 3)
+        r = np.r_[r_eq, data.xpos[bid] - T[:3, 3], _rotvec(R @ T[:3, :3].T)]
+        if np.abs(r).max() < 1e-14:
+            break
+        step = np.linalg.lstsq(np.r_[J_eq, jacp, jacr], -r, rcond=None)[0]
+        mujoco.mj_integratePos(m, data.qpos, step, 1.0)
+    else:
+        raise AssertionError(f"no loop-consistent state: residual {np.abs(r).max():.3g}")
+    mujoco.mj_fwdPosition(m, data)
+    _, J_eq = _mujoco_equality(m, data)
+    mujoco.mj_jacBody(m, data, jacp, jacr, bid)
+    spins = []
+    for name, axis in no_spin:
+        rod = m.body(name).id
+        jr = np.zeros((3, m.nv))
+        mujoco.mj_jacBody(m, data, None, jr, rod)
+        spins.append((data.xmat[rod].reshape(3, 3) @ np.asarray(axis, float)) @ jr)
+    rows = np.vstack([J_eq, jacp, jacr, *spins]) if spins else np.r_[J_eq, jacp, jacr]
+    rhs = np.r_[np.zeros(len(J_eq)), V, np.zeros(len(spins))]
+    data.qvel[:] = np.linalg.lstsq(rows, rhs, rcond=None)[0]
+
+
+def mujoco_constraint_rows(m, data) -> tuple[np.ndarray, np.ndarray]:
+    """``(J, Jdot qvel)`` of every active ``connect`` (3 rows) and ``weld`` (6 rows) from
+    ``mj_jac`` / ``mj_jacDot`` at the anchor points (both bodies), at the current state
+    (``mj_forward`` done); their row space is checked against MuJoCo's ``efc_J``."""
+    import mujoco
+
+    rows, drift = [], []
+    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    dp, dr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    for e in range(m.neq):
+        if not data.eq_active[e]:
+            continue
+        d = m.eq_data[e]
+        if m.eq_objtype[e] == mujoco.mjtObj.mjOBJ_SITE:
+            s1, s2 = m.eq_obj1id[e], m.eq_obj2id[e]
+            b1, b2 = m.site_bodyid[s1], m.site_bodyid[s2]
+            p1, p2 = data.site_xpos[s1].copy(), data.site_xpos[s2].copy()
+        else:
+            b1, b2 = m.eq_obj1id[e], m.eq_obj2id[e]
+            p1 = data.xpos[b1] + data.xmat[b1].reshape(3, 3) @ d[0:3]
+            p2 = data.xpos[b2] + data.xmat[b2].reshape(3, 3) @ d[3:6]
+        if m.eq_type[e] == mujoco.mjtEq.mjEQ_WELD:
+            p1 = p2 = data.xpos[b2] + data.xmat[b2].reshape(3, 3) @ d[0:3]
+        blocks = []
+        for p, b, sign in ((p1, b1, 1.0), (p2, b2, -1.0)):
+            mujoco.mj_jac(m, data, jp, jr, p, b)
+            mujoco.mj_jacDot(m, data, dp, dr, p, b)
+            blocks.append((sign * jp.copy(), sign * jr.copy(), sign * dp.copy(), sign * dr.copy()))
+        (a_p, a_r, a_dp, a_dr), (b_p, b_r, b_dp, b_dr) = blocks
+        rows.append(a_p + b_p)
+        drift.append((a_dp + b_dp) @ data.qvel)
+        if m.eq_type[e] == mujoco.mjtEq.mjEQ_WELD:
+            rows.append(a_r + b_r)
+            drift.append((a_dr + b_dr) @ data.qvel)
+    J, Jd = np.vstack(rows), np.concatenate(drift)
+    _, efc = _mujoco_equality(m, data)
+    rank = np.linalg.matrix_rank
+    assert rank(np.r_[J, efc]) == rank(J) == rank(efc), "rows differ from MuJoCo's efc_J"
+    return J, Jd
+
+
+def mujoco_kkt(m, data, body: str, A=None, gamma=None) -> np.ndarray:
+    """An exact KKT solve on MuJoCo's own model at the current (consistent) state: the mass
+    matrix ``mj_fullM`` (armature included), ``qfrc_bias``, ``qfrc_passive`` (damping,
+    springs), Coulomb friction ``frictionloss * sign(qvel)`` with the project's dead band
+    (MuJoCo's own is a constraint of its soft solver), the loops of
+    :func:`mujoco_constraint_rows` as hard constraints, the actuators' joint transmissions
+    with their gears. With ``A`` (the classical acceleration ``[a of body's origin, dw/dt]``
+    in F0): the actuator forces (nu,) (inverse dynamics); with ``gamma`` (nu,): ``A``."""
+    import mujoco
+
+    from stewart_pin.description.leg_architecture import coulomb_sign
+
+    mujoco.mj_forward(m, data)
+    nv = m.nv
+    M = np.zeros((nv, nv))
+    mujoco.mj_fullM(m, data, M)
+    c = data.qfrc_bias - data.qfrc_passive + m.dof_frictionloss * coulomb_sign(data.qvel)
+    J, Jd = mujoco_constraint_rows(m, data)
+    bid = m.body(body).id
+    jp, jr, dp, dr = (np.zeros((3, nv)) for _ in range(4))
+    mujoco.mj_jac(m, data, jp, jr, data.xpos[bid], bid)
+    mujoco.mj_jacDot(m, data, dp, dr, data.xpos[bid], bid)
+    Jb, Jbd = np.r_[jp, jr], np.r_[dp, dr] @ data.qvel
+    S = np.zeros((m.nu, nv))
+    for u in range(m.nu):
+        S[u, m.jnt_dofadr[m.actuator_trnid[u, 0]]] = m.actuator_gear[u, 0]
+    nr, nu = len(J), m.nu
+    if A is not None:
+        K = np.zeros((nv + nr + 6, nv + nu + nr))
+        K[:nv, :nv], K[:nv, nv : nv + nu], K[:nv, nv + nu :] = M, -S.T, -J.T
+        K[nv : nv + nr, :nv] = J
+        K[nv + nr :, :nv] = Jb
+        rhs = np.r_[-c, -Jd, np.asarray(A) - Jbd]
+        return np.linalg.solve(K, rhs)[nv : nv + nu]
+    K = np.zeros((nv + nr, nv + nr))
+    K[:nv, :nv], K[:nv, nv:], K[nv:, :nv] = M, -J.T, J
+    x = np.linalg.solve(K, np.r_[S.T @ np.asarray(gamma) - c, -Jd])
+    return Jb @ x[:nv] + Jbd

@@ -273,6 +273,8 @@ BAD_NUMBERS = [
             ("--payload-period", "nan"),
         )
     ),
+    ("import", "--closure-tolerance", "0"),
+    ("import", "--closure-tolerance", "nan"),
 ]
 
 

@@ -18,6 +18,9 @@ expected, what was received and how to fix it::
     │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file
+    │   └── ModelImportError                 a model file that is not a six-legged platform
+    │       ├── LoopClosureError             loops that do not close at the reference
+    │       └── RodSpinError                 an S-S rod whose spin cannot be removed exactly
     ├── WorkspaceError (ValueError)          a pose the robot cannot reach
     │   ├── StrokeLimitError                 a leg length outside its stroke
     │   ├── JointLimitError                  a U-joint angle outside its limits
@@ -37,7 +40,8 @@ expected, what was received and how to fix it::
 
     StewartPinWarning (UserWarning)          input accepted after a correction
     ├── BaseParameterWarning                 base parameters that barely act
-    └── ApproximationWarning                 an export that changes the robot
+    ├── ApproximationWarning                 an export that changes the robot
+    └── ModelImportWarning                   an import that corrected or ignored something
 """
 
 from __future__ import annotations
@@ -404,3 +408,65 @@ class MissingDependencyError(StewartPinError, ImportError):
     def __init__(self, message: str, package: str = "", extra: str = "") -> None:
         super().__init__(message)
         self.package, self.extra = package, extra
+
+
+# ---------------------------------------------------------------------------- importers
+class ModelImportError(FileFormatError):
+    """A model file (MJCF, URDF) that stewart-pin cannot read as a six-legged platform:
+    not six legs, a chain of two or four joints, a closure that is not a point (a weld where
+    a ball should be), an actuator on a passive joint or none on a leg, a floating base,
+    extra moving bodies, an unsupported element (see ``docs/importing.md``).
+
+    Attributes:
+        bodies: the names of the bodies involved, as written in the file (a tuple).
+        joints: the names of the joints (or constraints, actuators) involved (a tuple).
+    """
+
+    def __init__(
+        self, message: str, bodies: tuple[str, ...] = (), joints: tuple[str, ...] = ()
+    ) -> None:
+        super().__init__(message)
+        self.bodies, self.joints = tuple(bodies), tuple(joints)
+
+
+class LoopClosureError(ModelImportError):
+    """Loops that do not close at the file's reference configuration (``qpos0``, a
+    keyframe, the URDF's zero configuration) within the import's tolerance.
+
+    Attributes:
+        residuals: the distance [m] between the two sides of each leg's spherical joint,
+            in leg order (a tuple of six floats).
+        tolerance: the largest residual accepted [m].
+    """
+
+    def __init__(
+        self,
+        message: str,
+        residuals: tuple[float, ...],
+        tolerance: float,
+        bodies: tuple[str, ...] = (),
+    ) -> None:
+        super().__init__(message, bodies)
+        self.residuals, self.tolerance = tuple(residuals), tolerance
+
+
+class RodSpinError(ModelImportError):
+    """A rod between two spherical joints (R-S-S, P-S-S, S-P-S legs) whose inertia is not
+    symmetric about its axis: the equivalent universal-joint leg would not be exact.
+
+    Attributes:
+        asymmetry: the relative asymmetry found (see ``docs/importing.md``).
+        tolerance: the largest asymmetry accepted.
+    """
+
+    def __init__(
+        self, message: str, asymmetry: float, tolerance: float, bodies: tuple[str, ...] = ()
+    ) -> None:
+        super().__init__(message, bodies)
+        self.asymmetry, self.tolerance = asymmetry, tolerance
+
+
+class ModelImportWarning(StewartPinWarning):
+    """An import that proceeded after a correction or by ignoring something the file holds
+    (loops assembled from a small residual, an S-S rod's asymmetric spin inertia accepted
+    by option, a spherical joint's limits): the message says what and how much."""

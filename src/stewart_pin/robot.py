@@ -176,6 +176,32 @@ class StewartRobot:
         :func:`stewart_pin.description.presets.preset`)."""
         return cls(preset(name), **kwargs)
 
+    @classmethod
+    def from_mjcf(cls, source: Any, **options: Any) -> StewartRobot:
+        """From an MJCF model: a path, the XML text or a ``mujoco.MjModel``, read through
+        MuJoCo (options and conventions: :func:`stewart_pin.importers.import_mjcf`,
+        ``docs/importing.md``). F0 is the model's world, Fp the platform body's frame."""
+        from stewart_pin.importers import import_mjcf
+
+        return cls(import_mjcf(source, **options).description)
+
+    @classmethod
+    def from_urdf(
+        cls,
+        path: str | Path,
+        closures: Any = None,
+        actuated: Any = None,
+        armature: dict[str, float] | None = None,
+        **options: Any,
+    ) -> StewartRobot:
+        """From a URDF and its loop closures (a sidecar, ``closing_<k>_1`` /
+        ``closing_<k>_2`` frames, or pairs of names), the actuated joints (default the
+        sidecar's or the ``<transmission>`` elements) and the armatures URDF cannot hold
+        (:func:`stewart_pin.importers.import_urdf`, ``docs/importing.md``)."""
+        from stewart_pin.importers import import_urdf
+
+        return cls(import_urdf(path, closures, actuated, armature, **options).description)
+
     def to_dict(self) -> dict[str, Any]:
         """The description's dictionary form."""
         return self.description.to_dict()

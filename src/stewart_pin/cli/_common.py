@@ -102,14 +102,23 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
         "random-<kind>-<seed> with kind ups, ups-offset, rus, pus or custom (general legs)",
     )
     g.add_argument("--description", help="a robot description file (.toml or .json)")
+    g.add_argument(
+        "--model",
+        help="a robot model file to import: MJCF (.xml) or URDF (.urdf, its loop closures "
+        "from the sidecar or closing_<k>_1/_2 frames); see `stewart-pin import`",
+    )
 
 
 def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> StewartRobot:
-    """The robot of ``--preset`` / ``--description``; with ``ideal_only`` (the command's
-    name), a robot with general legs is refused (:class:`UnsupportedArchitectureError`:
-    one line, exit code 2)."""
+    """The robot of ``--preset`` / ``--description`` / ``--model`` (imported); with
+    ``ideal_only`` (the command's name), a robot with general legs is refused
+    (:class:`UnsupportedArchitectureError`: one line, exit code 2)."""
     if getattr(args, "description", None):
         robot = StewartRobot.from_file(args.description)
+    elif getattr(args, "model", None):
+        from stewart_pin.importers import import_model
+
+        robot = StewartRobot(import_model(args.model).description)
     else:
         robot = StewartRobot.from_preset(args.preset)
     if ideal_only is not None and not robot.is_ideal_ups:

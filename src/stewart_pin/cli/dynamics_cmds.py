@@ -28,7 +28,7 @@ from stewart_pin.formats.csv_tables import (
 
 
 def _idm(args: argparse.Namespace) -> int:
-    out = check_output(args.output, (".csv",), [args.trajectory, args.description])
+    out = check_output(args.output, (".csv",), [args.trajectory, args.description, args.model])
     robot = robot_from_args(args)
     rows = read_csv(args.trajectory, STATE_COLUMNS)
     times, poses, twists, accels = states_from_table(rows)

@@ -84,7 +84,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         write_measurements_csv,
     )
 
-    inputs = [args.csv, args.validation_csv, args.description]
+    inputs = [args.csv, args.validation_csv, args.description, args.model]
     out = check_output(args.output, (), inputs, "-o") if args.output else None
     robot = _robot(args, "identify")
     if not args.csv:  # the simulated measurements are written: check where, up front

@@ -40,6 +40,7 @@ from stewart_pin._io import write_text_atomic
 from stewart_pin.description.inertia import check_physical
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
 from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
+from stewart_pin.description.model_source import ModelSource, source_toml
 from stewart_pin.exceptions import (
     DescriptionError,
     FileFormatError,
@@ -62,8 +63,9 @@ REQUIRED_KEYS = (
 #: Optional keys: ``name`` (str), ``u_joint_limits`` ((2, 2) or (6, 2, 2) [rad]),
 #: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess) and
 #: ``legs`` (six leg tables, :mod:`stewart_pin.description.leg_io`; with ``legs``,
-#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required).
-OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs")
+#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required) and
+#: ``source`` (where an imported robot came from: :mod:`.model_source`).
+OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs", "source")
 
 #: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
 #: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
@@ -118,9 +120,13 @@ class RobotDescription:
     # upright pose when None), so the attribute is always a pose.
     home_pose: np.ndarray = None  # type: ignore[assignment]
     legs: tuple[LegArchitecture, ...] | None = None
+    # where an imported robot came from (file names of its bodies and joints), or None
+    source: ModelSource | None = None
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
+        if self.source is not None:
+            object.__setattr__(self, "source", ModelSource.from_value(self.source))
         if self.legs is not None:
             self._check_legs()
 
@@ -282,6 +288,8 @@ class RobotDescription:
                 d[key] = getattr(self, key).tolist()
         if self.legs is not None:
             d["legs"] = [leg_to_dict(leg) for leg in self.legs]
+        if self.source is not None:
+            d["source"] = self.source.to_dict()
         return d
 
     @classmethod
@@ -318,9 +326,12 @@ class RobotDescription:
             write_text_atomic(path, json.dumps(d, indent=2) + "\n")
         elif suffix == ".toml":
             legs = d.pop("legs", None)
+            source = d.pop("source", None)
             text = (FILE_HEADER if legs is None else GENERAL_FILE_HEADER) + _toml(d)
             if legs is not None:
                 text += LEGS_HEADER + legs_toml(legs)
+            if source is not None:
+                text += source_toml(source)
             write_text_atomic(path, text)
         else:
             raise FileFormatError(f"unknown description file type '{path.suffix}' (.toml, .json)")

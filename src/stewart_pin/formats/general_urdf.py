@@ -52,6 +52,7 @@ from stewart_pin.formats.urdf import (
     URDF_VELOCITY,
     VisualSizes,
     add_platform,
+    home_configuration,
     leg_joint,
     leg_link,
     robot_with_base,
@@ -310,6 +311,7 @@ def general_closures_dict(desc: Any, urdf_name: str | None = None) -> dict[str, 
         "gravity": np.asarray(desc.gravity, dtype=float).tolist(),
         "architectures": [str(leg.name) for leg in desc.legs],
         JOINT_TERMS_KEY: joint_terms(desc),
+        **home_configuration(desc),
     }
 
 

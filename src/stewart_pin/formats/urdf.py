@@ -285,7 +285,25 @@ def closures_dict(desc: RobotDescription, urdf_name: str | None = None) -> dict[
         ],
         "actuated_joints": [leg_joint(i, 3) for i in range(1, 7)],
         "gravity": desc.gravity.tolist(),
+        **home_configuration(desc),
     }
+
+
+def home_configuration(desc: Any) -> dict[str, Any]:
+    """The sidecar's ``home_pose`` (0Tp, 4x4) and ``home_joint_positions`` (leg joint name
+    -> value [rad or m] at that pose, each leg's branch): the assembled configuration an
+    importer reads back (``stewart_pin.importers``); URDF has no place for it."""
+    from stewart_pin.formats import general_urdf
+
+    T = np.asarray(desc.home_pose, dtype=float)
+    if general_urdf.is_general(desc):
+        q = general_urdf.leg_joint_values(desc, T)
+    else:
+        from stewart_pin.kinematics.geometry import inverse_geometry
+
+        q = np.asarray(inverse_geometry(desc, T, check_limits=False))
+    positions = {leg_joint(i + 1, j + 1): float(q[i, j]) for i in range(6) for j in range(3)}
+    return {"home_pose": T.tolist(), "home_joint_positions": positions}
 
 
 @dataclass(frozen=True)

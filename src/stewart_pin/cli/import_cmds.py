@@ -1,0 +1,82 @@
+"""``import``: a robot from its MJCF or URDF, printed and written as a description."""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+from pathlib import Path
+
+from stewart_pin.cli._common import check_output, positive_finite_float
+
+
+def _import(args: argparse.Namespace) -> int:
+    from stewart_pin.importers import import_mjcf, import_urdf
+    from stewart_pin.robot import StewartRobot
+
+    out = check_output(args.output, (".toml", ".json"), [args.model]) if args.output else None
+    options: dict[str, object] = {
+        "platform": args.platform,
+        "name": args.name,
+        "closure_tolerance": args.closure_tolerance,
+        "rod_spin": args.rod_spin,
+    }
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if Path(args.model).suffix.lower() == ".urdf":
+            closures = args.closures
+            if args.closure_pairs:
+                closures = [tuple(pair.split("=", 1)) for pair in args.closure_pairs]
+            result = import_urdf(args.model, closures, args.actuated, **options)  # type: ignore[arg-type]
+        else:
+            text: str | None = args.keyframe
+            keyframe: str | int | None = text
+            if text is not None and text.isdigit():
+                keyframe = int(text)
+            result = import_mjcf(args.model, keyframe=keyframe, **options)  # type: ignore[arg-type]
+        robot = StewartRobot(result.description)  # the home pose checked as for any robot
+    print(result.report)
+    for w in caught:
+        print(f"warning: {' '.join(str(w.message).split())}")
+    if out is not None:
+        robot.write(out)
+        print(f"wrote {out}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "import",
+        help="import a robot from its MJCF or URDF: print what was recognised, write it",
+        description="Reads MODEL (MJCF .xml through MuJoCo, or URDF .urdf with its loop "
+        "closures), recognises the base, the platform and six legs, prints the legs, joints, "
+        "actuated joints, lumped bodies, loop residuals and joint terms, and with -o writes "
+        "the robot description (docs/importing.md).",
+    )
+    p.add_argument("model", help="the model file: MJCF (.xml) or URDF (.urdf)")
+    p.add_argument("-o", "--output", help="the description to write (.toml or .json)")
+    p.add_argument("--name", help="the robot's name (default: the model's, made valid)")
+    p.add_argument("--platform", help="the body whose frame is Fp (default: found)")
+    p.add_argument(
+        "--keyframe", help="MJCF: the reference keyframe, a name or an index (default: home)"
+    )
+    p.add_argument("--closures", help="URDF: the closure sidecar (default: <stem>.closures.json)")
+    p.add_argument(
+        "--closure-pairs",
+        nargs="+",
+        metavar="LINK1=LINK2",
+        help="URDF: loop closures as pairs of links or frames whose origins coincide",
+    )
+    p.add_argument("--actuated", nargs=6, metavar="JOINT", help="URDF: actuated joints, leg order")
+    p.add_argument(
+        "--closure-tolerance",
+        type=positive_finite_float,
+        default=1e-2,
+        help="largest loop residual at the reference, relative to the platform's size",
+    )
+    p.add_argument(
+        "--rod-spin",
+        choices=("error", "warn"),
+        default="error",
+        help="an S-S rod not symmetric about its axis: refuse, or import it with a warning",
+    )
+    p.set_defaults(func=_import)

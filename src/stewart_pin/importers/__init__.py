@@ -1,0 +1,136 @@
+"""Model files in: a hexapod from its MJCF or URDF, as a
+:class:`~stewart_pin.description.RobotDescription` (``docs/importing.md``).
+
+- :func:`import_mjcf`, :func:`import_urdf`, :func:`import_model` (by the file's suffix):
+  the description and an :class:`~.topology.ImportReport` of what was recognised, lumped,
+  corrected and ignored. ``StewartRobot.from_mjcf`` / ``from_urdf`` wrap them.
+- :mod:`.tree`: the neutral kinematic tree both readers produce; :mod:`.topology`: the
+  recognition of the base, the platform and six legs in it; :mod:`.build`: the
+  description built from them and the import report.
+- :mod:`.canonical`: the canonical modified-DH form of a leg chosen from its joint axes,
+  and :func:`~.canonical.canonical_description` (any description in that form).
+- :mod:`.mjcf` (through MuJoCo) and :mod:`.urdf` (through yourdfpy; loop closures from the
+  project's sidecar, onshape-to-robot's ``closing_<k>_1`` / ``closing_<k>_2`` frames or
+  pairs of names).
+
+MuJoCo and yourdfpy are optional (``pip install "stewart-pin[import]"``), imported when a
+file is read.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from stewart_pin.importers.build import (
+    CLOSURE_TOLERANCE,
+    SPIN_TOLERANCE,
+    ImportReport,
+    ImportResult,
+    build,
+)
+from stewart_pin.importers.canonical import canonical_description
+from stewart_pin.importers.topology import recognise
+
+__all__ = [
+    "CLOSURE_TOLERANCE",
+    "SPIN_TOLERANCE",
+    "ImportReport",
+    "ImportResult",
+    "canonical_description",
+    "import_mjcf",
+    "import_model",
+    "import_urdf",
+]
+
+
+def import_mjcf(
+    source: Any,
+    *,
+    keyframe: str | int | None = None,
+    platform: str | None = None,
+    name: str | None = None,
+    closure_tolerance: float = CLOSURE_TOLERANCE,
+    spin_tolerance: float = SPIN_TOLERANCE,
+    rod_spin: str = "error",
+) -> ImportResult:
+    """A hexapod from an MJCF model (``docs/importing.md``).
+
+    Args:
+        source: a path, the XML text, or a compiled ``mujoco.MjModel``.
+        keyframe: the reference (assembled) configuration: a keyframe's name or index;
+            default the keyframe ``home`` if any, else ``qpos0``.
+        platform: the name of the body whose frame is Fp (default: found from the
+            topology, the body carrying the platform's free joint or most attachments).
+        name: the robot's name (default the model's, made valid).
+        closure_tolerance: the largest loop residual at the reference configuration,
+            relative to the platform's size (past it :class:`LoopClosureError`).
+        spin_tolerance, rod_spin: the largest asymmetry of an S-S rod about its axis, and
+            ``"error"`` (:class:`RodSpinError`) or ``"warn"`` past it.
+    """
+    from stewart_pin.importers.mjcf import read_mjcf
+
+    model = read_mjcf(source, keyframe)
+    rec = recognise(model, platform)
+    return build(
+        model,
+        rec,
+        name=name,
+        closure_tolerance=closure_tolerance,
+        spin_tolerance=spin_tolerance,
+        rod_spin=rod_spin,
+    )
+
+
+def import_urdf(
+    path: str | Path,
+    closures: Any = None,
+    actuated: Sequence[str] | None = None,
+    armature: dict[str, float] | None = None,
+    *,
+    platform: str | None = None,
+    name: str | None = None,
+    closure_tolerance: float = CLOSURE_TOLERANCE,
+    spin_tolerance: float = SPIN_TOLERANCE,
+    rod_spin: str = "error",
+) -> ImportResult:
+    """A hexapod from a URDF (``docs/importing.md``).
+
+    Args:
+        path: the URDF file.
+        closures: the loop closures: a sidecar file (``docs/closures.md``), a list of
+            pairs ``(name1, name2)`` of links or fixed frames whose origins coincide, or
+            ``None``: the sidecar ``<stem>.closures.json`` beside the URDF if there is
+            one, else the frame pairs ``closing_<k>_1`` / ``closing_<k>_2``.
+        actuated: the actuated joints in leg order (default the sidecar's, else the
+            ``<transmission>`` elements in their order).
+        armature: joint name -> armature [kg m^2 or kg] (URDF cannot say it; the
+            project's sidecar can).
+        platform, name, closure_tolerance, spin_tolerance, rod_spin: as
+            :func:`import_mjcf`.
+    """
+    from stewart_pin.importers.urdf import read_urdf
+
+    read = read_urdf(path, closures, armature)
+    rec = recognise(read.model, platform)
+    return build(
+        read.model,
+        rec,
+        actuated=actuated if actuated is not None else read.actuated,
+        armature=armature,
+        name=name,
+        closure_tolerance=closure_tolerance,
+        spin_tolerance=spin_tolerance,
+        rod_spin=rod_spin,
+        joint_terms=read.joint_terms,
+        limits=read.limits,
+    )
+
+
+def import_model(path: str | Path, **options: Any) -> ImportResult:
+    """:func:`import_urdf` for a ``.urdf`` file, :func:`import_mjcf` for any other (MJCF:
+    ``.xml``, ``.mjcf``)."""
+    if Path(path).suffix.lower() == ".urdf":
+        return import_urdf(path, **options)
+    return import_mjcf(path, **options)

@@ -1,0 +1,827 @@
+"""The description of a recognised platform (:func:`build`) and the import report.
+
+Every leg is placed in the canonical modified-DH form
+(:mod:`stewart_pin.importers.canonical`); a rod between two spherical joints becomes the
+equivalent universal-joint leg, its spin about its axis removed (exact when the rod's
+inertia is symmetric about that axis: :data:`SPIN_TOLERANCE`); each link's inertia is
+re-expressed in its frame; the actuated joints (in the actuators' order) and the joint
+terms are read; the loops are checked at the reference configuration
+(:data:`CLOSURE_TOLERANCE`); the description takes the ideal 6-UPS form when it fits.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from stewart_pin.description.leg_architecture import (
+    PRISMATIC,
+    REVOLUTE,
+    Joint,
+    JointDynamics,
+    LegArchitecture,
+)
+from stewart_pin.description.model_source import LegSource, ModelSource
+from stewart_pin.description.robot_description import (
+    NAME_PATTERN,
+    RobotDescription,
+    check_robot_name,
+)
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    DescriptionError,
+    JointDynamicsError,
+    LoopClosureError,
+    ModelImportError,
+    ModelImportWarning,
+    RobotNameError,
+    RodSpinError,
+)
+from stewart_pin.importers.canonical import (
+    canonical_chain,
+    classify,
+    transform_inertia,
+)
+from stewart_pin.importers.topology import Recognition
+from stewart_pin.importers.tree import (
+    BALL,
+    KinematicModel,
+    TreeActuator,
+    TreeJoint,
+    shown,
+    shown_list,
+)
+
+#: Axes made parallel by more than this angle [rad] are reported (below: round-off).
+PARALLEL_NOTICE = 1e-12
+#: Loop residuals at or below this fraction of the size are round-off: no warning.
+EXACT_CLOSURE = 1e-9
+#: Default largest loop residual accepted, as a fraction of the platform's size (the mean
+#: distance of the P_i to their centroid): CAD exports round their numbers; past it the
+#: import fails with :class:`LoopClosureError`.
+CLOSURE_TOLERANCE = 1e-2
+#: Default largest asymmetry of an S-S rod about its axis (relative; see
+#: :func:`rod_asymmetry`) for which its spin is removed without a word.
+SPIN_TOLERANCE = 1e-6
+#: A slide between two spherical joints (S-P-S) must run along the line through their
+#: centres to within this angle [rad].
+AXIS_TOLERANCE = 1e-9
+
+
+# ------------------------------------------------------------------------------ build
+@dataclass
+class LegReport:
+    """One leg as imported (names as in the file)."""
+
+    shape: str
+    kinds: tuple[str, str, str]
+    joints: tuple[str, str, str]
+    bodies: tuple[str, str, str]
+    actuated: int
+    actuator: str
+    gear: float
+    spherical: str
+    residual: float
+    spin_inertia: float
+    spin_asymmetry: float
+    dynamics: tuple[JointDynamics, ...]
+    architecture: str
+
+
+@dataclass
+class ImportReport:
+    """What an import recognised, corrected and ignored (``str()`` prints it)."""
+
+    format: str
+    file: str
+    model: str
+    reference: str
+    platform: str
+    base: str
+    legs: list[LegReport]
+    lumped: dict[str, list[str]]
+    notes: list[str]
+    closure_tolerance: float
+    ideal: bool
+    architecture: str
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """Loop residuals at the reference configuration, leg order (6,) [m]."""
+        return np.array([leg.residual for leg in self.legs])
+
+    def __str__(self) -> str:
+        kind = "ideal 6-UPS" if self.ideal else f"{self.architecture} legs"
+        lines = [
+            f"{self.format.upper()} model {shown(self.model)}"
+            + (f" ({shown(self.file)})" if self.file else "")
+            + f": {kind}, platform {shown(self.platform)} (Fp), base {shown(self.base)} (F0)",
+            f"reference configuration: {self.reference}; loop residuals [m] (tolerance "
+            f"{self.closure_tolerance:.3g} m): " + " ".join(f"{r:.2e}" for r in self.residuals),
+        ]
+        for i, leg in enumerate(self.legs, start=1):
+            joints = ", ".join(
+                f"{shown(n)} ({k[0].upper()}{'*' if j + 1 == leg.actuated else ''})"
+                for j, (n, k) in enumerate(zip(leg.joints, leg.kinds, strict=True))
+            )
+            gear = f", gear {leg.gear:g}" if leg.gear != 1.0 else ""
+            lines.append(
+                f"leg {i} ({leg.architecture}, {leg.shape}): {joints}; actuator "
+                f"{shown(leg.actuator)}{gear}; spherical: {leg.spherical}"
+            )
+            terms = []
+            for j, d in enumerate(leg.dynamics, start=1):
+                parts = [
+                    f"{k} {getattr(d, k):.4g}"
+                    for k in ("armature", "viscous", "coulomb", "stiffness", "damping")
+                    if getattr(d, k) != 0.0
+                ]
+                if d.stiffness:
+                    parts.append(f"rest {d.rest_position:.4g}")
+                if parts:
+                    terms.append(f"q{j}: " + ", ".join(parts))
+            if terms:
+                lines.append("    joint terms: " + "; ".join(terms))
+            if leg.spin_inertia or leg.spin_asymmetry:
+                lines.append(
+                    f"    rod spin removed: {leg.spin_inertia:.4g} kg m^2 about its axis "
+                    f"(asymmetry {leg.spin_asymmetry:.2e})"
+                )
+        for where, names in self.lumped.items():
+            if names:
+                lines.append(f"lumped into {where}: {shown_list(names)}")
+        lines.extend(f"note: {n}" for n in self.notes)
+        return "\n".join(lines)
+
+
+@dataclass
+class ImportResult:
+    """The imported description and its report."""
+
+    description: RobotDescription
+    report: ImportReport
+
+
+def robot_name(name: str) -> str:
+    """A valid robot name from a model's name: kept when valid, else its characters
+    outside ``A-Z a-z 0-9 _ . -`` replaced by ``_`` (``"imported"`` when nothing is left)."""
+    try:
+        return check_robot_name(name)
+    except RobotNameError:
+        pass
+    text = "".join(c if c.isascii() and (c.isalnum() or c in "_.-") else "_" for c in name)
+    while ".." in text or "--" in text:
+        text = text.replace("..", "_").replace("--", "_")
+    text = text.lstrip("_.-")[:64]
+    return text if text and NAME_PATTERN.fullmatch(text) else "imported"
+
+
+def rod_asymmetry(params: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> tuple[float, float]:
+    """``(spin inertia, asymmetry)`` of a body (Khalil parameters in some frame) about the
+    line through ``origin`` along the unit ``axis`` (same frame).
+
+    The spin inertia is the moment about the line [kg m^2]; the asymmetry is
+    ``max(|Ixx - Iyy|, 2 |Ixy|, 2 |Ixz|, 2 |Iyz|) / max(Ixx, Iyy)`` of the tensor about
+    ``origin`` in axes whose z is the line, plus ``M |c_perp| / (M L)`` with ``c_perp``
+    the centre of mass's distance from the line and L the scale ``sqrt(max(Ixx, Iyy) /
+    M)``: 0 exactly when the body's inertia is symmetric about the line (then removing
+    its spin is exact)."""
+    T = _line_frame(origin, axis)
+    p = transform_inertia(params, np.linalg.inv(T))
+    Ixx, Ixy, Ixz, Iyy, Iyz, Izz = p[:6]
+    m = p[9]
+    big = max(Ixx, Iyy)
+    if m <= 0.0 or big <= 0.0:
+        return float(Izz), 0.0
+    asym = max(abs(Ixx - Iyy), 2 * abs(Ixy), 2 * abs(Ixz), 2 * abs(Iyz)) / big
+    L = math.sqrt(big / m)
+    offset = math.hypot(p[6], p[7]) / (m * L)
+    return float(Izz), float(max(asym, offset))
+
+
+def _line_frame(origin: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """A frame (4x4) at ``origin`` whose z is the unit ``axis``."""
+    z = axis / np.linalg.norm(axis)
+    a = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(a, z)
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    T[:3, 3] = origin
+    return T
+
+
+def remove_spin(params: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """The body (Khalil parameters) without its spin about the line through ``origin``
+    along ``axis``: in axes along the line, about a point of it, the tensor made
+    symmetric about the line (``XX = YY`` their mean, products 0, first moments across the
+    line 0: nothing changes for a symmetric body) and the moment about the line ``ZZ``
+    set to 0, i.e. ``I - I_a a a^T``."""
+    T = _line_frame(origin, axis)
+    p = transform_inertia(params, np.linalg.inv(T))
+    t = 0.5 * (p[0] + p[3])
+    q = np.array([t, 0.0, 0.0, t, 0.0, 0.0, 0.0, 0.0, p[8], p[9]])
+    return transform_inertia(q, T)
+
+
+def build(
+    model: KinematicModel,
+    rec: Recognition,
+    *,
+    actuated: Sequence[str] | None = None,
+    armature: dict[str, float] | None = None,
+    name: str | None = None,
+    closure_tolerance: float = CLOSURE_TOLERANCE,
+    spin_tolerance: float = SPIN_TOLERANCE,
+    rod_spin: str = "error",
+    joint_terms: Callable[[str], JointDynamics | None] | None = None,
+    limits: Callable[[str], tuple[float, float] | None] | None = None,
+) -> ImportResult:
+    """The description of a recognised model (module docstring).
+
+    Args:
+        actuated: the actuated joints' names in leg order (default the model's actuators,
+            in their order).
+        armature: joint name -> armature [kg m^2 or kg] to add (URDF cannot say it).
+        name: the robot's name (default the model's, made valid by :func:`robot_name`).
+        closure_tolerance: the largest loop residual accepted, relative to the platform's
+            size (:data:`CLOSURE_TOLERANCE`).
+        spin_tolerance, rod_spin: see :data:`SPIN_TOLERANCE`; ``rod_spin`` is ``"error"``
+            (raise :class:`RodSpinError` past the tolerance) or ``"warn"``.
+        joint_terms: joint name -> its full :class:`JointDynamics` when the reader knows
+            more than the tree (the project's own URDF sidecar), else ``None``.
+        limits: joint name -> its true limits when the reader knows them, else ``None``.
+    """
+    if rod_spin not in ("error", "warn"):
+        raise ModelImportError(f"rod_spin must be 'error' or 'warn', got {rod_spin!r}")
+    links, P = rec.links, rec.platform
+    bodies = model.bodies
+    ref_poses = model.poses()
+    zero = np.array([b.pose for b in bodies])
+
+    def link_zero(i: int) -> np.ndarray:
+        lk = links[i]
+        return zero[lk.root] @ np.linalg.inv(lk.rel[lk.root])
+
+    def link_ref(i: int) -> np.ndarray:
+        lk = links[i]
+        return ref_poses[lk.root] @ np.linalg.inv(lk.rel[lk.root])
+
+    def link_names(i: int) -> list[str]:
+        return [model.body_label(b) for b in links[i].bodies if not bodies[b].virtual]
+
+    # actuators -> (leg, joint name)
+    leg_of_joint: dict[str, int] = {}
+    for k, leg in enumerate(rec.legs):
+        for e in leg.edges:
+            if not e.spherical:
+                leg_of_joint[e.joint.name] = k
+    spherical_joints = {
+        h.name
+        for leg in rec.legs
+        for e in [*leg.edges, *([leg.connection.edge] if leg.connection.edge else [])]
+        if e.spherical
+        for h in (e.hinges or (e.joint,))
+    }
+    if actuated is not None:
+        acts = [TreeActuator(str(n), str(n)) for n in actuated]
+        gears = {a.joint: a.gear for a in model.actuators}
+        for a in acts:
+            a.gear = gears.get(a.joint, 1.0)
+            a.name = next((x.name for x in model.actuators if x.joint == a.joint), a.name)
+    else:
+        acts = list(model.actuators)
+    all_joints = {b.joint.name for b in bodies if b.joint is not None}
+    order: list[int] = []
+    act_of_leg: dict[int, TreeActuator] = {}
+    for a in acts:
+        if a.joint in spherical_joints:
+            raise ModelImportError(
+                f"actuator {shown(a.name)} drives {shown(a.joint)}, a hinge of a spherical "
+                "joint (a passive joint): actuate one of the leg's three 1-dof joints",
+                (),
+                (a.name, a.joint),
+            )
+        if a.joint not in leg_of_joint:
+            what = "no joint of the model" if a.joint not in all_joints else "not a leg joint"
+            raise ModelImportError(
+                f"actuator {shown(a.name)} drives {shown(a.joint)}, {what}: actuate one 1-dof "
+                "joint of each leg",
+                (),
+                (a.name, a.joint),
+            )
+        k = leg_of_joint[a.joint]
+        if k in act_of_leg:
+            if act_of_leg[k].joint != a.joint:
+                raise ModelImportError(
+                    f"leg through {shown(act_of_leg[k].joint)} has two actuated joints "
+                    f"({shown(act_of_leg[k].joint)} by {shown(act_of_leg[k].name)}, "
+                    f"{shown(a.joint)} by {shown(a.name)}): stewart-pin actuates one joint "
+                    "per leg",
+                    (),
+                    (act_of_leg[k].joint, a.joint),
+                )
+            model.notes.append(
+                f"actuator {shown(a.name)} drives the same joint as "
+                f"{shown(act_of_leg[k].name)}: the leg's efforts are those of its joint"
+            )
+            continue
+        if not a.gear > 0 or not math.isfinite(a.gear):
+            raise ModelImportError(
+                f"actuator {shown(a.name)} has gear {a.gear:g}: stewart-pin's efforts are "
+                "along each joint's positive direction, through a positive ratio",
+                (),
+                (a.name,),
+            )
+        act_of_leg[k] = a
+        order.append(k)
+    missing = [k for k in range(6) if k not in act_of_leg]
+    if missing:
+        idle = [
+            n
+            for k in missing
+            for e in rec.legs[k].edges
+            for n in ([e.joint.name] if not e.spherical else [])
+        ]
+        raise ModelImportError(
+            f"{len(missing)} leg(s) without an actuator (joints {shown_list(idle)}): each leg "
+            "needs one actuated 1-dof joint"
+            + (
+                " (give them with actuated=[...] or <transmission>)"
+                if model.format == "urdf"
+                else ""
+            ),
+            tuple(n for k in missing for n in link_names(rec.legs[k].links[-1])),
+            tuple(idle),
+        )
+
+    # platform
+    plat = links[P]
+    platform_inertia = plat.inertia.copy()
+    T_home = link_ref(P)
+    size_points = []
+    legs_out: list[LegArchitecture] = []
+    leg_inertia = np.zeros((6, 3, 10))
+    base_rot = np.zeros((6, 3, 3))
+    base_pts = np.zeros((6, 3))
+    plat_pts = np.zeros((6, 3))
+    reports: list[LegReport] = []
+    sources: list[LegSource] = []
+    residual_points: list[tuple[np.ndarray, np.ndarray]] = []
+    for k in order:
+        leg = rec.legs[k]
+        cn = leg.connection
+        X = cn.b if cn.a == P else cn.a
+        tip_in_X = cn.point_a if cn.a == X else cn.point_b
+        p_in_P = cn.point_b if cn.a == X else cn.point_a
+        plat_pts[len(reports)] = p_in_P
+        size_points.append(p_in_P)
+        tip_zero = link_zero(X)[:3, :3] @ tip_in_X + link_zero(X)[:3, 3]
+        # the loop at the reference configuration: both sides of the spherical joint
+        side_leg = link_ref(X)[:3, :3] @ tip_in_X + link_ref(X)[:3, 3]
+        side_plat = T_home[:3, :3] @ p_in_P + T_home[:3, 3]
+        residual_points.append((side_leg, side_plat))
+
+        # the three joints (lines at zero) and their links
+        kinds: list[str] = []
+        anchors: list[np.ndarray] = []
+        axes: list[np.ndarray] = []
+        names: list[str] = []
+        link_bodies: list[str] = []
+        link_params: list[np.ndarray] = []  # in F0 at zero configuration (T = identity)
+        refs: list[float | None] = []
+        file_joints: list[TreeJoint | None] = []
+        spin_I = asym = 0.0
+        if leg.shape == "JJJ":
+            for e in leg.edges:
+                kinds.append(e.joint.kind)
+                anchors.append(e.joint.anchor)
+                axes.append(e.joint.axis)
+                names.append(e.joint.name)
+                file_joints.append(e.joint)
+                link_bodies.append(", ".join(link_names(e.child)))
+                link_params.append(transform_inertia(links[e.child].inertia, link_zero(e.child)))
+                refs.append(model.values.get(e.joint.name, 0.0))
+        else:
+            spin_I, asym = 0.0, 0.0
+            if leg.shape == "JS":
+                e1, s1 = leg.edges
+                C = link_zero(s1.parent)[:3, :3] @ s1.centre_parent + link_zero(s1.parent)[:3, 3]
+            else:
+                s1, e1 = leg.edges
+                C = link_zero(s1.parent)[:3, :3] @ s1.centre_parent + link_zero(s1.parent)[:3, 3]
+            d = tip_zero - C
+            if np.linalg.norm(d) <= 1e-9 * rec.scale:
+                raise ModelImportError(
+                    f"the two spherical joints of a rod ({s1.label}, {cn.label}) have one centre",
+                    tuple(link_names(s1.child)),
+                )
+            d = d / np.linalg.norm(d)
+            rod_links = [s1.child] if leg.shape == "JS" else [s1.child, e1.child]
+            if leg.shape == "SJ":
+                if (
+                    e1.joint.kind != PRISMATIC
+                    or np.linalg.norm(np.cross(e1.joint.axis, d)) > AXIS_TOLERANCE
+                ):
+                    raise ModelImportError(
+                        f"leg through {s1.label} and {e1.label}: between two spherical joints "
+                        "stewart-pin reads a slide along the line through their centres "
+                        "(S-P-S)",
+                        tuple(link_names(e1.child)),
+                        (e1.joint.name,),
+                    )
+            removed = []
+            for li in rod_links:
+                params0 = transform_inertia(links[li].inertia, link_zero(li))
+                s_I, s_a = rod_asymmetry(params0, C, d)
+                spin_I += s_I
+                asym = max(asym, s_a)
+                removed.append(remove_spin(params0, C, d))
+            if asym > spin_tolerance:
+                rod_names = [n for li in rod_links for n in link_names(li)]
+                message = (
+                    f"leg through {s1.label}: the rod {shown_list(rod_names)} "
+                    f"between two spherical joints is not symmetric about its axis (asymmetry "
+                    f"{asym:.3g} > {spin_tolerance:g}): the equivalent universal-joint leg "
+                    "(spin removed) is not exact"
+                )
+                if rod_spin == "error":
+                    raise RodSpinError(
+                        message + "; pass rod_spin='warn' to import it anyway (its inertia made "
+                        "symmetric)",
+                        asym,
+                        spin_tolerance,
+                        tuple(n for li in rod_links for n in link_names(li)),
+                    )
+                warnings.warn(
+                    message + "; its inertia is made symmetric", ModelImportWarning, stacklevel=3
+                )
+            if leg.shape == "JS":
+                z1 = e1.joint.axis
+                if e1.joint.kind == REVOLUTE:
+                    u1 = z1 - (z1 @ d) * d
+                else:
+                    u1 = np.cross(z1, d)
+                if np.linalg.norm(u1) < 1e-6:
+                    u1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+                u1 = u1 / np.linalg.norm(u1)
+                u2 = np.cross(d, u1)
+                kinds = [e1.joint.kind, REVOLUTE, REVOLUTE]
+                anchors = [e1.joint.anchor, C, C]
+                axes = [e1.joint.axis, u1, u2]
+                base_name = s1.joint.name if not s1.hinges else s1.hinges[0].name
+                names = [e1.joint.name, f"{base_name} (U axis 1)", f"{base_name} (U axis 2)"]
+                file_joints = [e1.joint, None, None]
+                link_bodies = [
+                    ", ".join(link_names(e1.child)),
+                    "",
+                    ", ".join(link_names(s1.child)),
+                ]
+                link_params = [
+                    transform_inertia(links[e1.child].inertia, link_zero(e1.child)),
+                    np.zeros(10),
+                    removed[0],
+                ]
+                refs = [model.values.get(e1.joint.name, 0.0), None, None]
+            else:
+                z_up = np.array([0.0, 0.0, 1.0])
+                u1 = np.cross(z_up, d)
+                if np.linalg.norm(u1) < 1e-6:
+                    u1 = np.cross([1.0, 0.0, 0.0], d)
+                u1 /= np.linalg.norm(u1)
+                u2 = np.cross(d, u1)
+                kinds = [REVOLUTE, REVOLUTE, PRISMATIC]
+                anchors = [C, C, e1.joint.anchor]
+                axes = [u1, u2, e1.joint.axis]
+                base_name = s1.joint.name if not s1.hinges else s1.hinges[0].name
+                names = [f"{base_name} (U axis 1)", f"{base_name} (U axis 2)", e1.joint.name]
+                file_joints = [None, None, e1.joint]
+                link_bodies = [
+                    "",
+                    ", ".join(link_names(s1.child)),
+                    ", ".join(link_names(e1.child)),
+                ]
+                link_params = [np.zeros(10), removed[0], removed[1]]
+                refs = [None, None, model.values.get(e1.joint.name, 0.0)]
+
+        try:
+            chain = canonical_chain(kinds, anchors, axes, tip_zero, rec.scale, names)
+        except ArchitectureError as err:
+            raise ModelImportError(str(err), tuple(link_bodies), tuple(names)) from err
+        if chain.snapped > PARALLEL_NOTICE:
+            warnings.warn(
+                f"leg through {shown_list(names)}: two joint axes {chain.snapped:.2g} rad from "
+                "parallel are made parallel (the file's rounding, as read; the robot turns "
+                "by that angle; see docs/importing.md)",
+                ModelImportWarning,
+                stacklevel=3,
+            )
+            model.notes.append(
+                f"axes of {shown_list(names)} made parallel (turned by {chain.snapped:.2g} rad)"
+            )
+        joints: list[Joint] = []
+        dyns: list[JointDynamics] = []
+        a_act = act_of_leg[k]
+        actuated_index = names.index(a_act.joint) + 1 if a_act.joint in names else 0
+        if actuated_index == 0:
+            raise ModelImportError(
+                f"actuator {shown(a_act.name)} drives {shown(a_act.joint)}, not one of the "
+                f"leg's joints {shown_list(names)}",
+                (),
+                (a_act.name,),
+            )
+        for j in range(3):
+            J = file_joints[j]
+            lo, hi = (-math.inf, math.inf) if J is None else (J.lower, J.upper)
+            if J is not None and limits is not None and (lim := limits(J.name)) is not None:
+                lo, hi = lim
+            dyn = JointDynamics()
+            if J is not None:
+                full = joint_terms(J.name) if joint_terms is not None else None
+                if full is not None:
+                    dyn = full
+                else:
+                    gear = a_act.gear if j + 1 == actuated_index else 1.0
+                    extra = (armature or {}).get(J.name, 0.0)
+                    try:
+                        dyn = JointDynamics(
+                            armature=J.armature + float(extra),
+                            viscous=J.damping,
+                            coulomb=J.coulomb,
+                            stiffness=J.stiffness,
+                            rest_position=J.rest if J.stiffness else 0.0,
+                            gear_ratio=gear if gear != 1.0 else None,
+                        )
+                    except JointDynamicsError as err:
+                        raise ModelImportError(
+                            f"joint {shown(J.name)}: {err}", (), (J.name,)
+                        ) from err
+            dyns.append(dyn)
+            try:
+                alpha, d_j, theta, r_j = (float(v) for v in chain.params[j])
+                joints.append(Joint(kinds[j], alpha, d_j, theta, r_j, lo, hi, dyn))
+            except ArchitectureError as err:
+                raise ModelImportError(f"joint {shown(names[j])}: {err}", (), (names[j],)) from err
+        # link inertias in the canonical frames
+        for j in range(3):
+            leg_inertia[len(reports), j] = transform_inertia(
+                link_params[j], np.linalg.inv(chain.frames[j])
+            )
+        # reference joint values (the U angles of an S-S leg solved from the rod)
+        q_ref = _reference_values(
+            joints,
+            actuated_index,
+            chain,
+            refs,
+            side_leg if leg.shape == "JJJ" else side_plat,
+            T_home,
+            p_in_P,
+        )
+        arch = classify(tuple(joints), actuated_index, chain.tip, q_ref)
+        arch = arch.replace(branch=arch.branch_at(q_ref))
+        legs_out.append(arch)
+        base_rot[len(reports)] = chain.base[:3, :3]
+        base_pts[len(reports)] = chain.base[:3, 3]
+        spherical = cn.label
+        if cn.edge is not None and cn.edge.child == P and cn.edge.joint.kind == BALL:
+            b_rod_end = bodies[cn.edge.body]
+            if links[P].root != cn.edge.body:
+                spherical += f" in rod end {shown(b_rod_end.name)}"
+        reports.append(
+            LegReport(
+                {
+                    "JJJ": "three 1-dof joints",
+                    "JS": "R-S-S" if kinds[0] == REVOLUTE else "P-S-S",
+                    "SJ": "S-P-S",
+                }[leg.shape],
+                (kinds[0], kinds[1], kinds[2]),
+                (names[0], names[1], names[2]),
+                (link_bodies[0], link_bodies[1], link_bodies[2]),
+                actuated_index,
+                a_act.name,
+                a_act.gear,
+                spherical,
+                0.0,
+                spin_I,
+                asym if leg.shape != "JJJ" else 0.0,
+                tuple(dyns),
+                arch.name,
+            )
+        )
+        sources.append(
+            LegSource(
+                (link_bodies[0], link_bodies[1], link_bodies[2]),
+                (names[0], names[1], names[2]),
+                a_act.name,
+                spherical,
+            )
+        )
+
+    # loop residuals at the reference configuration
+    Pp = np.array(size_points)
+    size = float(np.linalg.norm(Pp - Pp.mean(0), axis=1).mean()) or rec.scale
+    tol = closure_tolerance * size
+    residuals = np.array([float(np.linalg.norm(a - b)) for a, b in residual_points])
+    for rep, r in zip(reports, residuals, strict=True):
+        rep.residual = float(r)
+    if np.any(residuals > tol):
+        bad = [f"leg {i + 1}: {r:.3g} m" for i, r in enumerate(residuals)]
+        raise LoopClosureError(
+            f"the loops do not close at the reference configuration ({model.reference}): "
+            f"{'; '.join(bad)} (tolerance {tol:.3g} m = {closure_tolerance:g} of the platform's "
+            "size); give the assembled configuration (a keyframe, or fix the file), or raise "
+            "closure_tolerance",
+            tuple(residuals),
+            tol,
+        )
+    if np.any(residuals > EXACT_CLOSURE * size):
+        warnings.warn(
+            f"model {shown(model.name)}: the loops close at the reference configuration "
+            f"({model.reference}) only to {residuals.max():.3g} m (per leg: "
+            f"{', '.join(f'{r:.2e}' for r in residuals)}; tolerance {tol:.3g} m): the robot is "
+            "assembled at the platform's reference pose, each leg re-solved",
+            ModelImportWarning,
+            stacklevel=3,
+        )
+
+    lumped = {
+        "the platform": [n for n in link_names(P) if n != model.body_label(links[P].root)],
+        "the base": [n for n in link_names(rec.ground) if n != model.body_label(0)],
+    }
+    for k in order:
+        for li in rec.legs[k].links:
+            fixed = [n for n in link_names(li) if n != model.body_label(links[li].root)]
+            if fixed:
+                lumped.setdefault("leg links", []).extend(fixed)
+    notes = list(model.notes) + [f"dropped {x}" for x in rec.dropped]
+
+    robot = robot_name(model.name) if name is None else check_robot_name(name)
+    source = ModelSource(
+        model.format,
+        model.file,
+        model.name,
+        model.reference,
+        model.base_name,
+        model.body_label(links[P].root),
+        tuple(n for names_ in lumped.values() for n in names_),
+        tuple(sources),
+    )
+    try:
+        desc, ideal = _description(
+            robot,
+            base_pts,
+            base_rot,
+            plat_pts,
+            legs_out,
+            leg_inertia,
+            platform_inertia,
+            model.gravity,
+            T_home,
+            source,
+        )
+    except DescriptionError as err:
+        where = getattr(err, "body", "")
+        match = re.fullmatch(r"leg (\d) link (\d)", where)
+        names_ = [sources[int(match[1]) - 1].bodies[int(match[2]) - 1]] if match else []
+        if where == "platform":
+            names_ = [source.platform]
+        raise ModelImportError(
+            f"the robot read from the file is not valid: {err}"
+            + (f" (the file's body {shown_list(names_)})" if names_ else ""),
+            tuple(names_),
+        ) from err
+    architectures = {leg.name for leg in legs_out}
+    report = ImportReport(
+        model.format,
+        model.file,
+        model.name,
+        model.reference,
+        model.body_label(links[P].root),
+        model.base_name,
+        reports,
+        lumped,
+        notes,
+        tol,
+        ideal,
+        architectures.pop() if len(architectures) == 1 else "mixed",
+    )
+    return ImportResult(desc, report)
+
+
+def _reference_values(
+    joints: list[Joint],
+    actuated: int,
+    chain: Any,
+    refs: list[float | None],
+    target: np.ndarray,
+    T_home: np.ndarray,
+    p_in_P: np.ndarray,
+) -> np.ndarray:
+    """The leg's joint values at the reference configuration: the file's values, the
+    unknown ones (an S-S leg's universal joint) solved by Gauss-Newton so that the tip
+    reaches ``target`` (F0) with the known ones fixed."""
+    q = np.array([0.0 if r is None else float(r) for r in refs])
+    free = [j for j, r in enumerate(refs) if r is None]
+    if not free:
+        return q
+    leg = LegArchitecture(tuple(joints), actuated, chain.tip, 1, "custom")
+    for _ in range(50):
+        err = leg.tip_position(q, chain.base) - target
+        if np.linalg.norm(err) < 1e-15:
+            break
+        J = np.empty((3, len(free)))
+        h = 1e-7
+        for c, j in enumerate(free):
+            dq = q.copy()
+            dq[j] += h
+            J[:, c] = (leg.tip_position(dq, chain.base) - leg.tip_position(q, chain.base)) / h
+        step = np.linalg.lstsq(J, -err, rcond=None)[0]
+        q[free] += step
+        if np.linalg.norm(step) < 1e-14:
+            break
+    q[free] = (q[free] + math.pi) % (2 * math.pi) - math.pi
+    return q
+
+
+def _description(
+    name: str,
+    base_points: np.ndarray,
+    rotations: np.ndarray,
+    platform_points: np.ndarray,
+    legs: list[LegArchitecture],
+    leg_inertia: np.ndarray,
+    platform_inertia: np.ndarray,
+    gravity: np.ndarray,
+    home: np.ndarray,
+    source: ModelSource,
+) -> tuple[RobotDescription, bool]:
+    """The description: the paper's ideal 6-UPS form when every leg is an ideal ``ups``
+    leg on its +1 branch with one stroke and finite U-joint limits; general legs else."""
+    ideal = all(
+        leg.name == "ups"
+        and leg.branch == 1
+        and all(j.dynamics == JointDynamics() for j in leg.joints)
+        for leg in legs
+    )
+    if ideal:
+        stroke = np.array([[leg.joints[2].lower, leg.joints[2].upper] for leg in legs])
+        u = np.array([[[j.lower, j.upper] for j in leg.joints[:2]] for leg in legs])
+        ideal = (
+            bool(np.all(stroke == stroke[0]))
+            and bool(np.all(np.isfinite(stroke)))
+            and 0.0 < stroke[0, 0] < stroke[0, 1]
+            and bool(np.all(np.isfinite(u)))
+        )
+    if ideal:
+        default = np.array([[-math.pi, math.pi], [0.0, math.pi]])
+        u_limits = None if bool(np.all(u == default)) else u
+        desc = RobotDescription(
+            base_points=base_points,
+            platform_points=platform_points,
+            leg_base_rotations=rotations,
+            stroke=stroke[0],
+            leg_inertia=leg_inertia,
+            platform_inertia=platform_inertia,
+            gravity=gravity,
+            u_joint_limits=u_limits,
+            name=name,
+            home_pose=home,
+            source=source,
+        )
+        return desc, True
+    desc = RobotDescription(
+        base_points=base_points,
+        platform_points=platform_points,
+        leg_base_rotations=rotations,
+        stroke=None,
+        leg_inertia=leg_inertia,
+        platform_inertia=platform_inertia,
+        gravity=gravity,
+        name=name,
+        home_pose=home,
+        legs=tuple(legs),
+        source=source,
+    )
+    return desc, False
+
+
+__all__ = [
+    "AXIS_TOLERANCE",
+    "CLOSURE_TOLERANCE",
+    "EXACT_CLOSURE",
+    "PARALLEL_NOTICE",
+    "SPIN_TOLERANCE",
+    "ImportReport",
+    "ImportResult",
+    "LegReport",
+    "build",
+    "remove_spin",
+    "robot_name",
+    "rod_asymmetry",
+]

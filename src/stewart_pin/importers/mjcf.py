@@ -1,0 +1,393 @@
+"""MJCF in: a MuJoCo model read through MuJoCo itself, as the neutral tree of
+:mod:`stewart_pin.importers.tree`.
+
+MuJoCo's compiler resolves what the file says: defaults and classes, ``fullinertia``,
+``quat`` / ``euler`` / ``axisangle`` / ``xyaxes`` / ``zaxis`` orientations and the
+compiler's ``angle`` unit, ``inertiafromgeom`` (inertias computed from geoms and meshes),
+``ref`` and ``springref``; the reader takes the compiled model (``mujoco.MjModel``):
+
+- bodies, their joints (``hinge``, ``slide``, ``ball``, ``free``; several joints in one
+  body become a chain of massless bodies, MuJoCo's sequential joint motion), poses and
+  axes from ``mj_kinematics`` at the zero configuration (hinges and slides at 0, balls at
+  the identity, free bodies where ``qpos0`` puts them), inertias from ``body_mass``,
+  ``body_ipos``, ``body_iquat``, ``body_inertia``;
+- the joint terms ``dof_armature``, ``dof_damping``, ``dof_frictionloss``,
+  ``jnt_stiffness`` and ``qpos_spring`` (``springref``), ranges when ``jnt_limited``;
+- equality constraints ``connect`` (site or body/anchor form) and ``weld`` (active at
+  ``qpos0``); any other kind is refused;
+- actuators on joints (``motor``, ``position``, ``velocity``, ``general``...): the joint
+  and ``gear[0]`` (the joint's effort per actuator effort); one on a tendon, a site or a
+  body is refused;
+- ``<option gravity>``; the reference configuration: a keyframe (by name or index;
+  default the one named ``home``, else ``qpos0``).
+
+Geoms matter only through the inertias MuJoCo computes from them: the reader compiles
+with ``discardvisual`` (geoms with ``contype = conaffinity = 0`` and their meshes dropped
+before they are loaded, their inertia kept as an explicit one) and drops the mesh geoms
+of bodies whose inertia is explicit, so a visual mesh file missing beside the model does
+not stop the import. Contacts, tendons without springs, sensors and the like play no part
+in the rigid-body dynamics imported.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stewart_pin.exceptions import FileFormatError, ModelImportError
+from stewart_pin.importers.tree import (
+    BALL,
+    FREE,
+    KinematicModel,
+    TreeActuator,
+    TreeBody,
+    TreeClosure,
+    TreeJoint,
+    shown,
+)
+
+
+def _mujoco() -> Any:
+    try:
+        import mujoco
+    except ImportError as e:  # pragma: no cover (the test environment has MuJoCo)
+        raise ImportError(
+            'reading MJCF needs MuJoCo: pip install "stewart-pin[import]" (or pip install mujoco)'
+        ) from e
+    return mujoco
+
+
+def _khalil(mass: float, com: np.ndarray, R: np.ndarray, moments: np.ndarray) -> np.ndarray:
+    """Khalil parameters (10,) about the body origin from MuJoCo's mass, centre of mass,
+    principal axes and principal moments (body frame)."""
+    I_c = R @ np.diag(moments) @ R.T
+    I_O = I_c + mass * (com @ com * np.eye(3) - np.outer(com, com))
+    return np.array(
+        [I_O[0, 0], I_O[0, 1], I_O[0, 2], I_O[1, 1], I_O[1, 2], I_O[2, 2], *(mass * com), mass]
+    )
+
+
+def _quat_matrix(q: Any) -> np.ndarray:
+    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _pose(pos: Any, R: Any) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, pos
+    return T
+
+
+def load_model(source: Any) -> tuple[Any, str]:
+    """``(mujoco.MjModel, file name)`` of a path, an XML string or a compiled model.
+
+    A path (``str`` or ``os.PathLike`` naming an existing file, or a ``str`` not starting
+    with ``<``) is read with its includes and assets relative to its folder; a string
+    starting with ``<`` is the XML itself (assets relative to the working folder).
+    :class:`FileFormatError` with MuJoCo's message when MuJoCo refuses the model.
+    """
+    mujoco = _mujoco()
+    if isinstance(source, mujoco.MjModel):
+        return source, ""
+    text: str | None = None
+    path: Path | None = None
+    if isinstance(source, str) and source.lstrip().startswith("<"):
+        text = source
+    elif isinstance(source, (str, Path)) or hasattr(source, "__fspath__"):
+        path = Path(source)
+        if not path.is_file():
+            raise FileFormatError(f"no MJCF file {path}")
+    else:
+        raise FileFormatError(
+            f"from_mjcf takes a path, an XML string or a mujoco.MjModel, got "
+            f"{type(source).__name__}"
+        )
+    try:
+        spec = (
+            mujoco.MjSpec.from_string(text)
+            if text is not None
+            else mujoco.MjSpec.from_file(str(path))
+        )
+    except Exception as e:  # MuJoCo raises ValueError with its own message
+        where = str(path) if path is not None else "the MJCF text"
+        raise FileFormatError(f"MuJoCo cannot read {where}: {e}") from e
+    _drop_visuals(mujoco, spec)
+    try:
+        model = spec.compile()
+    except Exception as e:
+        where = str(path) if path is not None else "the MJCF text"
+        raise FileFormatError(f"MuJoCo cannot compile {where}: {e}") from e
+    return model, "" if path is None else path.name
+
+
+def _drop_visuals(mujoco: Any, spec: Any) -> None:
+    """``discardvisual``, and the mesh geoms that add nothing to the dynamics (unless
+    something refers to them): in bodies whose inertia is explicit, with a zero mass or
+    density, or outside the compiler's ``inertiagrouprange``; so that their mesh files are
+    never opened."""
+    spec.compiler.discardvisual = True
+    mode = spec.compiler.inertiafromgeom
+    if mode == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE:
+        explicit_counts = False
+    else:
+        explicit_counts = True
+    never = mode == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    low, high = (int(x) for x in spec.compiler.inertiagrouprange)
+    referred: set[str] = set()
+    for pair in spec.pairs:
+        referred.update({pair.geomname1, pair.geomname2})
+    for sensor in spec.sensors:
+        referred.update({sensor.objname, sensor.refname})
+    mesh = mujoco.mjtGeom.mjGEOM_MESH
+    for body in spec.bodies:
+        for geom in list(body.geoms):
+            if geom.type != mesh or (geom.name and geom.name in referred):
+                continue
+            no_mass = geom.mass == 0 or (geom.mass < 0 and geom.density == 0)
+            if (
+                never
+                or (explicit_counts and body.explicitinertial)
+                or no_mass
+                or not low <= int(geom.group) <= high
+            ):
+                spec.delete(geom)
+    used = {geom.meshname for geom in spec.geoms if geom.type == mesh}
+    for asset in list(spec.meshes):
+        if asset.name not in used:
+            spec.delete(asset)
+
+
+def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
+    """The neutral tree of an MJCF model (module docstring).
+
+    Args:
+        source: a path, an XML string or a ``mujoco.MjModel``.
+        keyframe: the reference configuration: a keyframe's name or index; default the
+            keyframe named ``home`` if there is one, else ``qpos0``.
+    """
+    mujoco = _mujoco()
+    m, file_name = load_model(source)
+    data = mujoco.MjData(m)
+
+    def name(obj: str, i: int) -> str:
+        return mujoco.mj_id2name(m, getattr(mujoco.mjtObj, obj), i) or f"{obj[6:].lower()}{i}"
+
+    # the zero configuration
+    q_zero = np.array(m.qpos0, dtype=float)
+    hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+    ball = int(mujoco.mjtJoint.mjJNT_BALL)
+    for j in range(m.njnt):
+        if int(m.jnt_type[j]) in (hinge, slide):
+            q_zero[m.jnt_qposadr[j]] = 0.0
+    data.qpos[:] = q_zero
+    mujoco.mj_kinematics(m, data)
+    xpos, xmat = data.xpos.copy(), data.xmat.copy().reshape(-1, 3, 3)
+    xanchor, xaxis = data.xanchor.copy(), data.xaxis.copy()
+
+    # the reference configuration
+    if keyframe is None:
+        key: int | None = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home")
+        key = None if key is None or key < 0 else key
+    elif isinstance(keyframe, int) and not isinstance(keyframe, bool):
+        if not 0 <= keyframe < m.nkey:
+            raise ModelImportError(f"keyframe {keyframe}: the model has {m.nkey} keyframe(s)")
+        key = keyframe
+    else:
+        key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, str(keyframe))
+        if key < 0:
+            raise ModelImportError(f"no keyframe named {shown(str(keyframe))} in the model")
+    if key is None:
+        q_ref, reference = np.array(m.qpos0, dtype=float), "qpos0"
+    else:
+        q_ref = np.array(m.key_qpos[key], dtype=float)
+        reference = f"keyframe {shown(name('mjOBJ_KEY', key))}"
+
+    bodies = [TreeBody("world", -1, None, np.eye(4))]
+    index = {0: 0}
+    values: dict[str, float] = {}
+    balls: dict[str, np.ndarray] = {}
+    frees: dict[str, np.ndarray] = {}
+    notes: list[str] = []
+    seen: set[str] = set()
+    gravcomp = [name("mjOBJ_BODY", b) for b in range(1, m.nbody) if m.body_gravcomp[b] != 0.0]
+    if gravcomp:
+        raise ModelImportError(
+            f"bodies {', '.join(shown(n) for n in gravcomp)} have gravity compensation "
+            "(gravcomp): it changes the dynamics stewart-pin models; remove it",
+            tuple(gravcomp),
+        )
+    for b in range(1, m.nbody):
+        bname = name("mjOBJ_BODY", b)
+        pose = _pose(xpos[b], xmat[b])
+        R_i = _quat_matrix(m.body_iquat[b])
+        inertia = _khalil(
+            float(m.body_mass[b]), np.array(m.body_ipos[b]), R_i, np.array(m.body_inertia[b])
+        )
+        parent = index[int(m.body_parentid[b])]
+        jids = range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
+        if m.body_jntnum[b] == 0:
+            bodies.append(TreeBody(bname, parent, None, pose, inertia))
+            index[b] = len(bodies) - 1
+            continue
+        for n, j in enumerate(jids):
+            jname = name("mjOBJ_JOINT", j)
+            if jname in seen:
+                raise ModelImportError(f"two joints named {shown(jname)}", (), (jname,))
+            seen.add(jname)
+            kind = int(m.jnt_type[j])
+            dof = m.jnt_dofadr[j]
+            qadr = m.jnt_qposadr[j]
+            if kind in (hinge, slide):
+                J = TreeJoint(
+                    jname,
+                    "revolute" if kind == hinge else "prismatic",
+                    np.array(xanchor[j]),
+                    np.array(xaxis[j]) / np.linalg.norm(xaxis[j]),
+                    armature=float(m.dof_armature[dof]),
+                    damping=float(m.dof_damping[dof]),
+                    coulomb=float(m.dof_frictionloss[dof]),
+                    stiffness=float(m.jnt_stiffness[j]),
+                    rest=float(m.qpos_spring[qadr]),
+                )
+                if m.jnt_limited[j]:
+                    J.lower, J.upper = float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])
+                values[jname] = float(q_ref[qadr])
+            elif kind == ball:
+                terms = (
+                    float(np.abs(m.dof_armature[dof : dof + 3]).max())
+                    + float(np.abs(m.dof_damping[dof : dof + 3]).max())
+                    + float(np.abs(m.dof_frictionloss[dof : dof + 3]).max())
+                    + float(m.jnt_stiffness[j])
+                )
+                J = TreeJoint(jname, BALL, np.array(xanchor[j]), limited=bool(m.jnt_limited[j]))
+                J.damping = terms  # only its being non-zero matters (refused)
+                balls[jname] = _quat_matrix(q_ref[qadr : qadr + 4])
+            else:
+                J = TreeJoint(jname, FREE)
+                T = _pose(q_ref[qadr : qadr + 3], _quat_matrix(q_ref[qadr + 3 : qadr + 7]))
+                frees[jname] = T
+            last = n == m.body_jntnum[b] - 1
+            bodies.append(
+                TreeBody(
+                    bname, parent, J, pose, inertia if last else np.zeros(10), virtual=not last
+                )
+            )
+            parent = len(bodies) - 1
+        index[b] = len(bodies) - 1
+
+    closures: list[TreeClosure] = []
+    connect, weld = int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD)
+    site_obj = int(mujoco.mjtObj.mjOBJ_SITE)
+    for e in range(m.neq):
+        ename = name("mjOBJ_EQUALITY", e)
+        if not m.eq_active0[e]:
+            notes.append(f"the inactive equality constraint {shown(ename)} is ignored")
+            continue
+        kind = int(m.eq_type[e])
+        if kind not in (connect, weld):
+            raise ModelImportError(
+                f"equality constraint {shown(ename)} is a "
+                f"{mujoco.mjtEq(kind).name.removeprefix('mjEQ_').lower()}: stewart-pin reads "
+                "connect (a spherical joint) and weld (a rigid attachment) only",
+                (),
+                (ename,),
+            )
+        data_e = np.array(m.eq_data[e], dtype=float)
+        if int(m.eq_objtype[e]) == site_obj:
+            s1, s2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+            b1, b2 = int(m.site_bodyid[s1]), int(m.site_bodyid[s2])
+            p1, p2 = np.array(m.site_pos[s1]), np.array(m.site_pos[s2])
+            R1, R2 = _quat_matrix(m.site_quat[s1]), _quat_matrix(m.site_quat[s2])
+        else:
+            b1, b2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+            p1, p2 = data_e[0:3], data_e[3:6]
+            R1 = R2 = np.eye(3)
+        if kind == connect:
+            closures.append(TreeClosure(ename, "point", index[b1], index[b2], p1, p2))
+        else:
+            if int(m.eq_objtype[e]) == site_obj:
+                T_1_2 = _pose(p1, R1) @ np.linalg.inv(_pose(p2, R2))
+            else:
+                R = _quat_matrix(data_e[6:10])
+                T_1_2 = _pose(data_e[3:6] - R @ data_e[0:3], R)
+            closures.append(TreeClosure(ename, "weld", index[b1], index[b2], T_1_2=T_1_2))
+
+    actuators: list[TreeActuator] = []
+    joint_trn = int(mujoco.mjtTrn.mjTRN_JOINT)
+    for a in range(m.nu):
+        aname = name("mjOBJ_ACTUATOR", a)
+        if int(m.actuator_trntype[a]) != joint_trn:
+            raise ModelImportError(
+                f"actuator {shown(aname)} does not act on a joint (transmission "
+                f"{mujoco.mjtTrn(int(m.actuator_trntype[a])).name}): stewart-pin reads "
+                "actuators on the legs' joints",
+                (),
+                (aname,),
+            )
+        jname = name("mjOBJ_JOINT", int(m.actuator_trnid[a, 0]))
+        actuators.append(TreeActuator(aname, jname, float(m.actuator_gear[a, 0])))
+
+    for t in range(m.ntendon):
+        if m.tendon_stiffness[t] != 0.0 or m.tendon_damping[t] != 0.0:
+            tname = name("mjOBJ_TENDON", t)
+            raise ModelImportError(
+                f"tendon {shown(tname)} has a spring or a damper: stewart-pin's dynamics "
+                "have no tendons; remove it",
+                (),
+                (tname,),
+            )
+    if m.opt.density != 0.0 or m.opt.viscosity != 0.0:
+        notes.append("the fluid forces (option density, viscosity) are ignored")
+    if not math.isfinite(float(np.abs(m.opt.gravity).max())):
+        raise ModelImportError("gravity must be finite")
+    model = KinematicModel(
+        name=_model_name(m),
+        format="mjcf",
+        file=file_name,
+        bodies=bodies,
+        closures=closures,
+        actuators=actuators,
+        gravity=np.array(m.opt.gravity, dtype=float),
+        reference=reference,
+        values=values,
+        balls=balls,
+        free=frees,
+        notes=notes,
+        base_name="world",
+    )
+    # the neutral tree's kinematics at the reference configuration against MuJoCo's
+    data.qpos[:] = q_ref
+    mujoco.mj_kinematics(m, data)
+    poses = model.poses()
+    for b in range(1, m.nbody):
+        T = poses[index[b]]
+        err = float(np.abs(T[:3, 3] - data.xpos[b]).max()) + float(
+            np.abs(T[:3, :3] - data.xmat[b].reshape(3, 3)).max()
+        )
+        if not err <= 1e-9 * (1.0 + float(np.abs(data.xpos[b]).max())):
+            raise ModelImportError(
+                f"MJCF reader: body {shown(name('mjOBJ_BODY', b))} is placed {err:.3g} away "
+                "from MuJoCo's own kinematics at the reference configuration (an internal "
+                "inconsistency of stewart-pin's reader: please report it with the file)",
+                (name("mjOBJ_BODY", b),),
+            )
+    return model
+
+
+def _model_name(m: Any) -> str:
+    """The model's ``model`` attribute (the first name of MuJoCo's name buffer)."""
+    raw = m.names if isinstance(m.names, bytes) else bytes(m.names)
+    end = raw.find(b"\0")
+    return raw[: end if end >= 0 else len(raw)].decode("utf-8", "replace")
+
+
+__all__ = ["load_model", "read_mjcf"]
