@@ -46,7 +46,13 @@ from stewart_pin.formats.csv_tables import (
 from stewart_pin.kinematics.geometry import inverse_geometry_batch, leg_vectors
 from stewart_pin.kinematics.jacobians import condition_number_batch
 from stewart_pin.motion.trajectories import FourierTrajectory, Trajectory
-from stewart_pin.parameters.base import RANK_TOLERANCE, BaseParameters, base_parameters
+from stewart_pin.parameters.base import BaseParameters, base_parameters
+from stewart_pin.parameters.least_squares import (
+    REWEIGHTING_ITERATIONS,
+    REWEIGHTING_TOLERANCE,
+    LeastSquaresSolution,
+    StackedLeastSquares,
+)
 from stewart_pin.protocols import RobotLike
 
 # ====================================================================== exciting trajectories
@@ -261,10 +267,8 @@ def exciting_trajectory(
 
 #: Columns of a measurement CSV file, in the order :func:`write_measurements_csv` writes.
 CSV_COLUMNS: tuple[str, ...] = STATE_COLUMNS + FORCE_COLUMNS
-#: Weighted least squares: relative change of the sigma_j that ends the reweighting, and
-#: the cap on the iterations.
-REWEIGHTING_TOLERANCE = 1e-3
-REWEIGHTING_ITERATIONS = 20
+#: Samples whose regressor :func:`identify` builds at once (bounded memory).
+IDENTIFY_CHUNK = 2000
 
 
 @dataclass(frozen=True, eq=False)
@@ -389,6 +393,9 @@ class IdentificationResult:
         n_samples: samples used (6 equations each).
         weighted: whether the estimate is the weighted one.
         base: the :class:`~stewart_pin.parameters.base.BaseParameters` identified.
+        solution: the least-squares solution it was made from (its weighted fit factor
+            gives the weighted residual of any parameter vector:
+            :meth:`~stewart_pin.parameters.least_squares.LeastSquaresSolution.weighted_residual`).
     """
 
     names: tuple[str, ...]
@@ -404,6 +411,7 @@ class IdentificationResult:
     n_samples: int
     weighted: bool
     base: BaseParameters = field(repr=False)
+    solution: LeastSquaresSolution | None = field(default=None, repr=False)
 
     @property
     def relative_std(self) -> np.ndarray:
@@ -492,7 +500,10 @@ def identify(
     equal noise on the actuators one pass suffices, with very unequal noise the OLS
     residuals of a noisy actuator leak into the others' and the iteration removes that.
     The covariance is ``sigma^2 (W^T W)^-1`` of the final (weighted) problem with
-    ``sigma^2 = |r|^2 / (6 N - nb)``. Solves use the SVD of the column-scaled regressor.
+    ``sigma^2 = |r|^2 / (6 N - nb)``. The equations are accumulated :data:`IDENTIFY_CHUNK`
+    samples at a time in per-actuator R factors (an incremental QR,
+    :class:`~stewart_pin.parameters.least_squares.StackedLeastSquares`: memory bounded
+    whatever N), and solved by the SVD of the column-scaled factor.
 
     Args:
         robot: a :class:`~stewart_pin.StewartRobot` (its geometry; the inertial
@@ -506,76 +517,34 @@ def identify(
             of rank below nb (the trajectory does not excite every base parameter).
     """
     base = _base_of(robot, base)
-    nb = len(base)
-    n = len(measurements)
-    if 6 * n <= nb:
-        raise IdentificationError(
-            f"{n} samples give {6 * n} equations for {nb} base parameters; at least "
-            f"{nb // 6 + 1} samples are needed (more than {nb} equations)",
-            n_parameters=nb,
-        )
-    W = _stacked(base, robot, measurements.poses, measurements.twists, measurements.accels)
-    y = measurements.gammas.reshape(-1)
-    norms = np.linalg.norm(W, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
-    U, s, Vt = _svd(W / scale)
-    rank = int(np.sum(s > RANK_TOLERANCE * s[0])) if s[0] > 0 else 0
-    if rank < nb:
-        weakest = np.argsort(-np.abs(Vt[-1]))[:4]
-        raise IdentificationError(
-            f"the stacked base regressor ({W.shape[0]} x {nb}) has rank {rank} < {nb}: the "
-            f"trajectory does not excite every base parameter (the least excited direction "
-            f"involves {', '.join(base.names[k] for k in weakest)}); use a richer trajectory "
-            "(exciting_trajectory) or fewer parameters",
-            rank=rank,
-            n_parameters=nb,
-        )
-    cond = float(s[0] / s[-1])
+    m = measurements
+    acc = StackedLeastSquares(len(base), base.names)
+    for k in range(0, len(m), IDENTIFY_CHUNK):
+        sl = slice(k, k + IDENTIFY_CHUNK)
+        W = base.reduce(robot.regressor(m.poses[sl], m.twists[sl], m.accels[sl]))
+        acc.add(W, m.gammas[sl])
+    return _result(acc.solve(weighted=bool(weighted)), base, bool(weighted))
 
-    def solve(U: np.ndarray, s: np.ndarray, Vt: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        return (Vt.T @ ((U.T @ rhs) / s)) / scale
 
-    def noise(x: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """Per-actuator sigma_j^2 = |r_j|^2 / (N - h_j), h_j the leverage of its rows."""
-        r = (y - W @ x).reshape(n, 6)
-        leverage = np.sum(U**2, axis=1).reshape(n, 6).sum(axis=0)
-        return np.sqrt(np.sum(r**2, axis=0) / np.maximum(n - leverage, 1e-12))
-
-    x = ols = solve(U, s, Vt, y)
-    sigma = noise(x, U)
-    iterations = 0
-    if weighted:
-        floor = 1e-12 * float(np.sqrt(np.mean(y**2))) or 1e-300
-        for iterations in range(1, REWEIGHTING_ITERATIONS + 1):  # noqa: B007
-            w = np.tile(1.0 / np.maximum(sigma, floor), n)  # each equation's weight
-            U, s, Vt = _svd(W * w[:, None] / scale)
-            x = solve(U, s, Vt, y * w)
-            new = noise(x, U)
-            converged = np.all(np.abs(new - sigma) <= REWEIGHTING_TOLERANCE * sigma + floor)
-            sigma = new
-            if converged:
-                break
-        r_w = (y - W @ x) * w
-    else:
-        r_w = y - W @ x
-    s2 = float(r_w @ r_w) / (6 * n - nb)
-    Vs = Vt.T / s
-    covariance = s2 * (Vs @ Vs.T) / np.outer(scale, scale)
-    final = (y - W @ x).reshape(n, 6)
+def _result(
+    sol: LeastSquaresSolution, base: BaseParameters, weighted: bool
+) -> IdentificationResult:
+    """The :class:`IdentificationResult` of a solved :class:`StackedLeastSquares`."""
     return IdentificationResult(
         names=base.names,
-        estimate=x,
-        std=np.sqrt(np.diag(covariance)),
-        covariance=covariance,
-        ols_estimate=ols,
-        sigma=sigma,
-        iterations=iterations,
-        residual_rms=np.sqrt(np.mean(final**2, axis=0)),
-        condition_number=cond,
-        rank=rank,
-        n_samples=n,
-        weighted=bool(weighted),
+        estimate=sol.estimate,
+        std=np.sqrt(np.diag(sol.covariance)),
+        covariance=sol.covariance,
+        ols_estimate=sol.ols_estimate,
+        sigma=sol.sigma,
+        iterations=sol.iterations,
+        residual_rms=sol.residual_rms,
+        condition_number=sol.condition_number,
+        rank=sol.rank,
+        n_samples=sol.n_samples,
+        weighted=weighted,
         base=base,
+        solution=sol,
     )
 
 
