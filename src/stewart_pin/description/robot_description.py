@@ -62,8 +62,22 @@ REQUIRED_KEYS = (
 #: Optional keys: ``name`` (str), ``u_joint_limits`` ((2, 2) or (6, 2, 2) [rad]),
 #: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess) and
 #: ``legs`` (six leg tables, :mod:`stewart_pin.description.leg_io`; with ``legs``,
-#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required).
-OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs")
+#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required), and the
+#: actuators' limits :data:`ACTUATOR_LIMIT_KEYS`.
+OPTIONAL_KEYS = (
+    "name",
+    "u_joint_limits",
+    "home_pose",
+    "legs",
+    "effort_limits",
+    "velocity_limits",
+    "acceleration_limits",
+)
+#: Optional limits of the six actuated joints, each one positive number for all or six
+#: (absent: unbounded): ``effort_limits`` [N or N m, joint side], ``velocity_limits``
+#: [m/s or rad/s], ``acceleration_limits`` [m/s^2 or rad/s^2]. Exciting trajectories for
+#: identification respect them and a log's efforts at the limit count as saturated.
+ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
 
 #: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
 #: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
@@ -118,6 +132,9 @@ class RobotDescription:
     # upright pose when None), so the attribute is always a pose.
     home_pose: np.ndarray = None  # type: ignore[assignment]
     legs: tuple[LegArchitecture, ...] | None = None
+    effort_limits: np.ndarray | None = None
+    velocity_limits: np.ndarray | None = None
+    acceleration_limits: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
@@ -158,6 +175,9 @@ class RobotDescription:
                 T = check_array(pose, (4, 4), key).copy()
                 T[:3, :3] = project_rotation(T[:3, :3], "home_pose rotation block", stacklevel=4)
                 set_(key, check_pose(T, key))
+            for key in ACTUATOR_LIMIT_KEYS:
+                if getattr(self, key) is not None:
+                    set_(key, _actuator_limits(getattr(self, key), key))
         except InputError as e:
             raise _field_error(key, f"robot description '{self.name}': {e}") from e
         self._check_points()
@@ -277,7 +297,7 @@ class RobotDescription:
         for key in REQUIRED_KEYS:
             if getattr(self, key) is not None:
                 d[key] = getattr(self, key).tolist()
-        for key in ("u_joint_limits", "home_pose"):
+        for key in ("u_joint_limits", "home_pose", *ACTUATOR_LIMIT_KEYS):
             if getattr(self, key) is not None:
                 d[key] = getattr(self, key).tolist()
         if self.legs is not None:
@@ -459,6 +479,19 @@ def _no_repeated_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _actuator_limits(value: Any, key: str) -> np.ndarray:
+    """One of :data:`ACTUATOR_LIMIT_KEYS`: a positive finite number, or six, as (6,)."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        value = [float(value)] * 6
+    limits = check_array(value, (6,), key)
+    if np.any(limits <= 0):
+        raise InputError(
+            f"{key} must be positive (one number for every actuator, or six), got "
+            f"{limits.tolist()}; leave the key out for unbounded actuators"
+        )
+    return limits
+
+
 def _field_error(key: str, message: str) -> DescriptionError:
     """A :class:`DescriptionError` about description key ``key`` (``read`` quotes its line)."""
     error = DescriptionError(message)
@@ -486,7 +519,8 @@ FILE_HEADER = """\
 #   XX XY XZ YY YZ ZZ MX MY MZ M, in each link's MDH frame about its origin.
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. Optional: u_joint_limits [[q1min, q1max], [q2min, q2max]] (rad),
-#   home_pose: 0Tp (4 x 4), the workspace centre.
+#   home_pose: 0Tp (4 x 4), the workspace centre; effort_limits [N], velocity_limits
+#   [m/s], acceleration_limits [m/s^2] of the six actuators.
 """
 
 #: The header of a robot with general legs: no stroke, no U-joint limits (the joint limits
@@ -501,6 +535,8 @@ GENERAL_FILE_HEADER = """\
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose, the workspace
 #   centre. No stroke nor u_joint_limits: each joint's limits are in [[legs.joints]].
+# Optional: effort_limits [N or N m], velocity_limits [m/s or rad/s],
+#   acceleration_limits [m/s^2 or rad/s^2] of the six actuated joints.
 """
 
 LEGS_HEADER = """
