@@ -19,6 +19,7 @@ values.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -29,9 +30,10 @@ import scipy.optimize
 from stewart_pin._checks import check_array
 from stewart_pin.exceptions import (
     FileFormatError,
-    IdentificationError,
     InputError,
+    LogError,
     StewartPinError,
+    UnsupportedArchitectureError,
     WorkspaceError,
 )
 from stewart_pin.formats.csv_tables import (
@@ -48,10 +50,15 @@ from stewart_pin.kinematics.jacobians import condition_number_batch
 from stewart_pin.motion.trajectories import FourierTrajectory, Trajectory
 from stewart_pin.parameters.base import BaseParameters, base_parameters
 from stewart_pin.parameters.least_squares import (
-    REWEIGHTING_ITERATIONS,
-    REWEIGHTING_TOLERANCE,
     LeastSquaresSolution,
     StackedLeastSquares,
+)
+from stewart_pin.parameters.logs import ActuatorLog, check_log
+from stewart_pin.parameters.state_estimation import (
+    FilterDesign,
+    StateStream,
+    design_filters,
+    fir_decimate,
 )
 from stewart_pin.protocols import RobotLike
 
@@ -562,12 +569,195 @@ def validation_error(
     return float(np.linalg.norm(m.gammas - predicted) / denom)
 
 
+# ====================================================================== from actuator logs
+
+#: Raw samples whose regressor :func:`identify_log` builds at once (with the FIR windows'
+#: overlap): bounded memory whatever the log's length.
+LOG_CHUNK = 2000
+
+Progress = Callable[[int, int], None]
+
+
+def log_equations(
+    robot: RobotLike,
+    log: ActuatorLog,
+    base: BaseParameters,
+    design: FilterDesign,
+    progress: Progress | None = None,
+    chunk: int = LOG_CHUNK,
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """The parallel-decimated equations ``F Gamma = (F W_b) chi_b`` of a log, in chunks.
+
+    Yields ``(centres, W, gamma, poses)``: the log samples the decimated equations are
+    centred on (m,), the filtered and decimated base regressor (m, 6, nb), the filtered
+    and decimated efforts (m, 6), and the estimated poses at the centres (m, 4, 4)
+    (:mod:`stewart_pin.parameters.state_estimation`, steps 1-5). ``progress(done,
+    total)`` is called after each chunk with the decimated samples done and in all.
+    """
+    stream = StateStream(robot, log, design)
+    total = len(stream.centres)
+    if total == 0:
+        raise LogError(
+            f"{log.source}: {len(log)} samples leave no decimated equation (the filters drop "
+            f"{design.edge + design.half} samples at each end); record a longer log",
+        )
+    outputs = max(1, int(chunk) // design.decimation)
+    done = 0
+    for centres, start, poses, V, A, efforts in stream.chunks(outputs):
+        W = base.regressor(poses, V, A)
+        yield (
+            centres,
+            fir_decimate(W, design.taps, centres, start),
+            fir_decimate(efforts, design.taps, centres, start),
+            poses[centres - start],
+        )
+        done += len(centres)
+        if progress is not None:
+            progress(done, total)
+
+
+@dataclass(frozen=True, eq=False)
+class LogIdentification:
+    """Base parameters identified from an actuator log.
+
+    Attributes:
+        result: the :class:`IdentificationResult` of the decimated equations (its
+            ``n_samples`` counts decimated samples, 6 equations each; its covariance
+            includes the noise correlation factor ``design.kappa``).
+        design: the filters used (:class:`~stewart_pin.parameters.state_estimation.FilterDesign`).
+        n_log: samples in the log.
+        tracker_error: RMS distance between the forward-geometry poses and the tracker's
+            at the equations' samples, ``(position [m], angle [rad])``, or ``None``
+            without a tracker.
+        source: the log's source.
+    """
+
+    result: IdentificationResult
+    design: FilterDesign
+    n_log: int
+    tracker_error: tuple[float, float] | None
+    source: str
+
+    def report(self, true_values: Any | None = None, label: str = "true") -> str:
+        """The filters, the tracker's agreement and the result's table."""
+        lines = [
+            f"log {self.source}: {self.n_log} samples -> {self.result.n_samples} decimated "
+            f"samples ({6 * self.result.n_samples} equations)",
+            "filters: " + self.design.describe(),
+        ]
+        if self.tracker_error is not None:
+            lines.append(
+                f"forward geometry vs tracker (RMS): {self.tracker_error[0]:.3g} m, "
+                f"{self.tracker_error[1]:.3g} rad"
+            )
+        return "\n".join([*lines, "", self.result.report(true_values, label)])
+
+
+def _default_base(robot: RobotLike) -> BaseParameters:
+    """The analytic base parameters where the architecture has them, else numerical."""
+    try:
+        return base_parameters(robot, "analytic")
+    except (UnsupportedArchitectureError, NotImplementedError):
+        return base_parameters(robot, "numerical")
+
+
+def identify_log(
+    robot: RobotLike,
+    log: ActuatorLog,
+    base: BaseParameters | None = None,
+    *,
+    design: FilterDesign | None = None,
+    cutoff: float | None = None,
+    decimation: int | None = None,
+    method: str = "butterworth",
+    weighted: bool = True,
+    progress: Progress | None = None,
+    chunk: int = LOG_CHUNK,
+) -> LogIdentification:
+    """Identify the base parameters from a log of actuator positions and efforts.
+
+    The platform states come from the positions (filter, forward geometry, derivatives),
+    the regressor and the efforts go through the same FIR filter and decimation (Gautier's
+    parallel decimation), and the decimated equations are accumulated ``chunk`` raw
+    samples at a time into the incremental QR of :class:`StackedLeastSquares`: memory does
+    not grow with the log beyond the positions' three filtered copies. Then weighted least
+    squares as :func:`identify`, with the covariance multiplied by the noise correlation
+    factor of the decimation (see :mod:`stewart_pin.parameters.state_estimation`).
+
+    Args:
+        robot: the robot's geometry (its inertial parameters play no part).
+        log: an :class:`~stewart_pin.parameters.logs.ActuatorLog` (checked:
+            :func:`~stewart_pin.parameters.logs.check_log`).
+        base: the base parameters (default: analytic where the architecture has them).
+        design: the filters (default :func:`design_filters` with ``cutoff``,
+            ``decimation``, ``method``).
+        weighted: weighted (default) or ordinary least squares.
+        progress: ``progress(done, total)`` after each chunk (decimated samples).
+        chunk: raw samples per chunk.
+
+    Raises:
+        LogError (and subclasses): a log the checks refuse, or one too short for its filters.
+        IdentificationError: too few equations, or a rank-deficient regressor.
+    """
+    check_log(log, robot)
+    base = _default_base(robot) if base is None else _base_of(robot, base)
+    design = design or design_filters(log, cutoff, decimation, method)
+    acc = StackedLeastSquares(len(base), base.names)
+    sq_p = sq_r = 0.0
+    for centres, W, gamma, poses in log_equations(robot, log, base, design, progress, chunk):
+        acc.add(W, gamma)
+        if log.tracker_poses is not None:
+            tracked = log.tracker_poses[centres]
+            sq_p += float(np.sum((poses[:, :3, 3] - tracked[:, :3, 3]) ** 2))
+            rel = np.einsum("nij,nkj->nik", poses[:, :3, :3], tracked[:, :3, :3])
+            cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)
+            sq_r += float(np.sum(np.arccos(cos) ** 2))
+    sol = acc.solve(weighted=weighted, noise_correlation=design.kappa)
+    n = sol.n_samples
+    tracker = None if log.tracker_poses is None else (math.sqrt(sq_p / n), math.sqrt(sq_r / n))
+    return LogIdentification(
+        _result(sol, base, bool(weighted)), design, len(log), tracker, log.source
+    )
+
+
+def log_prediction_error(
+    robot: RobotLike,
+    log: ActuatorLog,
+    values: Any,
+    base: BaseParameters,
+    design: FilterDesign,
+) -> float:
+    """The relative RMS effort prediction error of base parameter ``values`` (nb,) on a
+    log: ``|F Gamma - (F W_b) values| / |F Gamma|`` over the decimated samples and the six
+    actuators (Frobenius norms), with the filters ``design`` (e.g. the identification's,
+    re-designed for this log's sample rate when it differs: same cut-off and decimation
+    ratio). A fraction; compare it with the noise: the decimated effort noise over the
+    decimated efforts."""
+    check_log(log, robot)
+    base = _base_of(robot, base)
+    x = check_array(values, (len(base),), "values")
+    if abs(design.sample_rate - log.sample_rate) > 1e-6 * design.sample_rate:
+        design = design_filters(log, design.cutoff, None, design.method)
+    num = den = 0.0
+    for _, W, gamma, _ in log_equations(robot, log, base, design):
+        r = gamma - W @ x
+        num += float(np.sum(r**2))
+        den += float(np.sum(gamma**2))
+    if den == 0:
+        raise InputError("the logged efforts are all zero: the relative error is undefined")
+    return math.sqrt(num / den)
+
+
 __all__ = [
     "CSV_COLUMNS",
     "IdentificationResult",
+    "LogIdentification",
     "Measurements",
     "exciting_trajectory",
     "identify",
+    "identify_log",
+    "log_equations",
+    "log_prediction_error",
     "read_measurements_csv",
     "regressor_condition_number",
     "simulate_measurements",

@@ -97,7 +97,7 @@ class LeastSquaresSolution:
 
 def _r_factor(A: np.ndarray) -> np.ndarray:
     """The (..., n, n) R factor of ``A`` (..., m, n), zero-padded when m < n."""
-    R = np.linalg.qr(A, mode="r")
+    R: np.ndarray = np.asarray(np.linalg.qr(A, mode="r"))
     n = A.shape[-1]
     if R.shape[-2] < n:
         pad = np.zeros((*R.shape[:-2], n - R.shape[-2], n))
