@@ -462,7 +462,9 @@ class EstimatedStates:
 
     Attributes:
         times (N,) [s], poses (N, 4, 4), twists (N, 6), accels (N, 6) classical, efforts
-        (N, 6) as logged; index (N,): the samples of the log they are; design: the filters.
+        (N, 6) (as logged, or the held efforts' averages:
+        :meth:`~stewart_pin.parameters.logs.ActuatorLog.effort_samples`); index (N,): the
+        samples of the log they are; design: the filters.
     """
 
     times: np.ndarray
