@@ -295,7 +295,6 @@ def test_six_ups_only_features_refuse_general_legs():
     for call in (
         lambda: robot.inverse_dynamics(T, z, z, backend="compiled"),
         lambda: robot.direct_dynamics(T, z, z, backend="compiled"),
-        lambda: robot.regressor(T, z, z),
         lambda: robot.leg_lengths(T),
         lambda: robot.tree,
     ):

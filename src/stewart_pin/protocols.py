@@ -83,7 +83,8 @@ class RobotLike(Protocol):
         ...
 
     def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
-        """The dynamic regressor ``W``, (6, 190) or (N, 6, 190)."""
+        """The dynamic regressor ``W``, (6, n) or (N, 6, n): n = 190 standard parameters for
+        the ideal 6-UPS robot, 280 for general legs (their joint terms included)."""
         ...
 
     def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None) -> Pose:

@@ -14,7 +14,7 @@ custom, mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
 :class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
 such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
 for a revolute one, joint side), and what is 6-UPS-only for now (the compiled backend,
-the regressor, the 6-UPS tree and URDF) raises
+the 6-UPS tree and URDF) raises
 :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
 """
 
@@ -605,19 +605,25 @@ class StewartRobot:
             raise self._ideal_only("the compiled backend", "use backend='pinocchio' (the default)")
 
     def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
-        """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, 190) or (N, 6, 190).
+        """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, n) or (N, 6, n).
 
-        Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform;
-        names in :data:`stewart_pin.dynamics.regressor.STANDARD_NAMES`.
+        Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform
+        (n = 190 for the ideal 6-UPS robot); general legs add each joint's five terms
+        ``IA FV FC K OF`` (n = 280; joint-side efforts, joint limits checked as in
+        :meth:`inverse_dynamics`). Names in
+        :func:`stewart_pin.dynamics.regressor.standard_parameter_names`.
         """
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         if not self.is_ideal_ups:
-            raise self._ideal_only(
-                "the dynamic regressor (and base parameters, identification)",
-                "identification of general legs is a later issue",
-            )
+            from stewart_pin.dynamics.regressor import general_regressor_batch
+
+            with _quiet_overflow():
+                W = general_regressor_batch(
+                    self.general, self.general_dynamics.legs, T, V, A, self.max_condition, True
+                )
+            return W if batched else W[0]
         from stewart_pin.dynamics.regressor import regressor_batch
 
-        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with _quiet_overflow():
             W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
         return W if batched else W[0]

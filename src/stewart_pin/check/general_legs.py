@@ -15,6 +15,8 @@ they are checked here, by Pinocchio's forward kinematics, to close the six loops
   then ``[S^T, Jc^T] [Gamma; lambda] = tau``;
 - direct dynamics: ``pin.constraintDynamics`` with ``tau = S^T Gamma - tau_joint`` and
   ``pin.ProximalSettings(1e-14, 0, 1)`` (an exact KKT solve);
+- regressor: ``pin.computeJointTorqueRegressor`` on the tree and the joint-term columns,
+  each column mapped to the actuated efforts by the same KKT solve;
 - energy: ``pin.computeKineticEnergy`` (checked against ``1/2 v^T M v`` with the
   armature), ``pin.computePotentialEnergy`` and the springs.
 
@@ -33,9 +35,12 @@ import pinocchio as pin
 from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.exceptions import InputError, SingularityError
-from stewart_pin.models.leg_chains import build_general_tree
+from stewart_pin.models.leg_chains import build_general_tree, leg_joint_name
 from stewart_pin.models.pinocchio_models import TreeModel
 
+#: Khalil's order ``XX XY XZ YY YZ ZZ MX MY MZ M`` -> Pinocchio's ``m mx my mz Ixx Ixy Iyy
+#: Ixz Iyz Izz`` (written out here so that the check shares no conversion table).
+_KHALIL_TO_PIN = np.array([9, 6, 7, 8, 0, 1, 3, 2, 4, 5])
 #: Largest loop-closure error [m] accepted for the given leg joint positions.
 CLOSURE_TOLERANCE = 1e-9
 
@@ -128,9 +133,11 @@ class GeneralTreeSolver:
         return q, v, Jc
 
     # ------------------------------------------------------------------ one state
-    def inverse_one(
+    def motion(
         self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Tree ``q``, ``v``, ``a`` (leg accelerations from ``Jc a + drift = 0``) and the
+        KKT matrix ``[S^T, Jc^T]`` (nv, nv) of one platform state."""
         q, v, Jc = self.state(T, twist, q_legs)
         R = T[:3, :3]
         a = np.zeros(self.nv)
@@ -139,12 +146,45 @@ class GeneralTreeSolver:
         pin.forwardKinematics(self.model, self.data, q, v, a)
         residual = self.loop_accelerations()
         a[self.v_legs] = _solve(Jc[:, self.v_legs], -residual, "Jc legs")
-        tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
         K = np.zeros((self.nv, self.nv))
         K[self.v_act, np.arange(6)] = 1.0
         K[:, 6:] = Jc.T
+        return q, v, a, K
+
+    def inverse_one(
+        self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        q, v, a, K = self.motion(T, twist, accel, q_legs)
+        tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
         x = _solve(K, tau, "[S^T, Jc^T]")
         return x[:6], a
+
+    def regressor_one(
+        self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: np.ndarray
+    ) -> np.ndarray:
+        """The regressor (6, 280) of one state from the tree: the tree's joint torques per
+        standard parameter (``pin.computeJointTorqueRegressor`` for the 19 bodies, the
+        joint terms ``[qddot, qdot, sign(qdot), q, 1]`` on each leg joint), each mapped to
+        the actuated efforts by the KKT solve ``[S^T, Jc^T] [Gamma; lambda] = tau``.
+
+        Columns: leg i link j (10, Khalil's order, in its frame about its origin; leg-major),
+        the platform's 10 (in Fp about O_p), then per leg joint ``IA FV FC K OF``.
+        """
+        q, v, a, K = self.motion(T, twist, accel, q_legs)
+        Y = pin.computeJointTorqueRegressor(self.model, self.data, q, v, a)
+        tau = np.zeros((self.nv, 280))
+        khalil = np.argsort(_KHALIL_TO_PIN)  # Pinocchio's order -> Khalil's
+        for i in range(6):
+            for j in range(3):
+                jid = self.model.getJointId(leg_joint_name(i + 1, j + 1))
+                tau[:, 30 * i + 10 * j : 30 * i + 10 * j + 10] = Y[:, 10 * (jid - 1) + khalil]
+        ff = self.tree.platform_joint
+        tau[:, 180:190] = Y[:, 10 * (ff - 1) + khalil]
+        ql, vl, al = q[self.q_legs], v[self.v_legs], a[self.v_legs]
+        for k, (row, qk, vk, ak) in enumerate(zip(self.v_legs, ql, vl, al, strict=True)):
+            tau[row, 190 + 5 * k : 195 + 5 * k] = [ak, vk, coulomb_sign(np.array(vk)), qk, 1.0]
+        x = _solve(K, tau, "[S^T, Jc^T]")
+        return np.asarray(x[:6])
 
     def forward_one(
         self, T: np.ndarray, twist: np.ndarray, gamma: np.ndarray, q_legs: np.ndarray
@@ -214,6 +254,15 @@ def reference_inverse_dynamics(
     return np.array([solver.inverse_one(*x)[0] for x in zip(T, V, A, Q, strict=True)])
 
 
+def reference_regressor(
+    solver: GeneralTreeSolver, poses: Any, twists: Any, accels: Any, q_legs: Any
+) -> np.ndarray:
+    """The regressor (N, 6, 280) from the constrained tree
+    (:meth:`GeneralTreeSolver.regressor_one`)."""
+    T, V, A, Q = _batch(poses, twists, accels, q_legs)
+    return np.array([solver.regressor_one(*x) for x in zip(T, V, A, Q, strict=True)])
+
+
 def reference_direct_dynamics(
     solver: GeneralTreeSolver, poses: Any, twists: Any, gammas: Any, q_legs: Any
 ) -> np.ndarray:
@@ -238,4 +287,5 @@ __all__ = [
     "reference_direct_dynamics",
     "reference_energy",
     "reference_inverse_dynamics",
+    "reference_regressor",
 ]

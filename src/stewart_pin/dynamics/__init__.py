@@ -3,8 +3,9 @@
 :mod:`.leg_dynamics` gets each leg's H_i (RNEA), A_i (CRBA) and h_i from Pinocchio;
 :mod:`.closed_loop` is the paper's projection: leg forces to the platform (eq. 20-23),
 the platform's Newton-Euler (eq. 24), the inverse model Gamma = Jp^T (F_p + F_leg) and
-the direct model with A_robot, h_robot (eq. 36-38); :mod:`.regressor` gives the 6 x 190
-regressor W with Gamma = W chi. :mod:`.general_legs` gives any three-joint leg's H_i with
+the direct model with A_robot, h_robot (eq. 36-38); :mod:`.regressor` gives the regressor W
+with Gamma = W chi (6 x 190 for the ideal 6-UPS robot; 6 x 280 for general legs, whose
+joint terms are standard parameters too). :mod:`.general_legs` gives any three-joint leg's H_i with
 its joint terms (armature, friction, springs, dampers) to the same closure kernel.
 
 Stands on :mod:`stewart_pin.kinematics` and :mod:`stewart_pin.models`; knows no
@@ -19,7 +20,14 @@ from .closed_loop import (
     inverse_dynamics,
 )
 from .leg_dynamics import LegDynamics
-from .regressor import N_STANDARD, regressor_batch, standard_parameters
+from .regressor import (
+    N_STANDARD,
+    parameter_groups,
+    regressor_batch,
+    standard_parameter_names,
+    standard_parameters,
+    with_standard_parameters,
+)
 
 __all__ = [
     "N_STANDARD",
@@ -29,6 +37,9 @@ __all__ = [
     "cartesian_dynamics",
     "direct_dynamics",
     "inverse_dynamics",
+    "parameter_groups",
     "regressor_batch",
+    "standard_parameter_names",
     "standard_parameters",
+    "with_standard_parameters",
 ]
