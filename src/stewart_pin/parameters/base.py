@@ -1,4 +1,6 @@
-"""Base inertial parameters (paper section VI): the identifiable combinations of the 190.
+"""Base parameters (paper section VI): the identifiable combinations of the standard ones
+(the 190 inertial parameters of the ideal 6-UPS robot; for general legs the 280 with the
+joint terms, :mod:`stewart_pin.dynamics.regressor`).
 
 Two routes to the same space:
 
@@ -14,14 +16,19 @@ Two routes to the same space:
   :func:`analytic_base_parameters`).
 - :func:`grouped_parameters`: the paper's 88 on every geometry (minimal on a general one),
   the fixed layout of the generated code.
+- General legs (``ups``, ``ups-offset``, ``rus``, ``pus``): the analytic set of
+  :mod:`stewart_pin.parameters.general_base` (Khalil's rules per leg, the loop grouping at
+  P_i, the joint terms); ``custom`` legs get the numerical set
+  (:func:`base_parameters` says so with a :class:`BaseParameterWarning`).
 
-All return a :class:`BaseParameters`: names, the linear map ``K`` (nb x 190) with
+All return a :class:`BaseParameters`: names, the linear map ``K`` (nb x n) with
 ``chi_b = K chi``, the regressor columns they keep (``W_b = W[:, kept]`` for the analytic
 set; ``W_b = W[:, kept]`` too for the numerical one, whose ``K`` folds the others in).
 """
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -31,17 +38,29 @@ import numpy as np
 import scipy.linalg
 
 from stewart_pin.description import RobotDescription
-from stewart_pin.dynamics.regressor import N_STANDARD, STANDARD_NAMES, standard_parameters
+from stewart_pin.dynamics.regressor import (
+    JOINT_TERMS_START,
+    N_STANDARD,
+    STANDARD_NAMES,
+    standard_parameter_names,
+    standard_parameters,
+)
 from stewart_pin.exceptions import (
     BaseParameterWarning,
     IdentificationError,
     InputError,
 )
+from stewart_pin.parameters.general_base import general_grouping, uncovered_legs
 from stewart_pin.protocols import RobotLike
 
 #: Default numerical rank tolerance, relative to the largest singular value of the stacked
 #: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`).
 RANK_TOLERANCE = 1e-8
+#: The same for general legs: their joint terms and small passive links (the 2 g cross of
+#: a servo's universal joint) act down to about 1e-8 of the largest singular value (the
+#: kept ones measure 1e-8 to 1e-5 on the random robots and the presets), while round-off
+#: stays below 1e-15; 1e-11 sits between the two.
+GENERAL_RANK_TOLERANCE = 1e-11
 #: A numerical rank is flagged (:class:`BaseParameterWarning`) when a singular value lies
 #: within this factor of the tolerance on either side.
 RANK_MARGIN = 100.0
@@ -85,9 +104,12 @@ class BaseParameters:
 
     Attributes:
         names: one name per base parameter.
-        K: (nb, 190) map from the standard parameters.
+        K: (nb, n) map from the n standard parameters (190; 280 for general legs).
         kept: (nb,) the regressor columns (standard parameters) the base set keeps.
         values: (nb,) the robot's base parameter values ``K chi``.
+        robot: the robot the set is bound to (:func:`base_parameters`), or ``None``.
+        standard_names: the n standard parameters' names
+            (:func:`~stewart_pin.dynamics.regressor.standard_parameter_names`).
     """
 
     names: tuple[str, ...]
@@ -95,16 +117,17 @@ class BaseParameters:
     kept: np.ndarray
     values: np.ndarray
     robot: RobotLike | None = field(default=None, repr=False, compare=False)
+    standard_names: tuple[str, ...] = field(default=STANDARD_NAMES, repr=False)
 
     def __len__(self) -> int:
         return len(self.names)
 
     def from_standard(self, chi: np.ndarray) -> np.ndarray:
-        """Base parameter values of any standard vector ``chi`` (190,)."""
+        """Base parameter values of any standard vector ``chi`` (n,)."""
         return self.K @ np.asarray(chi, dtype=float)
 
     def reduce(self, W: np.ndarray) -> np.ndarray:
-        """The base regressor ``W_b`` from the full one (..., 6, 190) -> (..., 6, nb)."""
+        """The base regressor ``W_b`` from the full one (..., 6, n) -> (..., 6, nb)."""
         return np.asarray(W)[..., self.kept]
 
     def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
@@ -117,15 +140,23 @@ class BaseParameters:
         """A readable table: name, value, and the grouping relation."""
         lines = [f"{'base parameter':>16s} {'value':>14s}   grouping"]
         for name, value, row in zip(self.names, self.values, self.K, strict=True):
-            lines.append(f"{name:>16s} {value:14.6g}   {_relation(row)}")
+            lines.append(f"{name:>16s} {value:14.6g}   {_relation(row, self.standard_names)}")
         return "\n".join(lines)
 
+    @property
+    def joint_terms(self) -> np.ndarray:
+        """Indices (into the base set) of the base parameters kept from joint terms
+        (``IA FV FC K OF``; empty for the ideal 6-UPS robot)."""
+        if len(self.standard_names) == N_STANDARD:
+            return np.zeros(0, dtype=int)
+        return np.flatnonzero(self.kept >= JOINT_TERMS_START)
 
-def _relation(row: np.ndarray) -> str:
+
+def _relation(row: np.ndarray, names: Sequence[str] = STANDARD_NAMES) -> str:
     terms = []
     for k in np.flatnonzero(np.abs(row) > 1e-15):
         c = row[k]
-        name = STANDARD_NAMES[k]
+        name = names[int(k)]
         if c == 1.0:
             terms.append(f"+ {name}")
         elif c == -1.0:
@@ -208,12 +239,20 @@ def grouped_parameters(desc: RobotDescription) -> BaseParameters:
     base parameters. When gravity is parallel to a leg's first axis (or zero) some of them
     (MX1_i, MY1R_i; MX2_i, MY2_i) have no effect and :func:`analytic_base_parameters`
     drops them; this fixed layout is the one the generated code takes as its input.
+    Ideal 6-UPS robots only (:class:`UnsupportedArchitectureError` for general legs).
     """
+    desc.ideal_stroke("the paper's 88 grouped parameters")
     return _grouping(desc, np.ones(6, dtype=bool), True)
 
 
 def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
-    """The base parameters by the paper's grouping rules, decided per leg from the geometry.
+    """The base parameters by grouping rules, decided per leg from the geometry.
+
+    General legs (``ups``, ``ups-offset``, ``rus``, ``pus``): the rules of
+    :mod:`stewart_pin.parameters.general_base` (a
+    :class:`~stewart_pin.exceptions.BaseParameterWarning` names a rule decided within a
+    hair of its tolerance); :class:`UnsupportedArchitectureError` for ``custom`` legs. The
+    ideal 6-UPS robot: the paper's rules, as follows.
 
     Per leg i (names ``..._i``), on a general geometry: ZZ1R, MX1, MY1R, XX2R, XY2R, XZ2R,
     YZ2R, ZZ2R, MX2, MY2, MX3, MY3, MZ3 with (eq. 44-50)::
@@ -251,7 +290,8 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     a :class:`~stewart_pin.exceptions.BaseParameterWarning` names the legs: the numerical
     rank may or may not count them, and identification will not resolve them.
     """
-    desc.ideal_stroke("the analytic base parameters")  # the grouping assumes R-R-P legs
+    if desc.legs is not None:
+        return _general_analytic(desc)
     lateral, total = gravity_ratios(desc)
     weak = [
         f"leg {i + 1} (|g x z1| / g0 = {lateral[i]:.3g})"
@@ -279,6 +319,27 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     return _grouping(desc, lateral > GRAVITY_TOLERANCE, total > GRAVITY_TOLERANCE)
 
 
+def _general_analytic(desc: RobotDescription) -> BaseParameters:
+    """:func:`analytic_base_parameters` for general legs."""
+    grouping = general_grouping(desc, GRAVITY_TOLERANCE, STANDARD_GRAVITY)
+    if grouping.weak:
+        where = sorted({w for w, _ in grouping.weak})
+        warnings.warn(
+            "a grouping rule was decided within a hair of its tolerance on "
+            + ", ".join(where)
+            + " (an axis nearly parallel to another or to gravity, a near-zero gravity): "
+            "the parameters it keeps barely act on the forces; make the geometry exact to "
+            "drop them, or compare with method='numerical'",
+            BaseParameterWarning,
+            stacklevel=3,
+        )
+    names = standard_parameter_names(desc)
+    K = grouping.K
+    return BaseParameters(
+        grouping.names, K, grouping.kept, K @ standard_parameters(desc), None, names
+    )
+
+
 @dataclass(frozen=True)
 class RankReport:
     """How the numerical rank was decided.
@@ -289,6 +350,7 @@ class RankReport:
         tolerance: relative threshold on the singular values.
         smallest_kept, largest_dropped: singular values either side of the cut, relative to
             the largest (of the stacked regressor with dimensionless columns).
+        n_standard: the number of standard parameters (190; 280 for general legs).
     """
 
     rank: int
@@ -296,42 +358,88 @@ class RankReport:
     tolerance: float
     smallest_kept: float
     largest_dropped: float
+    n_standard: int = N_STANDARD
 
     def __str__(self) -> str:
         return (
-            f"rank {self.rank} of {N_STANDARD} from {self.n_states} states "
+            f"rank {self.rank} of {self.n_standard} from {self.n_states} states "
             f"(tolerance {self.tolerance:g}; relative singular values: smallest kept "
             f"{self.smallest_kept:.3g}, largest dropped {self.largest_dropped:.3g})"
         )
 
 
 def stacked_regressor(robot: RobotLike, n_states: int = 60, seed: int = 0) -> np.ndarray:
-    """``W`` stacked over ``n_states`` random workspace states: (6 n_states, 190)."""
+    """``W`` stacked over ``n_states`` random workspace states: (6 n_states, n)."""
     from stewart_pin.kinematics.workspace import sample_states
 
-    poses, twists, accels = sample_states(robot.description, n_states, seed)
-    return robot.regressor(poses, twists, accels).reshape(-1, N_STANDARD)
+    if robot.description.is_ideal_ups:
+        poses, twists, accels = sample_states(robot.description, n_states, seed)
+    else:
+        poses, twists, accels = robot.sample_states(n_states, seed)
+    W = robot.regressor(poses, twists, accels)
+    return W.reshape(-1, W.shape[-1])
 
 
 #: Powers of the characteristic length that make each of a body's 10 regressor columns
 #: dimensionless (Khalil's order XX XY XZ YY YZ ZZ [kg m^2], MX MY MZ [kg m], M [kg]).
 _LENGTH_POWERS = np.tile(np.array([2, 2, 2, 2, 2, 2, 1, 1, 1, 0]), N_STANDARD // 10)
+#: Powers of the length L and of the time T = sqrt(L / g0) in the unit of each joint term
+#: per kg (``IA FV FC K OF``), revolute ([kg m^2], [N m s], [N m], [N m], [N m]) and
+#: prismatic ([kg], [N s/m], [N], [N/m], [N]).
+_JOINT_POWERS = {
+    True: ((2, 0), (2, -1), (2, -2), (2, -2), (2, -2)),
+    False: ((0, 0), (0, -1), (1, -2), (0, -2), (1, -2)),
+}
+
+
+def dimensionless_scales(desc: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
+    """``(columns (n,), rows (6,))``: ``W * columns[None] * rows[:, None]`` (per state) has
+    every column in the same unit, so that the numerical rank does not depend on units.
+
+    With ``L`` the robot's size (:attr:`RobotDescription.size` [m]) and ``T = sqrt(L / g0)``
+    [s], a parameter's column is multiplied by the unit of that parameter per kg in
+    powers of L and T: ``L^2`` (inertia, armature of a revolute joint), ``L`` (first
+    moment), 1 (mass, a slide's armature), ``L^2 / T`` (a revolute joint's viscous
+    friction), ``L^2 / T^2`` (its Coulomb friction, stiffness, offset), ``1 / T``,
+    ``L / T^2``, ``1 / T^2``, ``L / T^2`` for a slide's. Rows of revolute actuators [N m]
+    are divided by L, so that every row is a force [N]; the ideal 6-UPS robot's rows
+    are forces already.
+    """
+    L = float(desc.size)
+    columns = L ** _LENGTH_POWERS.astype(float)
+    if desc.legs is None:
+        return columns, np.ones(6)
+    T = math.sqrt(L / STANDARD_GRAVITY)
+    joints = [
+        L**a * T**b
+        for leg in desc.legs
+        for joint in leg.joints
+        for a, b in _JOINT_POWERS[joint.revolute]
+    ]
+    actuated = [leg.joints[leg.actuated - 1] for leg in desc.legs]
+    rows = np.array([1.0 / L if joint.revolute else 1.0 for joint in actuated])
+    return np.concatenate([columns, joints]), rows
 
 
 def numerical_base_parameters(
-    robot: RobotLike, n_states: int = 60, seed: int = 0, tolerance: float = RANK_TOLERANCE
+    robot: RobotLike, n_states: int = 60, seed: int = 0, tolerance: float | None = None
 ) -> tuple[BaseParameters, RankReport]:
-    """Base parameters by QR with column pivoting of the stacked regressor.
+    """Base parameters by QR with column pivoting of the stacked regressor (any robot:
+    general legs with their joint terms too).
 
     The columns are made dimensionless before the decomposition: a parameter's column is
     multiplied by ``L^2`` (inertia, kg m^2), ``L`` (first moment, kg m) or 1 (mass), with
     ``L`` the robot's size (``description.size`` [m]), so all are forces per kg and the
-    rank decision does not depend on units. (Scaling each column to unit norm instead
-    magnifies round-off: the column of a parameter that nothing excites, e.g. MX1 of a
-    leg whose first axis is vertical, is round-off of 1e-16 of the others, which unit
-    norm turned into an independent column: rank 94 where the true one is 76.)
+    rank decision does not depend on units (general legs: the joint terms too, and the
+    rows of revolute actuators, :func:`dimensionless_scales`). (Scaling each column to
+    unit norm instead magnifies round-off: the column of a parameter that nothing
+    excites, e.g. MX1 of a leg whose first axis is vertical, is round-off of 1e-16 of the
+    others, which unit norm turned into an independent column: rank 94 where the true
+    one is 76.)
 
-    The rank r is the number of singular values above ``tolerance`` times the largest;
+    The rank r is the number of singular values above ``tolerance`` (default
+    :data:`RANK_TOLERANCE`, 1e-8; :data:`GENERAL_RANK_TOLERANCE`, 1e-11, for general
+    legs) times the largest;
     the QR's pivots choose the r kept columns. With ``W P = Q [R1 R2]``, ``W_2 = W_1
     beta`` with ``beta = R1^-1 R2``, so ``chi_b = chi_1 + beta chi_2``. Names are those
     of the kept standard parameters with a ``*`` suffix when others are folded into them.
@@ -339,17 +447,22 @@ def numerical_base_parameters(
     lies within a factor :data:`RANK_MARGIN` of the threshold (an ill-determined rank:
     some parameter barely acts on these states).
     """
-    robot.description.ideal_stroke("the numerical base parameters")  # needs the regressor
+    desc = robot.description
+    if tolerance is None:
+        tolerance = RANK_TOLERANCE if desc.is_ideal_ups else GENERAL_RANK_TOLERANCE
     real = isinstance(tolerance, (int, float, np.integer, np.floating))
     if isinstance(tolerance, bool) or not real or not 0.0 < float(tolerance) < 1.0:
         raise InputError(
             f"rank tolerance must be a number in (0, 1) (relative to the largest singular "
-            f"value; default {RANK_TOLERANCE:g}), got {tolerance!r}"
+            f"value; default {RANK_TOLERANCE:g}, {GENERAL_RANK_TOLERANCE:g} for general "
+            f"legs), got {tolerance!r}"
         )
     tol = float(tolerance)
     W = stacked_regressor(robot, n_states, seed)
-    scale = float(robot.description.size) ** -_LENGTH_POWERS.astype(float)
-    Wn = W / scale
+    n = W.shape[1]
+    columns, rows = dimensionless_scales(desc)
+    scale = 1.0 / columns
+    Wn = (W.reshape(-1, 6, n) * rows[:, None]).reshape(-1, n) / scale
     sv = np.linalg.svd(Wn, compute_uv=False)
     if not sv[0] > 0:
         raise IdentificationError(
@@ -364,13 +477,14 @@ def numerical_base_parameters(
     # Back to physical units: W1 = Wn1 D1, W2 = Wn2 D2 -> beta = D1^-1 beta_n D2.
     beta = beta_n * scale[folded][None, :] / scale[kept][:, None]
     beta[np.abs(beta) < 1e-10 * max(1.0, np.abs(beta).max())] = 0.0
-    K = np.zeros((rank, N_STANDARD))
+    K = np.zeros((rank, n))
     K[np.arange(rank), kept] = 1.0
     K[:, folded] = beta
     order = np.argsort(kept)  # present in the standard order
     K, kept = K[order], kept[order]
+    standard = standard_parameter_names(desc)
     names = tuple(
-        STANDARD_NAMES[k] + ("*" if np.count_nonzero(row) > 1 else "")
+        standard[k] + ("*" if np.count_nonzero(row) > 1 else "")
         for k, row in zip(kept, K, strict=True)
     )
     report = RankReport(
@@ -379,6 +493,7 @@ def numerical_base_parameters(
         tol,
         float(rel[rank - 1]),
         float(rel[rank]) if rank < len(rel) else 0.0,
+        n,
     )
     if report.smallest_kept < RANK_MARGIN * tol or report.largest_dropped > tol / RANK_MARGIN:
         warnings.warn(
@@ -389,26 +504,39 @@ def numerical_base_parameters(
             BaseParameterWarning,
             stacklevel=2,
         )
-    chi = standard_parameters(robot.description)
-    return BaseParameters(names, K, kept, K @ chi, robot), report
+    chi = standard_parameters(desc)
+    return BaseParameters(names, K, kept, K @ chi, robot, standard), report
 
 
 def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -> BaseParameters:
     """The base parameters of ``robot`` (a :class:`~stewart_pin.StewartRobot`), bound to it.
 
     Args:
-        method: ``"analytic"`` (the paper's named parameters, 88 on a general robot, fewer
-            when gravity is parallel to first U-joint axes or zero: see
+        method: ``"analytic"`` (named parameters with their grouping relations: the
+            paper's 88 on a general ideal 6-UPS robot, fewer when gravity is parallel to
+            first U-joint axes or zero; general legs with their joint terms: see
             :func:`analytic_base_parameters`) or ``"numerical"`` (QR; ``kwargs`` go to
             :func:`numerical_base_parameters`).
+
+    A robot with ``custom`` legs, which the analytic rules do not cover, gets the
+    numerical set for ``"analytic"`` too, with a :class:`BaseParameterWarning` saying so.
     """
-    robot.description.ideal_stroke("the base parameters")  # 6-UPS legs only, for now
-    if method == "analytic":
-        bp = analytic_base_parameters(robot.description)
-    elif method == "numerical":
-        bp, _ = numerical_base_parameters(robot, **kwargs)
-    else:
+    if method not in ("analytic", "numerical"):
         raise InputError(f"unknown method '{method}': 'analytic' or 'numerical'")
+    desc = robot.description
+    if method == "analytic" and desc.legs is not None and uncovered_legs(desc):
+        warnings.warn(
+            f"the analytic base parameters cover the legs ups, ups-offset, rus and pus; "
+            f"robot '{desc.name}' has custom legs {uncovered_legs(desc)}: using the "
+            "numerical base parameters (QR of the stacked regressor) instead",
+            BaseParameterWarning,
+            stacklevel=2,
+        )
+        method = "numerical"
+    if method == "analytic":
+        bp = analytic_base_parameters(desc)
+    else:
+        bp, _ = numerical_base_parameters(robot, **kwargs)
     return replace(bp, robot=robot)
 
 
@@ -455,8 +583,7 @@ def essential_parameters(
     Parameters that vanish by symmetry (as the paper's symmetric links make many) go
     first, at zero cost. ``values`` are the robot's base values of the kept parameters.
     """
-    robot.description.ideal_stroke("the essential parameters")  # 6-UPS legs only, for now
-    bp = base if base is not None else analytic_base_parameters(robot.description)
+    bp = base if base is not None else base_parameters(robot)
     W = bp.reduce(stacked_regressor(robot, n_states, seed))
     parts = W * bp.values  # column k: the forces parameter k accounts for
     gamma = parts.sum(axis=1)
@@ -497,7 +624,8 @@ def paper_essential_parameters(
 ) -> EssentialParameters:
     """The paper's 52 essential parameters (Table III), with the relative force error of
     keeping only them (zero to round-off for a robot meeting the paper's assumptions).
-    Taken from the paper's 88 (:func:`grouped_parameters`) on every geometry."""
+    Taken from the paper's 88 (:func:`grouped_parameters`) on every geometry (ideal
+    6-UPS robots only)."""
     bp = grouped_parameters(robot.description)
     keep = [f"{p}_{i}" for i in range(1, 7) for p in PAPER_ESSENTIAL_PER_LEG]
     keep += [n for n in bp.names if n.endswith("_RP")]
