@@ -28,12 +28,13 @@ import numpy as np
 import scipy.optimize
 
 from stewart_pin._checks import check_array
+from stewart_pin.description.leg_architecture import wrap_into_limits
+from stewart_pin.dynamics.regressor import N_STANDARD
 from stewart_pin.exceptions import (
     FileFormatError,
     InputError,
     LogError,
     StewartPinError,
-    UnsupportedArchitectureError,
     WorkspaceError,
 )
 from stewart_pin.formats.csv_tables import (
@@ -45,8 +46,6 @@ from stewart_pin.formats.csv_tables import (
     states_from_table,
     write_csv,
 )
-from stewart_pin.kinematics.geometry import inverse_geometry_batch, leg_vectors
-from stewart_pin.kinematics.jacobians import condition_number_batch
 from stewart_pin.motion.trajectories import FourierTrajectory, Trajectory
 from stewart_pin.parameters.base import BaseParameters, base_parameters
 from stewart_pin.parameters.least_squares import (
@@ -70,6 +69,77 @@ def _base_of(robot: RobotLike, base: BaseParameters | None) -> BaseParameters:
     if base is None:
         return base_parameters(robot, "analytic")
     return base if base.robot is robot else replace(base, robot=robot)
+
+
+def base_without(base: BaseParameters, zero: Any) -> BaseParameters:
+    """The base parameters of a model in which some standard parameters are known to be
+    zero (a joint without a spring, a sensor without an offset): ``W chi = W_b K chi``
+    with those entries of ``chi`` zero keeps the rows of ``K`` that still have a term,
+    and the regressor columns of the others drop out (exact: the forces of every ``chi``
+    with those entries zero are unchanged).
+
+    Args:
+        base: the full base set.
+        zero: standard parameter names (``"K2_4"``), or joint-term kinds (``"K"``,
+            ``"OF"``, ``"IA"``, ``"FV"``, ``"FC"``) meaning that term of every joint, or
+            ``"K@passive"`` (``"OF@passive"``...) meaning it for the passive joints only.
+
+    Raises:
+        InputError: an unknown name, or a base set whose remaining rows are dependent.
+    """
+    names = base.standard_names
+    n = len(names)
+    mask = np.zeros(n, dtype=bool)
+    kinds = ("IA", "FV", "FC", "K", "OF")
+    robot = base.robot
+    passive: set[int] = set()
+    if robot is not None and not robot.description.is_ideal_ups:
+        from stewart_pin.dynamics.regressor import parameter_groups
+
+        for jp in parameter_groups(robot.description).joints:
+            if not jp.actuated:
+                passive.update(range(jp.index.start, jp.index.stop))
+    for item in [zero] if isinstance(zero, str) else list(zero):
+        kind, _, where = str(item).partition("@")
+        if kind in kinds and where in ("", "passive"):
+            hits = [k for k in range(N_STANDARD, n) if _term_kind(names[k]) == kind]
+            if where == "passive":
+                hits = [k for k in hits if k in passive]
+            mask[hits] = True
+        elif item in names:
+            mask[names.index(item)] = True
+        else:
+            raise InputError(
+                f"unknown standard parameter or joint term {item!r}: give names such as "
+                f"'K2_4', kinds {kinds}, or 'K@passive'"
+            )
+    K = np.where(mask[None, :], 0.0, base.K)
+    rows = np.flatnonzero(np.any(K != 0.0, axis=1))
+    K = K[rows]
+    if np.linalg.matrix_rank(K) < len(rows):  # pragma: no cover - the rules keep them apart
+        raise InputError("the remaining base parameters are dependent; use method='numerical'")
+    chi_true = None
+    if robot is not None:
+        from stewart_pin.dynamics.regressor import standard_parameters
+
+        chi_true = standard_parameters(robot.description)
+    values = K @ chi_true if chi_true is not None else base.values[rows]
+    return replace(
+        base,
+        names=tuple(base.names[k] for k in rows),
+        K=K,
+        kept=np.asarray(base.kept)[rows],
+        values=values,
+    )
+
+
+def _term_kind(name: str) -> str:
+    """``"K"`` of ``"K2_4"``, ``"IA"`` of ``"IA1R_3"``, ``""`` for an inertial name."""
+    for kind in ("IA", "FV", "FC", "OF", "K"):
+        rest = name[len(kind) :]
+        if name.startswith(kind) and rest[:1].isdigit():
+            return kind
+    return ""
 
 
 def _stacked(
@@ -107,33 +177,116 @@ def regressor_condition_number(W: np.ndarray) -> float:
     return float(s[0] / s[-1])
 
 
-class _Workspace:
-    """How far a Fourier trajectory leaves the allowed workspace (0 when inside)."""
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """Bounds on the six actuated joints an exciting trajectory must respect (each (6,)
+    or ``None`` for none): ``effort`` [N or N m, joint side], ``velocity`` [m/s or
+    rad/s], ``acceleration`` [m/s^2 or rad/s^2]."""
 
-    def __init__(self, robot: RobotLike, times: np.ndarray, max_condition: float, margin: float):
+    effort: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, robot: RobotLike) -> ActuatorLimits:
+        """The limits of the robot's description (``effort_limits``, ...)."""
+        d = robot.description
+        return cls(d.effort_limits, d.velocity_limits, d.acceleration_limits)
+
+    @property
+    def any(self) -> bool:
+        return any(x is not None for x in (self.effort, self.velocity, self.acceleration))
+
+
+class _Workspace:
+    """How far a Fourier trajectory leaves the allowed workspace (0 when inside): every
+    joint of every leg a ``margin`` (fraction of its range) inside its limits, cond(Jp^-1)
+    below ``max_condition``, and the actuated joints' efforts, velocities and
+    accelerations within ``1 - margin`` of their limits."""
+
+    def __init__(
+        self,
+        robot: RobotLike,
+        times: np.ndarray,
+        max_condition: float,
+        margin: float,
+        limits: ActuatorLimits,
+    ):
         desc = robot.description
-        lo, hi = desc.ideal_stroke("identification")
-        m = margin * (hi - lo)
-        self.desc, self.times, self.max_condition = desc, times, max_condition
-        self.lo, self.hi, self.width = lo + m, hi - m, hi - lo
+        legs = desc.leg_architectures
+        self.robot, self.times, self.max_condition = robot, times, max_condition
+        self.margin, self.limits = margin, limits
+        lower = np.array([[j.lower for j in leg.joints] for leg in legs])
+        upper = np.array([[j.upper for j in leg.joints] for leg in legs])
+        self.revolute = np.array([[j.revolute for j in leg.joints] for leg in legs])
+        self.lower, self.upper = lower, upper
+        finite = np.isfinite(lower) & np.isfinite(upper)
+        width = np.where(finite, upper - lower, 1.0)
+        unit = np.where(self.revolute, 1.0, float(desc.stroke_mid))
+        pad = np.where(finite, margin * width, margin * unit)
+        with np.errstate(invalid="ignore"):
+            self.lo, self.hi = lower + pad, upper - pad
+        self.scale = np.where(finite, width, unit)
+        self.actuated = np.array([leg.actuated - 1 for leg in legs])
 
     def violation(self, traj: FourierTrajectory) -> float:
-        poses = traj.sample(self.times).poses
-        lengths = np.linalg.norm(leg_vectors(self.desc, poses)[0], axis=-1)
-        v = np.sum(np.maximum(0.0, self.lo - lengths) + np.maximum(0.0, lengths - self.hi))
-        v /= self.width
-        cond = condition_number_batch(self.desc, poses)
-        v += np.sum(np.maximum(0.0, cond - self.max_condition)) / self.max_condition
-        if self.desc.u_joint_limits is not None and v == 0.0:
-            try:
-                q = inverse_geometry_batch(self.desc, poses, check_limits=False)
-            except StewartPinError:
-                return math.inf
-            lim = self.desc.u_joint_limits
-            for j in range(2):
-                v += np.sum(np.maximum(0.0, lim[:, j, 0] - q[..., j]))
-                v += np.sum(np.maximum(0.0, q[..., j] - lim[:, j, 1]))
-        return float(v) if np.isfinite(v) else math.inf
+        s = traj.sample(self.times)
+        robot = self.robot
+        try:
+            q = robot.inverse_geometry(s.poses, check_limits=False)
+        except StewartPinError:
+            return math.inf
+        q = wrap_into_limits(q, self.revolute, self.lower, self.upper)
+        with np.errstate(invalid="ignore"):
+            out = np.maximum(0.0, self.lo - q) + np.maximum(0.0, q - self.hi)
+        v = float(np.sum(np.where(np.isfinite(out), out, 0.0) / self.scale))
+        try:  # a leg at a serial singularity on the way: outside
+            cond = np.asarray(robot.condition_number(s.poses), dtype=float)
+        except StewartPinError:
+            return math.inf
+        v += float(np.sum(np.maximum(0.0, cond - self.max_condition)) / self.max_condition)
+        if v == 0.0 and self.limits.any:
+            v = self._actuator_violation(s)
+        return v if math.isfinite(v) else math.inf
+
+    def _actuator_violation(self, s: Trajectory) -> float:
+        robot, lim, keep = self.robot, self.limits, 1.0 - self.margin
+        legs = np.arange(6)
+        v = 0.0
+        try:
+            if lim.velocity is not None:
+                qd = np.einsum("nij,nj->ni", robot.inverse_jacobian(s.poses), s.twists)
+                v += float(np.sum(np.maximum(0.0, np.abs(qd) / (keep * lim.velocity) - 1.0)))
+            if lim.acceleration is not None:
+                _, _, qdd = robot.leg_kinematics(s.poses, s.twists, s.accels)
+                assert qdd is not None
+                qdd_a = qdd[:, legs, self.actuated]
+                v += float(
+                    np.sum(np.maximum(0.0, np.abs(qdd_a) / (keep * lim.acceleration) - 1.0))
+                )
+            if lim.effort is not None:
+                gamma = robot.inverse_dynamics(s.poses, s.twists, s.accels)
+                v += float(np.sum(np.maximum(0.0, np.abs(gamma) / (keep * lim.effort) - 1.0)))
+        except StewartPinError:
+            return math.inf
+        return v
+
+
+def actuator_peaks(robot: RobotLike, trajectory: Trajectory) -> dict[str, np.ndarray]:
+    """The largest ``|effort|``, ``|velocity|`` and ``|acceleration|`` of each actuated
+    joint along ``trajectory`` (6,) each [N or N m, m/s or rad/s, m/s^2 or rad/s^2], with
+    the robot's own parameters: what to compare with the actuators' limits."""
+    legs = robot.description.leg_architectures
+    actuated = np.array([leg.actuated - 1 for leg in legs])
+    qd = np.einsum("nij,nj->ni", robot.inverse_jacobian(trajectory.poses), trajectory.twists)
+    _, _, qdd = robot.leg_kinematics(trajectory.poses, trajectory.twists, trajectory.accels)
+    assert qdd is not None
+    gamma = robot.inverse_dynamics(trajectory.poses, trajectory.twists, trajectory.accels)
+    return {
+        "effort": np.abs(gamma).max(axis=0),
+        "velocity": np.abs(qd).max(axis=0),
+        "acceleration": np.abs(qdd[:, np.arange(6), actuated]).max(axis=0),
+    }
 
 
 def exciting_trajectory(
@@ -151,6 +304,7 @@ def exciting_trajectory(
     n_candidates: int = 8,
     max_evaluations: int = 300,
     n_grid: int = 30,
+    limits: ActuatorLimits | None = None,
 ) -> tuple[Trajectory, float]:
     """An exciting trajectory for identification, and its condition number.
 
@@ -160,9 +314,14 @@ def exciting_trajectory(
     (amplitudes decreasing as ``1/l`` with the harmonic l) are shrunk onto the workspace
     boundary; the best of ``n_candidates`` draws is then refined by Powell's method on
     ``log cond(W_b)`` (``W_b`` stacked on ``n_grid`` samples of one period, columns scaled
-    to unit norm), with a penalty outside the workspace: every one of 300 samples of a
-    period keeps its leg lengths ``margin`` (a fraction of the stroke) inside the stroke,
-    its U-joint angles inside their limits, and cond(Jp^-1) below ``max_condition``.
+    to unit norm; for general legs it holds the joint terms' columns too), with a penalty
+    outside what the robot can run: every one of 300 samples of a period keeps every
+    joint of every leg ``margin`` (a fraction of its range; of the mid-stroke for a
+    one-sided limit) inside its limits (the stroke, the U-joint limits, a general leg's
+    joint limits), cond(Jp^-1) below ``max_condition``, and the actuated joints' efforts
+    (inverse dynamics with the robot's own parameters), velocities and accelerations
+    below ``1 - margin`` times their limits (``limits``, default the description's
+    ``effort_limits``, ``velocity_limits``, ``acceleration_limits``; none when absent).
 
     Args:
         robot: a :class:`~stewart_pin.StewartRobot`.
@@ -173,9 +332,12 @@ def exciting_trajectory(
         seed: seeds the random draws.
         n_samples: samples returned, evenly spaced in ``[0, duration)``.
         optimise: ``False`` returns the first random draw, shrunk into the workspace.
-        base: the base parameters to excite (default the analytic 88).
+        base: the base parameters to excite (default the analytic set: 88 for a general
+            6-UPS robot; joint terms included for general legs).
         max_condition: bound on cond(Jp^-1) (default twice its value at the home pose).
-        margin: stroke margin, a fraction of the stroke width, kept at both ends.
+        margin: joint-limit margin, a fraction of each joint's range, kept at both ends;
+            the actuator limits are kept to ``1 - margin`` of their values.
+        limits: the actuators' limits (default :meth:`ActuatorLimits.of` the robot).
         n_candidates, max_evaluations, n_grid: the optimiser's effort: random draws,
             then at most ``max_evaluations`` cost evaluations of Powell's method, each on
             ``n_grid`` samples (about 10 ms each; the default takes a few seconds).
@@ -202,8 +364,9 @@ def exciting_trajectory(
     if max_condition is None:
         max_condition = 2.0 * float(robot.condition_number(home))
     span = min(period, duration)
+    limits = ActuatorLimits.of(robot) if limits is None else limits
     workspace = _Workspace(
-        robot, np.linspace(0.0, span, 300, endpoint=False), float(max_condition), margin
+        robot, np.linspace(0.0, span, 300, endpoint=False), float(max_condition), margin, limits
     )
     grid = np.linspace(0.0, span, max(int(n_grid), 1), endpoint=False)
     rng = np.random.default_rng(seed)
@@ -224,8 +387,11 @@ def exciting_trajectory(
         return math.log(regressor_condition_number(W))
 
     desc = robot.description
-    lo, hi = desc.ideal_stroke("identification")
-    half = 0.5 * float(hi - lo)  # [m]
+    if desc.stroke is not None:
+        half = 0.5 * float(desc.stroke[1] - desc.stroke[0])  # [m]
+    else:  # general legs: a quarter of the mean |B_i P_i| at home
+        P = home[:3, :3] @ desc.platform_points.T + home[:3, 3:]
+        half = 0.25 * float(np.mean(np.linalg.norm(P.T - desc.base_points, axis=1)))
     amplitude = np.array([half] * 3 + [min(0.5, half / desc.size)] * 3)  # [m, rad]
     harmonic = 1.0 / np.arange(1, n_harmonics + 1)
 
@@ -245,8 +411,9 @@ def exciting_trajectory(
 
     if workspace.violation(make(np.zeros(6 + 12 * n_harmonics))) > 0:
         raise WorkspaceError(
-            "the home pose itself violates the workspace constraints (stroke margin "
-            f"{margin:g}, cond(Jp^-1) <= {max_condition:g}); lower margin or raise max_condition"
+            "the home pose itself violates the workspace constraints (joint-limit margin "
+            f"{margin:g}, cond(Jp^-1) <= {max_condition:g}, or an actuator limit at rest); "
+            "lower margin, raise max_condition or check the actuator limits"
         )
     if optimise:
         candidates = [draw() for _ in range(max(int(n_candidates), 1))]
@@ -653,14 +820,6 @@ class LogIdentification:
         return "\n".join([*lines, "", self.result.report(true_values, label)])
 
 
-def _default_base(robot: RobotLike) -> BaseParameters:
-    """The analytic base parameters where the architecture has them, else numerical."""
-    try:
-        return base_parameters(robot, "analytic")
-    except (UnsupportedArchitectureError, NotImplementedError):
-        return base_parameters(robot, "numerical")
-
-
 def identify_log(
     robot: RobotLike,
     log: ActuatorLog,
@@ -700,7 +859,7 @@ def identify_log(
         IdentificationError: too few equations, or a rank-deficient regressor.
     """
     check_log(log, robot)
-    base = _default_base(robot) if base is None else _base_of(robot, base)
+    base = _base_of(robot, base)
     design = design or design_filters(log, cutoff, decimation, method)
     acc = StackedLeastSquares(len(base), base.names)
     sq_p = sq_r = 0.0
@@ -750,9 +909,12 @@ def log_prediction_error(
 
 __all__ = [
     "CSV_COLUMNS",
+    "ActuatorLimits",
     "IdentificationResult",
     "LogIdentification",
     "Measurements",
+    "actuator_peaks",
+    "base_without",
     "exciting_trajectory",
     "identify",
     "identify_log",

@@ -38,11 +38,12 @@ every line ending with a line break:
 How an effort relates to its time stamp: by default ``gamma_k`` is the effort at
 ``t_k`` (a sample of a continuous signal, e.g. a load cell). A digital controller that
 holds its command from ``t_k`` to ``t_(k+1)`` (zero-order hold) and logs the command
-says so with the comment line ``# efforts: hold`` before the header: the dynamics then
-see, around ``t_k``, half of ``gamma_(k-1)`` and half of ``gamma_k``, and identification
-uses ``(gamma_(k-1) + gamma_k) / 2`` at ``t_k`` (taking the held value as the sample
-would put the efforts half a sample ahead of the motion: a bias of ``step / 2`` times
-the efforts' rate of change, 3 % of them for 5 Hz content at 500 Hz).
+says so with the comment line ``# efforts: hold`` before the header: each held value
+acts, on average, half a sample after its time stamp, and identification shifts the
+sequence back by half a sample (:func:`hold_shift`, a windowed-sinc interpolator;
+taking the held value as the sample would put the efforts half a sample ahead of the
+motion: a bias of ``step / 2`` times the efforts' rate of change, 3 % of them for 5 Hz
+content at 500 Hz).
 
 The reader streams the file: memory grows with the samples kept (13 floats each), not
 with the text.
@@ -178,14 +179,23 @@ class ActuatorLog:
         )
 
     def effort_samples(self, start: int, stop: int) -> np.ndarray:
-        """The efforts acting around samples ``start:stop`` (m, 6): ``efforts[start:stop]``,
-        or with :attr:`effort_hold` the averages ``(efforts[k-1] + efforts[k]) / 2``
-        (``start`` >= 1)."""
+        """The efforts acting at samples ``start:stop`` (m, 6): ``efforts[start:stop]``, or
+        with :attr:`effort_hold` the held values shifted by half a sample
+        (:func:`hold_shift`, :data:`HOLD_TAPS`; the log's ends padded with its first and
+        last values)."""
         if not self.effort_hold:
             return np.asarray(self.efforts[start:stop])
-        if start < 1:
-            raise LogError(f"{self.source}: held efforts need the sample before {start}")
-        return 0.5 * (self.efforts[start - 1 : stop - 1] + self.efforts[start:stop])
+        h = HOLD_TAPS
+        M = len(h) // 2  # taps j = -M+1 .. M: efforts[k - j]
+        lo, hi = start - M, stop + M - 1
+        idx = np.clip(np.arange(lo, hi), 0, len(self) - 1)
+        e = self.efforts[idx]  # e[i] = efforts[lo + i]
+        out = np.zeros((stop - start, 6))
+        for t, j in enumerate(range(-M + 1, M + 1)):
+            # efforts[k - j] for k = start..stop-1 is e[k - j - lo]
+            a = start - j - lo
+            out += h[t] * e[a : a + stop - start]
+        return out
 
     @classmethod
     def from_simulation(
@@ -377,6 +387,24 @@ def read_log(
     )
     return log
 
+
+def hold_shift(half_width: int = 16) -> np.ndarray:
+    """The taps ``h_j`` (j = -M+1 .. M, M = ``half_width``) of a half-sample delay:
+    ``g_k = sum_j h_j efforts[k - j]`` is the held sequence (whose value ``efforts[m]``
+    acts, on average, at ``t_m + step / 2``) evaluated at ``t_k``: a Hann-windowed
+    ``sinc(j - 1/2)``, normalised to unit DC gain: phase exact (a symmetric filter about
+    the half sample), gain within 1e-4 of 1 up to a fifth of the sample rate (the two-tap
+    average ``(e_(k-1) + e_k) / 2`` would be off by ``(2 pi f step)^2 / 8``, 3e-3 at 6 Hz
+    for 250 Hz)."""
+    M = int(half_width)
+    j = np.arange(-M + 1, M + 1)
+    x = j - 0.5
+    h = np.sinc(x) * 0.5 * (1.0 + np.cos(np.pi * x / M))
+    return np.asarray(h / h.sum(), dtype=float)
+
+
+#: :func:`hold_shift` with 32 taps.
+HOLD_TAPS = hold_shift()
 
 #: The comment line saying how efforts relate to their time stamps.
 EFFORT_DIRECTIVE = "# efforts:"
@@ -641,6 +669,7 @@ __all__ = [
     "TRACKER_COLUMNS",
     "ActuatorLog",
     "check_log",
+    "hold_shift",
     "read_log",
     "write_log",
 ]
