@@ -758,7 +758,9 @@ def log_equations(
     Yields ``(centres, W, gamma, poses)``: the log samples the decimated equations are
     centred on (m,), the filtered and decimated base regressor (m, 6, nb), the filtered
     and decimated efforts (m, 6), and the estimated poses at the centres (m, 4, 4)
-    (:mod:`stewart_pin.parameters.state_estimation`, steps 1-5). ``progress(done,
+    (:mod:`stewart_pin.parameters.state_estimation`, steps 1-5: the efforts and the
+    actuated joints' Coulomb columns through the state filter, then both sides through
+    the decimation filter). ``progress(done,
     total)`` is called after each chunk with the decimated samples done and in all.
     """
     stream = StateStream(robot, log, design)
@@ -769,9 +771,13 @@ def log_equations(
             f"{design.edge + design.half} samples at each end); record a longer log",
         )
     outputs = max(1, int(chunk) // design.decimation)
+    coulomb = _actuated_coulomb(robot, base)
     done = 0
-    for centres, start, poses, V, A, efforts in stream.chunks(outputs):
+    for centres, start, poses, V, A, efforts, signs in stream.chunks(outputs):
         W = base.regressor(poses, V, A)
+        for column, leg in coulomb:  # the filtered signs of the raw velocities
+            W[:, :, column] = 0.0
+            W[:, leg, column] = signs[:, leg]
         yield (
             centres,
             fir_decimate(W, design.taps, centres, start),
@@ -781,6 +787,25 @@ def log_equations(
         done += len(centres)
         if progress is not None:
             progress(done, total)
+
+
+def _actuated_coulomb(robot: RobotLike, base: BaseParameters) -> list[tuple[int, int]]:
+    """``(base column, leg)`` of every base parameter that is an actuated joint's Coulomb
+    friction alone (``K`` row with the single entry 1 at its FC): its column is
+    ``sign(qdot_a)`` on that actuator's row."""
+    if robot.description.is_ideal_ups:
+        return []
+    from stewart_pin.dynamics.regressor import parameter_groups
+
+    K = np.asarray(base.K)
+    out = []
+    for jp in parameter_groups(robot.description).joints:
+        if not jp.actuated:
+            continue
+        for row in np.flatnonzero(K[:, jp.coulomb]):
+            if np.count_nonzero(K[row]) == 1 and K[row, jp.coulomb] == 1.0:
+                out.append((int(row), jp.leg - 1))
+    return out
 
 
 @dataclass(frozen=True, eq=False)
