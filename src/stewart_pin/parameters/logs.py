@@ -537,7 +537,8 @@ def check_log(
         )
     step = float(np.median(dt))
     gaps = np.flatnonzero(dt > max_gap * step)
-    if gaps.size:
+    short = np.flatnonzero(dt < min_step * step)
+    if gaps.size and not (short.size and short[0] < gaps[0]):  # the first offence
         k = int(gaps[0]) + 1
         raise LogGapError(
             _error_at(
@@ -552,7 +553,6 @@ def check_log(
             column=TIME_COLUMN,
             value=float(dt[k - 1]),
         )
-    short = np.flatnonzero(dt < min_step * step)
     if short.size:
         k = int(short[0]) + 1
         raise LogTimeError(

@@ -77,7 +77,7 @@ from stewart_pin.exceptions import (
     LogTimeError,
     StewartPinError,
 )
-from stewart_pin.parameters.logs import ActuatorLog
+from stewart_pin.parameters.logs import ActuatorLog, check_log
 from stewart_pin.protocols import RobotLike
 
 #: Fraction of the positions' power below the excitation bandwidth.
@@ -590,8 +590,10 @@ def estimate_states(
     robot: RobotLike, log: ActuatorLog, design: FilterDesign | None = None
 ) -> EstimatedStates:
     """The platform states of every sample the state filter leaves (module docstring,
-    steps 1-4; no decimation). Memory grows with the log: for long logs use
+    steps 1-4; no decimation), after :func:`~stewart_pin.parameters.logs.check_log`.
+    Memory grows with the log: for long logs use
     :func:`stewart_pin.parameters.identification.identify_log`, which works in chunks."""
+    check_log(log, robot)
     design = design or design_filters(log)
     q, qd, qdd = filter_positions(design, log.positions)
     sl = slice(design.edge, len(log) - design.edge)
