@@ -141,19 +141,19 @@ BAD_LOGS = {
     # name: (how to spoil row 10 (0-based, line 12), error, extra read_log arguments)
     "gap": (lambda rows: [r for k, r in enumerate(rows) if k not in (10, 11)], LogGapError),
     "time goes back": (
-        lambda rows: rows[:10] + [[rows[8][0], *rows[10][1:]]] + rows[11:],
+        lambda rows: [*rows[:10], [rows[8][0], *rows[10][1:]], *rows[11:]],
         LogTimeError,
     ),
     "irregular step": (
-        lambda rows: rows[:10] + [[rows[9][0] + 0.001, *rows[10][1:]]] + rows[11:],
+        lambda rows: [*rows[:10], [rows[9][0] + 0.001, *rows[10][1:]], *rows[11:]],
         LogTimeError,
     ),
     "position outside the stroke": (
-        lambda rows: rows[:10] + [[*rows[10][:3], 9.0, *rows[10][4:]]] + rows[11:],
+        lambda rows: [*rows[:10], [*rows[10][:3], 9.0, *rows[10][4:]], *rows[11:]],
         LogLimitError,
     ),
     "non-finite effort": (
-        lambda rows: rows[:10] + [[*rows[10][:8], math.nan, *rows[10][9:]]] + rows[11:],
+        lambda rows: [*rows[:10], [*rows[10][:8], math.nan, *rows[10][9:]], *rows[11:]],
         LogValueError,
     ),
 }
@@ -426,7 +426,7 @@ def test_exciting_trajectory_respects_actuator_limits(rus):
     and the kinematics (independent of the penalty's own evaluation), and is better
     conditioned than a draw shrunk onto the same limits."""
     base = base_without(base_parameters(rus), ["K", "OF", "FV@passive", "FC@passive"])
-    draw, cond_draw = exciting_trajectory(
+    draw, _cond_draw = exciting_trajectory(
         rus, base=base, base_frequency=1.0, n_harmonics=2, optimise=False, n_samples=300
     )
     peaks = actuator_peaks(rus, draw)
