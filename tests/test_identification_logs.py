@@ -49,6 +49,7 @@ from stewart_pin.parameters.least_squares import StackedLeastSquares
 from stewart_pin.parameters.logs import ActuatorLog, hold_shift, read_log, write_log
 from stewart_pin.parameters.physical import physically_consistent, pseudo_inertia
 from stewart_pin.parameters.state_estimation import (
+    PolyphaseDecimator,
     decimation_centres,
     design_filters,
     estimate_states,
@@ -316,6 +317,18 @@ def test_chunked_fir_decimation_equals_the_whole_signal(ideal):
         start = int(c[0]) - design.half
         parts.append(fir_decimate(x[start : int(c[-1]) + design.half + 1], design.taps, c, start))
     np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-14)
+    # Streamed in batches of random sizes, each sample once (identify_log's way).
+    fir = PolyphaseDecimator(design.taps, centres)
+    got, a = [], 0
+    for size in np.random.default_rng(2).integers(1, 300, size=10_000):
+        if a >= len(log):
+            break
+        idx, (y,) = fir.push(a, x[a : a + size])
+        got.append((idx, y))
+        a += size
+    idx = np.concatenate([i for i, _ in got])
+    np.testing.assert_array_equal(idx, np.arange(len(centres)))
+    np.testing.assert_allclose(np.concatenate([y for _, y in got]), whole, rtol=0, atol=1e-14)
 
 
 def test_hold_shift_delays_by_half_a_sample():

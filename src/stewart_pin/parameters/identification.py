@@ -55,9 +55,9 @@ from stewart_pin.parameters.least_squares import (
 from stewart_pin.parameters.logs import ActuatorLog, check_log
 from stewart_pin.parameters.state_estimation import (
     FilterDesign,
+    PolyphaseDecimator,
     StateStream,
     design_filters,
-    fir_decimate,
 )
 from stewart_pin.protocols import RobotLike
 
@@ -762,31 +762,35 @@ def log_equations(
     actuated joints' Coulomb columns through the state filter, then both sides through
     the decimation filter). ``progress(done,
     total)`` is called after each chunk with the decimated samples done and in all.
+    The regressor is built ``chunk`` raw samples at a time, each sample once, and the
+    FIR filter accumulated as the samples arrive
+    (:class:`~stewart_pin.parameters.state_estimation.PolyphaseDecimator`): the working
+    memory is one chunk's regressor whatever the decimation.
     """
     stream = StateStream(robot, log, design)
-    total = len(stream.centres)
+    centres = stream.centres
+    total = len(centres)
     if total == 0:
         raise LogError(
             f"{log.source}: {len(log)} samples leave no decimated equation (the filters drop "
             f"{design.edge + design.half} samples at each end); record a longer log",
         )
-    outputs = max(1, int(chunk) // design.decimation)
     coulomb = _actuated_coulomb(robot, base)
-    done = 0
-    for centres, start, poses, V, A, efforts, signs in stream.chunks(outputs):
+    fir = PolyphaseDecimator(design.taps, centres)
+    poses_at = np.empty((total, 4, 4))
+    first, stop = int(centres[0]) - design.half, int(centres[-1]) + design.half + 1
+    for a, poses, V, A, efforts, signs in stream.batches(first, stop, chunk):
         W = base.regressor(poses, V, A)
         for column, leg in coulomb:  # the filtered signs of the raw velocities
             W[:, :, column] = 0.0
             W[:, leg, column] = signs[:, leg]
-        yield (
-            centres,
-            fir_decimate(W, design.taps, centres, start),
-            fir_decimate(efforts, design.taps, centres, start),
-            poses[centres - start],
-        )
-        done += len(centres)
-        if progress is not None:
-            progress(done, total)
+        inside = (centres >= a) & (centres < a + len(poses))
+        poses_at[inside] = poses[centres[inside] - a]
+        idx, (Wd, gd) = fir.push(a, W, efforts)
+        if len(idx):
+            yield centres[idx], Wd, gd, poses_at[idx]
+            if progress is not None:
+                progress(int(idx[-1]) + 1, total)
 
 
 def _actuated_coulomb(robot: RobotLike, base: BaseParameters) -> list[tuple[int, int]]:

@@ -606,11 +606,12 @@ def estimate_states(
 
 
 class StateStream:
-    """The states of a long log chunk by chunk, for the parallel decimation: each
-    :meth:`chunks` item covers the raw samples around a run of decimation centres.
+    """The states of a long log batch by batch, for the parallel decimation.
 
-    The filtered positions and derivatives are kept for the whole log (3 x 6 floats per
-    sample); poses are solved once each, the continuation carried across chunks.
+    The filtered positions, their derivatives, the filtered efforts and velocity signs
+    are kept for the whole log (6 floats a sample each); :meth:`batches` solves the poses
+    of consecutive runs of samples (each pose once, the continuation carried across
+    batches) and yields their states.
     """
 
     def __init__(self, robot: RobotLike, log: ActuatorLog, design: FilterDesign) -> None:
@@ -625,44 +626,66 @@ class StateStream:
         self.signs = smooth(design, signs)
         self.centres = decimation_centres(design, len(log))
         self.lines = np.arange(len(log)) + 2 if log.lines is None else log.lines
-        self._poses: np.ndarray | None = None
-        self._first = 0  # log index of self._poses[0]
 
-    def _poses_for(self, start: int, stop: int) -> np.ndarray:
-        """Poses of samples ``start:stop``; successive calls advance (each range starts
-        inside or at the end of the previous one and ends after it)."""
+    def batches(
+        self, start: int, stop: int, size: int
+    ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """Yield ``(a, poses, twists, accels, efforts, signs)`` for consecutive runs
+        ``a : a + len(poses)`` of at most ``size`` samples covering ``start:stop``: the
+        states, and the efforts and actuated joints' velocity signs through the state
+        filter."""
         q, lines, src = self.q, self.lines, self.log.source
-        if self._poses is None:
-            first = start_pose(self.robot, self.log, start)
-            poses = track_poses(self.robot, q[start:stop], first, lines[start:stop], src)
-        else:
-            prev, p0 = self._poses, self._first
-            end = p0 + len(prev)
-            if not (p0 <= start <= end <= stop):  # pragma: no cover - chunks() advances
-                raise InputError("StateStream: chunks must advance through the log")
-            tail = track_poses(
-                self.robot, q[end - 1 : stop], prev[-1], lines[end - 1 : stop], src
-            )[1:]
-            poses = np.concatenate([prev[start - p0 :], tail])
-        self._poses, self._first = poses, start
-        return poses
+        previous: np.ndarray | None = None
+        for a in range(start, stop, max(int(size), 1)):
+            b = min(stop, a + size)
+            if previous is None:
+                first = start_pose(self.robot, self.log, a)
+                poses = track_poses(self.robot, q[a:b], first, lines[a:b], src)
+            else:  # continued from the previous batch's last pose
+                poses = track_poses(self.robot, q[a - 1 : b], previous, lines[a - 1 : b], src)
+                poses = poses[1:]
+            previous = poses[-1]
+            V, A = platform_states(self.robot, poses, self.qd[a:b], self.qdd[a:b])
+            yield a, poses, V, A, self.efforts[a:b], self.signs[a:b]
 
-    def chunks(
-        self, outputs: int
-    ) -> Iterator[
-        tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-    ]:
-        """Yield ``(centres, start, poses, twists, accels, efforts, signs)``: up to
-        ``outputs`` decimation centres and, for the raw samples ``start : start +
-        len(poses)`` their FIR windows cover, the states, the efforts and the actuated
-        joints' velocity signs, both through the state filter."""
-        half = self.design.half
-        for m in range(0, len(self.centres), max(int(outputs), 1)):
-            centres = self.centres[m : m + outputs]
-            start, stop = int(centres[0]) - half, int(centres[-1]) + half + 1
-            poses = self._poses_for(start, stop)
-            V, A = platform_states(self.robot, poses, self.qd[start:stop], self.qdd[start:stop])
-            yield centres, start, poses, V, A, self.efforts[start:stop], self.signs[start:stop]
+
+class PolyphaseDecimator:
+    """The FIR filter ``taps`` evaluated at ``centres`` on a signal that arrives in
+    consecutive batches: ``y_m = sum_j h_j x[c_m + j - half]``, each input sample used
+    once (no overlap recomputed); outputs are released as soon as their window is
+    complete. The same numbers as :func:`fir_decimate` on the whole signal."""
+
+    def __init__(self, taps: np.ndarray, centres: np.ndarray) -> None:
+        self.h = np.asarray(taps, dtype=float)
+        self.half = (len(self.h) - 1) // 2
+        self.centres = np.asarray(centres, dtype=np.int64)
+        self.next = 0  # first output not yet released
+        self.open: dict[int, list[np.ndarray]] = {}
+
+    def push(self, a: int, *signals: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Add samples ``a : a + n`` of each signal (n, ...); return the indices of the
+        outputs completed (into ``centres``) and their values, one array per signal."""
+        n = signals[0].shape[0]
+        b = a + n
+        c, h, half = self.centres, self.h, self.half
+        m0 = int(np.searchsorted(c, a - half, side="left"))  # ends >= a
+        m1 = int(np.searchsorted(c, b + half, side="left"))  # starts < b
+        for m in range(max(m0, self.next), m1):
+            if m not in self.open:
+                self.open[m] = [np.zeros(x.shape[1:]) for x in signals]
+            lo, hi = max(a, int(c[m]) - half), min(b, int(c[m]) + half + 1)
+            taps = h[lo - (int(c[m]) - half) : hi - (int(c[m]) - half)]
+            for acc, x in zip(self.open[m], signals, strict=True):
+                acc += np.tensordot(taps, x[lo - a : hi - a], axes=1)
+        done = int(np.searchsorted(c, b - half, side="left"))  # windows ending before b
+        idx = np.arange(self.next, max(done, self.next))
+        finished = [self.open.pop(int(m)) for m in idx]
+        values = [
+            np.array([f[k] for f in finished]).reshape(len(idx), *x.shape[1:])
+            for k, x in enumerate(signals)
+        ]
+        self.next = max(self.next, done)
+        return idx, values
 
 
 __all__ = [
@@ -670,6 +693,7 @@ __all__ = [
     "CUTOFF_FACTOR",
     "EstimatedStates",
     "FilterDesign",
+    "PolyphaseDecimator",
     "StateStream",
     "decimation_centres",
     "design_filters",
