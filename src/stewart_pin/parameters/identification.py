@@ -11,6 +11,15 @@
    ``Gamma = W_b chi_b`` stacked over the samples; estimates with standard deviations.
 4. :func:`validation_error`: the relative RMS force prediction error on another trajectory.
 
+From a real robot's log of actuator positions and efforts
+(:class:`~stewart_pin.parameters.logs.ActuatorLog`), :func:`identify_log` estimates the
+states (:mod:`stewart_pin.parameters.state_estimation`), filters and decimates both
+sides of the model alike and accumulates the equations chunk by chunk
+(:class:`~stewart_pin.parameters.least_squares.StackedLeastSquares`: bounded memory);
+:func:`log_prediction_error` validates on another log; :func:`base_without` drops terms
+the model does not have; :mod:`stewart_pin.parameters.physical` fits physically
+consistent parameters. Every architecture (joint terms included).
+
 Every condition number here is that of the stacked base regressor with its columns scaled
 to unit norm (so it does not depend on units), the 2-norm ratio of its extreme singular
 values.
