@@ -16,6 +16,7 @@ import pytest
 from stewart_pin import StewartRobot
 from stewart_pin.check.general_legs import GeneralTreeSolver, reference_regressor
 from stewart_pin.description.general_hexapod import general_from_description
+from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND
 from stewart_pin.dynamics.general_legs import GeneralDynamics
 from stewart_pin.dynamics.regressor import (
     GENERAL_STANDARD_NAMES,
@@ -199,6 +200,27 @@ def test_joint_term_columns_at_rest_and_the_dead_band():
     np.testing.assert_allclose(
         W[:, joint_index(2, 3, "K")], q[1, 2] * W[:, joint_index(2, 3, "OF")], rtol=1e-14, atol=0
     )
+
+
+def test_coulomb_column_uses_the_dead_band_of_the_model():
+    """A twist whose leg 1 joint 2 rate is zero in exact arithmetic (round-off, within
+    COULOMB_DEAD_BAND): that joint's Coulomb column is zero (``sign(0) = 0``), as in the
+    inverse dynamics, and ``W chi`` still equals the model; the other joints move."""
+    robot = robot_named("random-rus-3")
+    T = robot.home_pose
+    basis = np.array([robot.leg_kinematics(T, e)[1][0, 1] for e in np.eye(6)])  # d qdot / d V
+    twist = np.array([0.01, -0.02, 0.015, 0.3, -0.2, 0.1])
+    twist -= (basis @ twist) / (basis @ basis) * basis
+    qdot = robot.leg_kinematics(T, twist)[1]
+    assert 0 < abs(qdot[0, 1]) <= COULOMB_DEAD_BAND or qdot[0, 1] == 0.0
+    assert np.abs(qdot).max() > 1e-3
+    accel = np.array([0.1, 0.2, -0.1, 1.0, 0.5, -0.3])
+    W = robot.regressor(T, twist, accel)
+    assert not W[:, joint_index(1, 2, "FC")].any()
+    assert np.all(np.abs(W[:, joint_index(1, 3, "FC")]) > 0)
+    gamma = robot.inverse_dynamics(T, twist, accel)
+    chi = standard_parameters(robot.description)
+    assert np.abs(W @ chi - gamma).max() <= 1e-12 * np.abs(gamma).max()
 
 
 def test_motor_side_regressor_divides_by_the_transmission_ratio():

@@ -15,7 +15,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import stewart_pin
 from stewart_pin import (
     ArchitectureError,
     DescriptionError,
@@ -408,7 +407,7 @@ def test_cli_idm_on_rus(tmp_path, capsys):
     assert relative_error(rows[:, 1:], ref) < TOL
 
 
-@pytest.mark.parametrize("command", ["cost", "base-params", "bench", "identify"])
+@pytest.mark.parametrize("command", ["cost", "bench", "identify"])
 def test_cli_six_ups_only_commands_refuse(command, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main([command, "--preset", "rus"]) == 2
@@ -436,17 +435,17 @@ def test_cli_urdf_of_general_legs_loads_with_its_joint_terms(tmp_path, monkeypat
 
 # ---------------------------------------------------------------------- review fixes
 def test_parameters_and_the_compiled_backend_refuse_general_legs():
-    """The paper's grouping rules assume R-R-P legs: a RUS robot gets a named error, not
-    88 wrongly grouped parameters; the compiled library is generated for 6-UPS legs."""
+    """The paper's 88 grouped parameters and Table III assume its R-R-P legs: a RUS robot
+    gets a named error, not 88 wrongly grouped parameters (its base parameters are
+    tests/test_general_base_params.py's); the compiled library is generated for 6-UPS
+    legs."""
     from stewart_pin.codegen.compiled import CompiledDynamics
-    from stewart_pin.parameters.base import analytic_base_parameters, essential_parameters
+    from stewart_pin.parameters.base import grouped_parameters, paper_essential_parameters
 
     robot = StewartRobot.from_preset("rus")
     for call in (
-        lambda: stewart_pin.base_parameters(robot),
-        lambda: stewart_pin.base_parameters(robot, "numerical"),
-        lambda: analytic_base_parameters(robot.description),
-        lambda: essential_parameters(robot),
+        lambda: grouped_parameters(robot.description),
+        lambda: paper_essential_parameters(robot),
         lambda: CompiledDynamics(robot),
     ):
         with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only"):

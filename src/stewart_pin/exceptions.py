@@ -96,8 +96,9 @@ class ArchitectureError(DescriptionError):
 
 class UnsupportedArchitectureError(ArchitectureError):
     """A feature that is 6-UPS-only for now asked of a robot with general legs (the
-    compiled backend, the regressor and base parameters, identification, URDF export of
-    the 6-UPS tree...): the message names the feature and what works instead.
+    compiled backend, identification, URDF export of the 6-UPS tree, the paper's 88
+    grouped parameters...), or the analytic base parameters of ``custom`` legs: the
+    message names the feature and what works instead.
 
     Attributes:
         field: the feature. value: the robot's architecture (``"rus"``, ``"mixed"``...).
@@ -364,8 +365,9 @@ class StewartPinWarning(UserWarning):
 
 class BaseParameterWarning(StewartPinWarning):
     """Base parameters that are identifiable in exact arithmetic but barely act on the
-    forces (a first U-joint axis within a hair of gravity, a near-zero gravity), or a
-    numerical rank decided within a narrow margin of its tolerance."""
+    forces (a first U-joint axis within a hair of gravity, a near-zero gravity, joint axes
+    a hair off parallel), a numerical rank decided within a narrow margin of its
+    tolerance, or the numerical set given for an analytic one (``custom`` legs)."""
 
 
 class ApproximationWarning(StewartPinWarning):

@@ -119,7 +119,7 @@ def refuse_general(command: str, robot: StewartRobot) -> UnsupportedArchitecture
     """The error of a 6-UPS-only command given a robot with general legs."""
     return UnsupportedArchitectureError(
         f"{command} is 6-UPS-only for now: robot '{robot.name}' has {robot.architecture} legs "
-        "(general legs work with ik, idm, validate and simulate)",
+        "(general legs work with ik, idm, validate, simulate and base-params)",
         command,
         robot.architecture,
     )

@@ -22,31 +22,52 @@ from stewart_pin.cli._common import robot_from_args as _robot
 
 def _cmd_base_params(args: argparse.Namespace) -> int:
     from stewart_pin.parameters.base import base_parameters, numerical_base_parameters
+    from stewart_pin.parameters.general_base import uncovered_legs
 
-    robot = _robot(args, "base-params")
+    robot = _robot(args)
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
-    bp = numerical if args.method == "numerical" else base_parameters(robot, "analytic")
-    print(f"robot '{robot.name}': {len(bp)} {args.method} base parameters of 190 standard")
+    desc = robot.description
+    method = args.method
+    if method == "analytic" and desc.legs is not None and uncovered_legs(desc):
+        print(
+            f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "
+            "analytic grouping rules do not cover: showing the numerical base parameters"
+        )
+        method = "numerical"
+    bp = numerical if method == "numerical" else base_parameters(robot, "analytic")
+    n = len(bp.standard_names)
+    print(f"robot '{robot.name}': {len(bp)} {method} base parameters of {n} standard")
     print(bp.table())
+    if desc.legs is not None:
+        print(
+            f"\njoint terms: {len(bp.joint_terms)} base parameters are joint terms of their "
+            "own (IA armature [kg m^2 or kg], FV viscous friction, FC Coulomb friction, "
+            "K stiffness, OF offset: a constant effort, -K q0 of a spring); the others may "
+            "hold some too (an armature grouped into ZZ, a slide's mass into IA and OF)"
+        )
     print(f"\nnumerical rank: {rank}")
     from stewart_pin.parameters.base import essential_parameters, paper_essential_parameters
 
-    ess = essential_parameters(robot, args.threshold, n_states=args.states, seed=args.seed)
-    paper = paper_essential_parameters(robot, n_states=args.states, seed=args.seed)
+    base = None if desc.is_ideal_ups else bp  # 6-UPS: the paper's analytic set, as before
+    ess = essential_parameters(
+        robot, args.threshold, n_states=args.states, seed=args.seed, base=base
+    )
     print(
-        f"\n190 standard -> {len(bp)} base -> {len(ess)} essential parameters (those left when "
+        f"\n{n} standard -> {len(bp)} base -> {len(ess)} essential parameters (those left when "
         f"the base parameters changing the forces by less than {args.threshold:g} relative "
         f"are removed; the kept set predicts the forces to {ess.relative_error:.3g}):"
     )
     for name, value in zip(ess.names, ess.values, strict=True):
         print(f"{name:>16s} {value:14.6g}")
-    print(
-        f"the paper's Table III set ({len(paper)} parameters: 7 per leg + 10) predicts the "
-        f"forces of this robot to {paper.relative_error:.3g} relative"
-    )
+    if desc.is_ideal_ups:
+        paper = paper_essential_parameters(robot, n_states=args.states, seed=args.seed)
+        print(
+            f"the paper's Table III set ({len(paper)} parameters: 7 per leg + 10) predicts "
+            f"the forces of this robot to {paper.relative_error:.3g} relative"
+        )
     if rank.rank != len(bp):
         print(
-            f"warning: the numerical rank {rank.rank} differs from the {len(bp)} {args.method} "
+            f"warning: the numerical rank {rank.rank} differs from the {len(bp)} {method} "
             "base parameters: this geometry makes some of them unidentifiable (or the "
             "tolerance is off); use --method numerical"
         )

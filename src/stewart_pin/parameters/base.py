@@ -139,7 +139,13 @@ class BaseParameters:
     def table(self) -> str:
         """A readable table: name, value, and the grouping relation."""
         lines = [f"{'base parameter':>16s} {'value':>14s}   grouping"]
-        for name, value, row in zip(self.names, self.values, self.K, strict=True):
+        first_joint = self.joint_terms[0] if len(self.joint_terms) else -1
+        for k, (name, value, row) in enumerate(zip(self.names, self.values, self.K, strict=True)):
+            if k == first_joint:
+                lines.append(
+                    "  -- joint terms: IA armature, FV viscous friction, FC Coulomb friction, "
+                    "K stiffness, OF offset (constant effort) --"
+                )
             lines.append(f"{name:>16s} {value:14.6g}   {_relation(row, self.standard_names)}")
         return "\n".join(lines)
 

@@ -6,8 +6,9 @@ The standard vector is that of :mod:`stewart_pin.dynamics.regressor` (280 parame
 18 links and the platform, then ``IA FV FC K OF`` per joint). A *relation* says that one
 standard parameter's regressor column is a fixed combination of others',
 ``W_p = sum_k c_k W_k``; eliminating ``p`` then adds ``c_k chi_p`` to each ``chi_k``. The
-relations below are applied to each leg from its last link to its first, so that every
-parameter a relation adds to is still in the set; what remains is the base set, with
+relations below are applied to each leg from its last link to its first (rules 2 to 6),
+then the loop (rule 1), so that every parameter a relation adds to is still in the set;
+what remains is the base set, with
 ``chi_b = K chi`` and ``W chi = W[:, kept] chi_b``.
 
 Relations (leg i, link j in its MDH frame ``ji`` about its origin ``O_j``; ``A_j`` the
@@ -15,15 +16,16 @@ linear map of a body's parameters from frame j to frame j-1 at ``q_j = 0``, Khal
 ``Rx(alpha_j) Tx(d_j) Rz(theta_j) Tz(r_j)``, i.e.
 :func:`~stewart_pin.description.inertia.transform_khalil`):
 
-1. **Loop (last link, j = 3).** Link 3 holds the spherical joint's centre P_i at ``t``
-   (the leg's ``tip``) in frame 3, and P_i moves with the platform: link 3 is "link 3
-   without a point mass M3 at P_i" plus "a point mass M3 at P_i of the platform", so
-   ``W_M3 = sum_k u_k W_k,platform - sum_{k != M} v_k W_k,3`` with ``u`` a unit point mass
-   at P_i in Fp about O_p (``|l|^2 I - l l^T, l, 1``, ``l`` the platform point) and ``v``
-   one at ``t`` in frame 3 about O3. For ``ups`` legs (``t = 0``) this is the paper's
-   eq. 56-66: ``XX_RP = XX_P + sum M3 (l_y^2 + l_z^2)``...; for ``rus``, ``pus`` (the rod's
-   frame at the universal joint) M3 also moves link 3's first moments and tensor:
-   ``MX3R = MX3 - t_x M3``, ``XX3R = XX3 - (t_y^2 + t_z^2) M3``...
+1. **Loop.** Link 3 holds the spherical joint's centre P_i at ``t`` (the leg's ``tip``)
+   in frame 3, and P_i moves with the platform: a unit point mass at P_i is part of link
+   3 (parameters ``v = (|t|^2 I - t t^T, t, 1)`` in frame 3 about O3) or of the platform
+   (``u`` likewise with the platform point ``l``, in Fp about O_p), so
+   ``W_3 v = W_platform u``. Applied after the leg's other rules, this relation
+   eliminates M3 when it is still there (``ups`` legs, ``t = 0``: the paper's eq. 56-66,
+   ``XX_RP = XX_P + sum M3 (l_y^2 + l_z^2)``, ..., ``M_RP = M_P + sum M3``), else the
+   first moment of link 3 along the rod (``rus``, ``pus``: their M3 went to link 2 by
+   rule 2, and a rod along x3 of length ``t_x`` gives ``M_RP = M_P + sum MX3 / t_x``,
+   ``XX_RP = XX_P + sum (l_y^2 + l_z^2) MX3 / t_x``, ...).
 2. **Revolute joint j** (Khalil's general rule): the body ``Delta`` (``XX = YY = YY_j``,
    ``MZ_j``, ``M_j``) is invariant under rotations about z_j, so it moves with link j-1:
    ``W_YYj = -W_XXj + W_{j-1} A_j (e_XX + e_YY)``, ``W_MZj = W_{j-1} A_j e_MZ``,
@@ -117,7 +119,8 @@ class _Grouping:
         return cls(np.eye(n), np.ones(n, dtype=bool))
 
     def relate(self, p: int, coefficients: dict[int, float]) -> None:
-        """``W_p = sum_k c_k W_k``: eliminate p (every k must still be in the set)."""
+        """``W_p = sum_k c_k W_k``: eliminate p (every k must still be in the set; a p
+        already eliminated, e.g. by a particular case, is left as it is)."""
         if not self.alive[p]:
             return
         for k, c in coefficients.items():
@@ -127,10 +130,6 @@ class _Grouping:
             self.E[k] += c * self.E[p]
         self.E[p] = 0.0
         self.alive[p] = False
-
-    def drop(self, p: int) -> None:
-        """``W_p = 0``."""
-        self.relate(p, {})
 
 
 @dataclass(frozen=True)
@@ -264,7 +263,10 @@ def _leg_rules(
             w_prev = _angular_velocity(leg, s, j - 1)
             along = np.einsum("si,si->s", w_prev, s.z[:, j - 1])[:, None]
             norm = np.linalg.norm(s.qd, axis=1)[:, None]
-            if _null_combinations(along / norm, GEOMETRY_TOLERANCE, []).shape[1]:
+            found_a: list[float] = []
+            perpendicular = _null_combinations(along / norm, GEOMETRY_TOLERANCE, found_a)
+            weak.extend((f"leg {i} joint {j} (armature)", x) for x in found_a)
+            if perpendicular.shape[1]:
                 g.relate(joint_index(i, j, "IA"), {_link(i, j, _ZZ): 1.0})
             # 2. YY_j, MZ_j, M_j into link j-1
             g.relate(_link(i, j, _YY), {_link(i, j, _XX): -1.0, **to_parent(e[_XX] + e[_YY])})
