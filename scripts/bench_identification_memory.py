@@ -46,7 +46,8 @@ def write_bench_log(robot: StewartRobot, path: Path, samples: int, rate: float) 
     s0 = fourier.sample(t0)
     rms = np.sqrt(np.mean(robot.inverse_dynamics(s0.poses, s0.twists, s0.accels) ** 2, axis=0))
     with open(path, "w") as f:
-        f.write("# efforts: sample\nt,l1,l2,l3,l4,l5,l6,gamma1,gamma2,gamma3,gamma4,gamma5,gamma6\n")
+        f.write("# efforts: sample\n")
+        f.write("t,l1,l2,l3,l4,l5,l6,gamma1,gamma2,gamma3,gamma4,gamma5,gamma6\n")
         for start in range(0, samples, CHUNK):
             t = np.arange(start, min(samples, start + CHUNK)) / rate
             s = fourier.sample(t)

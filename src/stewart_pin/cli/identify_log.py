@@ -13,7 +13,12 @@ import argparse
 from pathlib import Path
 
 from stewart_pin._io import write_text_atomic
-from stewart_pin.cli._common import check_output, progress_bar
+from stewart_pin.cli._common import (
+    check_output,
+    positive_finite_float,
+    positive_int,
+    progress_bar,
+)
 from stewart_pin.cli._common import robot_from_args as _robot
 from stewart_pin.exceptions import InputError
 
@@ -135,12 +140,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--validation-log", help="a second actuator log to validate the prediction on")
     g.add_argument(
         "--cutoff",
-        type=float,
+        type=positive_finite_float,
         help="state filter cut-off [Hz] (default: 10 times the excitation bandwidth)",
     )
     g.add_argument(
         "--decimation",
-        type=int,
+        type=positive_int,
         help="decimation factor (default: from the bandwidth; 1: none)",
     )
     g.add_argument(
