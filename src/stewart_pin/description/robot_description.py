@@ -62,22 +62,15 @@ REQUIRED_KEYS = (
 #: Optional keys: ``name`` (str), ``u_joint_limits`` ((2, 2) or (6, 2, 2) [rad]),
 #: ``home_pose`` (4x4 0Tp: the workspace centre and forward geometry's default guess) and
 #: ``legs`` (six leg tables, :mod:`stewart_pin.description.leg_io`; with ``legs``,
-#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required), and the
-#: actuators' limits :data:`ACTUATOR_LIMIT_KEYS`.
-OPTIONAL_KEYS = (
-    "name",
-    "u_joint_limits",
-    "home_pose",
-    "legs",
-    "effort_limits",
-    "velocity_limits",
-    "acceleration_limits",
-)
+#: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required).
+OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs")
 #: Optional limits of the six actuated joints, each one positive number for all or six
 #: (absent: unbounded): ``effort_limits`` [N or N m, joint side], ``velocity_limits``
 #: [m/s or rad/s], ``acceleration_limits`` [m/s^2 or rad/s^2]. Exciting trajectories for
 #: identification respect them and a log's efforts at the limit count as saturated.
 ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
+# (appended here, a line apart, so that other optional keys merge in above)
+OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignment]
 
 #: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
 #: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
@@ -131,10 +124,11 @@ class RobotDescription:
     # None (or a pin.SE3) is accepted at construction; __post_init__ stores the 4x4 (the
     # upright pose when None), so the attribute is always a pose.
     home_pose: np.ndarray = None  # type: ignore[assignment]
-    legs: tuple[LegArchitecture, ...] | None = None
+    # the actuated joints' limits (ACTUATOR_LIMIT_KEYS), (6,) each, or None
     effort_limits: np.ndarray | None = None
     velocity_limits: np.ndarray | None = None
     acceleration_limits: np.ndarray | None = None
+    legs: tuple[LegArchitecture, ...] | None = None
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
@@ -519,8 +513,7 @@ FILE_HEADER = """\
 #   XX XY XZ YY YZ ZZ MX MY MZ M, in each link's MDH frame about its origin.
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. Optional: u_joint_limits [[q1min, q1max], [q2min, q2max]] (rad),
-#   home_pose: 0Tp (4 x 4), the workspace centre; effort_limits [N], velocity_limits
-#   [m/s], acceleration_limits [m/s^2] of the six actuators.
+#   home_pose: 0Tp (4 x 4), the workspace centre.
 """
 
 #: The header of a robot with general legs: no stroke, no U-joint limits (the joint limits
@@ -535,8 +528,6 @@ GENERAL_FILE_HEADER = """\
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose, the workspace
 #   centre. No stroke nor u_joint_limits: each joint's limits are in [[legs.joints]].
-# Optional: effort_limits [N or N m], velocity_limits [m/s or rad/s],
-#   acceleration_limits [m/s^2 or rad/s^2] of the six actuated joints.
 """
 
 LEGS_HEADER = """
