@@ -18,9 +18,15 @@ expected, what was received and how to fix it::
     │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file
-    │   └── ModelImportError                 a model file that is not a six-legged platform
-    │       ├── LoopClosureError             loops that do not close at the reference
-    │       └── RodSpinError                 an S-S rod whose spin cannot be removed exactly
+    │   ├── ModelImportError                 a model file that is not a six-legged platform
+    │   │   ├── LoopClosureError             loops that do not close at the reference
+    │   │   └── RodSpinError                 an S-S rod whose spin cannot be removed exactly
+    │   └── LogError                         a measurement log unfit for identification
+    │       ├── LogValueError                a non-numeric or non-finite value
+    │       ├── LogTimeError                 time stamps that do not increase, or irregular
+    │       ├── LogGapError                  a gap in the time stamps (samples missing)
+    │       ├── LogSaturationError           an effort at its actuator's limit (clipped)
+    │       └── LogLimitError                a position outside the stroke / joint limits
     ├── WorkspaceError (ValueError)          a pose the robot cannot reach
     │   ├── StrokeLimitError                 a leg length outside its stroke
     │   ├── JointLimitError                  a U-joint angle outside its limits
@@ -470,3 +476,50 @@ class ModelImportWarning(StewartPinWarning):
     """An import that proceeded after a correction or by ignoring something the file holds
     (loops assembled from a small residual, an S-S rod's asymmetric spin inertia accepted
     by option, a spherical joint's limits): the message says what and how much."""
+
+
+# ---------------------------------------------------------------------------- logs
+class LogError(FileFormatError):
+    """A measurement log (actuator positions and efforts) that identification cannot use
+    as it is; the message names the file and line.
+
+    Attributes:
+        line: the line of the file (1-based; for a log built in memory, the sample index
+            + 2, as if written with a header), or ``None``.
+        column: the column's name (``"t"``, ``"l3"``, ``"gamma2"``...), or ``None``.
+        value: the offending value, or ``None``.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        line: int | None = None,
+        column: str | None = None,
+        value: object = None,
+    ) -> None:
+        super().__init__(message)
+        self.line, self.column, self.value = line, column, value
+
+
+class LogValueError(LogError):
+    """A field that is not a number, or a non-finite one (``nan``, ``inf``)."""
+
+
+class LogTimeError(LogError):
+    """Time stamps that do not increase, or a step far below the median (irregular
+    sampling the filters cannot take as uniform)."""
+
+
+class LogGapError(LogError):
+    """A gap in the time stamps: a step longer than the allowed multiple of the median
+    (samples were lost; split the log there)."""
+
+
+class LogSaturationError(LogError):
+    """An actuator effort at its limit, or stuck at its extreme value over consecutive
+    samples: a drive or sensor that clipped, so the logged effort is not the applied one."""
+
+
+class LogLimitError(LogError):
+    """An actuator position outside its stroke or joint limits (a wrong offset, unit or
+    column order, or a robot description that does not match the log)."""

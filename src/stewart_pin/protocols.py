@@ -88,6 +88,17 @@ class RobotLike(Protocol):
         the ideal 6-UPS robot, 280 for general legs (their joint terms included)."""
         ...
 
+    def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None) -> Pose:
+        """The pose 0Tp (4, 4) with actuated joint values ``lengths`` (6,), Newton from
+        ``guess``."""
+        ...
+
+    def leg_kinematics(
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
+        """``(q, qdot, qddot)`` of the legs, each (6, 3) or (N, 6, 3)."""
+        ...
+
     def sample_states(
         self,
         n: int,

@@ -8,6 +8,7 @@ import numpy as np
 
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import file_in_folder
+from stewart_pin.cli import identify_log
 from stewart_pin.cli._common import (
     add_robot_args,
     check_output,
@@ -74,6 +75,8 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
+    if args.log:  # from an actuator log: stewart_pin.cli.identify_log
+        return identify_log.run(args)
     from stewart_pin.parameters.base import base_parameters
     from stewart_pin.parameters.identification import (
         exciting_trajectory,
@@ -187,7 +190,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="identify the base parameters from a CSV log, or from simulated measurements",
         description="Without --csv: optimise an exciting trajectory, simulate noisy forces "
         "(written as CSV, the format --csv reads: docs/identification.md), identify and "
-        "compare with the true values. With --csv: identify from the log.",
+        "compare with the true values. With --csv: identify from the log. With --log: from "
+        "a log of actuator positions and efforts (what a robot measures): state "
+        "estimation, parallel decimation, weighted least squares in bounded memory, and "
+        "with --physical a physically consistent robot.",
     )
     add_robot_args(p)
     p.add_argument("--csv", help="measurement log (t,x,y,z,qx,qy,qz,qw,...,gamma6; SI units)")
@@ -214,4 +220,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--ols", action="store_true", help="ordinary instead of weighted LS")
     p.add_argument("-o", "--output", help="write the report there too (and the CSV beside)")
+    identify_log.add_arguments(p)
     p.set_defaults(func=_cmd_identify)

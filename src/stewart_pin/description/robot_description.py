@@ -66,6 +66,13 @@ REQUIRED_KEYS = (
 #: ``stroke`` and ``u_joint_limits`` are left out and ``home_pose`` is required) and
 #: ``source`` (where an imported robot came from: :mod:`.model_source`).
 OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs", "source")
+#: Optional limits of the six actuated joints, each one positive number for all or six
+#: (absent: unbounded): ``effort_limits`` [N or N m, joint side], ``velocity_limits``
+#: [m/s or rad/s], ``acceleration_limits`` [m/s^2 or rad/s^2]. Exciting trajectories for
+#: identification respect them and a log's efforts at the limit count as saturated.
+ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
+# (appended here, a line apart, so that other optional keys merge in above)
+OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignment]
 
 #: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
 #: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
@@ -119,6 +126,10 @@ class RobotDescription:
     # None (or a pin.SE3) is accepted at construction; __post_init__ stores the 4x4 (the
     # upright pose when None), so the attribute is always a pose.
     home_pose: np.ndarray = None  # type: ignore[assignment]
+    # the actuated joints' limits (ACTUATOR_LIMIT_KEYS), (6,) each, or None
+    effort_limits: np.ndarray | None = None
+    velocity_limits: np.ndarray | None = None
+    acceleration_limits: np.ndarray | None = None
     legs: tuple[LegArchitecture, ...] | None = None
     # where an imported robot came from (file names of its bodies and joints), or None
     source: ModelSource | None = None
@@ -164,6 +175,9 @@ class RobotDescription:
                 T = check_array(pose, (4, 4), key).copy()
                 T[:3, :3] = project_rotation(T[:3, :3], "home_pose rotation block", stacklevel=4)
                 set_(key, check_pose(T, key))
+            for key in ACTUATOR_LIMIT_KEYS:
+                if getattr(self, key) is not None:
+                    set_(key, _actuator_limits(getattr(self, key), key))
         except InputError as e:
             raise _field_error(key, f"robot description '{self.name}': {e}") from e
         self._check_points()
@@ -283,7 +297,7 @@ class RobotDescription:
         for key in REQUIRED_KEYS:
             if getattr(self, key) is not None:
                 d[key] = getattr(self, key).tolist()
-        for key in ("u_joint_limits", "home_pose"):
+        for key in ("u_joint_limits", "home_pose", *ACTUATOR_LIMIT_KEYS):
             if getattr(self, key) is not None:
                 d[key] = getattr(self, key).tolist()
         if self.legs is not None:
@@ -468,6 +482,19 @@ def _no_repeated_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
             raise FileFormatError(f"key {key!r} is given twice")
         out[key] = value
     return out
+
+
+def _actuator_limits(value: Any, key: str) -> np.ndarray:
+    """One of :data:`ACTUATOR_LIMIT_KEYS`: a positive finite number, or six, as (6,)."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        value = [float(value)] * 6
+    limits = check_array(value, (6,), key)
+    if np.any(limits <= 0):
+        raise InputError(
+            f"{key} must be positive (one number for every actuator, or six), got "
+            f"{limits.tolist()}; leave the key out for unbounded actuators"
+        )
+    return limits
 
 
 def _field_error(key: str, message: str) -> DescriptionError:

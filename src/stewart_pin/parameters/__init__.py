@@ -1,6 +1,9 @@
 """Inertial parameters: base (numerical by QR, analytic by the paper's grouping rules,
 eq. 44-50) and essential parameters, and their identification from measurements
-(exciting trajectories, weighted least squares with confidence intervals).
+(exciting trajectories, weighted least squares with confidence intervals), from a
+robot's logs of actuator positions and efforts (:mod:`.logs`, :mod:`.state_estimation`,
+:mod:`.least_squares`: chunked, bounded memory) and physically consistent estimates
+(:mod:`.physical`).
 
 Stands on the regressor of :mod:`stewart_pin.dynamics`.
 """
@@ -15,28 +18,45 @@ from .base import (
     paper_essential_parameters,
 )
 from .identification import (
+    ActuatorLimits,
     IdentificationResult,
+    LogIdentification,
     Measurements,
+    base_without,
     exciting_trajectory,
     identify,
+    identify_log,
+    log_prediction_error,
     read_measurements_csv,
     simulate_measurements,
     write_measurements_csv,
 )
+from .logs import ActuatorLog, read_log, write_log
+from .physical import PhysicalEstimate, physically_consistent
 
 __all__ = [
+    "ActuatorLimits",
+    "ActuatorLog",
     "BaseParameters",
     "EssentialParameters",
     "IdentificationResult",
+    "LogIdentification",
     "Measurements",
+    "PhysicalEstimate",
     "analytic_base_parameters",
     "base_parameters",
+    "base_without",
     "essential_parameters",
     "exciting_trajectory",
     "identify",
+    "identify_log",
+    "log_prediction_error",
     "numerical_base_parameters",
     "paper_essential_parameters",
+    "physically_consistent",
+    "read_log",
     "read_measurements_csv",
     "simulate_measurements",
+    "write_log",
     "write_measurements_csv",
 ]

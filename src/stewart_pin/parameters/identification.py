@@ -11,6 +11,15 @@
    ``Gamma = W_b chi_b`` stacked over the samples; estimates with standard deviations.
 4. :func:`validation_error`: the relative RMS force prediction error on another trajectory.
 
+From a real robot's log of actuator positions and efforts
+(:class:`~stewart_pin.parameters.logs.ActuatorLog`), :func:`identify_log` estimates the
+states (:mod:`stewart_pin.parameters.state_estimation`), filters and decimates both
+sides of the model alike and accumulates the equations chunk by chunk
+(:class:`~stewart_pin.parameters.least_squares.StackedLeastSquares`: bounded memory);
+:func:`log_prediction_error` validates on another log; :func:`base_without` drops terms
+the model does not have; :mod:`stewart_pin.parameters.physical` fits physically
+consistent parameters. Every architecture (joint terms included).
+
 Every condition number here is that of the stacked base regressor with its columns scaled
 to unit norm (so it does not depend on units), the 2-norm ratio of its extreme singular
 values.
@@ -19,6 +28,7 @@ values.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -27,10 +37,12 @@ import numpy as np
 import scipy.optimize
 
 from stewart_pin._checks import check_array
+from stewart_pin.description.leg_architecture import wrap_into_limits
+from stewart_pin.dynamics.regressor import N_STANDARD
 from stewart_pin.exceptions import (
     FileFormatError,
-    IdentificationError,
     InputError,
+    LogError,
     StewartPinError,
     WorkspaceError,
 )
@@ -43,10 +55,19 @@ from stewart_pin.formats.csv_tables import (
     states_from_table,
     write_csv,
 )
-from stewart_pin.kinematics.geometry import inverse_geometry_batch, leg_vectors
-from stewart_pin.kinematics.jacobians import condition_number_batch
 from stewart_pin.motion.trajectories import FourierTrajectory, Trajectory
-from stewart_pin.parameters.base import RANK_TOLERANCE, BaseParameters, base_parameters
+from stewart_pin.parameters.base import BaseParameters, base_parameters
+from stewart_pin.parameters.least_squares import (
+    LeastSquaresSolution,
+    StackedLeastSquares,
+)
+from stewart_pin.parameters.logs import ActuatorLog, check_log
+from stewart_pin.parameters.state_estimation import (
+    FilterDesign,
+    PolyphaseDecimator,
+    StateStream,
+    design_filters,
+)
 from stewart_pin.protocols import RobotLike
 
 # ====================================================================== exciting trajectories
@@ -57,6 +78,77 @@ def _base_of(robot: RobotLike, base: BaseParameters | None) -> BaseParameters:
     if base is None:
         return base_parameters(robot, "analytic")
     return base if base.robot is robot else replace(base, robot=robot)
+
+
+def base_without(base: BaseParameters, zero: Any) -> BaseParameters:
+    """The base parameters of a model in which some standard parameters are known to be
+    zero (a joint without a spring, a sensor without an offset): ``W chi = W_b K chi``
+    with those entries of ``chi`` zero keeps the rows of ``K`` that still have a term,
+    and the regressor columns of the others drop out (exact: the forces of every ``chi``
+    with those entries zero are unchanged).
+
+    Args:
+        base: the full base set.
+        zero: standard parameter names (``"K2_4"``), or joint-term kinds (``"K"``,
+            ``"OF"``, ``"IA"``, ``"FV"``, ``"FC"``) meaning that term of every joint, or
+            ``"K@passive"`` (``"OF@passive"``...) meaning it for the passive joints only.
+
+    Raises:
+        InputError: an unknown name, or a base set whose remaining rows are dependent.
+    """
+    names = base.standard_names
+    n = len(names)
+    mask = np.zeros(n, dtype=bool)
+    kinds = ("IA", "FV", "FC", "K", "OF")
+    robot = base.robot
+    passive: set[int] = set()
+    if robot is not None and not robot.description.is_ideal_ups:
+        from stewart_pin.dynamics.regressor import parameter_groups
+
+        for jp in parameter_groups(robot.description).joints:
+            if not jp.actuated:
+                passive.update(range(jp.index.start, jp.index.stop))
+    for item in [zero] if isinstance(zero, str) else list(zero):
+        kind, _, where = str(item).partition("@")
+        if kind in kinds and where in ("", "passive"):
+            hits = [k for k in range(N_STANDARD, n) if _term_kind(names[k]) == kind]
+            if where == "passive":
+                hits = [k for k in hits if k in passive]
+            mask[hits] = True
+        elif item in names:
+            mask[names.index(item)] = True
+        else:
+            raise InputError(
+                f"unknown standard parameter or joint term {item!r}: give names such as "
+                f"'K2_4', kinds {kinds}, or 'K@passive'"
+            )
+    K = np.where(mask[None, :], 0.0, base.K)
+    rows = np.flatnonzero(np.any(K != 0.0, axis=1))
+    K = K[rows]
+    if np.linalg.matrix_rank(K) < len(rows):  # pragma: no cover - the rules keep them apart
+        raise InputError("the remaining base parameters are dependent; use method='numerical'")
+    chi_true = None
+    if robot is not None:
+        from stewart_pin.dynamics.regressor import standard_parameters
+
+        chi_true = standard_parameters(robot.description)
+    values = K @ chi_true if chi_true is not None else base.values[rows]
+    return replace(
+        base,
+        names=tuple(base.names[k] for k in rows),
+        K=K,
+        kept=np.asarray(base.kept)[rows],
+        values=values,
+    )
+
+
+def _term_kind(name: str) -> str:
+    """``"K"`` of ``"K2_4"``, ``"IA"`` of ``"IA1R_3"``, ``""`` for an inertial name."""
+    for kind in ("IA", "FV", "FC", "OF", "K"):
+        rest = name[len(kind) :]
+        if name.startswith(kind) and rest[:1].isdigit():
+            return kind
+    return ""
 
 
 def _stacked(
@@ -94,33 +186,116 @@ def regressor_condition_number(W: np.ndarray) -> float:
     return float(s[0] / s[-1])
 
 
-class _Workspace:
-    """How far a Fourier trajectory leaves the allowed workspace (0 when inside)."""
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """Bounds on the six actuated joints an exciting trajectory must respect (each (6,)
+    or ``None`` for none): ``effort`` [N or N m, joint side], ``velocity`` [m/s or
+    rad/s], ``acceleration`` [m/s^2 or rad/s^2]."""
 
-    def __init__(self, robot: RobotLike, times: np.ndarray, max_condition: float, margin: float):
+    effort: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, robot: RobotLike) -> ActuatorLimits:
+        """The limits of the robot's description (``effort_limits``, ...)."""
+        d = robot.description
+        return cls(d.effort_limits, d.velocity_limits, d.acceleration_limits)
+
+    @property
+    def any(self) -> bool:
+        return any(x is not None for x in (self.effort, self.velocity, self.acceleration))
+
+
+class _Workspace:
+    """How far a Fourier trajectory leaves the allowed workspace (0 when inside): every
+    joint of every leg a ``margin`` (fraction of its range) inside its limits, cond(Jp^-1)
+    below ``max_condition``, and the actuated joints' efforts, velocities and
+    accelerations within ``1 - margin`` of their limits."""
+
+    def __init__(
+        self,
+        robot: RobotLike,
+        times: np.ndarray,
+        max_condition: float,
+        margin: float,
+        limits: ActuatorLimits,
+    ):
         desc = robot.description
-        lo, hi = desc.ideal_stroke("identification")
-        m = margin * (hi - lo)
-        self.desc, self.times, self.max_condition = desc, times, max_condition
-        self.lo, self.hi, self.width = lo + m, hi - m, hi - lo
+        legs = desc.leg_architectures
+        self.robot, self.times, self.max_condition = robot, times, max_condition
+        self.margin, self.limits = margin, limits
+        lower = np.array([[j.lower for j in leg.joints] for leg in legs])
+        upper = np.array([[j.upper for j in leg.joints] for leg in legs])
+        self.revolute = np.array([[j.revolute for j in leg.joints] for leg in legs])
+        self.lower, self.upper = lower, upper
+        finite = np.isfinite(lower) & np.isfinite(upper)
+        width = np.where(finite, upper - lower, 1.0)
+        unit = np.where(self.revolute, 1.0, float(desc.stroke_mid))
+        pad = np.where(finite, margin * width, margin * unit)
+        with np.errstate(invalid="ignore"):
+            self.lo, self.hi = lower + pad, upper - pad
+        self.scale = np.where(finite, width, unit)
+        self.actuated = np.array([leg.actuated - 1 for leg in legs])
 
     def violation(self, traj: FourierTrajectory) -> float:
-        poses = traj.sample(self.times).poses
-        lengths = np.linalg.norm(leg_vectors(self.desc, poses)[0], axis=-1)
-        v = np.sum(np.maximum(0.0, self.lo - lengths) + np.maximum(0.0, lengths - self.hi))
-        v /= self.width
-        cond = condition_number_batch(self.desc, poses)
-        v += np.sum(np.maximum(0.0, cond - self.max_condition)) / self.max_condition
-        if self.desc.u_joint_limits is not None and v == 0.0:
-            try:
-                q = inverse_geometry_batch(self.desc, poses, check_limits=False)
-            except StewartPinError:
-                return math.inf
-            lim = self.desc.u_joint_limits
-            for j in range(2):
-                v += np.sum(np.maximum(0.0, lim[:, j, 0] - q[..., j]))
-                v += np.sum(np.maximum(0.0, q[..., j] - lim[:, j, 1]))
-        return float(v) if np.isfinite(v) else math.inf
+        s = traj.sample(self.times)
+        robot = self.robot
+        try:
+            q = robot.inverse_geometry(s.poses, check_limits=False)
+        except StewartPinError:
+            return math.inf
+        q = wrap_into_limits(q, self.revolute, self.lower, self.upper)
+        with np.errstate(invalid="ignore"):
+            out = np.maximum(0.0, self.lo - q) + np.maximum(0.0, q - self.hi)
+        v = float(np.sum(np.where(np.isfinite(out), out, 0.0) / self.scale))
+        try:  # a leg at a serial singularity on the way: outside
+            cond = np.asarray(robot.condition_number(s.poses), dtype=float)
+        except StewartPinError:
+            return math.inf
+        v += float(np.sum(np.maximum(0.0, cond - self.max_condition)) / self.max_condition)
+        if v == 0.0 and self.limits.any:
+            v = self._actuator_violation(s)
+        return v if math.isfinite(v) else math.inf
+
+    def _actuator_violation(self, s: Trajectory) -> float:
+        robot, lim, keep = self.robot, self.limits, 1.0 - self.margin
+        legs = np.arange(6)
+        v = 0.0
+        try:
+            if lim.velocity is not None:
+                qd = np.einsum("nij,nj->ni", robot.inverse_jacobian(s.poses), s.twists)
+                v += float(np.sum(np.maximum(0.0, np.abs(qd) / (keep * lim.velocity) - 1.0)))
+            if lim.acceleration is not None:
+                _, _, qdd = robot.leg_kinematics(s.poses, s.twists, s.accels)
+                assert qdd is not None
+                qdd_a = qdd[:, legs, self.actuated]
+                v += float(
+                    np.sum(np.maximum(0.0, np.abs(qdd_a) / (keep * lim.acceleration) - 1.0))
+                )
+            if lim.effort is not None:
+                gamma = robot.inverse_dynamics(s.poses, s.twists, s.accels)
+                v += float(np.sum(np.maximum(0.0, np.abs(gamma) / (keep * lim.effort) - 1.0)))
+        except StewartPinError:
+            return math.inf
+        return v
+
+
+def actuator_peaks(robot: RobotLike, trajectory: Trajectory) -> dict[str, np.ndarray]:
+    """The largest ``|effort|``, ``|velocity|`` and ``|acceleration|`` of each actuated
+    joint along ``trajectory`` (6,) each [N or N m, m/s or rad/s, m/s^2 or rad/s^2], with
+    the robot's own parameters: what to compare with the actuators' limits."""
+    legs = robot.description.leg_architectures
+    actuated = np.array([leg.actuated - 1 for leg in legs])
+    qd = np.einsum("nij,nj->ni", robot.inverse_jacobian(trajectory.poses), trajectory.twists)
+    _, _, qdd = robot.leg_kinematics(trajectory.poses, trajectory.twists, trajectory.accels)
+    assert qdd is not None
+    gamma = robot.inverse_dynamics(trajectory.poses, trajectory.twists, trajectory.accels)
+    return {
+        "effort": np.abs(gamma).max(axis=0),
+        "velocity": np.abs(qd).max(axis=0),
+        "acceleration": np.abs(qdd[:, np.arange(6), actuated]).max(axis=0),
+    }
 
 
 def exciting_trajectory(
@@ -138,6 +313,7 @@ def exciting_trajectory(
     n_candidates: int = 8,
     max_evaluations: int = 300,
     n_grid: int = 30,
+    limits: ActuatorLimits | None = None,
 ) -> tuple[Trajectory, float]:
     """An exciting trajectory for identification, and its condition number.
 
@@ -147,9 +323,14 @@ def exciting_trajectory(
     (amplitudes decreasing as ``1/l`` with the harmonic l) are shrunk onto the workspace
     boundary; the best of ``n_candidates`` draws is then refined by Powell's method on
     ``log cond(W_b)`` (``W_b`` stacked on ``n_grid`` samples of one period, columns scaled
-    to unit norm), with a penalty outside the workspace: every one of 300 samples of a
-    period keeps its leg lengths ``margin`` (a fraction of the stroke) inside the stroke,
-    its U-joint angles inside their limits, and cond(Jp^-1) below ``max_condition``.
+    to unit norm; for general legs it holds the joint terms' columns too), with a penalty
+    outside what the robot can run: every one of 300 samples of a period keeps every
+    joint of every leg ``margin`` (a fraction of its range; of the mid-stroke for a
+    one-sided limit) inside its limits (the stroke, the U-joint limits, a general leg's
+    joint limits), cond(Jp^-1) below ``max_condition``, and the actuated joints' efforts
+    (inverse dynamics with the robot's own parameters), velocities and accelerations
+    below ``1 - margin`` times their limits (``limits``, default the description's
+    ``effort_limits``, ``velocity_limits``, ``acceleration_limits``; none when absent).
 
     Args:
         robot: a :class:`~stewart_pin.StewartRobot`.
@@ -160,9 +341,12 @@ def exciting_trajectory(
         seed: seeds the random draws.
         n_samples: samples returned, evenly spaced in ``[0, duration)``.
         optimise: ``False`` returns the first random draw, shrunk into the workspace.
-        base: the base parameters to excite (default the analytic 88).
+        base: the base parameters to excite (default the analytic set: 88 for a general
+            6-UPS robot; joint terms included for general legs).
         max_condition: bound on cond(Jp^-1) (default twice its value at the home pose).
-        margin: stroke margin, a fraction of the stroke width, kept at both ends.
+        margin: joint-limit margin, a fraction of each joint's range, kept at both ends;
+            the actuator limits are kept to ``1 - margin`` of their values.
+        limits: the actuators' limits (default :meth:`ActuatorLimits.of` the robot).
         n_candidates, max_evaluations, n_grid: the optimiser's effort: random draws,
             then at most ``max_evaluations`` cost evaluations of Powell's method, each on
             ``n_grid`` samples (about 10 ms each; the default takes a few seconds).
@@ -189,8 +373,9 @@ def exciting_trajectory(
     if max_condition is None:
         max_condition = 2.0 * float(robot.condition_number(home))
     span = min(period, duration)
+    limits = ActuatorLimits.of(robot) if limits is None else limits
     workspace = _Workspace(
-        robot, np.linspace(0.0, span, 300, endpoint=False), float(max_condition), margin
+        robot, np.linspace(0.0, span, 300, endpoint=False), float(max_condition), margin, limits
     )
     grid = np.linspace(0.0, span, max(int(n_grid), 1), endpoint=False)
     rng = np.random.default_rng(seed)
@@ -211,8 +396,11 @@ def exciting_trajectory(
         return math.log(regressor_condition_number(W))
 
     desc = robot.description
-    lo, hi = desc.ideal_stroke("identification")
-    half = 0.5 * float(hi - lo)  # [m]
+    if desc.stroke is not None:
+        half = 0.5 * float(desc.stroke[1] - desc.stroke[0])  # [m]
+    else:  # general legs: a quarter of the mean |B_i P_i| at home
+        P = home[:3, :3] @ desc.platform_points.T + home[:3, 3:]
+        half = 0.25 * float(np.mean(np.linalg.norm(P.T - desc.base_points, axis=1)))
     amplitude = np.array([half] * 3 + [min(0.5, half / desc.size)] * 3)  # [m, rad]
     harmonic = 1.0 / np.arange(1, n_harmonics + 1)
 
@@ -232,8 +420,9 @@ def exciting_trajectory(
 
     if workspace.violation(make(np.zeros(6 + 12 * n_harmonics))) > 0:
         raise WorkspaceError(
-            "the home pose itself violates the workspace constraints (stroke margin "
-            f"{margin:g}, cond(Jp^-1) <= {max_condition:g}); lower margin or raise max_condition"
+            "the home pose itself violates the workspace constraints (joint-limit margin "
+            f"{margin:g}, cond(Jp^-1) <= {max_condition:g}, or an actuator limit at rest); "
+            "lower margin, raise max_condition or check the actuator limits"
         )
     if optimise:
         candidates = [draw() for _ in range(max(int(n_candidates), 1))]
@@ -261,10 +450,8 @@ def exciting_trajectory(
 
 #: Columns of a measurement CSV file, in the order :func:`write_measurements_csv` writes.
 CSV_COLUMNS: tuple[str, ...] = STATE_COLUMNS + FORCE_COLUMNS
-#: Weighted least squares: relative change of the sigma_j that ends the reweighting, and
-#: the cap on the iterations.
-REWEIGHTING_TOLERANCE = 1e-3
-REWEIGHTING_ITERATIONS = 20
+#: Samples whose regressor :func:`identify` builds at once (bounded memory).
+IDENTIFY_CHUNK = 2000
 
 
 @dataclass(frozen=True, eq=False)
@@ -389,6 +576,9 @@ class IdentificationResult:
         n_samples: samples used (6 equations each).
         weighted: whether the estimate is the weighted one.
         base: the :class:`~stewart_pin.parameters.base.BaseParameters` identified.
+        solution: the least-squares solution it was made from (its weighted fit factor
+            gives the weighted residual of any parameter vector:
+            :meth:`~stewart_pin.parameters.least_squares.LeastSquaresSolution.weighted_residual`).
     """
 
     names: tuple[str, ...]
@@ -404,6 +594,7 @@ class IdentificationResult:
     n_samples: int
     weighted: bool
     base: BaseParameters = field(repr=False)
+    solution: LeastSquaresSolution | None = field(default=None, repr=False)
 
     @property
     def relative_std(self) -> np.ndarray:
@@ -492,7 +683,10 @@ def identify(
     equal noise on the actuators one pass suffices, with very unequal noise the OLS
     residuals of a noisy actuator leak into the others' and the iteration removes that.
     The covariance is ``sigma^2 (W^T W)^-1`` of the final (weighted) problem with
-    ``sigma^2 = |r|^2 / (6 N - nb)``. Solves use the SVD of the column-scaled regressor.
+    ``sigma^2 = |r|^2 / (6 N - nb)``. The equations are accumulated :data:`IDENTIFY_CHUNK`
+    samples at a time in per-actuator R factors (an incremental QR,
+    :class:`~stewart_pin.parameters.least_squares.StackedLeastSquares`: memory bounded
+    whatever N), and solved by the SVD of the column-scaled factor.
 
     Args:
         robot: a :class:`~stewart_pin.StewartRobot` (its geometry; the inertial
@@ -506,76 +700,34 @@ def identify(
             of rank below nb (the trajectory does not excite every base parameter).
     """
     base = _base_of(robot, base)
-    nb = len(base)
-    n = len(measurements)
-    if 6 * n <= nb:
-        raise IdentificationError(
-            f"{n} samples give {6 * n} equations for {nb} base parameters; at least "
-            f"{nb // 6 + 1} samples are needed (more than {nb} equations)",
-            n_parameters=nb,
-        )
-    W = _stacked(base, robot, measurements.poses, measurements.twists, measurements.accels)
-    y = measurements.gammas.reshape(-1)
-    norms = np.linalg.norm(W, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
-    U, s, Vt = _svd(W / scale)
-    rank = int(np.sum(s > RANK_TOLERANCE * s[0])) if s[0] > 0 else 0
-    if rank < nb:
-        weakest = np.argsort(-np.abs(Vt[-1]))[:4]
-        raise IdentificationError(
-            f"the stacked base regressor ({W.shape[0]} x {nb}) has rank {rank} < {nb}: the "
-            f"trajectory does not excite every base parameter (the least excited direction "
-            f"involves {', '.join(base.names[k] for k in weakest)}); use a richer trajectory "
-            "(exciting_trajectory) or fewer parameters",
-            rank=rank,
-            n_parameters=nb,
-        )
-    cond = float(s[0] / s[-1])
+    m = measurements
+    acc = StackedLeastSquares(len(base), base.names)
+    for k in range(0, len(m), IDENTIFY_CHUNK):
+        sl = slice(k, k + IDENTIFY_CHUNK)
+        W = base.reduce(robot.regressor(m.poses[sl], m.twists[sl], m.accels[sl]))
+        acc.add(W, m.gammas[sl])
+    return _result(acc.solve(weighted=bool(weighted)), base, bool(weighted))
 
-    def solve(U: np.ndarray, s: np.ndarray, Vt: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        return (Vt.T @ ((U.T @ rhs) / s)) / scale
 
-    def noise(x: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """Per-actuator sigma_j^2 = |r_j|^2 / (N - h_j), h_j the leverage of its rows."""
-        r = (y - W @ x).reshape(n, 6)
-        leverage = np.sum(U**2, axis=1).reshape(n, 6).sum(axis=0)
-        return np.sqrt(np.sum(r**2, axis=0) / np.maximum(n - leverage, 1e-12))
-
-    x = ols = solve(U, s, Vt, y)
-    sigma = noise(x, U)
-    iterations = 0
-    if weighted:
-        floor = 1e-12 * float(np.sqrt(np.mean(y**2))) or 1e-300
-        for iterations in range(1, REWEIGHTING_ITERATIONS + 1):  # noqa: B007
-            w = np.tile(1.0 / np.maximum(sigma, floor), n)  # each equation's weight
-            U, s, Vt = _svd(W * w[:, None] / scale)
-            x = solve(U, s, Vt, y * w)
-            new = noise(x, U)
-            converged = np.all(np.abs(new - sigma) <= REWEIGHTING_TOLERANCE * sigma + floor)
-            sigma = new
-            if converged:
-                break
-        r_w = (y - W @ x) * w
-    else:
-        r_w = y - W @ x
-    s2 = float(r_w @ r_w) / (6 * n - nb)
-    Vs = Vt.T / s
-    covariance = s2 * (Vs @ Vs.T) / np.outer(scale, scale)
-    final = (y - W @ x).reshape(n, 6)
+def _result(
+    sol: LeastSquaresSolution, base: BaseParameters, weighted: bool
+) -> IdentificationResult:
+    """The :class:`IdentificationResult` of a solved :class:`StackedLeastSquares`."""
     return IdentificationResult(
         names=base.names,
-        estimate=x,
-        std=np.sqrt(np.diag(covariance)),
-        covariance=covariance,
-        ols_estimate=ols,
-        sigma=sigma,
-        iterations=iterations,
-        residual_rms=np.sqrt(np.mean(final**2, axis=0)),
-        condition_number=cond,
-        rank=rank,
-        n_samples=n,
-        weighted=bool(weighted),
+        estimate=sol.estimate,
+        std=np.sqrt(np.diag(sol.covariance)),
+        covariance=sol.covariance,
+        ols_estimate=sol.ols_estimate,
+        sigma=sol.sigma,
+        iterations=sol.iterations,
+        residual_rms=sol.residual_rms,
+        condition_number=sol.condition_number,
+        rank=sol.rank,
+        n_samples=sol.n_samples,
+        weighted=weighted,
         base=base,
+        solution=sol,
     )
 
 
@@ -593,12 +745,219 @@ def validation_error(
     return float(np.linalg.norm(m.gammas - predicted) / denom)
 
 
+# ====================================================================== from actuator logs
+
+#: Raw samples whose regressor :func:`identify_log` builds at once (with the FIR windows'
+#: overlap): bounded memory whatever the log's length.
+LOG_CHUNK = 2000
+
+Progress = Callable[[int, int], None]
+
+
+def log_equations(
+    robot: RobotLike,
+    log: ActuatorLog,
+    base: BaseParameters,
+    design: FilterDesign,
+    progress: Progress | None = None,
+    chunk: int = LOG_CHUNK,
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """The parallel-decimated equations ``F Gamma = (F W_b) chi_b`` of a log, in chunks.
+
+    Yields ``(centres, W, gamma, poses)``: the log samples the decimated equations are
+    centred on (m,), the filtered and decimated base regressor (m, 6, nb), the filtered
+    and decimated efforts (m, 6), and the estimated poses at the centres (m, 4, 4)
+    (:mod:`stewart_pin.parameters.state_estimation`, steps 1-5: the efforts and the
+    actuated joints' Coulomb columns through the state filter, then both sides through
+    the decimation filter). ``progress(done,
+    total)`` is called after each chunk with the decimated samples done and in all.
+    The regressor is built ``chunk`` raw samples at a time, each sample once, and the
+    FIR filter accumulated as the samples arrive
+    (:class:`~stewart_pin.parameters.state_estimation.PolyphaseDecimator`): the working
+    memory is one chunk's regressor whatever the decimation.
+    """
+    stream = StateStream(robot, log, design)
+    centres = stream.centres
+    total = len(centres)
+    if total == 0:
+        raise LogError(
+            f"{log.source}: {len(log)} samples leave no decimated equation (the filters drop "
+            f"{design.edge + design.half} samples at each end); record a longer log",
+        )
+    coulomb = _actuated_coulomb(robot, base)
+    fir = PolyphaseDecimator(design.taps, centres)
+    poses_at = np.empty((total, 4, 4))
+    first, stop = int(centres[0]) - design.half, int(centres[-1]) + design.half + 1
+    for a, poses, V, A, efforts, signs in stream.batches(first, stop, chunk):
+        W = base.regressor(poses, V, A)
+        for column, leg in coulomb:  # the filtered signs of the raw velocities
+            W[:, :, column] = 0.0
+            W[:, leg, column] = signs[:, leg]
+        inside = (centres >= a) & (centres < a + len(poses))
+        poses_at[inside] = poses[centres[inside] - a]
+        idx, (Wd, gd) = fir.push(a, W, efforts)
+        if len(idx):
+            yield centres[idx], Wd, gd, poses_at[idx]
+            if progress is not None:
+                progress(int(idx[-1]) + 1, total)
+
+
+def _actuated_coulomb(robot: RobotLike, base: BaseParameters) -> list[tuple[int, int]]:
+    """``(base column, leg)`` of every base parameter that is an actuated joint's Coulomb
+    friction alone (``K`` row with the single entry 1 at its FC): its column is
+    ``sign(qdot_a)`` on that actuator's row."""
+    if robot.description.is_ideal_ups:
+        return []
+    from stewart_pin.dynamics.regressor import parameter_groups
+
+    K = np.asarray(base.K)
+    out = []
+    for jp in parameter_groups(robot.description).joints:
+        if not jp.actuated:
+            continue
+        for row in np.flatnonzero(K[:, jp.coulomb]):
+            if np.count_nonzero(K[row]) == 1 and K[row, jp.coulomb] == 1.0:
+                out.append((int(row), jp.leg - 1))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class LogIdentification:
+    """Base parameters identified from an actuator log.
+
+    Attributes:
+        result: the :class:`IdentificationResult` of the decimated equations (its
+            ``n_samples`` counts decimated samples, 6 equations each; its covariance
+            includes the noise correlation factor ``design.kappa``).
+        design: the filters used (:class:`~stewart_pin.parameters.state_estimation.FilterDesign`).
+        n_log: samples in the log.
+        tracker_error: RMS distance between the forward-geometry poses and the tracker's
+            at the equations' samples, ``(position [m], angle [rad])``, or ``None``
+            without a tracker.
+        source: the log's source.
+    """
+
+    result: IdentificationResult
+    design: FilterDesign
+    n_log: int
+    tracker_error: tuple[float, float] | None
+    source: str
+
+    def report(self, true_values: Any | None = None, label: str = "true") -> str:
+        """The filters, the tracker's agreement and the result's table."""
+        lines = [
+            f"log {self.source}: {self.n_log} samples -> {self.result.n_samples} decimated "
+            f"samples ({6 * self.result.n_samples} equations)",
+            "filters: " + self.design.describe(),
+        ]
+        if self.tracker_error is not None:
+            lines.append(
+                f"forward geometry vs tracker (RMS): {self.tracker_error[0]:.3g} m, "
+                f"{self.tracker_error[1]:.3g} rad"
+            )
+        return "\n".join([*lines, "", self.result.report(true_values, label)])
+
+
+def identify_log(
+    robot: RobotLike,
+    log: ActuatorLog,
+    base: BaseParameters | None = None,
+    *,
+    design: FilterDesign | None = None,
+    cutoff: float | None = None,
+    decimation: int | None = None,
+    method: str = "butterworth",
+    weighted: bool = True,
+    progress: Progress | None = None,
+    chunk: int = LOG_CHUNK,
+) -> LogIdentification:
+    """Identify the base parameters from a log of actuator positions and efforts.
+
+    The platform states come from the positions (filter, forward geometry, derivatives),
+    the regressor and the efforts go through the same FIR filter and decimation (Gautier's
+    parallel decimation), and the decimated equations are accumulated ``chunk`` raw
+    samples at a time into the incremental QR of :class:`StackedLeastSquares`: memory does
+    not grow with the log beyond the positions' three filtered copies. Then weighted least
+    squares as :func:`identify`, with the covariance multiplied by the noise correlation
+    factor of the decimation (see :mod:`stewart_pin.parameters.state_estimation`).
+
+    Args:
+        robot: the robot's geometry (its inertial parameters play no part).
+        log: an :class:`~stewart_pin.parameters.logs.ActuatorLog` (checked:
+            :func:`~stewart_pin.parameters.logs.check_log`).
+        base: the base parameters (default: analytic where the architecture has them).
+        design: the filters (default :func:`design_filters` with ``cutoff``,
+            ``decimation``, ``method``).
+        weighted: weighted (default) or ordinary least squares.
+        progress: ``progress(done, total)`` after each chunk (decimated samples).
+        chunk: raw samples per chunk.
+
+    Raises:
+        LogError (and subclasses): a log the checks refuse, or one too short for its filters.
+        IdentificationError: too few equations, or a rank-deficient regressor.
+    """
+    check_log(log, robot)
+    base = _base_of(robot, base)
+    design = design or design_filters(log, cutoff, decimation, method)
+    acc = StackedLeastSquares(len(base), base.names)
+    sq_p = sq_r = 0.0
+    for centres, W, gamma, poses in log_equations(robot, log, base, design, progress, chunk):
+        acc.add(W, gamma)
+        if log.tracker_poses is not None:
+            tracked = log.tracker_poses[centres]
+            sq_p += float(np.sum((poses[:, :3, 3] - tracked[:, :3, 3]) ** 2))
+            rel = np.einsum("nij,nkj->nik", poses[:, :3, :3], tracked[:, :3, :3])
+            cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)
+            sq_r += float(np.sum(np.arccos(cos) ** 2))
+    sol = acc.solve(weighted=weighted, noise_correlation=design.kappa)
+    n = sol.n_samples
+    tracker = None if log.tracker_poses is None else (math.sqrt(sq_p / n), math.sqrt(sq_r / n))
+    return LogIdentification(
+        _result(sol, base, bool(weighted)), design, len(log), tracker, log.source
+    )
+
+
+def log_prediction_error(
+    robot: RobotLike,
+    log: ActuatorLog,
+    values: Any,
+    base: BaseParameters,
+    design: FilterDesign,
+) -> float:
+    """The relative RMS effort prediction error of base parameter ``values`` (nb,) on a
+    log: ``|F Gamma - (F W_b) values| / |F Gamma|`` over the decimated samples and the six
+    actuators (Frobenius norms), with the filters ``design`` (e.g. the identification's,
+    re-designed for this log's sample rate when it differs: same cut-off and decimation
+    ratio). A fraction; compare it with the noise: the decimated effort noise over the
+    decimated efforts."""
+    check_log(log, robot)
+    base = _base_of(robot, base)
+    x = check_array(values, (len(base),), "values")
+    if abs(design.sample_rate - log.sample_rate) > 1e-6 * design.sample_rate:
+        design = design_filters(log, design.cutoff, None, design.method)
+    num = den = 0.0
+    for _, W, gamma, _ in log_equations(robot, log, base, design):
+        r = gamma - W @ x
+        num += float(np.sum(r**2))
+        den += float(np.sum(gamma**2))
+    if den == 0:
+        raise InputError("the logged efforts are all zero: the relative error is undefined")
+    return math.sqrt(num / den)
+
+
 __all__ = [
     "CSV_COLUMNS",
+    "ActuatorLimits",
     "IdentificationResult",
+    "LogIdentification",
     "Measurements",
+    "actuator_peaks",
+    "base_without",
     "exciting_trajectory",
     "identify",
+    "identify_log",
+    "log_equations",
+    "log_prediction_error",
     "read_measurements_csv",
     "regressor_condition_number",
     "simulate_measurements",
