@@ -476,6 +476,13 @@ def numerical_base_parameters(
         )
     rel = sv / sv[0]
     rank = int(np.sum(rel > tol))
+    if rank >= Wn.shape[0] and rank < n:
+        raise InputError(
+            f"{n_states} states give {Wn.shape[0]} regressor rows, all independent: the rank "
+            "is limited by the number of states, not by the robot, so no base set can be "
+            f"read from them; use more states (6 x n_states above the {n} standard "
+            f"parameters: n_states >= {n // 6 + 1})"
+        )
     _, R, perm = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
     R1, R2 = R[:rank, :rank], R[:rank, rank:]
     beta_n = scipy.linalg.solve_triangular(R1, R2)  # in scaled columns
