@@ -270,6 +270,7 @@ BAD_NUMBERS = [
         for option, value in (
             ("--payload-placement", "inf"),
             ("--payload-fraction", "0"),
+            ("--payload-fraction", "1.5"),
             ("--payload-period", "nan"),
         )
     ),
@@ -314,6 +315,7 @@ def test_every_numeric_option_has_a_checked_type_and_a_test():
         _common.finite_float,
         _common.positive_finite_float,
         _common.non_negative_finite_float,
+        _common.fraction_of_one,
     }
     tested = {(command, option) for command, option, _ in BAD_NUMBERS}
     n_checked = 0
@@ -333,6 +335,7 @@ def test_checked_number_types_accept_good_values():
     assert _common.finite_float("-2.5") == -2.5 and _common.finite_float("1e3") == 1000.0
     assert _common.positive_finite_float("1e-300") == 1e-300
     assert _common.non_negative_finite_float("0") == 0.0
+    assert _common.fraction_of_one("1") == 1.0 and _common.fraction_of_one("1e-9") == 1e-9
 
 
 def test_output_suffix_and_folder_are_checked_before_the_run(tmp_path, capsys, monkeypatch):

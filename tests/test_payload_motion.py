@@ -326,6 +326,23 @@ def test_cli_payload_placement_needs_a_payload(capsys):
         ["validate", "--preset", "desktop", "--payload-placement", "0", "0", "0", "0", "0", "0"]
     )
     assert code == 2 and "--payload-placement needs --payload" in capsys.readouterr().err
+    # the payload's motion and drawing options without a payload: refused, not ignored
+    for argv in (
+        ["simulate", "--payload-fraction", "0.5", "--duration", "0.01"],
+        ["animate", "--payload-period", "2"],
+        ["view", "--payload-shapes", "--no-wait"],
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{argv[1]} needs --payload" in err, err
+
+
+def test_cli_payload_fraction_above_one_names_the_option(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["simulate", "--payload", "so101", "--payload-fraction", "1.5"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--payload-fraction: expected a number in (0, 1], got '1.5'" in err
 
 
 # ---------------------------------------------------------------------------- the demo

@@ -5,7 +5,7 @@ The number types (``type=`` of ``add_argument``) refuse bad values while the arg
 parsed, so a bad number is one line on stderr and exit code 2, before any work (they live
 in :mod:`stewart_pin._argtypes`, which the applications use too): :func:`positive_int`,
 :func:`non_negative_int`, :func:`finite_float`, :func:`positive_finite_float`,
-:func:`non_negative_finite_float`.
+:func:`non_negative_finite_float`, :func:`fraction_of_one`.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import pinocchio as pin
 
 from stewart_pin._argtypes import (
     finite_float,
+    fraction_of_one,
     non_negative_finite_float,
     non_negative_int,
     positive_finite_float,
@@ -35,6 +36,7 @@ __all__ = [
     "add_robot_args",
     "check_output",
     "finite_float",
+    "fraction_of_one",
     "non_negative_finite_float",
     "non_negative_int",
     "payload_robot_from_args",
@@ -184,8 +186,16 @@ def payload_robot_from_args(args: argparse.Namespace, robot: StewartRobot) -> An
     or ``None`` without ``--payload``."""
     name = getattr(args, "payload", None)
     if not name:
-        if getattr(args, "payload_placement", None) is not None:
-            raise InputError("--payload-placement needs --payload")
+        options = ("placement", "fraction", "period")
+        given = [
+            f"--payload-{o}" for o in options if getattr(args, f"payload_{o}", None) is not None
+        ]
+        if getattr(args, "payload_shapes", False):
+            given.append("--payload-shapes")
+        if given:
+            raise InputError(
+                f"{', '.join(given)} {'needs' if len(given) == 1 else 'need'} --payload"
+            )
         return None
     placement = None
     values = getattr(args, "payload_placement", None)
