@@ -126,3 +126,17 @@ def test_import_options_of_the_other_format_are_refused(cad_file, tmp_path, caps
     urdf.write_text(cad_urdf(pus_preset(), seed=2))
     assert main(["import", str(urdf), "--keyframe", "home"]) == 2
     assert "--keyframe only applies to MJCF files" in capsys.readouterr().err
+
+
+def test_robot_commands_print_the_import_warnings_in_one_line(tmp_path, capsys):
+    """``--model`` on a file with rounded loops: the ModelImportWarning is one line on
+    stderr (as ``stewart-pin import`` prints it), not a Python warning with a source line."""
+    path = tmp_path / "rounded.xml"
+    path.write_text(cad_mjcf(pus_preset(), "connect-site", seed=3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # none escapes as a Python warning
+        assert main(["ik", "--model", str(path)]) == 0
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("stewart-pin ik: warning: model 'cad-connect-site': the loops")

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -118,13 +120,31 @@ def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> 
     if getattr(args, "description", None):
         robot = StewartRobot.from_file(args.description)
     elif getattr(args, "model", None):
-        from stewart_pin.importers import import_model
-
-        robot = StewartRobot(import_model(args.model).description)
+        robot = _imported_robot(args)
     else:
         robot = StewartRobot.from_preset(args.preset)
     if ideal_only is not None and not robot.is_ideal_ups:
         raise refuse_general(ideal_only, robot)
+    return robot
+
+
+def _imported_robot(args: argparse.Namespace) -> StewartRobot:
+    """The robot of ``--model``; the importer's warnings (rounded loops, nearly parallel
+    axes...) printed as one line each on stderr, as ``stewart-pin import`` prints them,
+    rather than as Python warnings with a source line."""
+    from stewart_pin.exceptions import ModelImportWarning
+    from stewart_pin.importers import import_model
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        robot = StewartRobot(import_model(args.model).description)
+    command = getattr(args, "command", None) or "stewart-pin"
+    for w in caught:
+        if issubclass(w.category, ModelImportWarning):
+            message = " ".join(str(w.message).split())
+            print(f"stewart-pin {command}: warning: {message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return robot
 
 
