@@ -209,6 +209,25 @@ def test_a_floating_base_is_refused(tmp_path):
         load_payload(3.0)
 
 
+def test_a_file_that_is_no_urdf_is_one_message(tmp_path, capfd):
+    """Empty, malformed or non-URDF files are refused before Pinocchio's parser, which
+    would print its own lines on stderr (the command line must print one)."""
+    files = {"empty.urdf": "", "broken.urdf": "<robot name='x'><link", "scene.xml": "<mujoco/>"}
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    with pytest.raises(PayloadError, match="not well-formed XML"):
+        load_payload(tmp_path / "empty.urdf")
+    with pytest.raises(PayloadError, match="not well-formed XML"):
+        load_payload(tmp_path / "broken.urdf")
+    with pytest.raises(PayloadError, match=r"root element is <mujoco>, not <robot>"):
+        load_payload(tmp_path / "scene.xml")
+    capfd.readouterr()
+    argv = ["validate", "--preset", "desktop", "--payload", str(tmp_path / "scene.xml")]
+    assert main(argv) == 2
+    err = capfd.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "not <robot>" in err, err
+
+
 @needs_erd
 def test_scaled_payload_scales_mass_centre_of_mass_and_inertia():
     p = load_payload("so101")
