@@ -28,6 +28,7 @@ import types
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import needs_example_robot_data
 
 from stewart_pin import (
     InputError,
@@ -55,18 +56,7 @@ from stewart_pin.payload_robot import PayloadRobot
 TOL = 1e-9
 
 
-def _have_example_robot_data() -> bool:
-    try:
-        example_robot_names()
-    except MissingDependencyError:
-        return False
-    return True
-
-
-needs_erd = pytest.mark.skipif(
-    not _have_example_robot_data(),
-    reason='example-robot-data is not installed (pip install "stewart-pin[payload]")',
-)
+needs_erd = needs_example_robot_data()
 
 #: The hexapods: ideal 6-UPS (simulator) and general legs (rus: cranks; pus: slides).
 HEXAPODS = ("simulator", "rus", "pus")

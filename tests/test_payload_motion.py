@@ -18,13 +18,13 @@ import subprocess
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import needs_example_robot_data
 
-from stewart_pin import InputError, PayloadError, StewartRobot
+from stewart_pin import FileFormatError, InputError, PayloadError, StewartRobot
 from stewart_pin.check import payload as check
 from stewart_pin.check.constrained_dynamics import relative_error
 from stewart_pin.cli import main
-from stewart_pin.exceptions import MissingDependencyError
-from stewart_pin.models.payload import Payload, example_robot_names
+from stewart_pin.models.payload import Payload
 from stewart_pin.motion.payload import (
     JointMotion,
     PayloadComputedTorque,
@@ -33,19 +33,7 @@ from stewart_pin.motion.payload import (
     simulate_payload,
 )
 
-
-def _have_example_robot_data() -> bool:
-    try:
-        example_robot_names()
-    except MissingDependencyError:
-        return False
-    return True
-
-
-pytestmark = pytest.mark.skipif(
-    not _have_example_robot_data(),
-    reason='example-robot-data is not installed (pip install "stewart-pin[payload]")',
-)
+pytestmark = needs_example_robot_data()
 
 _ROBOTS: dict[tuple[str, str], object] = {}
 
@@ -152,7 +140,7 @@ def test_payload_simulation_saves_the_joints_beside_the_result(tmp_path):
     t, q = PayloadSimulation.load_joints(result, robot.payload)
     np.testing.assert_array_equal(t, sim.result.t)
     np.testing.assert_array_equal(q, sim.q)
-    with pytest.raises(Exception, match="missing"):
+    with pytest.raises(FileFormatError, match="missing"):
         PayloadSimulation.load_joints(tmp_path / "other.csv", robot.payload)
     with pytest.raises(InputError, match="this robot's payload"):
         simulate_payload(carrier("simulator", "panda"), 0.01, joints)
