@@ -249,7 +249,9 @@ def test_exported_animation_moves_the_arm_with_the_platform(exported):
 
 def test_chromium_draws_the_arm_on_the_platform(exported, tmp_path):
     """The page with the arm differs from the hexapod alone, seen from the same camera,
-    in the region above the platform."""
+    in the region above the platform. Both pages hold one state (the animation's first):
+    a screenshot is taken whenever the page is ready, and a moving arm covers more or
+    less of the page from one frame to the next."""
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         pytest.skip("no Chromium on the PATH")
@@ -257,10 +259,11 @@ def test_chromium_draws_the_arm_on_the_platform(exported, tmp_path):
 
     from stewart_pin.viz.viewer import Viewer
 
-    path, viewer, poses, t, q = exported
-    alone = Viewer(viewer.robot).export_html(
-        tmp_path / "alone.html", poses, t, camera=viewer.fit(poses, q)
-    )
+    _, viewer, poses, t, q = exported
+    poses, q = np.repeat(poses[:1], len(t), axis=0), np.repeat(q[:1], len(t), axis=0)
+    camera = viewer.fit(poses, q)
+    path = viewer.export_html(tmp_path / "held.html", poses, t, q, camera=camera)
+    alone = Viewer(viewer.robot).export_html(tmp_path / "alone.html", poses, t, camera=camera)
     shots = []
     for page in (path, alone):
         png = tmp_path / f"{page.stem}.png"
