@@ -440,6 +440,16 @@ def test_validate_payload_report_passes_on_two_arms():
 
 
 @needs_erd
+def test_validate_payload_refuses_bad_counts():
+    robot = arm_on("simulator", "ur5")
+    for bad in (0, 2.5, True, "3", float("nan")):
+        with pytest.raises(InputError, match="n_states"):
+            check.validate_payload(robot, n_states=bad)
+    with pytest.raises(InputError, match="seed"):
+        check.validate_payload(robot, n_states=1, seed=-1)
+
+
+@needs_erd
 def test_cli_validate_with_a_payload_exits_0(capsys):
     assert main(["validate", "--preset", "simulator", "--payload", "ur5", "--states", "6"]) == 0
     out = capsys.readouterr().out
