@@ -438,6 +438,25 @@ def test_version_prints_the_package_version(capsys):
     assert capsys.readouterr().out.strip() == f"stewart-pin {stewart_pin.__version__}"
 
 
+def test_python_dash_m_runs_the_command():
+    """``python -m stewart_pin.cli`` is the command (exit codes and one-line errors)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import stewart_pin
+
+    env = {**os.environ, "PYTHONPATH": str(Path(stewart_pin.__file__).parents[1])}
+    run = [sys.executable, "-m", "stewart_pin.cli"]
+    ok = subprocess.run([*run, "--version"], capture_output=True, text=True, env=env)
+    assert ok.returncode == 0 and ok.stdout.strip() == f"stewart-pin {stewart_pin.__version__}"
+    bad = subprocess.run(
+        [*run, "ik", "--preset", "no-such"], capture_output=True, text=True, env=env
+    )
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
+
+
 def subcommand_parsers() -> dict[str, argparse.ArgumentParser]:
     """Every subcommand's parser, by name."""
     (sub,) = (a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
