@@ -321,3 +321,6 @@ def test_bad_import_options_are_input_errors(tmp_path):
         import_urdf(path, actuated="leg1_q1")
     with pytest.raises(stewart_pin.InputError, match="armature must be a dict"):
         import_urdf(path, armature=[0.1] * 6)
+    for bad in (float("nan"), -1.0, True, "x"):
+        with pytest.raises(stewart_pin.InputError, match="armature of joint 'leg1_q1'"):
+            import_urdf(path, armature={"leg1_q1": bad})

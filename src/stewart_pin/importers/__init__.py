@@ -130,10 +130,14 @@ def import_urdf(
         or not all(isinstance(joint, str) for joint in actuated)
     ):
         raise InputError(f"actuated must be a list of joint names in leg order, got {actuated!r}")
-    if armature is not None and not isinstance(armature, Mapping):
-        raise InputError(
-            f"armature must be a dict of joint name to armature [kg m^2 or kg], got {armature!r}"
-        )
+    if armature is not None:
+        if not isinstance(armature, Mapping) or not all(isinstance(k, str) for k in armature):
+            raise InputError(
+                "armature must be a dict of joint name to armature [kg m^2 or kg], got "
+                f"{armature!r}"
+            )
+        for joint, value in armature.items():  # named here, not as the sidecar's
+            check_scalar(value, f"armature of joint '{joint}'", nonnegative=True)
     read = read_urdf(path, closures, armature)
     rec = recognise(read.model, platform)
     return build(
