@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from stewart_pin._safe import toml_quoted as toml_string
 from stewart_pin.exceptions import DescriptionError
 
 #: The longest name kept [characters]; longer names are refused (a file could hold
@@ -173,28 +174,6 @@ def leg_source_from_dict(value: Any) -> LegSource:
             f"{list(LEG_SOURCE_KEYS)}"
         )
     return LegSource(**{k: value[k] for k in LEG_SOURCE_KEYS})
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string: printable characters as they are (but ``"`` and
-    ``\\``), every control character (U+0000-U+001F, U+007F-U+009F) and every
-    character outside the Basic Multilingual Plane's printable range escaped
-    (``\\uXXXX``, ``\\UXXXXXXXX``), so no name from a file can end the string or the
-    line. Lone surrogates (which no TOML string can hold) become U+FFFD."""
-    out = []
-    for ch in text:
-        code = ord(ch)
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif 0x20 <= code < 0x7F:
-            out.append(ch)
-        elif 0xD800 <= code <= 0xDFFF:
-            out.append("\\uFFFD")
-        elif code <= 0xFFFF:
-            out.append(f"\\u{code:04X}")
-        else:
-            out.append(f"\\U{code:08X}")
-    return '"' + "".join(out) + '"'
 
 
 def source_toml(source: dict[str, Any]) -> str:
