@@ -360,6 +360,16 @@ def test_too_few_states_for_the_rank_are_refused(preset_name, capsys):
     assert "use more states" in err and err.count("\n") == 1
 
 
+def test_bad_counts_and_thresholds_are_input_errors():
+    robot = StewartRobot.from_preset("pus")
+    for bad in (0, -3, True, 2.5, "60"):
+        with pytest.raises(InputError, match="n_states"):
+            numerical_base_parameters(robot, n_states=bad)
+    for bad in (float("nan"), -1.0, 0.0, True):
+        with pytest.raises(InputError, match="threshold"):
+            essential_parameters(robot, threshold=bad)
+
+
 def test_essential_parameters_of_a_general_robot():
     robot = StewartRobot.from_preset("pus")
     ess = essential_parameters(robot, threshold=1e-2, n_states=40)

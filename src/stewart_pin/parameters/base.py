@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from stewart_pin._checks import check_scalar
 from stewart_pin.description import RobotDescription
 from stewart_pin.dynamics.regressor import (
     JOINT_TERMS_START,
@@ -378,6 +379,9 @@ def stacked_regressor(robot: RobotLike, n_states: int = 60, seed: int = 0) -> np
     """``W`` stacked over ``n_states`` random workspace states: (6 n_states, n)."""
     from stewart_pin.kinematics.workspace import sample_states
 
+    n_states = int(check_scalar(n_states, "n_states", integer=True))
+    if n_states < 1:
+        raise InputError(f"n_states must be an integer >= 1, got {n_states}")
     if robot.description.is_ideal_ups:
         poses, twists, accels = sample_states(robot.description, n_states, seed)
     else:
@@ -596,6 +600,7 @@ def essential_parameters(
     Parameters that vanish by symmetry (as the paper's symmetric links make many) go
     first, at zero cost. ``values`` are the robot's base values of the kept parameters.
     """
+    threshold = check_scalar(threshold, "threshold", positive=True)
     bp = base if base is not None else base_parameters(robot)
     W = bp.reduce(stacked_regressor(robot, n_states, seed))
     parts = W * bp.values  # column k: the forces parameter k accounts for
