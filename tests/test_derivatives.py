@@ -328,7 +328,11 @@ def test_derivative_library_follows_the_cache_rules(tmp_path, monkeypatch):
     hit = CompiledDerivatives(robot, cache_dir=root)
     assert hit.kind == "compiled" and not hit.compiled_now
     assert hit.library == root / folder.name / built.library.name
-    hit.library.write_bytes(b"not a library")
+    # replaced, not overwritten in place: this process has the library mapped, and
+    # truncating a mapped file kills the process with SIGBUS when its pages are touched
+    replacement = hit.library.with_name(hit.library.name + ".new")
+    replacement.write_bytes(b"not a library")
+    replacement.replace(hit.library)
 
     def failing_build(*args, **kwargs):
         raise CompilationError("no rebuild in this test")
