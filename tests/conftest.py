@@ -95,3 +95,19 @@ def fresh_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Pa
 def rng() -> np.random.Generator:
     """A fresh generator with a fixed seed for each test."""
     return np.random.default_rng(20030917)
+
+
+def needs_example_robot_data() -> pytest.MarkDecorator:
+    """A skip mark for tests of payloads by name, when example-robot-data (the ``payload``
+    extra) is not installed."""
+    from stewart_pin.exceptions import MissingDependencyError
+    from stewart_pin.models.payload import example_robot_names
+
+    try:
+        example_robot_names()
+        missing = False
+    except MissingDependencyError:
+        missing = True
+    return pytest.mark.skipif(
+        missing, reason='example-robot-data is not installed (pip install "stewart-pin[payload]")'
+    )

@@ -273,6 +273,7 @@ BAD_NUMBERS = [
         for option, value in (
             ("--payload-placement", "inf"),
             ("--payload-fraction", "0"),
+            ("--payload-fraction", "1.5"),
             ("--payload-period", "nan"),
         )
     ),
@@ -317,6 +318,7 @@ def test_every_numeric_option_has_a_checked_type_and_a_test():
         _common.finite_float,
         _common.positive_finite_float,
         _common.non_negative_finite_float,
+        _common.fraction_of_one,
     }
     tested = {(command, option) for command, option, _ in BAD_NUMBERS}
     n_checked = 0
@@ -336,6 +338,7 @@ def test_checked_number_types_accept_good_values():
     assert _common.finite_float("-2.5") == -2.5 and _common.finite_float("1e3") == 1000.0
     assert _common.positive_finite_float("1e-300") == 1e-300
     assert _common.non_negative_finite_float("0") == 0.0
+    assert _common.fraction_of_one("1") == 1.0 and _common.fraction_of_one("1e-9") == 1e-9
 
 
 def test_output_suffix_and_folder_are_checked_before_the_run(tmp_path, capsys, monkeypatch):
@@ -436,6 +439,25 @@ def test_version_prints_the_package_version(capsys):
         main(["--version"])
     assert exit_info.value.code == 0
     assert capsys.readouterr().out.strip() == f"stewart-pin {stewart_pin.__version__}"
+
+
+def test_python_dash_m_runs_the_command():
+    """``python -m stewart_pin.cli`` is the command (exit codes and one-line errors)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import stewart_pin
+
+    env = {**os.environ, "PYTHONPATH": str(Path(stewart_pin.__file__).parents[1])}
+    run = [sys.executable, "-m", "stewart_pin.cli"]
+    ok = subprocess.run([*run, "--version"], capture_output=True, text=True, env=env)
+    assert ok.returncode == 0 and ok.stdout.strip() == f"stewart-pin {stewart_pin.__version__}"
+    bad = subprocess.run(
+        [*run, "ik", "--preset", "no-such"], capture_output=True, text=True, env=env
+    )
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
 
 
 def subcommand_parsers() -> dict[str, argparse.ArgumentParser]:

@@ -328,7 +328,11 @@ def test_derivative_library_follows_the_cache_rules(tmp_path, monkeypatch):
     hit = CompiledDerivatives(robot, cache_dir=root)
     assert hit.kind == "compiled" and not hit.compiled_now
     assert hit.library == root / folder.name / built.library.name
-    hit.library.write_bytes(b"not a library")
+    # replaced, not overwritten in place: this process has the library mapped, and
+    # truncating a mapped file kills the process with SIGBUS when its pages are touched
+    replacement = hit.library.with_name(hit.library.name + ".new")
+    replacement.write_bytes(b"not a library")
+    replacement.replace(hit.library)
 
     def failing_build(*args, **kwargs):
         raise CompilationError("no rebuild in this test")
@@ -344,3 +348,23 @@ def test_derivative_library_follows_the_cache_rules(tmp_path, monkeypatch):
     P, V, A = robot.sample_states(2, 20)
     ref = built.inverse_dynamics_derivatives(P, V, A)
     assert _rel(vm.inverse_dynamics_derivatives(P, V, A).pose, ref.pose) < 1e-12
+
+
+def test_derivatives_take_base_values_checked():
+    """``base_values`` reach the derivatives (single state and batch): Gamma is linear in
+    the base parameters, so twice the robot's values give twice its Jacobians (an
+    independent property of the model, not its code); a wrong size is an InputError."""
+    robot = get_robot("simulator")
+    backend = derivatives_module.derivatives_backend(robot)
+    chi = np.asarray(compiled_module.compiled_backend(robot).base_values)
+    P, V, A = robot.sample_states(3, 21)
+    ref = backend.inverse_dynamics_derivatives(P, V, A)
+    doubled = backend.inverse_dynamics_derivatives(P, V, A, base_values=2.0 * chi)
+    one = backend.inverse_dynamics_derivatives(P[1], V[1], A[1], base_values=2.0 * chi)
+    for x in ("gamma", "pose", "twist", "accel"):
+        assert _rel(getattr(doubled, x), 2.0 * getattr(ref, x)) < 1e-13
+        assert _rel(getattr(one, x), 2.0 * getattr(ref, x)[1]) < 1e-13
+    with pytest.raises(InputError, match="base_values"):
+        backend.inverse_dynamics_derivatives(P, V, A, base_values=chi[:10])
+    with pytest.raises(InputError, match="base_values"):
+        backend.direct_dynamics_derivatives(P[0], V[0], ref.gamma[0], base_values=np.nan * chi)

@@ -27,7 +27,11 @@ from stewart_pin.dynamics.regressor import (
     joint_index,
     standard_parameters,
 )
-from stewart_pin.exceptions import BaseParameterWarning, UnsupportedArchitectureError
+from stewart_pin.exceptions import (
+    BaseParameterWarning,
+    InputError,
+    UnsupportedArchitectureError,
+)
 from stewart_pin.parameters.base import (
     GENERAL_RANK_TOLERANCE,
     analytic_base_parameters,
@@ -339,6 +343,31 @@ def test_numerical_base_set_of_general_legs():
     assert report.smallest_kept > 1e6 * report.largest_dropped
     rows = [line for line in bp.table().splitlines()[1:] if not line.startswith("  --")]
     assert len(rows) == len(bp)
+
+
+@pytest.mark.parametrize("preset_name", ("rus", "simulator"))
+def test_too_few_states_for_the_rank_are_refused(preset_name, capsys):
+    """Two states give 12 rows: any 12 columns look independent, so a "rank 12" base set
+    would be read off the sample size, not the robot (the true ranks are 160 and 88)."""
+    from stewart_pin.cli import main
+
+    robot = StewartRobot.from_preset(preset_name)
+    with pytest.raises(InputError, match="limited by the number of states"):
+        numerical_base_parameters(robot, n_states=2)
+    argv = ["base-params", "--preset", preset_name, "--method", "numerical", "--states", "2"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "use more states" in err and err.count("\n") == 1
+
+
+def test_bad_counts_and_thresholds_are_input_errors():
+    robot = StewartRobot.from_preset("pus")
+    for bad in (0, -3, True, 2.5, "60"):
+        with pytest.raises(InputError, match="n_states"):
+            numerical_base_parameters(robot, n_states=bad)
+    for bad in (float("nan"), -1.0, 0.0, True):
+        with pytest.raises(InputError, match="threshold"):
+            essential_parameters(robot, threshold=bad)
 
 
 def test_essential_parameters_of_a_general_robot():

@@ -113,3 +113,30 @@ def test_import_errors_are_one_line_exit_2(tmp_path, capsys):
     out = tmp_path / "x.txt"
     assert main(["import", str(bad), "-o", str(out)]) == 2
     assert "must end in .toml or .json" in capsys.readouterr().err
+
+
+def test_import_options_of_the_other_format_are_refused(cad_file, tmp_path, capsys):
+    """``--keyframe`` is MJCF's, ``--closures`` / ``--closure-pairs`` / ``--actuated`` are
+    URDF's: given for the other kind of file they would be ignored silently."""
+    for extra in (["--actuated", *[f"leg{k}_j1" for k in range(1, 7)]], ["--closures", "x.json"]):
+        assert main(["import", str(cad_file), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{extra[0]} only applies to URDF files" in err
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(cad_urdf(pus_preset(), seed=2))
+    assert main(["import", str(urdf), "--keyframe", "home"]) == 2
+    assert "--keyframe only applies to MJCF files" in capsys.readouterr().err
+
+
+def test_robot_commands_print_the_import_warnings_in_one_line(tmp_path, capsys):
+    """``--model`` on a file with rounded loops: the ModelImportWarning is one line on
+    stderr (as ``stewart-pin import`` prints it), not a Python warning with a source line."""
+    path = tmp_path / "rounded.xml"
+    path.write_text(cad_mjcf(pus_preset(), "connect-site", seed=3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # none escapes as a Python warning
+        assert main(["ik", "--model", str(path)]) == 0
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("stewart-pin ik: warning: model 'cad-connect-site': the loops")

@@ -658,3 +658,13 @@ def test_source_survives_json(tmp_path):
     assert sum(leg.spherical.startswith("ball joint") for leg in back.source.legs) == 1
     with pytest.raises(stewart_pin.DescriptionError, match="model source keys"):
         RobotDescription.from_dict({**desc.to_dict(), "source": {"format": "mjcf"}})
+    d = desc.to_dict()
+    leg = {**d["source"]["legs"][0], "extra": 1}
+    bad_leg = {**d["source"], "legs": [leg, *d["source"]["legs"][1:]]}
+    with pytest.raises(stewart_pin.DescriptionError, match=r"model source leg keys.*\['extra'\]"):
+        RobotDescription.from_dict({**d, "source": bad_leg})
+    not_table = {**d["source"], "legs": ["leg", *d["source"]["legs"][1:]]}
+    with pytest.raises(stewart_pin.DescriptionError, match="model source leg must be a table"):
+        RobotDescription.from_dict({**d, "source": not_table})
+    with pytest.raises(stewart_pin.DescriptionError, match="model source must be a table"):
+        RobotDescription.from_dict({**d, "source": ["mjcf"]})

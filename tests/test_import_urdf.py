@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import warnings
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -293,3 +294,33 @@ def test_continuous_joints_are_unlimited_revolute_joints(tmp_path):
     k = [leg.joints[2] for leg in desc.source.legs].index("leg2_q3")
     joint = desc.legs[k].joints[2]
     assert joint.kind == "revolute" and (joint.lower, joint.upper) == (-math.inf, math.inf)
+
+
+def test_bad_import_options_are_input_errors(tmp_path):
+    """Options are checked before the file is read: a tolerance that is NaN, negative or a
+    boolean (a NaN tolerance let every loop through), a platform or name that is not a
+    string, a string for ``actuated`` (read letter by letter), a list for ``armature``."""
+    import stewart_pin
+    from stewart_pin.importers import import_mjcf
+
+    path = write(tmp_path, cad_urdf(SOURCES["pus"](), seed=1))
+    xml = str(Path(__file__).parent / "data" / "servo_head.xml")
+    for key in ("closure_tolerance", "spin_tolerance"):
+        for bad in (float("nan"), -1.0, 0.0, True, "1e-3"):
+            with pytest.raises(stewart_pin.InputError, match=key):
+                import_urdf(path, **{key: bad})
+            with pytest.raises(stewart_pin.InputError, match=key):
+                import_mjcf(xml, **{key: bad})
+    for key in ("platform", "name"):
+        with pytest.raises(stewart_pin.InputError, match=key):
+            import_mjcf(xml, **{key: 3})
+    for bad in (True, 1.5, [0]):
+        with pytest.raises(stewart_pin.InputError, match="keyframe"):
+            import_mjcf(xml, keyframe=bad)
+    with pytest.raises(stewart_pin.InputError, match="actuated must be a list"):
+        import_urdf(path, actuated="leg1_q1")
+    with pytest.raises(stewart_pin.InputError, match="armature must be a dict"):
+        import_urdf(path, armature=[0.1] * 6)
+    for bad in (float("nan"), -1.0, True, "x"):
+        with pytest.raises(stewart_pin.InputError, match="armature of joint 'leg1_q1'"):
+            import_urdf(path, armature={"leg1_q1": bad})

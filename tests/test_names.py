@@ -17,7 +17,7 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import RobotDescription, StewartRobot, preset
-from stewart_pin._safe import check_xml_text, file_in_folder, yaml_quoted
+from stewart_pin._safe import check_xml_text, file_in_folder, toml_quoted, yaml_quoted
 from stewart_pin.cli import main
 from stewart_pin.description.robot_description import NAME_RULE, check_robot_name
 from stewart_pin.exceptions import DescriptionError, FileFormatError, InputError, RobotNameError
@@ -192,6 +192,28 @@ def test_yaml_quoted_is_exact_for_any_text(text):
     quoted = yaml_quoted(text)
     assert quoted.isascii() and quoted.isprintable()
     assert yaml.safe_load(f"k: {quoted}\n") == {"k": text}
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "",
+        "plain",
+        'q"q',
+        "back\\slash",
+        "\x00\x07\x1f\x7f\x85",
+        "\u2028\u2029\ufeff",
+        "é\U0001f600",
+    ],
+)
+def test_toml_quoted_is_exact_for_any_text(text):
+    import tomllib
+
+    quoted = toml_quoted(text)
+    assert quoted.isascii() and quoted.isprintable()
+    assert tomllib.loads(f"k = {quoted}\n") == {"k": text}
+    # a lone surrogate, which no TOML string can hold, becomes U+FFFD
+    assert tomllib.loads(f"k = {toml_quoted('a' + chr(0xD800))}\n") == {"k": "a\ufffd"}
 
 
 def test_closures_json_round_trips_a_hostile_name():

@@ -28,6 +28,7 @@ import types
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import needs_example_robot_data
 
 from stewart_pin import (
     InputError,
@@ -55,18 +56,7 @@ from stewart_pin.payload_robot import PayloadRobot
 TOL = 1e-9
 
 
-def _have_example_robot_data() -> bool:
-    try:
-        example_robot_names()
-    except MissingDependencyError:
-        return False
-    return True
-
-
-needs_erd = pytest.mark.skipif(
-    not _have_example_robot_data(),
-    reason='example-robot-data is not installed (pip install "stewart-pin[payload]")',
-)
+needs_erd = needs_example_robot_data()
 
 #: The hexapods: ideal 6-UPS (simulator) and general legs (rus: cranks; pus: slides).
 HEXAPODS = ("simulator", "rus", "pus")
@@ -207,6 +197,25 @@ def test_a_floating_base_is_refused(tmp_path):
         load_payload(tmp_path / "missing.urdf")
     with pytest.raises(InputError, match="robot name, a URDF path"):
         load_payload(3.0)
+
+
+def test_a_file_that_is_no_urdf_is_one_message(tmp_path, capfd):
+    """Empty, malformed or non-URDF files are refused before Pinocchio's parser, which
+    would print its own lines on stderr (the command line must print one)."""
+    files = {"empty.urdf": "", "broken.urdf": "<robot name='x'><link", "scene.xml": "<mujoco/>"}
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    with pytest.raises(PayloadError, match="not well-formed XML"):
+        load_payload(tmp_path / "empty.urdf")
+    with pytest.raises(PayloadError, match="not well-formed XML"):
+        load_payload(tmp_path / "broken.urdf")
+    with pytest.raises(PayloadError, match=r"root element is <mujoco>, not <robot>"):
+        load_payload(tmp_path / "scene.xml")
+    capfd.readouterr()
+    argv = ["validate", "--preset", "desktop", "--payload", str(tmp_path / "scene.xml")]
+    assert main(argv) == 2
+    err = capfd.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "not <robot>" in err, err
 
 
 @needs_erd
@@ -428,6 +437,16 @@ def test_validate_payload_report_passes_on_two_arms():
         report = check.validate_payload(arm_on("simulator", arm), n_states=8)
         assert report.passed(), str(report)
         assert report.n_states == 8 and "PASSED" in str(report)
+
+
+@needs_erd
+def test_validate_payload_refuses_bad_counts():
+    robot = arm_on("simulator", "ur5")
+    for bad in (0, 2.5, True, "3", float("nan")):
+        with pytest.raises(InputError, match="n_states"):
+            check.validate_payload(robot, n_states=bad)
+    with pytest.raises(InputError, match="seed"):
+        check.validate_payload(robot, n_states=1, seed=-1)
 
 
 @needs_erd

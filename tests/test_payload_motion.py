@@ -18,13 +18,13 @@ import subprocess
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import needs_example_robot_data
 
-from stewart_pin import InputError, PayloadError, StewartRobot
+from stewart_pin import FileFormatError, InputError, PayloadError, StewartRobot
 from stewart_pin.check import payload as check
 from stewart_pin.check.constrained_dynamics import relative_error
 from stewart_pin.cli import main
-from stewart_pin.exceptions import MissingDependencyError
-from stewart_pin.models.payload import Payload, example_robot_names
+from stewart_pin.models.payload import Payload
 from stewart_pin.motion.payload import (
     JointMotion,
     PayloadComputedTorque,
@@ -33,19 +33,7 @@ from stewart_pin.motion.payload import (
     simulate_payload,
 )
 
-
-def _have_example_robot_data() -> bool:
-    try:
-        example_robot_names()
-    except MissingDependencyError:
-        return False
-    return True
-
-
-pytestmark = pytest.mark.skipif(
-    not _have_example_robot_data(),
-    reason='example-robot-data is not installed (pip install "stewart-pin[payload]")',
-)
+pytestmark = needs_example_robot_data()
 
 _ROBOTS: dict[tuple[str, str], object] = {}
 
@@ -152,7 +140,7 @@ def test_payload_simulation_saves_the_joints_beside_the_result(tmp_path):
     t, q = PayloadSimulation.load_joints(result, robot.payload)
     np.testing.assert_array_equal(t, sim.result.t)
     np.testing.assert_array_equal(q, sim.q)
-    with pytest.raises(Exception, match="missing"):
+    with pytest.raises(FileFormatError, match="missing"):
         PayloadSimulation.load_joints(tmp_path / "other.csv", robot.payload)
     with pytest.raises(InputError, match="this robot's payload"):
         simulate_payload(carrier("simulator", "panda"), 0.01, joints)
@@ -261,7 +249,9 @@ def test_exported_animation_moves_the_arm_with_the_platform(exported):
 
 def test_chromium_draws_the_arm_on_the_platform(exported, tmp_path):
     """The page with the arm differs from the hexapod alone, seen from the same camera,
-    in the region above the platform."""
+    in the region above the platform. Both pages hold one state (the animation's first):
+    a screenshot is taken whenever the page is ready, and a moving arm covers more or
+    less of the page from one frame to the next."""
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         pytest.skip("no Chromium on the PATH")
@@ -269,10 +259,11 @@ def test_chromium_draws_the_arm_on_the_platform(exported, tmp_path):
 
     from stewart_pin.viz.viewer import Viewer
 
-    path, viewer, poses, t, q = exported
-    alone = Viewer(viewer.robot).export_html(
-        tmp_path / "alone.html", poses, t, camera=viewer.fit(poses, q)
-    )
+    _, viewer, poses, t, q = exported
+    poses, q = np.repeat(poses[:1], len(t), axis=0), np.repeat(q[:1], len(t), axis=0)
+    camera = viewer.fit(poses, q)
+    path = viewer.export_html(tmp_path / "held.html", poses, t, q, camera=camera)
+    alone = Viewer(viewer.robot).export_html(tmp_path / "alone.html", poses, t, camera=camera)
     shots = []
     for page in (path, alone):
         png = tmp_path / f"{page.stem}.png"
@@ -326,6 +317,23 @@ def test_cli_payload_placement_needs_a_payload(capsys):
         ["validate", "--preset", "desktop", "--payload-placement", "0", "0", "0", "0", "0", "0"]
     )
     assert code == 2 and "--payload-placement needs --payload" in capsys.readouterr().err
+    # the payload's motion and drawing options without a payload: refused, not ignored
+    for argv in (
+        ["simulate", "--payload-fraction", "0.5", "--duration", "0.01"],
+        ["animate", "--payload-period", "2"],
+        ["view", "--payload-shapes", "--no-wait"],
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{argv[1]} needs --payload" in err, err
+
+
+def test_cli_payload_fraction_above_one_names_the_option(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["simulate", "--payload", "so101", "--payload-fraction", "1.5"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--payload-fraction: expected a number in (0, 1], got '1.5'" in err
 
 
 # ---------------------------------------------------------------------------- the demo

@@ -120,6 +120,23 @@ def test_bad_arguments_raise_input_errors():
         optimal_point_to_point(robot, T0, T1, 1.0, margin=0.5 * (hi - lo))
     with pytest.raises(InputError, match="goal_pose has leg lengths"):
         optimal_point_to_point(robot, T0, T1, 1.0, margin=0.2 * (hi - lo))
+    for bad in (True, "fast", [1.0, "x", 1, 1, 1, 1], 1j):
+        with pytest.raises(InputError, match="max_effort"):
+            optimal_point_to_point(robot, T0, T1, 1.0, max_effort=bad)
+    for bad in (0, -1, 2.5, "many", True):
+        with pytest.raises(InputError, match="max_iterations"):
+            optimal_point_to_point(robot, T0, T1, 1.0, max_iterations=bad)
+    with pytest.raises(InputError, match="substeps"):
+        optimal_point_to_point(robot, T0, T1, 1.0, substeps=1.5)
+
+
+def test_bad_replay_arguments_raise_input_errors(limited):
+    robot, m = limited
+    for bad in (0, 1.7, "x", True):
+        with pytest.raises(InputError, match="substeps"):
+            m.simulate(robot, substeps=bad)
+    with pytest.raises(InputError, match="t must be finite"):
+        m.forces(float("nan"))
 
 
 def test_general_legs_are_not_supported_yet():

@@ -11,6 +11,7 @@ from typing import Any
 
 __all__ = [
     "finite_float",
+    "fraction_of_one",
     "non_negative_finite_float",
     "non_negative_int",
     "positive_finite_float",
@@ -48,3 +49,5 @@ positive_finite_float = _parser(
 non_negative_finite_float = _parser(
     float, lambda x: math.isfinite(x) and x >= 0.0, "a finite number >= 0"
 )
+#: A number in (0, 1] (a fraction of a range).
+fraction_of_one = _parser(float, lambda x: 0.0 < x <= 1.0, "a number in (0, 1]")

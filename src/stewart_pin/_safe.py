@@ -15,7 +15,7 @@ from pathlib import Path
 
 from stewart_pin.exceptions import InputError
 
-__all__ = ["check_xml_text", "file_in_folder", "yaml_quoted"]
+__all__ = ["check_xml_text", "file_in_folder", "toml_quoted", "yaml_quoted"]
 
 # Characters XML 1.0 cannot hold at all, not even as a character reference.
 _NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
@@ -35,10 +35,10 @@ def check_xml_text(text: str, what: str) -> str:
     return text
 
 
-def yaml_quoted(text: str) -> str:
-    """``text`` as a YAML double-quoted scalar: printable ASCII as is (but ``"`` and ``\\``),
-    everything else as an escape (``\\xXX``, ``\\uXXXX``, ``\\UXXXXXXXX``), so no character
-    of ``text`` can end the scalar, break the line or be folded by the reader."""
+def _quoted(text: str, byte_escape: str, surrogate: str | None) -> str:
+    """``text`` double-quoted: printable ASCII as is (but ``"`` and ``\\``), every other
+    character escaped: ``byte_escape`` (a format of the code) up to U+00FF, ``\\uXXXX``,
+    ``\\UXXXXXXXX`` above; lone surrogates as ``surrogate`` when given."""
     out = []
     for ch in text:
         code = ord(ch)
@@ -46,13 +46,30 @@ def yaml_quoted(text: str) -> str:
             out.append("\\" + ch)
         elif 0x20 <= code < 0x7F:
             out.append(ch)
+        elif surrogate is not None and 0xD800 <= code <= 0xDFFF:
+            out.append(surrogate)
         elif code <= 0xFF:
-            out.append(f"\\x{code:02x}")
+            out.append(byte_escape.format(code))
         elif code <= 0xFFFF:
             out.append(f"\\u{code:04x}")
         else:
             out.append(f"\\U{code:08x}")
     return '"' + "".join(out) + '"'
+
+
+def yaml_quoted(text: str) -> str:
+    """``text`` as a YAML double-quoted scalar: printable ASCII as is (but ``"`` and ``\\``),
+    everything else as an escape (``\\xXX``, ``\\uXXXX``, ``\\UXXXXXXXX``), so no character
+    of ``text`` can end the scalar, break the line or be folded by the reader."""
+    return _quoted(text, "\\x{:02x}", None)
+
+
+def toml_quoted(text: str) -> str:
+    """``text`` as a TOML basic string: printable ASCII as is (but ``"`` and ``\\``), every
+    other character escaped (``\\uXXXX``, ``\\UXXXXXXXX``: TOML has no ``\\x``), so no
+    text from a file can end the string or the line. Lone surrogates, which no TOML string
+    can hold, become U+FFFD."""
+    return _quoted(text, "\\u{:04x}", "\\ufffd")
 
 
 def file_in_folder(folder: str | os.PathLike[str], file_name: str) -> Path:

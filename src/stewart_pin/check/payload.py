@@ -31,12 +31,14 @@ a reference, not a fast path.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._checks import check_scalar
 from stewart_pin.check.constrained_dynamics import (
     DDM_TOLERANCE,
     IDM_TOLERANCE,
@@ -257,44 +259,50 @@ def _legs(robot: RobotLike, poses: np.ndarray) -> np.ndarray:
     return np.asarray(robot.inverse_geometry(poses, check_limits=False), dtype=float)
 
 
+def _each_state(
+    one: Callable[..., tuple[np.ndarray, np.ndarray]],
+    solver: PayloadTreeSolver,
+    poses: Any,
+    *columns: Any,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``one(T, twist, x, q_legs, q, qd, y)`` state by state over a batch ``(poses,
+    twists, x, q, qd, y)``, the leg joint positions from the robot's inverse geometry:
+    its two outputs stacked, ``(N, 6)`` and ``(N, nv)``."""
+    T = np.asarray(poses, float)
+    twists, x, q, qd, y = columns
+    L = _legs(solver.robot, T)
+    out = [one(*state) for state in zip(T, twists, x, L, q, qd, y, strict=True)]
+    return np.array([o[0] for o in out]), np.array([o[1] for o in out]).reshape(len(T), -1)
+
+
 def reference_inverse_dynamics(
     solver: PayloadTreeSolver, poses: Any, twists: Any, accels: Any, q: Any, qd: Any, qdd: Any
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(Gamma (N, 6), tau (N, nv))`` from the whole constrained tree (batches)."""
-    T = np.asarray(poses, float)
-    L = _legs(solver.robot, T)
-    out = [solver.inverse_one(*x) for x in zip(T, twists, accels, L, q, qd, qdd, strict=True)]
-    return np.array([o[0] for o in out]), np.array([o[1] for o in out]).reshape(len(T), -1)
+    return _each_state(solver.inverse_one, solver, poses, twists, accels, q, qd, qdd)
 
 
 def reference_direct_dynamics(
     solver: PayloadTreeSolver, poses: Any, twists: Any, gammas: Any, q: Any, qd: Any, tau: Any
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(A (N, 6), qdd (N, nv))`` from ``pin.constraintDynamics`` on the whole tree."""
-    T = np.asarray(poses, float)
-    L = _legs(solver.robot, T)
-    out = [solver.forward_one(*x) for x in zip(T, twists, gammas, L, q, qd, tau, strict=True)]
-    return np.array([o[0] for o in out]), np.array([o[1] for o in out]).reshape(len(T), -1)
+    return _each_state(solver.forward_one, solver, poses, twists, gammas, q, qd, tau)
 
 
 def reference_prescribed_dynamics(
     solver: PayloadTreeSolver, poses: Any, twists: Any, gammas: Any, q: Any, qd: Any, qdd: Any
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(A (N, 6), tau (N, nv))`` with the payload's joint accelerations prescribed."""
-    T = np.asarray(poses, float)
-    L = _legs(solver.robot, T)
-    out = [solver.prescribed_one(*x) for x in zip(T, twists, gammas, L, q, qd, qdd, strict=True)]
-    return np.array([o[0] for o in out]), np.array([o[1] for o in out]).reshape(len(T), -1)
+    return _each_state(solver.prescribed_one, solver, poses, twists, gammas, q, qd, qdd)
 
 
 # ---------------------------------------------------------------------------- the check
 def _count(value: Any, name: str, least: int) -> int:
     """``value`` as an int >= ``least`` (integral floats accepted), else InputError."""
-    if isinstance(value, (bool, str, bytes)) or not isinstance(value, (int, float, np.number)):
+    n = int(check_scalar(value, name, integer=True))
+    if n < least:
         raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
-    if not np.isfinite(value) or value != int(value) or int(value) < least:
-        raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
-    return int(value)
+    return n
 
 
 @dataclass(frozen=True)

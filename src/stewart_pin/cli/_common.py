@@ -5,13 +5,15 @@ The number types (``type=`` of ``add_argument``) refuse bad values while the arg
 parsed, so a bad number is one line on stderr and exit code 2, before any work (they live
 in :mod:`stewart_pin._argtypes`, which the applications use too): :func:`positive_int`,
 :func:`non_negative_int`, :func:`finite_float`, :func:`positive_finite_float`,
-:func:`non_negative_finite_float`.
+:func:`non_negative_finite_float`, :func:`fraction_of_one`.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,6 +24,7 @@ import pinocchio as pin
 
 from stewart_pin._argtypes import (
     finite_float,
+    fraction_of_one,
     non_negative_finite_float,
     non_negative_int,
     positive_finite_float,
@@ -35,6 +38,7 @@ __all__ = [
     "add_robot_args",
     "check_output",
     "finite_float",
+    "fraction_of_one",
     "non_negative_finite_float",
     "non_negative_int",
     "payload_robot_from_args",
@@ -116,13 +120,31 @@ def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> 
     if getattr(args, "description", None):
         robot = StewartRobot.from_file(args.description)
     elif getattr(args, "model", None):
-        from stewart_pin.importers import import_model
-
-        robot = StewartRobot(import_model(args.model).description)
+        robot = _imported_robot(args)
     else:
         robot = StewartRobot.from_preset(args.preset)
     if ideal_only is not None and not robot.is_ideal_ups:
         raise refuse_general(ideal_only, robot)
+    return robot
+
+
+def _imported_robot(args: argparse.Namespace) -> StewartRobot:
+    """The robot of ``--model``; the importer's warnings (rounded loops, nearly parallel
+    axes...) printed as one line each on stderr, as ``stewart-pin import`` prints them,
+    rather than as Python warnings with a source line."""
+    from stewart_pin.exceptions import ModelImportWarning
+    from stewart_pin.importers import import_model
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        robot = StewartRobot(import_model(args.model).description)
+    command = getattr(args, "command", None) or "stewart-pin"
+    for w in caught:
+        if issubclass(w.category, ModelImportWarning):
+            message = " ".join(str(w.message).split())
+            print(f"stewart-pin {command}: warning: {message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return robot
 
 
@@ -184,8 +206,16 @@ def payload_robot_from_args(args: argparse.Namespace, robot: StewartRobot) -> An
     or ``None`` without ``--payload``."""
     name = getattr(args, "payload", None)
     if not name:
-        if getattr(args, "payload_placement", None) is not None:
-            raise InputError("--payload-placement needs --payload")
+        options = ("placement", "fraction", "period")
+        given = [
+            f"--payload-{o}" for o in options if getattr(args, f"payload_{o}", None) is not None
+        ]
+        if getattr(args, "payload_shapes", False):
+            given.append("--payload-shapes")
+        if given:
+            raise InputError(
+                f"{', '.join(given)} {'needs' if len(given) == 1 else 'need'} --payload"
+            )
         return None
     placement = None
     values = getattr(args, "payload_placement", None)

@@ -7,6 +7,7 @@ import warnings
 from pathlib import Path
 
 from stewart_pin.cli._common import check_output, positive_finite_float
+from stewart_pin.exceptions import InputError
 
 
 def _import(args: argparse.Namespace) -> int:
@@ -20,9 +21,27 @@ def _import(args: argparse.Namespace) -> int:
         "closure_tolerance": args.closure_tolerance,
         "rod_spin": args.rod_spin,
     }
+    urdf = Path(args.model).suffix.lower() == ".urdf"
+    other = (
+        [("--keyframe", args.keyframe)]
+        if urdf
+        else [
+            ("--closures", args.closures),
+            ("--closure-pairs", args.closure_pairs),
+            ("--actuated", args.actuated),
+        ]
+    )
+    ignored = [option for option, value in other if value is not None]
+    if ignored:
+        kind, then = ("a URDF", "MJCF") if urdf else ("an MJCF", "URDF")
+        verb = "applies" if len(ignored) == 1 else "apply"
+        raise InputError(
+            f"{', '.join(ignored)} only {verb} to {then} files, and {args.model} is {kind} "
+            "model (by its suffix): leave them out"
+        )
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        if Path(args.model).suffix.lower() == ".urdf":
+        if urdf:
             closures = args.closures
             if args.closure_pairs:
                 closures = [tuple(pair.split("=", 1)) for pair in args.closure_pairs]

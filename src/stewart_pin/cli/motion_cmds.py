@@ -17,6 +17,7 @@ from stewart_pin.cli._common import (
     add_robot_args,
     check_output,
     finite_float,
+    fraction_of_one,
     payload_robot_from_args,
     positive_finite_float,
     progress_bar,
@@ -135,12 +136,25 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The payload's joint sweep of the command line: the fraction of each joint's half-range
+#: and the period [s] (``--payload-fraction``, ``--payload-period``).
+PAYLOAD_FRACTION = 0.25
+PAYLOAD_PERIOD = 1.0
+
+
+def _sweep(args: argparse.Namespace) -> tuple[float, float]:
+    """``(fraction, period)`` of ``--payload-fraction`` / ``--payload-period``."""
+    fraction = PAYLOAD_FRACTION if args.payload_fraction is None else args.payload_fraction
+    period = PAYLOAD_PERIOD if args.payload_period is None else args.payload_period
+    return fraction, period
+
+
 def _payload_joints(args: argparse.Namespace, carrier: Any, duration: float) -> Any:
     """The payload's joint motion of the command line: every joint sweeping a quarter of
     its half-range about the middle of its range (``JointMotion.sweep``)."""
     from stewart_pin.motion.payload import JointMotion
 
-    return JointMotion.sweep(carrier.payload, args.payload_fraction, args.payload_period, duration)
+    return JointMotion.sweep(carrier.payload, *_sweep(args), duration)
 
 
 def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
@@ -189,10 +203,11 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
     except SimulationError as e:
         raise _save_partial(e, out) from e
     sim.save(out)
+    fraction, period = _sweep(args)
     lines = [
         f"simulated {duration:g} s of '{carrier.name}' ({args.motion}, {args.method}; the "
-        f"payload's {carrier.nv} joints sweeping {args.payload_fraction:g} of their range "
-        f"every {args.payload_period:g} s): {out}, payload joints in {side}"
+        f"payload's {carrier.nv} joints sweeping {fraction:g} of their range "
+        f"every {period:g} s): {out}, payload joints in {side}"
     ]
     if motion is not None:
         pos, rot = (
@@ -436,19 +451,20 @@ def add_payload_motion_args(p: argparse.ArgumentParser, drawing: bool = False) -
     add_payload_args(p)
     p.add_argument(
         "--payload-fraction",
-        type=positive_finite_float,
-        default=0.25,
-        help="the payload's joints sweep this fraction of their half-range (<= 1)",
+        type=fraction_of_one,
+        help="the payload's joints sweep this fraction of their half-range, in (0, 1] "
+        f"(default: {PAYLOAD_FRACTION:g}; needs --payload)",
     )
     p.add_argument(
         "--payload-period",
         type=positive_finite_float,
-        default=1.0,
-        help="period [s] of the payload's joint sweep",
+        help=f"period [s] of the payload's joint sweep (default: {PAYLOAD_PERIOD:g}; needs "
+        "--payload)",
     )
     if drawing:
         p.add_argument(
             "--payload-shapes",
             action="store_true",
-            help="draw the payload with simple shapes, not its meshes (a smaller HTML page)",
+            help="draw the payload with simple shapes, not its meshes (a smaller HTML page; "
+            "needs --payload)",
         )

@@ -647,7 +647,9 @@ class CompiledDynamics:
             yield self._run("ddm", pose, twist, gamma, "gamma", base_values)
 
     # ------------------------------------------------------------------ internals
-    def _chi(self, base_values: Any) -> np.ndarray:
+    def checked_base_values(self, base_values: Any) -> np.ndarray:
+        """The base parameters a call uses: the robot's (``None``) or ``base_values``
+        checked (``(len(parameter_names),)``, finite), C-contiguous float64."""
         if base_values is None:
             return self.base_values
         chi = check_array(base_values, (len(self.parameter_names),), "base_values")
@@ -657,7 +659,7 @@ class CompiledDynamics:
         self, which: str, pose: Any, twist: Any, x: Any, name: str, base_values: Any
     ) -> np.ndarray:
         if self.kind != "compiled":
-            return self._run_vm(which, pose, twist, x, name, self._chi(base_values))
+            return self._run_vm(which, pose, twist, x, name, self.checked_base_values(base_values))
         if (
             type(pose) is np.ndarray
             and type(twist) is np.ndarray
@@ -671,7 +673,7 @@ class CompiledDynamics:
             if pose.shape == (1, 4, 4) and twist.shape == (1, 6) and x.shape == (1, 6):
                 out = self._run_one(which, pose[0], twist[0], x[0], name, base_values, True)
                 return out[None]
-        chi = self._chi(base_values)
+        chi = self.checked_base_values(base_values)
         T, V, X = _as_c(pose), _as_c(twist), _as_c(x)
         if T is not None and V is not None and X is not None:
             if T.shape == (4, 4) and V.shape == (6,) and X.shape == (6,):
@@ -756,7 +758,7 @@ class CompiledDynamics:
         a batch of one, for the error messages)."""
         chi_ptr = self._chi_ptr
         if base_values is not None:
-            chi = self._chi(base_values)
+            chi = self.checked_base_values(base_values)
             chi_ptr = ctypes.c_void_p(chi.ctypes.data)
         block = pose.tobytes() + twist.tobytes() + x.tobytes()  # float64, C order
         max_cond = self.robot.max_condition

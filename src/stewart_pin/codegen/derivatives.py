@@ -451,7 +451,7 @@ class CompiledDerivatives:
         self, which: str, pose: Any, twist: Any, x: Any, name: str, base_values: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The three Jacobians of a state or batch the value model has accepted."""
-        chi = self._values._chi(base_values)
+        chi = self._values.checked_base_values(base_values)
         arrays = _native(pose, twist, x)  # already checked by the value model
         if arrays is None:
             batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))

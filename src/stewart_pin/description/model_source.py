@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from stewart_pin._safe import toml_quoted as toml_string
 from stewart_pin.exceptions import DescriptionError
 
 #: The longest name kept [characters]; longer names are refused (a file could hold
@@ -147,54 +148,26 @@ class ModelSource:
         """A :class:`ModelSource` from itself or from its :meth:`to_dict` form."""
         if isinstance(value, ModelSource):
             return value
-        if not isinstance(value, dict):
-            raise DescriptionError(
-                f"model source must be a table ({', '.join(SOURCE_KEYS)}), got "
-                f"{type(value).__name__}"
-            )
-        missing = [k for k in SOURCE_KEYS if k not in value]
-        unknown = [k for k in value if k not in SOURCE_KEYS]
-        if missing or unknown:
-            raise DescriptionError(
-                f"model source keys: missing {missing}, unknown {unknown}; expected "
-                f"{list(SOURCE_KEYS)}"
-            )
-        return cls(**{k: value[k] for k in SOURCE_KEYS})
+        return cls(**_table(value, SOURCE_KEYS, "model source"))
 
 
 def leg_source_from_dict(value: Any) -> LegSource:
+    return LegSource(**_table(value, LEG_SOURCE_KEYS, "model source leg"))
+
+
+def _table(value: Any, keys: tuple[str, ...], what: str) -> dict[str, Any]:
+    """``value``'s entries of ``keys``, exactly those (else :class:`DescriptionError`)."""
     if not isinstance(value, dict):
-        raise DescriptionError(f"model source: a leg is a table, got {type(value).__name__}")
-    missing = [k for k in LEG_SOURCE_KEYS if k not in value]
-    unknown = [k for k in value if k not in LEG_SOURCE_KEYS]
+        raise DescriptionError(
+            f"{what} must be a table ({', '.join(keys)}), got {type(value).__name__}"
+        )
+    missing = [k for k in keys if k not in value]
+    unknown = [k for k in value if k not in keys]
     if missing or unknown:
         raise DescriptionError(
-            f"model source leg keys: missing {missing}, unknown {unknown}; expected "
-            f"{list(LEG_SOURCE_KEYS)}"
+            f"{what} keys: missing {missing}, unknown {unknown}; expected {list(keys)}"
         )
-    return LegSource(**{k: value[k] for k in LEG_SOURCE_KEYS})
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string: printable characters as they are (but ``"`` and
-    ``\\``), every control character (U+0000-U+001F, U+007F-U+009F) and every
-    character outside the Basic Multilingual Plane's printable range escaped
-    (``\\uXXXX``, ``\\UXXXXXXXX``), so no name from a file can end the string or the
-    line. Lone surrogates (which no TOML string can hold) become U+FFFD."""
-    out = []
-    for ch in text:
-        code = ord(ch)
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif 0x20 <= code < 0x7F:
-            out.append(ch)
-        elif 0xD800 <= code <= 0xDFFF:
-            out.append("\\uFFFD")
-        elif code <= 0xFFFF:
-            out.append(f"\\u{code:04X}")
-        else:
-            out.append(f"\\U{code:08X}")
-    return '"' + "".join(out) + '"'
+    return {k: value[k] for k in keys}
 
 
 def source_toml(source: dict[str, Any]) -> str:

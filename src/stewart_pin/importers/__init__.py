@@ -19,10 +19,12 @@ file is read.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from stewart_pin._checks import check_scalar
+from stewart_pin.exceptions import InputError
 from stewart_pin.importers.build import (
     CLOSURE_TOLERANCE,
     SPIN_TOLERANCE,
@@ -71,6 +73,13 @@ def import_mjcf(
     """
     from stewart_pin.importers.mjcf import read_mjcf
 
+    if keyframe is not None and (
+        isinstance(keyframe, bool) or not isinstance(keyframe, (str, int))
+    ):
+        raise InputError(f"keyframe must be a keyframe's name or index, got {keyframe!r}")
+    closure_tolerance, spin_tolerance = _check_options(
+        platform, name, closure_tolerance, spin_tolerance
+    )
     model = read_mjcf(source, keyframe)
     rec = recognise(model, platform)
     return build(
@@ -112,6 +121,23 @@ def import_urdf(
     """
     from stewart_pin.importers.urdf import read_urdf
 
+    closure_tolerance, spin_tolerance = _check_options(
+        platform, name, closure_tolerance, spin_tolerance
+    )
+    if actuated is not None and (
+        isinstance(actuated, str)
+        or not isinstance(actuated, Sequence)
+        or not all(isinstance(joint, str) for joint in actuated)
+    ):
+        raise InputError(f"actuated must be a list of joint names in leg order, got {actuated!r}")
+    if armature is not None:
+        if not isinstance(armature, Mapping) or not all(isinstance(k, str) for k in armature):
+            raise InputError(
+                "armature must be a dict of joint name to armature [kg m^2 or kg], got "
+                f"{armature!r}"
+            )
+        for joint, value in armature.items():  # named here, not as the sidecar's
+            check_scalar(value, f"armature of joint '{joint}'", nonnegative=True)
     read = read_urdf(path, closures, armature)
     rec = recognise(read.model, platform)
     return build(
@@ -125,6 +151,20 @@ def import_urdf(
         rod_spin=rod_spin,
         joint_terms=read.joint_terms,
         limits=read.limits,
+    )
+
+
+def _check_options(
+    platform: Any, name: Any, closure_tolerance: Any, spin_tolerance: Any
+) -> tuple[float, float]:
+    """The options both readers share, checked before the file is read: the two
+    tolerances as positive finite numbers."""
+    for value, what in ((platform, "platform"), (name, "name")):
+        if value is not None and not isinstance(value, str):
+            raise InputError(f"{what} must be a name (a string), got {value!r}")
+    return (
+        check_scalar(closure_tolerance, "closure_tolerance", positive=True),
+        check_scalar(spin_tolerance, "spin_tolerance", positive=True),
     )
 
 

@@ -301,6 +301,7 @@ class Payload:
         path = Path(path)
         if not path.is_file():
             raise PayloadError(f"payload URDF {path} is not a file")
+        _check_urdf_root(path)
         try:
             model = pin.buildModelFromUrdf(str(path))
         except (RuntimeError, ValueError) as e:
@@ -511,6 +512,21 @@ class Payload:
                 g.meshScale = np.asarray(g.meshScale) * s
                 g.placement = pin.SE3(g.placement.rotation, g.placement.translation * s)
         return geom
+
+
+def _check_urdf_root(path: Path) -> None:
+    """A file that is not well-formed XML with a ``<robot>`` root is refused here, in one
+    message: Pinocchio's URDF parser would print its own lines on stderr first."""
+    from xml.etree import ElementTree
+
+    try:
+        root = ElementTree.parse(path).getroot()  # no external entities, no network
+    except (ElementTree.ParseError, OSError, ValueError) as e:
+        raise PayloadError(f"payload URDF {path} is not well-formed XML: {e}") from e
+    if root.tag != "robot":
+        raise PayloadError(
+            f"payload URDF {path}: the root element is <{root.tag}>, not <robot> (a URDF)"
+        )
 
 
 def _is_prismatic(joint: Any) -> bool:

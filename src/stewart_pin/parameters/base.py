@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from stewart_pin._checks import check_scalar
 from stewart_pin.description import RobotDescription
 from stewart_pin.dynamics.regressor import (
     JOINT_TERMS_START,
@@ -378,6 +379,9 @@ def stacked_regressor(robot: RobotLike, n_states: int = 60, seed: int = 0) -> np
     """``W`` stacked over ``n_states`` random workspace states: (6 n_states, n)."""
     from stewart_pin.kinematics.workspace import sample_states
 
+    n_states = int(check_scalar(n_states, "n_states", integer=True))
+    if n_states < 1:
+        raise InputError(f"n_states must be an integer >= 1, got {n_states}")
     if robot.description.is_ideal_ups:
         poses, twists, accels = sample_states(robot.description, n_states, seed)
     else:
@@ -476,6 +480,13 @@ def numerical_base_parameters(
         )
     rel = sv / sv[0]
     rank = int(np.sum(rel > tol))
+    if rank >= Wn.shape[0] and rank < n:
+        raise InputError(
+            f"{n_states} states give {Wn.shape[0]} regressor rows, all independent: the rank "
+            "is limited by the number of states, not by the robot, so no base set can be "
+            f"read from them; use more states (6 x n_states above the {n} standard "
+            f"parameters: n_states >= {n // 6 + 1})"
+        )
     _, R, perm = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
     R1, R2 = R[:rank, :rank], R[:rank, rank:]
     beta_n = scipy.linalg.solve_triangular(R1, R2)  # in scaled columns
@@ -589,6 +600,7 @@ def essential_parameters(
     Parameters that vanish by symmetry (as the paper's symmetric links make many) go
     first, at zero cost. ``values`` are the robot's base values of the kept parameters.
     """
+    threshold = check_scalar(threshold, "threshold", positive=True)
     bp = base if base is not None else base_parameters(robot)
     W = bp.reduce(stacked_regressor(robot, n_states, seed))
     parts = W * bp.values  # column k: the forces parameter k accounts for

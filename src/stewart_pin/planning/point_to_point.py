@@ -108,6 +108,7 @@ class OptimalMotion:
     def forces(self, t: float, pose: Any = None, twist: Any = None) -> np.ndarray:
         """The force held at time ``t`` [s] (the open-loop schedule; ``pose`` and ``twist``
         are ignored): ``simulate``'s ``forces`` argument."""
+        t = check_scalar(t, "t", unit="s")
         k = int(np.floor(t / self.control_period + _INDEX_SLACK))
         return self.gammas[min(max(k, 0), len(self.gammas) - 1)].copy()
 
@@ -119,9 +120,7 @@ class OptimalMotion:
         held every :attr:`control_period` (:func:`~stewart_pin.motion.simulation.simulate`;
         ``backend`` its direct model's, by default the reference path, which shares no
         code with the generated model the optimisation used)."""
-        n = self.substeps if substeps is None else int(substeps)
-        if n < 1:
-            raise InputError(f"substeps must be a positive integer, got {substeps!r}")
+        n = self.substeps if substeps is None else _integer(substeps, "substeps", 1)
         period = self.control_period
         return simulate(
             robot,
@@ -218,17 +217,33 @@ def _state(T: np.ndarray, V: np.ndarray) -> np.ndarray:
     return np.concatenate([T[:3, 3], q, V])
 
 
+def _integer(value: Any, name: str, least: int) -> int:
+    """``value`` as an int >= ``least`` (an integral float too), else InputError."""
+    n = int(check_scalar(value, name, integer=True))
+    if n < least:
+        raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
+    return n
+
+
 def _limits(value: Any, name: str) -> np.ndarray:
     if value is None:
         return np.full(6, np.inf)
-    arr = np.asarray(value, dtype=float)
+    error = InputError(
+        f"{name} must be a positive number or six positive numbers (inf: no limit), got {value!r}"
+    )
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise error
+    try:
+        arr = np.asarray(value)
+        if arr.dtype.kind not in "iuf":  # booleans, strings, objects
+            raise error
+        arr = arr.astype(float)
+    except (TypeError, ValueError) as e:
+        raise error from e
     if arr.ndim == 0:
         arr = np.full(6, float(arr))
     if arr.shape != (6,) or np.isnan(arr).any() or not (arr > 0).all():
-        raise InputError(
-            f"{name} must be a positive number or six positive numbers (inf: no limit), "
-            f"got {value!r}"
-        )
+        raise error
     return arr
 
 
@@ -303,9 +318,9 @@ def optimal_point_to_point(
     T0 = check_pose(start_pose, "start_pose")
     T1 = check_pose(goal_pose, "goal_pose")
     duration = check_scalar(duration, "duration", positive=True, unit="s")
-    for value, name, least in ((intervals, "intervals", 2), (substeps, "substeps", 1)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
-            raise InputError(f"{name} must be an integer >= {least}, got {value!r}")
+    intervals = _integer(intervals, "intervals", 2)
+    substeps = _integer(substeps, "substeps", 1)
+    max_iterations = _integer(max_iterations, "max_iterations", 1)
     if hessian not in ("limited-memory", "exact"):
         raise InputError(f"hessian must be 'limited-memory' or 'exact', got {hessian!r}")
     tol = check_scalar(tol, "tol", positive=True)
