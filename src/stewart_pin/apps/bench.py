@@ -47,6 +47,7 @@ from stewart_pin.check.constrained_dynamics import (
     tree_solver,
     tree_state,
 )
+from stewart_pin.check.general_legs import GeneralTreeSolver
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
 from stewart_pin.kinematics.workspace import sample_states
@@ -68,7 +69,16 @@ def constraint_dynamics_call(
 ) -> Callable[[], object]:
     """One raw ``pin.constraintDynamics`` call on the robot's closed-loop tree at a platform
     state (pose (4, 4), twist (6,), actuator forces (6,) [N]): the yardstick every row is
-    divided by. Leg rates from the loop constraints (:func:`tree_state`)."""
+    divided by. Leg rates from the loop constraints (:func:`tree_state`); general legs: the
+    24-dof tree of :func:`stewart_pin.models.leg_chains.build_general_tree`
+    (``model.armature`` set, the joint terms in ``tau``)."""
+    if not robot.is_ideal_ups:
+        general = GeneralTreeSolver(robot.general)
+        q, v, _ = general.state(pose, twist, robot.inverse_geometry(pose, check_limits=False))
+        tau = -general.joint_torques(q, v)
+        tau[general.v_act] += gamma
+        args = (general.model, general.data, q, v, tau, general.cmodels, general.cdatas)
+        return partial(pin.constraintDynamics, *args, general.settings)
     solver = tree_solver(robot)
     q, v = tree_state(robot, pose, twist)
     tau = np.zeros(solver.nv)

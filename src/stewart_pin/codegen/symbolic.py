@@ -621,12 +621,15 @@ class SymbolicModels:
         ddm: ``(pose, twist, gamma, base_parameters) -> accel``, the direct dynamic model.
         idm_guarded, ddm_guarded: the same with a second output ``aux`` (the by-products
             used to validate a state, layout ``AUX_*``); this is what gets compiled.
-        idm_stages, ddm_stages: the models split for parallel evaluation.
+        idm_stages, ddm_stages: the models split for parallel evaluation (``None`` for
+            the general-leg models unless asked for:
+            :func:`stewart_pin.codegen.general_symbolic.build_general_models`).
         pose: ``"matrix"`` (input ``pose`` = 0Tp row-major, 16) or ``"quaternion"``
             (``[x, y, z, qx, qy, qz, qw]``).
         parameters: ``"base"`` (88 symbolic base parameters), ``"essential"`` (only the
             paper's 52 essential ones symbolic, the others zero) or ``"numeric"`` (all
-            values baked in).
+            values baked in; always for general legs, whose ``base_parameters`` input is
+            empty).
         constants: the numbers baked in. pivots: the static LU pivots of the IDM.
 
     Inputs ``twist`` = ``[v, w]`` of O_p in F0 [m/s, rad/s], ``accel`` classical
@@ -638,8 +641,8 @@ class SymbolicModels:
     ddm: cs.Function
     idm_guarded: cs.Function
     ddm_guarded: cs.Function
-    idm_stages: Stages
-    ddm_stages: Stages
+    idm_stages: Stages | None
+    ddm_stages: Stages | None
     pose: str
     parameters: str
     constants: ModelConstants
@@ -889,6 +892,11 @@ def generate_models(
 ) -> SymbolicModels:
     """Generate the symbolic IDM and DDM of a robot (cached per description).
 
+    A robot with general legs (``desc.legs`` set) gets the generic models of
+    :mod:`stewart_pin.codegen.general_symbolic`: every number of the robot baked in, an
+    empty ``base_parameters`` input (``parameters`` ``"base"`` or ``"numeric"``), no
+    stages.
+
     Args:
         desc: the robot description; its geometry is baked in as numbers.
         pose: ``"matrix"`` (the pose input is 0Tp row-major, 16 numbers) or
@@ -898,9 +906,21 @@ def generate_models(
             zero, as in the paper's operation counts) or ``"numeric"`` (every value baked
             in: zeros of a symmetric robot propagate too).
     """
+    if not desc.is_ideal_ups:
+        if parameters not in ("base", "numeric"):
+            raise InputError(
+                f"robot '{desc.name}' has general legs: its models have every parameter value "
+                f"baked in (parameters 'base' or 'numeric'), got {parameters!r}"
+            )
+        parameters = "numeric"
     key = (description_key(desc), pose, parameters)
     if key not in _CACHE:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = _build(desc, pose, parameters, "stewart_")
+        if desc.is_ideal_ups:
+            _CACHE[key] = _build(desc, pose, parameters, "stewart_")
+        else:
+            from stewart_pin.codegen.general_symbolic import build_general_models
+
+            _CACHE[key] = build_general_models(desc, pose)[0]
     return _CACHE[key]
