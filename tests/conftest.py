@@ -6,11 +6,19 @@ first use, and the tests only read from them.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+# The dynamic models' default backend="auto" compiles each robot geometry it meets (a
+# second or more each, dozens of robots here): the suite runs it as the reference path
+# unless STEWART_PIN_BACKEND is set already (e.g. to "auto" in a CI job with a warm cache).
+# Tests of the reference path say backend="pinocchio"; tests of the compiled and "auto"
+# paths ask for them explicitly (test_auto_backend.py, test_general_codegen.py).
+os.environ.setdefault("STEWART_PIN_BACKEND", "pinocchio")
 
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import compiled as compiled_module

@@ -20,6 +20,7 @@ from stewart_pin import (
     ArchitectureError,
     DescriptionError,
     FileFormatError,
+    InputError,
     JointDynamicsError,
     NumericalError,
     RobotDescription,
@@ -293,8 +294,6 @@ def test_six_ups_only_features_refuse_general_legs():
     robot = StewartRobot.from_preset("rus")
     T, z = robot.home_pose, np.zeros(6)
     for call in (
-        lambda: robot.inverse_dynamics(T, z, z, backend="compiled"),
-        lambda: robot.direct_dynamics(T, z, z, backend="compiled"),
         lambda: robot.regressor(T, z, z),
         lambda: robot.leg_lengths(T),
         lambda: robot.tree,
@@ -436,10 +435,10 @@ def test_cli_urdf_of_general_legs_loads_with_its_joint_terms(tmp_path, monkeypat
 
 
 # ---------------------------------------------------------------------- review fixes
-def test_parameters_and_the_compiled_backend_refuse_general_legs():
+def test_parameters_refuse_general_legs():
     """The paper's grouping rules assume R-R-P legs: a RUS robot gets a named error, not
-    88 wrongly grouped parameters; the compiled library is generated for 6-UPS legs."""
-    from stewart_pin.codegen.compiled import CompiledDynamics
+    88 wrongly grouped parameters (the compiled models of general legs have their own
+    numbers compiled in: test_general_codegen.py)."""
     from stewart_pin.parameters.base import analytic_base_parameters, essential_parameters
 
     robot = StewartRobot.from_preset("rus")
@@ -448,7 +447,6 @@ def test_parameters_and_the_compiled_backend_refuse_general_legs():
         lambda: stewart_pin.base_parameters(robot, "numerical"),
         lambda: analytic_base_parameters(robot.description),
         lambda: essential_parameters(robot),
-        lambda: CompiledDynamics(robot),
     ):
         with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only"):
             call()
@@ -554,27 +552,25 @@ def test_rod_along_the_second_u_axis_is_refused():
         leg.replace(tip=np.array([0.0, 0.0, 0.1]))
 
 
-def test_simulate_compiled_on_general_legs_is_refused_before_the_run(tmp_path, capsys):
-    """``simulate --backend compiled --preset rus`` refuses before the run starts (it used to
-    stop at t = 0 with 'forces raised'): one line, exit 2, no partial result file."""
+def test_simulate_unknown_backend_is_refused_before_the_run(tmp_path, capsys):
+    """An unknown backend is refused before the run starts: one line, exit 2 (argparse's
+    choices), no partial result file; the library functions raise InputError. (General
+    legs take every backend now: ``--backend compiled`` on them is test_general_codegen's.)"""
     from stewart_pin.motion.control import ComputedTorqueController
     from stewart_pin.motion.simulation import simulate
 
     out = tmp_path / "sim.npz"
     capsys.readouterr()
-    code = main(
-        ["simulate", "--preset", "rus", "--backend", "compiled", "--quiet", "-o", str(out)]
-    )
-    assert code == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "6-UPS-only" in err and "t = " not in err, err
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--preset", "rus", "--backend", "fast", "--quiet", "-o", str(out)])
+    assert exit_info.value.code == 2
     assert not list(tmp_path.iterdir())  # nothing run, nothing saved
     robot = StewartRobot.from_preset("rus")
-    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
-        simulate(robot, 0.1, backend="compiled")
-    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
+    with pytest.raises(InputError, match="unknown backend 'fast'"):
+        simulate(robot, 0.1, backend="fast")
+    with pytest.raises(InputError, match="unknown backend 'fast'"):
         ComputedTorqueController(
-            robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="compiled"
+            robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="fast"
         )
 
 

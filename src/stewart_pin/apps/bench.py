@@ -2,8 +2,14 @@
 
 Median wall-clock time per state [us], all measured in this one run:
 
-- the inverse (IDM) and direct (DDM) models of stewart-pin (Pinocchio leg dynamics plus
-  the closure layer), one state per call and a batch of N states per call;
+- for each architecture (``--architectures``, default the 6-UPS ``simulator``, the
+  6-RUS ``rus`` and the 6-PUS ``pus`` presets): the default backend (``backend="auto"``:
+  the compiled models) of ``StewartRobot.inverse_dynamics`` / ``direct_dynamics``, one
+  state per call and batches of 10 000 and 100 000 states (threads stated), beside one
+  ``pin.constraintDynamics`` call on that robot's closed-loop tree (the ratios' yardstick);
+- for ``--preset``: the reference path of the inverse (IDM) and direct (DDM) models
+  (``backend="pinocchio"``: Pinocchio leg dynamics plus the closure layer), one state per
+  call and a batch of N states per call;
 - ``pin.constraintDynamics`` on the 24-dof closed-loop tree (the raw C++ call, with q, v
   and tau prepared beforehand) and the whole reference path of
   ``stewart_pin.check.constrained_dynamics`` (state conversion included) for the direct and
@@ -15,8 +21,9 @@ Median wall-clock time per state [us], all measured in this one run:
 - MuJoCo's ``mj_forward`` on the MJCF of the same robot, when ``import mujoco`` works (soft
   loop constraints: a timing reference, not an exact solution).
 
-Usage: ``stewart-pin bench [--preset simulator] [--batch 10000] [--repeats 300] [--quick]
-[--json bench.json]`` (or ``python scripts/bench_dynamics.py`` with the same options).
+Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus]
+[--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
+``python scripts/bench_dynamics.py`` with the same options).
 """
 
 from __future__ import annotations
@@ -191,22 +198,79 @@ def mujoco_rows(
     }
 
 
-def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str, object]:
+#: The architectures' presets of the default-backend rows, and the batch sizes.
+ARCHITECTURES = ("simulator", "rus", "pus")
+ARCHITECTURE_BATCHES = (10_000, 100_000)
+
+
+def architecture_rows(name: str, repeats: int) -> dict[str, object]:
+    """The default backend (``backend="auto"``) of one preset: one state per call and
+    batches of :data:`ARCHITECTURE_BATCHES` states [us per state], and the
+    ``pin.constraintDynamics`` call on its tree; with the ratios to that call, the backend
+    that ran and its threads."""
+    robot = StewartRobot.from_preset(name)
+    n_max = max(ARCHITECTURE_BATCHES)
+    poses, twists, accels = robot.sample_states(min(n_max, 10_000), 0)
+    gammas = robot.inverse_dynamics(poses, twists, accels)  # compiles on first use
+    T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
+    rows = {
+        "pin.constraintDynamics (raw call)": median_us(
+            constraint_dynamics_call(robot, T, V, G), repeats
+        ),
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), max(repeats, 1000)),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), max(repeats, 1000)),
+    }
+    for n in ARCHITECTURE_BATCHES:
+        idx = np.arange(n) % poses.shape[0]
+        P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
+        reps = 20 if n <= 10_000 else 5
+        rows[f"IDM batch {n}"] = median_us(partial(robot.inverse_dynamics, P, Vn, An), reps, n)
+        rows[f"DDM batch {n}"] = median_us(partial(robot.direct_dynamics, P, Vn, Gn), reps, n)
+    from stewart_pin.codegen.compiled import auto_backend
+
+    fast = auto_backend(robot)
+    reference = rows["pin.constraintDynamics (raw call)"]
+    return {
+        "architecture": robot.architecture,
+        "backend": "reference (pinocchio)" if fast is None else f"compiled ({fast.kind})",
+        "threads": 1 if fast is None else fast.threads,
+        "median_us_per_state": rows,
+        "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
+    }
+
+
+def run(
+    preset: str,
+    batch: int,
+    repeats: int,
+    quick: bool = False,
+    architectures: tuple[str, ...] = ARCHITECTURES,
+) -> dict[str, object]:
+    arch = {name: architecture_rows(name, repeats) for name in architectures}
     robot = StewartRobot.from_preset(preset)
     poses, twists, accels = sample_states(robot.description, batch, 0)
-    gammas = robot.inverse_dynamics(poses, twists, accels)
+    gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     solver = tree_solver(robot)
     q, v = tree_state(robot, T, V)
     batch_repeats = max(3, min(repeats, 5))
+    ref = "pinocchio"
     rows = {
-        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
-        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), repeats),
-        f"IDM batch {batch}": median_us(
-            lambda: robot.inverse_dynamics(poses, twists, accels), batch_repeats, batch
+        "reference IDM single": median_us(
+            lambda: robot.inverse_dynamics(T, V, A, backend=ref), repeats
         ),
-        f"DDM batch {batch}": median_us(
-            lambda: robot.direct_dynamics(poses, twists, gammas), batch_repeats, batch
+        "reference DDM single": median_us(
+            lambda: robot.direct_dynamics(T, V, G, backend=ref), repeats
+        ),
+        f"reference IDM batch {batch}": median_us(
+            lambda: robot.inverse_dynamics(poses, twists, accels, backend=ref),
+            batch_repeats,
+            batch,
+        ),
+        f"reference DDM batch {batch}": median_us(
+            lambda: robot.direct_dynamics(poses, twists, gammas, backend=ref),
+            batch_repeats,
+            batch,
         ),
         "pin.constraintDynamics (raw call)": median_us(
             constraint_dynamics_call(robot, T, V, G), repeats
@@ -231,6 +295,7 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
         "batch": batch,
         "repeats": repeats,
         "machine": machine(),
+        "architectures": arch,
         "compiled_backend": compiled_info,
         "operation_counts": {
             m: {k: counts[m][k] for k in ("base", "essential", "critical_path")}
@@ -245,6 +310,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
     )
+    parser.add_argument(
+        "--architectures",
+        type=_preset_list,
+        default=ARCHITECTURES,
+        help="comma-separated presets of the default-backend rows (one per architecture)",
+    )
     parser.add_argument("--batch", type=positive_int, default=10_000, help="states per batch")
     parser.add_argument(
         "--repeats", type=positive_int, default=300, help="timed calls (the median is shown)"
@@ -253,10 +324,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
 
 
+def _preset_list(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one preset name")
+    return names
+
+
 def report(args: argparse.Namespace) -> dict[str, object]:
     """Run the benchmark, print the table (and write the JSON) as ``args`` say."""
-    result = run(args.preset, args.batch, args.repeats, args.quick)
-    print(f"stewart-pin {stewart_pin.__version__}, preset '{args.preset}', {result['machine']}")
+    archs = getattr(args, "architectures", ARCHITECTURES)
+    result = run(args.preset, args.batch, args.repeats, args.quick, archs)
+    print(f"stewart-pin {stewart_pin.__version__}, {result['machine']}")
+    head = f"{'[us]':>10s} {'/ pin.constraintDynamics':>26s}"
+    print(f"{'default backend (auto), per state':48s} {head}")
+    for name, entry in cast(dict[str, dict[str, object]], result["architectures"]).items():
+        print(
+            f"-- '{name}' ({entry['architecture']}): {entry['backend']}, "
+            f"{entry['threads']} thread(s)"
+        )
+        a_rows = cast(dict[str, float], entry["median_us_per_state"])
+        a_ratios = cast(dict[str, float], entry["ratio_to_pin_constraintDynamics"])
+        for row, t in a_rows.items():
+            print(f"{row:48s} {t:10.3f} {a_ratios[row]:26.3f}")
+    print(f"-- preset '{args.preset}'")
     print(f"{'median time per state':48s} {'[us]':>10s} {'/ pin.constraintDynamics':>26s}")
     rows = cast(dict[str, float], result["median_us_per_state"])
     ratios = cast(dict[str, float], result["ratio_to_pin_constraintDynamics"])

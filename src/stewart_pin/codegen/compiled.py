@@ -113,6 +113,7 @@ from stewart_pin.exceptions import (
     StewartPinError,
     UnsafeCacheError,
 )
+from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -558,6 +559,8 @@ def _warn_once(reason: str) -> None:
 
 
 _F64 = np.dtype(np.float64)
+_ONE_SHAPES = ((4, 4), (6,), (6,))
+_BATCH_OF_ONE_SHAPES = ((1, 4, 4), (1, 6), (1, 6))
 
 
 def _as_c(x: Any) -> np.ndarray | None:
@@ -764,17 +767,15 @@ class CompiledDynamics:
     ) -> np.ndarray:
         if self.kind != "compiled":
             return self._run_vm(which, pose, twist, x, name, self._chi(base_values))
-        if (
-            type(pose) is np.ndarray
-            and type(twist) is np.ndarray
-            and type(x) is np.ndarray
-            and pose.dtype is _F64  # native float64 (others take the general path)
-            and twist.dtype is _F64
-            and x.dtype is _F64
-        ):
-            if pose.shape == (4, 4) and twist.shape == (6,) and x.shape == (6,):
+        try:  # native float64 arrays (anything else takes the general path below)
+            native = pose.dtype is _F64 and twist.dtype is _F64 and x.dtype is _F64
+        except AttributeError:
+            native = False
+        if native and isinstance(pose, np.ndarray):
+            shapes = (pose.shape, twist.shape, x.shape)
+            if shapes == _ONE_SHAPES:
                 return self._run_one(which, pose, twist, x, name, base_values)
-            if pose.shape == (1, 4, 4) and twist.shape == (1, 6) and x.shape == (1, 6):
+            if shapes == _BATCH_OF_ONE_SHAPES:
                 out = self._run_one(which, pose[0], twist[0], x[0], name, base_values, True)
                 return out[None]
         chi = self._chi(base_values)
@@ -955,6 +956,14 @@ class CompiledDynamics:
         bad = np.flatnonzero(flags & ~_REPIVOTED)
         if bad.size == 0:
             return
+        only_cond = (flags[bad] & ~_REPIVOTED) == _COND
+        if np.any(only_cond):  # the cheap bound passed the threshold: the exact measure
+            idx = bad[only_cond]
+            J = leg_chains.inverse_jacobian_batch(self._hexapod, T.reshape(-1, 4, 4)[idx])
+            cond = leg_chains.condition_number_batch(self._hexapod, J)
+            bad = np.setdiff1d(bad, idx[cond <= self.robot.max_condition])
+            if bad.size == 0:
+                return
         ref = self._reference(which)
         with np.errstate(over="ignore", invalid="ignore"):
             try:
@@ -1058,3 +1067,80 @@ def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
         backend = CompiledDynamics(robot, **kwargs)
         _BACKENDS[robot] = backend
     return backend
+
+
+# ---------------------------------------------------------------------------- backend="auto"
+#: Environment variable: what ``backend="auto"`` (the default of the dynamic models) does:
+#: ``auto`` (default: the compiled models where a C compiler is available, else the
+#: reference path) or ``pinocchio`` (always the reference path: nothing is compiled; the
+#: test suite sets it). Read once per robot, on its first dynamics call.
+BACKEND_ENV = "STEWART_PIN_BACKEND"
+AUTO_CHOICES = ("auto", "pinocchio")
+#: Per robot, by its ``id``: ``(a weak reference to it, its description, the
+#: CompiledDynamics or None for the reference path)`` (a look-up costs less than a
+#: WeakKeyDictionary's; the entry goes with the robot).
+_AUTO: dict[int, tuple[weakref.ref, Any, CompiledDynamics | None]] = {}
+_WARNED_AUTO: set[str] = set()
+
+
+def auto_backend(robot: RobotLike) -> CompiledDynamics | None:
+    """What ``backend="auto"`` runs for ``robot``: its compiled models, or ``None`` for
+    the reference path. Decided on the robot's first call and kept with it (weakly):
+
+    - ``$STEWART_PIN_BACKEND=pinocchio``: ``None``;
+    - no C compiler (:func:`find_compiler`), or building or loading the library fails
+      (including a cache that others could have written, :class:`UnsafeCacheError`):
+      ``None``, with one :class:`RuntimeWarning` per reason and process;
+    - else the :class:`CompiledDynamics`, built on first use (one line on stderr says so,
+      and about how long it takes) or found in the cache.
+    """
+    hit = _AUTO.get(id(robot))
+    if hit is not None and hit[0]() is robot and hit[1] is robot.description:
+        return hit[2]
+    choice = _auto_choice(robot)
+    key = id(robot)
+
+    def forget(ref: weakref.ref, key: int = key) -> None:
+        if _AUTO.get(key, (None,))[0] is ref:
+            del _AUTO[key]
+
+    _AUTO[key] = (weakref.ref(robot, forget), robot.description, choice)
+    return choice
+
+
+def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
+    env = (os.environ.get(BACKEND_ENV) or "auto").strip().lower()
+    if env not in AUTO_CHOICES:
+        raise InputError(
+            f"${BACKEND_ENV} must be one of {AUTO_CHOICES} (what backend='auto' does), got "
+            f"{env!r}; unset it for the default 'auto'"
+        )
+    if env == "pinocchio":
+        return None
+    existing = _BACKENDS.get(robot)
+    if existing is not None and existing._desc is robot.description:
+        if existing.kind == "compiled":
+            return existing
+    compiler = find_compiler()
+    if compiler is None:
+        _warn_reference("no C compiler found (cc, gcc, clang or $CC)")
+        return None
+    try:
+        backend = CompiledDynamics(robot, compiler=compiler, vm_fallback=False, announce=True)
+    except (CompilationError, UnsafeCacheError) as e:
+        _warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
+        return None
+    _BACKENDS[robot] = backend
+    return backend
+
+
+def _warn_reference(reason: str) -> None:
+    if reason not in _WARNED_AUTO:
+        _WARNED_AUTO.add(reason)
+        warnings.warn(
+            f"stewart-pin: backend='auto' takes the reference path (Pinocchio, about 100 "
+            f"times slower than the compiled models): {reason}; install a C compiler (cc, "
+            f"gcc or clang, or set $CC) to get the compiled models",
+            RuntimeWarning,
+            stacklevel=4,
+        )

@@ -20,7 +20,8 @@ Per leg i, in its frame 0i (``[R_i, B_i]`` in F0):
   equation ``A cos + B sin = K``: ``cos phi = (A K + b B S) / R^2``, ``S = sqrt(R^2 - K^2)``),
   ``pus`` (a quadratic along the rail), then the universal joint (the same identity);
   ``custom`` legs run :data:`NEWTON_ITERATIONS` Newton steps from the leg's ``guess``
-  (the reference's iteration, unrolled) and report the final residual to the guard. The
+  (the reference's iteration, unrolled: calls of one step function, never inlined, in
+  the compiled source) and report the final residual to the guard. The
   joint value ``q_j`` itself (``atan2``) is computed only where a spring needs it, taken
   into the joint's limits as :func:`~stewart_pin.description.leg_architecture.wrap_into_limits`
   does;
@@ -51,6 +52,7 @@ so that the functions have the signature of :class:`~stewart_pin.codegen.symboli
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -259,9 +261,10 @@ class _LegConst:
     actuated: int  # 0-based
     gravity: tuple[float, ...]  # g in frame 0i
     radius: float  # the platform radius of the lever check
+    inline_newton: bool = True  # custom legs: Newton's steps inline, or calls of one step
 
 
-def _leg_constants(robot: GeneralHexapod, k: int) -> _LegConst:
+def _leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> _LegConst:
     leg: LegArchitecture = robot.legs[k]
     size = max(robot.size, float(np.abs(robot.base_points).max()), 1e-300)
     joints = []
@@ -305,6 +308,7 @@ def _leg_constants(robot: GeneralHexapod, k: int) -> _LegConst:
         actuated=leg.actuated - 1,
         gravity=tuple(_snap(x, gscale) for x in g0),
         radius=robot.size,
+        inline_newton=inline_newton,
     )
 
 
@@ -502,18 +506,44 @@ def _newton(lc: _LegConst, P0: Vec) -> _LegGeometry:
     (:func:`~stewart_pin.kinematics.leg_chains.solve_leg`) from the leg's ``guess``; the
     slack ``tol^2 - |P - P(q)|^2`` flags a state that has not converged."""
     q: list[Scalar] = list(lc.guess)
-    for _ in range(NEWTON_ITERATIONS):
-        joints = _joints_at(lc, q)
-        z, O, tip = _chain(joints, lc.tip)
-        err = _sub(P0, tip)
-        cols = [_column_of(J, z[j], O[j], tip) for j, J in enumerate(joints)]
-        inv_rows, _ = _inverse3(cols)
-        q = [q[j] + _dot(inv_rows[j], err) for j in range(3)]
+    if lc.inline_newton:
+        for _ in range(NEWTON_ITERATIONS):
+            q = _newton_step(lc, q, P0)
+    else:  # calls of one step function: a C source NEWTON_ITERATIONS times shorter
+        step = _newton_step_function(lc)
+        P = _column(P0)
+        for _ in range(NEWTON_ITERATIONS):
+            q = _split(step(_column(q), P))
     joints = _joints_at(lc, q)
     _, _, tip = _chain(joints, lc.tip)
     err = _sub(P0, tip)
     tol = LEG_TOLERANCE * (1.0 - 1e-6)
     return _LegGeometry(joints, tip, [tol * tol - _dot(err, err)])
+
+
+def _newton_step(lc: _LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
+    """``q + J(q)^-1 (P - P(q))``."""
+    joints = _joints_at(lc, q)
+    z, O, tip = _chain(joints, lc.tip)
+    err = _sub(P0, tip)
+    cols = [_column_of(J, z[j], O[j], tip) for j, J in enumerate(joints)]
+    inv_rows, _ = _inverse3(cols)
+    return [_plus(q[j], _dot(inv_rows[j], err)) for j in range(3)]
+
+
+@functools.lru_cache(maxsize=64)
+def _newton_step_function(lc: _LegConst) -> cs.Function:
+    """One Newton step of leg ``lc`` as a function called (never inlined) by the models."""
+    q, P = cs.SX.sym("q", 3), cs.SX.sym("P", 3)
+    step = _newton_step(lc, _split(q), _split(P))
+    return cs.Function(
+        f"newton_leg{lc.index + 1}",
+        [q, P],
+        [_column(step)],
+        ["q", "P"],
+        ["q_next"],
+        {"never_inline": True},
+    )
 
 
 # ---------------------------------------------------------------------------- kinematics
@@ -700,11 +730,15 @@ def _serial_slacks(
     lc: _LegConst, joints: Sequence[_JointState], cols: list, O: list, P: Vec, det: Scalar
 ) -> list[Scalar]:
     """The reference's serial-singularity refusals as slacks: each revolute lever
-    ``|P_i - O_j|`` longer than ``LEG_MIN_LENGTH_RATIO`` of the platform radius, and the
-    bound ``2 |det S| / ||S||_F^2 <= sigma_min(S)`` of the scaled leg Jacobian
-    ``S = J_i diag(1 / lever)`` above ``LEG_SINGULARITY`` (squared, denominators cleared)."""
+    ``l_j = |P_i - O_j|`` longer than ``LEG_MIN_LENGTH_RATIO`` of the platform radius, and
+    the lower bound ``|det S| / sqrt(c2) <= sigma_min(S)`` of the scaled leg Jacobian
+    ``S = J_i diag(1 / l)`` (``l_j = 1`` for a prismatic joint) above ``LEG_SINGULARITY``,
+    where ``c2 = sum_{i<j} |s_i x s_j|^2 >= (sigma_1 sigma_2)^2`` is the sum of the 2x2
+    principal minors of ``S^T S``; squared, with the denominators cleared:
+    ``det(J)^2 > tau^2 sum_k |c_i x c_j|^2 l_k^2`` (``(i, j, k)`` a cyclic order; the cross
+    products are the adjugate's rows)."""
     out: list[Scalar] = []
-    lever2 = []
+    lever2: list[Scalar] = []
     for j, J in enumerate(joints):
         if J.k.revolute:
             r = _sub(P, O[j])
@@ -712,21 +746,13 @@ def _serial_slacks(
             lever2.append(l2)
             out.append(l2 - (LEG_MIN_LENGTH_RATIO * lc.radius) ** 2 * (1.0 + _MARGIN_SERIAL))
         else:
-            lever2.append(None)
-    prod: Scalar = 1.0
-    for l2 in lever2:
-        if l2 is not None:
-            prod = prod * l2
-    fro: Scalar = 0.0  # ||S||_F^2 * prod(lever^2)
-    for j in range(3):
-        c2 = _dot(cols[j], cols[j])
-        term = c2
-        for m in range(3):
-            if m != j and lever2[m] is not None:
-                term = term * lever2[m]
-        fro = fro + term
+            lever2.append(1.0)
+    minors: Scalar = 0.0
+    for k in range(3):
+        adj = _cross(cols[(k + 1) % 3], cols[(k + 2) % 3])
+        minors = _plus(minors, _mul(_dot(adj, adj), lever2[k]))
     tau = LEG_SINGULARITY * (1.0 + _MARGIN_SERIAL)
-    out.append(4.0 * det * det * prod - tau * tau * fro * fro)
+    out.append(det * det - tau * tau * minors)
     return out
 
 
@@ -944,14 +970,16 @@ def build_general_models(
     pose: str = "matrix",
     prefix: str = "stewart_",
     stages: bool = False,
+    inline_newton: bool = False,
 ) -> tuple[SymbolicModels, AuxLayout]:
     """The IDM and DDM of a robot with general legs (or an ideal 6-UPS robot taken as
     ``ups`` legs), as :class:`SymbolicModels` (``parameters="numeric"``, an empty
     ``base_parameters`` input), with the layout of their ``aux`` output. ``stages``: also
     split them for the operation counts (:attr:`SymbolicModels.idm_stages`; ``None``
-    without: they take as long again to generate)."""
+    without: they take as long again to generate). ``inline_newton``: a custom leg's
+    Newton steps written out (for the operation counts) rather than called."""
     robot = general_robot(desc)
-    legs = [_leg_constants(robot, k) for k in range(6)]
+    legs = [_leg_constants(robot, k, inline_newton) for k in range(6)]
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
     npose = pose_size(pose)
