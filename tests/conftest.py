@@ -91,6 +91,21 @@ def fresh_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Pa
         yield path
 
 
+@pytest.fixture(scope="session")
+def shared_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One fresh cache folder for the session's compiled general-leg robots (each build
+    takes seconds: the modules that compile the same robots share it)."""
+    return tmp_path_factory.mktemp("stewart-pin-shared-cache")
+
+
+def use_compile_cache(path: Path) -> Iterator[Path]:
+    """Body of a module's autouse fixture: the compiled backends build into ``path``
+    (the environment variable set meanwhile)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(compiled_module.CACHE_ENV, str(path))
+        yield path
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A fresh generator with a fixed seed for each test."""
