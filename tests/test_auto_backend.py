@@ -218,3 +218,24 @@ def test_simulate_the_controller_identification_and_the_cli_take_auto(auto, caps
     argv = ["simulate", "--preset", "pus", "--duration", "0.01", "--quiet", "-o", str(out)]
     assert main(argv) == 0
     assert len(_compiling_lines(capsys.readouterr().err)) == 1  # pus: built here, on first use
+
+
+def test_a_robot_keeps_its_backend_and_is_still_pickled_and_freed(auto):
+    """The compiled backend lives on its robot: a pickled robot leaves it out (and finds
+    the library again), a dropped robot is freed with it (no process-wide registry keeps
+    it alive)."""
+    import gc
+    import pickle
+    import weakref
+
+    robot = StewartRobot.from_preset("pus")
+    P, V, A = _states(robot, 3)
+    G = robot.inverse_dynamics(P, V, A)
+    assert auto_backend(robot) is not None
+    copy = pickle.loads(pickle.dumps(robot))
+    np.testing.assert_array_equal(copy.inverse_dynamics(P, V, A), G)
+    assert auto_backend(copy) is not auto_backend(robot)
+    gone = weakref.ref(robot)
+    del robot
+    gc.collect()
+    assert gone() is None

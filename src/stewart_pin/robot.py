@@ -97,10 +97,15 @@ class StewartRobot:
         if not description.is_ideal_ups:
             self._check_home()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without its compiled backends (loaded libraries; found again in the
+        cache on first use)."""
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_stewart_pin_")}
+
     def _compiled_backend(self) -> Any:
-        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept by
-        :func:`~stewart_pin.codegen.compiled_backend` with a weak reference to the robot,
-        so the robot stays picklable); the import is done once per process."""
+        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept on the robot by
+        :func:`~stewart_pin.codegen.compiled_backend`, left out when pickled); the import is
+        done once per process."""
         if not _COMPILED_BACKEND:
             from stewart_pin.codegen import compiled_backend
 

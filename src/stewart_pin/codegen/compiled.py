@@ -70,7 +70,6 @@ import sys
 import tempfile
 import threading
 import warnings
-import weakref
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -1056,16 +1055,30 @@ class CompiledDynamics:
         return out
 
 
-_BACKENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: The attributes under which a robot keeps its backends (the robot and its backend live
+#: and die together; ``StewartRobot`` leaves them out when pickled).
+COMPILED_ATTR = "_stewart_pin_compiled_backend"
+AUTO_ATTR = "_stewart_pin_auto_backend"
+
+
+def _memo(robot: Any, attr: str) -> Any:
+    d = getattr(robot, "__dict__", None)
+    return None if d is None else d.get(attr)
+
+
+def _remember(robot: Any, attr: str, value: Any) -> None:
+    d = getattr(robot, "__dict__", None)
+    if d is not None:
+        d[attr] = value
 
 
 def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
     """The :class:`CompiledDynamics` of ``robot``, built on first use and kept with it
     (keyword arguments go to the constructor on that first call)."""
-    backend = _BACKENDS.get(robot)
+    backend = _memo(robot, COMPILED_ATTR)
     if backend is None or backend._desc is not robot.description:
         backend = CompiledDynamics(robot, **kwargs)
-        _BACKENDS[robot] = backend
+        _remember(robot, COMPILED_ATTR, backend)
     return backend
 
 
@@ -1076,10 +1089,6 @@ def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
 #: test suite sets it). Read once per robot, on its first dynamics call.
 BACKEND_ENV = "STEWART_PIN_BACKEND"
 AUTO_CHOICES = ("auto", "pinocchio")
-#: Per robot, by its ``id``: ``(a weak reference to it, its description, the
-#: CompiledDynamics or None for the reference path)`` (a look-up costs less than a
-#: WeakKeyDictionary's; the entry goes with the robot).
-_AUTO: dict[int, tuple[weakref.ref, Any, CompiledDynamics | None]] = {}
 _WARNED_AUTO: set[str] = set()
 
 
@@ -1094,17 +1103,11 @@ def auto_backend(robot: RobotLike) -> CompiledDynamics | None:
     - else the :class:`CompiledDynamics`, built on first use (one line on stderr says so,
       and about how long it takes) or found in the cache.
     """
-    hit = _AUTO.get(id(robot))
-    if hit is not None and hit[0]() is robot and hit[1] is robot.description:
-        return hit[2]
+    hit = _memo(robot, AUTO_ATTR)  # (description, choice), kept on the robot
+    if hit is not None and hit[0] is robot.description:
+        return hit[1]
     choice = _auto_choice(robot)
-    key = id(robot)
-
-    def forget(ref: weakref.ref, key: int = key) -> None:
-        if _AUTO.get(key, (None,))[0] is ref:
-            del _AUTO[key]
-
-    _AUTO[key] = (weakref.ref(robot, forget), robot.description, choice)
+    _remember(robot, AUTO_ATTR, (robot.description, choice))
     return choice
 
 
@@ -1117,7 +1120,7 @@ def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
         )
     if env == "pinocchio":
         return None
-    existing = _BACKENDS.get(robot)
+    existing = _memo(robot, COMPILED_ATTR)
     if existing is not None and existing._desc is robot.description:
         if existing.kind == "compiled":
             return existing
@@ -1130,7 +1133,7 @@ def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
     except (CompilationError, UnsafeCacheError) as e:
         _warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
         return None
-    _BACKENDS[robot] = backend
+    _remember(robot, COMPILED_ATTR, backend)
     return backend
 
 
