@@ -16,8 +16,9 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
   :mod:`stewart_pin.codegen.general_symbolic`);
 - ``COND``: the upper bound ``2 / |det S| (||S||_F^2 / 6)^3`` of cond(S) (Guggenheimer,
   Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
-  measure's matrix (``l`` the characteristic length), passes half the threshold: the caller
-  computes the exact measure of those states only;
+  measure's matrix (``l`` the characteristic length), passes half the threshold, and so
+  does the tighter ``||S||_F ||S^-1||_F`` (``S^-1`` from an LU with partial pivoting): the
+  caller computes the exact measure of those states only;
 - ``REPIVOTED`` (IDM): the static-pivot LU of the generated code met a multiplier larger
   than ``GROWTH_LIMIT``; the state was solved again here with partial pivoting (not an
   error);
@@ -132,15 +133,19 @@ static int sp_cond_bound(double det, double fro2, double max_cond) {
 
 /* LU with partial pivoting of A = S^T (column i = row i of Jp^-1, J row-major; rows 3-5,
    the angular columns of Jp^-1, divided by the characteristic length), the condition
-   bound, and (if rhs) the solution of Jp^-T y = rhs (rows 3-5 of rhs scaled alike). */
+   bound, and (if rhs) the solution of Jp^-T y = rhs (rows 3-5 of rhs scaled alike). When
+   the determinant bound passes half the threshold, the tighter ||S||_F ||S^-1||_F >=
+   cond(S) from the LU decides (S^-1 column by column). */
 static int sp_check_cond(const double* J, double max_cond, const double* rhs, double* y) {
-  double A[6][6], b[6], fro2 = 0.0, det = 1.0, t;
-  int i, j, k, p;
-  for (i = 0; i < 6; ++i)
+  double A[6][6], b[6], z[6], x[6], fro2 = 0.0, det = 1.0, inv2 = 0.0, t, lim;
+  int i, j, k, p, c, perm[6];
+  for (i = 0; i < 6; ++i) {
+    perm[i] = i;
     for (j = 0; j < 6; ++j) {
       A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
       fro2 += A[i][j] * A[i][j];
     }
+  }
   for (i = 0; i < 6; ++i) b[i] = rhs ? (i < 3 ? rhs[i] : rhs[i] * sp_inv_length) : 0.0;
   for (k = 0; k < 6; ++k) {
     p = k;
@@ -148,11 +153,13 @@ static int sp_check_cond(const double* J, double max_cond, const double* rhs, do
     if (p != k) {
       for (j = 0; j < 6; ++j) { t = A[k][j]; A[k][j] = A[p][j]; A[p][j] = t; }
       t = b[k]; b[k] = b[p]; b[p] = t;
+      c = perm[k]; perm[k] = perm[p]; perm[p] = c;
     }
     det *= A[k][k];
     if (A[k][k] == 0.0) return SP_COND;
     for (i = k + 1; i < 6; ++i) {
       double l = A[i][k] / A[k][k];
+      A[i][k] = l;  /* the multiplier, below the diagonal */
       for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
       b[i] -= l * b[k];
     }
@@ -164,7 +171,22 @@ static int sp_check_cond(const double* J, double max_cond, const double* rhs, do
       y[i] = s / A[i][i];
     }
   }
-  return sp_cond_bound(det, fro2, max_cond);
+  if (sp_cond_bound(det, fro2, max_cond) == 0) return 0;
+  for (c = 0; c < 6; ++c) {  /* column c of S^-T: solve P^T L U x = e_c */
+    for (i = 0; i < 6; ++i) {
+      double s = perm[i] == c ? 1.0 : 0.0;
+      for (j = 0; j < i; ++j) s -= A[i][j] * z[j];
+      z[i] = s;
+    }
+    for (i = 5; i >= 0; --i) {
+      double s = z[i];
+      for (j = i + 1; j < 6; ++j) s -= A[i][j] * x[j];
+      x[i] = s / A[i][i];
+      inv2 += x[i] * x[i];
+    }
+  }
+  lim = max_cond * (1.0 - 1e-6);
+  return (fro2 * inv2 <= lim * lim) ? 0 : SP_COND;
 }
 
 static int sp_finite6(const double* x) {
@@ -201,8 +223,9 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
     if (!(aux[%(growth)d] <= sp_growth_limit)) {
       f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
       for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
-    } else {  /* the static LU is sound: its pivots give the determinant */
-      f |= sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond);
+    } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
+      /* the static LU's determinant bound passed half the threshold: the tighter one */
+      f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
     }
     if (!sp_finite6(g)) f |= SP_NONFINITE;
     flags[s] = f;
