@@ -8,8 +8,8 @@ Median wall-clock time per state [us], all measured in this one run:
   state per call and batches of 10 000 and 100 000 states (threads stated), beside one
   ``pin.constraintDynamics`` call on that robot's closed-loop tree (the ratios' yardstick);
 - for ``--preset``: the reference path of the inverse (IDM) and direct (DDM) models
-  (``backend="pinocchio"``: Pinocchio leg dynamics plus the closure layer), one state per
-  call and a batch of N states per call;
+  (``backend="pinocchio"``: Pinocchio leg dynamics plus the closure layer; rows ``IDM
+  single``...), one state per call and a batch of N states per call;
 - ``pin.constraintDynamics`` on the 24-dof closed-loop tree (the raw C++ call, with q, v
   and tau prepared beforehand) and the whole reference path of
   ``stewart_pin.check.constrained_dynamics`` (state conversion included) for the direct and
@@ -17,7 +17,7 @@ Median wall-clock time per state [us], all measured in this one run:
 - the generated models compiled to C (``stewart_pin.codegen.CompiledDynamics``, paper
   section VII), from Python: one state per call, and batches of N = 1, 100, 10 000 and
   1 000 000 states per call (the last streamed as 100 chunks of 10 000; ``--quick`` skips
-  it);
+  it, and times the architectures' batches at ``--batch`` states only);
 - MuJoCo's ``mj_forward`` on the MJCF of the same robot, when ``import mujoco`` works (soft
   loop constraints: a timing reference, not an exact solution).
 
@@ -203,14 +203,14 @@ ARCHITECTURES = ("simulator", "rus", "pus")
 ARCHITECTURE_BATCHES = (10_000, 100_000)
 
 
-def architecture_rows(name: str, repeats: int) -> dict[str, object]:
+def architecture_rows(
+    name: str, repeats: int, batches: tuple[int, ...] = ARCHITECTURE_BATCHES
+) -> dict[str, object]:
     """The default backend (``backend="auto"``) of one preset: one state per call and
-    batches of :data:`ARCHITECTURE_BATCHES` states [us per state], and the
-    ``pin.constraintDynamics`` call on its tree; with the ratios to that call, the backend
-    that ran and its threads."""
+    batches of ``batches`` states [us per state], and the ``pin.constraintDynamics`` call
+    on its tree; with the ratios to that call, the backend that ran and its threads."""
     robot = StewartRobot.from_preset(name)
-    n_max = max(ARCHITECTURE_BATCHES)
-    poses, twists, accels = robot.sample_states(min(n_max, 10_000), 0)
+    poses, twists, accels = robot.sample_states(min(max(batches), 10_000), 0)
     gammas = robot.inverse_dynamics(poses, twists, accels)  # compiles on first use
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     rows = {
@@ -220,7 +220,7 @@ def architecture_rows(name: str, repeats: int) -> dict[str, object]:
         "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), max(repeats, 1000)),
         "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), max(repeats, 1000)),
     }
-    for n in ARCHITECTURE_BATCHES:
+    for n in batches:
         idx = np.arange(n) % poses.shape[0]
         P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
         reps = 20 if n <= 10_000 else 5
@@ -246,7 +246,8 @@ def run(
     quick: bool = False,
     architectures: tuple[str, ...] = ARCHITECTURES,
 ) -> dict[str, object]:
-    arch = {name: architecture_rows(name, repeats) for name in architectures}
+    batches = (batch,) if quick else ARCHITECTURE_BATCHES
+    arch = {name: architecture_rows(name, repeats, batches) for name in architectures}
     robot = StewartRobot.from_preset(preset)
     poses, twists, accels = sample_states(robot.description, batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
@@ -256,18 +257,14 @@ def run(
     batch_repeats = max(3, min(repeats, 5))
     ref = "pinocchio"
     rows = {
-        "reference IDM single": median_us(
-            lambda: robot.inverse_dynamics(T, V, A, backend=ref), repeats
-        ),
-        "reference DDM single": median_us(
-            lambda: robot.direct_dynamics(T, V, G, backend=ref), repeats
-        ),
-        f"reference IDM batch {batch}": median_us(
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A, backend=ref), repeats),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G, backend=ref), repeats),
+        f"IDM batch {batch}": median_us(
             lambda: robot.inverse_dynamics(poses, twists, accels, backend=ref),
             batch_repeats,
             batch,
         ),
-        f"reference DDM batch {batch}": median_us(
+        f"DDM batch {batch}": median_us(
             lambda: robot.direct_dynamics(poses, twists, gammas, backend=ref),
             batch_repeats,
             batch,
@@ -320,7 +317,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--repeats", type=positive_int, default=300, help="timed calls (the median is shown)"
     )
-    parser.add_argument("--quick", action="store_true", help="skip the 1 000 000-state batch")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="skip the 1 000 000-state batch; time the architectures at --batch states only",
+    )
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
 
 
@@ -338,7 +339,8 @@ def report(args: argparse.Namespace) -> dict[str, object]:
     print(f"stewart-pin {stewart_pin.__version__}, {result['machine']}")
     head = f"{'[us]':>10s} {'/ pin.constraintDynamics':>26s}"
     print(f"{'default backend (auto), per state':48s} {head}")
-    for name, entry in cast(dict[str, dict[str, object]], result["architectures"]).items():
+    archs_result = cast(dict[str, dict[str, object]], result.get("architectures", {}))
+    for name, entry in archs_result.items():
         print(
             f"-- '{name}' ({entry['architecture']}): {entry['backend']}, "
             f"{entry['threads']} thread(s)"
