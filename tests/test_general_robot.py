@@ -408,8 +408,9 @@ def test_cli_idm_on_rus(tmp_path, capsys):
     assert relative_error(rows[:, 1:], ref) < TOL
 
 
-@pytest.mark.parametrize("command", ["cost", "base-params", "bench", "identify"])
+@pytest.mark.parametrize("command", ["base-params", "bench", "identify"])
 def test_cli_six_ups_only_commands_refuse(command, capsys, tmp_path, monkeypatch):
+    """(``cost`` takes general legs now: test_general_codegen.py.)"""
     monkeypatch.chdir(tmp_path)
     assert main([command, "--preset", "rus"]) == 2
     err = capsys.readouterr().err

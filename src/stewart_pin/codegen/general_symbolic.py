@@ -67,19 +67,19 @@ from stewart_pin.codegen.symbolic import (
     Stages,
     SymbolicModels,
     Vec,
-    _column,
-    _ddm_closure,
-    _ddm_platform,
-    _function,
-    _idm_closure,
-    _idm_platform,
-    _idm_shared,
-    _is_zero,
-    _mat3,
-    _pivot_order,
-    _split,
+    column,
+    ddm_closure,
+    ddm_platform,
+    function,
+    idm_closure,
+    idm_platform,
+    idm_shared,
+    is_zero,
+    mat3,
+    pivot_order,
     pose_from_input,
     pose_size,
+    split,
 )
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
@@ -511,9 +511,9 @@ def _newton(lc: _LegConst, P0: Vec) -> _LegGeometry:
             q = _newton_step(lc, q, P0)
     else:  # calls of one step function: a C source NEWTON_ITERATIONS times shorter
         step = _newton_step_function(lc)
-        P = _column(P0)
+        P = column(P0)
         for _ in range(NEWTON_ITERATIONS):
-            q = _split(step(_column(q), P))
+            q = split(step(column(q), P))
     joints = _joints_at(lc, q)
     _, _, tip = _chain(joints, lc.tip)
     err = _sub(P0, tip)
@@ -535,11 +535,11 @@ def _newton_step(lc: _LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
 def _newton_step_function(lc: _LegConst) -> cs.Function:
     """One Newton step of leg ``lc`` as a function called (never inlined) by the models."""
     q, P = cs.SX.sym("q", 3), cs.SX.sym("P", 3)
-    step = _newton_step(lc, _split(q), _split(P))
+    step = _newton_step(lc, split(q), split(P))
     return cs.Function(
         f"newton_leg{lc.index + 1}",
         [q, P],
-        [_column(step)],
+        [column(step)],
         ["q", "P"],
         ["q_next"],
         {"never_inline": True},
@@ -858,8 +858,8 @@ def _ddm_leg(
 # ---------------------------------------------------------------------------- assembly
 def _stage(name: str, inputs: list[tuple[str, int]], body: Callable[..., dict]) -> cs.Function:
     syms = [(n, cs.SX.sym(n, size)) for n, size in inputs]
-    outs = body(*[_split(s) for _, s in syms])
-    return _function(name, syms, list(outs.items()))
+    outs = body(*[split(s) for _, s in syms])
+    return function(name, syms, list(outs.items()))
 
 
 def _stages(
@@ -874,7 +874,7 @@ def _stages(
     npose = pose_size(pose)
 
     def pose_of(ps: Sequence[Scalar]) -> tuple[Vec, Mat]:
-        return pose_from_input(_column(ps), pose)
+        return pose_from_input(column(ps), pose)
 
     idm_stages = Stages(
         shared=_stage(
@@ -883,9 +883,7 @@ def _stages(
             lambda t, a: dict(
                 zip(
                     ("K", "vdg"),
-                    (lambda KV: ([x for r in KV[0] for x in r], KV[1]))(
-                        _idm_shared(t, a, gravity)
-                    ),
+                    (lambda KV: ([x for r in KV[0] for x in r], KV[1]))(idm_shared(t, a, gravity)),
                     strict=True,
                 )
             ),
@@ -895,7 +893,7 @@ def _stages(
                 f"idm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
                 lambda ps, t, a, Kf, lc=lc: _idm_leg(
-                    lc, *pose_of(ps), t[:3], t[3:], a[:3], _mat3(Kf)
+                    lc, *pose_of(ps), t[:3], t[3:], a[:3], mat3(Kf)
                 ),
             )
             for lc in legs
@@ -904,14 +902,14 @@ def _stages(
             "idm_platform",
             [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9), ("vdg", 3)],
             lambda ps, t, a, Kf, vg: {
-                "F_p": _idm_platform(pose_of(ps)[1], t[3:], a[3:], vg, _mat3(Kf), Pp)
+                "F_p": idm_platform(pose_of(ps)[1], t[3:], a[3:], vg, mat3(Kf), Pp)
             },
         ),
         closure=_stage(
             "idm_closure",
             [("rows", 36), ("wrenches", 36), ("Hz", 6), ("F_p", 6)],
             lambda r, wr, hz, fp: {
-                "gamma": _idm_closure(
+                "gamma": idm_closure(
                     [r[6 * i : 6 * i + 6] for i in range(6)],
                     [wr[6 * i : 6 * i + 6] for i in range(6)],
                     hz,
@@ -935,14 +933,14 @@ def _stages(
             "ddm_platform",
             [("pose", npose), ("twist", 6)],
             lambda ps, t: dict(
-                zip(("Ip", "hp"), _ddm_platform(pose_of(ps)[1], t[3:], Pp, gravity), strict=True)
+                zip(("Ip", "hp"), ddm_platform(pose_of(ps)[1], t[3:], Pp, gravity), strict=True)
             ),
         ),
         closure=_stage(
             "ddm_closure",
             [("rows", 36), ("blocks", 126), ("wrenches", 36), ("Ip", 21), ("hp", 6)],
             lambda r, bl, wr, ip, h: {
-                "accel": _ddm_closure(
+                "accel": ddm_closure(
                     [r[6 * i : 6 * i + 6] for i in range(6)],
                     [bl[21 * i : 21 * i + 21] for i in range(6)],
                     [wr[6 * i : 6 * i + 6] for i in range(6)],
@@ -989,20 +987,20 @@ def build_general_models(
     x_gamma = cs.SX.sym("gamma", 6)
     x_chi = cs.SX.sym("base_parameters", 0)
     p, R = pose_from_input(x_pose, pose)
-    tw, ac, gm = _split(x_twist), _split(x_accel), _split(x_gamma)
+    tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
     v, w, vd, wd = tw[:3], tw[3:], ac[:3], ac[3:]
     inv_l = 1.0 / robot.size
 
     # ---- IDM
-    K, vdg = _idm_shared(tw, ac, gravity)
+    K, vdg = idm_shared(tw, ac, gravity)
     ilegs = [_idm_leg(lc, p, R, v, w, vd, K) for lc in legs]
-    F_p = _idm_platform(R, w, wd, vdg, K, Pp)
+    F_p = idm_platform(R, w, wd, vdg, K, Pp)
     rows = [lg["row"] for lg in ilegs]
     home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
-    nonzero = np.array([[not _is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
-    pivots = tuple(_pivot_order(home_rows.T, nonzero))
+    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
     Hz = [lg["Hz"][0] for lg in ilegs]
-    gamma, growth, F, det = _idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
+    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
     fro2: Scalar = 0.0
     for r in rows:
         for j in range(3):
@@ -1012,14 +1010,14 @@ def build_general_models(
     layout = AuxLayout(n_slack=len(slacks))
     jinv = [x for r in rows for x in r]
     idm_in = [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("base_parameters", x_chi)]
-    idm = _function(f"{prefix}idm", idm_in, [("gamma", gamma)])
+    idm = function(f"{prefix}idm", idm_in, [("gamma", gamma)])
     idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
-    idm_guarded = _function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
+    idm_guarded = function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
 
     # ---- DDM
     dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
-    Ip, hp = _ddm_platform(R, w, Pp, gravity)
-    accel, D = _ddm_closure(
+    Ip, hp = ddm_platform(R, w, Pp, gravity)
+    accel, D = ddm_closure(
         [lg["row"] for lg in dlegs],
         [lg["block"] for lg in dlegs],
         [lg["wrench"] for lg in dlegs],
@@ -1027,11 +1025,11 @@ def build_general_models(
         hp,
     )
     ddm_in = [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma), ("base_parameters", x_chi)]
-    ddm = _function(f"{prefix}ddm", ddm_in, [("accel", accel)])
+    ddm = function(f"{prefix}ddm", ddm_in, [("accel", accel)])
     dslacks = [s for lg in dlegs for s in lg["slack"]]
     assert len(dslacks) == layout.n_slack  # the same leg code: the same slacks
     djinv = [x for lg in dlegs for x in lg["row"]]
-    ddm_guarded = _function(
+    ddm_guarded = function(
         f"{prefix}ddm_guarded", ddm_in, [("accel", accel), ("aux", [*djinv, *D, *dslacks])]
     )
 
