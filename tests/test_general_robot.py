@@ -178,7 +178,7 @@ def test_energy_and_dissipation_equal_the_tree(robot):
 
 def test_details_and_motor_side(robot):
     P, V, A = robot.sample_states(4, 11)
-    r = robot.inverse_dynamics(P, V, A, details=True)
+    r = robot.inverse_dynamics(P, V, A, details=True, backend="pinocchio")
     act = np.array([leg.actuated - 1 for leg in robot.description.legs])
     np.testing.assert_array_equal(r.joint_efforts[:, np.arange(6), act], r.gamma)
     passive = np.ones((6, 3), bool)
@@ -190,7 +190,7 @@ def test_details_and_motor_side(robot):
             for leg in robot.description.legs
         ]
     )
-    motor = robot.inverse_dynamics(P, V, A, motor=True)
+    motor = robot.inverse_dynamics(P, V, A, motor=True, backend="pinocchio")
     np.testing.assert_allclose(motor * ratio, r.gamma, rtol=1e-14, atol=0)
 
 

@@ -563,20 +563,14 @@ _BATCH_OF_ONE_SHAPES = ((1, 4, 4), (1, 6), (1, 6))
 
 
 def _as_c(x: Any) -> np.ndarray | None:
-    """``x`` as a C-contiguous float64 array, or None when it is not a plain numeric array."""
+    """``x`` as a C-contiguous float64 array, or None when it is not a numeric ndarray."""
     if isinstance(x, np.ndarray):
         if x.dtype == _F64 and x.flags.c_contiguous:
             return x
         if x.dtype.kind not in "fiu":
             return None
         return np.ascontiguousarray(x, dtype=np.float64)
-    if isinstance(x, (list, tuple)):
-        try:
-            arr = np.array(x, dtype=np.float64)
-        except (TypeError, ValueError):
-            return None
-        return arr
-    return None
+    return None  # lists and anything else: check_states validates them (a boolean in a list)
 
 
 class CompiledDynamics:
