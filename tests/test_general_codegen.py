@@ -418,3 +418,17 @@ def test_joint_terms_change_the_compiled_model():
     G0 = bare.inverse_dynamics(P, V, A, backend="compiled")
     assert rel_error(G0, bare.inverse_dynamics(P, V, A, backend="pinocchio")) < TOL
     assert rel_error(G0, G) > 1e-3
+
+
+@pytest.mark.parametrize("name", ["pus", "desktop"])
+def test_compiled_path_refuses_booleans_and_strings_like_the_reference(name):
+    """A boolean or a string inside a list is refused with the reference's message (the
+    compiled path used to take ``True`` as 1.0)."""
+    robot = get_robot(name)
+    T, V, A = (x[0] for x in robot.sample_states(1, 3))
+    for twist in ([*V[:5], True], [*V[:5], "0.5"]):
+        with pytest.raises(InputError) as ref:
+            robot.inverse_dynamics(T, twist, A, backend="pinocchio")
+        with pytest.raises(InputError) as got:
+            robot.inverse_dynamics(T, twist, A, backend="compiled")
+        assert str(got.value) == str(ref.value)
