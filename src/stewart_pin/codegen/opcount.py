@@ -42,12 +42,19 @@ architectures.
 
 from __future__ import annotations
 
+import copy
+import functools
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import casadi as cs
 
-from stewart_pin.codegen.symbolic import Stages, SymbolicModels, generate_models
+from stewart_pin.codegen.symbolic import (
+    Stages,
+    SymbolicModels,
+    description_key,
+    generate_models,
+)
 from stewart_pin.description import RobotDescription
 from stewart_pin.protocols import RobotLike
 
@@ -227,9 +234,20 @@ def cost_dict(robot: RobotLike | RobotDescription) -> dict[str, Any]:
     return out
 
 
+_GENERAL_COSTS: dict[str, dict[str, Any]] = {}
+
+
 def _general_cost_dict(desc: RobotDescription) -> dict[str, Any]:
     """:func:`cost_dict` of a robot with general legs: ``"numeric"`` (every value baked
-    in), ``"quaternion"``, ``"critical_path"`` / ``"critical_path_7"`` and ``"stages"``."""
+    in), ``"quaternion"``, ``"critical_path"`` / ``"critical_path_7"`` and ``"stages"``
+    (kept per description for the process: generating them takes seconds)."""
+    key = description_key(desc)
+    if key not in _GENERAL_COSTS:
+        _GENERAL_COSTS[key] = _count_general(desc)
+    return copy.deepcopy(_GENERAL_COSTS[key])
+
+
+def _count_general(desc: RobotDescription) -> dict[str, Any]:
     from stewart_pin.codegen.general_symbolic import build_general_models
 
     models: SymbolicModels = build_general_models(desc, stages=True, inline_newton=True)[0]
@@ -327,7 +345,12 @@ ARCHITECTURE_ROBOTS = (
 def architecture_dict() -> dict[str, Any]:
     """The operation counts of each architecture's models (:data:`ARCHITECTURE_ROBOTS`):
     per label, the robot and the totals of the IDM and DDM with the parameter values baked
-    in and their critical paths (six legs in parallel)."""
+    in and their critical paths (six legs in parallel). Counted once per process."""
+    return copy.deepcopy(_architecture_dict())
+
+
+@functools.lru_cache(maxsize=1)
+def _architecture_dict() -> dict[str, Any]:
     from stewart_pin.codegen.general_symbolic import build_general_models
     from stewart_pin.description.presets import preset
 
