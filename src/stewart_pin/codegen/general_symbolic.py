@@ -835,8 +835,17 @@ def _ddm_leg(
     lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, gamma_k: Scalar
 ) -> dict[str, list[Scalar]]:
     kin = _leg_kinematics(lc, p, R, v, w)
-    Hb, _ = _leg_torques(lc, kin, _cross(w, _cross(w, kin.L)))
-    Mq = _mass_matrix(kin.geo.joints)
+    joints = kin.geo.joints
+    # The leg's share of h_robot (general-legs.md): G^T (A_x (w x (w x L) - Jdot qdot) +
+    # J^-T h), h the nonlinear effects (gravity, velocity, joint terms) at zero qddot.
+    g = lc.gravity
+    zero3: Vec = [0.0, 0.0, 0.0]
+    h = _newton_euler(joints, kin.qd, zero3, [-g[0], -g[1], -g[2]])
+    terms = _joint_terms(joints, kin.qd, zero3)
+    h = [_plus(h[j], terms[j]) for j in range(3)]
+    drift = _rotate(lc.R, _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd))
+    c = _sub(_cross(w, _cross(w, kin.L)), drift)
+    Mq = _mass_matrix(joints)
     # B = J_i^-1 R_i^T (J^-1 in F0); A_x = B^T M B.
     Bm = [_rotate(lc.R, row) for row in kin.inv_rows]  # rows of B
     MB = [[_lin(*((Mq[i][m], Bm[m][c]) for m in range(3))) for c in range(3)] for i in range(3)]
@@ -845,8 +854,8 @@ def _ddm_leg(
         for j in range(i, 3):
             A0[i][j] = A0[j][i] = _lin(*((Bm[m][i], MB[m][j]) for m in range(3)))
     a = lc.actuated
-    rhs = [(gamma_k if j == a else 0.0) - Hb[j] for j in range(3)]
-    f = _rotate(lc.R, _rows_T_vec(kin.inv_rows, rhs))
+    rhs = [(gamma_k if j == a else 0.0) - h[j] for j in range(3)]
+    f = _sub(_rotate(lc.R, _rows_T_vec(kin.inv_rows, rhs)), [_dot(row, c) for row in A0])
     return {
         "row": kin.row,
         "block": _leg_block(A0, kin.L),
