@@ -92,6 +92,9 @@ def run(preset: str, repeats: int) -> dict[str, object]:
         rows[f"{name} single, robot facade backend='compiled'"] = median_us(
             lambda f=facade, x=X0: f(T0, V0, x, backend="compiled"), repeats
         )
+        rows[f"{name} single, robot facade default backend='auto'"] = median_us(
+            lambda f=facade, x=X0: f(T0, V0, x), repeats
+        )
         for n, reps in ((10_000, 50), (100_000, 10)):
             for b in (backend, serial):
                 m = b.inverse_dynamics if which == "idm" else b.direct_dynamics

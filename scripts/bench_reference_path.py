@@ -26,25 +26,26 @@ from stewart_pin.apps.bench import constraint_dynamics_call, median_us
 from stewart_pin.kinematics.workspace import sample_states
 
 PRESETS = ("simulator", "desktop", "paper", "random-1")
+REF = "pinocchio"  # the reference path (the default backend="auto" is the compiled one)
 
 
 def timings(preset: str, batch: int, repeats: int) -> dict[str, float]:
     robot = StewartRobot.from_preset(preset)
     poses, twists, accels = sample_states(robot.description, batch, 0)
-    gammas = robot.inverse_dynamics(poses, twists, accels)
+    gammas = robot.inverse_dynamics(poses, twists, accels, backend=REF)
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     reps = max(3, min(repeats, 5))
     return {
         "pin.constraintDynamics (raw call)": median_us(
             constraint_dynamics_call(robot, T, V, G), repeats
         ),
-        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
-        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), repeats),
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A, backend=REF), repeats),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G, backend=REF), repeats),
         f"IDM batch {batch}": median_us(
-            lambda: robot.inverse_dynamics(poses, twists, accels), reps, batch
+            lambda: robot.inverse_dynamics(poses, twists, accels, backend=REF), reps, batch
         ),
         f"DDM batch {batch}": median_us(
-            lambda: robot.direct_dynamics(poses, twists, gammas), reps, batch
+            lambda: robot.direct_dynamics(poses, twists, gammas, backend=REF), reps, batch
         ),
     }
 
@@ -57,15 +58,21 @@ def outputs() -> dict[str, np.ndarray]:
     for name in PRESETS:
         robot = StewartRobot.from_preset(name)
         poses, twists, accels = sample_states(robot.description, 200, 3)
-        gammas = robot.inverse_dynamics(poses, twists, accels)
+        gammas = robot.inverse_dynamics(poses, twists, accels, backend=REF)
         gammas2 = gammas + rng.normal(size=gammas.shape) * np.abs(gammas).mean()
         out[f"{name}/idm"] = gammas
         out[f"{name}/idm1"] = np.array(
-            [robot.inverse_dynamics(*s) for s in zip(poses, twists, accels, strict=True)]
+            [
+                robot.inverse_dynamics(*s, backend=REF)
+                for s in zip(poses, twists, accels, strict=True)
+            ]
         )
-        out[f"{name}/ddm"] = robot.direct_dynamics(poses, twists, gammas2)
+        out[f"{name}/ddm"] = robot.direct_dynamics(poses, twists, gammas2, backend=REF)
         out[f"{name}/ddm1"] = np.array(
-            [robot.direct_dynamics(*s) for s in zip(poses, twists, gammas2, strict=True)]
+            [
+                robot.direct_dynamics(*s, backend=REF)
+                for s in zip(poses, twists, gammas2, strict=True)
+            ]
         )
     return out
 

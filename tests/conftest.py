@@ -20,6 +20,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+# The dynamic models' default backend="auto" compiles each robot geometry it meets (a
+# second or more each, dozens of robots here): the suite runs it as the reference path
+# unless STEWART_PIN_BACKEND is set already (e.g. to "auto" in a CI job with a warm cache).
+# Tests of the reference path say backend="pinocchio"; tests of the compiled and "auto"
+# paths ask for them explicitly (test_auto_backend.py, test_general_codegen.py).
+os.environ.setdefault("STEWART_PIN_BACKEND", "pinocchio")
+
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import compiled as compiled_module
 
@@ -86,6 +93,21 @@ def fresh_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Pa
     """Body of a module's autouse ``cache_dir`` fixture: the compiled backends of the
     module build into a fresh cache folder (the environment variable set meanwhile)."""
     path = tmp_path_factory.mktemp("stewart-pin-cache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(compiled_module.CACHE_ENV, str(path))
+        yield path
+
+
+@pytest.fixture(scope="session")
+def shared_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One fresh cache folder for the session's compiled general-leg robots (each build
+    takes seconds: the modules that compile the same robots share it)."""
+    return tmp_path_factory.mktemp("stewart-pin-shared-cache")
+
+
+def use_compile_cache(path: Path) -> Iterator[Path]:
+    """Body of a module's autouse fixture: the compiled backends build into ``path``
+    (the environment variable set meanwhile)."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv(compiled_module.CACHE_ENV, str(path))
         yield path

@@ -109,7 +109,8 @@ def agree_or_raise_the_same_named_error(counts, seed, r, x, v, a, g, kv, ka, kg)
     G = np.array(g) * hold * 10.0**kg
     # IDM.
     pair = same_outcome(
-        lambda: robot.inverse_dynamics(T, V, A), lambda: backend.inverse_dynamics(T, V, A)
+        lambda: robot.inverse_dynamics(T, V, A, backend="pinocchio"),
+        lambda: backend.inverse_dynamics(T, V, A),
     )
     if pair is not None:
         counts["accepted"] += 1
@@ -119,12 +120,12 @@ def agree_or_raise_the_same_named_error(counts, seed, r, x, v, a, g, kv, ka, kg)
     forces = [G] if pair is None else [G, pair[0]]
     for F in forces:
         result = same_outcome(
-            lambda F=F: robot.direct_dynamics(T, V, F),
+            lambda F=F: robot.direct_dynamics(T, V, F, backend="pinocchio"),
             lambda F=F: backend.direct_dynamics(T, V, F),
         )
         if result is None:
             continue
         ref, got = result
-        free = robot.direct_dynamics(T, V, np.zeros(6))
+        free = robot.direct_dynamics(T, V, np.zeros(6), backend="pinocchio")
         scale = max(np.abs(ref).max(), np.abs(free).max(), np.abs(ref - free).max())
         assert np.abs(got - ref).max() <= AGREE * scale

@@ -19,6 +19,7 @@ from stewart_pin import (
     ArchitectureError,
     DescriptionError,
     FileFormatError,
+    InputError,
     JointDynamicsError,
     NumericalError,
     RobotDescription,
@@ -176,7 +177,7 @@ def test_energy_and_dissipation_equal_the_tree(robot):
 
 def test_details_and_motor_side(robot):
     P, V, A = robot.sample_states(4, 11)
-    r = robot.inverse_dynamics(P, V, A, details=True)
+    r = robot.inverse_dynamics(P, V, A, details=True, backend="pinocchio")
     act = np.array([leg.actuated - 1 for leg in robot.description.legs])
     np.testing.assert_array_equal(r.joint_efforts[:, np.arange(6), act], r.gamma)
     passive = np.ones((6, 3), bool)
@@ -188,7 +189,7 @@ def test_details_and_motor_side(robot):
             for leg in robot.description.legs
         ]
     )
-    motor = robot.inverse_dynamics(P, V, A, motor=True)
+    motor = robot.inverse_dynamics(P, V, A, motor=True, backend="pinocchio")
     np.testing.assert_allclose(motor * ratio, r.gamma, rtol=1e-14, atol=0)
 
 
@@ -290,10 +291,8 @@ def test_simulation_stops_at_a_joint_limit():
 # ---------------------------------------------------------------------- refusals
 def test_six_ups_only_features_refuse_general_legs():
     robot = StewartRobot.from_preset("rus")
-    T, z = robot.home_pose, np.zeros(6)
+    T = robot.home_pose
     for call in (
-        lambda: robot.inverse_dynamics(T, z, z, backend="compiled"),
-        lambda: robot.direct_dynamics(T, z, z, backend="compiled"),
         lambda: robot.leg_lengths(T),
         lambda: robot.tree,
     ):
@@ -407,8 +406,9 @@ def test_cli_idm_on_rus(tmp_path, capsys):
     assert relative_error(rows[:, 1:], ref) < TOL
 
 
-@pytest.mark.parametrize("command", ["cost", "bench", "identify"])
+@pytest.mark.parametrize("command", ["bench", "identify"])
 def test_cli_six_ups_only_commands_refuse(command, capsys, tmp_path, monkeypatch):
+    """(``cost`` takes general legs now: test_general_codegen.py.)"""
     monkeypatch.chdir(tmp_path)
     assert main([command, "--preset", "rus"]) == 2
     err = capsys.readouterr().err
@@ -434,19 +434,16 @@ def test_cli_urdf_of_general_legs_loads_with_its_joint_terms(tmp_path, monkeypat
 
 
 # ---------------------------------------------------------------------- review fixes
-def test_parameters_and_the_compiled_backend_refuse_general_legs():
+def test_the_papers_grouped_parameters_refuse_general_legs():
     """The paper's 88 grouped parameters and Table III assume its R-R-P legs: a RUS robot
     gets a named error, not 88 wrongly grouped parameters (its base parameters are
-    tests/test_general_base_params.py's); the compiled library is generated for 6-UPS
-    legs."""
-    from stewart_pin.codegen.compiled import CompiledDynamics
+    tests/test_general_base_params.py's; its compiled models test_general_codegen.py's)."""
     from stewart_pin.parameters.base import grouped_parameters, paper_essential_parameters
 
     robot = StewartRobot.from_preset("rus")
     for call in (
         lambda: grouped_parameters(robot.description),
         lambda: paper_essential_parameters(robot),
-        lambda: CompiledDynamics(robot),
     ):
         with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only"):
             call()
@@ -552,27 +549,25 @@ def test_rod_along_the_second_u_axis_is_refused():
         leg.replace(tip=np.array([0.0, 0.0, 0.1]))
 
 
-def test_simulate_compiled_on_general_legs_is_refused_before_the_run(tmp_path, capsys):
-    """``simulate --backend compiled --preset rus`` refuses before the run starts (it used to
-    stop at t = 0 with 'forces raised'): one line, exit 2, no partial result file."""
+def test_simulate_unknown_backend_is_refused_before_the_run(tmp_path, capsys):
+    """An unknown backend is refused before the run starts: one line, exit 2 (argparse's
+    choices), no partial result file; the library functions raise InputError. (General
+    legs take every backend now: ``--backend compiled`` on them is test_general_codegen's.)"""
     from stewart_pin.motion.control import ComputedTorqueController
     from stewart_pin.motion.simulation import simulate
 
     out = tmp_path / "sim.npz"
     capsys.readouterr()
-    code = main(
-        ["simulate", "--preset", "rus", "--backend", "compiled", "--quiet", "-o", str(out)]
-    )
-    assert code == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "6-UPS-only" in err and "t = " not in err, err
+    with pytest.raises(SystemExit) as exit_info:
+        main(["simulate", "--preset", "rus", "--backend", "fast", "--quiet", "-o", str(out)])
+    assert exit_info.value.code == 2
     assert not list(tmp_path.iterdir())  # nothing run, nothing saved
     robot = StewartRobot.from_preset("rus")
-    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
-        simulate(robot, 0.1, backend="compiled")
-    with pytest.raises(UnsupportedArchitectureError, match="backend 'compiled'"):
+    with pytest.raises(InputError, match="unknown backend 'fast'"):
+        simulate(robot, 0.1, backend="fast")
+    with pytest.raises(InputError, match="unknown backend 'fast'"):
         ComputedTorqueController(
-            robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="compiled"
+            robot, lambda t: (robot.home_pose, np.zeros(6), np.zeros(6)), backend="fast"
         )
 
 

@@ -7,15 +7,20 @@ acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma_3i`
 positive when it extends leg i. Every method takes one state or a batch with a leading
 N axis, and returns the same.
 
-Two paths, chosen by :attr:`RobotDescription.is_ideal_ups`: the paper's ideal 6-UPS robot
-keeps its closed forms, its Pinocchio leg models and the compiled backend; a robot with
-general three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``,
-custom, mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
+Two reference paths, chosen by :attr:`RobotDescription.is_ideal_ups`: the paper's ideal
+6-UPS robot keeps its closed forms and its Pinocchio leg models; a robot with general
+three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``, custom,
+mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
 :class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
 such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
-for a revolute one, joint side), and what is 6-UPS-only for now (the compiled backend,
-the 6-UPS tree and URDF) raises
-:class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
+for a revolute one, joint side), and what is 6-UPS-only for now (the 6-UPS tree and URDF,
+the exact derivatives) raises :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
+
+The inverse and direct dynamic models of every robot take ``backend="auto"`` by default:
+the compiled closed-form models (:mod:`stewart_pin.codegen`) where a C compiler is
+available, built on first use and cached, else the reference path above with one warning
+(``$STEWART_PIN_BACKEND=pinocchio`` for the reference path always; ``backend="pinocchio"``
+for one call).
 """
 
 from __future__ import annotations
@@ -95,10 +100,15 @@ class StewartRobot:
         if not description.is_ideal_ups:
             self._check_home()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without its compiled backends (loaded libraries; found again in the
+        cache on first use)."""
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_stewart_pin_")}
+
     def _compiled_backend(self) -> Any:
-        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept by
-        :func:`~stewart_pin.codegen.compiled_backend` with a weak reference to the robot,
-        so the robot stays picklable); the import is done once per process."""
+        """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept on the robot by
+        :func:`~stewart_pin.codegen.compiled_backend`, left out when pickled); the import is
+        done once per process."""
         if not _COMPILED_BACKEND:
             from stewart_pin.codegen import compiled_backend
 
@@ -452,7 +462,7 @@ class StewartRobot:
         twist: ArrayLike,
         accel: ArrayLike,
         details: Literal[False] = False,
-        backend: str = "pinocchio",
+        backend: str = "auto",
         motor: bool = False,
     ) -> Forces: ...
 
@@ -463,7 +473,7 @@ class StewartRobot:
         twist: ArrayLike,
         accel: ArrayLike,
         details: Literal[True],
-        backend: str = "pinocchio",
+        backend: str = "auto",
         motor: bool = False,
     ) -> InverseDynamicsResult | GeneralInverseDynamics: ...
 
@@ -474,7 +484,7 @@ class StewartRobot:
         twist: ArrayLike,
         accel: ArrayLike,
         details: bool = False,
-        backend: str = "pinocchio",
+        backend: str = "auto",
         motor: bool = False,
     ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics: ...
 
@@ -484,7 +494,7 @@ class StewartRobot:
         twist: ArrayLike,
         accel: ArrayLike,
         details: bool = False,
-        backend: str = "pinocchio",
+        backend: str = "auto",
         motor: bool = False,
     ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics:
         """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
@@ -495,9 +505,13 @@ class StewartRobot:
             accel: classical ``[dv/dt, dw/dt]`` in F0, (6,) or (N, 6) [m/s^2, rad/s^2].
             details: return the :class:`~stewart_pin.dynamics.closed_loop.InverseDynamicsResult`
                 (batch arrays) with the leg forces on the platform, each leg's share...
-            backend: ``"pinocchio"`` (the reference: Pinocchio's RNEA on the legs and the
-                closure layer) or ``"compiled"`` (the generated closed-form model compiled
-                to C, :mod:`stewart_pin.codegen`; same checks, ~7 us per state; 6-UPS only).
+            backend: ``"auto"`` (the default: the compiled model where a C compiler is
+                available, built on first use and cached, else the reference path with one
+                warning; ``details=True`` takes the reference path; see :data:`BACKENDS`),
+                ``"pinocchio"`` (the reference: Pinocchio's RNEA on the legs and the closure
+                layer) or ``"compiled"`` (the generated closed-form model compiled to C,
+                :mod:`stewart_pin.codegen`; same results and errors, about 2 us per state;
+                CasADi's virtual machine without a compiler).
             motor: general legs with a transmission (gear or screw) on an actuated joint:
                 the motor-side torque ``Gamma / ratio`` [N m] (joint side where there is
                 none); the ideal 6-UPS has none, so ``motor`` changes nothing there.
@@ -510,19 +524,23 @@ class StewartRobot:
             ones; ``H`` each leg's own joint efforts, joint terms included).
 
         Raises:
-            NumericalError: finite inputs whose Gamma overflows (both backends).
-            UnsupportedArchitectureError: ``backend="compiled"`` on general legs.
+            NumericalError: finite inputs whose Gamma overflows (every backend).
+            InputError: an unknown backend, or ``details=True`` with ``"compiled"``.
         """
+        if backend == "auto" and not details and _AUTO_BACKEND:
+            fast = _AUTO_BACKEND[0](self)  # the hot path: one look-up
+        else:
+            fast = self._fast_backend(backend, details)
+        if fast is not None:
+            out = fast.inverse_dynamics(pose, twist, accel)
+            return out / self._motor_ratio if motor and not self.is_ideal_ups else out
         if not self.is_ideal_ups:
-            self._general_backend(backend)
             with _quiet_overflow():
                 r = self.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
             if details:
                 return r
             out = check_finite(r.motor if motor else r.gamma, "inverse dynamics Gamma")
             return out if check_poses(pose)[1] else out[0]
-        if _compiled(backend, details):
-            return self._compiled_backend().inverse_dynamics(pose, twist, accel)
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with _quiet_overflow():
             res = closure.inverse_dynamics(
@@ -533,7 +551,7 @@ class StewartRobot:
         return res.gamma if batched else res.gamma[0]
 
     def direct_dynamics(
-        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "pinocchio"
+        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "auto"
     ) -> FloatArray:
         """Classical platform acceleration ``[dv/dt, dw/dt]`` in F0 (eq. 35):
         ``A_robot Vdot_p = Jp^-T Gamma - h_robot``, solved by Cholesky.
@@ -541,22 +559,27 @@ class StewartRobot:
         Args:
             pose: 0Tp (4, 4) or (N, 4, 4); twist: (6,) or (N, 6); gamma: actuator forces
                 (6,) or (N, 6) [N].
-            backend: ``"pinocchio"`` (reference) or ``"compiled"`` (generated C, 6-UPS only).
+            backend: ``"auto"`` (default: compiled where a C compiler is available, else
+                the reference), ``"pinocchio"`` (reference) or ``"compiled"`` (generated C);
+                see :meth:`inverse_dynamics`.
 
         General legs: ``gamma`` are the actuated joints' joint-side efforts [N or N m];
         Coulomb friction is ``Fc sign(qdot)``, zero at zero joint velocity (no stiction).
 
         Raises:
-            NumericalError: finite inputs whose acceleration overflows (both backends).
-            UnsupportedArchitectureError: ``backend="compiled"`` on general legs.
+            NumericalError: finite inputs whose acceleration overflows (every backend).
+            InputError: an unknown backend.
         """
+        if backend == "auto" and _AUTO_BACKEND:
+            fast = _AUTO_BACKEND[0](self)  # the hot path: one look-up
+        else:
+            fast = self._fast_backend(backend)
+        if fast is not None:
+            return fast.direct_dynamics(pose, twist, gamma)
         if not self.is_ideal_ups:
-            self._general_backend(backend)
             with _quiet_overflow():
                 out = self.general_dynamics.direct_dynamics(pose, twist, gamma)
             return out
-        if _compiled(backend):
-            return self._compiled_backend().direct_dynamics(pose, twist, gamma)
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
         with _quiet_overflow():
             accel, _ = closure.direct_dynamics(
@@ -650,12 +673,31 @@ class StewartRobot:
         checked = check_finite(np.atleast_1d(power), "dissipated power")
         return checked if power.ndim else float(checked[0])
 
-    def _general_backend(self, backend: str) -> None:
-        """A general robot takes the default backend only."""
-        if backend not in BACKENDS:
-            raise InputError(f"unknown backend '{backend}': choose one of {BACKENDS}")
-        if backend == "compiled":
-            raise self._ideal_only("the compiled backend", "use backend='pinocchio' (the default)")
+    def _fast_backend(self, backend: str, details: bool = False) -> Any:
+        """The compiled backend serving a dynamics call, or ``None`` for the reference
+        path: ``"auto"`` (:func:`stewart_pin.codegen.compiled.auto_backend`; the reference
+        for what the compiled models cannot serve: ``details=True``), ``"compiled"``
+        (:meth:`_compiled_backend`), ``"pinocchio"``; :class:`InputError` otherwise."""
+        if backend == "auto":
+            if details:
+                return None
+            if not _AUTO_BACKEND:
+                from stewart_pin.codegen.compiled import auto_backend
+
+                _AUTO_BACKEND.append(auto_backend)
+            return _AUTO_BACKEND[0](self)
+        if backend == "pinocchio":
+            return None
+        if _compiled(backend, details):
+            return self._compiled_backend()
+        return None  # pragma: no cover - _compiled raised
+
+    @cached_property
+    def _motor_ratio(self) -> FloatArray:
+        """The actuated joints' transmission ratios (6,) (``Gamma / ratio`` is the motor
+        side)."""
+        legs = self.general.legs
+        return np.array([leg.joints[leg.actuated - 1].dynamics.transmission_ratio for leg in legs])
 
     def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
         """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, n) or (N, 6, n).
@@ -699,10 +741,15 @@ class StewartRobot:
         return PayloadRobot(self, payload, placement)
 
 
-BACKENDS = ("pinocchio", "compiled")
+#: The backends of the dynamic models: ``"auto"`` is the default (compiled where a C
+#: compiler is available, else the reference; ``$STEWART_PIN_BACKEND=pinocchio`` makes it
+#: the reference: :func:`stewart_pin.codegen.compiled.auto_backend`).
+BACKENDS = ("pinocchio", "compiled", "auto")
 #: :func:`stewart_pin.codegen.compiled_backend`, imported on first use (saves the import
 #: statement on every compiled call).
 _COMPILED_BACKEND: list[Any] = []
+#: :func:`stewart_pin.codegen.compiled.auto_backend`, imported on first use.
+_AUTO_BACKEND: list[Any] = []
 
 
 def _quiet_overflow() -> np.errstate:

@@ -2,8 +2,14 @@
 
 Median wall-clock time per state [us], all measured in this one run:
 
-- the inverse (IDM) and direct (DDM) models of stewart-pin (Pinocchio leg dynamics plus
-  the closure layer), one state per call and a batch of N states per call;
+- for each architecture (``--architectures``, default the 6-UPS ``simulator``, the
+  6-RUS ``rus`` and the 6-PUS ``pus`` presets): the default backend (``backend="auto"``:
+  the compiled models) of ``StewartRobot.inverse_dynamics`` / ``direct_dynamics``, one
+  state per call and batches of 10 000 and 100 000 states (threads stated), beside one
+  ``pin.constraintDynamics`` call on that robot's closed-loop tree (the ratios' yardstick);
+- for ``--preset``: the reference path of the inverse (IDM) and direct (DDM) models
+  (``backend="pinocchio"``: Pinocchio leg dynamics plus the closure layer; rows ``IDM
+  single``...), one state per call and a batch of N states per call;
 - ``pin.constraintDynamics`` on the 24-dof closed-loop tree (the raw C++ call, with q, v
   and tau prepared beforehand) and the whole reference path of
   ``stewart_pin.check.constrained_dynamics`` (state conversion included) for the direct and
@@ -11,12 +17,13 @@ Median wall-clock time per state [us], all measured in this one run:
 - the generated models compiled to C (``stewart_pin.codegen.CompiledDynamics``, paper
   section VII), from Python: one state per call, and batches of N = 1, 100, 10 000 and
   1 000 000 states per call (the last streamed as 100 chunks of 10 000; ``--quick`` skips
-  it);
+  it, and times the architectures' batches at ``--batch`` states only);
 - MuJoCo's ``mj_forward`` on the MJCF of the same robot, when ``import mujoco`` works (soft
   loop constraints: a timing reference, not an exact solution).
 
-Usage: ``stewart-pin bench [--preset simulator] [--batch 10000] [--repeats 300] [--quick]
-[--json bench.json]`` (or ``python scripts/bench_dynamics.py`` with the same options).
+Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus]
+[--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
+``python scripts/bench_dynamics.py`` with the same options).
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ from stewart_pin.check.constrained_dynamics import (
     tree_solver,
     tree_state,
 )
+from stewart_pin.check.general_legs import GeneralTreeSolver
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
 from stewart_pin.kinematics.workspace import sample_states
@@ -68,7 +76,16 @@ def constraint_dynamics_call(
 ) -> Callable[[], object]:
     """One raw ``pin.constraintDynamics`` call on the robot's closed-loop tree at a platform
     state (pose (4, 4), twist (6,), actuator forces (6,) [N]): the yardstick every row is
-    divided by. Leg rates from the loop constraints (:func:`tree_state`)."""
+    divided by. Leg rates from the loop constraints (:func:`tree_state`); general legs: the
+    24-dof tree of :func:`stewart_pin.models.leg_chains.build_general_tree`
+    (``model.armature`` set, the joint terms in ``tau``)."""
+    if not robot.is_ideal_ups:
+        general = GeneralTreeSolver(robot.general)
+        q, v, _ = general.state(pose, twist, robot.inverse_geometry(pose, check_limits=False))
+        tau = -general.joint_torques(q, v)
+        tau[general.v_act] += gamma
+        args = (general.model, general.data, q, v, tau, general.cmodels, general.cdatas)
+        return partial(pin.constraintDynamics, *args, general.settings)
     solver = tree_solver(robot)
     q, v = tree_state(robot, pose, twist)
     tau = np.zeros(solver.nv)
@@ -181,22 +198,76 @@ def mujoco_rows(
     }
 
 
-def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str, object]:
+#: The architectures' presets of the default-backend rows, and the batch sizes.
+ARCHITECTURES = ("simulator", "rus", "pus")
+ARCHITECTURE_BATCHES = (10_000, 100_000)
+
+
+def architecture_rows(
+    name: str, repeats: int, batches: tuple[int, ...] = ARCHITECTURE_BATCHES
+) -> dict[str, object]:
+    """The default backend (``backend="auto"``) of one preset: one state per call and
+    batches of ``batches`` states [us per state], and the ``pin.constraintDynamics`` call
+    on its tree; with the ratios to that call, the backend that ran and its threads."""
+    robot = StewartRobot.from_preset(name)
+    poses, twists, accels = robot.sample_states(min(max(batches), 10_000), 0)
+    gammas = robot.inverse_dynamics(poses, twists, accels)  # compiles on first use
+    T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
+    rows = {
+        "pin.constraintDynamics (raw call)": median_us(
+            constraint_dynamics_call(robot, T, V, G), repeats
+        ),
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), max(repeats, 1000)),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), max(repeats, 1000)),
+    }
+    for n in batches:
+        idx = np.arange(n) % poses.shape[0]
+        P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
+        reps = 20 if n <= 10_000 else 5
+        rows[f"IDM batch {n}"] = median_us(partial(robot.inverse_dynamics, P, Vn, An), reps, n)
+        rows[f"DDM batch {n}"] = median_us(partial(robot.direct_dynamics, P, Vn, Gn), reps, n)
+    from stewart_pin.codegen.compiled import auto_backend
+
+    fast = auto_backend(robot)
+    reference = rows["pin.constraintDynamics (raw call)"]
+    return {
+        "architecture": robot.architecture,
+        "backend": "reference (pinocchio)" if fast is None else f"compiled ({fast.kind})",
+        "threads": 1 if fast is None else fast.threads,
+        "median_us_per_state": rows,
+        "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
+    }
+
+
+def run(
+    preset: str,
+    batch: int,
+    repeats: int,
+    quick: bool = False,
+    architectures: tuple[str, ...] = ARCHITECTURES,
+) -> dict[str, object]:
+    batches = (batch,) if quick else ARCHITECTURE_BATCHES
+    arch = {name: architecture_rows(name, repeats, batches) for name in architectures}
     robot = StewartRobot.from_preset(preset)
     poses, twists, accels = sample_states(robot.description, batch, 0)
-    gammas = robot.inverse_dynamics(poses, twists, accels)
+    gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     solver = tree_solver(robot)
     q, v = tree_state(robot, T, V)
     batch_repeats = max(3, min(repeats, 5))
+    ref = "pinocchio"
     rows = {
-        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), repeats),
-        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), repeats),
+        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A, backend=ref), repeats),
+        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G, backend=ref), repeats),
         f"IDM batch {batch}": median_us(
-            lambda: robot.inverse_dynamics(poses, twists, accels), batch_repeats, batch
+            lambda: robot.inverse_dynamics(poses, twists, accels, backend=ref),
+            batch_repeats,
+            batch,
         ),
         f"DDM batch {batch}": median_us(
-            lambda: robot.direct_dynamics(poses, twists, gammas), batch_repeats, batch
+            lambda: robot.direct_dynamics(poses, twists, gammas, backend=ref),
+            batch_repeats,
+            batch,
         ),
         "pin.constraintDynamics (raw call)": median_us(
             constraint_dynamics_call(robot, T, V, G), repeats
@@ -221,6 +292,7 @@ def run(preset: str, batch: int, repeats: int, quick: bool = False) -> dict[str,
         "batch": batch,
         "repeats": repeats,
         "machine": machine(),
+        "architectures": arch,
         "compiled_backend": compiled_info,
         "operation_counts": {
             m: {k: counts[m][k] for k in ("base", "essential", "critical_path")}
@@ -235,18 +307,49 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
     )
+    parser.add_argument(
+        "--architectures",
+        type=_preset_list,
+        default=ARCHITECTURES,
+        help="comma-separated presets of the default-backend rows (one per architecture)",
+    )
     parser.add_argument("--batch", type=positive_int, default=10_000, help="states per batch")
     parser.add_argument(
         "--repeats", type=positive_int, default=300, help="timed calls (the median is shown)"
     )
-    parser.add_argument("--quick", action="store_true", help="skip the 1 000 000-state batch")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="skip the 1 000 000-state batch; time the architectures at --batch states only",
+    )
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
+
+
+def _preset_list(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one preset name")
+    return names
 
 
 def report(args: argparse.Namespace) -> dict[str, object]:
     """Run the benchmark, print the table (and write the JSON) as ``args`` say."""
-    result = run(args.preset, args.batch, args.repeats, args.quick)
-    print(f"stewart-pin {stewart_pin.__version__}, preset '{args.preset}', {result['machine']}")
+    archs = getattr(args, "architectures", ARCHITECTURES)
+    result = run(args.preset, args.batch, args.repeats, args.quick, archs)
+    print(f"stewart-pin {stewart_pin.__version__}, {result['machine']}")
+    head = f"{'[us]':>10s} {'/ pin.constraintDynamics':>26s}"
+    print(f"{'default backend (auto), per state':48s} {head}")
+    archs_result = cast(dict[str, dict[str, object]], result.get("architectures", {}))
+    for name, entry in archs_result.items():
+        print(
+            f"-- '{name}' ({entry['architecture']}): {entry['backend']}, "
+            f"{entry['threads']} thread(s)"
+        )
+        a_rows = cast(dict[str, float], entry["median_us_per_state"])
+        a_ratios = cast(dict[str, float], entry["ratio_to_pin_constraintDynamics"])
+        for row, t in a_rows.items():
+            print(f"{row:48s} {t:10.3f} {a_ratios[row]:26.3f}")
+    print(f"-- preset '{args.preset}'")
     print(f"{'median time per state':48s} {'[us]':>10s} {'/ pin.constraintDynamics':>26s}")
     rows = cast(dict[str, float], result["median_us_per_state"])
     ratios = cast(dict[str, float], result["ratio_to_pin_constraintDynamics"])

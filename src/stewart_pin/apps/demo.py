@@ -72,8 +72,7 @@ def run_demo(
     desc = robot.description
     legs = f"stroke {desc.stroke} m" if desc.is_ideal_ups else f"{desc.architecture} legs"
     say(f"== robot '{robot.name}': {legs}, platform {desc.platform_inertia[9]:g} kg")
-    # The compiled backend serves the ideal 6-UPS; general legs take the reference path.
-    backend = "compiled" if desc.is_ideal_ups else "pinocchio"
+    backend = "auto"  # the compiled models where a C compiler is available (every robot)
     for path in write_robot_files(robot.description, out):
         files[path.name] = path
 

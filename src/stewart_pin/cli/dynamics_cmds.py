@@ -135,9 +135,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _cost(args: argparse.Namespace) -> int:
-    from stewart_pin.codegen import cost_table
+    from stewart_pin.codegen.opcount import architecture_table, cost_table
 
-    print(cost_table(robot_from_args(args, "cost")))
+    if args.architectures:
+        print(architecture_table())
+        return 0
+    print(cost_table(robot_from_args(args)))
     return 0
 
 
@@ -151,7 +154,8 @@ def _bench(args: argparse.Namespace) -> int:
     desc = preset(args.preset)
     if not desc.is_ideal_ups:
         raise UnsupportedArchitectureError(
-            f"bench is 6-UPS-only for now: preset '{desc.name}' has {desc.architecture} legs",
+            f"bench --preset is 6-UPS-only for now: preset '{desc.name}' has "
+            f"{desc.architecture} legs (time general legs with --architectures {desc.name})",
             "bench",
             desc.architecture,
         )
@@ -166,6 +170,12 @@ def register_performance(sub: argparse._SubParsersAction) -> None:
         help="operation counts of the generated closed-form models beside the paper's Table IV",
     )
     add_robot_args(p)
+    p.add_argument(
+        "--architectures",
+        action="store_true",
+        help="compare the architectures (6-UPS, offset U joints, 6-RUS, 6-PUS, every joint "
+        "term, custom legs) in one table instead",
+    )
     p.set_defaults(func=_cost)
 
     from stewart_pin.apps.bench import add_arguments

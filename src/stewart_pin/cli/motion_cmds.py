@@ -71,8 +71,6 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
     robot = robot_from_args(args)
-    if args.backend is None:
-        args.backend = "compiled" if robot.is_ideal_ups else "pinocchio"
     check_backend(robot, args.backend, "simulate")  # before the run starts, one line
     carrier = payload_robot_from_args(args, robot)
     if carrier is not None:
@@ -393,10 +391,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--backend",
-        choices=("compiled", "pinocchio"),
-        help="dynamic models: generated C (compiled, cached after the first build; 6-UPS "
-        "only) or the Pinocchio reference path (default: compiled for the ideal 6-UPS, "
-        "pinocchio for general legs)",
+        choices=("auto", "compiled", "pinocchio"),
+        default="auto",
+        help="dynamic models: auto (the generated C where a C compiler is available, "
+        "compiled on first use and cached, else the Pinocchio reference path), compiled "
+        "(the generated C; CasADi's virtual machine without a compiler) or pinocchio (the "
+        "reference path)",
     )
     p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
     add_payload_motion_args(p)

@@ -1,26 +1,40 @@
 """Symbolic generation, operation counts and compiled backends (paper section VII).
 
 - :func:`generate_models` (:mod:`.symbolic`): the IDM and DDM of a robot as straight-line
-  CasADi SX functions, the geometry baked in, the 88 base parameters an input.
-- :func:`cost_table` / :func:`cost_dict` (:mod:`.opcount`): their operation counts beside
-  the paper's Table IV.
+  CasADi SX functions, the geometry baked in, the 88 base parameters an input; for a robot
+  with general legs, the generic models of :mod:`.general_symbolic` (every number baked
+  in, any leg architecture and joint term).
+- :func:`cost_table` / :func:`cost_dict` / :func:`architecture_table` (:mod:`.opcount`):
+  their operation counts beside the paper's Table IV.
 - :func:`compiled_backend` / :class:`CompiledDynamics` (:mod:`.compiled`): the models
   compiled to C and called through :mod:`ctypes`, one state or batches, with a CasADi
   virtual-machine fallback when no C compiler is available.
 - :class:`CompiledDerivatives` / :func:`derivatives_backend` (:mod:`.derivatives`): the exact
   Jacobians of both models in the platform state (pose chart, twist, third argument), by
   CasADi's algorithmic differentiation of the generated models, compiled the same way.
+- :func:`auto_backend`: what the default ``backend="auto"`` of ``StewartRobot`` runs.
 
 Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
 """
 
-from stewart_pin.codegen.compiled import CompiledDynamics, cache_root, compiled_backend
+from stewart_pin.codegen.compiled import (
+    CompiledDynamics,
+    auto_backend,
+    cache_root,
+    compiled_backend,
+)
 from stewart_pin.codegen.derivatives import (
     CompiledDerivatives,
     derivatives_backend,
     symbolic_derivatives,
 )
-from stewart_pin.codegen.opcount import OperationCount, cost_dict, cost_table, count_operations
+from stewart_pin.codegen.opcount import (
+    OperationCount,
+    architecture_table,
+    cost_dict,
+    cost_table,
+    count_operations,
+)
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import CompilationError, UnsafeCacheError  # their old home
 
@@ -31,6 +45,8 @@ __all__ = [
     "OperationCount",
     "SymbolicModels",
     "UnsafeCacheError",
+    "architecture_table",
+    "auto_backend",
     "cache_root",
     "compiled_backend",
     "cost_dict",

@@ -7,13 +7,18 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
 - ``INPUT``: a non-finite number, a last pose row other than ``[0, 0, 0, 1]``, a rotation
   block off orthonormal (``max |R^T R - I|`` past just under the reference's tolerance) or
   a reflection;
-- ``GEOMETRY``: a leg shorter than (or within 1e-6 of) the minimum leg length, as close to
-  its first U-joint axis as the threshold, or outside (or within 1e-9 of the ends of) its
-  stroke (thresholds of :mod:`stewart_pin.kinematics.geometry`);
+- ``GEOMETRY``: for the paper's 6-UPS models (:data:`CHECK_LEGS_UPS`), a leg shorter than
+  (or within 1e-6 of) the minimum leg length, as close to its first U-joint axis as the
+  threshold, or outside (or within 1e-9 of the ends of) its stroke (thresholds of
+  :mod:`stewart_pin.kinematics.geometry`); for general legs (:data:`CHECK_LEGS_GENERAL`), a
+  slack of the generated code not positive (a leg out of reach or near it, near a serial
+  singularity, a joint at or near its limits, a custom leg's Newton residual: see
+  :mod:`stewart_pin.codegen.general_symbolic`);
 - ``COND``: the upper bound ``2 / |det S| (||S||_F^2 / 6)^3`` of cond(S) (Guggenheimer,
   Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
-  measure's matrix (``l`` the characteristic length), passes half the threshold: the caller
-  computes the exact measure of those states only;
+  measure's matrix (``l`` the characteristic length), passes half the threshold, and so
+  does the tighter ``||S||_F ||S^-1||_F`` (``S^-1`` from an LU with partial pivoting): the
+  caller computes the exact measure of those states only;
 - ``REPIVOTED`` (IDM): the static-pivot LU of the generated code met a multiplier larger
   than ``GROWTH_LIMIT``; the state was solved again here with partial pivoting (not an
   error);
@@ -27,7 +32,8 @@ disjoint slices of a batch run concurrently (the caller's thread pool: ctypes re
 GIL around each call).
 
 The margins make the guard flag generously: a flagged state is decided by the reference
-checks in Python, so the compiled path raises exactly what the reference path raises.
+checks in Python (for general legs, computed by the reference path), so the compiled path
+raises exactly what the reference path raises.
 """
 
 from __future__ import annotations
@@ -42,6 +48,40 @@ FLAG_NAMES = {
 }
 #: Largest static-pivot multiplier trusted before solving again with partial pivoting.
 GROWTH_LIMIT = 16.0
+
+#: The leg checks of the paper's 6-UPS models: leg lengths and leg singularities from the
+#: ``q3^2`` and ``rho^2 = (q3 sin q2)^2`` of the generated code (``slack`` unused).
+CHECK_LEGS_UPS = r"""
+static const double sp_stroke_lo2 = %(lo2)r;  /* stroke ends squared, with margins */
+static const double sp_stroke_hi2 = %(hi2)r;
+static const double sp_min_length2 = %(min_length2)r;
+static const double sp_min_sin2 = %(min_sin2)r;
+
+/* Leg lengths and leg singularities from q3^2 and rho^2 = (q3 sin q2)^2. */
+static int sp_check_legs(const double* aux, int slack) {
+  const double* q3sq = aux + %(q3sq)d;
+  const double* rho2 = aux + %(rho2)d;
+  int k;
+  (void)slack;
+  for (k = 0; k < 6; ++k) {
+    if (!(q3sq[k] >= sp_stroke_lo2 && q3sq[k] <= sp_stroke_hi2)) return SP_GEOMETRY;
+    if (!(q3sq[k] > sp_min_length2)) return SP_GEOMETRY;
+    if (!(rho2[k] > sp_min_sin2 * q3sq[k])) return SP_GEOMETRY;
+  }
+  return 0;
+}
+"""
+
+#: The leg checks of the general-leg models: every slack of the generated code (reach,
+#: serial singularity, levers, joint limits, Newton's residual) must be positive.
+CHECK_LEGS_GENERAL = r"""
+/* Every slack aux[slack .. slack + n) of the general-leg models is positive. */
+static int sp_check_legs(const double* aux, int slack) {
+  int k;
+  for (k = 0; k < %(n_slack)d; ++k) if (!(aux[slack + k] > 0.0)) return SP_GEOMETRY;
+  return 0;
+}
+"""
 
 TEMPLATE = r"""
 /* ---- stewart-pin: batch loops and state guards (hand-written, see _csource.py) ---- */
@@ -58,10 +98,6 @@ TEMPLATE = r"""
 #define SP_NOT_PD 16
 #define SP_NONFINITE 32
 
-static const double sp_stroke_lo2 = %(lo2)r;  /* stroke ends squared, with margins */
-static const double sp_stroke_hi2 = %(hi2)r;
-static const double sp_min_length2 = %(min_length2)r;
-static const double sp_min_sin2 = %(min_sin2)r;
 static const double sp_rotation_tol = %(rotation_tol)r;
 static const double sp_growth_limit = %(growth_limit)r;
 static const double sp_inv_length = %(inv_length)r;  /* 1 / characteristic length [1/m] */
@@ -87,17 +123,7 @@ static int sp_check_inputs(const double* T, const double* x, const double* y) {
   return 0;
 }
 
-/* Leg lengths and leg singularities from q3^2 and rho^2 = (q3 sin q2)^2. */
-static int sp_check_legs(const double* q3sq, const double* rho2) {
-  int k;
-  for (k = 0; k < 6; ++k) {
-    if (!(q3sq[k] >= sp_stroke_lo2 && q3sq[k] <= sp_stroke_hi2)) return SP_GEOMETRY;
-    if (!(q3sq[k] > sp_min_length2)) return SP_GEOMETRY;
-    if (!(rho2[k] > sp_min_sin2 * q3sq[k])) return SP_GEOMETRY;
-  }
-  return 0;
-}
-
+%(check_legs)s
 /* The condition bound 2 / |det S| (||S||_F^2 / 6)^3 (Guggenheimer et al. 1995). */
 static int sp_cond_bound(double det, double fro2, double max_cond) {
   double t = fro2 / 6.0;
@@ -107,15 +133,19 @@ static int sp_cond_bound(double det, double fro2, double max_cond) {
 
 /* LU with partial pivoting of A = S^T (column i = row i of Jp^-1, J row-major; rows 3-5,
    the angular columns of Jp^-1, divided by the characteristic length), the condition
-   bound, and (if rhs) the solution of Jp^-T y = rhs (rows 3-5 of rhs scaled alike). */
+   bound, and (if rhs) the solution of Jp^-T y = rhs (rows 3-5 of rhs scaled alike). When
+   the determinant bound passes half the threshold, the tighter ||S||_F ||S^-1||_F >=
+   cond(S) from the LU decides (S^-1 column by column). */
 static int sp_check_cond(const double* J, double max_cond, const double* rhs, double* y) {
-  double A[6][6], b[6], fro2 = 0.0, det = 1.0, t;
-  int i, j, k, p;
-  for (i = 0; i < 6; ++i)
+  double A[6][6], b[6], z[6], x[6], fro2 = 0.0, det = 1.0, inv2 = 0.0, t, lim;
+  int i, j, k, p, c, perm[6];
+  for (i = 0; i < 6; ++i) {
+    perm[i] = i;
     for (j = 0; j < 6; ++j) {
       A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
       fro2 += A[i][j] * A[i][j];
     }
+  }
   for (i = 0; i < 6; ++i) b[i] = rhs ? (i < 3 ? rhs[i] : rhs[i] * sp_inv_length) : 0.0;
   for (k = 0; k < 6; ++k) {
     p = k;
@@ -123,11 +153,13 @@ static int sp_check_cond(const double* J, double max_cond, const double* rhs, do
     if (p != k) {
       for (j = 0; j < 6; ++j) { t = A[k][j]; A[k][j] = A[p][j]; A[p][j] = t; }
       t = b[k]; b[k] = b[p]; b[p] = t;
+      c = perm[k]; perm[k] = perm[p]; perm[p] = c;
     }
     det *= A[k][k];
     if (A[k][k] == 0.0) return SP_COND;
     for (i = k + 1; i < 6; ++i) {
       double l = A[i][k] / A[k][k];
+      A[i][k] = l;  /* the multiplier, below the diagonal */
       for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
       b[i] -= l * b[k];
     }
@@ -139,7 +171,22 @@ static int sp_check_cond(const double* J, double max_cond, const double* rhs, do
       y[i] = s / A[i][i];
     }
   }
-  return sp_cond_bound(det, fro2, max_cond);
+  if (sp_cond_bound(det, fro2, max_cond) == 0) return 0;
+  for (c = 0; c < 6; ++c) {  /* column c of S^-T: solve P^T L U x = e_c */
+    for (i = 0; i < 6; ++i) {
+      double s = perm[i] == c ? 1.0 : 0.0;
+      for (j = 0; j < i; ++j) s -= A[i][j] * z[j];
+      z[i] = s;
+    }
+    for (i = 5; i >= 0; --i) {
+      double s = z[i];
+      for (j = i + 1; j < 6; ++j) s -= A[i][j] * x[j];
+      x[i] = s / A[i][i];
+      inv2 += x[i] * x[i];
+    }
+  }
+  lim = max_cond * (1.0 - 1e-6);
+  return (fro2 * inv2 <= lim * lim) ? 0 : SP_COND;
 }
 
 static int sp_finite6(const double* x) {
@@ -150,6 +197,8 @@ static int sp_finite6(const double* x) {
 
 #define SP_IDM_NAUX %(idm_naux)d
 #define SP_DDM_NAUX %(ddm_naux)d
+#define SP_IDM_SLACK %(idm_slack)d
+#define SP_DDM_SLACK %(ddm_slack)d
 
 /* Inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), chi (88) -> gamma
    (n x 6), flags (n). Returns the OR of the flags. */
@@ -170,12 +219,13 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
     arg[0] = T; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
     res[0] = g; res[1] = aux;
     %(idm)s(arg, res, iw, w, 0);
-    f |= sp_check_legs(aux + %(q3sq)d, aux + %(rho2)d);
+    f |= sp_check_legs(aux, SP_IDM_SLACK);
     if (!(aux[%(growth)d] <= sp_growth_limit)) {
       f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
       for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
-    } else {  /* the static LU is sound: its pivots give the determinant */
-      f |= sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond);
+    } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
+      /* the static LU's determinant bound passed half the threshold: the tighter one */
+      f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
     }
     if (!sp_finite6(g)) f |= SP_NONFINITE;
     flags[s] = f;
@@ -202,7 +252,7 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
     arg[0] = T; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;
     res[0] = a; res[1] = aux;
     %(ddm)s(arg, res, iw, w, 0);
-    f |= sp_check_legs(aux + %(q3sq)d, aux + %(rho2)d);
+    f |= sp_check_legs(aux, SP_DDM_SLACK);
     f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
     for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
     if (!sp_finite6(a)) f |= SP_NONFINITE;

@@ -66,10 +66,10 @@ import os
 import shutil
 import stat
 import subprocess
+import sys
 import tempfile
 import threading
 import warnings
-import weakref
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -81,6 +81,12 @@ import numpy as np
 from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states
 from stewart_pin.codegen import _csource
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
+from stewart_pin.codegen.general_symbolic import (
+    GENERAL_GENERATOR_VERSION,
+    AuxLayout,
+    aux_layout,
+    general_robot,
+)
 from stewart_pin.codegen.symbolic import (
     AUX_DDM_D,
     AUX_DDM_SIZE,
@@ -97,13 +103,16 @@ from stewart_pin.codegen.symbolic import (
     generate_models,
 )
 from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
+from stewart_pin.dynamics.general_legs import GeneralDynamics
 from stewart_pin.exceptions import (
     CompilationError,
     InputError,
     NumericalError,
     SingularityError,
+    StewartPinError,
     UnsafeCacheError,
 )
+from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -126,7 +135,14 @@ except ImportError:  # pragma: no cover - Windows: no lock (one process at a tim
 #: Environment variable overriding the cache folder.
 CACHE_ENV = "STEWART_PIN_CACHE"
 #: Compiler flags (no -march=native: the cached library must run on any x86-64 of the kind).
-CFLAGS = ("-O2", "-fno-math-errno", "-fPIC", "-shared", "-fvisibility=hidden")
+CFLAGS = (
+    "-O2",
+    "-fno-math-errno",
+    "-freciprocal-math",  # x / y with a shared y -> x * (1 / y): CasADi writes divisions
+    "-fPIC",
+    "-shared",
+    "-fvisibility=hidden",
+)
 #: Libraries linked (after the source).
 LDLIBS = ("-lm",)
 #: Environment variable: threads sharing a compiled batch (default ``os.cpu_count()``).
@@ -138,6 +154,21 @@ VM_CHUNK = 4096
 
 _INPUT, _GEOMETRY, _COND = FLAG_NAMES["INPUT"], FLAG_NAMES["GEOMETRY"], FLAG_NAMES["COND"]
 _NOT_PD, _NONFINITE = FLAG_NAMES["NOT_PD"], FLAG_NAMES["NONFINITE"]
+_REPIVOTED = FLAG_NAMES["REPIVOTED"]
+#: The aux layout of the paper's 6-UPS models (:mod:`.symbolic`'s ``AUX_*``): their leg
+#: checks read ``q3^2`` and ``rho^2``, no slacks.
+UPS_AUX_LAYOUT = AuxLayout(
+    jinv=AUX_JINV.start,
+    idm_f=AUX_IDM_F.start,
+    idm_hz=AUX_IDM_HZ.start,
+    growth=AUX_IDM_GROWTH,
+    det=AUX_IDM_DET,
+    fro2=AUX_IDM_FRO2,
+    idm_slack=AUX_IDM_SIZE,
+    ddm_d=AUX_DDM_D.start,
+    ddm_slack=AUX_DDM_SIZE,
+    n_slack=0,
+)
 _LIB_NAME = "libstewart_models.so"
 _SOURCE_NAME = "stewart_models.c"
 _MANIFEST_NAME = "manifest.json"
@@ -191,9 +222,27 @@ def cache_key(source: str, compiler: str) -> str:
     return h.hexdigest()[:32]
 
 
+def model_layout(desc: Any) -> AuxLayout:
+    """Where the guarded models of ``desc`` put their by-products
+    (:data:`UPS_AUX_LAYOUT` for the paper's 6-UPS robot)."""
+    if desc.is_ideal_ups:
+        return UPS_AUX_LAYOUT
+    return aux_layout(generate_models(desc))
+
+
+def singularity_length(desc: Any) -> float:
+    """The length the parallel singularity measure divides ``Jp^-1``'s angular columns by:
+    the characteristic length (6-UPS), the platform radius ``GeneralHexapod.size``
+    (general legs), as the reference path does."""
+    if desc.is_ideal_ups:
+        return characteristic_length(desc)
+    return general_robot(desc).size
+
+
 def c_source(desc: Any) -> str:
     """The C source of a robot's library: CasADi's generated IDM and DDM (guarded
-    variants) followed by the batch loops and guards of :mod:`._csource`.
+    variants) followed by the batch loops and guards of :mod:`._csource` (the leg checks
+    of the 6-UPS models, or the general models' slacks).
 
     Only numbers enter it (the geometry, the thresholds): no name or other text from the
     description."""
@@ -204,28 +253,37 @@ def c_source(desc: Any) -> str:
     )
     cg.add(models.idm_guarded)
     cg.add(models.ddm_guarded)
-    lo, hi = (float(x) for x in desc.stroke)
-    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
+    layout = model_layout(desc)
+    if desc.is_ideal_ups:
+        lo, hi = (float(x) for x in desc.stroke)
+        min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
+        check_legs = _csource.CHECK_LEGS_UPS % {
+            "lo2": lo * lo * (1.0 + 1e-9),
+            "hi2": hi * hi * (1.0 - 1e-9),
+            "min_length2": min_length**2 * (1.0 + 1e-6),
+            "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
+            "q3sq": AUX_Q3SQ.start,
+            "rho2": AUX_RHO2.start,
+        }
+    else:
+        check_legs = _csource.CHECK_LEGS_GENERAL % {"n_slack": layout.n_slack}
     fi, fd = models.idm_guarded, models.ddm_guarded
     wrapper = _csource.TEMPLATE % {
-        "lo2": lo * lo * (1.0 + 1e-9),
-        "hi2": hi * hi * (1.0 - 1e-9),
-        "min_length2": min_length**2 * (1.0 + 1e-6),
-        "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
+        "check_legs": check_legs,
         "rotation_tol": ROTATION_TOLERANCE * (1.0 - 1e-3),
         "growth_limit": GROWTH_LIMIT,
-        "inv_length": 1.0 / characteristic_length(desc),
-        "idm_naux": AUX_IDM_SIZE,
-        "ddm_naux": AUX_DDM_SIZE,
-        "q3sq": AUX_Q3SQ.start,
-        "rho2": AUX_RHO2.start,
-        "jinv": AUX_JINV.start,
-        "idm_f": AUX_IDM_F.start,
-        "idm_hz": AUX_IDM_HZ.start,
-        "ddm_d": AUX_DDM_D.start,
-        "growth": AUX_IDM_GROWTH,
-        "det": AUX_IDM_DET,
-        "fro2": AUX_IDM_FRO2,
+        "inv_length": 1.0 / singularity_length(desc),
+        "idm_naux": layout.idm_size,
+        "ddm_naux": layout.ddm_size,
+        "idm_slack": layout.idm_slack,
+        "ddm_slack": layout.ddm_slack,
+        "jinv": layout.jinv,
+        "idm_f": layout.idm_f,
+        "idm_hz": layout.idm_hz,
+        "ddm_d": layout.ddm_d,
+        "growth": layout.growth,
+        "det": layout.det,
+        "fro2": layout.fro2,
         "idm": fi.name(),
         "ddm": fd.name(),
         **{f"idm_sz_{k}": getattr(fi, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
@@ -370,6 +428,7 @@ def _build(folder: Path, source: str, compiler: str, key: str) -> None:
             "cflags": list(CFLAGS),
             "casadi": cs.__version__,  # type: ignore[attr-defined]  # missing from its stubs
             "generator": GENERATOR_VERSION,
+            "general_generator": GENERAL_GENERATOR_VERSION,
         }
         tmp_m = _write_private(
             folder, _MANIFEST_NAME, (json.dumps(meta, indent=2) + "\n").encode(), 0o644
@@ -384,21 +443,32 @@ def _build(folder: Path, source: str, compiler: str, key: str) -> None:
                 os.unlink(t)
 
 
+def build_seconds(source: str) -> float:
+    """About how long the system compiler takes on ``source`` [s] (measured on this
+    project's 2-core machine with gcc -O2: 1 s for the 6-UPS models, 1.3 s for 6-RUS,
+    3.4 s for a random 6-RUS with every joint term, 10 s for custom legs)."""
+    n = len(source)
+    return 8e-6 * n + (n / 3.5e5) ** 2
+
+
 def build_library(
     desc: Any,
     cache_dir: str | Path | None = None,
     compiler: str | None = None,
     load: Any = None,
+    announce: bool = False,
 ) -> tuple[Path, bool]:
     """Build (or find, verified, in the cache) a robot's shared library.
 
     Returns ``(path, compiled_now)``; ``load(path)``, if given, is called while the key
-    folder is still locked (the file loaded is the one just verified). Raises
-    :class:`UnsafeCacheError` when the cache folder or a file in it could have been written
-    by someone else, and :class:`CompilationError` when no compiler is found or the
-    compilation fails. See the module docstring for the cache's rules.
+    folder is still locked (the file loaded is the one just verified). ``announce``: say
+    on stderr, in one line, that it compiles and about how long it takes (only when it
+    does). Raises :class:`UnsafeCacheError` when the cache folder or a file in it could
+    have been written by someone else, and :class:`CompilationError` when no compiler is
+    found or the compilation fails. See the module docstring for the cache's rules.
     """
-    return build_source_library(lambda: c_source(desc), cache_dir, compiler, load)
+    what = f"the dynamic models of robot '{_printable(desc)}'" if announce else None
+    return build_source_library(lambda: c_source(desc), cache_dir, compiler, load, what)
 
 
 def build_source_library(
@@ -406,10 +476,12 @@ def build_source_library(
     cache_dir: str | Path | None = None,
     compiler: str | None = None,
     load: Any = None,
+    announce: str | None = None,
 ) -> tuple[Path, bool]:
     """:func:`build_library` for any generated C source (``source_of()``, called once a
     compiler is found): the same cache folder, key, integrity rules, lock and build (the
-    exact derivatives of :mod:`.derivatives` use it)."""
+    exact derivatives of :mod:`.derivatives` use it). ``announce``: what is compiled, said
+    in one line on stderr with about how long it takes (only when it compiles), or None."""
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")
@@ -429,6 +501,14 @@ def build_source_library(
                         RuntimeWarning,
                         stacklevel=3,
                     )
+                if announce:
+                    seconds = max(1, round(build_seconds(source)))
+                    print(
+                        f"stewart-pin: compiling {announce} (first use of this geometry, "
+                        f"about {seconds} s; cached in {root})",
+                        file=sys.stderr,
+                        flush=True,
+                    )
                 _build(folder, source, compiler, key)
             if load is not None:
                 try:
@@ -438,6 +518,12 @@ def build_source_library(
     except (OSError, subprocess.SubprocessError) as e:
         raise CompilationError(f"cannot build the library in {folder}: {e}") from e
     return folder / _LIB_NAME, why is not None
+
+
+def _printable(desc: Any) -> str:
+    """The robot's name for a message: printable characters only, at most 60."""
+    name = "".join(ch for ch in str(getattr(desc, "name", "")) if ch.isprintable())
+    return name[:57] + "..." if len(name) > 60 else name
 
 
 def _positive_threads(value: Any) -> int:
@@ -486,27 +572,27 @@ def _warn_once(reason: str) -> None:
 
 
 _F64 = np.dtype(np.float64)
+_ONE_SHAPES = ((4, 4), (6,), (6,))
+_BATCH_OF_ONE_SHAPES = ((1, 4, 4), (1, 6), (1, 6))
 
 
 def _as_c(x: Any) -> np.ndarray | None:
-    """``x`` as a C-contiguous float64 array, or None when it is not a plain numeric array."""
+    """``x`` as a C-contiguous float64 array, or None when it is not a numeric ndarray."""
     if isinstance(x, np.ndarray):
         if x.dtype == _F64 and x.flags.c_contiguous:
             return x
         if x.dtype.kind not in "fiu":
             return None
         return np.ascontiguousarray(x, dtype=np.float64)
-    if isinstance(x, (list, tuple)):
-        try:
-            arr = np.array(x, dtype=np.float64)
-        except (TypeError, ValueError):
-            return None
-        return arr
-    return None
+    return None  # lists and anything else: check_states validates them (a boolean in a list)
 
 
 class CompiledDynamics:
     """The generated IDM and DDM of a robot, compiled to C (or in CasADi's VM).
+
+    Any robot: the paper's 6-UPS closed forms (:mod:`.symbolic`, the 88 base parameters an
+    input) or, for general legs, the generic models of :mod:`.general_symbolic` (every
+    number of the robot compiled in; the actuated joints' efforts, joint side).
 
     Args:
         robot: a :class:`~stewart_pin.StewartRobot` (its description and
@@ -518,6 +604,11 @@ class CompiledDynamics:
             ``$STEWART_PIN_THREADS``, else ``os.cpu_count()``); batches of fewer than
             :data:`THREAD_MIN_STATES` states per thread, and single states, run in the
             calling thread.
+        vm_fallback: when building or loading fails, run in the virtual machine (with a
+            warning); ``False``: raise :class:`CompilationError` instead (what
+            ``backend="auto"`` uses to fall back to the reference path).
+        announce: say on stderr, in one line, when the library is compiled
+            (:func:`build_library`).
 
     Raises:
         UnsafeCacheError: the cache folder or a file in it could have been written by
@@ -535,16 +626,18 @@ class CompiledDynamics:
       memory.
 
     ``base_values`` (88,) replaces the robot's base parameters (names in
-    :attr:`parameter_names`, e.g. identified values); default the description's.
-    Conventions and errors are those of ``StewartRobot.inverse_dynamics`` /
-    ``direct_dynamics`` (see the module docstring).
+    :attr:`parameter_names`, e.g. identified values); default the description's (general
+    legs: none, their parameters are compiled in). Conventions and errors are those of
+    ``StewartRobot.inverse_dynamics`` / ``direct_dynamics`` (see the module docstring).
 
     Attributes:
         threads: the threads a large batch is split across (see ``threads`` above).
         kind: ``"compiled"`` or ``"vm"``. reason: why the VM is used (``None`` if compiled).
         library: the shared library's path. compiled_now: whether this construction
             compiled it (``False``: found in the cache).
-        parameter_names, base_values: the 88 base parameters and the robot's values.
+        parameter_names, base_values: the 88 base parameters and the robot's values
+            (empty for general legs).
+        general: whether the robot has general legs (the generic models).
     """
 
     def __init__(
@@ -553,18 +646,27 @@ class CompiledDynamics:
         cache_dir: str | Path | None = None,
         compiler: str | bool | None = None,
         threads: int | None = None,
+        vm_fallback: bool = True,
+        announce: bool = False,
     ) -> None:
         self.robot = robot
         self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.description
-        desc.ideal_stroke("the compiled backend")  # generated for 6-UPS legs only, for now
         self._desc = desc
-        bp = grouped_parameters(desc)
-        self.parameter_names: tuple[str, ...] = bp.names
-        self.base_values = np.ascontiguousarray(bp.values, dtype=np.float64)
+        self.general = not desc.is_ideal_ups
+        if self.general:
+            self.parameter_names: tuple[str, ...] = ()
+            self.base_values = np.zeros(0)
+            self._limits = False  # in the guard (the slacks)
+            self._hexapod = general_robot(desc)
+            self._reference_models: Any = None
+        else:
+            bp = grouped_parameters(desc)
+            self.parameter_names = bp.names
+            self.base_values = np.ascontiguousarray(bp.values, dtype=np.float64)
+            self._limits = desc.u_joint_limits is not None
         self.base_values.flags.writeable = False
-        self._limits = desc.u_joint_limits is not None
-        self._length = characteristic_length(desc)
+        self._length = singularity_length(desc)
         self.kind, self.reason = "vm", None
         self.library: Path | None = None
         self.compiled_now = False
@@ -574,12 +676,20 @@ class CompiledDynamics:
         else:
             try:
                 self.library, self.compiled_now = build_library(
-                    desc, cache_dir, compiler if isinstance(compiler, str) else None, self._load
+                    desc,
+                    cache_dir,
+                    compiler if isinstance(compiler, str) else None,
+                    self._load,
+                    announce,
                 )
                 self.kind = "compiled"
             except UnsafeCacheError:
                 raise
             except (CompilationError, OSError, AttributeError) as e:
+                if not vm_fallback:
+                    if isinstance(e, CompilationError):
+                        raise
+                    raise CompilationError(str(e) or type(e).__name__) from e
                 self.reason = str(e).splitlines()[0] if str(e) else type(e).__name__
         if self.kind == "vm":
             _warn_once(self.reason or "unknown")
@@ -652,6 +762,12 @@ class CompiledDynamics:
         checked (``(len(parameter_names),)``, finite), C-contiguous float64."""
         if base_values is None:
             return self.base_values
+        if self.general:
+            raise InputError(
+                f"base_values: robot '{self._desc.name}' has general legs, whose compiled "
+                "models have their inertial parameters built in (no base-parameter input); "
+                "make a robot with the new values instead"
+            )
         chi = check_array(base_values, (len(self.parameter_names),), "base_values")
         return np.ascontiguousarray(chi)
 
@@ -660,17 +776,15 @@ class CompiledDynamics:
     ) -> np.ndarray:
         if self.kind != "compiled":
             return self._run_vm(which, pose, twist, x, name, self.checked_base_values(base_values))
-        if (
-            type(pose) is np.ndarray
-            and type(twist) is np.ndarray
-            and type(x) is np.ndarray
-            and pose.dtype is _F64  # native float64 (others take the general path)
-            and twist.dtype is _F64
-            and x.dtype is _F64
-        ):
-            if pose.shape == (4, 4) and twist.shape == (6,) and x.shape == (6,):
+        try:  # native float64 arrays (anything else takes the general path below)
+            native = pose.dtype is _F64 and twist.dtype is _F64 and x.dtype is _F64
+        except AttributeError:
+            native = False
+        if native and isinstance(pose, np.ndarray):
+            shapes = (pose.shape, twist.shape, x.shape)
+            if shapes == _ONE_SHAPES:
                 return self._run_one(which, pose, twist, x, name, base_values)
-            if pose.shape == (1, 4, 4) and twist.shape == (1, 6) and x.shape == (1, 6):
+            if shapes == _BATCH_OF_ONE_SHAPES:
                 out = self._run_one(which, pose[0], twist[0], x[0], name, base_values, True)
                 return out[None]
         chi = self.checked_base_values(base_values)
@@ -693,7 +807,10 @@ class CompiledDynamics:
         out = np.empty((n, 6))
         flags = np.empty(n, dtype=np.int32)
         any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
-        if any_flag or self._limits:
+        if self.general:
+            if any_flag & ~_REPIVOTED:
+                self._resolve_general(which, flags, pose, twist, x, T, V, X, out)
+        elif any_flag or self._limits:
             self._resolve(which, flags, pose, twist, x, name, T.reshape(-1, 4, 4))
         return out if batched else out[0]
 
@@ -768,6 +885,20 @@ class CompiledDynamics:
         with self._lock:
             flag = self._c_one[which](block, chi_ptr, c_max_cond, self._one_out_ptr)
             out = self._one_out.copy()
+        if self.general:
+            if flag & ~_REPIVOTED:
+                T = np.frombuffer(block, count=16).reshape(1, 4, 4).copy()
+                args = (pose[None], twist[None], x[None]) if batch else (pose, twist, x)
+                self._resolve_general(
+                    which,
+                    np.array([flag], dtype=np.int32),
+                    *args,
+                    T,
+                    twist[None],
+                    x[None],
+                    out[None],
+                )
+            return out
         if flag or self._limits:
             T = np.frombuffer(block, count=16).reshape(1, 4, 4).copy()
             if batch:
@@ -806,6 +937,53 @@ class CompiledDynamics:
                 _OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), int(bad.size)
             )
 
+    def _reference(self, which: str) -> Callable[[Any, Any, Any], np.ndarray]:
+        """The reference path of a general robot (:class:`GeneralDynamics`, joint limits
+        checked, the robot's current ``max_condition``), as ``StewartRobot`` runs it."""
+        if self._reference_models is None:
+            self._reference_models = GeneralDynamics(self._hexapod, check_limits=True)
+        ref = self._reference_models
+        ref.max_condition = self.robot.max_condition
+        return ref.inverse_dynamics if which == "idm" else ref.direct_dynamics
+
+    def _resolve_general(
+        self,
+        which: str,
+        flags: np.ndarray,
+        pose: Any,
+        twist: Any,
+        x: Any,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+        out: np.ndarray,
+    ) -> None:
+        """General legs: the states the guard flagged (but ``REPIVOTED`` alone, solved
+        already) go through the reference path, whose results replace the compiled ones in
+        ``out``; if the reference refuses one, the whole batch goes through it, to raise
+        its error exactly as it would (the state index counts in the whole batch)."""
+        bad = np.flatnonzero(flags & ~_REPIVOTED)
+        if bad.size == 0:
+            return
+        only_cond = (flags[bad] & ~_REPIVOTED) == _COND
+        if np.any(only_cond):  # the cheap bound passed the threshold: the exact measure
+            idx = bad[only_cond]
+            J = leg_chains.inverse_jacobian_batch(self._hexapod, T.reshape(-1, 4, 4)[idx])
+            cond = leg_chains.condition_number_batch(self._hexapod, J)
+            bad = np.setdiff1d(bad, idx[cond <= self.robot.max_condition])
+            if bad.size == 0:
+                return
+        ref = self._reference(which)
+        with np.errstate(over="ignore", invalid="ignore"):
+            try:
+                values = ref(
+                    T.reshape(-1, 4, 4)[bad], V.reshape(-1, 6)[bad], X.reshape(-1, 6)[bad]
+                )
+            except StewartPinError:
+                ref(pose, twist, x)  # raises the reference's error for the whole batch
+                raise  # pragma: no cover - the subset failed, so the whole batch does
+        out.reshape(-1, 6)[bad] = values
+
     # ------------------------------------------------------------------ virtual machine
     def _vm_function(self, which: str) -> cs.Function:
         attr = f"_vm_{which}"
@@ -818,6 +996,9 @@ class CompiledDynamics:
         self, which: str, pose: Any, twist: Any, x: Any, name: str, chi: np.ndarray
     ) -> np.ndarray:
         batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
+        if self.general:
+            out = self._run_vm_general(which, pose, twist, x, T, V, X)
+            return out if batched else out[0]
         desc = self._desc
         inverse_geometry_batch(desc, T)
         check_condition(inverse_jacobian_batch(desc, T), self.robot.max_condition, desc)
@@ -839,17 +1020,75 @@ class CompiledDynamics:
         check_finite(out, _OUTPUTS[which])
         return out if batched else out[0]
 
+    def _run_vm_general(
+        self,
+        which: str,
+        pose: Any,
+        twist: Any,
+        x: Any,
+        T: np.ndarray,
+        V: np.ndarray,
+        X: np.ndarray,
+    ) -> np.ndarray:
+        """General legs in the VM: the C guard's flags computed from ``aux`` in numpy (the
+        slacks, the exact singularity measure, the pivots, finite results), then
+        :meth:`_resolve_general`."""
+        f = self._vm_function(which)
+        n = T.shape[0]
+        out = np.empty((n, 6))
+        aux = np.empty((n, f.size1_out(1)))
+        for s in range(0, n, VM_CHUNK):
+            e = min(n, s + VM_CHUNK)
+            r, a = f(T[s:e].reshape(-1, 16).T, V[s:e].T, X[s:e].T, np.zeros(0))
+            out[s:e], aux[s:e] = np.array(r).T, np.array(a).T
+        layout = model_layout(self._desc)
+        start = layout.idm_slack if which == "idm" else layout.ddm_slack
+        flags = np.zeros(n, dtype=np.int32)
+        with np.errstate(invalid="ignore"):
+            flags[~np.all(aux[:, start : start + layout.n_slack] > 0.0, axis=1)] |= _GEOMETRY
+            J = aux[:, layout.jinv : layout.jinv + 36].reshape(n, 6, 6)
+            ok = np.all(np.isfinite(J), axis=(1, 2))
+            cond = np.full(n, np.inf)
+            cond[ok] = np.linalg.cond(scaled_inverse_jacobian(J[ok], self._length))
+            flags[~(cond <= self.robot.max_condition)] |= _COND
+            if which == "idm":
+                grown = np.flatnonzero(~(aux[:, layout.growth] <= GROWTH_LIMIT) & ok)
+                for k in grown:  # static pivots off: solve again with partial pivoting
+                    hz = aux[k, layout.idm_hz : layout.idm_hz + 6]
+                    F = aux[k, layout.idm_f : layout.idm_f + 6]
+                    out[k] = hz + np.linalg.solve(J[k].T, F)
+            else:
+                D = aux[:, layout.ddm_d : layout.ddm_d + 6]
+                flags[~np.all(D > 0.0, axis=1)] |= _NOT_PD
+            flags[~np.all(np.isfinite(out), axis=1)] |= _NONFINITE
+        self._resolve_general(which, flags, pose, twist, x, T, V, X, out)
+        return out
 
-_BACKENDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+#: The attributes under which a robot keeps its backends (the robot and its backend live
+#: and die together; ``StewartRobot`` leaves them out when pickled).
+COMPILED_ATTR = "_stewart_pin_compiled_backend"
+AUTO_ATTR = "_stewart_pin_auto_backend"
+
+
+def _memo(robot: Any, attr: str) -> Any:
+    d = getattr(robot, "__dict__", None)
+    return None if d is None else d.get(attr)
+
+
+def _remember(robot: Any, attr: str, value: Any) -> None:
+    d = getattr(robot, "__dict__", None)
+    if d is not None:
+        d[attr] = value
 
 
 def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
     """The :class:`CompiledDynamics` of ``robot``, built on first use and kept with it
     (keyword arguments go to the constructor on that first call)."""
-    backend = _BACKENDS.get(robot)
+    backend = _memo(robot, COMPILED_ATTR)
     if backend is None or backend._desc is not robot.description:
         backend = CompiledDynamics(robot, **kwargs)
-        _BACKENDS[robot] = backend
+        _remember(robot, COMPILED_ATTR, backend)
     return backend
 
 
@@ -857,3 +1096,70 @@ def thread_pool(threads: int) -> ThreadPoolExecutor:
     """The process-wide pool of ``threads - 1`` workers that compiled batches split over
     (the value models here, the derivatives of :mod:`.derivatives`)."""
     return _pool(threads)
+
+
+# ---------------------------------------------------------------------------- backend="auto"
+#: Environment variable: what ``backend="auto"`` (the default of the dynamic models) does:
+#: ``auto`` (default: the compiled models where a C compiler is available, else the
+#: reference path) or ``pinocchio`` (always the reference path: nothing is compiled; the
+#: test suite sets it). Read once per robot, on its first dynamics call.
+BACKEND_ENV = "STEWART_PIN_BACKEND"
+AUTO_CHOICES = ("auto", "pinocchio")
+_WARNED_AUTO: set[str] = set()
+
+
+def auto_backend(robot: RobotLike) -> CompiledDynamics | None:
+    """What ``backend="auto"`` runs for ``robot``: its compiled models, or ``None`` for
+    the reference path. Decided on the robot's first call and kept with it (weakly):
+
+    - ``$STEWART_PIN_BACKEND=pinocchio``: ``None``;
+    - no C compiler (:func:`find_compiler`), or building or loading the library fails
+      (including a cache that others could have written, :class:`UnsafeCacheError`):
+      ``None``, with one :class:`RuntimeWarning` per reason and process;
+    - else the :class:`CompiledDynamics`, built on first use (one line on stderr says so,
+      and about how long it takes) or found in the cache.
+    """
+    hit = _memo(robot, AUTO_ATTR)  # (description, choice), kept on the robot
+    if hit is not None and hit[0] is robot.description:
+        return hit[1]
+    choice = _auto_choice(robot)
+    _remember(robot, AUTO_ATTR, (robot.description, choice))
+    return choice
+
+
+def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
+    env = (os.environ.get(BACKEND_ENV) or "auto").strip().lower()
+    if env not in AUTO_CHOICES:
+        raise InputError(
+            f"${BACKEND_ENV} must be one of {AUTO_CHOICES} (what backend='auto' does), got "
+            f"{env!r}; unset it for the default 'auto'"
+        )
+    if env == "pinocchio":
+        return None
+    existing = _memo(robot, COMPILED_ATTR)
+    if existing is not None and existing._desc is robot.description:
+        if existing.kind == "compiled":
+            return existing
+    compiler = find_compiler()
+    if compiler is None:
+        _warn_reference("no C compiler found (cc, gcc, clang or $CC)")
+        return None
+    try:
+        backend = CompiledDynamics(robot, compiler=compiler, vm_fallback=False, announce=True)
+    except (CompilationError, UnsafeCacheError) as e:
+        _warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
+        return None
+    _remember(robot, COMPILED_ATTR, backend)
+    return backend
+
+
+def _warn_reference(reason: str) -> None:
+    if reason not in _WARNED_AUTO:
+        _WARNED_AUTO.add(reason)
+        warnings.warn(
+            f"stewart-pin: backend='auto' takes the reference path (Pinocchio, about 100 "
+            f"times slower than the compiled models): {reason}; install a C compiler (cc, "
+            f"gcc or clang, or set $CC) to get the compiled models",
+            RuntimeWarning,
+            stacklevel=4,
+        )

@@ -31,16 +31,30 @@ The critical path with the six legs in parallel is ``shared + max(leg) + platfor
 closure`` (legs on six processors, then the platform and the closure on one; the paper's
 seven-processor figure lets the platform run beside the legs: ``shared + max(max(leg),
 platform) + closure``, given too).
+
+Robots with general legs (:mod:`.general_symbolic`) have every parameter value baked in
+(the ``"numeric"`` rows; no base or essential parameters), and their leg inverse geometry
+uses square roots and, for a joint with a spring, one ``atan2`` (``trig``); a ``custom``
+leg's Newton steps are counted written out (:data:`~.general_symbolic.NEWTON_ITERATIONS`
+of them, with their sines and cosines). :func:`architecture_table` compares the
+architectures.
 """
 
 from __future__ import annotations
 
+import copy
+import functools
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import casadi as cs
 
-from stewart_pin.codegen.symbolic import Stages, generate_models
+from stewart_pin.codegen.symbolic import (
+    Stages,
+    SymbolicModels,
+    description_key,
+    generate_models,
+)
 from stewart_pin.description import RobotDescription
 from stewart_pin.protocols import RobotLike
 
@@ -189,6 +203,8 @@ def cost_dict(robot: RobotLike | RobotDescription) -> dict[str, Any]:
     its name; ``"paper"`` Table IV.
     """
     desc = _robot_description(robot)
+    if not desc.is_ideal_ups:
+        return _general_cost_dict(desc)
     models = {p: generate_models(desc, parameters=p) for p in ("base", "essential", "numeric")}
     quat = generate_models(desc, pose="quaternion")
     out: dict[str, Any] = {"robot": desc.name}
@@ -218,6 +234,49 @@ def cost_dict(robot: RobotLike | RobotDescription) -> dict[str, Any]:
     return out
 
 
+_GENERAL_COSTS: dict[str, dict[str, Any]] = {}
+
+
+def _general_cost_dict(desc: RobotDescription) -> dict[str, Any]:
+    """:func:`cost_dict` of a robot with general legs: ``"numeric"`` (every value baked
+    in), ``"quaternion"``, ``"critical_path"`` / ``"critical_path_7"`` and ``"stages"``
+    (kept per description for the process: generating them takes seconds)."""
+    key = description_key(desc)
+    if key not in _GENERAL_COSTS:
+        _GENERAL_COSTS[key] = _count_general(desc)
+    return copy.deepcopy(_GENERAL_COSTS[key])
+
+
+def _count_general(desc: RobotDescription) -> dict[str, Any]:
+    from stewart_pin.codegen.general_symbolic import build_general_models
+
+    models: SymbolicModels = build_general_models(desc, stages=True, inline_newton=True)[0]
+    quat = build_general_models(desc, "quaternion", inline_newton=True)[0]
+    out: dict[str, Any] = {"robot": desc.name, "architecture": desc.architecture}
+    for model in ("IDM", "DDM"):
+        attr = model.lower()
+        stage_models = getattr(models, f"{attr}_stages")
+        assert stage_models is not None
+        stages = stage_counts(stage_models)
+        out[model] = {
+            "numeric": count_operations(getattr(models, attr)).as_dict(),
+            "quaternion": count_operations(getattr(quat, attr)).as_dict(),
+            "critical_path": stages.critical_path.as_dict(),
+            "critical_path_7": stages.critical_path_7.as_dict(),
+            "stages": {
+                "shared": stages.shared.as_dict(),
+                "leg_max": _max(list(stages.legs)).as_dict(),
+                "platform": stages.platform.as_dict(),
+                "closure": stages.closure.as_dict(),
+            },
+        }
+    out["paper"] = {
+        "table_iv": {k: list(v) for k, v in PAPER_TABLE_IV.items()},
+        "critical_path_7": {k: list(v) for k, v in PAPER_CRITICAL_PATH.items()},
+    }
+    return out
+
+
 def _row(label: str, c: dict[str, int]) -> str:
     return (
         f"{label:50s} {c['mul']:6d} {c['div']:4d} {c['add']:6d} {c['total']:6d}   "
@@ -233,21 +292,33 @@ def cost_table(robot: RobotLike | RobotDescription) -> str:
         f"{'sqrt':>4s} {'trig':>4s} {'neg':>4s}"
     )
     lines = [head, "-" * len(head)]
-    labels = {
-        "base": "88 base parameters",
-        "essential": "52 essential parameters",
-        "quaternion": "88 base parameters, pose with quaternion",
-        "numeric": "parameter values baked in",
-        "critical_path": "critical path, 6 legs parallel (base)",
-        "critical_path_7": "critical path, 7 processors (base)",
-        "critical_path_essential": "critical path, 6 legs parallel (essential)",
-        "critical_path_7_essential": "critical path, 7 processors (essential)",
-    }
+    if "architecture" in d:  # general legs: every value baked in
+        labels = {
+            "numeric": "parameter values baked in",
+            "quaternion": "values baked in, pose with quaternion",
+            "critical_path": "critical path, 6 legs parallel",
+            "critical_path_7": "critical path, 7 processors",
+        }
+    else:
+        labels = {
+            "base": "88 base parameters",
+            "essential": "52 essential parameters",
+            "quaternion": "88 base parameters, pose with quaternion",
+            "numeric": "parameter values baked in",
+            "critical_path": "critical path, 6 legs parallel (base)",
+            "critical_path_7": "critical path, 7 processors (base)",
+            "critical_path_essential": "critical path, 6 legs parallel (essential)",
+            "critical_path_7_essential": "critical path, 7 processors (essential)",
+        }
     for model in ("IDM", "DDM"):
         for key, label in labels.items():
             lines.append(_row(f"{model}, {label}", d[model][key]))
-    lines.append("-" * len(head))
-    lines.append("Khalil & Guegan 2004, Table IV and section VII:")
+    lines.extend(_paper_rows(len(head)))
+    return "\n".join(lines)
+
+
+def _paper_rows(width: int) -> list[str]:
+    lines = ["-" * width, "Khalil & Guegan 2004, Table IV and section VII:"]
     for label, (m, a, t) in PAPER_TABLE_IV.items():
         ms = "" if m is None else str(m)
         as_ = "" if a is None else str(a)
@@ -255,4 +326,75 @@ def cost_table(robot: RobotLike | RobotDescription) -> str:
     for model, (m, a) in PAPER_CRITICAL_PATH.items():
         label = model + " critical path, 7 processors"
         lines.append(f"  {label:48s} {m:6d} {'':>4s} {a:6d} {m + a:6d}")
+    return lines
+
+
+#: The robots :func:`architecture_table` compares, one per architecture: the paper's closed
+#: forms (6-UPS), and the general models of each leg architecture's preset.
+ARCHITECTURE_ROBOTS = (
+    ("6-UPS, the paper's closed forms", "simulator"),
+    ("6-UPS as general ups legs", "simulator"),
+    ("6-UPS, offset U joints", "ups-offset"),
+    ("6-RUS", "rus"),
+    ("6-PUS", "pus"),
+    ("6-UPS, every joint term", "random-ups-0"),
+    ("custom legs (Newton)", "random-custom-0"),
+)
+
+
+def architecture_dict() -> dict[str, Any]:
+    """The operation counts of each architecture's models (:data:`ARCHITECTURE_ROBOTS`):
+    per label, the robot and the totals of the IDM and DDM with the parameter values baked
+    in and their critical paths (six legs in parallel). Counted once per process."""
+    return copy.deepcopy(_architecture_dict())
+
+
+@functools.lru_cache(maxsize=1)
+def _architecture_dict() -> dict[str, Any]:
+    from stewart_pin.codegen.general_symbolic import build_general_models
+    from stewart_pin.description.presets import preset
+
+    out: dict[str, Any] = {}
+    for label, name in ARCHITECTURE_ROBOTS:
+        desc = preset(name)
+        if label == "6-UPS as general ups legs":
+            models = build_general_models(desc, stages=True, inline_newton=True)[0]
+            d: dict[str, Any] = {}
+            for model in ("IDM", "DDM"):
+                attr = model.lower()
+                stage_models = getattr(models, f"{attr}_stages")
+                assert stage_models is not None
+                d[model] = {
+                    "numeric": count_operations(getattr(models, attr)).as_dict(),
+                    "critical_path": stage_counts(stage_models).critical_path.as_dict(),
+                }
+        else:
+            d = cost_dict(desc)
+        out[label] = {
+            "robot": name,
+            **{m: {k: d[m][k] for k in ("numeric", "critical_path")} for m in ("IDM", "DDM")},
+        }
+    return out
+
+
+def architecture_table() -> str:
+    """:func:`architecture_dict` as text, beside Table IV: the totals (``x + / + +``) of
+    the IDM and DDM with the values baked in, their critical paths (six legs parallel; for
+    the paper's closed forms with the 88 base parameters symbolic), square roots and
+    trigonometric calls."""
+    d = architecture_dict()
+    head = (
+        f"{'operations (values baked in)':34s} {'robot':>16s} {'IDM':>6s} {'DDM':>6s} "
+        f"{'IDM cp':>7s} {'DDM cp':>7s} {'sqrt':>5s} {'trig':>5s}"
+    )
+    lines = [head, "-" * len(head)]
+    for label, row in d.items():
+        i, dd = row["IDM"], row["DDM"]
+        lines.append(
+            f"{label:34s} {row['robot']:>16s} {i['numeric']['total']:6d} "
+            f"{dd['numeric']['total']:6d} {i['critical_path']['total']:7d} "
+            f"{dd['critical_path']['total']:7d} {dd['numeric']['sqrt']:5d} "
+            f"{dd['numeric']['trig']:5d}"
+        )
+    lines.extend(_paper_rows(len(head)))
     return "\n".join(lines)

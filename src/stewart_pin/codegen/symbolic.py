@@ -186,18 +186,18 @@ def _matTvec(M: Sequence[Sequence[Scalar]], v: Vec) -> Vec:
     return [M[0][j] * v[0] + M[1][j] * v[1] + M[2][j] * v[2] for j in range(3)]
 
 
-def _is_zero(x: Scalar) -> bool:
+def is_zero(x: Scalar) -> bool:
     if isinstance(x, cs.SX):
         return bool(x.is_zero())
     return x == 0.0
 
 
-def _split(x: cs.SX) -> list:
+def split(x: cs.SX) -> list:
     return [x[k] for k in range(x.numel())]
 
 
 # ---------------------------------------------------------------------------- the pose
-def _column(xs: Sequence[Scalar]) -> cs.SX:
+def column(xs: Sequence[Scalar]) -> cs.SX:
     """The column SX of ``xs`` (casadi's stubs type ``vertcat`` as returning ``Sparsity``)."""
     return cast(cs.SX, cs.vertcat(*xs))
 
@@ -323,7 +323,7 @@ def _inertia(P: Sequence[Scalar]) -> list[list[Scalar]]:
     return [[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]]
 
 
-def _idm_shared(
+def idm_shared(
     twist: Sequence[Scalar], accel: Sequence[Scalar], gravity: np.ndarray
 ) -> tuple[Mat, Vec]:
     """``K = wd^ + w^ w^`` (so that ``A_Pi = vd + K L_i``) and ``vd - g``."""
@@ -367,7 +367,7 @@ def _idm_leg(
     }
 
 
-def _idm_platform(R: Mat, w: Vec, wd: Vec, vdg: Vec, K: Mat, Pp: Sequence[Scalar]) -> list[Scalar]:
+def idm_platform(R: Mat, w: Vec, wd: Vec, vdg: Vec, K: Mat, Pp: Sequence[Scalar]) -> list[Scalar]:
     """``F_p`` (eq. 24) in F0 about O_p, with the grouped platform parameters."""
     M, MS = Pp[9], list(Pp[6:9])
     MS0 = _matvec(R, MS)
@@ -379,7 +379,7 @@ def _idm_platform(R: Mat, w: Vec, wd: Vec, vdg: Vec, K: Mat, Pp: Sequence[Scalar
     return [*F, *N]
 
 
-def _pivot_order(A: np.ndarray, nonzero: np.ndarray) -> list[tuple[int, int]]:
+def pivot_order(A: np.ndarray, nonzero: np.ndarray) -> list[tuple[int, int]]:
     """Static pivots ``(row, col)``: threshold partial pivoting (:data:`PIVOT_THRESHOLD`)
     on the numeric matrix ``A``, the Markowitz count of the structure ``nonzero`` breaking
     the choice among admissible pivots."""
@@ -427,7 +427,7 @@ def _lu_solve(
     for k in range(n):
         inv.append(1.0 / U[k][k])
         for i in range(k + 1, n):
-            if _is_zero(U[i][k]):
+            if is_zero(U[i][k]):
                 continue
             l = U[i][k] * inv[k]
             mults.append(l)
@@ -446,7 +446,7 @@ def _lu_solve(
     return out, mults, [U[k][k] for k in range(n)]
 
 
-def _idm_closure(
+def idm_closure(
     rows: Sequence[Sequence[Scalar]],
     wrenches: Sequence[Sequence[Scalar]],
     Hz: Sequence[Scalar],
@@ -523,7 +523,7 @@ def _ddm_leg(
     }
 
 
-def _ddm_platform(
+def ddm_platform(
     R: Mat, w: Vec, Pp: Sequence[Scalar], gravity: np.ndarray
 ) -> tuple[list[Scalar], list[Scalar]]:
     """``Ip`` (upper triangle, 21) and ``h_p`` (eq. 24-29 at zero acceleration), F0."""
@@ -578,7 +578,7 @@ def _ldlt_solve(A: list[list[Scalar]], b: list[Scalar]) -> tuple[list[Scalar], l
     return x, D
 
 
-def _ddm_closure(
+def ddm_closure(
     rows: Sequence[Sequence[Scalar]],
     blocks: Sequence[Sequence[Scalar]],
     wrenches: Sequence[Sequence[Scalar]],
@@ -621,12 +621,15 @@ class SymbolicModels:
         ddm: ``(pose, twist, gamma, base_parameters) -> accel``, the direct dynamic model.
         idm_guarded, ddm_guarded: the same with a second output ``aux`` (the by-products
             used to validate a state, layout ``AUX_*``); this is what gets compiled.
-        idm_stages, ddm_stages: the models split for parallel evaluation.
+        idm_stages, ddm_stages: the models split for parallel evaluation (``None`` for
+            the general-leg models unless asked for:
+            :func:`stewart_pin.codegen.general_symbolic.build_general_models`).
         pose: ``"matrix"`` (input ``pose`` = 0Tp row-major, 16) or ``"quaternion"``
             (``[x, y, z, qx, qy, qz, qw]``).
         parameters: ``"base"`` (88 symbolic base parameters), ``"essential"`` (only the
             paper's 52 essential ones symbolic, the others zero) or ``"numeric"`` (all
-            values baked in).
+            values baked in; always for general legs, whose ``base_parameters`` input is
+            empty).
         constants: the numbers baked in. pivots: the static LU pivots of the IDM.
 
     Inputs ``twist`` = ``[v, w]`` of O_p in F0 [m/s, rad/s], ``accel`` classical
@@ -638,8 +641,8 @@ class SymbolicModels:
     ddm: cs.Function
     idm_guarded: cs.Function
     ddm_guarded: cs.Function
-    idm_stages: Stages
-    ddm_stages: Stages
+    idm_stages: Stages | None
+    ddm_stages: Stages | None
     pose: str
     parameters: str
     constants: ModelConstants
@@ -647,7 +650,7 @@ class SymbolicModels:
 
 
 def _chi_values(c: ModelConstants, chi: cs.SX, parameters: str) -> list[Scalar]:
-    entries = _split(chi)
+    entries = split(chi)
     if parameters == "base":
         return entries
     if parameters == "numeric":
@@ -659,7 +662,7 @@ def _chi_values(c: ModelConstants, chi: cs.SX, parameters: str) -> list[Scalar]:
     raise InputError(f"parameters must be 'base', 'essential' or 'numeric', got {parameters!r}")
 
 
-def _function(
+def function(
     name: str, inputs: list[tuple[str, cs.SX]], outputs: list[tuple[str, list[Scalar]]]
 ) -> cs.Function:
     outs = [
@@ -677,8 +680,8 @@ def _stage_function(
     body: Callable[..., dict[str, list]],
 ) -> cs.Function:
     syms = [(n, cs.SX.sym(n, size)) for n, size in inputs]
-    outs = body(*[_split(s) for _, s in syms])
-    return _function(name, syms, list(outs.items()))
+    outs = body(*[split(s) for _, s in syms])
+    return function(name, syms, list(outs.items()))
 
 
 def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> SymbolicModels:
@@ -695,25 +698,25 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     Pp = _platform_parameters(chi, names)
 
     p, R = pose_from_input(x_pose, pose)
-    tw, ac, gm = _split(x_twist), _split(x_accel), _split(x_gamma)
+    tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
     v, w, wd = tw[:3], tw[3:], ac[3:]
 
     # ---- IDM, flat
-    K, vdg = _idm_shared(tw, ac, c.gravity)
+    K, vdg = idm_shared(tw, ac, c.gravity)
     legs = [_idm_leg(c, k, p, R, v, w, K, vdg, Ps[k]) for k in range(6)]
-    F_p = _idm_platform(R, w, wd, vdg, K, Pp)
+    F_p = idm_platform(R, w, wd, vdg, K, Pp)
     rows = [lg["row"] for lg in legs]
     home_rows = inverse_jacobian_batch(desc, desc.home_pose[None])[0]
-    nonzero = np.array([[not _is_zero(rows[i][cc]) for i in range(6)] for cc in range(6)])
-    pivots = tuple(_pivot_order(home_rows.T, nonzero))
-    gamma, growth, F, det = _idm_closure(
+    nonzero = np.array([[not is_zero(rows[i][cc]) for i in range(6)] for cc in range(6)])
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    gamma, growth, F, det = idm_closure(
         rows, [lg["wrench"] for lg in legs], [lg["Hz"][0] for lg in legs], F_p, pivots
     )
     q3 = [lg["q3sq"][0] for lg in legs]
     rho = [lg["rho2"][0] for lg in legs]
     jinv = [x for r in rows for x in r]
     idm_in = [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("base_parameters", x_chi)]
-    idm = _function(f"{prefix}idm", idm_in, [("gamma", gamma)])
+    idm = function(f"{prefix}idm", idm_in, [("gamma", gamma)])
     # The condition bound's inputs for the singularity measure (Jp^-1 with its angular
     # columns divided by the characteristic length l): ||.||_F^2 and det = det(Jp^-1) / l^3.
     inv_l = 1.0 / characteristic_length(desc)
@@ -725,12 +728,12 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     fro2 = fro2_lin + fro2_ang * (inv_l * inv_l)
     det = det * inv_l**3
     idm_aux = [*q3, *rho, *jinv, *F, *[lg["Hz"][0] for lg in legs], growth, det, fro2]
-    idm_guarded = _function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
+    idm_guarded = function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
 
     # ---- DDM, flat
     dlegs = [_ddm_leg(c, k, p, R, v, w, gm[k], Ps[k]) for k in range(6)]
-    Ip, hp = _ddm_platform(R, w, Pp, c.gravity)
-    accel, D = _ddm_closure(
+    Ip, hp = ddm_platform(R, w, Pp, c.gravity)
+    accel, D = ddm_closure(
         [lg["row"] for lg in dlegs],
         [lg["block"] for lg in dlegs],
         [lg["wrench"] for lg in dlegs],
@@ -738,17 +741,17 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
         hp,
     )
     ddm_in = [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma), ("base_parameters", x_chi)]
-    ddm = _function(f"{prefix}ddm", ddm_in, [("accel", accel)])
+    ddm = function(f"{prefix}ddm", ddm_in, [("accel", accel)])
     dq3 = [lg["q3sq"][0] for lg in dlegs]
     drho = [lg["rho2"][0] for lg in dlegs]
     djinv = [x for lg in dlegs for x in lg["row"]]
-    ddm_guarded = _function(
+    ddm_guarded = function(
         f"{prefix}ddm_guarded", ddm_in, [("accel", accel), ("aux", [*dq3, *drho, *djinv, *D])]
     )
 
     # ---- stages (fresh symbols at each interface)
     def chi_of(s: Sequence[Scalar]) -> list[Scalar]:
-        return _chi_values(c, _column(s), parameters)
+        return _chi_values(c, column(s), parameters)
 
     def leg_params(s: Sequence[Scalar], k: int) -> dict[str, Scalar]:
         return _leg_parameters(chi_of(s), names, k)
@@ -758,7 +761,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             "idm_shared",
             [("twist", 6), ("accel", 6)],
             lambda t, a: dict(
-                zip(("K", "vdg"), _flat_shared(_idm_shared(t, a, c.gravity)), strict=True)
+                zip(("K", "vdg"), _flat_shared(idm_shared(t, a, c.gravity)), strict=True)
             ),
         ),
         legs=tuple(
@@ -768,10 +771,10 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 lambda ps, t, Kf, vg, s, k=k: _idm_leg(
                     c,
                     k,
-                    *pose_from_input(_column(ps), pose),
+                    *pose_from_input(column(ps), pose),
                     t[:3],
                     t[3:],
-                    _mat3(Kf),
+                    mat3(Kf),
                     vg,
                     leg_params(s, k),
                 ),
@@ -789,12 +792,12 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 ("base_parameters", 88),
             ],
             lambda ps, t, a, Kf, vg, s: {
-                "F_p": _idm_platform(
-                    pose_from_input(_column(ps), pose)[1],
+                "F_p": idm_platform(
+                    pose_from_input(column(ps), pose)[1],
                     t[3:],
                     a[3:],
                     vg,
-                    _mat3(Kf),
+                    mat3(Kf),
                     _platform_parameters(chi_of(s), names),
                 )
             },
@@ -803,7 +806,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             "idm_closure",
             [("rows", 36), ("wrenches", 36), ("Hz", 6), ("F_p", 6)],
             lambda r, wr, hz, fp: {
-                "gamma": _idm_closure(
+                "gamma": idm_closure(
                     [r[6 * i : 6 * i + 6] for i in range(6)],
                     [wr[6 * i : 6 * i + 6] for i in range(6)],
                     hz,
@@ -822,7 +825,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 lambda ps, t, gk, s, k=k: _ddm_leg(
                     c,
                     k,
-                    *pose_from_input(_column(ps), pose),
+                    *pose_from_input(column(ps), pose),
                     t[:3],
                     t[3:],
                     gk[0],
@@ -837,8 +840,8 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             lambda ps, t, s: dict(
                 zip(
                     ("Ip", "hp"),
-                    _ddm_platform(
-                        pose_from_input(_column(ps), pose)[1],
+                    ddm_platform(
+                        pose_from_input(column(ps), pose)[1],
                         t[3:],
                         _platform_parameters(chi_of(s), names),
                         c.gravity,
@@ -851,7 +854,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             "ddm_closure",
             [("rows", 36), ("blocks", 126), ("wrenches", 36), ("Ip", 21), ("hp", 6)],
             lambda r, bl, wr, ip, h: {
-                "accel": _ddm_closure(
+                "accel": ddm_closure(
                     [r[6 * i : 6 * i + 6] for i in range(6)],
                     [bl[21 * i : 21 * i + 21] for i in range(6)],
                     [wr[6 * i : 6 * i + 6] for i in range(6)],
@@ -871,7 +874,7 @@ def _flat_shared(KV: tuple[Mat, Vec]) -> tuple[list[Scalar], Vec]:
     return [x for r in K for x in r], vdg
 
 
-def _mat3(flat: Sequence[Scalar]) -> list[list[Scalar]]:
+def mat3(flat: Sequence[Scalar]) -> list[list[Scalar]]:
     return [list(flat[3 * i : 3 * i + 3]) for i in range(3)]
 
 
@@ -889,6 +892,11 @@ def generate_models(
 ) -> SymbolicModels:
     """Generate the symbolic IDM and DDM of a robot (cached per description).
 
+    A robot with general legs (``desc.legs`` set) gets the generic models of
+    :mod:`stewart_pin.codegen.general_symbolic`: every number of the robot baked in, an
+    empty ``base_parameters`` input (``parameters`` ``"base"`` or ``"numeric"``), no
+    stages.
+
     Args:
         desc: the robot description; its geometry is baked in as numbers.
         pose: ``"matrix"`` (the pose input is 0Tp row-major, 16 numbers) or
@@ -898,9 +906,21 @@ def generate_models(
             zero, as in the paper's operation counts) or ``"numeric"`` (every value baked
             in: zeros of a symmetric robot propagate too).
     """
+    if not desc.is_ideal_ups:
+        if parameters not in ("base", "numeric"):
+            raise InputError(
+                f"robot '{desc.name}' has general legs: its models have every parameter value "
+                f"baked in (parameters 'base' or 'numeric'), got {parameters!r}"
+            )
+        parameters = "numeric"
     key = (description_key(desc), pose, parameters)
     if key not in _CACHE:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = _build(desc, pose, parameters, "stewart_")
+        if desc.is_ideal_ups:
+            _CACHE[key] = _build(desc, pose, parameters, "stewart_")
+        else:
+            from stewart_pin.codegen.general_symbolic import build_general_models
+
+            _CACHE[key] = build_general_models(desc, pose)[0]
     return _CACHE[key]

@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_poses
 from stewart_pin._so3 import so3_log
-from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
+from stewart_pin.exceptions import InputError
 from stewart_pin.protocols import RobotLike
 
 Reference = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -34,22 +34,18 @@ def pose_error(T_ref: np.ndarray, T: np.ndarray) -> np.ndarray:
     return np.concatenate([T_ref[:3, 3] - T[:3, 3], pin.log3(T_ref[:3, :3] @ T[:3, :3].T)])
 
 
-BACKENDS = ("pinocchio", "compiled")
+#: The dynamic models' backends (``StewartRobot.inverse_dynamics``): ``"auto"`` (the
+#: default: compiled where a C compiler is available, else the reference), ``"pinocchio"``
+#: (the reference) and ``"compiled"``.
+BACKENDS = ("pinocchio", "compiled", "auto")
 
 
 def check_backend(robot: RobotLike, backend: str, what: str) -> None:
-    """Refuse, before anything runs, a backend the robot cannot use: an unknown name
-    (:class:`InputError`), or ``"compiled"`` for a robot with general legs (the generated
-    C is 6-UPS-only for now: :class:`UnsupportedArchitectureError`)."""
+    """Refuse, before anything runs, an unknown backend name (:class:`InputError`). Every
+    robot takes every backend (general legs too: their models are compiled as well)."""
     if backend not in BACKENDS:
-        raise InputError(f"{what}: unknown backend {backend!r}: 'pinocchio' or 'compiled'")
-    desc = robot.description
-    if backend == "compiled" and not desc.is_ideal_ups:
-        raise UnsupportedArchitectureError(
-            f"{what} with backend 'compiled' is 6-UPS-only for now: robot '{desc.name}' has "
-            f"{desc.architecture} legs; use backend 'pinocchio'",
-            f"{what} backend 'compiled'",
-            desc.architecture,
+        raise InputError(
+            f"{what}: unknown backend {backend!r}: 'auto' (the default), 'pinocchio' or 'compiled'"
         )
 
 
@@ -63,14 +59,15 @@ class ComputedTorqueController:
         reference: ``t -> (T_ref (4, 4), V_ref (6,), A_ref (6,))``.
         kp, kd: stiffness [1/s^2] and damping [1/s] gains, scalars or (6,) per axis
             (linear x, y, z then angular); default a critically damped 10 Hz loop.
-        backend: the inverse model's backend, ``"pinocchio"`` or ``"compiled"``.
+        backend: the inverse model's backend: ``"auto"`` (default), ``"pinocchio"`` or
+            ``"compiled"`` (see :meth:`StewartRobot.inverse_dynamics`).
     """
 
     model: RobotLike
     reference: Reference
     kp: np.ndarray | float = (2 * np.pi * 10.0) ** 2
     kd: np.ndarray | float = 2 * (2 * np.pi * 10.0)
-    backend: str = "pinocchio"
+    backend: str = "auto"
 
     def __post_init__(self) -> None:
         check_backend(self.model, self.backend, "the computed-torque controller")

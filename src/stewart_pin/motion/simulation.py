@@ -377,7 +377,7 @@ def simulate(
     control_period: float | None = None,
     output_dt: float | None = None,
     progress: Callable[[float], None] | None = None,
-    backend: str = "pinocchio",
+    backend: str = "auto",
     dynamics: DirectModel | None = None,
 ) -> SimulationResult:
     """Integrate the direct dynamic model from ``(pose, twist)`` for ``duration`` [s].
@@ -399,7 +399,8 @@ def simulate(
             for the adaptive method, its accepted steps).
         progress: called with the simulated time [s] after each accepted step (a progress
             bar's hook).
-        backend: the direct model's backend, ``"pinocchio"`` or ``"compiled"`` (see
+        backend: the direct model's backend: ``"auto"`` (default: compiled where a C
+            compiler is available), ``"pinocchio"`` or ``"compiled"`` (see
             :meth:`StewartRobot.direct_dynamics`).
         dynamics: ``accel = dynamics(t, pose, twist, gamma)`` (6,), a direct model used
             instead of ``robot.direct_dynamics`` (``robot`` still gives the limits and
@@ -410,8 +411,6 @@ def simulate(
         InputError: a duration, step, tolerance or period that is not finite and
             positive, a step below :data:`MIN_STEP`, or more than :data:`MAX_STEPS` steps;
             an unknown backend.
-        UnsupportedArchitectureError: ``backend="compiled"`` for general legs (before the
-            run starts).
         SimulationError: the run stopped; ``.result`` holds the accepted states up to
             then and ``__cause__`` the named error. Stops: a leg reaching its stroke end or
             a U-joint its limit (located to :data:`LIMIT_TOLERANCE`), cond(Jp^-1) passing
