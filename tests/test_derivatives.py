@@ -45,7 +45,6 @@ from stewart_pin.exceptions import (
     NumericalError,
     SingularityError,
     StrokeLimitError,
-    UnsupportedArchitectureError,
 )
 
 TOL = 1e-6  # relative, per state (the issue's tolerance)
@@ -299,15 +298,106 @@ def test_non_finite_derivative_raises_numerical_error():
     assert e.value.index == 1 and e.value.n_bad == 1
 
 
-@pytest.mark.parametrize("preset", ("ups-offset", "rus", "pus"))
-def test_general_legs_are_not_supported_yet(preset):
-    robot = StewartRobot.from_preset(preset)
-    P, V, A = robot.sample_states(1, 19)
-    with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only") as e:
-        robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
-    assert e.value.value == robot.architecture
-    with pytest.raises(UnsupportedArchitectureError, match="finite differences"):
-        robot.direct_dynamics_derivatives(P[0], V[0], A[0])
+# ---------------------------------------------------------------------------- general legs
+#: Robots with general legs: ``rus`` through its compiled library (one build, in the
+#: session's shared cache), the others in CasADi's VM (the same functions, no compile).
+GENERAL_ROBOTS = ("rus", "pus", "random-custom-0")
+
+
+@pytest.fixture(scope="module")
+def general_backends(shared_compile_cache) -> dict[str, object]:
+    """The robots' derivative backends; ``rus``'s is the facade's own (built in the shared
+    cache, where the value library may already be)."""
+    backends: dict[str, object] = {}
+    for name in GENERAL_ROBOTS:
+        robot = get_robot(name)
+        if name == "rus":
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setenv(compiled_module.CACHE_ENV, str(shared_compile_cache))
+                backends[name] = derivatives_module.derivatives_backend(robot)
+            assert backends[name].kind == "compiled"
+        else:
+            backends[name] = _vm(robot)
+    return backends
+
+
+def _check_general(robot, d, P, V, X, which: str) -> None:
+    """Each state's three Jacobians (``d`` of the states ``P, V, X``, (N, ...) arrays)
+    against central differences of the reference path."""
+    method = robot.inverse_dynamics if which == "idm" else robot.direct_dynamics
+    h_pose, h_twist = _steps(robot)
+    # a quarter of the pose step: the truncation error (2e-7 at the full step on rus and
+    # random-custom-0, shrinking as h^2) well under the tolerance
+    h_pose *= 0.25
+    h_x = 1.0 if which == "idm" else 1e-3 * float(np.abs(X).max())  # affine: any step
+    third = "accel" if which == "idm" else "gamma"
+    blocks = [np.reshape(getattr(d, k), (-1, 6, 6)) for k in ("pose", "twist", third)]
+    for n in range(P.shape[0]):
+        fd = _central_differences(_reference(method), P[n], V[n], X[n], h_pose, h_twist, h_x)
+        for got, ref in zip((b[n] for b in blocks), fd, strict=True):
+            assert _rel(got, ref) < TOL
+
+
+@pytest.mark.parametrize("name", GENERAL_ROBOTS)
+def test_general_legs_inverse_dynamics_derivatives_equal_central_differences(
+    name, general_backends
+):
+    robot, backend = get_robot(name), general_backends[name]
+    P, V, A = robot.sample_states(3, 31)
+    d = backend.inverse_dynamics_derivatives(P, V, A)  # a batch
+    assert d.pose.shape == d.twist.shape == d.accel.shape == (3, 6, 6)
+    assert _rel(d.gamma, robot.inverse_dynamics(P, V, A, backend="pinocchio")) < 1e-9
+    _check_general(robot, d, P, V, A, "idm")
+    one = backend.inverse_dynamics_derivatives(P[1], V[1], A[1])  # a single state
+    assert one.pose.shape == (6, 6)
+    _check_general(robot, one, P[1:2], V[1:2], A[1:2], "idm")
+
+
+@pytest.mark.parametrize("name", GENERAL_ROBOTS)
+def test_general_legs_direct_dynamics_derivatives_equal_central_differences(
+    name, general_backends
+):
+    robot, backend = get_robot(name), general_backends[name]
+    P, V, A = robot.sample_states(3, 32)
+    G = robot.inverse_dynamics(P, V, A, backend="pinocchio")
+    d = backend.direct_dynamics_derivatives(P, V, G)
+    assert d.pose.shape == d.twist.shape == d.gamma.shape == (3, 6, 6)
+    assert _rel(d.accel, A) < 1e-8
+    _check_general(robot, d, P, V, G, "ddm")
+    one = backend.direct_dynamics_derivatives(P[2], V[2], G[2])
+    assert one.gamma.shape == (6, 6)
+    _check_general(robot, one, P[2:3], V[2:3], G[2:3], "ddm")
+
+
+def test_general_legs_derivatives_keep_the_guards(general_backends):
+    """The value model is evaluated first: a state out of reach raises the reference's
+    error, and general legs take no ``base_values`` (their parameters are built in)."""
+    robot, backend = get_robot("rus"), general_backends["rus"]
+    P, V, A = robot.sample_states(1, 33)
+    far = P[0].copy()
+    far[2, 3] += 10.0 * robot.description.size
+    with pytest.raises(Exception) as ref:
+        robot.inverse_dynamics(far, V[0], A[0], backend="pinocchio")
+    with pytest.raises(type(ref.value)):
+        backend.inverse_dynamics_derivatives(far, V[0], A[0])
+    with pytest.raises(InputError, match="base_values"):
+        backend.inverse_dynamics_derivatives(P[0], V[0], A[0], base_values=np.zeros(0))
+
+
+def test_facade_derivatives_of_general_legs(general_backends):
+    """``robot.inverse_dynamics_derivatives`` / ``direct_dynamics_derivatives`` no longer
+    refuse general legs: the facade (compiled) gives what the VM gives."""
+    robot = get_robot("rus")
+    P, V, A = robot.sample_states(2, 34)
+    d = robot.inverse_dynamics_derivatives(P, V, A)
+    vm = _vm(robot)
+    ref = vm.inverse_dynamics_derivatives(P, V, A)
+    for x in ("gamma", "pose", "twist", "accel"):
+        assert _rel(getattr(d, x), getattr(ref, x)) < 1e-12
+    e = robot.direct_dynamics_derivatives(P[0], V[0], d.gamma[0])
+    e_ref = vm.direct_dynamics_derivatives(P[0], V[0], d.gamma[0])
+    for x in ("accel", "pose", "twist", "gamma"):
+        assert _rel(getattr(e, x), getattr(e_ref, x)) < 1e-12
 
 
 def test_derivative_library_follows_the_cache_rules(tmp_path, monkeypatch):

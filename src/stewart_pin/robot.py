@@ -13,8 +13,8 @@ three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``,
 mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
 :class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
 such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
-for a revolute one, joint side), and what is 6-UPS-only for now (the 6-UPS tree and URDF,
-the exact derivatives) raises :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
+for a revolute one, joint side), and what is 6-UPS-only for now (the 6-UPS tree and URDF)
+raises :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
 
 The inverse and direct dynamic models of every robot take ``backend="auto"`` by default:
 the compiled closed-form models (:mod:`stewart_pin.codegen`) where a C compiler is
@@ -598,8 +598,8 @@ class StewartRobot:
         ``.pose`` is with respect to ``delta = [dp, dtheta]`` in F0 (``p + dp``,
         ``R <- exp(dtheta^) R``), so that along a motion
         ``dGamma/dt = D.pose @ [v, w] + D.twist @ Vdot + D.accel @ dVdot/dt`` (Vdot the
-        classical acceleration). Arguments and errors as :meth:`inverse_dynamics`;
-        :class:`UnsupportedArchitectureError` for general legs, for now."""
+        classical acceleration). Arguments and errors as :meth:`inverse_dynamics`
+        (general legs included: their Gamma is the actuated joints' efforts)."""
         return _derivatives(self).inverse_dynamics_derivatives(pose, twist, accel)
 
     def direct_dynamics_derivatives(

@@ -68,7 +68,6 @@ from stewart_pin.exceptions import (
     InputError,
     NumericalError,
     UnsafeCacheError,
-    UnsupportedArchitectureError,
 )
 from stewart_pin.protocols import RobotLike
 
@@ -215,22 +214,14 @@ def symbolic_derivatives(models: SymbolicModels) -> SymbolicDerivatives:
 def symbolic_models_for(robot: RobotLike) -> SymbolicModels:
     """The generated closed-form models the derivatives of ``robot`` are built from.
 
-    This is the one place that says which architectures have them: the ideal 6-UPS
-    (:func:`~.symbolic.generate_models`). General legs get theirs with the generator for
-    every leg architecture (issue 14, item 2); until then
-    :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
+    This is the one place that says which architectures have them: every robot, through
+    :func:`~.symbolic.generate_models` (the ideal 6-UPS: the paper's models with the 88
+    base parameters as an input; general legs, ``ups-offset``, ``rus``, ``pus``, custom,
+    mixed: the generic models of :mod:`.general_symbolic`, every number baked in and an
+    empty ``base_parameters`` input, so that the derivatives take an empty parameter
+    vector).
     """
-    desc = robot.description
-    if not desc.is_ideal_ups:
-        raise UnsupportedArchitectureError(
-            "exact derivatives (inverse_dynamics_derivatives, direct_dynamics_derivatives) "
-            f"are 6-UPS-only for now: robot '{desc.name}' has {desc.architecture} legs, whose "
-            "closed-form models are not generated yet; use finite differences of "
-            "robot.inverse_dynamics / direct_dynamics (pose chart p + dp, exp(dtheta^) R)",
-            "exact derivatives",
-            desc.architecture,
-        )
-    return generate_models(desc)
+    return generate_models(robot.description)
 
 
 # ---------------------------------------------------------------------------- C source
@@ -343,9 +334,8 @@ class CompiledDerivatives:
     CasADi's virtual machine).
 
     Args:
-        robot: a :class:`~stewart_pin.StewartRobot` whose architecture has generated models
-            (:func:`symbolic_models_for`; otherwise
-            :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`).
+        robot: a :class:`~stewart_pin.StewartRobot`, ideal 6-UPS or with general legs
+            (its models from :func:`symbolic_models_for`).
         cache_dir, compiler, threads: as for :class:`~.compiled.CompiledDynamics` (the value
             models that guard each call are built with the same settings).
 
@@ -357,7 +347,9 @@ class CompiledDerivatives:
     - ``direct_dynamics_derivatives(pose, twist, gamma, base_values=None)`` ->
       :class:`DirectDynamicsDerivatives`.
 
-    ``base_values`` replaces the robot's base parameters (as for the value models).
+    ``base_values`` replaces the robot's base parameters (as for the value models; a robot
+    with general legs has them built in: its parameter vector is empty, and ``base_values``
+    other than ``None`` is an :class:`~stewart_pin.exceptions.InputError`).
     Errors: those of the value models for the state, then
     :class:`~stewart_pin.exceptions.NumericalError` for a non-finite derivative.
 

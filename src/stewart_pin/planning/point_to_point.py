@@ -32,7 +32,7 @@ rad (the transcription's own error: about 2e-7 on a one-second motion with the d
 the test suite holds it to these tolerances.
 
 Ideal 6-UPS robots for now (the actuator kinematics here are leg lengths): general legs
-raise :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`, as the derivatives do.
+raise :class:`~stewart_pin.exceptions.UnsupportedArchitectureError` (the derivatives take them).
 """
 
 from __future__ import annotations
@@ -173,7 +173,7 @@ def _functions(
 ) -> tuple[cs.Function, cs.Function, cs.Function]:
     """``step(x, Gamma) -> x+`` (one interval), ``legs(x) -> (lengths, rates)`` and
     ``accel(x, Gamma) -> Vdot``, SX functions of the state ``[p, q, v, w]`` (13)."""
-    models = symbolic_models_for(robot)  # the architectures with generated models
+    models = symbolic_models_for(robot)  # ideal 6-UPS here (checked by the caller)
     chi = np.asarray(models.constants.parameter_values, dtype=float)
     desc = robot.description
     x = cs.SX.sym("x", 13)
@@ -325,8 +325,9 @@ def optimal_point_to_point(
         raise InputError(f"hessian must be 'limited-memory' or 'exact', got {hessian!r}")
     tol = check_scalar(tol, "tol", positive=True)
     effort, speed = _limits(max_effort, "max_effort"), _limits(max_speed, "max_speed")
-    step, legs, accel = _functions(robot, duration / intervals, substeps)
+    # general legs refused here, before any model is built (the derivatives take them)
     lo, hi = robot.description.ideal_stroke("optimal_point_to_point")
+    step, legs, accel = _functions(robot, duration / intervals, substeps)
     margin = 0.01 * (hi - lo) if margin is None else check_scalar(margin, "margin", unit="m")
     if not 0.0 <= margin < 0.5 * (hi - lo):
         raise InputError(f"margin must be in [0, {0.5 * (hi - lo):g}) m, got {margin:g} m")
