@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array
+from stewart_pin._checks import check_array, freeze_fields
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import (
     LogError,
@@ -140,10 +140,7 @@ class ActuatorLog:
             values["tracker_poses"] = check_array(self.tracker_poses, (n, 4, 4), "tracker_poses")
         if self.lines is not None:
             values["lines"] = np.asarray(self.lines, dtype=np.int64).reshape(n)
-        for key, value in values.items():
-            value = np.array(value)
-            value.flags.writeable = False
-            object.__setattr__(self, key, value)
+        freeze_fields(self, values)
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
