@@ -74,6 +74,7 @@ from stewart_pin.codegen.symbolic import (
     idm_closure,
     idm_platform,
     idm_shared,
+    idm_shared_stage,
     is_zero,
     mat3,
     model_functions,
@@ -883,17 +884,7 @@ def _stages(
 
     idm_closure_stage, ddm_closure_stage = closure_stages(pivots)
     idm_stages = Stages(
-        shared=stage_function(
-            "idm_shared",
-            [("twist", 6), ("accel", 6)],
-            lambda t, a: dict(
-                zip(
-                    ("K", "vdg"),
-                    (lambda KV: ([x for r in KV[0] for x in r], KV[1]))(idm_shared(t, a, gravity)),
-                    strict=True,
-                )
-            ),
-        ),
+        shared=idm_shared_stage(gravity),
         legs=tuple(
             stage_function(
                 f"idm_leg{lc.index + 1}",

@@ -716,6 +716,15 @@ def closure_stages(pivots: Sequence[tuple[int, int]]) -> tuple[cs.Function, cs.F
     return idm, ddm
 
 
+def idm_shared_stage(gravity: np.ndarray) -> cs.Function:
+    """The ``idm_shared`` stage function (``K`` flattened row-major, ``vdg``)."""
+    return stage_function(
+        "idm_shared",
+        [("twist", 6), ("accel", 6)],
+        lambda t, a: dict(zip(("K", "vdg"), _flat_shared(idm_shared(t, a, gravity)), strict=True)),
+    )
+
+
 def ddm_legs_closure(
     dlegs: Sequence[dict[str, list[Scalar]]], Ip: Sequence[Scalar], hp: Sequence[Scalar]
 ) -> tuple[list[Scalar], list[Scalar]]:
@@ -819,13 +828,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
 
     idm_closure_stage, ddm_closure_stage = closure_stages(pivots)
     idm_stages = Stages(
-        shared=stage_function(
-            "idm_shared",
-            [("twist", 6), ("accel", 6)],
-            lambda t, a: dict(
-                zip(("K", "vdg"), _flat_shared(idm_shared(t, a, c.gravity)), strict=True)
-            ),
-        ),
+        shared=idm_shared_stage(c.gravity),
         legs=tuple(
             stage_function(
                 f"idm_leg{k + 1}",
