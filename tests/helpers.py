@@ -9,6 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin import RobotDescription
+from stewart_pin.exceptions import StewartPinError
 
 
 def points_in_base(desc: RobotDescription, T: np.ndarray) -> np.ndarray:
@@ -255,3 +256,70 @@ def mujoco_kkt(m, data, body: str, A=None, gamma=None) -> np.ndarray:
     K[:nv, :nv], K[:nv, nv:], K[nv:, :nv] = M, -J.T, J
     x = np.linalg.solve(K, np.r_[S.T @ np.asarray(gamma) - c, -Jd])
     return Jb @ x[:nv] + Jbd
+
+
+def fuzz_pose(robot, x: list[float], reach: float) -> np.ndarray:
+    """Home moved by up to ``reach`` times the mid-stroke and turned by up to twice
+    ``reach`` rad (at 0.4: mostly beyond the stroke, sometimes near a singularity)."""
+    T = robot.home_pose
+    T[:3, 3] += reach * robot.description.stroke_mid * np.array(x[:3])
+    T[:3, :3] = pin.exp3(2.0 * reach * np.array(x[3:])) @ T[:3, :3]
+    return T
+
+
+def outcome(call):
+    """``(result, None)`` or ``(None, error)`` for a named error; anything else propagates."""
+    try:
+        return call(), None
+    except StewartPinError as e:
+        return None, e
+
+
+def same_outcome(ref_call, got_call):
+    """Both raise the same named error (returns None), or both return finite arrays."""
+    ref, ref_err = outcome(ref_call)
+    got, got_err = outcome(got_call)
+    if ref_err is not None or got_err is not None:
+        assert type(got_err) is type(ref_err), (ref_err, got_err)
+        assert str(got_err) == str(ref_err)
+        return None
+    assert np.all(np.isfinite(ref)) and np.all(np.isfinite(got))
+    return ref, got
+
+
+def backends_agree_or_raise_the_same_named_error(
+    robot, backend, hold: float, agree: float, r, x, v, a, g, kv, ka, kg
+) -> bool:
+    """The fuzz property of the compiled backends: at the drawn state (pose
+    :func:`fuzz_pose`, twist, acceleration and forces scaled by the mid-stroke, the holding
+    force ``hold`` and powers of ten), ``backend`` and the reference path
+    (``backend="pinocchio"``) both raise the same named error or agree to ``agree``: the IDM
+    relative to its largest force, the DDM relative to the largest of the acceleration and
+    its two parts. Returns whether the IDM accepted the state."""
+    s = robot.description.stroke_mid
+    T = fuzz_pose(robot, x, r)
+    V = np.array(v) * [s, s, s, 1.0, 1.0, 1.0] * 10.0**kv
+    A = np.array(a) * [s, s, s, 1.0, 1.0, 1.0] * 3.0 * 10.0**ka
+    G = np.array(g) * hold * 10.0**kg
+    # IDM.
+    pair = same_outcome(
+        lambda: robot.inverse_dynamics(T, V, A, backend="pinocchio"),
+        lambda: backend.inverse_dynamics(T, V, A),
+    )
+    if pair is not None:
+        ref, got = pair
+        assert np.abs(got - ref).max() <= agree * np.abs(ref).max()
+    # DDM on the drawn forces and (if the IDM accepted the state) on the IDM's.
+    forces = [G] if pair is None else [G, pair[0]]
+    for F in forces:
+        result = same_outcome(
+            lambda F=F: robot.direct_dynamics(T, V, F, backend="pinocchio"),
+            lambda F=F: backend.direct_dynamics(T, V, F),
+        )
+        if result is None:
+            continue
+        ref, got = result
+        free = robot.direct_dynamics(T, V, np.zeros(6), backend="pinocchio")
+        scale = max(np.abs(ref).max(), np.abs(free).max(), np.abs(ref - free).max())
+        assert np.abs(got - ref).max() <= agree * scale
+    return pair is not None

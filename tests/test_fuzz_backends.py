@@ -13,15 +13,14 @@ hold the robot give a small acceleration known only relative to those parts.
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 import pytest
 from conftest import fresh_compile_cache
+from helpers import backends_agree_or_raise_the_same_named_error
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics
-from stewart_pin.exceptions import StewartPinError
 
 AGREE = 1e-9
 SEEDS = (0, 1, 4, 7)  # a library compiled for each (hypothesis draws among them)
@@ -55,35 +54,6 @@ def robot_of(seed: int) -> tuple[StewartRobot, CompiledDynamics, float]:
     return _ROBOTS[seed]
 
 
-def pose_of(robot: StewartRobot, x: list[float], reach: float) -> np.ndarray:
-    """Home moved by up to ``reach`` times the mid-stroke and turned by up to twice
-    ``reach`` rad (at 0.4: mostly beyond the stroke, sometimes near a singularity)."""
-    T = robot.home_pose
-    T[:3, 3] += reach * robot.description.stroke_mid * np.array(x[:3])
-    T[:3, :3] = pin.exp3(2.0 * reach * np.array(x[3:])) @ T[:3, :3]
-    return T
-
-
-def outcome(call):
-    """``(result, None)`` or ``(None, error)`` for a named error; anything else propagates."""
-    try:
-        return call(), None
-    except StewartPinError as e:
-        return None, e
-
-
-def same_outcome(ref_call, got_call):
-    """Both raise the same named error (returns None), or both return finite arrays."""
-    ref, ref_err = outcome(ref_call)
-    got, got_err = outcome(got_call)
-    if ref_err is not None or got_err is not None:
-        assert type(got_err) is type(ref_err), (ref_err, got_err)
-        assert str(got_err) == str(ref_err)
-        return None
-    assert np.all(np.isfinite(ref)) and np.all(np.isfinite(got))
-    return ref, got
-
-
 MIN_ACCEPTED = 0.3  # share of the drawn states that the IDM must accept
 
 
@@ -102,30 +72,7 @@ def test_backends_agree_or_raise_the_same_named_error():
 def agree_or_raise_the_same_named_error(counts, seed, r, x, v, a, g, kv, ka, kg):
     robot, backend, hold = robot_of(seed)
     counts["drawn"] += 1
-    s = robot.description.stroke_mid
-    T = pose_of(robot, x, r)
-    V = np.array(v) * [s, s, s, 1.0, 1.0, 1.0] * 10.0**kv
-    A = np.array(a) * [s, s, s, 1.0, 1.0, 1.0] * 3.0 * 10.0**ka
-    G = np.array(g) * hold * 10.0**kg
-    # IDM.
-    pair = same_outcome(
-        lambda: robot.inverse_dynamics(T, V, A, backend="pinocchio"),
-        lambda: backend.inverse_dynamics(T, V, A),
-    )
-    if pair is not None:
+    if backends_agree_or_raise_the_same_named_error(
+        robot, backend, hold, AGREE, r, x, v, a, g, kv, ka, kg
+    ):
         counts["accepted"] += 1
-        ref, got = pair
-        assert np.abs(got - ref).max() <= AGREE * np.abs(ref).max()
-    # DDM on the drawn forces and (if the IDM accepted the state) on the IDM's.
-    forces = [G] if pair is None else [G, pair[0]]
-    for F in forces:
-        result = same_outcome(
-            lambda F=F: robot.direct_dynamics(T, V, F, backend="pinocchio"),
-            lambda F=F: backend.direct_dynamics(T, V, F),
-        )
-        if result is None:
-            continue
-        ref, got = result
-        free = robot.direct_dynamics(T, V, np.zeros(6), backend="pinocchio")
-        scale = max(np.abs(ref).max(), np.abs(free).max(), np.abs(ref - free).max())
-        assert np.abs(got - ref).max() <= AGREE * scale

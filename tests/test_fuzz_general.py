@@ -10,12 +10,12 @@ in test_fuzz_backends.py). Never NaN, never a silent disagreement."""
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 import pytest
 from conftest import get_robot, use_compile_cache
+from helpers import backends_agree_or_raise_the_same_named_error
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_fuzz_backends import MIN_ACCEPTED, same_outcome
+from test_fuzz_backends import MIN_ACCEPTED
 
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics
@@ -64,29 +64,7 @@ def test_general_backends_agree_or_raise_the_same_named_error():
 def agree_or_raise_the_same_named_error(counts, name, r, x, v, a, g, kv, ka, kg):
     robot, backend, hold = robot_of(name)
     counts["drawn"] += 1
-    s = robot.description.stroke_mid
-    T = robot.home_pose
-    T[:3, 3] += r * s * np.array(x[:3])
-    T[:3, :3] = pin.exp3(2.0 * r * np.array(x[3:])) @ T[:3, :3]
-    V = np.array(v) * [s, s, s, 1.0, 1.0, 1.0] * 10.0**kv
-    A = np.array(a) * [s, s, s, 1.0, 1.0, 1.0] * 3.0 * 10.0**ka
-    G = np.array(g) * hold * 10.0**kg
-    pair = same_outcome(
-        lambda: robot.inverse_dynamics(T, V, A, backend="pinocchio"),
-        lambda: backend.inverse_dynamics(T, V, A),
-    )
-    if pair is not None:
+    if backends_agree_or_raise_the_same_named_error(
+        robot, backend, hold, AGREE, r, x, v, a, g, kv, ka, kg
+    ):
         counts["accepted"] += 1
-        ref, got = pair
-        assert np.abs(got - ref).max() <= AGREE * np.abs(ref).max()
-    for F in [G] if pair is None else [G, pair[0]]:
-        result = same_outcome(
-            lambda F=F: robot.direct_dynamics(T, V, F, backend="pinocchio"),
-            lambda F=F: backend.direct_dynamics(T, V, F),
-        )
-        if result is None:
-            continue
-        ref, got = result
-        free = robot.direct_dynamics(T, V, np.zeros(6), backend="pinocchio")
-        scale = max(np.abs(ref).max(), np.abs(free).max(), np.abs(ref - free).max())
-        assert np.abs(got - ref).max() <= AGREE * scale

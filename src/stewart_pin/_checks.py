@@ -364,3 +364,12 @@ def decode_utf8(data: bytes, path: str | Path) -> str:
             f"{path}, line {line}: not UTF-8 text (byte 0x{data[e.start]:02x} at offset "
             f"{e.start}); save the file as UTF-8"
         ) from None
+
+
+def freeze_fields(obj: Any, values: dict[str, Any]) -> None:
+    """Set each ``values`` entry on the frozen dataclass ``obj`` as a read-only copy (a
+    ``np.array`` the caller cannot change through its own reference)."""
+    for key, value in values.items():
+        value = np.array(value)
+        value.flags.writeable = False
+        object.__setattr__(obj, key, value)

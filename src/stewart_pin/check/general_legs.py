@@ -116,11 +116,7 @@ class GeneralTreeSolver:
         q[self.q_ff] = pin.SE3ToXYZQUAT(pin.SE3(R, T[:3, 3]))
         q[self.q_legs] = np.asarray(q_legs, float).ravel()
         pin.forwardKinematics(self.model, self.data, q)
-        gap = 0.0
-        for cm in self.cmodels:
-            p1 = (self.data.oMi[cm.joint1_id] * cm.joint1_placement).translation
-            p2 = (self.data.oMi[cm.joint2_id] * cm.joint2_placement).translation
-            gap = max(gap, float(np.linalg.norm(p1 - p2)))
+        gap = largest_loop_gap(self.data, self.cmodels)
         if not gap <= CLOSURE_TOLERANCE:
             raise InputError(
                 f"the leg joint positions do not close the loops (largest gap {gap:.3g} m > "
@@ -225,6 +221,17 @@ class GeneralTreeSolver:
         return float(self.viscous @ vl**2 + self.coulomb @ np.abs(vl))
 
 
+def largest_loop_gap(data: pin.Data, cmodels: Any) -> float:
+    """The largest distance [m] between the two contact frames of the loop closures
+    ``cmodels`` at the placements in ``data`` (after ``pin.forwardKinematics``)."""
+    gap = 0.0
+    for cm in cmodels:
+        p1 = (data.oMi[cm.joint1_id] * cm.joint1_placement).translation
+        p2 = (data.oMi[cm.joint2_id] * cm.joint2_placement).translation
+        gap = max(gap, float(np.linalg.norm(p1 - p2)))
+    return gap
+
+
 def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     try:
         x = np.linalg.solve(A, b)
@@ -284,6 +291,7 @@ def reference_energy(
 __all__ = [
     "CLOSURE_TOLERANCE",
     "GeneralTreeSolver",
+    "largest_loop_gap",
     "reference_direct_dynamics",
     "reference_energy",
     "reference_inverse_dynamics",

@@ -45,7 +45,11 @@ from stewart_pin.check.constrained_dynamics import (
     RELATIVE_FLOOR,
     relative_error,
 )
-from stewart_pin.check.general_legs import CLOSURE_TOLERANCE, GeneralTreeSolver
+from stewart_pin.check.general_legs import (
+    CLOSURE_TOLERANCE,
+    GeneralTreeSolver,
+    largest_loop_gap,
+)
 from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.exceptions import InputError, InputTypeError, SingularityError, WorkspaceError
 from stewart_pin.models.leg_chains import build_general_tree
@@ -139,11 +143,7 @@ class PayloadTreeSolver:
         x[s.q_legs] = np.asarray(q_legs, float).ravel()
         x[self.q_p] = q
         pin.forwardKinematics(self.model, self.data, x)
-        gap = 0.0
-        for cm in s.cmodels:
-            p1 = (self.data.oMi[cm.joint1_id] * cm.joint1_placement).translation
-            p2 = (self.data.oMi[cm.joint2_id] * cm.joint2_placement).translation
-            gap = max(gap, float(np.linalg.norm(p1 - p2)))
+        gap = largest_loop_gap(self.data, s.cmodels)
         if not gap <= CLOSURE_TOLERANCE:
             raise InputError(
                 f"the leg joint positions do not close the loops (largest gap {gap:.3g} m)"

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import casadi as cs
@@ -67,19 +67,22 @@ from stewart_pin.codegen.symbolic import (
     Stages,
     SymbolicModels,
     Vec,
+    closure_stages,
     column,
-    ddm_closure,
+    ddm_legs_closure,
     ddm_platform,
-    function,
     idm_closure,
     idm_platform,
     idm_shared,
+    idm_shared_stage,
     is_zero,
     mat3,
+    model_functions,
     pivot_order,
     pose_from_input,
     pose_size,
     split,
+    stage_function,
 )
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
@@ -865,12 +868,6 @@ def _ddm_leg(
 
 
 # ---------------------------------------------------------------------------- assembly
-def _stage(name: str, inputs: list[tuple[str, int]], body: Callable[..., dict]) -> cs.Function:
-    syms = [(n, cs.SX.sym(n, size)) for n, size in inputs]
-    outs = body(*[split(s) for _, s in syms])
-    return function(name, syms, list(outs.items()))
-
-
 def _stages(
     legs: Sequence[_LegConst],
     pose: str,
@@ -885,20 +882,11 @@ def _stages(
     def pose_of(ps: Sequence[Scalar]) -> tuple[Vec, Mat]:
         return pose_from_input(column(ps), pose)
 
+    idm_closure_stage, ddm_closure_stage = closure_stages(pivots)
     idm_stages = Stages(
-        shared=_stage(
-            "idm_shared",
-            [("twist", 6), ("accel", 6)],
-            lambda t, a: dict(
-                zip(
-                    ("K", "vdg"),
-                    (lambda KV: ([x for r in KV[0] for x in r], KV[1]))(idm_shared(t, a, gravity)),
-                    strict=True,
-                )
-            ),
-        ),
+        shared=idm_shared_stage(gravity),
         legs=tuple(
-            _stage(
+            stage_function(
                 f"idm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
                 lambda ps, t, a, Kf, lc=lc: _idm_leg(
@@ -907,57 +895,33 @@ def _stages(
             )
             for lc in legs
         ),
-        platform=_stage(
+        platform=stage_function(
             "idm_platform",
             [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9), ("vdg", 3)],
             lambda ps, t, a, Kf, vg: {
                 "F_p": idm_platform(pose_of(ps)[1], t[3:], a[3:], vg, mat3(Kf), Pp)
             },
         ),
-        closure=_stage(
-            "idm_closure",
-            [("rows", 36), ("wrenches", 36), ("Hz", 6), ("F_p", 6)],
-            lambda r, wr, hz, fp: {
-                "gamma": idm_closure(
-                    [r[6 * i : 6 * i + 6] for i in range(6)],
-                    [wr[6 * i : 6 * i + 6] for i in range(6)],
-                    hz,
-                    fp,
-                    pivots,
-                )[0]
-            },
-        ),
+        closure=idm_closure_stage,
     )
     ddm_stages = Stages(
         shared=None,
         legs=tuple(
-            _stage(
+            stage_function(
                 f"ddm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("gamma", 1)],
                 lambda ps, t, gk, lc=lc: _ddm_leg(lc, *pose_of(ps), t[:3], t[3:], gk[0]),
             )
             for lc in legs
         ),
-        platform=_stage(
+        platform=stage_function(
             "ddm_platform",
             [("pose", npose), ("twist", 6)],
             lambda ps, t: dict(
                 zip(("Ip", "hp"), ddm_platform(pose_of(ps)[1], t[3:], Pp, gravity), strict=True)
             ),
         ),
-        closure=_stage(
-            "ddm_closure",
-            [("rows", 36), ("blocks", 126), ("wrenches", 36), ("Ip", 21), ("hp", 6)],
-            lambda r, bl, wr, ip, h: {
-                "accel": ddm_closure(
-                    [r[6 * i : 6 * i + 6] for i in range(6)],
-                    [bl[21 * i : 21 * i + 21] for i in range(6)],
-                    [wr[6 * i : 6 * i + 6] for i in range(6)],
-                    ip,
-                    h,
-                )[0]
-            },
-        ),
+        closure=ddm_closure_stage,
     )
     return idm_stages, ddm_stages
 
@@ -1018,28 +982,24 @@ def build_general_models(
     slacks = [s for lg in ilegs for s in lg["slack"]]
     layout = AuxLayout(n_slack=len(slacks))
     jinv = [x for r in rows for x in r]
-    idm_in = [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("base_parameters", x_chi)]
-    idm = function(f"{prefix}idm", idm_in, [("gamma", gamma)])
     idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
-    idm_guarded = function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
 
     # ---- DDM
     dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
     Ip, hp = ddm_platform(R, w, Pp, gravity)
-    accel, D = ddm_closure(
-        [lg["row"] for lg in dlegs],
-        [lg["block"] for lg in dlegs],
-        [lg["wrench"] for lg in dlegs],
-        Ip,
-        hp,
-    )
-    ddm_in = [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma), ("base_parameters", x_chi)]
-    ddm = function(f"{prefix}ddm", ddm_in, [("accel", accel)])
+    accel, D = ddm_legs_closure(dlegs, Ip, hp)
     dslacks = [s for lg in dlegs for s in lg["slack"]]
     assert len(dslacks) == layout.n_slack  # the same leg code: the same slacks
     djinv = [x for lg in dlegs for x in lg["row"]]
-    ddm_guarded = function(
-        f"{prefix}ddm_guarded", ddm_in, [("accel", accel), ("aux", [*djinv, *D, *dslacks])]
+    inputs = {
+        "pose": x_pose,
+        "twist": x_twist,
+        "accel": x_accel,
+        "gamma": x_gamma,
+        "base_parameters": x_chi,
+    }
+    idm, ddm, idm_guarded, ddm_guarded = model_functions(
+        prefix, inputs, gamma, idm_aux, accel, [*djinv, *D, *dslacks]
     )
 
     idm_stages, ddm_stages = _stages(legs, pose, Pp, gravity, pivots) if stages else (None, None)

@@ -674,7 +674,7 @@ def function(
     )
 
 
-def _stage_function(
+def stage_function(
     name: str,
     inputs: list[tuple[str, int]],
     body: Callable[..., dict[str, list]],
@@ -682,6 +682,80 @@ def _stage_function(
     syms = [(n, cs.SX.sym(n, size)) for n, size in inputs]
     outs = body(*[split(s) for _, s in syms])
     return function(name, syms, list(outs.items()))
+
+
+def closure_stages(pivots: Sequence[tuple[int, int]]) -> tuple[cs.Function, cs.Function]:
+    """The ``idm_closure`` and ``ddm_closure`` stage functions (fresh symbols at each
+    interface), shared by the 6-UPS and the general-leg models."""
+    idm = stage_function(
+        "idm_closure",
+        [("rows", 36), ("wrenches", 36), ("Hz", 6), ("F_p", 6)],
+        lambda r, wr, hz, fp: {
+            "gamma": idm_closure(
+                [r[6 * i : 6 * i + 6] for i in range(6)],
+                [wr[6 * i : 6 * i + 6] for i in range(6)],
+                hz,
+                fp,
+                pivots,
+            )[0]
+        },
+    )
+    ddm = stage_function(
+        "ddm_closure",
+        [("rows", 36), ("blocks", 126), ("wrenches", 36), ("Ip", 21), ("hp", 6)],
+        lambda r, bl, wr, ip, h: {
+            "accel": ddm_closure(
+                [r[6 * i : 6 * i + 6] for i in range(6)],
+                [bl[21 * i : 21 * i + 21] for i in range(6)],
+                [wr[6 * i : 6 * i + 6] for i in range(6)],
+                ip,
+                h,
+            )[0]
+        },
+    )
+    return idm, ddm
+
+
+def idm_shared_stage(gravity: np.ndarray) -> cs.Function:
+    """The ``idm_shared`` stage function (``K`` flattened row-major, ``vdg``)."""
+    return stage_function(
+        "idm_shared",
+        [("twist", 6), ("accel", 6)],
+        lambda t, a: dict(zip(("K", "vdg"), _flat_shared(idm_shared(t, a, gravity)), strict=True)),
+    )
+
+
+def ddm_legs_closure(
+    dlegs: Sequence[dict[str, list[Scalar]]], Ip: Sequence[Scalar], hp: Sequence[Scalar]
+) -> tuple[list[Scalar], list[Scalar]]:
+    """:func:`ddm_closure` of the six legs' ``row``, ``block`` and ``wrench`` outputs."""
+    return ddm_closure(
+        [lg["row"] for lg in dlegs],
+        [lg["block"] for lg in dlegs],
+        [lg["wrench"] for lg in dlegs],
+        Ip,
+        hp,
+    )
+
+
+def model_functions(
+    prefix: str,
+    inputs: dict[str, cs.SX],
+    gamma: list[Scalar],
+    idm_aux: list[Scalar],
+    accel: list[Scalar],
+    ddm_aux: list[Scalar],
+) -> tuple[cs.Function, cs.Function, cs.Function, cs.Function]:
+    """The four casadi functions ``idm``, ``ddm``, ``idm_guarded``, ``ddm_guarded`` (in that
+    order) from their outputs; ``inputs`` maps ``pose``, ``twist``, ``accel``, ``gamma``,
+    ``base_parameters`` to their symbols."""
+    idm_in = [(n, inputs[n]) for n in ("pose", "twist", "accel", "base_parameters")]
+    ddm_in = [(n, inputs[n]) for n in ("pose", "twist", "gamma", "base_parameters")]
+    idm = function(f"{prefix}idm", idm_in, [("gamma", gamma)])
+    ddm = function(f"{prefix}ddm", ddm_in, [("accel", accel)])
+    idm_guarded = function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
+    ddm_guarded = function(f"{prefix}ddm_guarded", ddm_in, [("accel", accel), ("aux", ddm_aux)])
+    return idm, ddm, idm_guarded, ddm_guarded
 
 
 def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> SymbolicModels:
@@ -715,8 +789,6 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     q3 = [lg["q3sq"][0] for lg in legs]
     rho = [lg["rho2"][0] for lg in legs]
     jinv = [x for r in rows for x in r]
-    idm_in = [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("base_parameters", x_chi)]
-    idm = function(f"{prefix}idm", idm_in, [("gamma", gamma)])
     # The condition bound's inputs for the singularity measure (Jp^-1 with its angular
     # columns divided by the characteristic length l): ||.||_F^2 and det = det(Jp^-1) / l^3.
     inv_l = 1.0 / characteristic_length(desc)
@@ -728,25 +800,23 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     fro2 = fro2_lin + fro2_ang * (inv_l * inv_l)
     det = det * inv_l**3
     idm_aux = [*q3, *rho, *jinv, *F, *[lg["Hz"][0] for lg in legs], growth, det, fro2]
-    idm_guarded = function(f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux)])
 
     # ---- DDM, flat
     dlegs = [_ddm_leg(c, k, p, R, v, w, gm[k], Ps[k]) for k in range(6)]
     Ip, hp = ddm_platform(R, w, Pp, c.gravity)
-    accel, D = ddm_closure(
-        [lg["row"] for lg in dlegs],
-        [lg["block"] for lg in dlegs],
-        [lg["wrench"] for lg in dlegs],
-        Ip,
-        hp,
-    )
-    ddm_in = [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma), ("base_parameters", x_chi)]
-    ddm = function(f"{prefix}ddm", ddm_in, [("accel", accel)])
+    accel, D = ddm_legs_closure(dlegs, Ip, hp)
     dq3 = [lg["q3sq"][0] for lg in dlegs]
     drho = [lg["rho2"][0] for lg in dlegs]
     djinv = [x for lg in dlegs for x in lg["row"]]
-    ddm_guarded = function(
-        f"{prefix}ddm_guarded", ddm_in, [("accel", accel), ("aux", [*dq3, *drho, *djinv, *D])]
+    inputs = {
+        "pose": x_pose,
+        "twist": x_twist,
+        "accel": x_accel,
+        "gamma": x_gamma,
+        "base_parameters": x_chi,
+    }
+    idm, ddm, idm_guarded, ddm_guarded = model_functions(
+        prefix, inputs, gamma, idm_aux, accel, [*dq3, *drho, *djinv, *D]
     )
 
     # ---- stages (fresh symbols at each interface)
@@ -756,16 +826,11 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     def leg_params(s: Sequence[Scalar], k: int) -> dict[str, Scalar]:
         return _leg_parameters(chi_of(s), names, k)
 
+    idm_closure_stage, ddm_closure_stage = closure_stages(pivots)
     idm_stages = Stages(
-        shared=_stage_function(
-            "idm_shared",
-            [("twist", 6), ("accel", 6)],
-            lambda t, a: dict(
-                zip(("K", "vdg"), _flat_shared(idm_shared(t, a, c.gravity)), strict=True)
-            ),
-        ),
+        shared=idm_shared_stage(c.gravity),
         legs=tuple(
-            _stage_function(
+            stage_function(
                 f"idm_leg{k + 1}",
                 [("pose", npose), ("twist", 6), ("K", 9), ("vdg", 3), ("base_parameters", 88)],
                 lambda ps, t, Kf, vg, s, k=k: _idm_leg(
@@ -781,7 +846,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             )
             for k in range(6)
         ),
-        platform=_stage_function(
+        platform=stage_function(
             "idm_platform",
             [
                 ("pose", npose),
@@ -802,24 +867,12 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 )
             },
         ),
-        closure=_stage_function(
-            "idm_closure",
-            [("rows", 36), ("wrenches", 36), ("Hz", 6), ("F_p", 6)],
-            lambda r, wr, hz, fp: {
-                "gamma": idm_closure(
-                    [r[6 * i : 6 * i + 6] for i in range(6)],
-                    [wr[6 * i : 6 * i + 6] for i in range(6)],
-                    hz,
-                    fp,
-                    pivots,
-                )[0]
-            },
-        ),
+        closure=idm_closure_stage,
     )
     ddm_stages = Stages(
         shared=None,
         legs=tuple(
-            _stage_function(
+            stage_function(
                 f"ddm_leg{k + 1}",
                 [("pose", npose), ("twist", 6), ("gamma", 1), ("base_parameters", 88)],
                 lambda ps, t, gk, s, k=k: _ddm_leg(
@@ -834,7 +887,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
             )
             for k in range(6)
         ),
-        platform=_stage_function(
+        platform=stage_function(
             "ddm_platform",
             [("pose", npose), ("twist", 6), ("base_parameters", 88)],
             lambda ps, t, s: dict(
@@ -850,19 +903,7 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
                 )
             ),
         ),
-        closure=_stage_function(
-            "ddm_closure",
-            [("rows", 36), ("blocks", 126), ("wrenches", 36), ("Ip", 21), ("hp", 6)],
-            lambda r, bl, wr, ip, h: {
-                "accel": ddm_closure(
-                    [r[6 * i : 6 * i + 6] for i in range(6)],
-                    [bl[21 * i : 21 * i + 21] for i in range(6)],
-                    [wr[6 * i : 6 * i + 6] for i in range(6)],
-                    ip,
-                    h,
-                )[0]
-            },
-        ),
+        closure=ddm_closure_stage,
     )
     return SymbolicModels(
         idm, ddm, idm_guarded, ddm_guarded, idm_stages, ddm_stages, pose, parameters, c, pivots

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
-from stewart_pin._checks import check_array
+from stewart_pin._checks import check_array, freeze_fields
 from stewart_pin.description.leg_architecture import wrap_into_limits
 from stewart_pin.dynamics.regressor import N_STANDARD
 from stewart_pin.exceptions import (
@@ -481,10 +481,7 @@ class Measurements:
             "accels": traj.accels,
             "gammas": check_array(self.gammas, (len(traj), 6), "gammas"),
         }
-        for key, value in values.items():
-            value = np.array(value)
-            value.flags.writeable = False
-            object.__setattr__(self, key, value)
+        freeze_fields(self, values)
 
     def __len__(self) -> int:
         return int(self.times.shape[0])

@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array
+from stewart_pin._checks import check_array, freeze_fields
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import (
     LogError,
@@ -140,10 +140,7 @@ class ActuatorLog:
             values["tracker_poses"] = check_array(self.tracker_poses, (n, 4, 4), "tracker_poses")
         if self.lines is not None:
             values["lines"] = np.asarray(self.lines, dtype=np.int64).reshape(n)
-        for key, value in values.items():
-            value = np.array(value)
-            value.flags.writeable = False
-            object.__setattr__(self, key, value)
+        freeze_fields(self, values)
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
@@ -242,6 +239,15 @@ class ActuatorLog:
 
 def _error_at(path: Any, line: int, message: str) -> str:
     return f"{path}, line {line}: {message}"
+
+
+def _sample_error(
+    cls: type[LogError], log: ActuatorLog, k: int, message: str, column: str, value: float
+) -> LogError:
+    """A ``cls`` naming sample ``k`` of ``log``: its file and line, the column and value."""
+    return cls(
+        _error_at(log.source, log.line(k), message), line=log.line(k), column=column, value=value
+    )
 
 
 def read_log(
@@ -523,15 +529,13 @@ def check_log(
     bad = np.flatnonzero(~(dt > 0))
     if bad.size:
         k = int(bad[0]) + 1
-        raise LogTimeError(
-            _error_at(
-                src,
-                log.line(k),
-                f"t = {float(t[k])!r} s does not increase (previous sample, line "
-                f"{log.line(k - 1)}: {float(t[k - 1])!r} s); time stamps must be strictly "
-                "increasing",
-            ),
-            line=log.line(k),
+        raise _sample_error(
+            LogTimeError,
+            log,
+            k,
+            f"t = {float(t[k])!r} s does not increase (previous sample, line "
+            f"{log.line(k - 1)}: {float(t[k - 1])!r} s); time stamps must be strictly "
+            "increasing",
             column=TIME_COLUMN,
             value=float(t[k]),
         )
@@ -540,30 +544,26 @@ def check_log(
     short = np.flatnonzero(dt < min_step * step)
     if gaps.size and not (short.size and short[0] < gaps[0]):  # the first offence
         k = int(gaps[0]) + 1
-        raise LogGapError(
-            _error_at(
-                src,
-                log.line(k),
-                f"a gap of {float(dt[k - 1]):.6g} s before t = {float(t[k])!r} s, more than "
-                f"{max_gap:g} times the median step {step:.6g} s: samples are missing "
-                f"(about {round(float(dt[k - 1]) / step) - 1}); split the log at the gap and "
-                "identify from the pieces",
-            ),
-            line=log.line(k),
+        raise _sample_error(
+            LogGapError,
+            log,
+            k,
+            f"a gap of {float(dt[k - 1]):.6g} s before t = {float(t[k])!r} s, more than "
+            f"{max_gap:g} times the median step {step:.6g} s: samples are missing "
+            f"(about {round(float(dt[k - 1]) / step) - 1}); split the log at the gap and "
+            "identify from the pieces",
             column=TIME_COLUMN,
             value=float(dt[k - 1]),
         )
     if short.size:
         k = int(short[0]) + 1
-        raise LogTimeError(
-            _error_at(
-                src,
-                log.line(k),
-                f"a step of {float(dt[k - 1]):.6g} s before t = {float(t[k])!r} s, less than "
-                f"{min_step:g} times the median step {step:.6g} s: irregular sampling (the "
-                "filters take the samples as uniformly spaced); resample the log uniformly",
-            ),
-            line=log.line(k),
+        raise _sample_error(
+            LogTimeError,
+            log,
+            k,
+            f"a step of {float(dt[k - 1]):.6g} s before t = {float(t[k])!r} s, less than "
+            f"{min_step:g} times the median step {step:.6g} s: irregular sampling (the "
+            "filters take the samples as uniformly spaced); resample the log uniformly",
             column=TIME_COLUMN,
             value=float(dt[k - 1]),
         )
@@ -590,15 +590,13 @@ def _check_positions(log: ActuatorLog, robot: RobotLike) -> None:
         k, i = (int(v) for v in bad[0])
         unit = "rad" if revolute[i] else "m"
         what = "stroke" if robot.description.is_ideal_ups else "joint limits"
-        raise LogLimitError(
-            _error_at(
-                log.source,
-                log.line(k),
-                f"actuator {i + 1} position l{i + 1} = {float(q[k, i])!r} {unit} is outside "
-                f"its {what} [{lower[i]:.9g}, {upper[i]:.9g}] {unit}: check the encoder "
-                "offset, the units and the column order, or the robot description",
-            ),
-            line=log.line(k),
+        raise _sample_error(
+            LogLimitError,
+            log,
+            k,
+            f"actuator {i + 1} position l{i + 1} = {float(q[k, i])!r} {unit} is outside "
+            f"its {what} [{lower[i]:.9g}, {upper[i]:.9g}] {unit}: check the encoder "
+            "offset, the units and the column order, or the robot description",
             column=POSITION_COLUMNS[i],
             value=float(q[k, i]),
         )
@@ -611,16 +609,14 @@ def _check_effort_limits(log: ActuatorLog, effort_limits: Any) -> None:
     bad = np.argwhere(np.abs(log.efforts) >= limits)
     if bad.size:
         k, i = (int(v) for v in bad[0])
-        raise LogSaturationError(
-            _error_at(
-                log.source,
-                log.line(k),
-                f"actuator {i + 1} effort gamma{i + 1} = {float(log.efforts[k, i])!r} is at "
-                f"its limit {limits[i]:.6g}: the drive saturated, so the logged effort is "
-                "not the one the dynamics needed; cut the saturated part or use a gentler "
-                "trajectory",
-            ),
-            line=log.line(k),
+        raise _sample_error(
+            LogSaturationError,
+            log,
+            k,
+            f"actuator {i + 1} effort gamma{i + 1} = {float(log.efforts[k, i])!r} is at "
+            f"its limit {limits[i]:.6g}: the drive saturated, so the logged effort is "
+            "not the one the dynamics needed; cut the saturated part or use a gentler "
+            "trajectory",
             column=EFFORT_COLUMNS[i],
             value=float(log.efforts[k, i]),
         )
@@ -643,17 +639,15 @@ def _check_clipping(log: ActuatorLog, run: int) -> None:
         for extreme in (e[:, i].max(), e[:, i].min()):
             start, length = _longest_run(e[:, i] == extreme)
             if length >= run:
-                raise LogSaturationError(
-                    _error_at(
-                        log.source,
-                        log.line(start),
-                        f"actuator {i + 1} effort gamma{i + 1} stays at its extreme value "
-                        f"{float(extreme)!r} for {length} consecutive samples (lines "
-                        f"{log.line(start)}-{log.line(start + length - 1)}): clipped by a "
-                        "saturated drive or sensor; cut that part, or pass clip_run=0 if "
-                        "the plateau is real",
-                    ),
-                    line=log.line(start),
+                raise _sample_error(
+                    LogSaturationError,
+                    log,
+                    start,
+                    f"actuator {i + 1} effort gamma{i + 1} stays at its extreme value "
+                    f"{float(extreme)!r} for {length} consecutive samples (lines "
+                    f"{log.line(start)}-{log.line(start + length - 1)}): clipped by a "
+                    "saturated drive or sensor; cut that part, or pass clip_run=0 if "
+                    "the plateau is real",
                     column=EFFORT_COLUMNS[i],
                     value=float(extreme),
                 )
