@@ -69,9 +69,15 @@ def _port_open(port: int) -> bool:
 
 def _socket_inodes(pid: int) -> set[str]:
     """Inodes of the sockets process ``pid`` holds open."""
-    fds = Path(f"/proc/{pid}/fd")
-    links = (os.readlink(fd) for fd in fds.iterdir())
-    return {link[8:-1] for link in links if link.startswith("socket:[")}
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            link = os.readlink(fd)
+        except FileNotFoundError:  # closed since the listing (the child runs on)
+            continue
+        if link.startswith("socket:["):
+            inodes.add(link[8:-1])
+    return inodes
 
 
 def _listening(inodes: set[str]) -> set[str]:
