@@ -833,13 +833,8 @@ class CompiledDynamics:
         pT, pV, pX, pc = T.ctypes.data, V.ctypes.data, X.ctypes.data, chi.ctypes.data
         po, pf = out.ctypes.data, flags.ctypes.data
         max_cond = self.robot.max_condition
-        parts = min(self.threads, n // THREAD_MIN_STATES)
-        if parts <= 1:
-            return int(fn(n, pT, pV, pX, pc, max_cond, po, pf))
-        bounds = [n * k // parts for k in range(parts + 1)]
 
-        def part(k: int) -> int:
-            s, m = bounds[k], bounds[k + 1] - bounds[k]
+        def call(s: int, m: int) -> int:  # states s .. s + m - 1
             return int(
                 fn(
                     m,
@@ -853,12 +848,7 @@ class CompiledDynamics:
                 )
             )
 
-        pool = _pool(self.threads)
-        futures = [pool.submit(part, k) for k in range(1, parts)]
-        any_flag = part(0)  # the calling thread takes the first slice
-        for f in futures:
-            any_flag |= f.result()
-        return any_flag
+        return split_batch(n, self.threads, THREAD_MIN_STATES, call)
 
     def _run_one(
         self,
@@ -1092,10 +1082,20 @@ def compiled_backend(robot: RobotLike, **kwargs: Any) -> CompiledDynamics:
     return backend
 
 
-def thread_pool(threads: int) -> ThreadPoolExecutor:
-    """The process-wide pool of ``threads - 1`` workers that compiled batches split over
-    (the value models here, the derivatives of :mod:`.derivatives`)."""
-    return _pool(threads)
+def split_batch(n: int, threads: int, min_states: int, call: Callable[[int, int], int]) -> int:
+    """Run ``call(start, count)`` over ``n`` states, split into at most ``threads`` slices of
+    at least ``min_states`` states each, on the process-wide pool (the calling thread takes
+    the first slice); returns the OR of the slices' flags."""
+    parts = min(threads, n // min_states)
+    if parts <= 1:
+        return call(0, n)
+    bounds = [n * k // parts for k in range(parts + 1)]
+    pool = _pool(threads)
+    futures = [pool.submit(call, bounds[k], bounds[k + 1] - bounds[k]) for k in range(1, parts)]
+    any_flag = call(0, bounds[1])
+    for f in futures:
+        any_flag |= f.result()
+    return any_flag
 
 
 # ---------------------------------------------------------------------------- backend="auto"

@@ -60,7 +60,7 @@ from stewart_pin.codegen.compiled import (
     CompiledDynamics,
     build_source_library,
     compiled_backend,
-    thread_pool,
+    split_batch,
 )
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import (
@@ -503,23 +503,13 @@ class CompiledDerivatives:
         fn = self._c[which]
         pT, pV, pX, pc = T.ctypes.data, V.ctypes.data, X.ctypes.data, chi.ctypes.data
         po, pf = out.ctypes.data, flags.ctypes.data
-        parts = min(self.threads, n // THREAD_MIN_STATES)
-        if parts <= 1:
-            return int(fn(n, pT, pV, pX, pc, po, pf))
-        bounds = [n * k // parts for k in range(parts + 1)]
 
-        def part(k: int) -> int:
-            s, m = bounds[k], bounds[k + 1] - bounds[k]
+        def call(s: int, m: int) -> int:  # states s .. s + m - 1
             return int(
                 fn(m, pT + 128 * s, pV + 48 * s, pX + 48 * s, pc, po + 8 * _NOUT * s, pf + 4 * s)
             )
 
-        pool = thread_pool(self.threads)
-        futures = [pool.submit(part, k) for k in range(1, parts)]
-        any_flag = part(0)
-        for f in futures:
-            any_flag |= f.result()
-        return any_flag
+        return split_batch(n, self.threads, THREAD_MIN_STATES, call)
 
     def _run_vm(
         self,
