@@ -1,0 +1,232 @@
+"""A builder for the common symmetric hexapods: :func:`symmetric_hexapod`.
+
+The classic layout of motion simulators and positioners: the six base joints ``B_i`` on
+a circle of radius ``base_radius`` in the plane ``z0 = 0``, in three pairs 120 degrees
+apart, the two joints of a pair ``base_pair_angle`` apart; the six platform joints
+``P_i`` likewise on a circle of radius ``platform_radius`` in the plane ``zp = 0``, their
+pairs turned 60 degrees from the base pairs, so that each platform pair joins two
+neighbouring base pairs (the legs zig-zag around the robot). Angles from ``x0`` (``xp``)
+about ``z0`` (``zp``), leg i numbered from 1 counter-clockwise::
+
+    B_i at 120 k -/+ a_b / 2 (i = 2k+1, 2k+2)     P_i at 120 k - 60 + a_p / 2,
+                                                        120 k + 60 - a_p / 2 (the same)
+
+A platform pair angle of 0 makes the platform joints pairwise coincident: the 6-3
+hexapod (legs 2 and 3, 4 and 5, 6 and 1 share a spherical joint centre; ideal spherical
+joints make that a valid robot, whose home pose assembles like any other; the
+description's validation allows at most three legs per point). A base pair angle of 0
+gives the 3-6, both 0 the 3-3 (octahedral) hexapod.
+
+At home, ``Fp`` is parallel to ``F0``, its origin ``home_height`` above ``O_0`` on
+``z0``: every leg has the same length ``sqrt(rb^2 + rp^2 - 2 rb rp cos(delta) + h^2)``
+(``delta`` the angle between ``B_i`` and ``P_i`` about ``z0``), which must lie inside
+the stroke.
+
+The legs are the paper's ideal 6-UPS legs, their first U-joint axes horizontal and
+perpendicular to each leg at home (so ``q2i = pi/2`` there: the U-joint as far from its
+singularity as it can be), with uniform-solid links: link 1 (the U-joint cross) a
+sphere of radius ``1.5 leg_radius`` at ``B_i``, link 2 (the cylinder body) a solid
+cylinder of radius ``1.4 leg_radius`` and length ``cylinder_length`` from ``B_i`` along
+the leg, link 3 (the piston rod) a solid cylinder of radius ``leg_radius`` and length
+``rod_length`` ending at ``P_i``. Other bodies: ``RobotDescription.replace`` afterwards.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from stewart_pin._checks import check_array, check_scalar
+from stewart_pin.description.inertia import khalil_from_urdf_inertial
+from stewart_pin.description.presets import GRAVITY, _cylinder_link
+from stewart_pin.description.robot_description import (
+    RobotDescription,
+    leg_base_rotation_from_axis,
+)
+from stewart_pin.exceptions import DescriptionError, InputError
+
+#: The largest pair angle [rad]: at 120 degrees the joints of neighbouring pairs meet.
+MAX_PAIR_ANGLE = 2.0 * math.pi / 3.0
+
+
+def attachment_points(
+    base_radius: float,
+    platform_radius: float,
+    base_pair_angle: float,
+    platform_pair_angle: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(B_i in F0, P_i in Fp)``, shape (6, 3) each [m], of the layout in the module
+    docstring (radii [m], pair angles [rad]). Each joint is its pair's centre point turned
+    by half the pair angle, so the joints of a pair with angle 0 are equal bit for bit."""
+
+    def pairs(radius: float, centres_deg: tuple[float, ...], angle: float) -> np.ndarray:
+        c, s = math.cos(0.5 * angle), math.sin(0.5 * angle)
+        out = []
+        for centre in np.radians(centres_deg):
+            x, y = radius * math.cos(centre), radius * math.sin(centre)
+            out += [[c * x + s * y, c * y - s * x, 0.0], [c * x - s * y, c * y + s * x, 0.0]]
+        return np.array(out)
+
+    B = pairs(base_radius, (0.0, 120.0, 240.0), base_pair_angle)  # legs 1-2, 3-4, 5-6
+    P = pairs(platform_radius, (60.0, 180.0, 300.0), platform_pair_angle)  # 2-3, 4-5, 6-1
+    return B, np.roll(P, 1, axis=0)
+
+
+def _number(value: Any, name: str, unit: str, **kind: bool) -> float:
+    try:
+        return check_scalar(value, name, unit=unit, **kind)
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+
+
+def symmetric_hexapod(
+    base_radius: float,
+    platform_radius: float,
+    base_pair_angle: float,
+    platform_pair_angle: float,
+    home_height: float,
+    stroke: Any,
+    *,
+    platform_mass: float,
+    platform_inertia: Any = None,
+    platform_com: Any = (0.0, 0.0, 0.0),
+    leg_masses: Any = (0.0, 0.0, 0.0),
+    leg_radius: float | None = None,
+    cylinder_length: float | None = None,
+    rod_length: float | None = None,
+    u_joint_limits: Any = None,
+    gravity: Any = GRAVITY,
+    name: str = "symmetric",
+) -> RobotDescription:
+    """A symmetric 6-6 or 6-3 (6-UPS) hexapod (layout, frames and links in the module
+    docstring).
+
+    Args:
+        base_radius: radius of the base joints' circle, ``|B_i|`` [m], > 0.
+        platform_radius: radius of the platform joints' circle, ``|P_i|`` [m], > 0.
+        base_pair_angle: angle between the two joints of a base pair, seen from ``O_0``
+            [rad], in ``[0, 2 pi / 3)``.
+        platform_pair_angle: the same on the platform [rad]; 0 for a 6-3 hexapod.
+        home_height: height of ``O_p`` above ``O_0`` at home (``Fp`` parallel to ``F0``)
+            [m], > 0.
+        stroke: ``(min, max)`` leg length ``|B_i P_i|`` [m]; the home length must lie
+            strictly inside.
+        platform_mass: [kg], >= 0.
+        platform_inertia: about the platform's centre of mass, in ``Fp`` axes [kg m^2]:
+            a (3, 3) tensor or its (3,) principal moments along ``xp, yp, zp``; default a
+            uniform thin disc of radius ``platform_radius``
+            (``m r^2 / 4, m r^2 / 4, m r^2 / 2``).
+        platform_com: the platform's centre of mass in ``Fp``, shape (3,) [m].
+        leg_masses: ``(U-joint cross, cylinder body, piston rod)`` of every leg [kg], >= 0
+            (default massless legs).
+        leg_radius: the rod's radius [m] (default ``stroke[0] / 40``).
+        cylinder_length: the cylinder body's length from ``B_i`` [m] (default
+            ``0.75 stroke[0]``).
+        rod_length: the rod's length, ending at ``P_i`` [m] (default ``0.75 stroke[0]``).
+        u_joint_limits: optional ``[[q1min, q1max], [q2min, q2max]]`` [rad], or (6, 2, 2).
+        gravity: in ``F0``, shape (3,) [m/s^2].
+        name: the robot's name (:data:`~stewart_pin.description.robot_description.NAME_RULE`).
+
+    Returns:
+        the :class:`RobotDescription` (``StewartRobot(description)`` builds the robot).
+
+    Raises:
+        DescriptionError: a bad number (named), a pair angle outside ``[0, 2 pi / 3)``,
+            or a home leg length outside the stroke (the message gives the length and
+            the height range that fits); :class:`~stewart_pin.exceptions.InertiaError`
+            for a non-physical platform inertia; the description's own rules
+            (:class:`RobotDescription`).
+    """
+    rb = _number(base_radius, "base_radius", "m", positive=True)
+    rp = _number(platform_radius, "platform_radius", "m", positive=True)
+    ab = _number(base_pair_angle, "base_pair_angle", "rad", nonnegative=True)
+    ap = _number(platform_pair_angle, "platform_pair_angle", "rad", nonnegative=True)
+    for key, value in (("base_pair_angle", ab), ("platform_pair_angle", ap)):
+        if value >= MAX_PAIR_ANGLE:
+            raise DescriptionError(
+                f"symmetric_hexapod: {key} = {value:.9g} rad must be below 2 pi / 3 "
+                f"({MAX_PAIR_ANGLE:.9g} rad): wider, a joint of one pair passes the "
+                "neighbouring pair's"
+            )
+    h = _number(home_height, "home_height", "m", positive=True)
+    try:
+        lo, hi = check_array(stroke, (2,), "stroke")
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+    if not 0.0 < lo < hi:
+        raise DescriptionError(
+            f"symmetric_hexapod: stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
+        )
+    B, P = attachment_points(rb, rp, ab, ap)
+    across = float(np.linalg.norm(P[0] - B[0]))  # the same for every leg, by symmetry
+    length = math.hypot(across, h)
+    if not lo < length < hi:
+        fits = [math.sqrt(max(x**2 - across**2, 0.0)) for x in (lo, hi)]
+        raise DescriptionError(
+            f"symmetric_hexapod: at home_height {h:.9g} m the legs are {length:.9g} m long, "
+            f"outside the stroke [{lo:.9g}, {hi:.9g}] m; choose a home height in "
+            f"({fits[0]:.9g}, {fits[1]:.9g}) m, or another stroke"
+        )
+    m_p = _number(platform_mass, "platform_mass", "kg", nonnegative=True)
+    try:
+        com = check_array(platform_com, (3,), "platform_com")
+        masses = check_array(leg_masses, (3,), "leg_masses")
+        if platform_inertia is None:
+            I_c = m_p * rp**2 * np.diag([0.25, 0.25, 0.5])
+        else:
+            I_c = np.asarray(platform_inertia, dtype=object)
+            I_c = (
+                np.diag(check_array(platform_inertia, (3,), "platform_inertia"))
+                if I_c.ndim == 1
+                else check_array(platform_inertia, (3, 3), "platform_inertia")
+            )
+        if not np.allclose(I_c, I_c.T, rtol=0.0, atol=1e-12 * np.abs(I_c).max(initial=0.0)):
+            raise InputError(f"platform_inertia must be symmetric, got {I_c.tolist()}")
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+    if np.any(masses < 0):
+        raise DescriptionError(
+            f"symmetric_hexapod: leg_masses must be >= 0 [kg], got {masses.tolist()}"
+        )
+    radius = _number(
+        lo / 40.0 if leg_radius is None else leg_radius, "leg_radius", "m", positive=True
+    )
+    cylinder = _number(
+        0.75 * lo if cylinder_length is None else cylinder_length,
+        "cylinder_length",
+        "m",
+        positive=True,
+    )
+    rod = _number(
+        0.75 * lo if rod_length is None else rod_length, "rod_length", "m", positive=True
+    )
+    m1, m2, m3 = masses
+    link1 = khalil_from_urdf_inertial(m1, np.zeros(3), 0.4 * m1 * (1.5 * radius) ** 2 * np.eye(3))
+    link2 = _cylinder_link(m2, 1.4 * radius, cylinder, np.array([0.0, -1.0, 0.0]), 0.0)
+    link3 = _cylinder_link(m3, radius, rod, np.array([0.0, 0.0, 1.0]), -rod)
+    home = np.eye(4)
+    home[2, 3] = h
+    rotations = []
+    for b, p in zip(B, P + home[:3, 3], strict=True):
+        leg = p - b
+        axis = np.cross([0.0, 0.0, 1.0], leg)
+        if np.linalg.norm(axis) <= 1e-9 * length:  # a vertical leg: a tangential axis
+            axis = np.cross([0.0, 0.0, 1.0], b)
+        rotations.append(leg_base_rotation_from_axis(axis, leg))
+    return RobotDescription(
+        base_points=B,
+        platform_points=P,
+        leg_base_rotations=np.array(rotations),
+        stroke=np.array([lo, hi]),
+        leg_inertia=np.tile(np.stack([link1, link2, link3]), (6, 1, 1)),
+        platform_inertia=khalil_from_urdf_inertial(m_p, com, I_c),
+        gravity=gravity,
+        u_joint_limits=u_joint_limits,
+        name=name,
+        home_pose=home,
+    )
+
+
+__all__ = ["MAX_PAIR_ANGLE", "attachment_points", "symmetric_hexapod"]
