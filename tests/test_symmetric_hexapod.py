@@ -1,10 +1,12 @@
-"""The symmetric-hexapod builder (``stewart_pin.symmetric_hexapod``): 6-6 and 6-3.
+"""The symmetric-hexapod builder (``stewart_pin.symmetric_hexapod``): 6-6 and 6-3,
+6-UPS and 6-RUS.
 
 Independent references: the attachment points from the layout's definition (angles and
-radii, written out here), the home leg length by Pythagoras, the platform inertia of a
-uniform disc moved by the parallel-axis theorem (written out here), the U-joint angle
-``q2 = pi/2`` at home (the axes are perpendicular to the legs), and the dynamics of the
-built robots against Pinocchio's constrained dynamics of the closed-loop tree
+radii, written out here), the home leg (6-UPS) and rod (6-RUS) lengths by Pythagoras, the
+platform inertia of a uniform disc moved by the parallel-axis theorem (written out here),
+the U-joint angle ``q2 = pi/2`` at home (the axes are perpendicular to the legs), the
+crank angles 0 at home (the cranks horizontal), and the dynamics of the built robots
+against Pinocchio's constrained dynamics of the closed-loop tree
 (``stewart_pin.validate``).
 """
 
@@ -134,6 +136,60 @@ def test_bad_input_named(change: dict, match: str) -> None:
     }
     with pytest.raises(DescriptionError, match=match):
         symmetric_hexapod(**args)
+
+
+def build_rus(platform_pair_angle: float) -> RobotDescription:
+    """A desktop 6-RUS head: 8 cm / 6 cm radii, 3 cm cranks, 10 cm home height."""
+    return symmetric_hexapod(
+        0.08,
+        0.06,
+        math.radians(30.0),
+        platform_pair_angle,
+        0.1,
+        architecture="rus",
+        crank_length=0.03,
+        platform_mass=1.0,
+        leg_masses=(0.005, 0.002, 0.008),
+        platform_com=(0.002, 0.0, 0.01),
+    )
+
+
+@pytest.mark.parametrize("ap", [math.radians(20.0), 0.0], ids=["6-6", "6-3"])
+def test_rus_cranks_horizontal_at_home_and_dynamics_agree_with_pinocchio(ap: float) -> None:
+    desc = build_rus(ap)
+    assert desc.architecture == "rus" and desc.stroke is None
+    robot = StewartRobot(desc)  # checks the home pose: reachable, away from singularities
+    T = robot.home_pose
+    assert T[:3, 3].tolist() == [0.0, 0.0, 0.1]
+    np.testing.assert_allclose(robot.actuator_positions(T), 0.0, atol=1e-12)  # [rad]
+    # the rod joins the crank tip C_i (3 cm along the tangent, away from the pair partner)
+    # to P_i at home: its length by Pythagoras from the layout
+    b, p = 15.0, math.degrees(ap) / 2  # half pair angles [deg]
+    beta, phi = math.radians(-b), math.radians(-60 + p)  # B_1, P_1
+    tangent = -np.array([-math.sin(beta), math.cos(beta), 0.0])  # leg 1: clockwise
+    C = 0.08 * np.array([math.cos(beta), math.sin(beta), 0.0]) + 0.03 * tangent
+    P = np.array([0.06 * math.cos(phi), 0.06 * math.sin(phi), 0.1])
+    for leg in desc.legs:
+        assert leg.tip[0] == pytest.approx(float(np.linalg.norm(P - C)), rel=1e-14)
+    report = validate(robot, n_states=20, seed=3)
+    assert report.passed(IDM_TOLERANCE, DDM_TOLERANCE), str(report)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"stroke": (0.1, 0.2)}, "stroke do not apply to a 6-RUS"),
+        ({"crank_length": None}, "needs its crank_length"),
+        ({"crank_limits": (0.1, 1.0)}, "must hold the horizontal home position"),
+        ({"architecture": "pus"}, "must be 'ups' or 'rus'"),
+    ],
+)
+def test_rus_bad_input_named(change: dict, match: str) -> None:
+    args = {"architecture": "rus", "crank_length": 0.03, "platform_mass": 1.0, **change}
+    with pytest.raises(DescriptionError, match=match):
+        symmetric_hexapod(0.08, 0.06, 0.5, 0.3, 0.1, **args)
+    with pytest.raises(DescriptionError, match="crank_length do not apply to a 6-UPS"):
+        symmetric_hexapod(RB, RP, AB, AP, HEIGHT, STROKE, platform_mass=1.0, crank_length=0.1)
 
 
 def test_non_physical_platform_inertia_refused() -> None:

@@ -22,13 +22,24 @@ At home, ``Fp`` is parallel to ``F0``, its origin ``home_height`` above ``O_0`` 
 (``delta`` the angle between ``B_i`` and ``P_i`` about ``z0``), which must lie inside
 the stroke.
 
-The legs are the paper's ideal 6-UPS legs, their first U-joint axes horizontal and
-perpendicular to each leg at home (so ``q2i = pi/2`` there: the U-joint as far from its
-singularity as it can be), with uniform-solid links: link 1 (the U-joint cross) a
-sphere of radius ``1.5 leg_radius`` at ``B_i``, link 2 (the cylinder body) a solid
-cylinder of radius ``1.4 leg_radius`` and length ``cylinder_length`` from ``B_i`` along
-the leg, link 3 (the piston rod) a solid cylinder of radius ``leg_radius`` and length
-``rod_length`` ending at ``P_i``. Other bodies: ``RobotDescription.replace`` afterwards.
+``architecture="ups"``: the paper's ideal 6-UPS legs, their first U-joint axes
+horizontal and perpendicular to each leg at home (so ``q2i = pi/2`` there: the U-joint
+as far from its singularity as it can be), with uniform-solid links: link 1 (the U-joint
+cross) a sphere of radius ``1.5 leg_radius`` at ``B_i``, link 2 (the cylinder body) a
+solid cylinder of radius ``1.4 leg_radius`` and length ``cylinder_length`` from ``B_i``
+along the leg, link 3 (the piston rod) a solid cylinder of radius ``leg_radius`` and
+length ``rod_length`` ending at ``P_i``.
+
+``architecture="rus"``: ``rus`` legs (general legs, ``RobotDescription.legs``): at each
+``B_i`` a crank of length ``crank_length`` turning about the radial axis (the servo's
+shaft), horizontal and tangential at home (crank angle 0), pointing away from its pair
+partner; a universal joint at the crank tip ``C_i``; a rod from ``C_i`` to ``P_i``,
+whose length ``|P_i - C_i|`` at home follows from the home height (the same for every
+leg, by symmetry). Links: the crank and the rod solid cylinders of radius
+``leg_radius``, the universal joint's cross a sphere of radius ``1.5 leg_radius`` at
+``C_i``; no joint dynamics.
+
+Other bodies or joint terms: ``RobotDescription.replace`` afterwards.
 """
 
 from __future__ import annotations
@@ -40,6 +51,7 @@ import numpy as np
 
 from stewart_pin._checks import check_array, check_scalar
 from stewart_pin.description.inertia import khalil_from_urdf_inertial
+from stewart_pin.description.leg_architecture import rus
 from stewart_pin.description.presets import GRAVITY, _cylinder_link
 from stewart_pin.description.robot_description import (
     RobotDescription,
@@ -87,8 +99,11 @@ def symmetric_hexapod(
     base_pair_angle: float,
     platform_pair_angle: float,
     home_height: float,
-    stroke: Any,
+    stroke: Any = None,
     *,
+    architecture: str = "ups",
+    crank_length: float | None = None,
+    crank_limits: Any = (-math.pi / 2, math.pi / 2),
     platform_mass: float,
     platform_inertia: Any = None,
     platform_com: Any = (0.0, 0.0, 0.0),
@@ -100,8 +115,8 @@ def symmetric_hexapod(
     gravity: Any = GRAVITY,
     name: str = "symmetric",
 ) -> RobotDescription:
-    """A symmetric 6-6 or 6-3 (6-UPS) hexapod (layout, frames and links in the module
-    docstring).
+    """A symmetric 6-6 or 6-3 hexapod, 6-UPS or 6-RUS (layout, frames and links in the
+    module docstring).
 
     Args:
         base_radius: radius of the base joints' circle, ``|B_i|`` [m], > 0.
@@ -111,34 +126,65 @@ def symmetric_hexapod(
         platform_pair_angle: the same on the platform [rad]; 0 for a 6-3 hexapod.
         home_height: height of ``O_p`` above ``O_0`` at home (``Fp`` parallel to ``F0``)
             [m], > 0.
-        stroke: ``(min, max)`` leg length ``|B_i P_i|`` [m]; the home length must lie
-            strictly inside.
+        stroke: 6-UPS (required): ``(min, max)`` leg length ``|B_i P_i|`` [m]; the home
+            length must lie strictly inside.
+        architecture: ``"ups"`` (the paper's ideal 6-UPS: prismatic actuators) or
+            ``"rus"`` (cranks on rotary actuators; general legs).
+        crank_length: 6-RUS (required): the crank's length [m], > 0.
+        crank_limits: 6-RUS: ``(lower, upper)`` crank angle [rad] about its radial axis,
+            from the horizontal home position (must hold 0).
         platform_mass: [kg], >= 0.
         platform_inertia: about the platform's centre of mass, in ``Fp`` axes [kg m^2]:
             a (3, 3) tensor or its (3,) principal moments along ``xp, yp, zp``; default a
             uniform thin disc of radius ``platform_radius``
             (``m r^2 / 4, m r^2 / 4, m r^2 / 2``).
         platform_com: the platform's centre of mass in ``Fp``, shape (3,) [m].
-        leg_masses: ``(U-joint cross, cylinder body, piston rod)`` of every leg [kg], >= 0
-            (default massless legs).
-        leg_radius: the rod's radius [m] (default ``stroke[0] / 40``).
-        cylinder_length: the cylinder body's length from ``B_i`` [m] (default
+        leg_masses: the three links of every leg [kg], >= 0: 6-UPS ``(U-joint cross,
+            cylinder body, piston rod)``, 6-RUS ``(crank, U-joint cross, rod)`` (default
+            massless legs).
+        leg_radius: the rod's radius [m] (default ``stroke[0] / 40``, 6-RUS
+            ``crank_length / 10``).
+        cylinder_length: 6-UPS: the cylinder body's length from ``B_i`` [m] (default
             ``0.75 stroke[0]``).
-        rod_length: the rod's length, ending at ``P_i`` [m] (default ``0.75 stroke[0]``).
-        u_joint_limits: optional ``[[q1min, q1max], [q2min, q2max]]`` [rad], or (6, 2, 2).
+        rod_length: 6-UPS: the piston rod's length, ending at ``P_i`` [m] (default
+            ``0.75 stroke[0]``). (A 6-RUS rod's length follows from the home height.)
+        u_joint_limits: 6-UPS, optional: ``[[q1min, q1max], [q2min, q2max]]`` [rad], or
+            (6, 2, 2).
         gravity: in ``F0``, shape (3,) [m/s^2].
         name: the robot's name (:data:`~stewart_pin.description.robot_description.NAME_RULE`).
 
     Returns:
-        the :class:`RobotDescription` (``StewartRobot(description)`` builds the robot).
+        the :class:`RobotDescription` (``StewartRobot(description)`` builds the robot;
+        for 6-RUS it checks that the home pose is away from the legs' singularities).
 
     Raises:
         DescriptionError: a bad number (named), a pair angle outside ``[0, 2 pi / 3)``,
-            or a home leg length outside the stroke (the message gives the length and
-            the height range that fits); :class:`~stewart_pin.exceptions.InertiaError`
-            for a non-physical platform inertia; the description's own rules
-            (:class:`RobotDescription`).
+            a home leg length outside the stroke (the message gives the length and the
+            height range that fits), an option of the other architecture;
+            :class:`~stewart_pin.exceptions.InertiaError` for a non-physical platform
+            inertia; the description's own rules (:class:`RobotDescription`).
     """
+    if architecture not in ("ups", "rus"):
+        raise DescriptionError(
+            f"symmetric_hexapod: architecture must be 'ups' or 'rus', got {architecture!r}"
+        )
+    other = (
+        {"crank_length": crank_length}
+        if architecture == "ups"
+        else {
+            "stroke": stroke,
+            "cylinder_length": cylinder_length,
+            "rod_length": rod_length,
+            "u_joint_limits": u_joint_limits,
+        }
+    )
+    given = [key for key, value in other.items() if value is not None]
+    if given:
+        raise DescriptionError(
+            f"symmetric_hexapod: {', '.join(given)} do not apply to a 6-{architecture.upper()} "
+            "hexapod (6-UPS: stroke, cylinder_length, rod_length, u_joint_limits; 6-RUS: "
+            "crank_length, crank_limits; a 6-RUS rod's length follows from home_height)"
+        )
     rb = _number(base_radius, "base_radius", "m", positive=True)
     rp = _number(platform_radius, "platform_radius", "m", positive=True)
     ab = _number(base_pair_angle, "base_pair_angle", "rad", nonnegative=True)
@@ -151,6 +197,30 @@ def symmetric_hexapod(
                 "neighbouring pair's"
             )
     h = _number(home_height, "home_height", "m", positive=True)
+    B, P = attachment_points(rb, rp, ab, ap)
+    home = np.eye(4)
+    home[2, 3] = h
+    platform = _platform(platform_mass, platform_inertia, platform_com, rp)
+    try:
+        masses = check_array(leg_masses, (3,), "leg_masses")
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+    if np.any(masses < 0):
+        raise DescriptionError(
+            f"symmetric_hexapod: leg_masses must be >= 0 [kg], got {masses.tolist()}"
+        )
+    common = {
+        "base_points": B,
+        "platform_points": P,
+        "platform_inertia": platform,
+        "gravity": gravity,
+        "name": name,
+        "home_pose": home,
+    }
+    if architecture == "rus":
+        return _rus(B, P + home[:3, 3], crank_length, crank_limits, masses, leg_radius, common)
+    if stroke is None:
+        raise DescriptionError("symmetric_hexapod: a 6-UPS hexapod needs its stroke (min, max)")
     try:
         lo, hi = check_array(stroke, (2,), "stroke")
     except InputError as e:
@@ -159,7 +229,6 @@ def symmetric_hexapod(
         raise DescriptionError(
             f"symmetric_hexapod: stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
         )
-    B, P = attachment_points(rb, rp, ab, ap)
     across = float(np.linalg.norm(P[0] - B[0]))  # the same for every leg, by symmetry
     length = math.hypot(across, h)
     if not lo < length < hi:
@@ -168,27 +237,6 @@ def symmetric_hexapod(
             f"symmetric_hexapod: at home_height {h:.9g} m the legs are {length:.9g} m long, "
             f"outside the stroke [{lo:.9g}, {hi:.9g}] m; choose a home height in "
             f"({fits[0]:.9g}, {fits[1]:.9g}) m, or another stroke"
-        )
-    m_p = _number(platform_mass, "platform_mass", "kg", nonnegative=True)
-    try:
-        com = check_array(platform_com, (3,), "platform_com")
-        masses = check_array(leg_masses, (3,), "leg_masses")
-        if platform_inertia is None:
-            I_c = m_p * rp**2 * np.diag([0.25, 0.25, 0.5])
-        else:
-            I_c = np.asarray(platform_inertia, dtype=object)
-            I_c = (
-                np.diag(check_array(platform_inertia, (3,), "platform_inertia"))
-                if I_c.ndim == 1
-                else check_array(platform_inertia, (3, 3), "platform_inertia")
-            )
-        if not np.allclose(I_c, I_c.T, rtol=0.0, atol=1e-12 * np.abs(I_c).max(initial=0.0)):
-            raise InputError(f"platform_inertia must be symmetric, got {I_c.tolist()}")
-    except InputError as e:
-        raise DescriptionError(f"symmetric_hexapod: {e}") from e
-    if np.any(masses < 0):
-        raise DescriptionError(
-            f"symmetric_hexapod: leg_masses must be >= 0 [kg], got {masses.tolist()}"
         )
     radius = _number(
         lo / 40.0 if leg_radius is None else leg_radius, "leg_radius", "m", positive=True
@@ -203,11 +251,9 @@ def symmetric_hexapod(
         0.75 * lo if rod_length is None else rod_length, "rod_length", "m", positive=True
     )
     m1, m2, m3 = masses
-    link1 = khalil_from_urdf_inertial(m1, np.zeros(3), 0.4 * m1 * (1.5 * radius) ** 2 * np.eye(3))
+    link1 = _sphere(m1, 1.5 * radius)
     link2 = _cylinder_link(m2, 1.4 * radius, cylinder, np.array([0.0, -1.0, 0.0]), 0.0)
     link3 = _cylinder_link(m3, radius, rod, np.array([0.0, 0.0, 1.0]), -rod)
-    home = np.eye(4)
-    home[2, 3] = h
     rotations = []
     for b, p in zip(B, P + home[:3, 3], strict=True):
         leg = p - b
@@ -216,16 +262,89 @@ def symmetric_hexapod(
             axis = np.cross([0.0, 0.0, 1.0], b)
         rotations.append(leg_base_rotation_from_axis(axis, leg))
     return RobotDescription(
-        base_points=B,
-        platform_points=P,
         leg_base_rotations=np.array(rotations),
         stroke=np.array([lo, hi]),
         leg_inertia=np.tile(np.stack([link1, link2, link3]), (6, 1, 1)),
-        platform_inertia=khalil_from_urdf_inertial(m_p, com, I_c),
-        gravity=gravity,
         u_joint_limits=u_joint_limits,
-        name=name,
-        home_pose=home,
+        **common,
+    )
+
+
+def _sphere(mass: float, radius: float) -> np.ndarray:
+    """Khalil parameters of a uniform solid sphere centred at the frame origin."""
+    return khalil_from_urdf_inertial(mass, np.zeros(3), 0.4 * mass * radius**2 * np.eye(3))
+
+
+def _platform(mass: Any, inertia: Any, com: Any, radius: float) -> np.ndarray:
+    """The platform's Khalil parameters from the builder's arguments (checked)."""
+    m = _number(mass, "platform_mass", "kg", nonnegative=True)
+    try:
+        c = check_array(com, (3,), "platform_com")
+        if inertia is None:
+            I_c = m * radius**2 * np.diag([0.25, 0.25, 0.5])
+        elif np.ndim(np.asarray(inertia, dtype=object)) == 1:
+            I_c = np.diag(check_array(inertia, (3,), "platform_inertia"))
+        else:
+            I_c = check_array(inertia, (3, 3), "platform_inertia")
+        if not np.allclose(I_c, I_c.T, rtol=0.0, atol=1e-12 * np.abs(I_c).max(initial=0.0)):
+            raise InputError(f"platform_inertia must be symmetric, got {I_c.tolist()}")
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+    return khalil_from_urdf_inertial(m, c, I_c)
+
+
+def _rus(
+    B: np.ndarray,
+    P_home: np.ndarray,
+    crank_length: Any,
+    crank_limits: Any,
+    masses: np.ndarray,
+    leg_radius: Any,
+    common: dict[str, Any],
+) -> RobotDescription:
+    """The 6-RUS robot of :func:`symmetric_hexapod`: each crank about the radial axis at
+    ``B_i``, horizontal at home and pointing away from its pair partner (tangentially),
+    the rod from the crank tip ``C_i`` to ``P_i`` at home (so its length follows from the
+    home height). Home joint values in closed form: frame 3i's x axis, the rod, is
+    ``(cos q2 cos q3, sin q2 cos q3, sin q3)`` in frame 1i's axes (``rus`` legs)."""
+    if crank_length is None:
+        raise DescriptionError("symmetric_hexapod: a 6-RUS hexapod needs its crank_length")
+    crank = _number(crank_length, "crank_length", "m", positive=True)
+    try:
+        lower, upper = check_array(crank_limits, (2,), "crank_limits")
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+    if not lower < 0.0 < upper:
+        raise DescriptionError(
+            f"symmetric_hexapod: crank_limits must hold the horizontal home position 0, got "
+            f"[{lower:.9g}, {upper:.9g}] rad"
+        )
+    radius = _number(
+        crank / 10.0 if leg_radius is None else leg_radius, "leg_radius", "m", positive=True
+    )
+    rotations, legs = [], []
+    for k, (b, p) in enumerate(zip(B, P_home, strict=True)):
+        radial = np.array([b[0], b[1], 0.0]) / math.hypot(b[0], b[1])
+        x1 = (1.0 if k % 2 else -1.0) * np.cross([0.0, 0.0, 1.0], radial)
+        R = np.column_stack([x1, np.cross(radial, x1), radial])
+        rod_vector = R.T @ (p - (b + crank * x1))  # in frame 1i's axes at q1 = 0
+        rod = float(np.linalg.norm(rod_vector))
+        u = rod_vector / rod
+        q = np.array([0.0, math.atan2(u[1], u[0]), math.asin(np.clip(u[2], -1.0, 1.0))])
+        leg = rus(crank, rod, (float(lower), float(upper)))
+        legs.append(leg.replace(branch=leg.branch_at(q), guess=q))
+        rotations.append(R)
+    m1, m2, m3 = masses
+    x = np.array([1.0, 0.0, 0.0])
+    link1 = _cylinder_link(m1, radius, crank, x, 0.0)
+    link2 = _sphere(m2, 1.5 * radius)
+    link3 = _cylinder_link(m3, radius, legs[0].tip[0], x, 0.0)
+    return RobotDescription(
+        leg_base_rotations=np.array(rotations),
+        stroke=None,
+        leg_inertia=np.tile(np.stack([link1, link2, link3]), (6, 1, 1)),
+        legs=tuple(legs),
+        **common,
     )
 
 
