@@ -121,6 +121,16 @@ def test_massless_legs_by_default_and_round_trip(tmp_path) -> None:
         ({"platform_inertia": [[1, 2, 0], [0, 1, 0], [0, 0, 1]]}, "must be symmetric"),
         ({"leg_radius": 0.0}, "leg_radius"),
         ({"name": "../x"}, "robot name"),
+        # pair angles adding to 120 degrees on equal radii: every P_i straight above its
+        # B_i, every leg vertical: nothing holds the platform across, singular (and nearly)
+        (
+            {"platform_radius": RB, "base_pair_angle": math.radians(120.0) - AP},
+            "the home pose is a parallel singularity",
+        ),
+        (
+            {"platform_radius": RB, "base_pair_angle": math.radians(120.0 + 1e-4) - AP},
+            "the home pose is a parallel singularity",
+        ),
     ],
 )
 def test_bad_input_named(change: dict, match: str) -> None:

@@ -61,6 +61,11 @@ from stewart_pin.exceptions import DescriptionError, InputError
 
 #: The largest pair angle [rad]: at 120 degrees the joints of neighbouring pairs meet.
 MAX_PAIR_ANGLE = 2.0 * math.pi / 3.0
+#: The largest condition number of the 6-UPS inverse Jacobian at home (rows
+#: ``[u_i, (L_i x u_i) / r_p]``, eq. 13, the angular part made unit-free by the platform
+#: radius), as the kinematics' ``MAX_CONDITION``: beyond, the home pose is (nearly) a
+#: parallel singularity and the builder refuses the geometry.
+MAX_HOME_CONDITION = 1e4
 
 
 def attachment_points(
@@ -254,6 +259,15 @@ def symmetric_hexapod(
     link1 = _sphere(m1, 1.5 * radius)
     link2 = _cylinder_link(m2, 1.4 * radius, cylinder, np.array([0.0, -1.0, 0.0]), 0.0)
     link3 = _cylinder_link(m3, radius, rod, np.array([0.0, 0.0, 1.0]), -rod)
+    u = (P + home[:3, 3] - B) / length  # unit leg directions at home
+    s = np.linalg.svd(np.hstack([u, np.cross(P, u) / rp]), compute_uv=False)
+    if s[-1] <= s[0] / MAX_HOME_CONDITION:
+        raise DescriptionError(
+            f"symmetric_hexapod: the home pose is a parallel singularity (condition number "
+            f"of the inverse Jacobian {s[0] / s[-1]:.3g} > {MAX_HOME_CONDITION:g}): the "
+            "platform could move with the legs locked; change the pair angles, the radii or "
+            "the home height"
+        )
     rotations = []
     for b, p in zip(B, P + home[:3, 3], strict=True):
         leg = p - b
@@ -348,4 +362,4 @@ def _rus(
     )
 
 
-__all__ = ["MAX_PAIR_ANGLE", "attachment_points", "symmetric_hexapod"]
+__all__ = ["MAX_HOME_CONDITION", "MAX_PAIR_ANGLE", "attachment_points", "symmetric_hexapod"]
