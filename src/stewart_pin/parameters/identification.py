@@ -554,9 +554,9 @@ def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
 
 #: Default threshold of :meth:`IdentificationResult.poorly_identified`: a base parameter
 #: whose standard deviation exceeds this percentage of its estimate's magnitude [%] is not
-#: determined by the data (Khalil and Dombre's rule of thumb: well-identified parameters
-#: have relative standard deviations of a few percent; one above ~10-20 % can take any
-#: value of its order without changing the forces beyond the noise).
+#: determined by the data (a common rule of thumb: well identified parameters have
+#: relative standard deviations of a few percent; above 10-20 %, values of the same order
+#: fit the forces as well, within the noise).
 MAX_RELATIVE_STD = 20.0
 
 #: What to do about poorly identified parameters, printed under a report that has some.
