@@ -1,8 +1,9 @@
 """The symmetric-hexapod builder (``stewart_pin.symmetric_hexapod``): 6-6 and 6-3,
-6-UPS and 6-RUS.
+6-UPS, 6-RUS and 6-PUS.
 
 Independent references: the attachment points from the layout's definition (angles and
-radii, written out here), the home leg (6-UPS) and rod (6-RUS) lengths by Pythagoras, the
+radii, written out here), the home leg (6-UPS) and rod (6-RUS) lengths and the slides'
+heights (6-PUS) by Pythagoras, the
 platform inertia of a uniform disc moved by the parallel-axis theorem (written out here),
 the U-joint angle ``q2 = pi/2`` at home (the axes are perpendicular to the legs), the
 crank angles 0 at home (the cranks horizontal), and the dynamics of the built robots
@@ -191,7 +192,7 @@ def test_rus_cranks_horizontal_at_home_and_dynamics_agree_with_pinocchio(ap: flo
         ({"stroke": (0.1, 0.2)}, "stroke do not apply to a 6-RUS"),
         ({"crank_length": None}, "needs its crank_length"),
         ({"crank_limits": (0.1, 1.0)}, "must hold the horizontal home position"),
-        ({"architecture": "pus"}, "must be 'ups' or 'rus'"),
+        ({"architecture": "sps"}, r"must be one of \['ups', 'rus', 'pus'\]"),
     ],
 )
 def test_rus_bad_input_named(change: dict, match: str) -> None:
@@ -200,6 +201,49 @@ def test_rus_bad_input_named(change: dict, match: str) -> None:
         symmetric_hexapod(0.08, 0.06, 0.5, 0.3, 0.1, **args)
     with pytest.raises(DescriptionError, match="crank_length do not apply to a 6-UPS"):
         symmetric_hexapod(RB, RP, AB, AP, HEIGHT, STROKE, platform_mass=1.0, crank_length=0.1)
+
+
+def build_pus(platform_pair_angle: float, **kwargs) -> RobotDescription:
+    """A hexaglide-like positioner: rails on a 0.4 m circle, 0.45 m rods, 0.6 m home."""
+    args = {"rod_length": 0.45, "platform_mass": 8.0, "leg_masses": (1.0, 0.1, 0.4), **kwargs}
+    return symmetric_hexapod(
+        0.4,
+        0.2,
+        math.radians(24.0),
+        platform_pair_angle,
+        0.6,
+        (0.0, 0.5),
+        architecture="pus",
+        **args,
+    )
+
+
+@pytest.mark.parametrize("ap", [math.radians(20.0), 0.0], ids=["6-6", "6-3"])
+def test_pus_slides_at_the_height_the_rods_give_and_dynamics_agree_with_pinocchio(ap):
+    desc = build_pus(ap, platform_com=(0.0, 0.01, 0.02))
+    assert desc.architecture == "pus"
+    robot = StewartRobot(desc)
+    # P_1 at home, and its horizontal distance to the rail through B_1 (law of cosines)
+    delta = math.radians(-60 + math.degrees(ap) / 2 + 12)  # angle of P_1 minus B_1's
+    across = math.sqrt(0.4**2 + 0.2**2 - 2 * 0.4 * 0.2 * math.cos(delta))
+    slide = 0.6 - math.sqrt(0.45**2 - across**2)  # [m] on the rail, below P_1
+    np.testing.assert_allclose(robot.actuator_positions(robot.home_pose), slide, rtol=1e-13)
+    report = validate(robot, n_states=20, seed=3)
+    assert report.passed(IDM_TOLERANCE, DDM_TOLERANCE), str(report)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"rod_length": 0.1}, r"rods \(0\.1 m\) cannot reach"),
+        ({"rod_length": 0.8}, r"slides are at -0\.1\d* m on their rails, outside the stroke"),
+        ({"rod_length": None}, "needs its rod_length"),
+        ({"crank_length": 0.1}, "crank_length do not apply to a 6-PUS"),
+    ],
+)
+def test_pus_bad_input_named(change: dict, match: str) -> None:
+    with pytest.raises(DescriptionError, match=match):
+        build_pus(0.3, **change)
 
 
 def test_non_physical_platform_inertia_refused() -> None:

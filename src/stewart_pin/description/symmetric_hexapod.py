@@ -39,6 +39,14 @@ leg, by symmetry). Links: the crank and the rod solid cylinders of radius
 ``leg_radius``, the universal joint's cross a sphere of radius ``1.5 leg_radius`` at
 ``C_i``; no joint dynamics.
 
+``architecture="pus"``: ``pus`` legs (general legs): a vertical rail through each
+``B_i`` (frame 0i: z up, x towards the axis of the robot), a slide on it at height
+``q1`` (the actuated joint, limited by ``stroke``), a universal joint on the slide, a
+rod of ``rod_length`` to ``P_i``; the slides' home height ``h - sqrt(l^2 - d^2)`` (``d``
+the horizontal distance from the rail to ``P_i``) follows from the rod length. Links: the
+slide a sphere of radius ``3 leg_radius``, the cross one of ``1.5 leg_radius``, the rod a
+solid cylinder of radius ``leg_radius``; no joint dynamics.
+
 Other bodies or joint terms: ``RobotDescription.replace`` afterwards.
 """
 
@@ -51,7 +59,7 @@ import numpy as np
 
 from stewart_pin._checks import check_array, check_scalar
 from stewart_pin.description.inertia import khalil_from_urdf_inertial
-from stewart_pin.description.leg_architecture import rus
+from stewart_pin.description.leg_architecture import pus, rus
 from stewart_pin.description.presets import GRAVITY, _cylinder_link
 from stewart_pin.description.robot_description import (
     RobotDescription,
@@ -61,6 +69,12 @@ from stewart_pin.exceptions import DescriptionError, InputError
 
 #: The largest pair angle [rad]: at 120 degrees the joints of neighbouring pairs meet.
 MAX_PAIR_ANGLE = 2.0 * math.pi / 3.0
+#: Each architecture's own options of :func:`symmetric_hexapod` (beside the common ones).
+OPTIONS = {
+    "ups": ("stroke", "cylinder_length", "rod_length", "u_joint_limits"),
+    "rus": ("crank_length", "crank_limits"),
+    "pus": ("stroke", "rod_length"),
+}
 #: The largest condition number of the 6-UPS inverse Jacobian at home (rows
 #: ``[u_i, (L_i x u_i) / r_p]``, eq. 13, the angular part made unit-free by the platform
 #: radius), as the kinematics' ``MAX_CONDITION``: beyond, the home pose is (nearly) a
@@ -120,8 +134,8 @@ def symmetric_hexapod(
     gravity: Any = GRAVITY,
     name: str = "symmetric",
 ) -> RobotDescription:
-    """A symmetric 6-6 or 6-3 hexapod, 6-UPS or 6-RUS (layout, frames and links in the
-    module docstring).
+    """A symmetric 6-6 or 6-3 hexapod, 6-UPS, 6-RUS or 6-PUS (layout, frames and links in
+    the module docstring).
 
     Args:
         base_radius: radius of the base joints' circle, ``|B_i|`` [m], > 0.
@@ -131,10 +145,12 @@ def symmetric_hexapod(
         platform_pair_angle: the same on the platform [rad]; 0 for a 6-3 hexapod.
         home_height: height of ``O_p`` above ``O_0`` at home (``Fp`` parallel to ``F0``)
             [m], > 0.
-        stroke: 6-UPS (required): ``(min, max)`` leg length ``|B_i P_i|`` [m]; the home
-            length must lie strictly inside.
-        architecture: ``"ups"`` (the paper's ideal 6-UPS: prismatic actuators) or
-            ``"rus"`` (cranks on rotary actuators; general legs).
+        stroke: the actuators' travel ``(min, max)`` [m], the home position strictly
+            inside: 6-UPS (required) the leg length ``|B_i P_i|``; 6-PUS (required) the
+            slide's height on its rail above ``B_i``.
+        architecture: ``"ups"`` (the paper's ideal 6-UPS: prismatic actuators),
+            ``"rus"`` (cranks on rotary actuators) or ``"pus"`` (slides on vertical
+            rails); the last two have general legs.
         crank_length: 6-RUS (required): the crank's length [m], > 0.
         crank_limits: 6-RUS: ``(lower, upper)`` crank angle [rad] about its radial axis,
             from the horizontal home position (must hold 0).
@@ -145,14 +161,16 @@ def symmetric_hexapod(
             (``m r^2 / 4, m r^2 / 4, m r^2 / 2``).
         platform_com: the platform's centre of mass in ``Fp``, shape (3,) [m].
         leg_masses: the three links of every leg [kg], >= 0: 6-UPS ``(U-joint cross,
-            cylinder body, piston rod)``, 6-RUS ``(crank, U-joint cross, rod)`` (default
-            massless legs).
+            cylinder body, piston rod)``, 6-RUS ``(crank, U-joint cross, rod)``, 6-PUS
+            ``(slide, U-joint cross, rod)`` (default massless legs).
         leg_radius: the rod's radius [m] (default ``stroke[0] / 40``, 6-RUS
-            ``crank_length / 10``).
+            ``crank_length / 10``, 6-PUS ``rod_length / 40``).
         cylinder_length: 6-UPS: the cylinder body's length from ``B_i`` [m] (default
             ``0.75 stroke[0]``).
         rod_length: 6-UPS: the piston rod's length, ending at ``P_i`` [m] (default
-            ``0.75 stroke[0]``). (A 6-RUS rod's length follows from the home height.)
+            ``0.75 stroke[0]``); 6-PUS (required): the rod's length from the slide's
+            universal joint to ``P_i`` [m]. (A 6-RUS rod's length follows from the home
+            height.)
         u_joint_limits: 6-UPS, optional: ``[[q1min, q1max], [q2min, q2max]]`` [rad], or
             (6, 2, 2).
         gravity: in ``F0``, shape (3,) [m/s^2].
@@ -169,26 +187,23 @@ def symmetric_hexapod(
             :class:`~stewart_pin.exceptions.InertiaError` for a non-physical platform
             inertia; the description's own rules (:class:`RobotDescription`).
     """
-    if architecture not in ("ups", "rus"):
+    if architecture not in OPTIONS:
         raise DescriptionError(
-            f"symmetric_hexapod: architecture must be 'ups' or 'rus', got {architecture!r}"
+            f"symmetric_hexapod: architecture must be one of {list(OPTIONS)}, got {architecture!r}"
         )
-    other = (
-        {"crank_length": crank_length}
-        if architecture == "ups"
-        else {
-            "stroke": stroke,
-            "cylinder_length": cylinder_length,
-            "rod_length": rod_length,
-            "u_joint_limits": u_joint_limits,
-        }
-    )
-    given = [key for key, value in other.items() if value is not None]
-    if given:
+    given = {
+        "stroke": stroke,
+        "crank_length": crank_length,
+        "cylinder_length": cylinder_length,
+        "rod_length": rod_length,
+        "u_joint_limits": u_joint_limits,
+    }
+    foreign = [k for k, v in given.items() if v is not None and k not in OPTIONS[architecture]]
+    if foreign:
         raise DescriptionError(
-            f"symmetric_hexapod: {', '.join(given)} do not apply to a 6-{architecture.upper()} "
-            "hexapod (6-UPS: stroke, cylinder_length, rod_length, u_joint_limits; 6-RUS: "
-            "crank_length, crank_limits; a 6-RUS rod's length follows from home_height)"
+            f"symmetric_hexapod: {', '.join(foreign)} do not apply to a "
+            f"6-{architecture.upper()} hexapod; its options: "
+            f"{', '.join(OPTIONS[architecture])}"
         )
     rb = _number(base_radius, "base_radius", "m", positive=True)
     rp = _number(platform_radius, "platform_radius", "m", positive=True)
@@ -224,16 +239,9 @@ def symmetric_hexapod(
     }
     if architecture == "rus":
         return _rus(B, P + home[:3, 3], crank_length, crank_limits, masses, leg_radius, common)
-    if stroke is None:
-        raise DescriptionError("symmetric_hexapod: a 6-UPS hexapod needs its stroke (min, max)")
-    try:
-        lo, hi = check_array(stroke, (2,), "stroke")
-    except InputError as e:
-        raise DescriptionError(f"symmetric_hexapod: {e}") from e
-    if not 0.0 < lo < hi:
-        raise DescriptionError(
-            f"symmetric_hexapod: stroke must satisfy 0 < min < max, got [{lo:.9g}, {hi:.9g}] m"
-        )
+    lo, hi = _stroke(stroke, architecture)
+    if architecture == "pus":
+        return _pus(B, P + home[:3, 3], (lo, hi), rod_length, masses, leg_radius, common)
     across = float(np.linalg.norm(P[0] - B[0]))  # the same for every leg, by symmetry
     length = math.hypot(across, h)
     if not lo < length < hi:
@@ -282,6 +290,24 @@ def symmetric_hexapod(
         u_joint_limits=u_joint_limits,
         **common,
     )
+
+
+def _stroke(stroke: Any, architecture: str) -> tuple[float, float]:
+    """The actuator's travel ``(min, max)`` [m], checked (6-UPS: ``0 < min < max``)."""
+    if stroke is None:
+        raise DescriptionError(
+            f"symmetric_hexapod: a 6-{architecture.upper()} hexapod needs its stroke (min, max)"
+        )
+    try:
+        lo, hi = check_array(stroke, (2,), "stroke")
+    except InputError as e:
+        raise DescriptionError(f"symmetric_hexapod: {e}") from e
+    if not (0.0 if architecture == "ups" else -math.inf) < lo < hi:
+        rule = "0 < min < max" if architecture == "ups" else "min < max"
+        raise DescriptionError(
+            f"symmetric_hexapod: stroke must satisfy {rule}, got [{lo:.9g}, {hi:.9g}] m"
+        )
+    return float(lo), float(hi)
 
 
 def _sphere(mass: float, radius: float) -> np.ndarray:
@@ -362,4 +388,66 @@ def _rus(
     )
 
 
-__all__ = ["MAX_HOME_CONDITION", "MAX_PAIR_ANGLE", "attachment_points", "symmetric_hexapod"]
+def _pus(
+    B: np.ndarray,
+    P_home: np.ndarray,
+    stroke: tuple[float, float],
+    rod_length: Any,
+    masses: np.ndarray,
+    leg_radius: Any,
+    common: dict[str, Any],
+) -> RobotDescription:
+    """The 6-PUS robot of :func:`symmetric_hexapod`: vertical rails through ``B_i``, a
+    slide at height ``q1`` on each, a universal joint on the slide, a rod of
+    ``rod_length`` to ``P_i``; the slides' home height follows from the rod length (the
+    same for every leg, by symmetry) and must lie inside the stroke. Home joint values in
+    closed form: frame 3i's x axis, the rod, is ``(cos q2 cos q3, -sin q3, sin q2 cos
+    q3)`` in frame 1i's axes (``pus`` legs, no rail tilt)."""
+    if rod_length is None:
+        raise DescriptionError("symmetric_hexapod: a 6-PUS hexapod needs its rod_length")
+    rod = _number(rod_length, "rod_length", "m", positive=True)
+    across = float(np.linalg.norm((P_home - B)[0, :2]))  # horizontal, the same for all
+    if rod <= across:
+        raise DescriptionError(
+            f"symmetric_hexapod: the rods ({rod:.9g} m) cannot reach the platform joints "
+            f"{across:.9g} m away horizontally from the rails; lengthen them"
+        )
+    slide = float(P_home[0, 2]) - math.sqrt(rod**2 - across**2)
+    if not stroke[0] < slide < stroke[1]:
+        raise DescriptionError(
+            f"symmetric_hexapod: at home the slides are at {slide:.9g} m on their rails, "
+            f"outside the stroke [{stroke[0]:.9g}, {stroke[1]:.9g}] m; change the stroke, "
+            "the rod length or the home height"
+        )
+    radius = _number(
+        rod / 40.0 if leg_radius is None else leg_radius, "leg_radius", "m", positive=True
+    )
+    rotations, legs = [], []
+    for b, p in zip(B, P_home, strict=True):
+        inward = -np.array([b[0], b[1], 0.0]) / math.hypot(b[0], b[1])
+        R = np.column_stack([inward, np.cross([0.0, 0.0, 1.0], inward), [0.0, 0.0, 1.0]])
+        u = R.T @ (p - b - np.array([0.0, 0.0, slide])) / rod  # the rod in frame 1i's axes
+        q = np.array([slide, math.atan2(u[2], u[0]), -math.asin(np.clip(u[1], -1.0, 1.0))])
+        leg = pus(rod, 0.0, stroke)
+        legs.append(leg.replace(branch=leg.branch_at(q), guess=q))
+        rotations.append(R)
+    m1, m2, m3 = masses
+    link3 = _cylinder_link(m3, radius, rod, np.array([1.0, 0.0, 0.0]), 0.0)
+    return RobotDescription(
+        leg_base_rotations=np.array(rotations),
+        stroke=None,
+        leg_inertia=np.tile(
+            np.stack([_sphere(m1, 3.0 * radius), _sphere(m2, 1.5 * radius), link3]), (6, 1, 1)
+        ),
+        legs=tuple(legs),
+        **common,
+    )
+
+
+__all__ = [
+    "MAX_HOME_CONDITION",
+    "MAX_PAIR_ANGLE",
+    "OPTIONS",
+    "attachment_points",
+    "symmetric_hexapod",
+]
