@@ -4,10 +4,10 @@
 Independent references: the attachment points from the layout's definition (angles and
 radii, written out here), the home leg (6-UPS) and rod (6-RUS) lengths and the slides'
 heights (6-PUS) by Pythagoras, the platform inertia of a uniform disc moved by the
-parallel-axis theorem (written out here), the U-joint angle ``q2 = pi/2`` at home (the axes are perpendicular to the legs), the
-crank angles 0 at home (the cranks horizontal), and the dynamics of the built robots
-against Pinocchio's constrained dynamics of the closed-loop tree
-(``stewart_pin.validate``).
+parallel-axis theorem (written out here), the U-joint angle ``q2 = pi/2`` at home (the
+axes are perpendicular to the legs), the crank angles 0 at home (the cranks horizontal),
+and the dynamics of the built robots against Pinocchio's constrained dynamics of the
+closed-loop tree (``stewart_pin.validate``).
 """
 
 from __future__ import annotations
