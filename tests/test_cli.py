@@ -243,6 +243,8 @@ BAD_NUMBERS = [
     ("identify", "--evaluations", "-1"),
     ("identify", "--noise", "-1"),
     ("identify", "--noise", "nan"),
+    ("identify", "--max-relative-std", "0"),
+    ("identify", "--max-relative-std", "nan"),
     ("identify", "--cutoff", "0"),
     ("identify", "--cutoff", "nan"),
     ("identify", "--decimation", "0"),

@@ -428,6 +428,96 @@ def test_report_lists_every_parameter(random_robot):
         validation_error(result, robot, zero)
 
 
+# ---------------------------------------------------------------- what cannot be identified
+@pytest.fixture(scope="module")
+def flag_runs(random_robot):
+    """random-2 with a short, poorly exciting trajectory (2.5 s of 2 harmonics, 40
+    samples: condition number ~3e7) and the default one (200 samples over a period of 5
+    harmonics: ~7e3), noisy forces; the true base values are the independent reference."""
+    robot = random_robot(2)
+    true = base_parameters(robot).values
+    runs = {}
+    for name, kwargs, noise in (
+        ("poor", {"duration": 2.5, "n_harmonics": 2, "n_samples": 40}, 1e-2),
+        ("poor, precise", {"duration": 2.5, "n_harmonics": 2, "n_samples": 40}, 1e-7),
+        ("good, precise", {"n_samples": 120}, 1e-7),
+    ):
+        traj, _ = exciting_trajectory(robot, seed=0, optimise=False, **kwargs)
+        rms = np.sqrt(np.mean(simulate_measurements(robot, traj).gammas ** 2))  # [N]
+        runs[name] = identify(robot, simulate_measurements(robot, traj, noise * rms, seed=1))
+    return robot, true, runs
+
+
+def test_nonnegative_base_parameters_are_sums_of_masses_and_diagonal_inertias(random_robot):
+    """The paper's groupings (eq. 44-66) with only positive coefficients on masses and
+    diagonal inertias: ZZ1R = ZZ1 + YY2 + ZZ3, ZZ2R = ZZ2 + YY3, XX_RP = XX_P + sum M3i
+    (ly^2 + lz^2), YY_RP, ZZ_RP, M_RP = M_P + sum M3i; and these are >= 0 on physical
+    robots (their true values)."""
+    expected = {f"{p}_{i}" for i in range(1, 7) for p in ("ZZ1R", "ZZ2R")}
+    expected |= {"XX_RP", "YY_RP", "ZZ_RP", "M_RP"}
+    for seed in (0, 2, 3):
+        base = base_parameters(random_robot(seed))
+        got = {n for n, nonneg in zip(base.names, base.nonnegative, strict=True) if nonneg}
+        assert got == expected
+        assert np.all(base.values[base.nonnegative] > 0)
+
+
+def test_poorly_exciting_trajectory_flags_what_it_cannot_identify(flag_runs):
+    _, true, runs = flag_runs
+    result = runs["poor"]
+    flags = result.poorly_identified()  # default threshold: 20 %
+    flagged = {f.name for f in flags}
+    error = np.abs(result.estimate - true) / np.abs(true)
+    # every estimate off the truth by more than 100 % is flagged
+    assert {n for n, e in zip(result.names, error, strict=True) if e > 1.0} <= flagged
+    impossible = [f for f in flags if f.impossible]
+    assert impossible  # e.g. a negative ZZ1R, whose truth is > 0
+    for f in impossible:
+        assert f.estimate < 0 and true[f.index] > 0 and result.base.nonnegative[f.index]
+        assert f"{f.name} = {f.relation} is >= 0" in str(f)
+    for f in flags:
+        assert f.uncertain == (f.relative_std > 20.0)
+        assert f.estimate == result.estimate[f.index] and f.name == result.names[f.index]
+    text = result.report(true)
+    assert f"POORLY IDENTIFIED: {len(flags)} of 88 base parameters" in text
+    assert "--physical" in text and "longer or richer excitation" in text
+    row = next(line for line in text.splitlines() if line.lstrip().startswith(impossible[0].name))
+    assert " !" in row
+    # the same trajectory with precise forces still leaves parameters undetermined
+    assert runs["poor, precise"].poorly_identified()
+    # an explicit threshold: huge, only the impossible values remain
+    assert all(f.impossible for f in result.poorly_identified(max_relative_std=1e300))
+    with pytest.raises(InputError, match="max_relative_std"):
+        result.poorly_identified(max_relative_std=0.0)
+
+
+def test_well_exciting_trajectory_flags_nothing(flag_runs):
+    _, true, runs = flag_runs
+    result = runs["good, precise"]
+    assert result.poorly_identified() == ()
+    assert "every base parameter is well identified" in result.report(true)
+    # and the estimates are indeed right: within 4 std of the truth, and 4 x 20 %
+    assert np.all(np.abs(result.estimate - true) <= 4 * result.std)
+    assert np.all(np.abs(result.estimate - true) <= 0.8 * np.abs(true))
+
+
+def test_cli_identify_reports_poorly_identified_parameters(tmp_path, capsys):
+    args = ["identify", "--preset", "random-2", "--samples", "40", "--harmonics", "2"]
+    args += ["--duration", "2.5", "--evaluations", "0", "-o", str(tmp_path / "r.txt")]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "POORLY IDENTIFIED" in text and "--physical" in text
+    assert main([*args, "--max-relative-std", "1e300"]) == 0
+    strict = capsys.readouterr().out
+    assert (
+        "relative std over 1e+300 %" in strict and "relative std over the threshold" not in strict
+    )
+    with pytest.raises(SystemExit) as info:  # refused while parsing, one line
+        main([*args, "--max-relative-std", "-1"])
+    assert info.value.code == 2
+    assert "--max-relative-std: expected a finite number > 0" in capsys.readouterr().err
+
+
 # ---------------------------------------------------------------------- command line
 def test_cli_identify_on_a_preset_then_on_its_csv(tmp_path, capsys):
     report = tmp_path / "out" / "report.txt"

@@ -14,6 +14,7 @@ from helpers import random_rotation
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from stewart_pin import DescriptionError as DescriptionErrorType
 from stewart_pin import InertiaError
 from stewart_pin.description.inertia import (
     check_physical,
@@ -328,3 +329,111 @@ def test_check_physical_refuses_a_bad_tolerance(tol):
 
     with pytest.raises(InputError, match="tol must be"):
         check_physical(khalil_by_hand(1.0, np.zeros(3), np.eye(3)), "body", tol=tol)
+
+
+# ---------------------------------------------------------------- URDF-style inertial tables
+def _rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF's ``Rz(yaw) Ry(pitch) Rx(roll)``, written out (not Pinocchio's rpy module)."""
+    cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (np.cos, np.sin))
+    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+def _table(mass, com, I_axes, rpy=None) -> dict:
+    t = {"mass": mass, "com": list(com), "ixx": I_axes[0, 0], "iyy": I_axes[1, 1]}
+    t |= {"izz": I_axes[2, 2], "ixy": I_axes[0, 1], "ixz": I_axes[0, 2], "iyz": I_axes[1, 2]}
+    if rpy is not None:
+        t["rpy"] = list(rpy)
+    return t
+
+
+def test_inertial_table_equals_khalil_by_parallel_axis(rng):
+    from stewart_pin.description.inertia import khalil_from_inertial_table
+
+    for _ in range(5):
+        mass, com, I_c = random_body(rng)
+        got = khalil_from_inertial_table(_table(mass, com, I_c), "body")
+        np.testing.assert_allclose(got, khalil_by_hand(mass, com, I_c), rtol=1e-13, atol=1e-15)
+        # the same body with its inertia given in axes turned by rpy
+        rpy = rng.uniform(-np.pi, np.pi, 3)
+        R = _rpy_matrix(*rpy)
+        turned = khalil_from_inertial_table(_table(mass, com, R.T @ I_c @ R, rpy), "body")
+        np.testing.assert_allclose(turned, khalil_by_hand(mass, com, I_c), rtol=1e-12, atol=1e-14)
+
+
+def test_inertial_table_defaults_and_refusals():
+    from stewart_pin.description.inertia import khalil_from_inertial_table
+
+    point = khalil_from_inertial_table({"mass": 2.0, "ixx": 0, "iyy": 0, "izz": 0}, "b")
+    np.testing.assert_array_equal(point, [0, 0, 0, 0, 0, 0, 0, 0, 0, 2.0])
+    bad = {
+        "not a table": ([1.0] * 10, "an inertial table"),
+        "both forms": ({"mass": 1, "ixx": 1, "iyy": 1, "izz": 1, "XX": 1}, "not both"),
+        "unknown key": ({"mass": 1, "ixx": 1, "iyy": 1, "izz": 1, "Ixx": 1}, r"unknown \['Ixx'\]"),
+        "missing izz": ({"mass": 1, "ixx": 1, "iyy": 1}, r"missing \['izz'\]"),
+        "negative mass": ({"mass": -1, "ixx": 1, "iyy": 1, "izz": 1}, "negative mass"),
+        "string": ({"mass": "1", "ixx": 1, "iyy": 1, "izz": 1}, "mass"),
+        "nan": ({"mass": 1, "ixx": float("nan"), "iyy": 1, "izz": 1}, "ixx"),
+        "com shape": ({"mass": 1, "com": [0, 0], "ixx": 1, "iyy": 1, "izz": 1}, "com"),
+        "not psd": ({"mass": 1, "ixx": 1, "iyy": 1, "izz": 1, "ixy": 2}, "semi-definite"),
+        "triangle": ({"mass": 1, "ixx": 1, "iyy": 1, "izz": 3}, "triangle inequality"),
+    }
+    for why, (table, match) in bad.items():
+        with pytest.raises(InertiaError, match=match) as info:
+            khalil_from_inertial_table(table, "leg 2 link 3")
+        assert info.value.body == "leg 2 link 3", why
+
+
+def test_description_file_with_urdf_inertia_equals_khalil_form(tmp_path):
+    """A description written with the URDF form reads as the Khalil form computed here, and
+    round-trips through write / read."""
+    import json
+
+    from stewart_pin import FileFormatError, RobotDescription, preset
+
+    base = preset("desktop").to_dict()
+    rng = np.random.default_rng(7)
+    links = [random_body(rng) for _ in range(3)]
+    platform = random_body(rng)
+    rpy = [0.3, -0.2, 1.1]
+    R = _rpy_matrix(*rpy)
+    d = {k: v for k, v in base.items() if k not in ("leg_inertia", "platform_inertia")}
+    d["leg_inertial"] = [_table(m, c, I) for m, c, I in links]
+    d["platform_inertial"] = _table(platform[0], platform[1], R.T @ platform[2] @ R, rpy)
+    path = tmp_path / "urdf_style.json"
+    path.write_text(json.dumps(d))
+    desc = RobotDescription.read(path)
+    expected = np.array([khalil_by_hand(*body) for body in links])
+    for i in range(6):
+        np.testing.assert_allclose(desc.leg_inertia[i], expected, rtol=1e-13, atol=1e-16)
+    np.testing.assert_allclose(
+        desc.platform_inertia, khalil_by_hand(*platform), rtol=1e-12, atol=1e-15
+    )
+    back = RobotDescription.read(desc.write(tmp_path / "khalil.toml"))
+    np.testing.assert_array_equal(back.leg_inertia, desc.leg_inertia)
+    np.testing.assert_array_equal(back.platform_inertia, desc.platform_inertia)
+    # six lists of three: one per leg
+    d6 = d | {"leg_inertial": [d["leg_inertial"]] * 6}
+    np.testing.assert_array_equal(RobotDescription.from_dict(d6).leg_inertia, desc.leg_inertia)
+    # both forms of one key, a wrong nesting, a non-physical body: named, with the line
+    both = d | {"platform_inertia": base["platform_inertia"]}
+    with pytest.raises(DescriptionErrorType, match=r"platform_inertia .* or platform_inertial"):
+        RobotDescription.from_dict(both)
+    with pytest.raises(DescriptionErrorType, match=r"three inertial tables .* or six lists"):
+        RobotDescription.from_dict(d | {"leg_inertial": d["leg_inertial"][:2]})
+    toml = tmp_path / "bad.toml"
+    toml.write_text(
+        'name = "bad"\n[platform_inertial]\nmass = 1.0\nixx = 1.0\niyy = 1.0\nizz = 3.0\n'
+    )
+    with pytest.raises(FileFormatError, match="missing"):  # the other keys are missing
+        RobotDescription.read(toml)
+    text = (tmp_path / "khalil.toml").read_text()
+    text = text[: text.index("leg_inertia = ")] + text[text.index("platform_inertia = ") :]
+    text += "\n[[leg_inertial]]\nmass = 1.0\nixx = 1.0\niyy = 1.0\nizz = 3.0\n"
+    text += "[[leg_inertial]]\nmass = 1.0\nixx = 1.0\niyy = 1.0\nizz = 1.0\n" * 2
+    toml.write_text(text)
+    line = text[: text.index("[[leg_inertial]]")].count("\n") + 1
+    with pytest.raises(FileFormatError, match=rf"line {line}: leg 1 link 1: .*triangle"):
+        RobotDescription.read(toml)

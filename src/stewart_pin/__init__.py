@@ -12,6 +12,7 @@ from stewart_pin.description.robot_description import (
     leg_base_rotation_from_axis,
     leg_frame_from_mdh,
 )
+from stewart_pin.description.symmetric_hexapod import symmetric_hexapod
 from stewart_pin.exceptions import (
     ApproximationWarning,
     ArchitectureError,
@@ -112,5 +113,6 @@ __all__ = [
     "preset",
     "random_robot",
     "simulate",
+    "symmetric_hexapod",
     "validate",
 ]

@@ -44,6 +44,14 @@ def _outputs(args: argparse.Namespace, inputs: list[str | None]) -> dict[str, Pa
     return out
 
 
+def max_relative_std(args: argparse.Namespace) -> float:
+    """``--max-relative-std`` [%], default
+    :data:`~stewart_pin.parameters.identification.MAX_RELATIVE_STD`."""
+    from stewart_pin.parameters.identification import MAX_RELATIVE_STD
+
+    return MAX_RELATIVE_STD if args.max_relative_std is None else args.max_relative_std
+
+
 def run(args: argparse.Namespace) -> int:
     """The ``identify --log`` command."""
     from stewart_pin.formats.mjcf import write_mjcf
@@ -81,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
             progress=lambda done, total: bar.to(done / total),
         )
     result = ident.result
-    lines += [ident.report(), ""]
+    lines += [ident.report(max_relative_std=max_relative_std(args)), ""]
     physical = None
     if args.physical:
         from stewart_pin.parameters.physical import physically_consistent

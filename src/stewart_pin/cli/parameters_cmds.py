@@ -127,7 +127,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         )
         label = "true"
     result = identify(robot, measurements, base, weighted=not args.ols)
-    lines += ["", result.report(base.values, label=label), ""]
+    table = result.report(base.values, label, identify_log.max_relative_std(args))
+    lines += ["", table, ""]
     if args.validation_csv:
         validation = read_measurements_csv(args.validation_csv)
         error = validation_error(result, robot, validation)
@@ -219,6 +220,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="cost evaluations of the optimiser (0: the best random draw)",
     )
     p.add_argument("--ols", action="store_true", help="ordinary instead of weighted LS")
+    p.add_argument(
+        "--max-relative-std",
+        type=positive_finite_float,
+        metavar="PERCENT",
+        help="flag a base parameter whose std exceeds this percentage of its estimate as "
+        "poorly identified (default 20); a physically impossible value (a negative mass "
+        "or diagonal inertia) is flagged whatever it is",
+    )
     p.add_argument("-o", "--output", help="write the report there too (and the CSV beside)")
     identify_log.add_arguments(p)
     p.set_defaults(func=_cmd_identify)

@@ -19,7 +19,8 @@ Modules: :mod:`.robot_description` (``RobotDescription``, the file format),
 :mod:`.leg_architecture`, :mod:`.leg_io` (the ``[[legs]]`` file section), :mod:`.inertia`,
 :mod:`.presets` (6-UPS presets, and the names of the general ones),
 :mod:`.general_presets` (``ups-offset``, ``rus``, ``pus``, random general robots),
-:mod:`.general_hexapod` (the resolved view of a robot's legs).
+:mod:`.general_hexapod` (the resolved view of a robot's legs), :mod:`.symmetric_hexapod`
+(the builder of symmetric 6-6 and 6-3 hexapods).
 """
 
 from .inertia import KHALIL_NAMES, check_physical, inertia_tensor, random_physical_khalil
@@ -33,6 +34,7 @@ from .robot_description import (
     leg_base_rotation_from_axis,
     leg_frame_from_mdh,
 )
+from .symmetric_hexapod import symmetric_hexapod
 
 __all__ = [
     "KHALIL_NAMES",
@@ -49,4 +51,5 @@ __all__ = [
     "preset",
     "random_physical_khalil",
     "random_robot",
+    "symmetric_hexapod",
 ]

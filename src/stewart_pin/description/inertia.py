@@ -99,6 +99,77 @@ def khalil_from_urdf_inertial(mass: float, com: Any, I_c: Any) -> np.ndarray:
     return khalil_from_tensor(I_O, mass * com, mass)
 
 
+#: Keys of a body's URDF-style inertial table (:func:`khalil_from_inertial_table`):
+#: ``mass`` [kg], ``com`` (3,) [m], ``rpy`` (3,) [rad] and the six entries of the inertia
+#: tensor about the centre of mass [kg m^2].
+INERTIAL_TABLE_KEYS = ("mass", "com", "rpy", "ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+
+
+def khalil_from_inertial_table(table: Any, body: str) -> np.ndarray:
+    """Khalil's 10 parameters of a body from its URDF-style inertial table.
+
+    The table holds what a URDF ``<inertial>`` does, in the body's own frame (a leg
+    link's MDH frame, ``Fp`` for the platform): ``mass`` [kg] (required), ``com`` the
+    centre of mass in that frame [m] (URDF's ``<origin xyz>``, default zeros), ``rpy``
+    the orientation of the inertia's axes in that frame [rad] (URDF's ``<origin rpy>``:
+    ``R = Rz(yaw) Ry(pitch) Rx(roll)``, default zeros), and the tensor about the centre
+    of mass in those axes: ``ixx``, ``iyy``, ``izz`` (required), ``ixy``, ``ixz``,
+    ``iyz`` (default 0) [kg m^2]. The conversion, exact: ``I_c = R I R^T`` in the body's
+    axes, then the parallel-axis theorem ``I_O = I_c + m (|c|^2 I3 - c c^T)``,
+    ``MS = m c`` (:func:`khalil_from_urdf_inertial`).
+
+    Raises:
+        InertiaError: not a table, unknown or missing keys, Khalil's names mixed in
+            (both forms at once), a value that is not a finite real number, a negative
+            mass, or an inertia about the centre of mass that is not positive
+            semi-definite or violates the triangle inequality (to
+            :data:`PHYSICAL_TOLERANCE` of its norm); the message names ``body``.
+    """
+    if not isinstance(table, dict):
+        raise InertiaError(
+            f"{body}: an inertial table (mass, com, rpy, ixx, iyy, izz, ixy, ixz, iyz) was "
+            f"expected, got {type(table).__name__}",
+            body,
+        )
+    khalil = [k for k in table if k in KHALIL_NAMES]
+    if khalil:
+        raise InertiaError(
+            f"{body}: give the inertia in one form: Khalil's ten parameters (XX XY XZ YY YZ "
+            f"ZZ MX MY MZ M, a list) or the URDF-style table, not both (found {khalil} in "
+            "the table)",
+            body,
+        )
+    unknown = [k for k in table if k not in INERTIAL_TABLE_KEYS]
+    missing = [k for k in ("mass", "ixx", "iyy", "izz") if k not in table]
+    if unknown or missing:
+        raise InertiaError(
+            f"{body}: inertial table keys: missing {missing}, unknown {unknown}; expected "
+            f"{list(INERTIAL_TABLE_KEYS)} (com, rpy and the products of inertia optional)",
+            body,
+        )
+    try:
+        mass = check_scalar(table["mass"], f"{body} mass", unit="kg")
+        com = check_array(table.get("com", (0.0, 0.0, 0.0)), (3,), f"{body} com")
+        rpy = check_array(table.get("rpy", (0.0, 0.0, 0.0)), (3,), f"{body} rpy")
+        i = {k: check_scalar(table.get(k, 0.0), f"{body} {k}") for k in INERTIAL_TABLE_KEYS[3:]}
+    except InputError as e:
+        raise InertiaError(str(e), body) from e
+    if mass < 0:
+        raise InertiaError(f"{body}: negative mass {mass:.9g} kg", body)
+    I_axes = np.array(
+        [
+            [i["ixx"], i["ixy"], i["ixz"]],
+            [i["ixy"], i["iyy"], i["iyz"]],
+            [i["ixz"], i["iyz"], i["izz"]],
+        ]
+    )
+    margin = PHYSICAL_TOLERANCE * max(float(np.linalg.norm(I_axes)), np.finfo(float).tiny)
+    _check_principal_moments(I_axes, margin, body, "ixy, ixz, iyz")
+    R = pin.rpy.rpyToMatrix(*rpy)
+    I_c = R @ I_axes @ R.T
+    return khalil_from_urdf_inertial(mass, com, 0.5 * (I_c + I_c.T))
+
+
 def transform_khalil(params: Any, R_a_b: Any, p_a_b: Any) -> np.ndarray:
     """Re-express a body's parameters given in frame b (about O_b) in frame a (about O_a).
 
@@ -156,13 +227,21 @@ def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> n
             )
         return p
     _, _, I_c = urdf_inertial_from_khalil(p)
-    eig = np.linalg.eigvalsh(I_c)
     margin = tol * max(inertia_scale(p), np.finfo(float).tiny)
+    _check_principal_moments(I_c, margin, body, "XY, XZ, YZ and the first moments")
+    return p
+
+
+def _check_principal_moments(I_c: np.ndarray, margin: float, body: str, signs: str) -> None:
+    """:class:`InertiaError` unless the inertia about the centre of mass ``I_c`` (3, 3)
+    [kg m^2] is positive semi-definite with principal moments satisfying the triangle
+    inequality, each to ``margin`` [kg m^2]; ``signs`` names the terms to check."""
+    eig = np.linalg.eigvalsh(I_c)
     if eig[0] < -margin:
         raise InertiaError(
             f"{body}: inertia about the centre of mass is not positive semi-definite "
             f"(principal moments {eig} kg m^2, tolerance {margin:.3g}); check the sign of "
-            "XY, XZ, YZ and the first moments",
+            f"{signs}",
             body,
         )
     if eig[0] + eig[1] < eig[2] - margin:
@@ -171,7 +250,6 @@ def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> n
             f"I1 + I2 >= I3 (by {eig[2] - eig[0] - eig[1]:.3g} > tolerance {margin:.3g})",
             body,
         )
-    return p
 
 
 def random_physical_khalil(

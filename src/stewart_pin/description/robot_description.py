@@ -37,7 +37,7 @@ from stewart_pin._checks import (
     project_rotation,
 )
 from stewart_pin._io import write_text_atomic
-from stewart_pin.description.inertia import check_physical
+from stewart_pin.description.inertia import check_physical, khalil_from_inertial_table
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
 from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
 from stewart_pin.description.model_source import ModelSource, source_toml
@@ -73,6 +73,15 @@ OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs", "source")
 ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
 # (appended here, a line apart, so that other optional keys merge in above)
 OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignment]
+
+#: URDF-style alternatives of the two inertia keys (``docs/description.md``): each body's
+#: mass, centre of mass and inertia about it in the body's own frame
+#: (:func:`~stewart_pin.description.inertia.khalil_from_inertial_table`):
+#: ``platform_inertial`` one table, ``leg_inertial`` three tables (links 1, 2, 3 of every
+#: leg) or six lists of three. Read by :meth:`RobotDescription.from_dict` (and so by
+#: ``read``), which converts them to Khalil's parameters; ``to_dict`` and ``write`` give
+#: Khalil's form.
+INERTIAL_KEYS = {"leg_inertia": "leg_inertial", "platform_inertia": "platform_inertial"}
 
 #: A robot name: 1 to 64 characters, ASCII letters, digits, ``_``, ``.`` and ``-``, starting
 #: with a letter or a digit, with no ``..`` and no ``--`` in it. Such a name is a safe file
@@ -312,14 +321,17 @@ class RobotDescription:
         if not isinstance(d, dict):
             raise DescriptionError(f"a robot description must be a dict, got {type(d).__name__}")
         required = [k for k in REQUIRED_KEYS if not ("legs" in d and k == "stroke")]
-        missing = [k for k in required if k not in d]
-        unknown = [k for k in d if k not in REQUIRED_KEYS + OPTIONAL_KEYS]
+        missing = [k for k in required if k not in d and INERTIAL_KEYS.get(k) not in d]
+        known = REQUIRED_KEYS + OPTIONAL_KEYS + tuple(INERTIAL_KEYS.values())
+        unknown = [k for k in d if k not in known]
         if missing or unknown:
             raise DescriptionError(
                 f"robot description keys: missing {missing}, unknown {unknown}; expected "
                 f"{list(REQUIRED_KEYS)} and optionally {list(OPTIONAL_KEYS)} (stroke is "
-                "left out with legs)"
+                "left out with legs; leg_inertial and platform_inertial may replace "
+                "leg_inertia and platform_inertia)"
             )
+        d = _inertia_from_tables(d)
         kwargs = {k: d[k] for k in REQUIRED_KEYS + OPTIONAL_KEYS if k in d}
         kwargs.setdefault("stroke", None)
         return cls(**kwargs)
@@ -484,6 +496,53 @@ def _no_repeated_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _inertia_from_tables(d: dict[str, Any]) -> dict[str, Any]:
+    """``d`` with its URDF-style inertial tables (:data:`INERTIAL_KEYS`) converted to
+    Khalil's parameters; both forms of one key at once are refused."""
+    out = dict(d)
+    for key, alt in INERTIAL_KEYS.items():
+        if alt not in out:
+            continue
+        if key in out:
+            raise _field_error(
+                alt,
+                f"give {key} (Khalil's ten parameters, in the MDH frame about its origin) or "
+                f"{alt} (URDF style: mass, centre of mass, inertia about it), not both",
+            )
+        value = out.pop(alt)
+        try:
+            if alt == "platform_inertial":
+                out[key] = khalil_from_inertial_table(value, "platform")
+                continue
+            if (
+                isinstance(value, list)
+                and len(value) == 3
+                and all(isinstance(t, dict) for t in value)
+            ):
+                value = [value] * 6  # the same three links on every leg
+            if not (
+                isinstance(value, list)
+                and len(value) == 6
+                and all(isinstance(leg, list) and len(leg) == 3 for leg in value)
+            ):
+                raise _field_error(
+                    alt,
+                    f"{alt} must be three inertial tables (links 1, 2, 3 of every leg) or six "
+                    "lists of three (one per leg)",
+                )
+            out[key] = [
+                [
+                    khalil_from_inertial_table(table, f"leg {i + 1} link {j + 1}")
+                    for j, table in enumerate(leg)
+                ]
+                for i, leg in enumerate(value)
+            ]
+        except InertiaError as e:
+            e.key = alt  # type: ignore[attr-defined] # read() quotes the line of the key
+            raise
+    return out
+
+
 def _actuator_limits(value: Any, key: str) -> np.ndarray:
     """One of :data:`ACTUATOR_LIMIT_KEYS`: a positive finite number, or six, as (6,)."""
     if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
@@ -509,7 +568,11 @@ def _line_of_key(text: str, key: str, suffix: str) -> int | None:
     if not key:
         return None
     k = re.escape(key)
-    pattern = rf'"{k}"\s*:' if suffix == ".json" else rf'^[ \t]*(?:{k}|"{k}"|\'{k}\')[ \t]*='
+    pattern = (
+        rf'"{k}"\s*:'
+        if suffix == ".json"
+        else rf'^[ \t]*(?:(?:{k}|"{k}"|\'{k}\')[ \t]*=|\[\[?[ \t]*{k}[ \t]*\]\]?)'
+    )
     match = re.search(pattern, text, flags=re.MULTILINE)
     return text.count("\n", 0, match.start()) + 1 if match else None
 

@@ -1,6 +1,7 @@
 """Inertial parameters: base (numerical by QR, analytic by the paper's grouping rules,
 eq. 44-50) and essential parameters, and their identification from measurements
-(exciting trajectories, weighted least squares with confidence intervals), from a
+(exciting trajectories, weighted least squares with confidence intervals, the flags of
+poorly identified parameters), from a
 robot's logs of actuator positions and efforts (:mod:`.logs`, :mod:`.state_estimation`,
 :mod:`.least_squares`: chunked, bounded memory) and physically consistent estimates
 (:mod:`.physical`).
@@ -22,6 +23,7 @@ from .identification import (
     IdentificationResult,
     LogIdentification,
     Measurements,
+    ParameterFlag,
     base_without,
     exciting_trajectory,
     identify,
@@ -42,6 +44,7 @@ __all__ = [
     "IdentificationResult",
     "LogIdentification",
     "Measurements",
+    "ParameterFlag",
     "PhysicalEstimate",
     "analytic_base_parameters",
     "base_parameters",

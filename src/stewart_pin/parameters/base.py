@@ -29,6 +29,7 @@ set; ``W_b = W[:, kept]`` too for the numerical one, whose ``K`` folds the other
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -78,6 +79,12 @@ GRAVITY_TOLERANCE = 1e-9
 #: forces are that small a fraction of gravity's, and the numerical rank at its default
 #: tolerance may or may not count them.
 WEAK_GRAVITY = 1e-5
+
+#: Standard parameters that are >= 0 on every physical robot: a body's mass (``M2_3``,
+#: ``M_P``), the diagonal terms of its inertia tensor about any point (``XX YY ZZ``: a
+#: positive semi-definite tensor), and a joint's armature, viscous and Coulomb friction
+#: and stiffness (``IA FV FC K``; :mod:`stewart_pin.dynamics.regressor`).
+NONNEGATIVE_PATTERN = re.compile(r"(?:XX|YY|ZZ|M|IA|FV|FC|K)(?:\d+_\d+|_P)")
 
 #: Per leg, in order: name, grouping (coefficient, standard parameter prefix and link),
 #: and which gravity condition the parameter needs to act on the forces ("lateral": a
@@ -149,6 +156,28 @@ class BaseParameters:
                 )
             lines.append(f"{name:>16s} {value:14.6g}   {_relation(row, self.standard_names)}")
         return "\n".join(lines)
+
+    def relation(self, k: int) -> str:
+        """Base parameter ``k`` as its grouping of standard parameters, e.g.
+        ``"ZZ1_1 + YY2_1 + ZZ3_1"``."""
+        return _relation(np.asarray(self.K)[k], self.standard_names)
+
+    @property
+    def nonnegative(self) -> np.ndarray:
+        """(nb,) bool: the base parameters that are >= 0 on every physical robot, so that
+        a negative estimate of one is physically impossible: those whose grouping has only
+        positive coefficients on standard parameters that are never negative
+        (:data:`NONNEGATIVE_PATTERN`: a mass, a diagonal term of an inertia tensor, an
+        armature, a viscous or Coulomb friction, a stiffness), e.g. ``ZZ1R = ZZ1 + YY2 +
+        ZZ3`` or ``M_RP = M_P + sum M3i``. Others (first moments, products of inertia,
+        differences such as ``XX2R = XX2 + XX3 - YY2 - ZZ3``, offsets) may take either
+        sign and are never flagged."""
+        K = np.asarray(self.K)
+        sign_definite = np.array(
+            [NONNEGATIVE_PATTERN.fullmatch(n) is not None for n in self.standard_names]
+        )
+        ok = (K == 0) | (sign_definite[None, :] & (K > 0))
+        return np.all(ok, axis=1) & np.any(K != 0, axis=1)
 
     @property
     def joint_terms(self) -> np.ndarray:

@@ -28,6 +28,7 @@ values.
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
-from stewart_pin._checks import check_array, freeze_fields
+from stewart_pin._checks import check_array, check_scalar, freeze_fields
 from stewart_pin.description.leg_architecture import wrap_into_limits
 from stewart_pin.dynamics.regressor import N_STANDARD
 from stewart_pin.exceptions import (
@@ -551,6 +552,63 @@ def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
 
 # ====================================================================== estimation
 
+#: Default threshold of :meth:`IdentificationResult.poorly_identified`: a base parameter
+#: whose standard deviation exceeds this percentage of its estimate's magnitude [%] is not
+#: determined by the data (a common rule of thumb: well identified parameters have
+#: relative standard deviations of a few percent; above 10-20 %, values of the same order
+#: fit the forces as well, within the noise).
+MAX_RELATIVE_STD = 20.0
+
+#: What to do about poorly identified parameters, printed under a report that has some.
+POOR_IDENTIFICATION_ADVICE = (
+    "These estimates are not to be trusted: the measurements do not determine them. "
+    "Record a longer or richer excitation (an optimised exciting trajectory: more "
+    "harmonics, larger amplitudes, more periods or samples; a longer log), or fit "
+    "physically consistent parameters (identify --log FILE --physical; "
+    "stewart_pin.parameters.physical.physically_consistent), which keeps every body's "
+    "mass and inertia physical. A parameter with a large relative std may also just "
+    "barely act on the forces (near zero, or a weak effect): the essential parameters "
+    "(stewart-pin base-params) leave such ones out."
+)
+
+
+@dataclass(frozen=True)
+class ParameterFlag:
+    """A base parameter that an identification did not determine
+    (:meth:`IdentificationResult.poorly_identified`).
+
+    Attributes:
+        name: the base parameter.
+        index: its index in the base set.
+        estimate: its estimate [SI].
+        std: its standard deviation [SI].
+        relative_std: ``100 std / |estimate|`` [%].
+        uncertain: the relative std is over the threshold.
+        impossible: the estimate is negative although the parameter is >= 0 on every
+            physical robot (:attr:`~stewart_pin.parameters.base.BaseParameters.nonnegative`).
+        relation: its grouping of standard parameters (``"ZZ1_1 + YY2_1 + ZZ3_1"``).
+    """
+
+    name: str
+    index: int
+    estimate: float
+    std: float
+    relative_std: float
+    uncertain: bool
+    impossible: bool
+    relation: str
+
+    def __str__(self) -> str:
+        why = []
+        if self.impossible:
+            why.append(
+                f"physically impossible: {self.name} = {self.relation} is >= 0 on every "
+                "physical robot"
+            )
+        if self.uncertain:
+            why.append(f"relative std {self.relative_std:.3g} %")
+        return f"{self.name} = {self.estimate:.6g} +- {self.std:.3g}: " + "; ".join(why)
+
 
 @dataclass(frozen=True, eq=False)
 class IdentificationResult:
@@ -599,6 +657,38 @@ class IdentificationResult:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(self.estimate != 0, 100.0 * self.std / np.abs(self.estimate), np.inf)
 
+    def poorly_identified(
+        self, max_relative_std: float = MAX_RELATIVE_STD
+    ) -> tuple[ParameterFlag, ...]:
+        """The base parameters the data did not determine, in the base set's order: those
+        whose relative standard deviation :attr:`relative_std` exceeds
+        ``max_relative_std`` [%], and those whose estimate is physically impossible (a
+        negative value of a parameter that is >= 0 on every physical robot: a mass, a
+        diagonal inertia, or a sum of them with positive coefficients such as ``ZZ1R``;
+        :attr:`~stewart_pin.parameters.base.BaseParameters.nonnegative`). Parameters that
+        may take either sign are flagged only by their relative std.
+
+        Raises:
+            InputError: ``max_relative_std`` not a positive number.
+        """
+        threshold = check_scalar(max_relative_std, "max_relative_std", positive=True, unit="%")
+        rel = self.relative_std
+        uncertain = rel > threshold
+        impossible = self.base.nonnegative & (self.estimate < 0)
+        return tuple(
+            ParameterFlag(
+                name=self.names[k],
+                index=int(k),
+                estimate=float(self.estimate[k]),
+                std=float(self.std[k]),
+                relative_std=float(rel[k]),
+                uncertain=bool(uncertain[k]),
+                impossible=bool(impossible[k]),
+                relation=self.base.relation(int(k)),
+            )
+            for k in np.flatnonzero(uncertain | impossible)
+        )
+
     def confidence_interval(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
         """``(lower, upper)`` (nb,) each: the two-sided interval ``estimate +- z std`` with
         ``z`` the normal quantile of ``level`` (Gaussian noise, the estimated covariance)."""
@@ -626,9 +716,18 @@ class IdentificationResult:
         """Actuator forces ``W_b chi_b`` from the estimate [N]: (6,) or (N, 6)."""
         return self.base.regressor(poses, twists, accels) @ self.estimate
 
-    def report(self, true_values: Any | None = None, label: str = "true") -> str:
-        """A readable table: estimate, std, relative std [%], and with ``true_values`` (nb,)
-        the ``label`` values and the relative errors [%]."""
+    def report(
+        self,
+        true_values: Any | None = None,
+        label: str = "true",
+        max_relative_std: float = MAX_RELATIVE_STD,
+    ) -> str:
+        """A readable table: estimate, std, relative std [%], with ``true_values`` (nb,)
+        the ``label`` values and the relative errors [%], and a flag column: ``?`` for a
+        relative std over ``max_relative_std`` [%], ``!`` for a physically impossible
+        value (:meth:`poorly_identified`), the flagged parameters listed under the table
+        with what to do about them."""
+        flags = {f.index: f for f in self.poorly_identified(max_relative_std)}
         what = "weighted least squares" if self.weighted else "ordinary least squares"
         lines = [
             f"{len(self.names)} base parameters by {what} from {self.n_samples} samples "
@@ -640,7 +739,7 @@ class IdentificationResult:
             + " ".join(f"{s:.4g}" for s in self.residual_rms),
             "",
         ]
-        head = f"{'parameter':>12s} {'estimate':>14s} {'std':>11s} {'std %':>9s}"
+        head = f"{'parameter':>12s} {'estimate':>14s} {'std':>11s} {'std %':>9s} flag"
         true = None
         if true_values is not None:
             true = check_array(true_values, (len(self.names),), "true_values")
@@ -648,9 +747,15 @@ class IdentificationResult:
             head += f" {label:>14s} {'error %':>10s}"
         lines.append(head)
         for k, name in enumerate(self.names):
+            flag = flags.get(k)
+            mark = (
+                ""
+                if flag is None
+                else ("!" if flag.impossible else "") + ("?" if flag.uncertain else "")
+            )
             row = (
                 f"{name:>12s} {self.estimate[k]:14.6g} {self.std[k]:11.3g} "
-                f"{self.relative_std[k]:9.3g}"
+                f"{self.relative_std[k]:9.3g} {mark:>4s}"
             )
             if true is not None:
                 row += f" {true[k]:14.6g} {errors[k]:10.3g}"
@@ -659,7 +764,31 @@ class IdentificationResult:
             lines.append(
                 "(error % is relative to |true|, or to the largest |true| where true is ~0)"
             )
+        lines += self._flag_lines(tuple(flags.values()), max_relative_std)
         return "\n".join(lines)
+
+    def _flag_lines(self, flags: tuple[ParameterFlag, ...], threshold: float) -> list[str]:
+        """The report's paragraph on the flagged parameters (none when all are fine)."""
+        if not flags:
+            return [
+                f"every base parameter is well identified (relative std <= {threshold:g} %, "
+                "no physically impossible value)"
+            ]
+        n_unc = sum(f.uncertain for f in flags)
+        n_imp = sum(f.impossible for f in flags)
+        lines = [
+            "",
+            f"POORLY IDENTIFIED: {len(flags)} of {len(self.names)} base parameters "
+            f"({n_unc} with a relative std over {threshold:g} % (?), {n_imp} physically "
+            f"impossible (!); condition number {self.condition_number:.3g}):",
+        ]
+        lines += [f"  {f}" for f in flags if f.impossible]
+        uncertain = [f.name for f in flags if f.uncertain and not f.impossible]
+        wrap = textwrap.TextWrapper(width=88, initial_indent="  ", subsequent_indent="    ")
+        if uncertain:
+            lines += wrap.wrap("relative std over the threshold: " + ", ".join(uncertain))
+        wrap.subsequent_indent = "  "
+        return lines + wrap.wrap(POOR_IDENTIFICATION_ADVICE)
 
 
 def identify(
@@ -840,8 +969,14 @@ class LogIdentification:
     tracker_error: tuple[float, float] | None
     source: str
 
-    def report(self, true_values: Any | None = None, label: str = "true") -> str:
-        """The filters, the tracker's agreement and the result's table."""
+    def report(
+        self,
+        true_values: Any | None = None,
+        label: str = "true",
+        max_relative_std: float = MAX_RELATIVE_STD,
+    ) -> str:
+        """The filters, the tracker's agreement and the result's table, its poorly
+        identified parameters flagged (:meth:`IdentificationResult.report`)."""
         lines = [
             f"log {self.source}: {self.n_log} samples -> {self.result.n_samples} decimated "
             f"samples ({6 * self.result.n_samples} equations)",
@@ -852,7 +987,8 @@ class LogIdentification:
                 f"forward geometry vs tracker (RMS): {self.tracker_error[0]:.3g} m, "
                 f"{self.tracker_error[1]:.3g} rad"
             )
-        return "\n".join([*lines, "", self.result.report(true_values, label)])
+        table = self.result.report(true_values, label, max_relative_std)
+        return "\n".join([*lines, "", table])
 
 
 def identify_log(
@@ -944,10 +1080,12 @@ def log_prediction_error(
 
 __all__ = [
     "CSV_COLUMNS",
+    "MAX_RELATIVE_STD",
     "ActuatorLimits",
     "IdentificationResult",
     "LogIdentification",
     "Measurements",
+    "ParameterFlag",
     "actuator_peaks",
     "base_without",
     "exciting_trajectory",
