@@ -734,6 +734,7 @@ def test_option_flags_that_change_the_robot_are_refused(flag):
         ('range="-0.08 0.08"', 'range="-inf 0.08"', "<joint> 'leg1_j1'", "range='-inf 0.08'"),
         ('<body name="leg1_b1" pos="0.43059', '<body name="leg1_b1" pos="NaN', "<body> 'leg1_b1'",
          "pos='NaN"),
+        ('density="2000"', 'density="-Inf"', "<geom> in 'base'", "density='-Inf'"),
     ],
 )  # fmt: skip
 def test_non_finite_numbers_are_named_and_no_log_is_written(
@@ -785,3 +786,25 @@ def test_non_finite_numbers_of_a_compiled_model_are_named():
     with pytest.raises(ModelImportError, match=r"body 'leg3_b1': body_mass is nan") as info:
         import_mjcf(m)
     assert info.value.bodies == ("leg3_b1",)
+
+
+def test_non_finite_number_in_an_included_file_is_named(tmp_path, monkeypatch):
+    """An ``<include>``d file is scanned as well (MuJoCo reads it from the main file's
+    folder): the error names that file."""
+    xml = cad_mjcf(source("pus"), "connect-site", seed=3)
+    start, end = xml.index("  <actuator>"), xml.index("</actuator>") + len("</actuator>")
+    part = xml[start:end].replace('gear="50"', 'gear="nan"')
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "actuators.xml").write_text(f"<mujoco>\n{part}\n</mujoco>\n")
+    main = tmp_path / "model.xml"
+    main.write_text(xml[:start] + '  <include file="parts/actuators.xml"/>' + xml[end:])
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(
+        ModelImportError, match=r"actuators\.xml, line 4: <position> 'act2' has gear='nan'"
+    ):
+        import_mjcf(main)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    (tmp_path / "parts" / "actuators.xml").write_text(
+        f"<mujoco>\n{part}\n</mujoco>\n".replace('gear="nan"', 'gear="50"')
+    )
+    assert import_mjcf(main).description.legs

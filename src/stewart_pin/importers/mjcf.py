@@ -190,9 +190,8 @@ def _check_finite_text(text: str | None, path: Path | None) -> None:
             continue
         found, includes = _scan_attributes(text)
         if found is not None:
-            tag, name, key, value, line = found
+            element, tag, name, key, value, line = found
             where = "the MJCF text" if path is None else str(path)
-            element = f"<{tag}> {shown(name)}" if name else f"<{tag}>"
             raise ModelImportError(
                 f"{where}, line {line}: {element} has {key}={shown(value)}: every number "
                 "of a model file must be finite (no NaN or infinity)",
@@ -208,14 +207,20 @@ def _check_finite_text(text: str | None, path: Path | None) -> None:
                     queue.append((None, child))
 
 
-def _scan_attributes(text: str) -> tuple[tuple[str, str, str, str, int] | None, list[str]]:
-    """The first attribute of an MJCF ``text`` holding ``nan`` or ``inf`` (``(element tag,
-    its name, attribute, value, line)``, or None) and the files its ``<include>`` name."""
-    found: list[tuple[str, str, str, str, int]] = []
+_Found = tuple[str, str, str, str, str, int]
+
+
+def _scan_attributes(text: str) -> tuple[_Found | None, list[str]]:
+    """The first attribute of an MJCF ``text`` holding ``nan`` or ``inf`` (``(the element
+    as shown: its tag and name, or the nearest named element it is in; its tag; its name;
+    the attribute; the value; the line)``, or None) and the files its ``<include>`` name."""
+    found: list[_Found] = []
     includes: list[str] = []
+    names: list[str] = []  # the element names along the current path ("" when unnamed)
     parser = xml.parsers.expat.ParserCreate()
 
     def start(tag: str, attrs: dict[str, str]) -> None:
+        names.append(attrs.get("name", ""))
         if tag == "include" and "file" in attrs:
             includes.append(attrs["file"])
         if tag in _TEXT_ELEMENTS:
@@ -224,10 +229,18 @@ def _scan_attributes(text: str) -> tuple[tuple[str, str, str, str, int] | None, 
             if found or key in _TEXT_ATTRIBUTES:
                 continue
             if any(t.lower().lstrip("+-") in _NON_FINITE for t in value.split()):
-                line = parser.CurrentLineNumber
-                found.append((tag, attrs.get("name", ""), key, value, line))
+                own = names[-1]
+                owner = next((n for n in reversed(names[:-1]) if n), "")
+                label = f"<{tag}> {shown(own)}" if own else f"<{tag}>"
+                if not own and owner:
+                    label += f" in {shown(owner)}"
+                found.append((label, tag, own, key, value, parser.CurrentLineNumber))
+
+    def end(tag: str) -> None:
+        names.pop()
 
     parser.StartElementHandler = start
+    parser.EndElementHandler = end
     with contextlib.suppress(xml.parsers.expat.ExpatError):  # MuJoCo says what is wrong
         parser.Parse(text, True)
     return (found[0] if found else None), includes
