@@ -657,6 +657,12 @@ def build_source_library(
                 except OSError as e:
                     raise CompilationError(f"cannot load {folder / _LIB_NAME}: {e}") from e
     except (OSError, subprocess.SubprocessError) as e:
+        if isinstance(e, OSError) and e.errno in (errno.EROFS, errno.EACCES, errno.EPERM):
+            raise CompilationError(
+                f"the cache folder {root} cannot be written ({e.strerror}) and holds no "
+                f"library for this robot; make it writable or point ${CACHE_ENV} at a "
+                "writable folder"
+            ) from e
         raise CompilationError(f"cannot build the library in {folder}: {e}") from e
     return folder / _LIB_NAME, why is not None
 
