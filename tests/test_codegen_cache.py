@@ -269,16 +269,24 @@ def read_only(monkeypatch):
                 return False
             return real_access(path, mode, *args, **kwargs)
 
+        def fake_mkdir(path, *args, **kwargs):
+            if Path(path).parent == folder:
+                raise PermissionError(13, "Permission denied", str(path))
+            return real_mkdir(path, *args, **kwargs)
+
+        real_mkdir = os.mkdir
         monkeypatch.setattr(os, "open", fake_open)
         monkeypatch.setattr(os, "access", fake_access)
+        monkeypatch.setattr(os, "mkdir", fake_mkdir)
 
     yield make
 
 
 def test_read_only_cache_with_a_valid_library_is_used(cache, read_only):
     """A read-only key folder holding a verified library: loaded (the lock's O_RDWR open
-    failed, and the backend fell back to the virtual machine); without a valid library
-    it says the folder is read-only, and the safety checks still hold."""
+    failed, and the backend fell back to the virtual machine); without a valid library,
+    or in a read-only cache without the key folder, the error says the folder is
+    read-only; the safety checks still hold."""
     robot, P, V, A, G = _states("paper")
     lib, _ = build_library(robot.description)
     (lib.parent / ".lock").unlink()  # as a cache copied without its lock file
@@ -295,10 +303,15 @@ def test_read_only_cache_with_a_valid_library_is_used(cache, read_only):
         os.chmod(other_lib.parent, 0o500)
         with pytest.raises(compiled_module.CompilationError, match="read-only and holds no"):
             CompiledDynamics(other, vm_fallback=False)
+        read_only(cache)  # a read-only cache without the robot's key folder
+        third = StewartRobot(get_robot("simulator").description)
+        with pytest.raises(compiled_module.CompilationError, match=r"cannot be written .* no lib"):
+            CompiledDynamics(third, vm_fallback=False)
         os.chmod(lib.parent, 0o520)  # group-writable: refused, read-only or not
         with pytest.raises(UnsafeCacheError, match="writable by group or others"):
             CompiledDynamics(robot)
     finally:
+        os.chmod(cache, 0o700)
         for folder in cache.iterdir():
             os.chmod(folder, 0o700)
 

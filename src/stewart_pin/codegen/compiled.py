@@ -657,7 +657,7 @@ def build_source_library(
                 except OSError as e:
                     raise CompilationError(f"cannot load {folder / _LIB_NAME}: {e}") from e
     except (OSError, subprocess.SubprocessError) as e:
-        if isinstance(e, OSError) and e.errno in (errno.EROFS, errno.EACCES, errno.EPERM):
+        if isinstance(e, OSError) and _cache_not_writable(e, root, folder):
             raise CompilationError(
                 f"the cache folder {root} cannot be written ({e.strerror}) and holds no "
                 f"library for this robot; make it writable or point ${CACHE_ENV} at a "
@@ -665,6 +665,15 @@ def build_source_library(
             ) from e
         raise CompilationError(f"cannot build the library in {folder}: {e}") from e
     return folder / _LIB_NAME, why is not None
+
+
+def _cache_not_writable(e: OSError, root: Path, folder: Path) -> bool:
+    """Whether ``e`` is the refusal to create the cache folder ``root`` (or an ancestor)
+    or its key folder ``folder``: a read-only cache without this robot's library."""
+    if e.errno not in (errno.EROFS, errno.EACCES, errno.EPERM) or e.filename is None:
+        return False
+    path = Path(os.fsdecode(e.filename))
+    return path in (root, folder) or path in root.parents
 
 
 def _printable(desc: Any) -> str:
