@@ -9,12 +9,14 @@ test process itself; the truncated library is loaded in a subprocess."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +24,7 @@ import pytest
 from conftest import get_robot
 from helpers import rel_error
 
+import stewart_pin
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics, UnsafeCacheError
 from stewart_pin.codegen import compiled as compiled_module
@@ -239,3 +242,170 @@ def test_concurrent_processes_build_once(cache):
     assert len(folders) == 1
     leftovers = [p.name for p in folders[0].iterdir() if p.name.endswith(".tmp")]
     assert not leftovers
+
+
+# ---------------------------------------------------------------------------- issue 25
+@pytest.fixture
+def read_only(monkeypatch):
+    """``read_only(folder)``: ``folder`` made read-only (mode 0500). The superuser ignores
+    modes, so under root the kernel's answer to a non-root user is reproduced: creating or
+    opening for writing a file in the folder fails with EACCES, and ``os.access`` says the
+    folder is not writable."""
+
+    def make(folder: Path) -> None:
+        os.chmod(folder, 0o500)
+        if os.geteuid() != 0:
+            return
+        real_open, real_access = os.open, os.access
+        writes = os.O_WRONLY | os.O_RDWR | os.O_CREAT
+
+        def fake_open(path, flags, *args, **kwargs):
+            if Path(path).parent == folder and flags & writes:
+                raise PermissionError(13, "Permission denied", str(path))
+            return real_open(path, flags, *args, **kwargs)
+
+        def fake_access(path, mode, *args, **kwargs):
+            if Path(path) == folder and mode & os.W_OK:
+                return False
+            return real_access(path, mode, *args, **kwargs)
+
+        def fake_mkdir(path, *args, **kwargs):
+            if Path(path).parent == folder:
+                raise PermissionError(13, "Permission denied", str(path))
+            return real_mkdir(path, *args, **kwargs)
+
+        real_mkdir = os.mkdir
+        monkeypatch.setattr(os, "open", fake_open)
+        monkeypatch.setattr(os, "access", fake_access)
+        monkeypatch.setattr(os, "mkdir", fake_mkdir)
+
+    yield make
+
+
+def test_read_only_cache_with_a_valid_library_is_used(cache, read_only):
+    """A read-only key folder holding a verified library: loaded (the lock's O_RDWR open
+    failed, and the backend fell back to the virtual machine); without a valid library,
+    or in a read-only cache without the key folder, the error says the folder is
+    read-only; the safety checks still hold."""
+    robot, P, V, A, G = _states("paper")
+    lib, _ = build_library(robot.description)
+    (lib.parent / ".lock").unlink()  # as a cache copied without its lock file
+    read_only(lib.parent)
+    try:
+        backend = CompiledDynamics(robot)
+        assert (backend.kind, backend.compiled_now, backend.library) == ("compiled", False, lib)
+        assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
+        other = StewartRobot(get_robot("desktop").description)
+        other_lib, _ = build_library(other.description)
+        read_only(other_lib.parent)
+        os.chmod(other_lib.parent, 0o700)
+        other_lib.unlink()
+        os.chmod(other_lib.parent, 0o500)
+        with pytest.raises(compiled_module.CompilationError, match="read-only and holds no"):
+            CompiledDynamics(other, vm_fallback=False)
+        read_only(cache)  # a read-only cache without the robot's key folder
+        third = StewartRobot(get_robot("simulator").description)
+        with pytest.raises(compiled_module.CompilationError, match=r"cannot be written .* no lib"):
+            CompiledDynamics(third, vm_fallback=False)
+        os.chmod(lib.parent, 0o520)  # group-writable: refused, read-only or not
+        with pytest.raises(UnsafeCacheError, match="writable by group or others"):
+            CompiledDynamics(robot)
+    finally:
+        os.chmod(cache, 0o700)
+        for folder in cache.iterdir():
+            os.chmod(folder, 0o700)
+
+
+def _fake_compiler(tmp_path: Path, seconds: float) -> tuple[Path, Path]:
+    """A "compiler" that answers ``--version`` and otherwise sleeps ``seconds`` (its pid in
+    the second path returned)."""
+    pid = tmp_path / "cc.pid"
+    script = tmp_path / "slow-cc"
+    script.write_text(
+        "#!/bin/sh\n"
+        'if [ "$1" = "--version" ]; then echo slow-cc 1.0; exit 0; fi\n'
+        f'echo $$ > "{pid}"\n'
+        f"exec sleep {seconds}\n"
+    )
+    script.chmod(0o755)
+    return script, pid
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return (
+        Path(f"/proc/{pid}").exists()
+        and "zombie" not in Path(f"/proc/{pid}/status").read_text().lower()
+    )
+
+
+def test_hanging_compiler_is_announced_and_stopped(cache, tmp_path, monkeypatch, capsys):
+    """A compiler that hangs blocked the first call for 600 s after a line saying "about
+    1 s": the line gives the timeout ($STEWART_PIN_COMPILE_TIMEOUT), a line follows every
+    PROGRESS_EVERY seconds, and at the timeout the compiler is killed and the build fails
+    by name (backend='auto' then takes the reference path); no temporary is left."""
+    cc, pid_file = _fake_compiler(tmp_path, 60)
+    monkeypatch.setenv(compiled_module.COMPILE_TIMEOUT_ENV, "1.2")
+    monkeypatch.setattr(compiled_module, "PROGRESS_EVERY", 0.3)
+    desc = get_robot("paper").description
+    with pytest.raises(compiled_module.CompilationError, match=r"did not finish within 1.2 s"):
+        build_library(desc, compiler=str(cc), announce=True)
+    err = capsys.readouterr().err.splitlines()
+    assert "stopped at 1.2 s" in err[0] and "about 1 s" in err[0], err
+    progress = [line for line in err if "still compiling" in line]
+    assert len(progress) >= 2, err
+    assert not _alive(int(pid_file.read_text()))
+    folder = next(p for p in cache.iterdir() if p.is_dir())
+    assert not [p.name for p in folder.iterdir() if p.name.endswith(".tmp")]
+    for bad in ("0", "-1", "nan", "soon"):
+        monkeypatch.setenv(compiled_module.COMPILE_TIMEOUT_ENV, bad)
+        with pytest.raises(stewart_pin.InputError, match="STEWART_PIN_COMPILE_TIMEOUT"):
+            build_library(desc, compiler=str(cc))
+
+
+def test_temporaries_of_a_killed_build_are_swept(cache, tmp_path):
+    """A build killed mid-way (SIGKILL: no clean-up runs) left its temporary source and
+    library in the key folder for ever; the next use of the folder removes them (under
+    its lock, which every build holds while its temporaries exist), and nothing else."""
+    pid_file = tmp_path / "cc.pid"
+    cc = tmp_path / "cc-wrapper"  # the system compiler, or a hang when $SP_HANG is set
+    cc.write_text(
+        "#!/bin/sh\n"
+        'if [ -n "$SP_HANG" ] && [ "$1" != --version ]; then\n'
+        f'  echo $$ > "{pid_file}"; exec sleep 60\n'
+        "fi\n"
+        f'exec "{compiled_module.find_compiler()}" "$@"\n'
+    )
+    cc.chmod(0o755)
+    script = textwrap.dedent(
+        f"""
+        from stewart_pin.description.presets import preset
+        from stewart_pin.codegen.compiled import build_library
+        build_library(preset("paper"), compiler={str(cc)!r})
+        """
+    )
+    env = {**os.environ, "PYTHONPATH": SRC, compiled_module.CACHE_ENV: str(cache), "SP_HANG": "1"}
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env)
+    try:
+        for _ in range(600):  # until the compiler runs (its pid written), at most 60 s
+            if pid_file.exists() and pid_file.read_text().strip():
+                break
+            proc.poll()
+            assert proc.returncode is None, "the build ended early"
+            time.sleep(0.1)
+        proc.kill()
+        proc.wait(timeout=30)
+    finally:
+        with contextlib.suppress(Exception):
+            os.kill(int(pid_file.read_text()), 9)
+    folder = next(p for p in cache.iterdir() if p.is_dir())
+    stale = sorted(p.name for p in folder.iterdir() if p.name.endswith(".tmp"))
+    assert any(n.startswith(".libstewart_models.so.") for n in stale), stale
+    (folder / "notes.tmp").write_text("not a build's")
+    lib, built = build_library(get_robot("paper").description, compiler=str(cc))
+    assert built and lib.parent == folder
+    left = sorted(p.name for p in folder.iterdir() if p.name.endswith(".tmp"))
+    assert left == ["notes.tmp"]

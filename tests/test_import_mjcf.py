@@ -19,6 +19,7 @@ Independent references:
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import replace
 
@@ -668,3 +669,142 @@ def test_source_survives_json(tmp_path):
         RobotDescription.from_dict({**d, "source": not_table})
     with pytest.raises(stewart_pin.DescriptionError, match="model source must be a table"):
         RobotDescription.from_dict({**d, "source": ["mjcf"]})
+
+
+# --- 8. option flags, MuJoCo's warnings, non-finite numbers (issue 25) ----------------------
+
+
+def _with_flags(xml: str, **flags: str) -> str:
+    """``xml`` with ``<option><flag name="value" .../></option>``."""
+    flag = " ".join(f'{k}="{v}"' for k, v in flags.items())
+    option = re.search(r"<option([^>]*)/>", xml)
+    assert option is not None
+    return xml.replace(option.group(0), f"<option{option.group(1)}><flag {flag}/></option>")
+
+
+def test_option_flags_gravity_damper_spring_are_mujocos():
+    """``<flag gravity|damper|spring="disable">``: MuJoCo's own model of the file then has
+    no gravity (``qfrc_bias``) and no damping or springs (``qfrc_passive``); the imported
+    robot's dynamics equal the KKT solve on that model (they used to keep all three)."""
+    xml = _with_flags(
+        cad_mjcf(source("pus"), "connect-site", seed=3),
+        gravity="disable",
+        damper="disable",
+        spring="disable",
+    )
+    robot = imported(xml)
+    assert not robot.description.gravity.any()
+    dyn = [j.dynamics for leg in robot.description.legs for j in leg.joints]
+    assert not any(d.viscous or d.damping or d.stiffness for d in dyn)
+    assert any(d.armature for d in dyn)  # not switched off by any flag
+    check_against_mujoco(xml, robot, RANGES["pus"])
+
+
+def test_option_flags_frictionloss_and_limit_drop_those_terms():
+    """``<flag frictionloss="disable" limit="disable">``: MuJoCo then has no joint friction
+    and no joint limits: the imported joints have no Coulomb term and no limits, the rest
+    as without the flags; the report says so."""
+    xml = cad_mjcf(source("pus"), "connect-site", seed=3)
+    plain = import_mjcf(xml).description
+    flagged = import_mjcf(_with_flags(xml, frictionloss="disable", limit="disable"))
+    assert any(j.dynamics.coulomb for leg in plain.legs for j in leg.joints)
+    assert any(math.isfinite(j.lower) for leg in plain.legs for j in leg.joints)
+    for leg_a, leg_b in zip(plain.legs, flagged.description.legs, strict=True):
+        for a, b in zip(leg_a.joints, leg_b.joints, strict=True):
+            assert b.dynamics.coulomb == 0.0
+            assert (b.lower, b.upper) == (-math.inf, math.inf)
+            assert b.dynamics.viscous == a.dynamics.viscous
+    text = str(flagged.report)
+    assert 'frictionloss="disable"' in text and 'limit="disable"' in text
+
+
+@pytest.mark.parametrize("flag", ["equality", "constraint", "actuation"])
+def test_option_flags_that_change_the_robot_are_refused(flag):
+    """Without its equality constraints (or every constraint) the file's robot is open
+    chains; without actuation its legs are not driven: refused, the flag named."""
+    xml = _with_flags(cad_mjcf(source("pus"), "connect-site", seed=3), **{flag: "disable"})
+    with pytest.raises(ModelImportError, match=rf'<flag {flag}="disable"/>'):
+        import_mjcf(xml)
+
+
+@pytest.mark.parametrize(
+    "old, new, element, value",
+    [
+        ('range="-0.08 0.08"', 'range="nan 0.08"', "<joint> 'leg1_j1'", "range='nan 0.08'"),
+        ('range="-0.08 0.08"', 'range="-inf 0.08"', "<joint> 'leg1_j1'", "range='-inf 0.08'"),
+        ('<body name="leg1_b1" pos="0.43059', '<body name="leg1_b1" pos="NaN', "<body> 'leg1_b1'",
+         "pos='NaN"),
+        ('density="2000"', 'density="-Inf"', "<geom> in 'base'", "density='-Inf'"),
+    ],
+)  # fmt: skip
+def test_non_finite_numbers_are_named_and_no_log_is_written(
+    tmp_path, monkeypatch, old, new, element, value
+):
+    """A NaN or an infinity written in the file: a ModelImportError naming the element, the
+    attribute and the value (a NaN range imported as an unlimited joint, an infinite one
+    silently, a NaN position was called an internal inconsistency); MuJoCo's warning is
+    captured, no MUJOCO_LOG.TXT is left in the working folder."""
+    xml = cad_mjcf(source("pus"), "connect-site", seed=3)
+    assert old in xml
+    path = tmp_path / "model.xml"
+    path.write_text(xml.replace(old, new, 1))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ModelImportError, match=r"model\.xml, line \d+: ") as info:
+        import_mjcf(path)
+    assert element in str(info.value) and value in str(info.value)
+    assert "finite" in str(info.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.xml"]
+
+
+def test_mujoco_warnings_are_errors_and_not_logged(tmp_path, monkeypatch, capfd):
+    """Past stewart-pin's own scan (switched off here), MuJoCo's warning about the NaN is
+    an error, and MuJoCo writes neither to stderr nor to MUJOCO_LOG.TXT; the handler
+    installed before is put back."""
+    from stewart_pin.importers import mjcf as mjcf_module
+
+    monkeypatch.setattr(mjcf_module, "_check_finite_text", lambda text, path: None)
+    monkeypatch.chdir(tmp_path)
+    xml = cad_mjcf(source("pus"), "connect-site", seed=3).replace(
+        'range="-0.08 0.08"', 'range="nan 0.08"', 1
+    )
+    before = mujoco.get_mju_user_warning()
+    with pytest.raises(ModelImportError, match=r"MuJoCo warns about the MJCF text: .*NaN"):
+        import_mjcf(xml)
+    assert mujoco.get_mju_user_warning() is before
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert "NaN" not in capfd.readouterr().err
+
+
+def test_non_finite_numbers_of_a_compiled_model_are_named():
+    """A compiled model given as such: its non-finite numbers are named by element."""
+    m = mujoco.MjModel.from_xml_string(cad_mjcf(source("pus"), "connect-site", seed=3))
+    m.jnt_range[m.joint("leg2_j1").id, 1] = math.inf
+    with pytest.raises(ModelImportError, match=r"joint 'leg2_j1': jnt_range is \[-0.08, inf\]"):
+        import_mjcf(m)
+    m.jnt_range[m.joint("leg2_j1").id, 1] = 0.08
+    m.body_mass[m.body("leg3_b1").id] = math.nan
+    with pytest.raises(ModelImportError, match=r"body 'leg3_b1': body_mass is nan") as info:
+        import_mjcf(m)
+    assert info.value.bodies == ("leg3_b1",)
+
+
+def test_non_finite_number_in_an_included_file_is_named(tmp_path, monkeypatch):
+    """An ``<include>``d file is scanned as well (MuJoCo reads it from the main file's
+    folder): the error names that file."""
+    xml = cad_mjcf(source("pus"), "connect-site", seed=3)
+    start, end = xml.index("  <actuator>"), xml.index("</actuator>") + len("</actuator>")
+    part = xml[start:end].replace('gear="50"', 'gear="nan"')
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "actuators.xml").write_text(f"<mujoco>\n{part}\n</mujoco>\n")
+    main = tmp_path / "model.xml"
+    main.write_text(xml[:start] + '  <include file="parts/actuators.xml"/>' + xml[end:])
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(
+        ModelImportError, match=r"actuators\.xml, line 4: <position> 'act2' has gear='nan'"
+    ):
+        import_mjcf(main)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    (tmp_path / "parts" / "actuators.xml").write_text(
+        f"<mujoco>\n{part}\n</mujoco>\n".replace('gear="nan"', 'gear="50"')
+    )
+    assert import_mjcf(main).description.legs

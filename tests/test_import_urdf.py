@@ -17,6 +17,7 @@ Independent references:
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 import xml.etree.ElementTree as ET
@@ -324,3 +325,106 @@ def test_bad_import_options_are_input_errors(tmp_path):
     for bad in (float("nan"), -1.0, True, "x"):
         with pytest.raises(stewart_pin.InputError, match="armature of joint 'leg1_q1'"):
             import_urdf(path, armature={"leg1_q1": bad})
+
+
+# --- the sidecar's joint terms, non-finite numbers (issue 25) -------------------------------
+
+
+def _round_trip_files(tmp_path, name="r"):
+    """``preset("rus")`` written as a URDF and its sidecar: (urdf text, sidecar dict)."""
+    urdf, sidecar = write_urdf(preset("rus"), tmp_path / f"{name}.urdf")
+    return urdf.read_text(), json.loads(sidecar.read_text())
+
+
+def _import_with(tmp_path, text, data, name):
+    folder = tmp_path / name
+    folder.mkdir()
+    (folder / "r.closures.json").write_text(json.dumps(data))
+    return import_urdf(write(folder, text, "r.urdf"))
+
+
+@pytest.mark.parametrize(
+    "key, value, match",
+    [
+        ("lower", "abc", r'lower limit of .leg1_q1. must be a number or null .*got "abc"'),
+        ("lower", [1], r"lower limit of .leg1_q1. must be a number or null .*got \[1\]"),
+        ("lower", True, r"lower limit of .leg1_q1. must be a number or null .*got true"),
+        ("upper", False, r"upper limit of .leg1_q1. must be a number or null .*got false"),
+        ("upper", math.nan, r"upper limit of .leg1_q1. must be a number or null .*got NaN"),
+        ("lower", 2.0, r"limits of .leg1_q1. are reversed: lower 2.0 > upper"),
+    ],
+)
+def test_sidecar_limits_of_the_wrong_type_are_named(tmp_path, key, value, match):
+    """A sidecar limit that is a string or a list (a traceback), a boolean (taken as 1 or
+    0), NaN, or limits reversed: a FileFormatError naming the joint and the value."""
+    text, data = _round_trip_files(tmp_path)
+    data["joint_terms"]["leg1_q1"][key] = value
+    with pytest.raises(FileFormatError, match=match):
+        _import_with(tmp_path, text, data, "bad")
+
+
+def test_sidecar_limit_alone_and_terms_of_unknown_joints_are_refused(tmp_path):
+    """One limit without the other was ignored, and so were the terms of a joint the URDF
+    does not have (a misspelt name): both refused by name. A joint's terms with ``null``
+    limits are unbounded."""
+    text, data = _round_trip_files(tmp_path)
+    lonely = json.loads(json.dumps(data))
+    del lonely["joint_terms"]["leg1_q1"]["upper"]
+    with pytest.raises(FileFormatError, match="'leg1_q1' give a lower limit without an upper"):
+        _import_with(tmp_path, text, lonely, "lonely")
+    misspelt = json.loads(json.dumps(data))
+    misspelt["joint_terms"]["leg1_q11"] = misspelt["joint_terms"]["leg1_q1"]
+    with pytest.raises(ModelImportError, match="joint terms for 'leg1_q11': no such joint") as e:
+        _import_with(tmp_path, text, misspelt, "misspelt")
+    assert e.value.joints == ("leg1_q11",)
+    free = json.loads(json.dumps(data))
+    free["joint_terms"]["leg1_q1"].update(lower=None, upper=None)
+    desc = _import_with(tmp_path, text, free, "free").description
+    k = [leg.joints[0] for leg in desc.source.legs].index("leg1_q1")
+    assert (desc.legs[k].joints[0].lower, desc.legs[k].joints[0].upper) == (-math.inf, math.inf)
+
+
+@pytest.mark.parametrize("value", [True, "0.1", None])
+def test_sidecar_joint_terms_take_numbers_only(tmp_path, value):
+    """The sidecar reader of the Pinocchio models (``parse_joint_terms``) took ``true`` as
+    1 and ``"0.1"`` as 0.1: numbers only, the joint and the key named."""
+    from stewart_pin.formats.general_urdf import parse_joint_terms
+
+    _, data = _round_trip_files(tmp_path)
+    assert (
+        parse_joint_terms(data)["leg1_q1"]["viscous"] == data["joint_terms"]["leg1_q1"]["viscous"]
+    )
+    data["joint_terms"]["leg2_q3"]["viscous"] = value
+    with pytest.raises(FileFormatError, match="viscous of joint 'leg2_q3' must be a number"):
+        parse_joint_terms(data, "r.closures.json")
+
+
+@pytest.mark.parametrize(
+    "pattern, repl, named",
+    [
+        (r'(<joint name="leg2_q1".*?<origin xyz=")[^"]*"', r'\1nan 0 0"',
+         "<origin> of joint 'leg2_q1' (line "),
+        (r'(<mass value=")[^"]*"', r'\g<1>1e999"', "<mass> of link 'leg1_link1' (line "),
+        (r'(<limit [^>]*upper=")[^"]*"', r'\1inf"', "<limit> of joint "),
+    ],
+)  # fmt: skip
+def test_non_finite_numbers_of_a_urdf_are_named(tmp_path, capfd, pattern, repl, named):
+    """``xyz="nan 0 0"`` was reported as a redundant joint, an infinite mass as an invalid
+    description: a ModelImportError naming the element, its link or joint, the line and
+    the value; one line on the command line, exit 2."""
+    import re
+
+    from stewart_pin.cli import main
+
+    text, data = _round_trip_files(tmp_path)
+    bad = re.sub(pattern, repl, text, count=1, flags=re.S)
+    assert bad != text
+    path = write(tmp_path, bad, "r.urdf")
+    (tmp_path / "r.closures.json").write_text(json.dumps(data))
+    with pytest.raises(ModelImportError, match="every number of a URDF must be finite") as e:
+        import_urdf(path)
+    assert named in str(e.value)
+    capfd.readouterr()
+    assert main(["import", str(path), "-o", str(tmp_path / "out.json")]) == 2
+    err = capfd.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and named in err, err

@@ -461,3 +461,28 @@ def test_cli_unknown_payload_is_one_line_exit_2(capsys):
     assert main(["validate", "--preset", "desktop", "--payload", "no-such-arm"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no robot 'no-such-arm'" in err and "ur5" in err
+
+
+@pytest.mark.parametrize(
+    "old, new, named",
+    [
+        ('<mass value="0.5"/>', '<mass value="nan"/>', "<mass> of link 'arm' has value='nan'"),
+        ('ixx="1e-4"', 'ixx="inf"', "<inertia> of link 'arm' has ixx='inf'"),
+        ('<origin xyz="0 0 0.05"/>', '<origin xyz="0 NaN 0.05"/>',
+         "<origin> of joint 'j1' has xyz='0 NaN 0.05'"),
+    ],
+)  # fmt: skip
+def test_non_finite_numbers_of_a_payload_urdf_are_named(tmp_path, capfd, old, new, named):
+    """A NaN or an infinity in a payload URDF: a PayloadError naming the element and the
+    value (a NaN mass used to load, then fail in Pinocchio's words); one line on the
+    command line, exit 2."""
+    path = tmp_path / "stick.urdf"
+    assert old in URDF
+    path.write_text(URDF.replace(old, new))
+    with pytest.raises(PayloadError, match="every number must be finite") as info:
+        load_payload(path)
+    assert named in str(info.value)
+    capfd.readouterr()
+    assert main(["validate", "--preset", "desktop", "--payload", str(path)]) == 2
+    err = capfd.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and named in err, err

@@ -59,16 +59,19 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import errno
 import hashlib
 import json
 import math
 import os
 import shutil
+import signal
 import stat
 import subprocess
 import sys
 import tempfile
 import threading
+import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -145,6 +148,13 @@ CFLAGS = (
 )
 #: Libraries linked (after the source).
 LDLIBS = ("-lm",)
+#: Environment variable: the longest a compilation may take [s] (default
+#: :data:`COMPILE_TIMEOUT`); past it the compiler is stopped and the build fails.
+COMPILE_TIMEOUT_ENV = "STEWART_PIN_COMPILE_TIMEOUT"
+#: The longest a compilation may take by default [s].
+COMPILE_TIMEOUT = 600.0
+#: While an announced compilation runs, a line on stderr every this many seconds [s].
+PROGRESS_EVERY = 15.0
 #: Environment variable: threads sharing a compiled batch (default ``os.cpu_count()``).
 THREADS_ENV = "STEWART_PIN_THREADS"
 #: Fewest states per thread for a batch to be split (below, the hand-off costs more).
@@ -202,13 +212,36 @@ def compiler_identity(compiler: str) -> str:
     if path not in _COMPILER_IDS:
         try:
             run = subprocess.run(
-                [path, "--version"], capture_output=True, text=True, timeout=60, check=False
+                [path, "--version"],
+                capture_output=True,
+                text=True,
+                timeout=min(60.0, compile_timeout()),
+                check=False,
             )
             version = run.stdout.strip() if run.returncode == 0 else ""
         except (OSError, subprocess.SubprocessError):
             version = ""
         _COMPILER_IDS[path] = f"{path}\n{version}"
     return _COMPILER_IDS[path]
+
+
+def compile_timeout() -> float:
+    """The longest a compilation may take [s]: ``$STEWART_PIN_COMPILE_TIMEOUT`` if set (a
+    positive number of seconds; anything else raises
+    :class:`~stewart_pin.exceptions.InputError`), else :data:`COMPILE_TIMEOUT`."""
+    env = (os.environ.get(COMPILE_TIMEOUT_ENV) or "").strip()
+    if not env:
+        return COMPILE_TIMEOUT
+    try:
+        value = float(env)
+    except ValueError:
+        value = math.nan
+    if not (value > 0 and math.isfinite(value)):
+        raise InputError(
+            f"${COMPILE_TIMEOUT_ENV} must be a positive number of seconds (how long a "
+            f"compilation may take), got {env[:40]!r}; unset it for {COMPILE_TIMEOUT:g} s"
+        )
+    return value
 
 
 def cache_key(source: str, compiler: str) -> str:
@@ -329,20 +362,66 @@ def _private_dir(path: Path, follow: bool = False) -> None:
 
 
 @contextlib.contextmanager
-def _locked(folder: Path) -> Iterator[None]:
-    """An exclusive lock on ``folder/.lock`` (blocking) for the duration of the block."""
+def _locked(folder: Path) -> Iterator[bool]:
+    """An exclusive lock on ``folder/.lock`` (blocking) for the duration of the block;
+    yields whether the folder can be written. A folder that cannot be written (a
+    read-only cache: its mode, a read-only file system) is read under a shared lock when
+    its ``.lock`` exists, else without one (no process can build in it either)."""
     if fcntl is None:  # pragma: no cover
-        yield
+        yield True
         return
     lock = folder / _LOCK_NAME
-    flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
-    fd = os.open(lock, flags, 0o600)
+    nofollow = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+    writable = True
     try:
-        _check_private(lock, "file")
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
+        fd: int | None = os.open(lock, os.O_RDWR | os.O_CREAT | nofollow, 0o600)
+    except OSError as e:
+        if e.errno not in (errno.EACCES, errno.EPERM, errno.EROFS) or _can_write(folder):
+            raise
+        writable = False
+        try:
+            fd = os.open(lock, os.O_RDONLY | nofollow)
+        except FileNotFoundError:
+            fd = None
+    try:
+        if fd is not None:
+            _check_private(lock, "file")
+            fcntl.flock(fd, fcntl.LOCK_EX if writable else fcntl.LOCK_SH)
+        yield writable
     finally:
-        os.close(fd)  # releases the lock
+        if fd is not None:
+            os.close(fd)  # releases the lock
+
+
+def _can_write(folder: Path) -> bool:
+    """Whether files can be created in ``folder`` (its mode, and a writable file system)."""
+    if not os.access(folder, os.W_OK):
+        return False
+    with contextlib.suppress(OSError, AttributeError):
+        if os.statvfs(folder).f_flag & os.ST_RDONLY:
+            return False
+    return True
+
+
+#: The temporary files of a build in a key folder (:func:`_write_private`, :func:`_build`).
+_TEMP_PREFIXES = tuple(f".{name}." for name in (_SOURCE_NAME, _LIB_NAME, _MANIFEST_NAME))
+
+
+def _sweep_temporaries(folder: Path) -> None:
+    """Remove the temporary files a killed build left in ``folder``. Called under the
+    folder's exclusive lock, which every build holds from its first temporary file to its
+    last rename: any temporary there now belongs to no running build."""
+    with os.scandir(folder) as entries:
+        stale = [
+            e.path
+            for e in entries
+            if e.name.startswith(_TEMP_PREFIXES)
+            and e.name.endswith(".tmp")
+            and not e.is_dir(follow_symlinks=False)
+        ]
+    for path in stale:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(path)
 
 
 def _sha256(path: Path) -> tuple[str, int]:
@@ -399,8 +478,11 @@ def _write_private(folder: Path, name: str, data: bytes, mode: int) -> Path:
     return Path(tmp)
 
 
-def _build(folder: Path, source: str, compiler: str, key: str) -> None:
-    """Compile ``source`` into ``folder`` (temporary files, then renamed into place)."""
+def _build(
+    folder: Path, source: str, compiler: str, key: str, announce: str | None = None
+) -> None:
+    """Compile ``source`` into ``folder`` (temporary files, then renamed into place);
+    ``announce``: what is compiled, for the progress lines (:func:`_compile`)."""
     temps: list[Path] = []
     try:
         tmp_c = _write_private(folder, _SOURCE_NAME, source.encode(), 0o644)
@@ -411,11 +493,11 @@ def _build(folder: Path, source: str, compiler: str, key: str) -> None:
         temps.append(tmp_so)
         # -x c: the temporary name does not end in .c.
         cmd = [compiler, *CFLAGS, "-o", str(tmp_so), "-x", "c", str(tmp_c), *LDLIBS]
-        run = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
-        if run.returncode != 0 or not tmp_so.is_file() or tmp_so.stat().st_size == 0:
-            first = (run.stderr or run.stdout or "").strip().splitlines()
+        code, output = _compile(cmd, announce)
+        if code != 0 or not tmp_so.is_file() or tmp_so.stat().st_size == 0:
+            first = output.strip().splitlines()
             raise CompilationError(
-                f"{os.path.basename(compiler)} failed ({run.returncode}): "
+                f"{os.path.basename(compiler)} failed ({code}): "
                 f"{first[0] if first else 'no output'}"
             )
         os.chmod(tmp_so, 0o755)
@@ -441,6 +523,57 @@ def _build(folder: Path, source: str, compiler: str, key: str) -> None:
         for t in temps:
             with contextlib.suppress(OSError):
                 os.unlink(t)
+
+
+def _compile(cmd: list[str], announce: str | None) -> tuple[int, str]:
+    """Run the compiler ``cmd``: ``(exit status, its stderr or else stdout)``. Past
+    :func:`compile_timeout` the compiler (its whole process group) is killed and
+    :class:`CompilationError` raised; with ``announce`` (what is compiled), one line on
+    stderr every :data:`PROGRESS_EVERY` seconds while it runs."""
+    timeout = compile_timeout()
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        start_new_session=os.name == "posix",  # its own group: killed with its children
+    )
+    start = time.monotonic()
+    try:
+        while True:
+            elapsed = time.monotonic() - start
+            wait = min(PROGRESS_EVERY, timeout - elapsed) if announce else timeout - elapsed
+            try:
+                out, err = proc.communicate(timeout=max(wait, 0.0))
+                break
+            except subprocess.TimeoutExpired:
+                elapsed = time.monotonic() - start
+                if elapsed >= timeout:
+                    raise CompilationError(
+                        f"{os.path.basename(cmd[0])} did not finish within {timeout:g} s "
+                        f"(${COMPILE_TIMEOUT_ENV}); it was stopped"
+                    ) from None
+                print(
+                    f"stewart-pin: still compiling {announce} ({elapsed:.0f} s so far; "
+                    f"stopped at {timeout:g} s, ${COMPILE_TIMEOUT_ENV})",
+                    file=sys.stderr,
+                    flush=True,
+                )
+    finally:
+        if proc.returncode is None:  # timed out or interrupted: stop it and its children
+            _kill(proc)
+    return proc.returncode, err or out or ""
+
+
+def _kill(proc: subprocess.Popen[str]) -> None:
+    with contextlib.suppress(OSError):
+        if os.name == "posix":
+            os.killpg(proc.pid, signal.SIGKILL)
+        else:  # pragma: no cover
+            proc.kill()
+    with contextlib.suppress(OSError, subprocess.SubprocessError):
+        proc.communicate(timeout=10)
 
 
 def build_seconds(source: str) -> float:
@@ -492,8 +625,15 @@ def build_source_library(
     try:
         _private_dir(root, follow=True)
         _private_dir(folder)
-        with _locked(folder):
+        with _locked(folder) as writable:
+            if writable:
+                _sweep_temporaries(folder)
             why = _verified(folder, key)
+            if why is not None and not writable:
+                raise CompilationError(
+                    f"the cache folder {folder} is read-only and holds no valid library "
+                    f"({why}); make it writable or point ${CACHE_ENV} at a writable folder"
+                )
             if why is not None:
                 if why != "no library":
                     warnings.warn(
@@ -505,19 +645,35 @@ def build_source_library(
                     seconds = max(1, round(build_seconds(source)))
                     print(
                         f"stewart-pin: compiling {announce} (first use of this geometry, "
-                        f"about {seconds} s; cached in {root})",
+                        f"about {seconds} s, stopped at {compile_timeout():g} s; cached in "
+                        f"{root})",
                         file=sys.stderr,
                         flush=True,
                     )
-                _build(folder, source, compiler, key)
+                _build(folder, source, compiler, key, announce)
             if load is not None:
                 try:
                     load(folder / _LIB_NAME)
                 except OSError as e:
                     raise CompilationError(f"cannot load {folder / _LIB_NAME}: {e}") from e
     except (OSError, subprocess.SubprocessError) as e:
+        if isinstance(e, OSError) and _cache_not_writable(e, root, folder):
+            raise CompilationError(
+                f"the cache folder {root} cannot be written ({e.strerror}) and holds no "
+                f"library for this robot; make it writable or point ${CACHE_ENV} at a "
+                "writable folder"
+            ) from e
         raise CompilationError(f"cannot build the library in {folder}: {e}") from e
     return folder / _LIB_NAME, why is not None
+
+
+def _cache_not_writable(e: OSError, root: Path, folder: Path) -> bool:
+    """Whether ``e`` is the refusal to create the cache folder ``root`` (or an ancestor)
+    or its key folder ``folder``: a read-only cache without this robot's library."""
+    if e.errno not in (errno.EROFS, errno.EACCES, errno.EPERM) or e.filename is None:
+        return False
+    path = Path(os.fsdecode(e.filename))
+    return path in (root, folder) or path in root.parents
 
 
 def _printable(desc: Any) -> str:

@@ -297,7 +297,9 @@ def _leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) ->
     R = robot.leg_base_rotations[k]
     g = robot.gravity
     g0 = R.T @ g
-    gscale = max(float(np.linalg.norm(g)), 1e-300)
+    # hypot, not the norm's sum of squares: |g| past ~1e154 overflowed that to inf, which
+    # snapped every component to 0 (a robot without gravity, silently)
+    gscale = max(math.hypot(*(float(x) for x in g)), 1e-300)
     return _LegConst(
         index=k,
         name=leg.name,

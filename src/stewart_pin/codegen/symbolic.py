@@ -46,6 +46,7 @@ platform (which could run on seven processors), then the closure.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, cast
@@ -151,7 +152,7 @@ def model_constants(desc: RobotDescription) -> ModelConstants:
         base_points=_snap(desc.base_points, size),
         platform_points=_snap(desc.platform_points, size),
         leg_base_rotations=_snap(desc.leg_base_rotations, 1.0),
-        gravity=_snap(g, max(float(np.linalg.norm(g)), 1e-300)),
+        gravity=_snap(g, max(math.hypot(*(float(x) for x in g)), 1e-300)),  # hypot: no overflow
         parameter_names=bp.names,
         parameter_values=np.array(bp.values),
     )

@@ -329,10 +329,20 @@ def parse_joint_terms(data: Any, source: str = "closures") -> dict[str, dict[str
         raise FileFormatError(f"{source}: '{JOINT_TERMS_KEY}' must be an object")
     out: dict[str, dict[str, float]] = {}
     for name, entry in terms.items():
-        try:
-            values = {key: float(entry[key]) for key in _TERM_KEYS}
-        except (KeyError, TypeError, ValueError) as e:
-            raise FileFormatError(f"{source}: joint terms of {name!r} are malformed: {e!r}") from e
+        if not isinstance(entry, dict):
+            raise FileFormatError(f"{source}: joint terms of {name!r} must be an object")
+        missing = [key for key in _TERM_KEYS if key not in entry]
+        if missing:
+            raise FileFormatError(
+                f"{source}: joint terms of {name!r} miss {', '.join(map(repr, missing))}"
+            )
+        for key in _TERM_KEYS:  # JSON numbers only: not true/false, not "1.5"
+            value = entry[key]
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise FileFormatError(
+                    f"{source}: {key} of joint {name!r} must be a number, got {value!r}"
+                )
+        values = {key: float(entry[key]) for key in _TERM_KEYS}
         if not all(math.isfinite(v) for v in values.values()):
             raise FileFormatError(f"{source}: joint terms of {name!r} must be finite")
         out[str(name)] = values

@@ -392,3 +392,42 @@ def write_with_sidecar(
     write_text_atomic(path, text)
     write_text_atomic(sidecar, sidecar_text)
     return path, sidecar
+
+
+#: The URDF attributes that hold numbers (``<origin xyz rpy>``, ``<mass value>``,
+#: ``<inertia ixx...>``, ``<limit>``, ``<dynamics>``, ``<safety_controller>``, ``<mimic>``,
+#: ``<calibration>``, geometry sizes, colours).
+URDF_NUMBER_ATTRIBUTES = frozenset(
+    """xyz rpy value ixx ixy ixz iyy iyz izz lower upper effort velocity damping friction
+    soft_lower_limit soft_upper_limit k_position k_velocity multiplier offset rising falling
+    radius length size scale rgba""".split()
+)
+
+
+def non_finite_number(root: Any) -> str | None:
+    """Where a parsed URDF (the ``<robot>`` element of ElementTree or lxml) writes a NaN or
+    an infinity (``nan``, ``inf``, ``1e999``) in a number: ``"<tag> of link 'name' (line
+    n) has attr='value'"``, or None. Text that is not a number is left to the parser."""
+    for top in root:
+        if not isinstance(top.tag, str):  # lxml comments and processing instructions
+            continue
+        owner = f"{top.tag} {top.get('name', '')!r}"
+        for el in top.iter():
+            if not isinstance(el.tag, str):
+                continue
+            texts = [(k, v) for k, v in el.attrib.items() if k in URDF_NUMBER_ATTRIBUTES]
+            if el.tag == "mechanicalReduction":
+                texts.append(("text", el.text or ""))
+            for key, value in texts:
+                for token in value.split():
+                    try:
+                        x = float(token)
+                    except ValueError:
+                        continue
+                    if x != x or x in (float("inf"), float("-inf")):
+                        line = getattr(el, "sourceline", None)
+                        where = f" (line {line})" if line else ""
+                        inside = f"<{el.tag}> of {owner}" if el is not top else f"{owner}"
+                        what = f"{key}={value!r}" if key != "text" else f"{value.strip()!r}"
+                        return f"{inside}{where} has {what}"
+    return None

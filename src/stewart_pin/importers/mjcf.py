@@ -31,7 +31,9 @@ in the rigid-body dynamics imported.
 
 from __future__ import annotations
 
-import math
+import contextlib
+import xml.parsers.expat
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -93,7 +95,11 @@ def load_model(source: Any) -> tuple[Any, str]:
     A path (``str`` or ``os.PathLike`` naming an existing file, or a ``str`` not starting
     with ``<``) is read with its includes and assets relative to its folder; a string
     starting with ``<`` is the XML itself (assets relative to the working folder).
-    :class:`FileFormatError` with MuJoCo's message when MuJoCo refuses the model.
+    :class:`FileFormatError` with MuJoCo's message when MuJoCo refuses the model;
+    :class:`ModelImportError` for a NaN or infinite number written in the file (naming the
+    element, the attribute and the value) and for any warning MuJoCo gives while reading
+    it (MuJoCo's warnings are captured: nothing is printed or written to
+    ``MUJOCO_LOG.TXT``).
     """
     mujoco = _mujoco()
     if isinstance(source, mujoco.MjModel):
@@ -111,22 +117,133 @@ def load_model(source: Any) -> tuple[Any, str]:
             f"from_mjcf takes a path, an XML string or a mujoco.MjModel, got "
             f"{type(source).__name__}"
         )
-    try:
-        spec = (
-            mujoco.MjSpec.from_string(text)
-            if text is not None
-            else mujoco.MjSpec.from_file(str(path))
+    where = str(path) if path is not None else "the MJCF text"
+    _check_finite_text(text, path)
+    with mujoco_warnings() as said:
+        try:
+            spec = (
+                mujoco.MjSpec.from_string(text)
+                if text is not None
+                else mujoco.MjSpec.from_file(str(path))
+            )
+        except Exception as e:  # MuJoCo raises ValueError with its own message
+            raise FileFormatError(f"MuJoCo cannot read {where}: {e}") from e
+        _drop_visuals(mujoco, spec)
+        try:
+            model = spec.compile()
+        except Exception as e:
+            raise FileFormatError(f"MuJoCo cannot compile {where}: {e}") from e
+    if said:
+        raise ModelImportError(
+            f"MuJoCo warns about {where}: {said[0]} (stewart-pin does not import a model "
+            "MuJoCo warns about: fix the file)"
         )
-    except Exception as e:  # MuJoCo raises ValueError with its own message
-        where = str(path) if path is not None else "the MJCF text"
-        raise FileFormatError(f"MuJoCo cannot read {where}: {e}") from e
-    _drop_visuals(mujoco, spec)
-    try:
-        model = spec.compile()
-    except Exception as e:
-        where = str(path) if path is not None else "the MJCF text"
-        raise FileFormatError(f"MuJoCo cannot compile {where}: {e}") from e
     return model, "" if path is None else path.name
+
+
+@contextlib.contextmanager
+def mujoco_warnings() -> Iterator[list[str]]:
+    """MuJoCo's warnings (``mju_warning``) collected into the list yielded, instead of
+    printed and appended to ``MUJOCO_LOG.TXT`` in the working folder; the previous handler
+    is put back afterwards (the handler is process-wide)."""
+    mujoco = _mujoco()
+    said: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: said.append(str(message).strip()))
+    try:
+        yield said
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+#: MJCF attributes that hold names, files or keywords, never numbers: the scan for
+#: non-finite numbers skips them (a body may be named "nan").
+_TEXT_ATTRIBUTES = frozenset(
+    """name class childclass file prefix model joint joint1 joint2 body body1 body2 site
+    site1 site2 tendon tendon1 tendon2 target mesh material texture hfield geom geom1 geom2
+    objname refname objtype reftype actuator cranksite slidersite jointinparent refsite
+    camera light flex skin meshdir texturedir assetdir content_type plugin instance key
+    type mode""".split()
+)
+#: MJCF elements whose attributes are text (``<custom><text data>``, plugin settings).
+_TEXT_ELEMENTS = frozenset({"text", "config"})
+_NON_FINITE = frozenset({"nan", "inf", "infinity"})
+#: Files an MJCF's ``<include>`` chain may name before the scan stops following them.
+_MAX_INCLUDES = 64
+
+
+def _check_finite_text(text: str | None, path: Path | None) -> None:
+    """:class:`ModelImportError` for the first NaN or infinity written in an attribute of
+    the MJCF ``text`` (or the file ``path``, and the files it includes): MuJoCo reads
+    ``nan`` with a warning naming nothing, and ``inf`` silently."""
+    queue: list[tuple[str | None, Path | None]] = [(text, path)]
+    seen: set[Path] = set()
+    root: Path | None = None
+    while queue and len(seen) <= _MAX_INCLUDES:
+        text, path = queue.pop(0)
+        if text is None and path is not None:
+            try:
+                text = path.read_text(encoding="utf-8", errors="replace")
+            except OSError:
+                continue  # MuJoCo says what is wrong with it
+        if text is None:
+            continue
+        found, includes = _scan_attributes(text)
+        if found is not None:
+            element, tag, name, key, value, line = found
+            where = "the MJCF text" if path is None else str(path)
+            raise ModelImportError(
+                f"{where}, line {line}: {element} has {key}={shown(value)}: every number "
+                "of a model file must be finite (no NaN or infinity)",
+                (name,) if tag == "body" and name else (),
+                (name,) if tag != "body" and name else (),
+            )
+        if path is not None:
+            seen.add(path.resolve())
+            root = root or path.parent  # MuJoCo reads includes from the main file's folder
+            for file in includes:
+                child = root / file
+                if child.is_file() and child.resolve() not in seen:
+                    queue.append((None, child))
+
+
+_Found = tuple[str, str, str, str, str, int]
+
+
+def _scan_attributes(text: str) -> tuple[_Found | None, list[str]]:
+    """The first attribute of an MJCF ``text`` holding ``nan`` or ``inf`` (``(the element
+    as shown: its tag and name, or the nearest named element it is in; its tag; its name;
+    the attribute; the value; the line)``, or None) and the files its ``<include>`` name."""
+    found: list[_Found] = []
+    includes: list[str] = []
+    names: list[str] = []  # the element names along the current path ("" when unnamed)
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        names.append(attrs.get("name", ""))
+        if tag == "include" and "file" in attrs:
+            includes.append(attrs["file"])
+        if tag in _TEXT_ELEMENTS:
+            return
+        for key, value in attrs.items():
+            if found or key in _TEXT_ATTRIBUTES:
+                continue
+            if any(t.lower().lstrip("+-") in _NON_FINITE for t in value.split()):
+                own = names[-1]
+                owner = next((n for n in reversed(names[:-1]) if n), "")
+                label = f"<{tag}> {shown(own)}" if own else f"<{tag}>"
+                if not own and owner:
+                    label += f" in {shown(owner)}"
+                found.append((label, tag, own, key, value, parser.CurrentLineNumber))
+
+    def end(tag: str) -> None:
+        names.pop()
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    with contextlib.suppress(xml.parsers.expat.ExpatError):  # MuJoCo says what is wrong
+        parser.Parse(text, True)
+    return (found[0] if found else None), includes
 
 
 def _drop_visuals(mujoco: Any, spec: Any) -> None:
@@ -176,6 +293,8 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
     """
     mujoco = _mujoco()
     m, file_name = load_model(source)
+    _check_finite_model(mujoco, m)
+    off = _disabled(mujoco, m)
     data = mujoco.MjData(m)
 
     def name(obj: str, i: int) -> str:
@@ -218,8 +337,13 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
     frees: dict[str, np.ndarray] = {}
     notes: list[str] = []
     seen: set[str] = set()
+    notes.extend(
+        f'<option><flag {flag}="disable"/>: imported {what}'
+        for flag, what in _FLAGS_HONOURED.items()
+        if flag in off
+    )
     gravcomp = [name("mjOBJ_BODY", b) for b in range(1, m.nbody) if m.body_gravcomp[b] != 0.0]
-    if gravcomp:
+    if gravcomp and "gravity" not in off:  # without gravity, gravcomp does nothing
         raise ModelImportError(
             f"bodies {', '.join(shown(n) for n in gravcomp)} have gravity compensation "
             "(gravcomp): it changes the dynamics stewart-pin models; remove it",
@@ -253,22 +377,24 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
                     np.array(xanchor[j]),
                     np.array(xaxis[j]) / np.linalg.norm(xaxis[j]),
                     armature=float(m.dof_armature[dof]),
-                    damping=float(m.dof_damping[dof]),
-                    coulomb=float(m.dof_frictionloss[dof]),
-                    stiffness=float(m.jnt_stiffness[j]),
+                    damping=0.0 if "damper" in off else float(m.dof_damping[dof]),
+                    coulomb=0.0 if "frictionloss" in off else float(m.dof_frictionloss[dof]),
+                    stiffness=0.0 if "spring" in off else float(m.jnt_stiffness[j]),
                     rest=float(m.qpos_spring[qadr]),
                 )
-                if m.jnt_limited[j]:
+                if m.jnt_limited[j] and "limit" not in off:
                     J.lower, J.upper = float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])
                 values[jname] = float(q_ref[qadr])
             elif kind == ball:
                 terms = (
                     float(np.abs(m.dof_armature[dof : dof + 3]).max())
-                    + float(np.abs(m.dof_damping[dof : dof + 3]).max())
-                    + float(np.abs(m.dof_frictionloss[dof : dof + 3]).max())
-                    + float(m.jnt_stiffness[j])
+                    + ("damper" not in off) * float(np.abs(m.dof_damping[dof : dof + 3]).max())
+                    + ("frictionloss" not in off)
+                    * float(np.abs(m.dof_frictionloss[dof : dof + 3]).max())
+                    + ("spring" not in off) * float(m.jnt_stiffness[j])
                 )
-                J = TreeJoint(jname, BALL, np.array(xanchor[j]), limited=bool(m.jnt_limited[j]))
+                limited = bool(m.jnt_limited[j]) and "limit" not in off
+                J = TreeJoint(jname, BALL, np.array(xanchor[j]), limited=limited)
                 J.damping = terms  # only its being non-zero matters (refused)
                 balls[jname] = _quat_matrix(q_ref[qadr : qadr + 4])
             else:
@@ -337,7 +463,8 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
         actuators.append(TreeActuator(aname, jname, float(m.actuator_gear[a, 0])))
 
     for t in range(m.ntendon):
-        if m.tendon_stiffness[t] != 0.0 or m.tendon_damping[t] != 0.0:
+        spring = m.tendon_stiffness[t] != 0.0 and "spring" not in off
+        if spring or (m.tendon_damping[t] != 0.0 and "damper" not in off):
             tname = name("mjOBJ_TENDON", t)
             raise ModelImportError(
                 f"tendon {shown(tname)} has a spring or a damper: stewart-pin's dynamics "
@@ -347,8 +474,6 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
             )
     if m.opt.density != 0.0 or m.opt.viscosity != 0.0:
         notes.append("the fluid forces (option density, viscosity) are ignored")
-    if not math.isfinite(float(np.abs(m.opt.gravity).max())):
-        raise ModelImportError("gravity must be finite")
     model = KinematicModel(
         name=_model_name(m),
         format="mjcf",
@@ -356,7 +481,7 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
         bodies=bodies,
         closures=closures,
         actuators=actuators,
-        gravity=np.array(m.opt.gravity, dtype=float),
+        gravity=np.zeros(3) if "gravity" in off else np.array(m.opt.gravity, dtype=float),
         reference=reference,
         values=values,
         balls=balls,
@@ -381,6 +506,86 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
                 (name("mjOBJ_BODY", b),),
             )
     return model
+
+
+#: MuJoCo's ``<option><flag ... ="disable"/>`` switches that the import honours, and how.
+_FLAGS_HONOURED = {
+    "gravity": "with zero gravity",
+    "damper": "without the joints' damping",
+    "spring": "without the joints' springs",
+    "frictionloss": "without the joints' Coulomb friction (frictionloss)",
+    "limit": "without joint limits",
+}
+#: The switches the import refuses (the file's robot then is not the one imported).
+_FLAGS_REFUSED = {
+    "constraint": "MuJoCo then ignores every constraint, the loop closures among them "
+    "(the file's robot is open chains)",
+    "equality": "MuJoCo then ignores the equality constraints that close the loops (the "
+    "file's robot is open chains)",
+    "actuation": "MuJoCo then applies no actuator force (the file's legs are not driven)",
+}
+
+
+def _disabled(mujoco: Any, m: Any) -> set[str]:
+    """The names of the ``<option><flag>`` switches that change the dynamics and are
+    disabled in ``m`` (:data:`_FLAGS_HONOURED`); :class:`ModelImportError` for one the
+    import cannot honour (:data:`_FLAGS_REFUSED`)."""
+    bits = int(m.opt.disableflags)
+
+    def off(flag: str) -> bool:
+        return bool(bits & int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag.upper()}")))
+
+    for flag, why in _FLAGS_REFUSED.items():
+        if off(flag):
+            raise ModelImportError(
+                f'the model disables {flag} (<option><flag {flag}="disable"/>): {why}; '
+                "stewart-pin cannot import that model: remove the flag"
+            )
+    return {flag for flag in _FLAGS_HONOURED if off(flag)}
+
+
+#: The compiled model's numbers the reader uses, by the kind of element they belong to.
+_FINITE_FIELDS = {
+    "body": ("body_pos", "body_quat", "body_mass", "body_ipos", "body_iquat", "body_inertia"),
+    "joint": ("jnt_pos", "jnt_axis", "jnt_range", "jnt_stiffness"),
+    "dof": ("dof_armature", "dof_damping", "dof_frictionloss"),
+    "site": ("site_pos", "site_quat"),
+    "equality": ("eq_data",),
+    "actuator": ("actuator_gear",),
+    "key": ("key_qpos",),
+    "qpos": ("qpos0", "qpos_spring"),
+}
+
+
+def _check_finite_model(mujoco: Any, m: Any) -> None:
+    """:class:`ModelImportError` naming the element and the value of the first non-finite
+    number among those the reader uses (a compiled model given as such, or a number the
+    compiler made non-finite)."""
+    objects = {"body": "mjOBJ_BODY", "joint": "mjOBJ_JOINT", "site": "mjOBJ_SITE"}
+    objects.update(equality="mjOBJ_EQUALITY", actuator="mjOBJ_ACTUATOR", key="mjOBJ_KEY")
+    g = np.array(m.opt.gravity, dtype=float)
+    if not np.all(np.isfinite(g)):
+        raise ModelImportError(f"<option> gravity is {g.tolist()}: it must be finite")
+    for kind, fields in _FINITE_FIELDS.items():
+        for field in fields:
+            values = np.asarray(getattr(m, field), dtype=float)
+            if values.size == 0:
+                continue
+            bad = np.flatnonzero(~np.all(np.isfinite(values.reshape(len(values), -1)), axis=1))
+            if bad.size == 0:
+                continue
+            i = int(bad[0])
+            if kind == "dof":
+                kind, i = "joint", int(m.dof_jntid[i])
+            elif kind == "qpos":
+                kind, i = "joint", int(np.flatnonzero(np.asarray(m.jnt_qposadr) <= i)[-1])
+            name = mujoco.mj_id2name(m, getattr(mujoco.mjtObj, objects[kind]), i) or f"#{i}"
+            raise ModelImportError(
+                f"{kind} {shown(name)}: {field} is {values[int(bad[0])].tolist()}: every "
+                "number of a model must be finite (no NaN or infinity)",
+                (name,) if kind == "body" else (),
+                (name,) if kind != "body" else (),
+            )
 
 
 def _model_name(m: Any) -> str:

@@ -42,7 +42,7 @@ from stewart_pin.exceptions import (
     ModelImportError,
 )
 from stewart_pin.formats.general_urdf import JOINT_TERMS_KEY
-from stewart_pin.formats.urdf import parse_closures
+from stewart_pin.formats.urdf import non_finite_number, parse_closures
 from stewart_pin.importers.tree import (
     FREE,
     KinematicModel,
@@ -102,6 +102,9 @@ def _strict_parse(path: Path) -> Any:
     for el in root.iter("mass"):
         if el.get("value") is None:
             raise FileFormatError(f"{path} line {el.sourceline}: <mass> has no value")
+    bad = non_finite_number(root)
+    if bad is not None:
+        raise ModelImportError(f"{path}: {bad}: every number of a URDF must be finite")
     return root
 
 
@@ -200,6 +203,39 @@ def _dynamics(entry: Any, name: str, source: str, armature: float | None) -> Joi
         return JointDynamics(**{**dyn.__dict__, "armature": own})
     except JointDynamicsError as e:
         raise FileFormatError(f"{source}: joint terms of {shown(name)}: {e}") from e
+
+
+def _limits(entry: Any, name: str, source: str) -> tuple[float, float] | None:
+    """A joint's true limits from its sidecar entry (``lower`` and ``upper``, each a
+    number or ``null`` for unbounded), or None when it gives neither;
+    :class:`FileFormatError` for one alone, a value that is not a number (a boolean, a
+    string, NaN) or a lower limit above the upper one."""
+    if not isinstance(entry, dict) or ("lower" not in entry and "upper" not in entry):
+        return None
+    if "lower" not in entry or "upper" not in entry:
+        given, missing = ("lower", "upper") if "lower" in entry else ("upper", "lower")
+        raise FileFormatError(
+            f"{source}: joint terms of {shown(name)} give a {given} limit without an "
+            f"{missing} one (give both, null for unbounded)"
+        )
+    out = []
+    for key, unbounded in (("lower", -math.inf), ("upper", math.inf)):
+        value = entry[key]
+        if value is None:
+            out.append(unbounded)
+        elif isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+            raise FileFormatError(
+                f"{source}: the {key} limit of {shown(name)} must be a number or null "
+                f"(unbounded), got {json.dumps(value)[:60]}"
+            )
+        else:
+            out.append(float(value))
+    if not out[0] <= out[1]:
+        raise FileFormatError(
+            f"{source}: the limits of {shown(name)} are reversed: lower {out[0]!r} > upper "
+            f"{out[1]!r}"
+        )
+    return out[0], out[1]
 
 
 def read_urdf(
@@ -414,14 +450,16 @@ def read_urdf(
     terms: dict[str, JointDynamics] = {}
     for jname, entry in terms_data.items():
         terms[str(jname)] = _dynamics(entry, str(jname), source, (armature or {}).get(str(jname)))
-    limits: dict[str, tuple[float, float]] = {}
-    for jname, entry in terms_data.items():
-        if isinstance(entry, dict) and "lower" in entry and "upper" in entry:
-            lo, hi = entry["lower"], entry["upper"]
-            limits[str(jname)] = (
-                -math.inf if lo is None else float(lo),
-                math.inf if hi is None else float(hi),
-            )
+    limits = {str(n): lim for n, e in terms_data.items() if (lim := _limits(e, str(n), source))}
+    joint_names = {j.name for j in joints}
+    unknown_terms = [str(n) for n in terms_data if str(n) not in joint_names]
+    if unknown_terms:
+        raise ModelImportError(
+            f"{source}: joint terms for {', '.join(shown(n) for n in unknown_terms)}: no "
+            f"such joint in {path.name} (check the names)",
+            (),
+            tuple(unknown_terms),
+        )
     if armature:
         unknown = [n for n in armature if n not in {j.name for j in joints}]
         if unknown:

@@ -44,6 +44,7 @@ from stewart_pin.exceptions import (
     PayloadError,
     UnknownPayloadError,
 )
+from stewart_pin.formats.urdf import non_finite_number
 
 __all__ = [
     "DISTRIBUTION",
@@ -527,6 +528,9 @@ def _check_urdf_root(path: Path) -> None:
         raise PayloadError(
             f"payload URDF {path}: the root element is <{root.tag}>, not <robot> (a URDF)"
         )
+    bad = non_finite_number(root)
+    if bad is not None:  # Pinocchio would load it and fail later in its own words
+        raise PayloadError(f"payload URDF {path}: {bad}: every number must be finite")
 
 
 def _is_prismatic(joint: Any) -> bool:
