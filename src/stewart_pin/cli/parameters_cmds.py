@@ -219,6 +219,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="cost evaluations of the optimiser (0: the best random draw)",
     )
     p.add_argument("--ols", action="store_true", help="ordinary instead of weighted LS")
-    p.add_argument("-o", "--output", help="write the report there too (and the CSV beside)")
+    p.add_argument(
+        "-o",
+        "--output",
+        help="write the report there too (and the CSV beside; a file: not -, the report is "
+        "on standard output already)",
+    )
     identify_log.add_arguments(p)
     p.set_defaults(func=_cmd_identify)

@@ -271,6 +271,14 @@ def read_urdf(
                 raise ModelImportError(
                     f"{path}: joint {shown(j.name)} names no link {shown(j.child)}"
                 )
+            if j.child in index:  # reached twice: the joints close a cycle
+                raise ModelImportError(
+                    f"{path}: joint {shown(j.name)} closes a cycle: its child link "
+                    f"{shown(j.child)} already has a parent; a URDF is a tree (write loop "
+                    "closures in the sidecar, docs/closures.md)",
+                    (j.child,),
+                    (j.name,),
+                )
             if j.mimic is not None:
                 raise ModelImportError(
                     f"joint {shown(j.name)} mimics {shown(j.mimic.joint)}: stewart-pin reads "
@@ -314,6 +322,16 @@ def read_urdf(
             )
             index[j.child] = len(bodies) - 1
             queue.append(j.child)
+
+    unreached = [j for j in joints if j.parent not in index]
+    if unreached:  # joints in a cycle that no path from the root enters
+        raise ModelImportError(
+            f"{path}: joint {shown(unreached[0].name)} is not reached from the root link "
+            f"{shown(roots[0])}: its links form a cycle or a separate tree; a URDF is one "
+            "tree",
+            (unreached[0].parent, unreached[0].child),
+            (unreached[0].name,),
+        )
 
     # closures
     tree_closures: list[TreeClosure] = []

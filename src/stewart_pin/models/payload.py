@@ -30,6 +30,7 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.metadata
+import os
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -42,6 +43,7 @@ from stewart_pin.exceptions import (
     InputError,
     MissingDependencyError,
     PayloadError,
+    PayloadMeshError,
     UnknownPayloadError,
 )
 
@@ -494,7 +496,13 @@ class Payload:
     def visual_model(self) -> pin.GeometryModel | None:
         """The URDF's visual geometry on :attr:`model` (meshes scaled by
         :attr:`visual_scale`), or ``None`` without a URDF or when its meshes cannot be
-        loaded (the viewer then draws simple shapes)."""
+        loaded (the viewer then draws simple shapes).
+
+        Raises:
+            PayloadMeshError: a mesh whose real path (symbolic links resolved) is not
+                under the URDF's folder or one of :attr:`package_dirs`
+                (:meth:`check_mesh_paths`).
+        """
         if self.urdf is None:
             return None
         try:
@@ -506,12 +514,54 @@ class Payload:
             )
         except (RuntimeError, ValueError, OSError):
             return None
+        self.check_mesh_paths(geom)
         s = self.visual_scale
         if s != 1.0:
             for g in geom.geometryObjects:
                 g.meshScale = np.asarray(g.meshScale) * s
                 g.placement = pin.SE3(g.placement.rotation, g.placement.translation * s)
         return geom
+
+
+    def mesh_folders(self) -> tuple[str, ...]:
+        """The real paths of the folders a mesh of the URDF may lie under: the URDF's own
+        folder and :attr:`package_dirs` (empty without a URDF)."""
+        if self.urdf is None:
+            return ()
+        folders = [self.urdf.parent, *self.package_dirs]
+        return tuple(dict.fromkeys(os.path.realpath(f) for f in folders))
+
+    def check_mesh_paths(self, geom: pin.GeometryModel) -> None:
+        """Refuse a mesh of ``geom`` whose real path lies outside :meth:`mesh_folders`
+        (:class:`PayloadMeshError`, naming the mesh): an absolute path, ``../``,
+        ``file://`` or a symbolic link leading out of the URDF's folders. Primitives
+        (boxes, cylinders, spheres) have no file."""
+        allowed = self.mesh_folders()
+        for obj in geom.geometryObjects:
+            if type(obj.geometry).__name__ in _PRIMITIVES or not obj.meshPath:
+                continue
+            mesh = str(obj.meshPath)
+            real = os.path.realpath(mesh)
+            inside = os.path.isabs(mesh) and any(
+                os.path.commonpath([real, folder]) == folder for folder in allowed
+            )
+            if not inside:
+                raise PayloadMeshError(
+                    f"payload '{self.name}': the mesh of {obj.name!r} is {mesh!r}, whose real "
+                    f"path {real!r} is outside the URDF's folder and its package directories "
+                    f"({', '.join(allowed)}); only meshes shipped under them are drawn: move "
+                    "the mesh there (a copy, not a symbolic link), or draw simple shapes "
+                    "(--payload-shapes, meshes=False)",
+                    mesh,
+                    real,
+                    allowed,
+                )
+
+
+#: coal's primitive shapes: drawn from their parameters, no file read.
+_PRIMITIVES = frozenset(
+    ("Box", "Sphere", "Cylinder", "Capsule", "Cone", "Ellipsoid", "Plane", "Halfspace")
+)
 
 
 def _check_urdf_root(path: Path) -> None:
