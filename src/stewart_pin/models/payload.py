@@ -522,7 +522,6 @@ class Payload:
                 g.placement = pin.SE3(g.placement.rotation, g.placement.translation * s)
         return geom
 
-
     def mesh_folders(self) -> tuple[str, ...]:
         """The real paths of the folders a mesh of the URDF may lie under: the URDF's own
         folder and :attr:`package_dirs` (empty without a URDF)."""
