@@ -291,3 +291,50 @@ def test_animate_refuses_a_payload_mesh_from_outside_in_one_line(mesh_tree, caps
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "secret.stl" in err and "outside" in err, err
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------- item 5: strict numbers
+@pytest.mark.parametrize(
+    ("mass", "inertia", "shown"),
+    [
+        ("1,5", "0.01", "<mass value='1,5'> of link 'l1'"),
+        ("1.5kg", "0.01", "<mass value='1.5kg'> of link 'l1'"),
+        ("1.5", "0,01", "<inertia ixx='0,01'> of link 'l1'"),
+        ("1_5", "0.01", "<mass value='1_5'>"),
+        (" 1.5", "0.01", "<mass value=' 1.5'>"),
+        ("1.5", "\u0661", "<inertia ixx="),  # an Arabic-Indic digit
+    ],
+)
+def test_payload_numbers_are_parsed_strictly(mass, inertia, shown, tmp_path, capsys):
+    from stewart_pin import PayloadError
+    from stewart_pin.models.payload import Payload
+
+    good = tmp_path / "good.urdf"
+    good.write_text(_arm("meshes/none.stl"))
+    assert Payload.from_urdf(good).mass == pytest.approx(2.5, rel=1e-15)  # 1 + 1.5 [kg]
+    bad = tmp_path / "bad.urdf"
+    bad.write_text(_arm("meshes/none.stl", mass, inertia))
+    with pytest.raises(PayloadError, match="is not a number") as info:
+        Payload.from_urdf(bad)
+    assert shown in str(info.value)
+    argv = ["simulate", "--duration", "0.002", "--quiet", "--payload", str(bad)]
+    assert main([*argv, "-o", str(tmp_path / "s.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and shown in err, err
+    assert not (tmp_path / "s.npz").exists()
+
+
+def test_importer_numbers_are_parsed_strictly(tmp_path):
+    """yourdfpy reads numbers with float(): '1_000', 'infinity' and a non-breaking space
+    would pass."""
+    from stewart_pin import FileFormatError
+
+    source = tmp_path / "robot.urdf"
+    _, sidecar = StewartRobot.from_preset("desktop").write_urdf(source)
+    text = source.read_text()
+    for old, new in (('value="', 'value="1_0'), ('xyz="', 'xyz="\u00a0'), ('rpy="', 'rpy="inf ')):
+        path = tmp_path / "bad.urdf"
+        path.write_text(text.replace(old, new, 1))
+        (tmp_path / "bad.closures.json").write_bytes(sidecar.read_bytes())
+        with pytest.raises(FileFormatError, match=r"is not (a number|3 numbers)"):
+            StewartRobot.from_urdf(path)

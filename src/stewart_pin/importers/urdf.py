@@ -41,6 +41,7 @@ from stewart_pin.exceptions import (
     JointDynamicsError,
     ModelImportError,
 )
+from stewart_pin.formats._urdf_numbers import check_urdf_numbers
 from stewart_pin.formats.general_urdf import JOINT_TERMS_KEY
 from stewart_pin.formats.urdf import parse_closures
 from stewart_pin.importers.tree import (
@@ -93,6 +94,7 @@ def _strict_parse(path: Path) -> Any:
         raise FileFormatError(f"{path} is not well-formed XML: {e}") from e
     if root.tag != "robot":
         raise FileFormatError(f"{path}: the root element is <{root.tag}>, not <robot> (a URDF)")
+    check_urdf_numbers(root, str(path), FileFormatError)  # yourdfpy's float() is lenient
     for el in root.iter("inertia"):
         missing = [k for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz") if el.get(k) is None]
         if missing:

@@ -46,6 +46,7 @@ from stewart_pin.exceptions import (
     PayloadMeshError,
     UnknownPayloadError,
 )
+from stewart_pin.formats._urdf_numbers import check_urdf_numbers
 
 __all__ = [
     "DISTRIBUTION",
@@ -564,8 +565,10 @@ _PRIMITIVES = frozenset(
 
 
 def _check_urdf_root(path: Path) -> None:
-    """A file that is not well-formed XML with a ``<robot>`` root is refused here, in one
-    message: Pinocchio's URDF parser would print its own lines on stderr first."""
+    """A file that is not well-formed XML with a ``<robot>`` root, or with a number
+    Pinocchio's URDF parser cannot read (``mass="1,5"``, ``"1.5kg"``: it prints a line
+    on stderr and loads a massless link), is refused here, in one message naming the
+    element (:func:`~stewart_pin.formats._urdf_numbers.check_urdf_numbers`)."""
     from xml.etree import ElementTree
 
     try:
@@ -576,6 +579,7 @@ def _check_urdf_root(path: Path) -> None:
         raise PayloadError(
             f"payload URDF {path}: the root element is <{root.tag}>, not <robot> (a URDF)"
         )
+    check_urdf_numbers(root, f"payload URDF {path}", PayloadError)
 
 
 def _is_prismatic(joint: Any) -> bool:
