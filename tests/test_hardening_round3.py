@@ -338,3 +338,152 @@ def test_importer_numbers_are_parsed_strictly(tmp_path):
         (tmp_path / "bad.closures.json").write_bytes(sidecar.read_bytes())
         with pytest.raises(FileFormatError, match=r"is not (a number|3 numbers)"):
             StewartRobot.from_urdf(path)
+
+
+# ---------------------------------------------------------------------- item 4: stray loops
+def _with_connect(text: str, element: str) -> str:
+    return text.replace("</equality>", element + "</equality>", 1)
+
+
+@pytest.mark.parametrize(
+    ("element", "name", "bodies"),
+    [
+        # a crank pinned to the world: the file's leg 1 cannot turn, an import would
+        ('<connect name="pin" body1="leg1_b1" body2="world" anchor="0 0 0"/>', "pin", "world"),
+        # two legs coupled at their middle bodies
+        (
+            '<connect name="couple" body1="leg1_b2" body2="leg2_b2" anchor="0 0 0"/>',
+            "couple",
+            "leg2_b2",
+        ),
+    ],
+)
+def test_an_mjcf_loop_away_from_the_platform_is_refused(element, name, bodies, tmp_path):
+    pytest.importorskip("mujoco")
+    from cad_models import cad_mjcf
+
+    from stewart_pin.description.general_presets import rus_preset
+    from stewart_pin.importers import import_mjcf
+
+    text = cad_mjcf(rus_preset(), "connect-site", seed=3)
+    good = tmp_path / "good.xml"
+    good.write_text(text)
+    import_mjcf(good)  # the file as written imports
+    bad = tmp_path / "bad.xml"
+    bad.write_text(_with_connect(text, element))
+    with pytest.raises(
+        ModelImportError, match=f"loop closure '{name}'.*away from the platform"
+    ) as info:
+        import_mjcf(bad)
+    assert info.value.joints == (name,) and bodies in info.value.bodies
+
+
+def test_a_seventh_sidecar_closure_is_refused(tmp_path):
+    import json
+
+    pytest.importorskip("yourdfpy")
+    path = tmp_path / "robot.urdf"
+    _, sidecar = StewartRobot.from_preset("desktop").write_urdf(path)
+    data = json.loads(sidecar.read_text())
+    StewartRobot.from_urdf(path)  # the file as written imports
+    # a seventh closure: leg 1's and leg 2's last links pinned together
+    data["closures"].append(
+        {
+            "name": "extra",
+            "type": "point",
+            "link1": "leg1_link3",
+            "point1": [0.0, 0.0, 0.0],
+            "link2": "leg2_link3",
+            "point2": [0.0, 0.0, 0.0],
+        }
+    )
+    sidecar.write_text(json.dumps(data))
+    with pytest.raises(ModelImportError, match="'extra'") as info:
+        StewartRobot.from_urdf(path)
+    assert "extra" in info.value.joints
+
+
+# ---------------------------------------------------------------------- item 10: a fixed tool
+_TOOL = """<robot name="tool">
+ <link name="flange"><inertial><origin xyz="0.01 0 0.02" rpy="0 0 0"/><mass value="2"/>
+  <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.04"/></inertial></link>
+ <link name="tip"><inertial><origin xyz="0 0.05 0.1" rpy="0.1 0 0"/><mass value="1"/>
+  <inertia ixx="0.01" ixy="0.001" ixz="0" iyy="0.012" iyz="0" izz="0.011"/></inertial></link>
+ <joint name="weld" type="fixed"><parent link="flange"/><child link="tip"/>
+  <origin xyz="0 0 0.2" rpy="0 0.3 0"/></joint>
+</robot>"""
+
+
+def _rot(axis: int, angle: float) -> np.ndarray:
+    """The rotation by ``angle`` [rad] about x, y or z (``axis`` 0, 1, 2)."""
+    c, s = np.cos(angle), np.sin(angle)
+    i, j = (axis + 1) % 3, (axis + 2) % 3  # (y, z), (z, x), (x, y): right-handed
+    R = np.eye(3)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+def _pose(xyz, rpy) -> np.ndarray:
+    """URDF's origin: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    T = np.eye(4)
+    T[:3, :3] = _rot(2, rpy[2]) @ _rot(1, rpy[1]) @ _rot(0, rpy[0])
+    T[:3, 3] = xyz
+    return T
+
+
+def _khalil_about_origin(T_p_c: np.ndarray, mass: float, I_c: np.ndarray) -> np.ndarray:
+    """Khalil's 10 parameters in Fp about O_p of a body whose centre-of-mass frame is
+    ``T_p_c`` (inertia ``I_c`` about the centre of mass, in that frame)."""
+    R, c = T_p_c[:3, :3], T_p_c[:3, 3]
+    I = R @ I_c @ R.T + mass * (c @ c * np.eye(3) - np.outer(c, c))
+    return np.array([I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2], *(mass * c), mass])
+
+
+def test_a_payload_without_joints_is_the_platform_with_its_inertia(tmp_path, capsys):
+    """A fixed tool: the coupled models against Pinocchio's constrained tree of the
+    hexapod whose platform carries the tool's inertia, lumped by hand from the URDF's
+    numbers (independent of the payload code)."""
+    from stewart_pin.check.constrained_dynamics import (
+        constrained_forward_dynamics,
+        constrained_inverse_dynamics,
+    )
+
+    path = tmp_path / "tool.urdf"
+    path.write_text(_TOOL)
+    robot = StewartRobot.from_preset("simulator")
+    T_p_b = _pose([0.05, -0.02, 0.1], [0.2, -0.1, 0.4])
+    carrier = robot.with_payload(str(path), T_p_b)
+    assert (carrier.nq, carrier.nv) == (0, 0)
+    flange = _khalil_about_origin(
+        T_p_b @ _pose([0.01, 0, 0.02], [0, 0, 0]), 2.0, np.diag([0.02, 0.03, 0.04])
+    )
+    I_tip = np.array([[0.01, 0.001, 0.0], [0.001, 0.012, 0.0], [0.0, 0.0, 0.011]])
+    T_p_tip = T_p_b @ _pose([0, 0, 0.2], [0, 0.3, 0]) @ _pose([0, 0.05, 0.1], [0.1, 0, 0])
+    tip = _khalil_about_origin(T_p_tip, 1.0, I_tip)
+    desc = robot.description
+    lumped = StewartRobot(desc.replace(platform_inertia=desc.platform_inertia + flange + tip))
+
+    T, V, A = robot.sample_states(6, rng=3)
+    empty = np.zeros((6, 0))
+    gamma, tau = carrier.inverse_dynamics(T, V, A, empty, empty, empty)
+    ref, _ = constrained_inverse_dynamics(lumped, T, V, A)
+    assert tau.shape == (6, 0)
+    np.testing.assert_allclose(gamma, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    accel = carrier.direct_dynamics(T, V, ref, empty, empty, tau=empty).accel
+    ref_accel = constrained_forward_dynamics(lumped, T, V, ref)
+    np.testing.assert_allclose(accel, ref_accel, rtol=1e-8, atol=1e-8 * np.abs(ref_accel).max())
+    np.testing.assert_allclose(ref_accel, A, rtol=1e-8, atol=1e-8 * np.abs(A).max())
+
+    # drawn: the mount at 0Tp T_p_b
+    pytest.importorskip("meshcat")
+    from stewart_pin.viz.payload_scene import PayloadScene
+
+    M = PayloadScene(carrier.payload, meshes=False).placements(T, empty)
+    np.testing.assert_allclose(M[0], T @ T_p_b, rtol=0, atol=1e-12)
+
+    # the command line: validate passes, simulate runs
+    assert main(["validate", "--payload", str(path), "--states", "4"]) == 0
+    assert "PASSED" in capsys.readouterr().out
+    sim = ["simulate", "--payload", str(path), "--duration", "0.004", "--quiet"]
+    assert main([*sim, "-o", str(tmp_path / "s.npz")]) == 0
+    assert (tmp_path / "s.npz").is_file() and (tmp_path / "s.payload.npz").is_file()

@@ -228,7 +228,7 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
         )
     lines.append(
         f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g}; peak |payload torque| "
-        f"{np.abs(sim.tau).max():.5g}"
+        f"{np.abs(sim.tau).max(initial=0.0):.5g}"
     )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
