@@ -227,6 +227,26 @@ def test_a_urdf_cycle_apart_from_the_root_is_refused(tmp_path):
     assert info.value.joints == ("k1",)
 
 
+def test_a_payload_urdf_cycle_is_refused_not_dropped(tmp_path):
+    """Pinocchio's parser loads the tree from the root and drops links c, d (50 kg) of a
+    cycle no path from the root enters."""
+    from stewart_pin import PayloadError
+    from stewart_pin.models.payload import Payload
+
+    path = tmp_path / "island.urdf"
+    text = _urdf(
+        ["base", "a", "c", "d"], [("j1", "base", "a"), ("k1", "c", "d"), ("k2", "d", "c")]
+    )
+    path.write_text(text.replace('<mass value="1"/>', '<mass value="50"/>', 3))
+    with pytest.raises(PayloadError, match="joint 'k1' is not reached from the root link 'base'"):
+        Payload.from_urdf(path)
+    path.write_text(
+        _urdf(["base", "a", "b"], [("j1", "base", "a"), ("j2", "a", "b"), ("j3", "b", "a")])
+    )
+    with pytest.raises(PayloadError, match="joint 'j3' closes a cycle"):
+        Payload.from_urdf(path)
+
+
 # ---------------------------------------------------------------------- item 1: mesh paths
 _STL = (
     "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 0.1 0 0\n"

@@ -41,7 +41,7 @@ from stewart_pin.exceptions import (
     JointDynamicsError,
     ModelImportError,
 )
-from stewart_pin.formats._urdf_numbers import check_urdf_numbers
+from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
 from stewart_pin.formats.general_urdf import JOINT_TERMS_KEY
 from stewart_pin.formats.urdf import parse_closures
 from stewart_pin.importers.tree import (
@@ -95,6 +95,13 @@ def _strict_parse(path: Path) -> Any:
     if root.tag != "robot":
         raise FileFormatError(f"{path}: the root element is <{root.tag}>, not <robot> (a URDF)")
     check_urdf_numbers(root, str(path), FileFormatError)  # yourdfpy's float() is lenient
+    cycle = urdf_cycle(root)  # the tree walk below would not end
+    if cycle is not None:
+        raise ModelImportError(
+            f"{path}: {cycle.message} (loop closures go in the sidecar, docs/closures.md)",
+            (cycle.parent, cycle.child),
+            (cycle.joint,),
+        )
     for el in root.iter("inertia"):
         missing = [k for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz") if el.get(k) is None]
         if missing:
@@ -273,14 +280,6 @@ def read_urdf(
                 raise ModelImportError(
                     f"{path}: joint {shown(j.name)} names no link {shown(j.child)}"
                 )
-            if j.child in index:  # reached twice: the joints close a cycle
-                raise ModelImportError(
-                    f"{path}: joint {shown(j.name)} closes a cycle: its child link "
-                    f"{shown(j.child)} already has a parent; a URDF is a tree (write loop "
-                    "closures in the sidecar, docs/closures.md)",
-                    (j.child,),
-                    (j.name,),
-                )
             if j.mimic is not None:
                 raise ModelImportError(
                     f"joint {shown(j.name)} mimics {shown(j.mimic.joint)}: stewart-pin reads "
@@ -324,16 +323,6 @@ def read_urdf(
             )
             index[j.child] = len(bodies) - 1
             queue.append(j.child)
-
-    unreached = [j for j in joints if j.parent not in index]
-    if unreached:  # joints in a cycle that no path from the root enters
-        raise ModelImportError(
-            f"{path}: joint {shown(unreached[0].name)} is not reached from the root link "
-            f"{shown(roots[0])}: its links form a cycle or a separate tree; a URDF is one "
-            "tree",
-            (unreached[0].parent, unreached[0].child),
-            (unreached[0].name,),
-        )
 
     # closures
     tree_closures: list[TreeClosure] = []

@@ -46,7 +46,7 @@ from stewart_pin.exceptions import (
     PayloadMeshError,
     UnknownPayloadError,
 )
-from stewart_pin.formats._urdf_numbers import check_urdf_numbers
+from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
 
 __all__ = [
     "DISTRIBUTION",
@@ -565,10 +565,11 @@ _PRIMITIVES = frozenset(
 
 
 def _check_urdf_root(path: Path) -> None:
-    """A file that is not well-formed XML with a ``<robot>`` root, or with a number
+    """A file that is not well-formed XML with a ``<robot>`` root, with a number
     Pinocchio's URDF parser cannot read (``mass="1,5"``, ``"1.5kg"``: it prints a line
-    on stderr and loads a massless link), is refused here, in one message naming the
-    element (:func:`~stewart_pin.formats._urdf_numbers.check_urdf_numbers`)."""
+    on stderr and loads a massless link), or whose joints close a cycle (it drops the
+    links of a cycle the root does not reach, mass and all) is refused here, in one
+    message naming the element or joint (:mod:`stewart_pin.formats._urdf_checks`)."""
     from xml.etree import ElementTree
 
     try:
@@ -580,6 +581,9 @@ def _check_urdf_root(path: Path) -> None:
             f"payload URDF {path}: the root element is <{root.tag}>, not <robot> (a URDF)"
         )
     check_urdf_numbers(root, f"payload URDF {path}", PayloadError)
+    cycle = urdf_cycle(root)  # urdfdom drops the links of a cycle the root does not reach
+    if cycle is not None:
+        raise PayloadError(f"payload URDF {path}: {cycle.message}")
 
 
 def _is_prismatic(joint: Any) -> bool:

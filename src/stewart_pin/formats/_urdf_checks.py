@@ -1,4 +1,5 @@
-"""Strict numbers in a URDF read from a file (private module, public name).
+"""Checks of a URDF read from a file, before a lenient parser sees it (private module,
+public names): strict numbers and a tree.
 
 URDF parsers read numbers leniently, each its own way: urdfdom (Pinocchio) reports
 ``mass="1,5"`` on stderr and goes on with a massless link; Python's ``float`` takes
@@ -9,15 +10,20 @@ colours) with one strict rule: decimal numbers in ASCII (``1.5``, ``-2e-3``, ``.
 finite, separated by ASCII spaces (a single number without spaces around it: urdfdom
 refuses ``" 1.5 "``), as many as the attribute holds; any other text is
 refused, the message naming the element, its link or joint, the attribute and the value.
+
+URDF parsers also trust the file to be a tree: the importer walked a joint cycle forever,
+urdfdom drops links in a cycle that no path from the root enters (with their mass).
+:func:`urdf_cycle` finds the joint that closes a cycle.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["URDF_NUMBERS", "check_urdf_numbers", "strict_numbers"]
+__all__ = ["URDF_NUMBERS", "UrdfCycle", "check_urdf_numbers", "strict_numbers", "urdf_cycle"]
 
 #: The numeric attributes of a URDF's elements and how many numbers each holds.
 URDF_NUMBERS: dict[str, dict[str, tuple[int, ...]]] = {
@@ -93,3 +99,66 @@ def check_urdf_numbers(root: Any, source: str, error: type[Exception]) -> None:
                     f"{plural}: write finite decimal numbers with a point, separated by "
                     "spaces (1.5, -2e-3; not 1,5, 1.5kg, nan or inf)"
                 )
+
+
+@dataclass(frozen=True)
+class UrdfCycle:
+    """A joint that makes a URDF's links other than a tree: ``joint`` (its name), its
+    ``parent`` and ``child`` links, and ``message``, what is wrong (to follow the file's
+    name)."""
+
+    joint: str
+    parent: str
+    child: str
+    message: str
+
+
+def urdf_cycle(root: Any) -> UrdfCycle | None:
+    """The first joint of ``root`` (a ``<robot>`` element) that closes a cycle: one whose
+    child link already has a parent joint, or, when each link has at most one parent,
+    the first joint no path from the root link reaches (its links form a cycle); ``None``
+    for a tree. Joints naming links that do not exist, and several roots, are left to the
+    readers' own messages."""
+    links = {str(el.get("name")) for el in root.findall("link")}
+    parent_of: dict[str, str] = {}
+    children: dict[str, list[str]] = {}
+    joints: list[tuple[str, str, str]] = []
+    for el in root.findall("joint"):
+        ends = [el.find(tag) for tag in ("parent", "child")]
+        names = [str(e.get("link")) if e is not None else "" for e in ends]
+        parent, child = names
+        if parent not in links or child not in links:
+            continue
+        name = str(el.get("name", ""))
+        if child in parent_of:
+            return UrdfCycle(
+                name,
+                parent,
+                child,
+                f"joint {_shown(name)} closes a cycle: its child link {_shown(child)} already "
+                f"has the parent joint {_shown(parent_of[child])}; a URDF is a tree",
+            )
+        parent_of[child] = name
+        children.setdefault(parent, []).append(child)
+        joints.append((name, parent, child))
+    roots = [n for n in links if n not in parent_of]
+    if len(roots) > 1:
+        return None
+    reached = set(roots)
+    stack = list(roots)
+    while stack:
+        for child in children.get(stack.pop(), []):
+            if child not in reached:
+                reached.add(child)
+                stack.append(child)
+    for name, parent, child in joints:
+        if parent not in reached:
+            start = f"the root link {_shown(roots[0])}" if roots else "any root link"
+            return UrdfCycle(
+                name,
+                parent,
+                child,
+                f"joint {_shown(name)} is not reached from {start}: its links form a cycle "
+                "(each has a parent joint); a URDF is one tree",
+            )
+    return None
