@@ -281,7 +281,7 @@ def mesh_tree(tmp_path):
     return tmp_path
 
 
-def test_payload_meshes_outside_the_urdf_folder_are_refused(mesh_tree):
+def test_payload_meshes_outside_the_urdf_folder_are_refused(mesh_tree, monkeypatch):
     pytest.importorskip("meshcat")
     from stewart_pin import PayloadMeshError
     from stewart_pin.models.payload import Payload
@@ -291,6 +291,8 @@ def test_payload_meshes_outside_the_urdf_folder_are_refused(mesh_tree):
     urdf.write_text(_arm("meshes/box.stl"))
     scene = PayloadScene(Payload.from_urdf(urdf))
     assert scene.meshes  # the shipped mesh is drawn
+    monkeypatch.chdir(mesh_tree)  # a relative URDF path: Pinocchio's mesh path is relative
+    assert PayloadScene(Payload.from_urdf(Path("arm") / "arm.urdf")).meshes
     secret = mesh_tree / "secret" / "secret.stl"
     for mesh in (str(secret), "../secret/secret.stl", f"file://{secret}", "meshes/link.stl"):
         urdf.write_text(_arm(mesh))

@@ -541,10 +541,8 @@ class Payload:
             if type(obj.geometry).__name__ in _PRIMITIVES or not obj.meshPath:
                 continue
             mesh = str(obj.meshPath)
-            real = os.path.realpath(mesh)
-            inside = os.path.isabs(mesh) and any(
-                os.path.commonpath([real, folder]) == folder for folder in allowed
-            )
+            real = os.path.realpath(mesh)  # a relative path (a relative URDF path): from "."
+            inside = any(os.path.commonpath([real, folder]) == folder for folder in allowed)
             if not inside:
                 raise PayloadMeshError(
                     f"payload '{self.name}': the mesh of {obj.name!r} is {mesh!r}, whose real "
