@@ -346,6 +346,34 @@ def test_payload_numbers_are_parsed_strictly(mass, inertia, shown, tmp_path, cap
     assert not (tmp_path / "s.npz").exists()
 
 
+@pytest.mark.parametrize(
+    ("old", "new", "missing"),
+    [
+        ('<mass value="1.5"/>', "<mass/>", "misses mass"),
+        ('<inertia ixx="0.01" ', "<inertia ", "misses ixx"),
+        (
+            '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>'
+            "<joint",
+            "</inertial></link><joint",
+            "misses ixx, ixy, ixz, iyy, iyz, izz",
+        ),
+    ],
+)
+def test_an_incomplete_payload_inertial_is_refused(old, new, missing, tmp_path):
+    """Pinocchio's parser prints a line and loads link l1 without its inertial."""
+    from stewart_pin import PayloadError
+    from stewart_pin.models.payload import Payload
+
+    text = _arm("meshes/none.stl")
+    at = text.index('<link name="l1">')
+    bad = text[:at] + text[at:].replace(old, new, 1)
+    assert bad != text
+    path = tmp_path / "bad.urdf"
+    path.write_text(bad)
+    with pytest.raises(PayloadError, match=f"<inertial> of link 'l1' {missing}"):
+        Payload.from_urdf(path)
+
+
 def test_importer_numbers_are_parsed_strictly(tmp_path):
     """yourdfpy reads numbers with float(): '1_000', 'infinity' and a non-breaking space
     would pass."""

@@ -579,6 +579,18 @@ def _check_urdf_root(path: Path) -> None:
             f"payload URDF {path}: the root element is <{root.tag}>, not <robot> (a URDF)"
         )
     check_urdf_numbers(root, f"payload URDF {path}", PayloadError)
+    for link in root.findall("link"):  # urdfdom drops an incomplete <inertial>: massless
+        for inertial in link.findall("inertial"):
+            mass, inertia = inertial.find("mass"), inertial.find("inertia")
+            missing = [] if mass is not None and mass.get("value") is not None else ["mass"]
+            keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+            missing += [k for k in keys if inertia is None or inertia.get(k) is None]
+            if missing:
+                raise PayloadError(
+                    f"payload URDF {path}: the <inertial> of link {link.get('name')!r} misses "
+                    f"{', '.join(missing)}: give <mass value=...> and <inertia> with ixx, ixy, "
+                    "ixz, iyy, iyz and izz (Pinocchio would load the link without it)"
+                )
     cycle = urdf_cycle(root)  # urdfdom drops the links of a cycle the root does not reach
     if cycle is not None:
         raise PayloadError(f"payload URDF {path}: {cycle.message}")
