@@ -28,6 +28,7 @@ from stewart_pin._io import atomic_open, write_text_atomic
 from stewart_pin.cli import main
 
 SRC = Path(__file__).resolve().parents[1] / "src"
+pytestmark = pytest.mark.filterwarnings("ignore::stewart_pin.ModelImportWarning")
 
 
 # ---------------------------------------------------------------------- item 2: special files
