@@ -304,6 +304,18 @@ def test_payload_meshes_outside_the_urdf_folder_are_refused(mesh_tree, monkeypat
         assert PayloadScene(payload, meshes=False).meshes is False  # shapes read no file
 
 
+def test_the_payload_demo_refuses_a_mesh_from_outside_before_its_run(mesh_tree):
+    pytest.importorskip("meshcat")
+    from stewart_pin import PayloadMeshError
+    from stewart_pin.apps.payload_demo import run_payload_demo
+
+    urdf = mesh_tree / "arm" / "arm.urdf"
+    urdf.write_text(_arm("meshes/link.stl"))
+    with pytest.raises(PayloadMeshError, match="link.stl"):
+        run_payload_demo("simulator", urdf, mesh_tree / "demo")
+    assert list((mesh_tree / "demo").iterdir()) == []  # nothing computed, nothing written
+
+
 def test_animate_refuses_a_payload_mesh_from_outside_in_one_line(mesh_tree, capsys):
     pytest.importorskip("meshcat")
     urdf = mesh_tree / "arm" / "arm.urdf"
