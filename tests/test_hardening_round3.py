@@ -311,7 +311,7 @@ def test_the_payload_demo_refuses_a_mesh_from_outside_before_its_run(mesh_tree):
 
     urdf = mesh_tree / "arm" / "arm.urdf"
     urdf.write_text(_arm("meshes/link.stl"))
-    with pytest.raises(PayloadMeshError, match="link.stl"):
+    with pytest.raises(PayloadMeshError, match=r"link\.stl"):
         run_payload_demo("simulator", urdf, mesh_tree / "demo")
     assert list((mesh_tree / "demo").iterdir()) == []  # nothing computed, nothing written
 

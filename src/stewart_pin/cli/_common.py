@@ -80,7 +80,7 @@ def check_output(
     suffixes: Sequence[str] = (),
     inputs: Sequence[str | Path | None] = (),
     what: str = "output",
-    stdout: str | None = None,
+    stdout: bool = False,
 ) -> Path:
     """The output path ``path``, checked before any long computation.
 
@@ -89,12 +89,12 @@ def check_output(
     :func:`stewart_pin._io.check_destination`), a path naming the same file as one of
     ``inputs`` (``None`` entries skipped), and a folder that cannot be created or written.
     A missing folder is created here, up front (as the writers always did), so that a run
-    never ends on it. ``-`` (standard output) is accepted when ``stdout`` names the
-    format written there (e.g. ``"CSV"``; :func:`written` then writes it there), refused
+    never ends on it. ``-`` (standard output) is accepted with ``stdout`` (the command's
+    output is one table or text: :func:`written` then writes it there), refused
     otherwise.
     """
     if is_stdout(path):
-        if stdout is None:
+        if not stdout:
             raise InputError(
                 f"{what} - (standard output) takes only a table or text output (idm, "
                 "simulate, import); this output is a file of its own: give a file name"

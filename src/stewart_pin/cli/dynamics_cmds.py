@@ -31,7 +31,7 @@ from stewart_pin.formats.csv_tables import (
 
 def _idm(args: argparse.Namespace) -> int:
     out = check_output(
-        args.output, (".csv",), [args.trajectory, args.description, args.model], stdout="CSV"
+        args.output, (".csv",), [args.trajectory, args.description, args.model], stdout=True
     )
     robot = robot_from_args(args)
     rows = read_csv(args.trajectory, STATE_COLUMNS)

@@ -15,7 +15,7 @@ def _import(args: argparse.Namespace) -> int:
     from stewart_pin.robot import StewartRobot
 
     out = (
-        check_output(args.output, (".toml", ".json"), [args.model], stdout="TOML")
+        check_output(args.output, (".toml", ".json"), [args.model], stdout=True)
         if args.output
         else None
     )

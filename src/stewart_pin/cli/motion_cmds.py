@@ -72,7 +72,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from stewart_pin.motion.simulation import simulate
     from stewart_pin.motion.trajectories import standard_motion
 
-    out = check_output(args.output, (".npz", ".csv"), stdout="CSV")
+    out = check_output(args.output, (".npz", ".csv"), stdout=True)
     if is_stdout(out) and args.payload:
         raise InputError(
             "simulate --payload writes two files (the states and the payload's joints "
