@@ -41,7 +41,8 @@ expected, what was received and how to fix it::
     │   └── UnsafeCacheError                 a cache others could write to
     ├── ViewerError (RuntimeError)           the 3-D viewer's server did not start
     ├── PayloadError (ValueError)            a payload model that cannot be mounted
-    │   └── UnknownPayloadError              a payload name no installed package knows
+    │   ├── UnknownPayloadError              a payload name no installed package knows
+    │   └── PayloadMeshError                 a mesh file outside the payload's folders
     └── MissingDependencyError (ImportError) an optional package is not installed
 
     StewartPinWarning (UserWarning)          input accepted after a correction
@@ -400,6 +401,22 @@ class UnknownPayloadError(PayloadError):
     def __init__(self, message: str, name: str = "", available: tuple[str, ...] = ()) -> None:
         super().__init__(message)
         self.name, self.available = name, available
+
+
+class PayloadMeshError(PayloadError):
+    """A payload URDF's visual mesh whose real path (symbolic links resolved) lies outside
+    the URDF's folder and its package directories (an absolute path, ``../``, ``file://``,
+    a symbolic link shipped with the URDF): the drawing would copy that file into an HTML
+    page made to be shared, or hand it to the viewer's server. Nothing is drawn.
+
+    Attributes:
+        mesh: the mesh path as the URDF resolves it. real: its real path.
+        allowed: the real folders a mesh may lie under.
+    """
+
+    def __init__(self, message: str, mesh: str, real: str, allowed: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.mesh, self.real, self.allowed = mesh, real, tuple(allowed)
 
 
 class MissingDependencyError(StewartPinError, ImportError):

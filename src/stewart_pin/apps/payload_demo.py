@@ -28,7 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._io import atomic_open
-from stewart_pin.models.payload import Payload
+from stewart_pin.models.payload import Payload, load_payload
 from stewart_pin.motion.payload import JointMotion, PayloadComputedTorque, simulate_payload
 from stewart_pin.payload_robot import PayloadRobot
 from stewart_pin.robot import StewartRobot
@@ -192,6 +192,9 @@ def run_payload_demo(
     arm's meshes on the platform); returns the files by role."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    if animation:  # a mesh the page may not carry (PayloadMeshError): before the run
+        payload = load_payload(payload)
+        payload.visual_model()
     demo = payload_demo(preset, payload, **kwargs)
     print(demo.summary())
     files: dict[str, Path] = {}

@@ -448,10 +448,10 @@ def relative_error(a: Any, b: Any, floor: float = RELATIVE_FLOOR) -> float:
     b = np.atleast_2d(np.asarray(b, dtype=float))
     if a.shape != b.shape:
         raise InputError(f"cannot compare shapes {a.shape} and {b.shape}")
-    scale = np.abs(b).max(axis=1)
+    scale = np.abs(b).max(axis=1, initial=0.0)  # k = 0 (a payload without joints): 0
     denominator = np.maximum(scale, floor * scale.max(initial=0.0))
     denominator[denominator == 0.0] = 1.0
-    return float((np.abs(a - b).max(axis=1) / denominator).max(initial=0.0))
+    return float((np.abs(a - b).max(axis=1, initial=0.0) / denominator).max(initial=0.0))
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
+import tempfile
 import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -30,6 +32,7 @@ from stewart_pin._argtypes import (
     positive_finite_float,
     positive_int,
 )
+from stewart_pin._io import check_destination
 from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
 from stewart_pin.robot import StewartRobot
 
@@ -39,6 +42,7 @@ __all__ = [
     "check_output",
     "finite_float",
     "fraction_of_one",
+    "is_stdout",
     "non_negative_finite_float",
     "non_negative_int",
     "payload_robot_from_args",
@@ -47,8 +51,14 @@ __all__ = [
     "positive_int",
     "progress_bar",
     "refuse_general",
+    "report_stream",
     "robot_from_args",
+    "written",
 ]
+
+#: The output path that means standard output (``-o -``), for the commands whose output
+#: is one table or text (idm, simulate, import).
+STDOUT = "-"
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -60,19 +70,36 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
+def is_stdout(path: str | Path | None) -> bool:
+    """Whether ``path`` is ``-``: standard output."""
+    return path is not None and str(path) == STDOUT
+
+
 def check_output(
     path: str | Path,
     suffixes: Sequence[str] = (),
     inputs: Sequence[str | Path | None] = (),
     what: str = "output",
+    stdout: bool = False,
 ) -> Path:
     """The output path ``path``, checked before any long computation.
 
     Refuses (:class:`InputError`) a suffix not in ``suffixes`` (when given), a path that
-    is a folder, a path naming the same file as one of ``inputs`` (``None`` entries
-    skipped), and a folder that cannot be created or written. A missing folder is
-    created here, up front (as the writers always did), so that a run never ends on it.
+    is a folder or exists and is not a regular file (a symbolic link, a FIFO, a device:
+    :func:`stewart_pin._io.check_destination`), a path naming the same file as one of
+    ``inputs`` (``None`` entries skipped), and a folder that cannot be created or written.
+    A missing folder is created here, up front (as the writers always did), so that a run
+    never ends on it. ``-`` (standard output) is accepted with ``stdout`` (the command's
+    output is one table or text: :func:`written` then writes it there), refused
+    otherwise.
     """
+    if is_stdout(path):
+        if not stdout:
+            raise InputError(
+                f"{what} - (standard output) takes only a table or text output (idm, "
+                "simulate, import); this output is a file of its own: give a file name"
+            )
+        return Path(STDOUT)
     out = Path(path)
     if suffixes and out.suffix not in suffixes:
         raise InputError(
@@ -94,7 +121,30 @@ def check_output(
         raise InputError(f"{what} {out}: cannot create the folder {folder}: {e}") from e
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(f"{what} {out}: the folder {folder} is not writable")
-    return out
+    return check_destination(out, what)
+
+
+@contextmanager
+def written(out: Path, name: str) -> Iterator[Path]:
+    """The path to write an output to: ``out`` itself, or for ``-`` a file ``name`` (its
+    suffix chooses the format) in a private temporary folder, copied to standard output
+    once the ``with`` block succeeds (nothing is written there on an error)."""
+    if not is_stdout(out):
+        yield out
+        return
+    with tempfile.TemporaryDirectory(prefix="stewart-pin-") as folder:
+        path = Path(folder) / name
+        yield path
+        sys.stdout.flush()
+        with open(path, "rb") as handle:
+            shutil.copyfileobj(handle, sys.stdout.buffer)
+        sys.stdout.buffer.flush()
+
+
+def report_stream(out: Path | None) -> Any:
+    """Where a command prints its summary: standard error when its output goes to
+    standard output (``-o -``), else standard output."""
+    return sys.stderr if out is not None and is_stdout(out) else sys.stdout
 
 
 def add_robot_args(p: argparse.ArgumentParser) -> None:

@@ -16,7 +16,9 @@ from stewart_pin.cli._common import (
     non_negative_int,
     payload_robot_from_args,
     positive_int,
+    report_stream,
     robot_from_args,
+    written,
 )
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
@@ -28,17 +30,21 @@ from stewart_pin.formats.csv_tables import (
 
 
 def _idm(args: argparse.Namespace) -> int:
-    out = check_output(args.output, (".csv",), [args.trajectory, args.description, args.model])
+    out = check_output(
+        args.output, (".csv",), [args.trajectory, args.description, args.model], stdout=True
+    )
     robot = robot_from_args(args)
     rows = read_csv(args.trajectory, STATE_COLUMNS)
     times, poses, twists, accels = states_from_table(rows)
     gamma = robot.inverse_dynamics(poses, twists, accels)  # NumericalError if not finite
-    write_csv(out, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
+    with written(out, "forces.csv") as path:
+        write_csv(path, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
     peak = np.abs(gamma).max(axis=0)
     unit = "N" if robot.is_ideal_ups else "N or N m (actuated joints, joint side)"
     print(
         f"inverse dynamics of {len(times)} states of {args.trajectory} on '{robot.name}': "
-        f"peak |Gamma_i| = {np.array2string(peak, precision=5)} {unit}; wrote {out}"
+        f"peak |Gamma_i| = {np.array2string(peak, precision=5)} {unit}; wrote {out}",
+        file=report_stream(out),
     )
     return 0
 
@@ -88,7 +94,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_robot_args(p)
     p.add_argument("--trajectory", required=True, help="platform trajectory CSV")
-    p.add_argument("-o", "--output", default="forces.csv", help="forces CSV to write")
+    p.add_argument(
+        "-o",
+        "--output",
+        default="forces.csv",
+        help="forces CSV to write; - writes it to standard output (the summary then goes to "
+        "standard error)",
+    )
     p.set_defaults(func=_idm)
 
     p = sub.add_parser(

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
 from stewart_pin._safe import file_in_folder
 from stewart_pin.cli._common import (
     add_robot_args,
+    check_output,
     finite_float,
     pose_from_args,
     robot_from_args,
@@ -19,7 +19,11 @@ from stewart_pin.cli._common import (
 def _urdf(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     # The default name comes from the robot: checked to stay in the working folder.
-    out = Path(args.output) if args.output else file_in_folder(".", f"{robot.name}.urdf")
+    out = (
+        check_output(args.output, (), [args.description, args.model], "-o")
+        if args.output
+        else file_in_folder(".", f"{robot.name}.urdf")
+    )
     urdf, sidecar = robot.write_urdf(out)
     print(f"wrote {urdf} and {sidecar}")
     return 0
@@ -52,7 +56,11 @@ def _ik(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("urdf", help="write the URDF and its loop-closure sidecar")
     add_robot_args(p)
-    p.add_argument("-o", "--output", help="URDF path (default: <name>.urdf)")
+    p.add_argument(
+        "-o",
+        "--output",
+        help="URDF path (default: <name>.urdf; a file, not -: the sidecar is written beside)",
+    )
     p.set_defaults(func=_urdf)
 
     p = sub.add_parser("ik", help="inverse geometry and Jp^-1 at a pose")

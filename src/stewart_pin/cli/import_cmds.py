@@ -6,7 +6,7 @@ import argparse
 import warnings
 from pathlib import Path
 
-from stewart_pin.cli._common import check_output, positive_finite_float
+from stewart_pin.cli._common import check_output, positive_finite_float, report_stream, written
 from stewart_pin.exceptions import InputError
 
 
@@ -14,7 +14,12 @@ def _import(args: argparse.Namespace) -> int:
     from stewart_pin.importers import import_mjcf, import_urdf
     from stewart_pin.robot import StewartRobot
 
-    out = check_output(args.output, (".toml", ".json"), [args.model]) if args.output else None
+    out = (
+        check_output(args.output, (".toml", ".json"), [args.model], stdout=True)
+        if args.output
+        else None
+    )
+    report = report_stream(out)
     options: dict[str, object] = {
         "platform": args.platform,
         "name": args.name,
@@ -53,12 +58,13 @@ def _import(args: argparse.Namespace) -> int:
                 keyframe = int(text)
             result = import_mjcf(args.model, keyframe=keyframe, **options)  # type: ignore[arg-type]
         robot = StewartRobot(result.description)  # the home pose checked as for any robot
-    print(result.report)
+    print(result.report, file=report)
     for w in caught:
-        print(f"warning: {' '.join(str(w.message).split())}")
+        print(f"warning: {' '.join(str(w.message).split())}", file=report)
     if out is not None:
-        robot.write(out)
-        print(f"wrote {out}")
+        with written(out, "robot.toml") as path:
+            robot.write(path)
+        print(f"wrote {out}", file=report)
     return 0
 
 
@@ -72,7 +78,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "the robot description (docs/importing.md).",
     )
     p.add_argument("model", help="the model file: MJCF (.xml) or URDF (.urdf)")
-    p.add_argument("-o", "--output", help="the description to write (.toml or .json)")
+    p.add_argument(
+        "-o",
+        "--output",
+        help="the description to write (.toml or .json); - writes the TOML to standard "
+        "output (the report then goes to standard error)",
+    )
     p.add_argument("--name", help="the robot's name (default: the model's, made valid)")
     p.add_argument("--platform", help="the body whose frame is Fp (default: found)")
     p.add_argument(

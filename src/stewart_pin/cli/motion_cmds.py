@@ -18,11 +18,14 @@ from stewart_pin.cli._common import (
     check_output,
     finite_float,
     fraction_of_one,
+    is_stdout,
     payload_robot_from_args,
     positive_finite_float,
     progress_bar,
     refuse_general,
+    report_stream,
     robot_from_args,
+    written,
 )
 from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
 from stewart_pin.motion.trajectories import MOTION_KINDS
@@ -44,6 +47,8 @@ def _save_partial(error: SimulationError, out: Path) -> SimulationError:
     result = cast("SimulationResult", error.result)  # simulate attaches its partial result
     if len(result.t) == 0:
         note = "no state was accepted, nothing saved"
+    elif is_stdout(out):
+        note = "nothing written to standard output (-o -): give a file name to keep them"
     else:
         path = partial_path(out)
         try:
@@ -67,7 +72,12 @@ def _simulate(args: argparse.Namespace) -> int:
     from stewart_pin.motion.simulation import simulate
     from stewart_pin.motion.trajectories import standard_motion
 
-    out = check_output(args.output, (".npz", ".csv"))
+    out = check_output(args.output, (".npz", ".csv"), stdout=True)
+    if is_stdout(out) and args.payload:
+        raise InputError(
+            "simulate --payload writes two files (the states and the payload's joints "
+            "beside them): -o - (standard output) takes one table; give a file name"
+        )
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
     robot = robot_from_args(args)
@@ -106,7 +116,8 @@ def _simulate(args: argparse.Namespace) -> int:
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e
-    result.save(out)
+    with written(out, "simulation.csv") as path:
+        result.save(path)
     lines = [f"simulated {duration:g} s of '{robot.name}' ({args.motion}, {args.method}): {out}"]
     if motion is not None:
         pos, rot = (
@@ -130,7 +141,7 @@ def _simulate(args: argparse.Namespace) -> int:
 
         paths = save_figures(result, Path(args.plots), reference=motion, robot=robot)
         lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
-    print("\n".join(lines))
+    print("\n".join(lines), file=report_stream(out))
     return 0
 
 
@@ -217,14 +228,14 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
         )
     lines.append(
         f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g}; peak |payload torque| "
-        f"{np.abs(sim.tau).max():.5g}"
+        f"{np.abs(sim.tau).max(initial=0.0):.5g}"
     )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
 
         paths = save_figures(sim.result, Path(args.plots), reference=motion)
         lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
-    print("\n".join(lines))
+    print("\n".join(lines), file=report_stream(out))
     return 0
 
 
@@ -340,6 +351,11 @@ def _exit_on_hangup() -> Iterator[None]:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    if is_stdout(args.output):
+        raise InputError(
+            "demo -o - : the demo writes a folder of files, not one table for standard "
+            "output; give a folder name"
+        )
     if args.payload:
         from stewart_pin.apps.payload_demo import run_payload_demo
 
@@ -398,7 +414,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(the generated C; CasADi's virtual machine without a compiler) or pinocchio (the "
         "reference path)",
     )
-    p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
+    p.add_argument(
+        "-o",
+        "--output",
+        default="simulation.npz",
+        help=".npz or .csv; - writes the CSV to standard output (the summary then goes to "
+        "standard error; not with --payload, which writes two files)",
+    )
     add_payload_motion_args(p)
     p.add_argument("--plots", help="folder for PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -413,7 +435,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--motion", choices=MOTION_KINDS, default="sinusoid", help="else this motion")
     p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
     p.add_argument("--fps", type=positive_finite_float, default=30.0, help="key frames per second")
-    p.add_argument("-o", "--output", default="animation.html", help="HTML file to write")
+    p.add_argument(
+        "-o",
+        "--output",
+        default="animation.html",
+        help="HTML file to write (a file: not - for standard output)",
+    )
     add_payload_motion_args(p, drawing=True)
     p.set_defaults(func=_animate)
 
@@ -436,7 +463,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
     )
-    p.add_argument("-o", "--output", default="out", help="output folder")
+    p.add_argument("-o", "--output", default="out", help="output folder (not -)")
     p.add_argument(
         "--payload",
         metavar="NAME",

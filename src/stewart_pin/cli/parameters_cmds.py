@@ -228,6 +228,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         "poorly identified (default 20); a physically impossible value (a negative mass "
         "or diagonal inertia) is flagged whatever it is",
     )
-    p.add_argument("-o", "--output", help="write the report there too (and the CSV beside)")
+    p.add_argument(
+        "-o",
+        "--output",
+        help="write the report there too (and the CSV beside; a file: not -, the report is "
+        "on standard output already)",
+    )
     identify_log.add_arguments(p)
     p.set_defaults(func=_cmd_identify)

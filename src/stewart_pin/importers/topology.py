@@ -400,6 +400,19 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
             "spherical joints to legs, stewart-pin needs six",
             tuple(link_names(P)),
         )
+    for cn in connections:
+        stray = cn.closure
+        if stray is not None and P not in (cn.a, cn.b):  # a loop no leg closes
+            ends = (model.body_label(stray.body1), model.body_label(stray.body2))
+            raise ModelImportError(
+                f"loop closure {shown(stray.name)} joins {shown(ends[0])} and {shown(ends[1])}, "
+                f"away from the platform {shown_list(link_names(P))}: stewart-pin models the "
+                "six loops that close the legs at the platform; another loop (a body pinned "
+                "to the base, two legs coupled) would be dropped and the robot would move "
+                "where the file's cannot; remove it",
+                ends,
+                (stray.name,),
+            )
 
     # edges into each link (the tree's parent side, spherical closures excluded)
     into: dict[int, list[Edge]] = {}

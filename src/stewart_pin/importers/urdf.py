@@ -41,6 +41,7 @@ from stewart_pin.exceptions import (
     JointDynamicsError,
     ModelImportError,
 )
+from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
 from stewart_pin.formats.general_urdf import JOINT_TERMS_KEY
 from stewart_pin.formats.urdf import non_finite_number, parse_closures
 from stewart_pin.importers.tree import (
@@ -93,6 +94,17 @@ def _strict_parse(path: Path) -> Any:
         raise FileFormatError(f"{path} is not well-formed XML: {e}") from e
     if root.tag != "robot":
         raise FileFormatError(f"{path}: the root element is <{root.tag}>, not <robot> (a URDF)")
+    bad = non_finite_number(root)  # named first: the strict check's message is about format
+    if bad is not None:
+        raise ModelImportError(f"{path}: {bad}: every number of a URDF must be finite")
+    check_urdf_numbers(root, str(path), FileFormatError)  # yourdfpy's float() is lenient
+    cycle = urdf_cycle(root)  # the tree walk below would not end
+    if cycle is not None:
+        raise ModelImportError(
+            f"{path}: {cycle.message} (loop closures go in the sidecar, docs/closures.md)",
+            (cycle.parent, cycle.child),
+            (cycle.joint,),
+        )
     for el in root.iter("inertia"):
         missing = [k for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz") if el.get(k) is None]
         if missing:
@@ -102,9 +114,6 @@ def _strict_parse(path: Path) -> Any:
     for el in root.iter("mass"):
         if el.get("value") is None:
             raise FileFormatError(f"{path} line {el.sourceline}: <mass> has no value")
-    bad = non_finite_number(root)
-    if bad is not None:
-        raise ModelImportError(f"{path}: {bad}: every number of a URDF must be finite")
     return root
 
 

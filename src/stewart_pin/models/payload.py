@@ -30,6 +30,7 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.metadata
+import os
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -42,8 +43,10 @@ from stewart_pin.exceptions import (
     InputError,
     MissingDependencyError,
     PayloadError,
+    PayloadMeshError,
     UnknownPayloadError,
 )
+from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
 from stewart_pin.formats.urdf import non_finite_number
 
 __all__ = [
@@ -495,7 +498,13 @@ class Payload:
     def visual_model(self) -> pin.GeometryModel | None:
         """The URDF's visual geometry on :attr:`model` (meshes scaled by
         :attr:`visual_scale`), or ``None`` without a URDF or when its meshes cannot be
-        loaded (the viewer then draws simple shapes)."""
+        loaded (the viewer then draws simple shapes).
+
+        Raises:
+            PayloadMeshError: a mesh whose real path (symbolic links resolved) is not
+                under the URDF's folder or one of :attr:`package_dirs`
+                (:meth:`check_mesh_paths`).
+        """
         if self.urdf is None:
             return None
         try:
@@ -507,6 +516,7 @@ class Payload:
             )
         except (RuntimeError, ValueError, OSError):
             return None
+        self.check_mesh_paths(geom)
         s = self.visual_scale
         if s != 1.0:
             for g in geom.geometryObjects:
@@ -514,10 +524,51 @@ class Payload:
                 g.placement = pin.SE3(g.placement.rotation, g.placement.translation * s)
         return geom
 
+    def mesh_folders(self) -> tuple[str, ...]:
+        """The real paths of the folders a mesh of the URDF may lie under: the URDF's own
+        folder and :attr:`package_dirs` (empty without a URDF)."""
+        if self.urdf is None:
+            return ()
+        folders = [self.urdf.parent, *self.package_dirs]
+        return tuple(dict.fromkeys(os.path.realpath(f) for f in folders))
+
+    def check_mesh_paths(self, geom: pin.GeometryModel) -> None:
+        """Refuse a mesh of ``geom`` whose real path lies outside :meth:`mesh_folders`
+        (:class:`PayloadMeshError`, naming the mesh): an absolute path, ``../``,
+        ``file://`` or a symbolic link leading out of the URDF's folders. Primitives
+        (boxes, cylinders, spheres) have no file."""
+        allowed = self.mesh_folders()
+        for obj in geom.geometryObjects:
+            if type(obj.geometry).__name__ in _PRIMITIVES or not obj.meshPath:
+                continue
+            mesh = str(obj.meshPath)
+            real = os.path.realpath(mesh)  # a relative path (a relative URDF path): from "."
+            inside = any(os.path.commonpath([real, folder]) == folder for folder in allowed)
+            if not inside:
+                raise PayloadMeshError(
+                    f"payload '{self.name}': the mesh of {obj.name!r} is {mesh!r}, whose real "
+                    f"path {real!r} is outside the URDF's folder and its package directories "
+                    f"({', '.join(allowed)}); only meshes shipped under them are drawn: move "
+                    "the mesh there (a copy, not a symbolic link), or draw simple shapes "
+                    "(--payload-shapes, meshes=False)",
+                    mesh,
+                    real,
+                    allowed,
+                )
+
+
+#: coal's primitive shapes: drawn from their parameters, no file read.
+_PRIMITIVES = frozenset(
+    ("Box", "Sphere", "Cylinder", "Capsule", "Cone", "Ellipsoid", "Plane", "Halfspace")
+)
+
 
 def _check_urdf_root(path: Path) -> None:
-    """A file that is not well-formed XML with a ``<robot>`` root is refused here, in one
-    message: Pinocchio's URDF parser would print its own lines on stderr first."""
+    """A file that is not well-formed XML with a ``<robot>`` root, with a number
+    Pinocchio's URDF parser cannot read (``mass="1,5"``, ``"1.5kg"``: it prints a line
+    on stderr and loads a massless link), or whose joints close a cycle (it drops the
+    links of a cycle the root does not reach, mass and all) is refused here, in one
+    message naming the element or joint (:mod:`stewart_pin.formats._urdf_checks`)."""
     from xml.etree import ElementTree
 
     try:
@@ -531,6 +582,22 @@ def _check_urdf_root(path: Path) -> None:
     bad = non_finite_number(root)
     if bad is not None:  # Pinocchio would load it and fail later in its own words
         raise PayloadError(f"payload URDF {path}: {bad}: every number must be finite")
+    check_urdf_numbers(root, f"payload URDF {path}", PayloadError)
+    for link in root.findall("link"):  # urdfdom drops an incomplete <inertial>: massless
+        for inertial in link.findall("inertial"):
+            mass, inertia = inertial.find("mass"), inertial.find("inertia")
+            missing = [] if mass is not None and mass.get("value") is not None else ["mass"]
+            keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+            missing += [k for k in keys if inertia is None or inertia.get(k) is None]
+            if missing:
+                raise PayloadError(
+                    f"payload URDF {path}: the <inertial> of link {link.get('name')!r} misses "
+                    f"{', '.join(missing)}: give <mass value=...> and <inertia> with ixx, ixy, "
+                    "ixz, iyy, iyz and izz (Pinocchio would load the link without it)"
+                )
+    cycle = urdf_cycle(root)  # urdfdom drops the links of a cycle the root does not reach
+    if cycle is not None:
+        raise PayloadError(f"payload URDF {path}: {cycle.message}")
 
 
 def _is_prismatic(joint: Any) -> bool:

@@ -182,11 +182,11 @@ class JointMotion:
         """``(q (K, nq), qd (K, nv), qdd (K, nv))`` at ``times`` (K,) [s]."""
         t = check_array(times, (None,), "times")
         out = [self(tk) for tk in t]
-        nq, nv = self.payload.nq, self.payload.nv
+        K, nq, nv = len(t), self.payload.nq, self.payload.nv  # nq = nv = 0: a fixed tool
         return (
-            np.array([o[0] for o in out]).reshape(-1, nq),
-            np.array([o[1] for o in out]).reshape(-1, nv),
-            np.array([o[2] for o in out]).reshape(-1, nv),
+            np.array([o[0] for o in out]).reshape(K, nq),
+            np.array([o[1] for o in out]).reshape(K, nv),
+            np.array([o[2] for o in out]).reshape(K, nv),
         )
 
     def check_limits(self, n_samples: int = 201) -> None:

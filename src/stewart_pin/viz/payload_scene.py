@@ -46,6 +46,13 @@ def _hex(rgb: tuple[float, float, float]) -> int:
     return (r << 16) | (g << 8) | b
 
 
+def _rows(q: Any, nq: int, n: int) -> np.ndarray:
+    """Configurations ``q`` as rows (K, nq); a payload without joints (``nq = 0``, a fixed
+    tool) has ``n`` empty rows."""
+    arr = np.asarray(q, dtype=float)
+    return arr.reshape(-1, nq) if nq else arr.reshape(n, 0) if arr.size == 0 else arr
+
+
 def _along_y(end: np.ndarray) -> np.ndarray:
     """A rotation (4, 4) whose y axis points along ``end`` (non-zero, (3,))."""
     y = end / np.linalg.norm(end)
@@ -195,7 +202,7 @@ class PayloadScene:
         """Each object's rigid transform in F0 over K frames, (len(visuals), K, 4, 4), at
         platform poses (K, 4, 4) and payload configurations (K, nq)."""
         T, _ = check_poses(poses, "poses")
-        Q, _ = self.payload.check_configurations(np.reshape(q, (-1, self.payload.nq)))
+        Q, _ = self.payload.check_configurations(_rows(q, self.payload.nq, len(T)))
         if len(Q) != len(T):
             raise InputError(f"q has {len(Q)} configurations but poses has {len(T)}")
         base = T @ np.asarray(self.payload.placement)
@@ -296,7 +303,7 @@ class PayloadViewer(Viewer):
         nq = self.carrier.payload.nq
         if q is None:
             return np.tile(self.q_home, (n, 1))
-        Q = np.asarray(q, dtype=float).reshape(-1, nq)
+        Q = _rows(q, nq, n)
         if len(Q) != n:
             raise InputError(f"q has {len(Q)} configurations but poses has {n}: one per pose")
         return self.carrier.payload.check_configurations(Q)[0]
