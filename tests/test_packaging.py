@@ -295,3 +295,21 @@ def test_the_summary_names_every_leg_architecture():
     for summary in (PYPROJECT["project"]["description"], stewart_pin.__doc__.splitlines()[0]):
         for architecture in ("6-UPS", "6-RUS", "6-PUS"):
             assert architecture in summary, summary
+
+
+def test_the_citation_file_cites_the_software_and_the_paper():
+    yaml = pytest.importorskip("yaml")
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
+    assert cff["cff-version"] == "1.2.0" and cff["type"] == "software"
+    assert {"message", "title", "authors"} <= set(cff)
+    assert cff["version"] == stewart_pin.__version__
+    assert cff["license"] == PYPROJECT["project"]["license"]["text"]
+    (paper,) = cff["references"]
+    assert paper["title"] == "Inverse and direct dynamic modeling of Gough-Stewart robots"
+    assert [a["family-names"] for a in paper["authors"]] == ["Khalil", "Guegan"]
+    assert (paper["journal"], paper["volume"], paper["issue"], paper["year"]) == (
+        "IEEE Transactions on Robotics",
+        20,
+        4,
+        2004,
+    )
