@@ -56,21 +56,30 @@ def _newest_source(notebook: Path) -> float:
     return max(times)
 
 
+def cached_execution(path: Path, cache: Path):
+    """The execution of the notebook at ``path`` in the folder ``cache`` if it is current
+    (same code cells, newer than its sources), else None."""
+    import nbformat
+
+    copy = cache / path.name
+    if not copy.is_file() or copy.stat().st_mtime < _newest_source(path):
+        return None
+    nb = nbformat.read(copy, as_version=4)
+    return nb if _code(nb) == _code(nbformat.read(path, as_version=4)) else None
+
+
 def executed_notebook(path: Path):
     """The notebook at ``path`` with its outputs: the test suite's execution when current,
     else executed now."""
     import nbformat
 
-    committed = nbformat.read(path, as_version=4)
     cache = os.environ.get(CACHE_ENV)
-    copy = Path(cache) / path.name if cache else None
-    if copy is not None and copy.is_file() and copy.stat().st_mtime >= _newest_source(path):
-        nb = nbformat.read(copy, as_version=4)
-        if _code(nb) == _code(committed):
-            print(f"{path.name}: the test suite's execution ({copy})")
-            return nb
+    if cache and (nb := cached_execution(path, Path(cache))) is not None:
+        print(f"{path.name}: the test suite's execution (in {cache})")
+        return nb
     import nbclient
 
+    committed = nbformat.read(path, as_version=4)
     print(f"{path.name}: executing", flush=True)
     os.environ.pop("MPLBACKEND", None)  # the kernel's own inline backend
     nbclient.NotebookClient(
@@ -95,7 +104,8 @@ def _title_and_summary(nb) -> tuple[str, str]:
     text = next(c.source for c in nb.cells if c.cell_type == "markdown")
     paragraphs = [p.strip() for p in text.split("\n\n") if p.strip()]
     title = paragraphs[0].lstrip("#").strip()
-    summary = next((p for p in paragraphs[1:] if not p.startswith(("#", "-", "|"))), "")
+    prose = [p for p in paragraphs[1:] if not p.startswith(("#", "-", "|")) and p[-1] != ":"]
+    summary = prose[0] if prose else ""
     # its links are relative to notebooks/, the gallery's to the site's root
     return title, " ".join(summary.split()).replace("](../", "](")
 
