@@ -478,3 +478,18 @@ def test_every_help_shows_the_defaults():
             if has_value and action.default not in (None, argparse.SUPPRESS):
                 shown = f"(default: {action.default})"
                 assert shown in text, f"stewart-pin {name} --help: {action.dest} {shown}"
+
+
+def test_every_preset_option_names_every_preset():
+    """`demo --help` listed only the ideal 6-UPS presets, though the demo runs the others
+    (`bench --preset` is 6-UPS-only, and says so)."""
+    from stewart_pin.description.presets import PRESET_NAMES
+
+    parsers = subcommand_parsers()
+    assert "demo" in parsers
+    for name, parser in parsers.items():
+        for action in parser._actions if name != "bench" else ():
+            if "--preset" in action.option_strings:
+                text = " ".join(parser.format_help().split())
+                for preset_name in (*PRESET_NAMES, "random-<seed>", "random-<kind>-<seed>"):
+                    assert preset_name in text, f"stewart-pin {name} --help: {preset_name}"

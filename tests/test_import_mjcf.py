@@ -630,11 +630,12 @@ def test_unsupported_elements_are_refused():
 
 
 def test_docs_example_servo_head():
-    """docs/importing.md's worked example: the file in tests/data, the report and forces it
-    prints, and the dynamics against MuJoCo's model of the file."""
-    from pathlib import Path
+    """docs/importing.md's worked example: the file shipped in the model files
+    (models/examples/), the report and forces it prints, and the dynamics against MuJoCo's
+    model of the file."""
+    from stewart_pin.formats import model_files
 
-    path = Path(__file__).parent / "data" / "servo_head.xml"
+    path = model_files() / "examples" / "servo_head.xml"
     result = import_mjcf(path)
     text = str(result.report)
     assert "MJCF model 'servo-head' ('servo_head.xml'): rus legs" in text

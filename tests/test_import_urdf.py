@@ -21,7 +21,6 @@ import json
 import math
 import warnings
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -39,6 +38,7 @@ from stewart_pin import (
 from stewart_pin.description.general_presets import pus_preset, random_hexapod, rus_preset
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.description.presets import preset
+from stewart_pin.formats import model_files
 from stewart_pin.formats.urdf import write_urdf
 from stewart_pin.importers import canonical_description, import_urdf
 
@@ -305,7 +305,7 @@ def test_bad_import_options_are_input_errors(tmp_path):
     from stewart_pin.importers import import_mjcf
 
     path = write(tmp_path, cad_urdf(SOURCES["pus"](), seed=1))
-    xml = str(Path(__file__).parent / "data" / "servo_head.xml")
+    xml = str(model_files() / "examples" / "servo_head.xml")
     for key in ("closure_tolerance", "spin_tolerance"):
         for bad in (float("nan"), -1.0, 0.0, True, "1e-3"):
             with pytest.raises(stewart_pin.InputError, match=key):

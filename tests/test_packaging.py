@@ -101,6 +101,7 @@ def shipped_model_files() -> list[str]:
 def test_model_files_are_the_committed_files():
     files = shipped_model_files()
     assert {"package.xml", "urdf/stewart.urdf.xacro", "urdf/paper.urdf"} <= set(files)
+    assert "examples/servo_head.xml" in files  # docs/importing.md's worked example
     folder = model_files()
     for name in files:
         assert (folder / name).read_bytes() == (MODELS / name).read_bytes(), name
@@ -287,3 +288,28 @@ def test_the_private_name_scan_finds_a_private_import(tmp_path, monkeypatch):
         "stewart_pin.formats.b:3: from stewart_pin.formats.a import _helper",
         "stewart_pin.formats.b:5: alias._helper",
     ]
+
+
+def test_the_summary_names_every_leg_architecture():
+    """The package's one-line description said "(6-UPS) hexapods"."""
+    for summary in (PYPROJECT["project"]["description"], stewart_pin.__doc__.splitlines()[0]):
+        for architecture in ("6-UPS", "6-RUS", "6-PUS"):
+            assert architecture in summary, summary
+
+
+def test_the_citation_file_cites_the_software_and_the_paper():
+    yaml = pytest.importorskip("yaml")
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
+    assert cff["cff-version"] == "1.2.0" and cff["type"] == "software"
+    assert {"message", "title", "authors"} <= set(cff)
+    assert cff["version"] == stewart_pin.__version__
+    assert cff["license"] == PYPROJECT["project"]["license"]["text"]
+    (paper,) = cff["references"]
+    assert paper["title"] == "Inverse and direct dynamic modeling of Gough-Stewart robots"
+    assert [a["family-names"] for a in paper["authors"]] == ["Khalil", "Guegan"]
+    assert (paper["journal"], paper["volume"], paper["issue"], paper["year"]) == (
+        "IEEE Transactions on Robotics",
+        20,
+        4,
+        2004,
+    )

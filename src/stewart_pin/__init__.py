@@ -1,4 +1,5 @@
-"""stewart-pin: closed-loop dynamics of Gough-Stewart (6-UPS) hexapods on Pinocchio.
+"""stewart-pin: closed-loop dynamics of Gough-Stewart hexapods (6-UPS, 6-RUS, 6-PUS,
+custom legs) on Pinocchio.
 
 The models of Khalil & Guegan, "Inverse and direct dynamic modeling of Gough-Stewart
 robots": geometry, kinematics, inverse and direct dynamics, cross-checked against

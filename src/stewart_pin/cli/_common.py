@@ -147,14 +147,16 @@ def report_stream(out: Path | None) -> Any:
     return sys.stderr if out is not None and is_stdout(out) else sys.stdout
 
 
+#: The help of every ``--preset`` option: each name :func:`~stewart_pin.preset` takes.
+PRESET_HELP = (
+    "simulator, desktop, paper, random-<seed> (ideal 6-UPS); ups-offset, rus, pus, "
+    "random-<kind>-<seed> with kind ups, ups-offset, rus, pus or custom (general legs)"
+)
+
+
 def add_robot_args(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
-    g.add_argument(
-        "--preset",
-        default="simulator",
-        help="simulator, desktop, paper, random-<seed> (ideal 6-UPS); ups-offset, rus, pus, "
-        "random-<kind>-<seed> with kind ups, ups-offset, rus, pus or custom (general legs)",
-    )
+    g.add_argument("--preset", default="simulator", help=PRESET_HELP)
     g.add_argument("--description", help="a robot description file (.toml or .json)")
     g.add_argument(
         "--model",

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from stewart_pin.cli._common import (
+    PRESET_HELP,
     add_payload_args,
     add_robot_args,
     check_output,
@@ -460,9 +461,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_view)
 
     p = sub.add_parser("demo", help="the main demo: the whole workflow on a preset")
-    p.add_argument(
-        "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
-    )
+    p.add_argument("--preset", default="simulator", help=PRESET_HELP)
     p.add_argument("-o", "--output", default="out", help="output folder (not -)")
     p.add_argument(
         "--payload",

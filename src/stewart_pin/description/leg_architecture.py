@@ -507,7 +507,7 @@ def ups(
     branch: int = 1,
 ) -> LegArchitecture:
     """The paper's U-P-S leg: ``R(q1)``, ``R(alpha pi/2, q2)``, ``P(alpha pi/2, q3)``,
-    actuated prismatic q3 = |B_i P_i|, P_i at the origin of frame 3i.
+    actuated prismatic ``q3 = |B_i P_i|``, P_i at the origin of frame 3i.
 
     Args:
         stroke: ``[min, max]`` of q3 [m]. u_limits: (2, 2) limits of q1, q2 [rad].

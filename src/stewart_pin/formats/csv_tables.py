@@ -59,7 +59,7 @@ ACCEL_SLICE = _span(STATE_COLUMNS, "ax", "alphaz")
 FORCE_SLICE = slice(len(STATE_COLUMNS), len(STATE_COLUMNS) + len(FORCE_COLUMNS))
 LENGTH_SLICE = slice(FORCE_SLICE.stop, FORCE_SLICE.stop + len(LENGTH_COLUMNS))
 
-#: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
+#: Tolerance on ``|q| - 1`` of a quaternion read from a file (renormalised within it).
 QUATERNION_TOLERANCE = 1e-6
 
 

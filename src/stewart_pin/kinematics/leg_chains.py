@@ -55,7 +55,7 @@ LEG_SINGULARITY = 2e-2
 #: Parallel singularity threshold on the unit-free condition number of ``Jp^-1``
 #: (``kinematics.jacobians.MAX_CONDITION``).
 MAX_CONDITION = 1e4
-#: Newton's method on a leg (custom legs): tolerance on |P_i error| [m] and iteration cap.
+#: Newton's method on a leg (custom legs): tolerance on ``|P_i error|`` [m] and iteration cap.
 LEG_TOLERANCE = 1e-13
 LEG_MAX_ITERATIONS = 50
 #: Forward geometry: tolerance on the actuated joint values [m or rad], iteration cap.

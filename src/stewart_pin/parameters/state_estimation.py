@@ -560,10 +560,14 @@ class EstimatedStates:
     """Platform states estimated from a log, on the samples the filters leave.
 
     Attributes:
-        times (N,) [s], poses (N, 4, 4), twists (N, 6), accels (N, 6) classical, efforts
-        (N, 6) (as logged, or the held efforts' averages:
-        :meth:`~stewart_pin.parameters.logs.ActuatorLog.effort_samples`); index (N,): the
-        samples of the log they are; design: the filters.
+        times: shape (N,) [s].
+        poses: shape (N, 4, 4), 0Tp.
+        twists: shape (N, 6).
+        accels: shape (N, 6), classical.
+        efforts: shape (N, 6), as logged, or the held efforts' averages
+            (:meth:`~stewart_pin.parameters.logs.ActuatorLog.effort_samples`).
+        index: shape (N,), the samples of the log they are.
+        design: the filters.
     """
 
     times: np.ndarray
