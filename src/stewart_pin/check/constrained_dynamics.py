@@ -281,7 +281,9 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
 
     The platform's free-flyer coordinates come from the pose and twist; the leg joint
     values from :func:`stewart_pin.kinematics.geometry.inverse_geometry` (default U-joint
-    branch, no stroke check); the 18 leg rates solve the constraint velocity equation ``Jc v = 0``.
+    branch, no stroke check; general legs: ``robot.inverse_geometry``, each leg on its
+    branch, the loop closure checked); the 18 leg rates solve the constraint velocity
+    equation ``Jc v = 0``.
 
     Args:
         robot: the robot (its ``tree`` is used).
@@ -297,8 +299,17 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
     Raises:
         InputError: bad shapes or values. SingularityError: a leg singularity.
     """
-    s = tree_solver(robot)
     batched, T, V = check_states(pose, (twist, "twist"))
+    if not robot.description.is_ideal_ups:  # the same layout: both trees' builder
+        g = _general_solver(robot)
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        qs = np.empty((len(T), g.model.nq))
+        vs = np.empty((len(T), g.nv))
+        for n in range(len(T)):
+            with _at_state(n):
+                qs[n], vs[n] = g.state(T[n], V[n], q_legs[n])[:2]
+        return _unbatch(qs, batched), _unbatch(vs, batched)
+    s = tree_solver(robot)
     qs = np.empty((len(T), s.model.nq))
     vs = np.empty((len(T), s.nv))
     for n in range(len(T)):

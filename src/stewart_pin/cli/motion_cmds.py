@@ -21,7 +21,6 @@ from stewart_pin.cli._common import (
     payload_robot_from_args,
     positive_finite_float,
     progress_bar,
-    refuse_general,
     robot_from_args,
 )
 from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
@@ -82,9 +81,7 @@ def _simulate(args: argparse.Namespace) -> int:
         motion = standard_motion(robot, args.motion, args.duration)
         motion.check_workspace(robot)
         model = robot
-        if args.model_error:
-            if not robot.is_ideal_ups:
-                raise refuse_general("simulate --model-error", robot)
+        if args.model_error:  # every standard parameter, joint terms included
             chi = standard_parameters(robot.description) * (1.0 + args.model_error)
             model = type(robot)(with_standard_parameters(robot.description, chi))
         forces = ComputedTorqueController(model, motion, backend=args.backend)
