@@ -33,10 +33,10 @@ Checks on the answer: the poses reached at the nodes are checked by the robot's 
 geometry (every joint's limits, the passive ones included) and singularity measure, and
 the open-loop simulation (:meth:`OptimalMotion.simulate`, the project's
 :func:`~stewart_pin.motion.simulation.simulate` with the reference direct model)
-reproduces the optimised motion: with the transcription's step to 1e-6 m and 1e-6 rad (the same RK4 order, a different SO(3)
-integration: about 1e-9 measured), and with a step twenty times finer to 1e-5 m and 1e-5
-rad (the transcription's own error: about 2e-7 on a one-second motion with the defaults);
-the test suite holds it to these tolerances.
+reproduces the optimised motion: with the transcription's step to 1e-6 m and 1e-6 rad
+(the same RK4 order, a different SO(3) integration: about 1e-9 measured), and with a step
+twenty times finer to 1e-5 m and 1e-5 rad (the transcription's own error: about 2e-7 on a
+one-second motion with the defaults); the test suite holds it to these tolerances.
 
 Every leg architecture (the DDM is generated for each: ``ups``, ``ups-offset``, ``rus``,
 ``pus``, custom, mixed).
