@@ -122,6 +122,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             args.frequency,
             args.seed,
             args.samples,
+            base=base,
             max_evaluations=args.evaluations,
         )
         clean = simulate_measurements(robot, trajectory)
@@ -153,6 +154,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             args.seed + 1,
             args.samples,
             optimise=False,
+            base=base,
         )
         clean = simulate_measurements(robot, trajectory)
         validation = simulate_measurements(robot, trajectory, noise, args.seed + 1)
