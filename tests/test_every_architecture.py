@@ -26,9 +26,11 @@ from stewart_pin import StewartRobot
 from stewart_pin.check import payload as check_payload
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
+    constrained_inverse_dynamics,
     relative_error,
     tree_state,
 )
+from stewart_pin.check.constrained_dynamics import energy as check_energy
 from stewart_pin.check.general_legs import GeneralTreeSolver
 from stewart_pin.cli import main
 from stewart_pin.formats.mjcf import mujoco_qpos
@@ -100,6 +102,30 @@ def test_the_tree_closes_the_loops_and_gives_the_direct_model(name):
             assert np.abs(p1.translation - p2.translation).max() < 1e-9 * robot.description.size
     G = robot.inverse_dynamics(P, V, A, backend="pinocchio")
     assert relative_error(_tree_accelerations(robot, P, V, G), A) < 1e-8
+
+
+@pytest.mark.parametrize("name", ARCHITECTURES)
+def test_the_checks_inverse_model_balances_the_platform(name):
+    """``constrained_inverse_dynamics`` on every robot: the reference Gamma, and leg
+    forces on the platform that satisfy its Newton equation ``sum f_i + m g = m a_G``
+    (``a_G`` the classical acceleration of its centre of mass); the check's energy is the
+    facade's."""
+    robot = robot_of(name)
+    P, V, A = robot.sample_states(3, 9)
+    gamma, forces = constrained_inverse_dynamics(robot, P, V, A)
+    assert relative_error(gamma, robot.inverse_dynamics(P, V, A, backend="pinocchio")) < TOL
+    chi = robot.description.platform_inertia
+    m, c = chi[9], chi[6:9] / chi[9]
+    g = robot.description.gravity
+    for n in range(3):
+        c0 = P[n][:3, :3] @ c
+        w, wd = V[n][3:], A[n][3:]
+        a_G = A[n][:3] + np.cross(wd, c0) + np.cross(w, np.cross(w, c0))
+        np.testing.assert_allclose(
+            forces[n].sum(axis=0), m * (a_G - g), rtol=1e-9, atol=1e-9 * m * np.abs(g).max()
+        )
+    kinetic, potential = check_energy(robot, P, V)
+    np.testing.assert_allclose(kinetic + potential, robot.energy(P, V), rtol=1e-10)
 
 
 @pytest.mark.parametrize("name", ARCHITECTURES)

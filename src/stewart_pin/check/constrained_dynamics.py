@@ -48,6 +48,7 @@ from stewart_pin._checks import check_states
 from stewart_pin.check.general_legs import (
     GeneralTreeSolver,
     reference_direct_dynamics,
+    reference_energy,
     reference_inverse_dynamics,
 )
 from stewart_pin.description import RobotDescription
@@ -179,6 +180,7 @@ def _state(
     s: TreeSolver, desc: RobotDescription, T: np.ndarray, twist: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Tree ``q`` (25,), ``v`` (24,), ``Jc`` (18, 24) and ``R = 0Rp`` for one state."""
+    desc.ideal_stroke("the 6-UPS tree state")  # general legs: the GeneralTreeSolver's
     R = T[:3, :3]
     q = np.empty(s.model.nq)
     q[s.q_ff] = pin.SE3ToXYZQUAT(pin.SE3(R, T[:3, 3]))
@@ -357,10 +359,17 @@ def constrained_inverse_dynamics(
         SingularityError: a leg singularity, or ``[S^T, Jc^T]`` singular (parallel
             singularity).
     """
-    s = tree_solver(robot)
     batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
     gammas = np.empty((len(T), 6))
     forces = np.empty((len(T), 6, 3))
+    if not robot.description.is_ideal_ups:  # general legs: their tree with joint terms
+        g = _general_solver(robot)
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        for n in range(len(T)):
+            with _at_state(n):
+                gammas[n], forces[n], _ = g.inverse_with_forces_one(T[n], V[n], A[n], q_legs[n])
+        return _unbatch(gammas, batched), _unbatch(forces, batched)
+    s = tree_solver(robot)
     for n in range(len(T)):
         with _at_state(n):
             gammas[n], forces[n] = _inverse_one(s, robot.description, T[n], V[n], A[n])
@@ -432,8 +441,14 @@ def energy(robot: RobotLike, pose: Any, twist: Any) -> tuple[Any, Any]:
     Returns:
         ``(kinetic, potential)``: floats, or arrays of shape (N,) for a batch [J].
     """
-    s = tree_solver(robot)
     batched, T, V = check_states(pose, (twist, "twist"))
+    if not robot.description.is_ideal_ups:  # general legs: armatures and springs included
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        kinetic, potential, _ = reference_energy(_general_solver(robot), T, V, q_legs)
+        if batched:
+            return kinetic, potential
+        return float(kinetic[0]), float(potential[0])
+    s = tree_solver(robot)
     out = np.empty((len(T), 2))
     for n in range(len(T)):
         with _at_state(n):
