@@ -301,6 +301,7 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
     Raises:
         InputError: bad shapes or values. SingularityError: a leg singularity.
     """
+    s = tree_solver(robot)  # a robot with a tree (TypeError otherwise)
     batched, T, V = check_states(pose, (twist, "twist"))
     if not robot.description.is_ideal_ups:  # the same layout: both trees' builder
         g = _general_solver(robot)
@@ -311,7 +312,6 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
             with _at_state(n):
                 qs[n], vs[n] = g.state(T[n], V[n], q_legs[n])[:2]
         return _unbatch(qs, batched), _unbatch(vs, batched)
-    s = tree_solver(robot)
     qs = np.empty((len(T), s.model.nq))
     vs = np.empty((len(T), s.nv))
     for n in range(len(T)):
@@ -359,6 +359,7 @@ def constrained_inverse_dynamics(
         SingularityError: a leg singularity, or ``[S^T, Jc^T]`` singular (parallel
             singularity).
     """
+    s = tree_solver(robot)  # a robot with a tree (TypeError otherwise)
     batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
     gammas = np.empty((len(T), 6))
     forces = np.empty((len(T), 6, 3))
@@ -369,7 +370,6 @@ def constrained_inverse_dynamics(
             with _at_state(n):
                 gammas[n], forces[n], _ = g.inverse_with_forces_one(T[n], V[n], A[n], q_legs[n])
         return _unbatch(gammas, batched), _unbatch(forces, batched)
-    s = tree_solver(robot)
     for n in range(len(T)):
         with _at_state(n):
             gammas[n], forces[n] = _inverse_one(s, robot.description, T[n], V[n], A[n])
@@ -441,6 +441,7 @@ def energy(robot: RobotLike, pose: Any, twist: Any) -> tuple[Any, Any]:
     Returns:
         ``(kinetic, potential)``: floats, or arrays of shape (N,) for a batch [J].
     """
+    s = tree_solver(robot)  # a robot with a tree (TypeError otherwise)
     batched, T, V = check_states(pose, (twist, "twist"))
     if not robot.description.is_ideal_ups:  # general legs: armatures and springs included
         q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
@@ -448,7 +449,6 @@ def energy(robot: RobotLike, pose: Any, twist: Any) -> tuple[Any, Any]:
         if batched:
             return kinetic, potential
         return float(kinetic[0]), float(potential[0])
-    s = tree_solver(robot)
     out = np.empty((len(T), 2))
     for n in range(len(T)):
         with _at_state(n):
