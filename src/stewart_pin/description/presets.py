@@ -22,12 +22,17 @@ from stewart_pin.description.inertia import random_physical_khalil, transform_kh
 from stewart_pin.description.robot_description import RobotDescription, leg_base_rotation_from_axis
 from stewart_pin.description.symmetric_presets import (
     GRAVITY,
+    cylinder_link,
     desktop,
     simulator,
     symmetric_geometry,
     symmetric_robot,
 )
 from stewart_pin.exceptions import DescriptionError
+
+#: The solid-cylinder link under its former name here (the builders moved to
+#: :mod:`.symmetric_presets`; modules that read it from this one keep working).
+_cylinder_link = cylinder_link
 
 
 def paper() -> RobotDescription:

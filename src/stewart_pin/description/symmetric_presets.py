@@ -30,7 +30,7 @@ def symmetric_geometry(rb: float, rp: float, db: float, dp: float) -> tuple[np.n
     return B, P
 
 
-def _cylinder_link(
+def cylinder_link(
     mass: float, radius: float, length: float, axis: np.ndarray, start: float
 ) -> np.ndarray:
     """Khalil parameters of a solid cylinder along ``axis`` (unit, in the link frame) whose
@@ -72,9 +72,9 @@ def symmetric_robot(
     I1 = 0.4 * m1 * (1.5 * radius) ** 2
     link1 = khalil_from_urdf_inertial(m1, np.zeros(3), I1 * np.eye(3))
     # Link 2 (cylinder body): along -y2 (the leg direction in frame 2), from B_i upwards.
-    link2 = _cylinder_link(m2, 1.4 * radius, cylinder_length, np.array([0.0, -1.0, 0.0]), 0.0)
+    link2 = cylinder_link(m2, 1.4 * radius, cylinder_length, np.array([0.0, -1.0, 0.0]), 0.0)
     # Link 3 (piston rod): along z3, ending at P_i (origin of frame 3).
-    link3 = _cylinder_link(m3, radius, rod_length, np.array([0.0, 0.0, 1.0]), -rod_length)
+    link3 = cylinder_link(m3, radius, rod_length, np.array([0.0, 0.0, 1.0]), -rod_length)
     leg = np.stack([link1, link2, link3])
     kx, ky, kz = platform_gyration
     I_c = platform_mass * np.diag([kx**2, ky**2, kz**2])
@@ -135,4 +135,11 @@ def desktop() -> RobotDescription:
     )
 
 
-__all__ = ["GRAVITY", "desktop", "simulator", "symmetric_geometry", "symmetric_robot"]
+__all__ = [
+    "GRAVITY",
+    "cylinder_link",
+    "desktop",
+    "simulator",
+    "symmetric_geometry",
+    "symmetric_robot",
+]
