@@ -301,7 +301,7 @@ def test_non_finite_derivative_raises_numerical_error():
 # ---------------------------------------------------------------------------- general legs
 #: Robots with general legs: ``rus`` through its compiled library (one build, in the
 #: session's shared cache), the others in CasADi's VM (the same functions, no compile).
-GENERAL_ROBOTS = ("rus", "pus", "random-custom-0")
+GENERAL_ROBOTS = ("rus", "pus", "ups-offset", "random-custom-0")
 
 
 @pytest.fixture(scope="module")

@@ -289,16 +289,12 @@ def test_simulation_stops_at_a_joint_limit():
 
 
 # ---------------------------------------------------------------------- refusals
-def test_six_ups_only_features_refuse_general_legs():
+def test_the_shared_stroke_is_the_ideal_six_ups_s_alone():
+    """A general robot has no shared stroke (each leg its own limits): the 6-UPS's
+    closed forms that need one say why (the features take every architecture:
+    tests/test_every_architecture.py)."""
     robot = StewartRobot.from_preset("rus")
-    T = robot.home_pose
-    for call in (
-        lambda: robot.leg_lengths(T),
-        lambda: robot.tree,
-    ):
-        with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only for now"):
-            call()
-    with pytest.raises(UnsupportedArchitectureError):
+    with pytest.raises(UnsupportedArchitectureError, match="limits are per leg"):
         robot.description.ideal_stroke("x")
 
 
@@ -406,15 +402,6 @@ def test_cli_idm_on_rus(tmp_path, capsys):
     assert relative_error(rows[:, 1:], ref) < TOL
 
 
-@pytest.mark.parametrize("command", ["bench", "identify"])
-def test_cli_six_ups_only_commands_refuse(command, capsys, tmp_path, monkeypatch):
-    """(``cost`` takes general legs now: test_general_codegen.py.)"""
-    monkeypatch.chdir(tmp_path)
-    assert main([command, "--preset", "rus"]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "6-UPS-only" in err
-
-
 def test_cli_urdf_of_general_legs_loads_with_its_joint_terms(tmp_path, monkeypatch):
     """`stewart-pin urdf --preset rus` writes the chains and the sidecar; Pinocchio's URDF
     parser (through load_tree) builds the 25-dof tree whose armatures are the legs' own
@@ -445,7 +432,7 @@ def test_the_papers_grouped_parameters_refuse_general_legs():
         lambda: grouped_parameters(robot.description),
         lambda: paper_essential_parameters(robot),
     ):
-        with pytest.raises(UnsupportedArchitectureError, match="6-UPS-only"):
+        with pytest.raises(UnsupportedArchitectureError, match="ideal 6-UPS architecture"):
             call()
 
 

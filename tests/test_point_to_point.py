@@ -16,11 +16,7 @@ import pytest
 from conftest import get_robot
 
 from stewart_pin import StewartRobot
-from stewart_pin.exceptions import (
-    ConvergenceError,
-    InputError,
-    UnsupportedArchitectureError,
-)
+from stewart_pin.exceptions import ConvergenceError, InputError
 from stewart_pin.planning import OptimalMotion, optimal_point_to_point
 
 #: Limits for the simulator preset below the unconstrained optimum's peaks (about
@@ -139,7 +135,63 @@ def test_bad_replay_arguments_raise_input_errors(limited):
         m.forces(float("nan"))
 
 
-def test_general_legs_are_not_supported_yet():
-    robot = StewartRobot.from_preset("rus")
-    with pytest.raises(UnsupportedArchitectureError):
-        optimal_point_to_point(robot, robot.home_pose, robot.home_pose, 1.0)
+#: Each general architecture, and the Hessian its NLP converges with in a few iterations
+#: (CasADi's exact second derivatives for the crank of the 6-RUS; L-BFGS for the rest:
+#: through a custom leg's Newton steps the exact Hessian is slower than it pays).
+GENERAL_PLANS = (
+    ("pus", "limited-memory"),
+    ("ups-offset", "limited-memory"),
+    ("rus", "exact"),
+    ("random-custom-0", "limited-memory"),
+)
+
+
+def _small_goal(robot: StewartRobot) -> np.ndarray:
+    T = robot.home_pose
+    s = robot.description.stroke_mid
+    T[:3, 3] += 0.03 * s * np.array([1.0, -0.6, 0.6])
+    T[:3, :3] = pin.exp3(0.03 * np.array([0.6, 0.8, -1.0])) @ T[:3, :3]
+    return T
+
+
+@pytest.mark.parametrize(("name", "hessian"), GENERAL_PLANS)
+def test_optimal_motion_on_every_leg_architecture(name, hessian):
+    """The planner on general legs (issue 19): the joint limits of every leg instead of
+    the shared stroke. References: the reference inverse model (Pinocchio's leg dynamics
+    and the closure layer) at every node gives back the force held there (the NLP used
+    the generated DDM); the reference inverse geometry's actuated joints lie within
+    each leg's limits less the margin; the open-loop simulation on the reference direct
+    model reaches the goal at rest."""
+    robot = StewartRobot.from_preset(name)
+    goal = _small_goal(robot)
+    m = optimal_point_to_point(robot, robot.home_pose, goal, 1.0, intervals=6, hessian=hessian)
+    assert m.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    np.testing.assert_allclose(m.poses[-1], goal, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(m.twists[[0, -1]], 0.0, rtol=0, atol=1e-8)
+    # the DDM the NLP used against the reference IDM, node by node (held forces)
+    held = np.vstack([m.gammas, m.gammas[-1:]])
+    gamma_ref = robot.inverse_dynamics(m.poses, m.twists, m.accels, backend="pinocchio")
+    np.testing.assert_allclose(gamma_ref, held, rtol=1e-8, atol=1e-8 * np.abs(held).max())
+    # the limits of every leg, with the reference inverse geometry
+    q_a = robot.actuator_positions(m.poses, check_limits=True)
+    np.testing.assert_allclose(m.actuator_positions, q_a, rtol=0, atol=1e-9)
+    lo, hi = m.actuator_bounds[:, 0], m.actuator_bounds[:, 1]
+    legs = robot.general.legs
+    limits = np.array([leg.limits[leg.actuated - 1] for leg in legs])
+    finite = np.isfinite(limits[:, 0])
+    np.testing.assert_allclose(
+        lo[finite], limits[finite, 0] + 0.01 * (limits[finite, 1] - limits[finite, 0])
+    )
+    assert (q_a >= lo - 1e-9).all() and (q_a <= hi + 1e-9).all()
+    # the open loop on the reference direct model
+    dp, dr = m.deviation(m.simulate(robot))
+    assert dp < 1e-5 and dr < 1e-4
+
+
+def test_a_margin_past_half_a_crank_range_is_refused():
+    robot = get_robot("simulator")  # the 6-UPS: half the stroke, 0.4 m
+    with pytest.raises(InputError, match="margin must be in"):
+        optimal_point_to_point(robot, robot.home_pose, robot.home_pose, 1.0, margin=0.5)
+    rus = StewartRobot.from_preset("rus")  # cranks in [-pi/2, pi/2]: half is pi/2 rad
+    with pytest.raises(InputError, match=r"margin must be in \[0, 1.5708\)"):
+        optimal_point_to_point(rus, rus.home_pose, rus.home_pose, 1.0, margin=1.6)

@@ -14,7 +14,7 @@ expected, what was received and how to fix it::
     ├── DescriptionError (ValueError)        an inconsistent robot description
     │   ├── InertiaError                     inertial parameters no rigid body can have
     │   ├── ArchitectureError                a leg that is not three 1-dof joints as named
-    │   │   └── UnsupportedArchitectureError a 6-UPS-only feature asked of general legs
+    │   │   └── UnsupportedArchitectureError what one architecture's physics cannot have
     │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file
@@ -103,10 +103,12 @@ class ArchitectureError(DescriptionError):
 
 
 class UnsupportedArchitectureError(ArchitectureError):
-    """A feature that is 6-UPS-only for now asked of a robot with general legs (the
-    compiled backend, identification, URDF export of the 6-UPS tree, the paper's 88
-    grouped parameters...), or the analytic base parameters of ``custom`` legs: the
-    message names the feature and what works instead.
+    """What belongs to one architecture asked of a robot of another: the paper's 88
+    grouped parameters and Table III (the ideal 6-UPS's R-R-P legs), the analytic base
+    parameters of ``custom`` legs (no grouping rules foresee an arbitrary chain: the
+    numerical base set works), a 6-UPS closed form called on other legs. Every feature of
+    the facade and the command line takes every architecture; the message names the
+    physical reason and what works instead.
 
     Attributes:
         field: the feature. value: the robot's architecture (``"rus"``, ``"mixed"``...).

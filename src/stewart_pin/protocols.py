@@ -48,7 +48,7 @@ class RobotLike(Protocol):
         ...
 
     def leg_lengths(self, pose: ArrayLike) -> FloatArray:
-        """Leg lengths [m], (6,) or (N, 6)."""
+        """The actuated joint values, (6,) or (N, 6) (the 6-UPS's name: leg lengths [m])."""
         ...
 
     def actuator_positions(self, pose: ArrayLike, check_limits: bool = False) -> FloatArray:

@@ -13,8 +13,10 @@ three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``,
 mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
 :class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
 such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
-for a revolute one, joint side), and what is 6-UPS-only for now (the 6-UPS tree and URDF)
-raises :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`.
+for a revolute one, joint side). Every feature takes every architecture: the tree
+(:attr:`StewartRobot.tree`), the leg models, the model files (URDF, xacro, MJCF), the
+actuator positions (:meth:`StewartRobot.leg_lengths` is the 6-UPS's name for
+:meth:`StewartRobot.actuator_positions`), the forward geometry and the derivatives.
 
 The inverse and direct dynamic models of every robot take ``backend="auto"`` by default:
 the compiled closed-form models (:mod:`stewart_pin.codegen`) where a C compiler is
@@ -61,20 +63,16 @@ from stewart_pin.exceptions import (
     InputTypeError,
     NumericalError,
     StewartPinError,
-    UnsupportedArchitectureError,
 )
+from stewart_pin.formats.mjcf import mjcf_string, write_mjcf
 from stewart_pin.formats.urdf import urdf_string, write_urdf
+from stewart_pin.formats.xacro import write_xacro_args
 from stewart_pin.kinematics import geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import MAX_CONDITION, leg_state
-from stewart_pin.models.leg_chains import build_general_tree
-from stewart_pin.models.pinocchio_models import (
-    TreeModel,
-    build_leg_models,
-    build_legs_model,
-    build_tree,
-)
+from stewart_pin.models import leg_chains as models
+from stewart_pin.models.pinocchio_models import TreeModel
 
 if TYPE_CHECKING:
     from stewart_pin.payload_robot import PayloadRobot
@@ -138,19 +136,10 @@ class StewartRobot:
 
     @cached_property
     def general_tree(self) -> TreeModel:
-        """The 24-dof Pinocchio tree of the general legs (``model.armature`` set) with its
-        six 3D loop closures: the independent check's model."""
-        return build_general_tree(self.general)
-
-    def _ideal_only(self, what: str, instead: str = "") -> UnsupportedArchitectureError:
-        """The error for a 6-UPS-only feature asked of a general robot."""
-        more = f"; {instead}" if instead else ""
-        return UnsupportedArchitectureError(
-            f"{what} is 6-UPS-only for now: robot '{self.name}' has {self.architecture} legs"
-            f"{more}",
-            what,
-            self.architecture,
-        )
+        """The 24-dof Pinocchio tree of the robot's legs taken as general chains
+        (``model.armature`` set) with its six 3D loop closures (for a general robot the
+        same as :attr:`tree`; for the ideal 6-UPS its ``ups`` legs built as chains)."""
+        return models.build_general_tree(self.general)
 
     def _check_home(self) -> None:
         """A general robot's home pose must be reachable, inside the joint limits and away
@@ -243,28 +232,39 @@ class StewartRobot:
         the sidecar also holds the joint terms URDF cannot)."""
         return write_urdf(self.description, path)
 
+    def mjcf(self, pinocchio_layout: bool = False) -> str:
+        """The MJCF text of the closed-loop robot (MuJoCo equality constraints close the
+        six loops; general legs: their chains, :mod:`stewart_pin.formats.general_mjcf`).
+        ``pinocchio_layout``: the layout Pinocchio's parser reads (MuJoCo refuses it)."""
+        return mjcf_string(self.description, pinocchio_layout)
+
+    def write_mjcf(self, path: str | Path, pinocchio_layout: bool = False) -> Path:
+        """Write the MJCF (:meth:`mjcf`) atomically to ``path``; returns the path."""
+        return write_mjcf(self.description, path, pinocchio_layout)
+
+    def write_xacro_args(self, path: str | Path) -> Path:
+        """Write the YAML arguments of the package's xacro model for this robot
+        (``stewart.urdf.xacro`` for the ideal 6-UPS, ``stewart_general.urdf.xacro``
+        otherwise: the header names it); returns the path."""
+        return write_xacro_args(self.description, path)
+
     @cached_property
     def tree(self) -> TreeModel:
-        """The 24-dof Pinocchio tree with its six 3D loop-closure constraints (6-UPS; a
-        general robot's is :attr:`general_tree`)."""
-        if not self.is_ideal_ups:
-            raise self._ideal_only("robot.tree", "use robot.general_tree")
-        return build_tree(self.description)
+        """The 24-dof closed-loop Pinocchio tree of the robot: six leg chains, the
+        platform as a free-flyer, six 3D loop-closure constraints at the ``P_i``
+        (:func:`stewart_pin.models.leg_chains.closed_loop_tree`: the ideal 6-UPS's from its
+        URDF, every other robot's from its chains with ``model.armature`` set)."""
+        return models.closed_loop_tree(self.description)
 
     @cached_property
     def leg_models(self) -> list[pin.Model]:
-        """The six 3-dof leg models (6-UPS)."""
-        if not self.is_ideal_ups:
-            raise self._ideal_only("robot.leg_models", "use robot.general_tree")
-        return build_leg_models(self.description)
+        """The six 3-dof leg models (joints from the base in order)."""
+        return models.leg_models(self.description)
 
     @cached_property
     def legs_model(self) -> tuple[pin.Model, IntArray]:
-        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index
-        (6-UPS)."""
-        if not self.is_ideal_ups:
-            raise self._ideal_only("robot.legs_model", "use robot.general_dynamics.legs.model")
-        return build_legs_model(self.description)
+        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index."""
+        return models.legs_model(self.description)
 
     # ------------------------------------------------------------------ geometry
     def inverse_geometry(self, pose: ArrayLike, check_limits: bool = True) -> JointValues:
@@ -276,11 +276,10 @@ class StewartRobot:
         return geometry.inverse_geometry(self.description, pose, check_limits)
 
     def leg_lengths(self, pose: ArrayLike) -> FloatArray:
-        """Leg lengths [m], (6,) or (N, 6), without stroke checks (6-UPS; for general legs
-        see :meth:`actuator_positions`)."""
-        if not self.is_ideal_ups:
-            raise self._ideal_only("leg_lengths", "use robot.actuator_positions(pose)")
-        return geometry.leg_lengths(self.description, pose)
+        """The 6-UPS's name for :meth:`actuator_positions` (without limit checks): leg
+        lengths [m] of a UPS robot, (6,) or (N, 6); on any other robot its actuated joint
+        values (crank angles [rad] for RUS, slide positions [m] for PUS)."""
+        return self.actuator_positions(pose)
 
     def actuator_positions(self, pose: ArrayLike, check_limits: bool = False) -> FloatArray:
         """The six actuated joint values, (6,) or (N, 6): leg lengths [m] for UPS (for the
@@ -449,10 +448,11 @@ class StewartRobot:
     # ------------------------------------------------------------------ dynamics
     @cached_property
     def leg_dynamics(self) -> LegDynamics:
-        """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``; 6-UPS; a
-        general robot's are in :attr:`general_dynamics`)."""
+        """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``); general
+        legs: :attr:`general_dynamics`'s, with the joint terms (armature, friction,
+        springs)."""
         if not self.is_ideal_ups:
-            raise self._ideal_only("robot.leg_dynamics", "use robot.general_dynamics")
+            return self.general_dynamics.legs
         return LegDynamics(self.description)
 
     @overload

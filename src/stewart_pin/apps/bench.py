@@ -50,14 +50,13 @@ from stewart_pin._argtypes import positive_int
 from stewart_pin._io import write_text_atomic
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
-    constrained_inverse_dynamics,
+    reference_actuator_efforts,
     tree_solver,
     tree_state,
 )
 from stewart_pin.check.general_legs import GeneralTreeSolver
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
-from stewart_pin.kinematics.workspace import sample_states
 
 
 def median_us(fn: Callable[[], object], repeats: int, per: int = 1) -> float:
@@ -198,6 +197,9 @@ def mujoco_rows(
     }
 
 
+#: The operation counts of the JSON: the ideal 6-UPS's models with the 88 base and the 52
+#: essential parameters as inputs; general legs' with every value baked in (``numeric``).
+_COUNT_KEYS = ("base", "essential", "numeric", "critical_path")
 #: The architectures' presets of the default-backend rows, and the batch sizes.
 ARCHITECTURES = ("simulator", "rus", "pus")
 ARCHITECTURE_BATCHES = (10_000, 100_000)
@@ -248,8 +250,8 @@ def run(
 ) -> dict[str, object]:
     batches = (batch,) if quick else ARCHITECTURE_BATCHES
     arch = {name: architecture_rows(name, repeats, batches) for name in architectures}
-    robot = StewartRobot.from_preset(preset)
-    poses, twists, accels = sample_states(robot.description, batch, 0)
+    robot = StewartRobot.from_preset(preset)  # any architecture
+    poses, twists, accels = robot.sample_states(batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     solver = tree_solver(robot)
@@ -279,7 +281,7 @@ def run(
             lambda: constrained_forward_dynamics(robot, T, V, G), repeats
         ),
         "constrained inverse dynamics (reference path)": median_us(
-            lambda: constrained_inverse_dynamics(robot, T, V, A), repeats
+            lambda: reference_actuator_efforts(robot, T, V, A), repeats
         ),
     }
     more, compiled_info = compiled_rows(robot, poses, twists, accels, gammas, repeats, quick)
@@ -294,9 +296,8 @@ def run(
         "machine": machine(),
         "architectures": arch,
         "compiled_backend": compiled_info,
-        "operation_counts": {
-            m: {k: counts[m][k] for k in ("base", "essential", "critical_path")}
-            for m in ("IDM", "DDM")
+        "operation_counts": {  # general legs: no parameter input, every value baked in
+            m: {k: counts[m][k] for k in _COUNT_KEYS if k in counts[m]} for m in ("IDM", "DDM")
         },
         "median_us_per_state": rows,
         "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
@@ -305,7 +306,10 @@ def run(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--preset", default="simulator", help="simulator, desktop, paper, random-<seed>"
+        "--preset",
+        default="simulator",
+        help="any preset: simulator, desktop, paper, random-<seed>, ups-offset, rus, pus, "
+        "random-<kind>-<seed>",
     )
     parser.add_argument(
         "--architectures",

@@ -48,6 +48,7 @@ from stewart_pin._checks import check_states
 from stewart_pin.check.general_legs import (
     GeneralTreeSolver,
     reference_direct_dynamics,
+    reference_energy,
     reference_inverse_dynamics,
 )
 from stewart_pin.description import RobotDescription
@@ -179,6 +180,7 @@ def _state(
     s: TreeSolver, desc: RobotDescription, T: np.ndarray, twist: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Tree ``q`` (25,), ``v`` (24,), ``Jc`` (18, 24) and ``R = 0Rp`` for one state."""
+    desc.ideal_stroke("the 6-UPS tree state")  # general legs: the GeneralTreeSolver's
     R = T[:3, :3]
     q = np.empty(s.model.nq)
     q[s.q_ff] = pin.SE3ToXYZQUAT(pin.SE3(R, T[:3, 3]))
@@ -281,7 +283,9 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
 
     The platform's free-flyer coordinates come from the pose and twist; the leg joint
     values from :func:`stewart_pin.kinematics.geometry.inverse_geometry` (default U-joint
-    branch, no stroke check); the 18 leg rates solve the constraint velocity equation ``Jc v = 0``.
+    branch, no stroke check; general legs: ``robot.inverse_geometry``, each leg on its
+    branch, the loop closure checked); the 18 leg rates solve the constraint velocity
+    equation ``Jc v = 0``.
 
     Args:
         robot: the robot (its ``tree`` is used).
@@ -297,8 +301,17 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
     Raises:
         InputError: bad shapes or values. SingularityError: a leg singularity.
     """
-    s = tree_solver(robot)
+    s = tree_solver(robot)  # a robot with a tree (TypeError otherwise)
     batched, T, V = check_states(pose, (twist, "twist"))
+    if not robot.description.is_ideal_ups:  # the same layout: both trees' builder
+        g = _general_solver(robot)
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        qs = np.empty((len(T), g.model.nq))
+        vs = np.empty((len(T), g.nv))
+        for n in range(len(T)):
+            with _at_state(n):
+                qs[n], vs[n] = g.state(T[n], V[n], q_legs[n])[:2]
+        return _unbatch(qs, batched), _unbatch(vs, batched)
     qs = np.empty((len(T), s.model.nq))
     vs = np.empty((len(T), s.nv))
     for n in range(len(T)):
@@ -346,10 +359,17 @@ def constrained_inverse_dynamics(
         SingularityError: a leg singularity, or ``[S^T, Jc^T]`` singular (parallel
             singularity).
     """
-    s = tree_solver(robot)
+    s = tree_solver(robot)  # a robot with a tree (TypeError otherwise)
     batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
     gammas = np.empty((len(T), 6))
     forces = np.empty((len(T), 6, 3))
+    if not robot.description.is_ideal_ups:  # general legs: their tree with joint terms
+        g = _general_solver(robot)
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        for n in range(len(T)):
+            with _at_state(n):
+                gammas[n], forces[n], _ = g.inverse_with_forces_one(T[n], V[n], A[n], q_legs[n])
+        return _unbatch(gammas, batched), _unbatch(forces, batched)
     for n in range(len(T)):
         with _at_state(n):
             gammas[n], forces[n] = _inverse_one(s, robot.description, T[n], V[n], A[n])
@@ -421,8 +441,14 @@ def energy(robot: RobotLike, pose: Any, twist: Any) -> tuple[Any, Any]:
     Returns:
         ``(kinetic, potential)``: floats, or arrays of shape (N,) for a batch [J].
     """
-    s = tree_solver(robot)
+    s = tree_solver(robot)  # a robot with a tree (TypeError otherwise)
     batched, T, V = check_states(pose, (twist, "twist"))
+    if not robot.description.is_ideal_ups:  # general legs: armatures and springs included
+        q_legs = np.asarray(robot.inverse_geometry(T, check_limits=False), dtype=float)
+        kinetic, potential, _ = reference_energy(_general_solver(robot), T, V, q_legs)
+        if batched:
+            return kinetic, potential
+        return float(kinetic[0]), float(potential[0])
     out = np.empty((len(T), 2))
     for n in range(len(T)):
         with _at_state(n):

@@ -150,10 +150,20 @@ class GeneralTreeSolver:
     def inverse_one(
         self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
+        return self.inverse_with_forces_one(T, twist, accel, q_legs)[::2]
+
+    def inverse_with_forces_one(
+        self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``Gamma`` (6,), the force of each leg on the platform at ``P_i`` in F0 (6, 3)
+        [N] (the loop multipliers, which act on the leg side in the contact frame c1:
+        their opposite, rotated to F0) and the tree's accelerations (nv,)."""
         q, v, a, K = self.motion(T, twist, accel, q_legs)
         tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
         x = _solve(K, tau, "[S^T, Jc^T]")
-        return x[:6], a
+        lam = x[6:].reshape(-1, 3)
+        rotations = np.array([cd.oMc1.rotation for cd in self.cdatas])
+        return x[:6], -np.einsum("kij,kj->ki", rotations, lam), a
 
     def regressor_one(
         self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: np.ndarray

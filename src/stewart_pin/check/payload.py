@@ -52,7 +52,6 @@ from stewart_pin.check.general_legs import (
 )
 from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.exceptions import InputError, InputTypeError, SingularityError, WorkspaceError
-from stewart_pin.models.leg_chains import build_general_tree
 from stewart_pin.models.payload import Payload, attach_payload
 from stewart_pin.models.pinocchio_models import TreeModel
 from stewart_pin.protocols import PayloadRobotLike, RobotLike
@@ -90,7 +89,7 @@ class PayloadTreeSolver:
         self.robot, self.payload = robot, payload
         desc = robot.description
         general = general_from_description(desc)
-        tree = robot.tree if desc.is_ideal_ups else build_general_tree(general)
+        tree = robot.tree  # every robot's closed-loop tree (models.leg_chains)
         attached = attach_payload(tree.model, tree.platform_joint, payload)
         model, self.q_p, self.v_p = attached.model, attached.q_index, attached.v_index
         model.gravity = pin.Motion(np.asarray(desc.gravity, float), np.zeros(3))

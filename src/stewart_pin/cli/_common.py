@@ -33,7 +33,7 @@ from stewart_pin._argtypes import (
     positive_int,
 )
 from stewart_pin._io import check_destination
-from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
+from stewart_pin.exceptions import InputError
 from stewart_pin.robot import StewartRobot
 
 __all__ = [
@@ -50,7 +50,6 @@ __all__ = [
     "positive_finite_float",
     "positive_int",
     "progress_bar",
-    "refuse_general",
     "report_stream",
     "robot_from_args",
     "written",
@@ -165,18 +164,15 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> StewartRobot:
-    """The robot of ``--preset`` / ``--description`` / ``--model`` (imported); with
-    ``ideal_only`` (the command's name), a robot with general legs is refused
-    (:class:`UnsupportedArchitectureError`: one line, exit code 2)."""
+def robot_from_args(args: argparse.Namespace) -> StewartRobot:
+    """The robot of ``--preset`` / ``--description`` / ``--model`` (imported): every
+    command takes every leg architecture."""
     if getattr(args, "description", None):
         robot = StewartRobot.from_file(args.description)
     elif getattr(args, "model", None):
         robot = _imported_robot(args)
     else:
         robot = StewartRobot.from_preset(args.preset)
-    if ideal_only is not None and not robot.is_ideal_ups:
-        raise refuse_general(ideal_only, robot)
     return robot
 
 
@@ -198,16 +194,6 @@ def _imported_robot(args: argparse.Namespace) -> StewartRobot:
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return robot
-
-
-def refuse_general(command: str, robot: StewartRobot) -> UnsupportedArchitectureError:
-    """The error of a 6-UPS-only command given a robot with general legs."""
-    return UnsupportedArchitectureError(
-        f"{command} is 6-UPS-only for now: robot '{robot.name}' has {robot.architecture} legs "
-        "(general legs work with ik, idm, validate, simulate and base-params)",
-        command,
-        robot.architecture,
-    )
 
 
 def pose_from_args(values: Sequence[float] | None, robot: StewartRobot) -> np.ndarray:

@@ -23,7 +23,6 @@ from stewart_pin.cli._common import (
     payload_robot_from_args,
     positive_finite_float,
     progress_bar,
-    refuse_general,
     report_stream,
     robot_from_args,
     written,
@@ -93,9 +92,7 @@ def _simulate(args: argparse.Namespace) -> int:
         motion = standard_motion(robot, args.motion, args.duration)
         motion.check_workspace(robot)
         model = robot
-        if args.model_error:
-            if not robot.is_ideal_ups:
-                raise refuse_general("simulate --model-error", robot)
+        if args.model_error:  # every standard parameter, joint terms included
             chi = standard_parameters(robot.description) * (1.0 + args.model_error)
             model = type(robot)(with_standard_parameters(robot.description, chi))
         forces = ComputedTorqueController(model, motion, backend=args.backend)

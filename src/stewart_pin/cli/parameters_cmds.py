@@ -89,7 +89,9 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     inputs = [args.csv, args.validation_csv, args.description, args.model]
     out = check_output(args.output, (), inputs, "-o") if args.output else None
-    robot = _robot(args, "identify")
+    from stewart_pin.parameters.general_base import uncovered_legs
+
+    robot = _robot(args)
     if not args.csv:  # the simulated measurements are written: check where, up front
         stem = out.with_name(out.stem + "_measurements.csv") if out else None
         measurements_path = check_output(
@@ -98,8 +100,16 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             inputs,
             "measurements",
         )
-    base = base_parameters(robot, "analytic")
     lines: list[str] = []
+    desc = robot.description
+    if desc.legs is not None and uncovered_legs(desc):  # custom legs: no analytic rules
+        base = base_parameters(robot, "numerical")
+        lines.append(
+            f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "
+            "analytic grouping rules do not cover: identifying the numerical base parameters"
+        )
+    else:
+        base = base_parameters(robot, "analytic")
     if args.csv:
         measurements = read_measurements_csv(args.csv, min_rows=len(base) // 6 + 1)
         lines.append(f"measurements: {args.csv} ({len(measurements)} samples)")
@@ -112,6 +122,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             args.frequency,
             args.seed,
             args.samples,
+            base=base,
             max_evaluations=args.evaluations,
         )
         clean = simulate_measurements(robot, trajectory)
@@ -144,6 +155,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             args.seed + 1,
             args.samples,
             optimise=False,
+            base=base,
         )
         clean = simulate_measurements(robot, trajectory)
         validation = simulate_measurements(robot, trajectory, noise, args.seed + 1)

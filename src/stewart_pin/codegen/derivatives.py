@@ -62,6 +62,7 @@ from stewart_pin.codegen.compiled import (
     compiled_backend,
     split_batch,
 )
+from stewart_pin.codegen.general_symbolic import actuator_function
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import (
     CompilationError,
@@ -79,6 +80,7 @@ __all__ = [
     "derivatives_backend",
     "derivatives_c_source",
     "perturbed_pose",
+    "symbolic_actuators_for",
     "symbolic_derivatives",
     "symbolic_models_for",
 ]
@@ -222,6 +224,41 @@ def symbolic_models_for(robot: RobotLike) -> SymbolicModels:
     vector).
     """
     return generate_models(robot.description)
+
+
+def symbolic_actuators_for(robot: RobotLike) -> cs.Function:
+    """``actuators(pose, twist) -> (q_a, qdot_a)``, SX: the actuated joint values (6,)
+    and their rates (6,) at a platform state (pose 0Tp row-major (16), twist ``[v, w]``
+    in F0), the companion of :func:`symbolic_models_for` (the planner's limits).
+
+    The ideal 6-UPS keeps its closed form, the leg lengths ``l_i = |p + R P_i - B_i|``
+    [m] and their rates ``a_i . (v + w x L_i)`` (eq. 13); every other robot takes the
+    generated models' leg code
+    (:func:`~stewart_pin.codegen.general_symbolic.actuator_function`)."""
+    desc = robot.description
+    if not desc.is_ideal_ups:
+        return actuator_function(desc)
+    x_pose = cs.SX.sym("pose", 16)
+    x_twist = cs.SX.sym("twist", 6)
+    p = cs.vertcat(x_pose[3], x_pose[7], x_pose[11])
+    R = cs.vertcat(
+        *[cs.horzcat(x_pose[4 * i], x_pose[4 * i + 1], x_pose[4 * i + 2]) for i in range(3)]
+    )
+    v, w = x_twist[0:3], x_twist[3:6]
+    lengths, rates = [], []
+    for i in range(6):
+        L = cs.mtimes(R, desc.platform_points[i])
+        d = p + L - desc.base_points[i]
+        length = cs.sqrt(cs.sumsqr(d))
+        lengths.append(length)
+        rates.append(cs.dot(d, v + cs.cross(w, L)) / length)
+    return cs.Function(
+        "actuators",
+        [x_pose, x_twist],
+        [cs.vertcat(*lengths), cs.vertcat(*rates)],
+        ["pose", "twist"],
+        ["q_a", "qdot_a"],
+    )
 
 
 # ---------------------------------------------------------------------------- C source

@@ -1028,10 +1028,37 @@ def build_general_models(
     return models, layout
 
 
+def actuator_function(desc: RobotDescription | GeneralHexapod) -> cs.Function:
+    """``actuators(pose, twist) -> (q_a, qdot_a)``: the six actuated joint values (6,)
+    [m or rad, as the reference reports them: a revolute one taken into its limits] and
+    their rates (6,) [m/s or rad/s] at a platform state (pose 0Tp row-major (16), twist
+    ``[v, w]`` in F0), from the generated models' leg code (the closed forms; a custom
+    leg's Newton steps called). An SX function: its derivatives are CasADi's."""
+    robot = general_robot(desc)
+    x_pose = cs.SX.sym("pose", pose_size("matrix"))
+    x_twist = cs.SX.sym("twist", 6)
+    p, R = pose_from_input(x_pose, "matrix")
+    tw = split(x_twist)
+    q_a, qd_a = [], []
+    for k in range(6):
+        lc = _leg_constants(robot, k, inline_newton=False)
+        kin = _leg_kinematics(lc, p, R, tw[:3], tw[3:])
+        q_a.append(kin.geo.joints[lc.actuated].value())
+        qd_a.append(kin.qd[lc.actuated])
+    return cs.Function(
+        "actuators",
+        [x_pose, x_twist],
+        [cs.vertcat(*q_a), cs.vertcat(*qd_a)],
+        ["pose", "twist"],
+        ["q_a", "qdot_a"],
+    )
+
+
 __all__ = [
     "GENERAL_GENERATOR_VERSION",
     "NEWTON_ITERATIONS",
     "AuxLayout",
+    "actuator_function",
     "aux_layout",
     "build_general_models",
     "general_robot",

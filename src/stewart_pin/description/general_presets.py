@@ -35,6 +35,7 @@ from stewart_pin.description.leg_architecture import (
     ups,
     ups_offset,
 )
+from stewart_pin.description.symmetric_presets import desktop
 from stewart_pin.exceptions import ArchitectureError
 
 
@@ -334,8 +335,6 @@ def _sphere_params(mass: float, radius: float) -> np.ndarray:
 def ups_offset_preset(offset: float = 0.004) -> GeneralHexapod:
     """``ups-offset``: the ``desktop`` 6-UPS hexapod with U-joint axes offset by
     ``offset`` [m] (4 mm), servo-like joint dynamics on the prismatic joints."""
-    from stewart_pin.description.presets import desktop
-
     desc = desktop()
     base = general_from_description(desc)
     lead = JointDynamics(

@@ -421,12 +421,15 @@ class RobotDescription:
         return float(self.stroke.mean())
 
     def ideal_stroke(self, what: str) -> np.ndarray:
-        """The shared stroke ``[min, max]`` [m] of the ideal 6-UPS robot, for 6-UPS-only
-        code (``what`` names it); :class:`UnsupportedArchitectureError` for general legs."""
+        """The shared stroke ``[min, max]`` [m] of the ideal 6-UPS robot, for the code of
+        that architecture (its closed forms, the paper's tables; ``what`` names it):
+        :class:`UnsupportedArchitectureError` for any other robot, which has no shared
+        stroke (each leg carries its own joint limits, and the features take them)."""
         if self.stroke is None:
             raise UnsupportedArchitectureError(
-                f"{what} is 6-UPS-only for now: robot '{self.name}' has {self.architecture} "
-                "legs (no shared stroke; its joint limits are in its legs)",
+                f"{what} belongs to the ideal 6-UPS architecture (R-R-P legs sharing one "
+                f"stroke): robot '{self.name}' has {self.architecture} legs, whose joint "
+                "limits are per leg",
                 what,
                 self.architecture,
             )

@@ -60,11 +60,11 @@ import numpy as np
 from stewart_pin._checks import check_array, check_scalar
 from stewart_pin.description.inertia import khalil_from_urdf_inertial
 from stewart_pin.description.leg_architecture import pus, rus
-from stewart_pin.description.presets import GRAVITY, _cylinder_link
 from stewart_pin.description.robot_description import (
     RobotDescription,
     leg_base_rotation_from_axis,
 )
+from stewart_pin.description.symmetric_presets import GRAVITY, cylinder_link
 from stewart_pin.exceptions import DescriptionError, InputError
 
 #: The largest pair angle [rad]: at 120 degrees the joints of neighbouring pairs meet.
@@ -265,8 +265,8 @@ def symmetric_hexapod(
     )
     m1, m2, m3 = masses
     link1 = _sphere(m1, 1.5 * radius)
-    link2 = _cylinder_link(m2, 1.4 * radius, cylinder, np.array([0.0, -1.0, 0.0]), 0.0)
-    link3 = _cylinder_link(m3, radius, rod, np.array([0.0, 0.0, 1.0]), -rod)
+    link2 = cylinder_link(m2, 1.4 * radius, cylinder, np.array([0.0, -1.0, 0.0]), 0.0)
+    link3 = cylinder_link(m3, radius, rod, np.array([0.0, 0.0, 1.0]), -rod)
     u = (P + home[:3, 3] - B) / length  # unit leg directions at home
     s = np.linalg.svd(np.hstack([u, np.cross(P, u) / rp]), compute_uv=False)
     if s[-1] <= s[0] / MAX_HOME_CONDITION:
@@ -376,9 +376,9 @@ def _rus(
         rotations.append(R)
     m1, m2, m3 = masses
     x = np.array([1.0, 0.0, 0.0])
-    link1 = _cylinder_link(m1, radius, crank, x, 0.0)
+    link1 = cylinder_link(m1, radius, crank, x, 0.0)
     link2 = _sphere(m2, 1.5 * radius)
-    link3 = _cylinder_link(m3, radius, legs[0].tip[0], x, 0.0)
+    link3 = cylinder_link(m3, radius, legs[0].tip[0], x, 0.0)
     return RobotDescription(
         leg_base_rotations=np.array(rotations),
         stroke=None,
@@ -432,7 +432,7 @@ def _pus(
         legs.append(leg.replace(branch=leg.branch_at(q), guess=q))
         rotations.append(R)
     m1, m2, m3 = masses
-    link3 = _cylinder_link(m3, radius, rod, np.array([1.0, 0.0, 0.0]), 0.0)
+    link3 = cylinder_link(m3, radius, rod, np.array([1.0, 0.0, 0.0]), 0.0)
     return RobotDescription(
         leg_base_rotations=np.array(rotations),
         stroke=None,

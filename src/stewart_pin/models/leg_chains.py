@@ -13,6 +13,12 @@ each joint's armature (rotor inertia reflected through its transmission): Pinocc
 - :func:`build_leg_chains` : the six legs side by side on a fixed base (18 dof).
 - :func:`build_general_tree` : six legs and the platform as a free-flyer (24 dof) with
   six ``RigidConstraintModel`` CONTACT_3D (LOCAL): leg i's tip == P_i on the platform.
+
+:func:`closed_loop_tree`, :func:`leg_models` and :func:`legs_model` take any robot
+description and choose its models here, once: the paper's ideal 6-UPS keeps the models
+parsed from its URDF (:mod:`.pinocchio_models`: the paper's joint names and frames), every
+other robot gets its chains built above. ``StewartRobot.tree``, ``.leg_models`` and
+``.legs_model`` are these.
 """
 
 from __future__ import annotations
@@ -20,9 +26,15 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.inertia import pin_inertia_from_khalil
-from stewart_pin.models.pinocchio_models import TreeModel
+from stewart_pin.models.pinocchio_models import (
+    TreeModel,
+    build_leg_models,
+    build_legs_model,
+    build_tree,
+)
 
 PLATFORM_JOINT = "platform_joint"
 
@@ -133,10 +145,40 @@ def build_general_tree(robot: GeneralHexapod) -> TreeModel:
     )
 
 
+def closed_loop_tree(desc: RobotDescription) -> TreeModel:
+    """The 24-dof closed-loop tree of any robot (six leg chains, the platform as a
+    free-flyer, six 3D loop closures at P_i): the ideal 6-UPS's from its URDF
+    (:func:`~stewart_pin.models.pinocchio_models.build_tree`), every other robot's from
+    its chains (:func:`build_general_tree`, ``model.armature`` set)."""
+    if desc.is_ideal_ups:
+        return build_tree(desc)
+    return build_general_tree(general_from_description(desc))
+
+
+def leg_models(desc: RobotDescription) -> list[pin.Model]:
+    """The six 3-dof leg models of any robot (model ``i`` has leg i+1's joints from the
+    base, in order; general legs: ``model.armature`` set)."""
+    if desc.is_ideal_ups:
+        return build_leg_models(desc)
+    robot = general_from_description(desc)
+    return [build_leg_chain(robot, k) for k in range(6)]
+
+
+def legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
+    """The six legs of any robot on a fixed base (18 dof) and the (6, 3) velocity index
+    of joint j of leg i."""
+    if desc.is_ideal_ups:
+        return build_legs_model(desc)
+    return build_leg_chains(general_from_description(desc))
+
+
 __all__ = [
     "PLATFORM_JOINT",
     "build_general_tree",
     "build_leg_chain",
     "build_leg_chains",
+    "closed_loop_tree",
     "leg_joint_name",
+    "leg_models",
+    "legs_model",
 ]

@@ -4,10 +4,13 @@
 ``goal_pose`` in a given ``duration`` with the least actuator effort
 ``int sum_i (Gamma_i / Gamma_max_i)^2 dt``, under
 
-- actuator effort limits ``|Gamma_i| <= max_effort_i`` [N] (on the controls),
-- actuator velocity limits ``|qdot_ai| <= max_speed_i`` [m/s] (at the nodes),
-- the workspace: every leg length within the stroke, ``margin`` inside each end (at the
-  nodes).
+- actuator effort limits ``|Gamma_i| <= max_effort_i`` [N, or N m for a revolute
+  actuated joint] (on the controls),
+- actuator velocity limits ``|qdot_ai| <= max_speed_i`` [m/s or rad/s] (at the nodes),
+- the workspace: every actuated joint within its limits, ``margin`` inside each end (at
+  the nodes): the leg lengths within the stroke for a 6-UPS, each leg's own actuated
+  joint limits for any other architecture (crank angles of a 6-RUS, slide positions of
+  a 6-PUS; an infinite limit is no constraint).
 
 Transcription: direct multiple shooting on ``intervals`` equal intervals. The controls
 are the actuator forces, held over each interval (zero-order hold, as a digital controller
@@ -22,17 +25,21 @@ derivatives of the exact model, the same as ``robot.direct_dynamics_derivatives`
 (shipped with CasADi) solves the NLP from a quintic (minimum-jerk-like) interpolation of
 the poses with its inverse-dynamics forces, with a limited-memory Hessian by default.
 
-Checks on the answer: the poses reached at the nodes are checked by the robot's inverse
-geometry (stroke and U-joint limits) and singularity measure, and the open-loop simulation
-(:meth:`OptimalMotion.simulate`, the project's :func:`~stewart_pin.motion.simulation.simulate`
-with the reference direct model) reproduces the optimised motion: with the
-transcription's step to 1e-6 m and 1e-6 rad (the same RK4 order, a different SO(3)
-integration: about 1e-9 measured), and with a step twenty times finer to 1e-5 m and 1e-5
-rad (the transcription's own error: about 2e-7 on a one-second motion with the defaults);
-the test suite holds it to these tolerances.
+The actuated joint values and rates at the nodes are the SX function of
+:func:`stewart_pin.codegen.derivatives.symbolic_actuators_for` (the 6-UPS's leg lengths in
+closed form; the generated models' leg code for every other architecture).
 
-Ideal 6-UPS robots for now (the actuator kinematics here are leg lengths): general legs
-raise :class:`~stewart_pin.exceptions.UnsupportedArchitectureError` (the derivatives take them).
+Checks on the answer: the poses reached at the nodes are checked by the robot's inverse
+geometry (every joint's limits, the passive ones included) and singularity measure, and
+the open-loop simulation (:meth:`OptimalMotion.simulate`, the project's
+:func:`~stewart_pin.motion.simulation.simulate` with the reference direct model)
+reproduces the optimised motion: with the transcription's step to 1e-6 m and 1e-6 rad
+(the same RK4 order, a different SO(3) integration: about 1e-9 measured), and with a step
+twenty times finer to 1e-5 m and 1e-5 rad (the transcription's own error: about 2e-7 on a
+one-second motion with the defaults); the test suite holds it to these tolerances.
+
+Every leg architecture (the DDM is generated for each: ``ups``, ``ups-offset``, ``rus``,
+``pus``, custom, mixed).
 """
 
 from __future__ import annotations
@@ -47,7 +54,8 @@ import pinocchio as pin
 
 from stewart_pin._checks import check_pose, check_scalar
 from stewart_pin._so3 import quaternions_xyzw_from_rotations, rotation_rows_from_quaternion_xyzw
-from stewart_pin.codegen.derivatives import symbolic_models_for
+from stewart_pin.codegen.derivatives import symbolic_actuators_for, symbolic_models_for
+from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.exceptions import ConvergenceError, InputError, SingularityError
 from stewart_pin.motion.simulation import SimulationResult, simulate
 from stewart_pin.protocols import RobotLike
@@ -69,10 +77,14 @@ class OptimalMotion:
         poses: (K+1, 4, 4) 0Tp at the nodes. twists: (K+1, 6) ``[v, w]`` in F0.
         accels: (K+1, 6) classical accelerations in F0 at the nodes (the direct model
             under the force held from that node; the last under the last interval's).
-        gammas: (K, 6) the actuator forces [N], held over ``[t_k, t_k+1)``.
-        leg_lengths: (K+1, 6) [m]; actuator_speeds: (K+1, 6) leg length rates [m/s].
-        max_effort: (6,) [N]; max_speed: (6,) [m/s]; length_bounds: (2,) the leg lengths
-            allowed (the stroke less the margin) [m]: the limits the motion satisfies.
+        gammas: (K, 6) the actuator efforts [N or N m], held over ``[t_k, t_k+1)``.
+        leg_lengths: (K+1, 6) the actuated joint values (leg lengths [m] of a UPS robot;
+            :attr:`actuator_positions` is the same array); actuator_speeds: (K+1, 6) their
+            rates [m/s or rad/s].
+        max_effort: (6,) [N or N m]; max_speed: (6,) [m/s or rad/s];
+        actuator_bounds: (6, 2) each actuated joint's values allowed (its limits less the
+            margin) [m or rad]: the limits the motion satisfies (:attr:`length_bounds`:
+            the bounds all six share, the 6-UPS's stroke less the margin).
         cost: the objective ``int sum_i (Gamma_i / scale_i)^2 dt`` [s] (``scale`` the
             effort limits; without one, the largest force of the initial guess + 1 N).
         status: IPOPT's return status; iterations: its iteration count; solve_time [s].
@@ -88,12 +100,23 @@ class OptimalMotion:
     actuator_speeds: np.ndarray
     max_effort: np.ndarray
     max_speed: np.ndarray
-    length_bounds: np.ndarray
+    actuator_bounds: np.ndarray
     cost: float
     status: str
     iterations: int
     solve_time: float
     substeps: int
+
+    @property
+    def actuator_positions(self) -> np.ndarray:
+        """The actuated joint values at the nodes, (K+1, 6) [m or rad] (:attr:`leg_lengths`)."""
+        return self.leg_lengths
+
+    @property
+    def length_bounds(self) -> np.ndarray:
+        """``[lower, upper]`` (2,) that every actuated joint's values allowed share (the
+        6-UPS: the stroke less the margin [m]); per leg: :attr:`actuator_bounds`."""
+        return np.array([self.actuator_bounds[:, 0].max(), self.actuator_bounds[:, 1].min()])
 
     @property
     def duration(self) -> float:
@@ -171,11 +194,12 @@ def _quaternion_product(a: Any, b: Any) -> Any:
 def _functions(
     robot: RobotLike, period: float, substeps: int
 ) -> tuple[cs.Function, cs.Function, cs.Function]:
-    """``step(x, Gamma) -> x+`` (one interval), ``legs(x) -> (lengths, rates)`` and
-    ``accel(x, Gamma) -> Vdot``, SX functions of the state ``[p, q, v, w]`` (13)."""
-    models = symbolic_models_for(robot)  # ideal 6-UPS here (checked by the caller)
+    """``step(x, Gamma) -> x+`` (one interval), ``legs(x) -> (q_a, qdot_a)`` (the
+    actuated joint values and rates) and ``accel(x, Gamma) -> Vdot``, SX functions of the
+    state ``[p, q, v, w]`` (13)."""
+    models = symbolic_models_for(robot)
     chi = np.asarray(models.constants.parameter_values, dtype=float)
-    desc = robot.description
+    actuators = symbolic_actuators_for(robot)
     x = cs.SX.sym("x", 13)
     u = cs.SX.sym("gamma", 6)
 
@@ -198,16 +222,8 @@ def _functions(
     y = cs.vertcat(y[0:3], y[3:7] / cs.sqrt(cs.sumsqr(y[3:7])), y[7:13])
     step = cs.Function("step", [x, u], [y], ["x", "gamma"], ["x_next"])
 
-    R = _rotation(x[3:7])
-    p, v, w = x[0:3], x[7:10], x[10:13]
-    lengths, rates = [], []
-    for i in range(6):  # 6-UPS: l_i = |p + R P_i - B_i|, its rate a_i . (v + w x L_i)
-        L = cs.mtimes(R, desc.platform_points[i])
-        d = p + L - desc.base_points[i]
-        length = cs.sqrt(cs.sumsqr(d))
-        lengths.append(length)
-        rates.append(cs.dot(d, v + cs.cross(w, L)) / length)
-    legs = cs.Function("legs", [x], [cs.vertcat(*lengths), cs.vertcat(*rates)])
+    positions, rates = actuators(_pose16(x[0:3], _rotation(x[3:7])), x[7:13])
+    legs = cs.Function("legs", [x], [positions, rates])
     return step, legs, cs.Function("accel", [x, u], [accel(x, u)])
 
 
@@ -245,6 +261,26 @@ def _limits(value: Any, name: str) -> np.ndarray:
     if arr.shape != (6,) or np.isnan(arr).any() or not (arr > 0).all():
         raise error
     return arr
+
+
+def _actuator_bounds(robot: RobotLike, margin: Any) -> np.ndarray:
+    """Each actuated joint's limits less ``margin`` (default 1 % of its range; none
+    within an infinite limit), (6, 2) [m or rad]; InputError for a margin not in
+    ``[0, half the narrowest range)``."""
+    legs = general_from_description(robot.description).legs  # the 6-UPS's: its stroke
+    limits = np.array([leg.limits[leg.actuated - 1] for leg in legs], dtype=float)
+    width = limits[:, 1] - limits[:, 0]
+    if margin is None:
+        m = 0.01 * np.where(np.isfinite(width), width, 0.0)
+    else:
+        value = check_scalar(margin, "margin")
+        if not 0.0 <= value < 0.5 * width.min():
+            raise InputError(
+                f"margin must be in [0, {0.5 * width.min():g}) (m or rad: half the narrowest "
+                f"actuated joint range), got {value:g}"
+            )
+        m = np.full(6, value)
+    return np.stack([limits[:, 0] + m, limits[:, 1] - m], axis=1)
 
 
 def _initial_guess(
@@ -287,15 +323,16 @@ def optimal_point_to_point(
     """The minimum-effort rest-to-rest motion from ``start_pose`` to ``goal_pose``.
 
     Args:
-        robot: a :class:`~stewart_pin.StewartRobot` (ideal 6-UPS for now).
+        robot: a :class:`~stewart_pin.StewartRobot` of any leg architecture.
         start_pose, goal_pose: 0Tp (4, 4) or ``pin.SE3``; the platform is at rest at both.
         duration: the motion's duration [s].
-        max_effort: the actuator force limit [N]: a number or (6,), ``None`` / ``inf`` for
-            none.
-        max_speed: the actuator (leg length rate) limit [m/s], likewise; enforced at the
+        max_effort: the actuator effort limit [N, N m for a revolute actuated joint]: a
+            number or (6,), ``None`` / ``inf`` for none.
+        max_speed: the actuated joint rate limit [m/s or rad/s], likewise; enforced at
+            the nodes.
+        margin: the distance kept from each end of each actuated joint's limits [m or
+            rad] (default 1 % of each finite range: the 6-UPS's stroke); enforced at the
             nodes.
-        margin: the distance kept from each end of the stroke [m] (default 1 % of the
-            stroke's length); enforced at the nodes.
         intervals: number of control intervals (>= 2); substeps: RK4 steps per interval.
         hessian: ``"limited-memory"`` (L-BFGS, the default: cheaper here) or ``"exact"``
             (CasADi's second derivatives of the model).
@@ -306,11 +343,10 @@ def optimal_point_to_point(
         the :class:`OptimalMotion`.
 
     Raises:
-        InputError: a bad argument, or a start or goal pose outside the stroke less the
-            margin. WorkspaceError / SingularityError: a start or goal pose the robot cannot
-            take, or an optimised node outside the U-joint limits or past
-            ``robot.max_condition`` (not constraints of the NLP).
-        UnsupportedArchitectureError: general legs, for now.
+        InputError: a bad argument, or a start or goal pose outside the actuated joints'
+            limits less the margin. WorkspaceError / SingularityError: a start or goal pose
+            the robot cannot take, or an optimised node outside a passive joint's limits
+            or past ``robot.max_condition`` (not constraints of the NLP).
         ConvergenceError: IPOPT did not find an optimal motion (its status in the message,
             ``.iterations`` and ``.residual`` the last constraint violation): the limits
             may not allow the motion in this duration.
@@ -325,21 +361,19 @@ def optimal_point_to_point(
         raise InputError(f"hessian must be 'limited-memory' or 'exact', got {hessian!r}")
     tol = check_scalar(tol, "tol", positive=True)
     effort, speed = _limits(max_effort, "max_effort"), _limits(max_speed, "max_speed")
-    # general legs refused here, before any model is built (the derivatives take them)
-    lo, hi = robot.description.ideal_stroke("optimal_point_to_point")
+    bounds = _actuator_bounds(robot, margin)
     step, legs, accel = _functions(robot, duration / intervals, substeps)
-    margin = 0.01 * (hi - lo) if margin is None else check_scalar(margin, "margin", unit="m")
-    if not 0.0 <= margin < 0.5 * (hi - lo):
-        raise InputError(f"margin must be in [0, {0.5 * (hi - lo):g}) m, got {margin:g} m")
-    bounds = np.array([lo + margin, hi - margin])
     for T, name in ((T0, "start_pose"), (T1, "goal_pose")):
-        robot.inverse_geometry(T)  # reachable, inside the stroke and the U-joint limits
+        robot.inverse_geometry(T)  # reachable, inside every joint's limits
         at_rest = np.asarray(legs(_state(T, np.zeros(6)))[0]).ravel()
-        if at_rest.min() < bounds[0] or at_rest.max() > bounds[1]:
+        out = np.flatnonzero((at_rest < bounds[:, 0]) | (at_rest > bounds[:, 1]))
+        if len(out):
+            k = int(out[0])
             raise InputError(
-                f"{name} has leg lengths in [{at_rest.min():.6g}, {at_rest.max():.6g}] m, "
-                f"outside the stroke less the margin [{bounds[0]:.6g}, {bounds[1]:.6g}] m: "
-                "move it inside or give a smaller margin"
+                f"{name} has leg lengths (actuated joint values) outside the limits less the "
+                f"margin: leg {k + 1} at {at_rest[k]:.6g}, allowed "
+                f"[{bounds[k, 0]:.6g}, {bounds[k, 1]:.6g}] (m or rad): move it inside or give "
+                "a smaller margin"
             )
     K = intervals
     t = np.linspace(0.0, duration, K + 1)
@@ -359,8 +393,8 @@ def optimal_point_to_point(
     )
     g = cs.vertcat(equalities, cs.vec(lengths), cs.vec(rates))
     n_eq = equalities.size1()
-    lbg = np.concatenate([np.zeros(n_eq), np.tile(bounds[0], 6 * (K + 1)), np.tile(-speed, K + 1)])
-    ubg = np.concatenate([np.zeros(n_eq), np.tile(bounds[1], 6 * (K + 1)), np.tile(speed, K + 1)])
+    lbg = np.concatenate([np.zeros(n_eq), np.tile(bounds[:, 0], K + 1), np.tile(-speed, K + 1)])
+    ubg = np.concatenate([np.zeros(n_eq), np.tile(bounds[:, 1], K + 1), np.tile(speed, K + 1)])
     period = duration / K
     cost = period * cs.sumsqr(U / cs.repmat(cs.DM(scale), 1, K))
     w = cs.vertcat(cs.vec(X), cs.vec(U))
@@ -388,7 +422,7 @@ def optimal_point_to_point(
         raise ConvergenceError(
             f"IPOPT found no optimal motion ({status} after {iterations} iterations, "
             f"constraint violation {residual if residual is not None else 'unknown'}): the "
-            "effort, speed and stroke limits may not allow this motion in "
+            "effort, speed and joint limits may not allow this motion in "
             f"{duration:g} s; give a longer duration, looser limits or more intervals",
             iterations,
             None if residual is None else float(residual),
@@ -405,7 +439,7 @@ def optimal_point_to_point(
     held = np.vstack([Us, Us[-1:]])
     accels = np.asarray(accel.map(K + 1)(Xs.T, held.T)).T
     lens, speeds = (np.asarray(a).T for a in legs.map(K + 1)(Xs.T))
-    robot.inverse_geometry(poses)  # stroke and U-joint limits at the nodes
+    robot.inverse_geometry(poses)  # every joint's limits at the nodes
     cond = np.asarray(robot.condition_number(poses))
     if np.any(~(cond <= robot.max_condition)):
         k = int(np.argmax(~(cond <= robot.max_condition)))
@@ -426,7 +460,7 @@ def optimal_point_to_point(
         actuator_speeds=speeds,
         max_effort=effort,
         max_speed=speed,
-        length_bounds=bounds,
+        actuator_bounds=bounds,
         cost=float(sol["f"]),
         status=status,
         iterations=iterations,
