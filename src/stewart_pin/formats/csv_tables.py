@@ -5,7 +5,13 @@ sample, SI units, numbers written with Python's ``repr`` so that reading them ba
 the same floats. Lines starting with ``#`` and blank lines are skipped. The file is UTF-8
 (a byte-order mark is allowed) and every line, the last one included, ends with a line
 break: a file whose last line has none may have been cut while it was written, and is
-refused (if it is complete, add the line break). Files are written atomically (a
+refused (if it is complete, add the line break). A line longer than
+:data:`MAX_LINE_LENGTH` bytes, or a NUL byte (a binary file), is refused before the
+rest is read. A number is what CSV tools write: ASCII decimal or scientific notation
+(``-1.5``, ``2e-3``, ``.5``, ``1E+06``), optionally between ASCII spaces; no digit
+separators (``1_000``, ``1,000``), no other scripts' digits, no other white space (a tab,
+a non-breaking space); ``nan`` and ``inf`` are read as numbers and refused as non-finite
+(:func:`parse_number`). Files are written atomically (a
 temporary file in the folder, renamed into place). The columns:
 
 - :data:`STATE_COLUMNS`: ``t`` [s]; ``x y z``, the position of O_p in F0 [m];
@@ -19,12 +25,14 @@ temporary file in the folder, renamed into place). The columns:
 
 from __future__ import annotations
 
+import codecs
 import csv
 import io
 import math
+import re
 import zipfile
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +69,71 @@ LENGTH_SLICE = slice(FORCE_SLICE.stop, FORCE_SLICE.stop + len(LENGTH_COLUMNS))
 
 #: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
 QUATERNION_TOLERANCE = 1e-6
+
+#: The longest line a CSV reader accepts [bytes]: a row of 32 numbers written with
+#: ``repr`` takes under 800; a file with no line break (a binary file, ``/dev/zero``)
+#: would otherwise be read as one endless line.
+MAX_LINE_LENGTH = 65536
+
+#: A number as CSV tools write it (ASCII only, optional surrounding ASCII spaces): decimal
+#: or scientific notation, or ``nan`` / ``inf`` / ``infinity`` with an optional sign (read,
+#: then refused as non-finite by the readers).
+NUMBER = re.compile(
+    r" *[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf|infinity) *",
+    re.ASCII | re.IGNORECASE,
+)
+
+
+def parse_number(text: str) -> float:
+    """The float of one CSV field, accepting only :data:`NUMBER` (Python's ``float``
+    alone would also take ``1_000``, Arabic-Indic digits and non-breaking spaces).
+
+    Raises:
+        ValueError: ``text`` is not such a number.
+    """
+    if NUMBER.fullmatch(text) is None:
+        raise ValueError(f"not a number: {text!r}")
+    return float(text)
+
+
+def iter_lines(path: Path, error: Callable[[str, int], Exception]) -> Iterator[tuple[int, str]]:
+    """``(line number, line)`` of a UTF-8 text file (optional byte-order mark), line breaks
+    kept (``\\n``, ``\\r\\n`` or ``\\r``), streamed: a line longer than
+    :data:`MAX_LINE_LENGTH` bytes (no line break: a binary file, ``/dev/zero``), a NUL byte
+    (a binary file) or bytes that are not UTF-8 raise ``error(message, line)`` at that
+    line, before the rest of the file is read."""
+    with open(path, "rb") as f:
+        k = 0
+        while True:
+            raw = f.readline(MAX_LINE_LENGTH + 1)
+            if not raw:
+                return
+            if k == 0 and raw.startswith(codecs.BOM_UTF8):
+                raw = raw[len(codecs.BOM_UTF8) :]
+            k += 1
+            if len(raw) > MAX_LINE_LENGTH:
+                raise error(
+                    f"{path}, line {k}: a line longer than {MAX_LINE_LENGTH} bytes (no line "
+                    "break): not a CSV text file (a binary file?)",
+                    k,
+                )
+            if b"\0" in raw:
+                raise error(f"{path}, line {k}: a NUL byte: a binary file, not CSV text", k)
+            try:
+                line = raw.decode("utf-8")
+            except UnicodeDecodeError as e:
+                raise error(
+                    f"{path}, line {k}: not UTF-8 text ({e.reason} at byte {e.start} of the "
+                    "line); save the file as UTF-8",
+                    k,
+                ) from None
+            if "\r" in line[:-1]:  # old Mac line breaks inside: split there too
+                for part in io.StringIO(line, newline=""):
+                    yield k, part
+                    k += 1
+                k -= 1
+            else:
+                yield k, line
 
 
 #: Conversions between 0Rp and the ``qx qy qz qw`` columns (re-exported names).
@@ -115,9 +188,7 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
     """
     path = Path(path)
     columns = tuple(columns)
-    lines = [
-        (k, line) for k, line in enumerate(_read_lines(path), 1) if line.strip() and line[0] != "#"
-    ]
+    lines = [(k, line) for k, line in _read_lines(path) if line.strip() and line[0] != "#"]
     # A last line without its line break: the file may have been cut while written.
     cut = bool(lines) and not lines[-1][1].endswith(("\n", "\r"))
     if not lines:
@@ -149,9 +220,9 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
                 f"header column){hint}"
             )
         for c, j in enumerate(order):
-            text = fields[j].strip()
+            text = fields[j].strip(" ")
             try:
-                value = float(text)
+                value = parse_number(text)
             except ValueError:
                 raise FileFormatError(
                     f"{path}, line {k}, column '{columns[c]}': {text!r} is not a number"
@@ -198,18 +269,9 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
 _CUT_HINT = ": the file ends inside this line, it was probably cut short while being written"
 
 
-def _read_lines(path: Path) -> list[str]:
-    """The lines of a UTF-8 file (optional byte-order mark), line breaks kept."""
-    data = path.read_bytes()
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        line = data.count(b"\n", 0, e.start) + 1
-        raise FileFormatError(
-            f"{path}, line {line}: not UTF-8 text ({e.reason} at byte {e.start}); save the "
-            "table as UTF-8"
-        ) from None
-    return list(io.StringIO(text, newline=""))
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    """``(line number, line)`` of a table's file (:func:`iter_lines`)."""
+    return list(iter_lines(path, lambda message, line: FileFormatError(message)))
 
 
 #: Tolerance on ``max |R^T R - I|`` and on the last row of a pose read from an ``.npz``.

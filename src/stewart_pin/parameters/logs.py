@@ -7,8 +7,11 @@ CSV file (format below and in ``docs/identification.md``) and checks it
 (:func:`check_log`), raising a named :class:`~stewart_pin.exceptions.LogError` with the
 line for what would make identification silently wrong:
 
-- :class:`~stewart_pin.exceptions.LogValueError`: a field that is not a number, or not
-  finite; a tracker quaternion that is not unit;
+- :class:`~stewart_pin.exceptions.LogValueError`: a field that is not a number as CSV
+  tools write it (ASCII decimal or scientific notation between optional ASCII spaces:
+  no ``1_000``, no other scripts' digits, no non-breaking space), or not finite (``nan``,
+  ``inf``); a position, effort or tracker position beyond :data:`MAX_MAGNITUDE` (1e9 in
+  SI units); a tracker quaternion that is not unit;
 - :class:`~stewart_pin.exceptions.LogTimeError`: a time that does not increase, or a
   step below ``min_step`` (0.5) times the median step: the filters take the samples as
   uniformly spaced at the median step;
@@ -23,7 +26,9 @@ line for what would make identification silently wrong:
 
 The CSV format: a header line, then one line per sample; comma-separated (no quoting),
 SI units, columns in any order, blank lines and lines starting with ``#`` skipped, UTF-8,
-every line ending with a line break:
+every line ending with a line break, none longer than
+:data:`~stewart_pin.formats.csv_tables.MAX_LINE_LENGTH` bytes and no NUL byte (a binary
+file is refused at its first line, not read whole):
 
 - ``t`` [s], strictly increasing, uniformly sampled;
 - ``l1 .. l6``: the actuated joint positions [m or rad] (leg lengths for UPS, crank
@@ -52,6 +57,7 @@ with the text.
 from __future__ import annotations
 
 import math
+import re
 from array import array
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,8 +78,11 @@ from stewart_pin.exceptions import (
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     LENGTH_COLUMNS,
+    NUMBER,
     QUATERNION_TOLERANCE,
     STATE_COLUMNS,
+    iter_lines,
+    parse_number,
     quaternions_from_rotations,
     rotations_from_quaternions,
 )
@@ -92,6 +101,11 @@ IGNORED_COLUMNS: tuple[str, ...] = STATE_COLUMNS[STATE_COLUMNS.index("vx") :]
 #: The columns of a log without tracker, in the order :func:`write_log` writes them.
 LOG_COLUMNS: tuple[str, ...] = (TIME_COLUMN, *POSITION_COLUMNS, *EFFORT_COLUMNS)
 
+#: The largest magnitude of a position [m or rad], an effort [N or N m] or a tracker
+#: position [m] (:class:`LogValueError` beyond): a million kilometres, radians or
+#: meganewton-kilometres, far past any hexapod, and far enough inside double precision
+#: that the regressor's products and squares stay exact in their relative precision.
+MAX_MAGNITUDE = 1e9
 #: A step longer than this multiple of the median step is a gap (:class:`LogGapError`).
 MAX_GAP = 1.5
 #: A step shorter than this multiple of the median is irregular sampling (:class:`LogTimeError`).
@@ -288,43 +302,36 @@ def read_log(
     lines = array("q")
     last_line, last_text, last_break = 0, "", True
     hold = False
-    k = 0
-    try:
-        with open(path, encoding="utf-8-sig", newline="") as f:
-            for k, text in enumerate(f, 1):
-                if not text.strip() or text[0] == "#":
-                    if header is None and _directive(text) is not None:
-                        hold = _directive(text) == "hold"
-                    continue
-                last_line, last_text = k, text
-                last_break = text.endswith(("\n", "\r"))
-                fields = text.rstrip("\r\n").split(",")
-                if header is None:
-                    header = [h.strip() for h in fields]
-                    columns, tracker = _header(path, k, header)
-                    n_fields = len(header)
-                    continue
-                if len(fields) != n_fields:
-                    hint = "" if last_break else _CUT_HINT
-                    raise LogError(
-                        _error_at(
-                            path,
-                            k,
-                            f"{len(fields)} fields, expected {n_fields} (one per header column)"
-                            + hint,
-                        ),
-                        line=k,
-                    )
-                try:
-                    data.extend([float(fields[c]) for c in columns])
-                except ValueError:
-                    _raise_bad_field(path, k, fields, columns, header)
-                lines.append(k)
-    except UnicodeDecodeError as e:
-        raise LogError(
-            f"{path}, line {k + 1}: not UTF-8 text ({e.reason}); save the log as UTF-8",
-            line=k + 1,
-        ) from None
+    for k, text in iter_lines(path, lambda message, line: LogError(message, line=line)):
+        if not text.strip() or text[0] == "#":
+            if header is None and _directive(text) is not None:
+                hold = _directive(text) == "hold"
+            continue
+        last_line, last_text = k, text
+        last_break = text.endswith(("\n", "\r"))
+        fields = text.rstrip("\r\n").split(",")
+        if header is None:
+            header = [h.strip() for h in fields]
+            columns, tracker = _header(path, k, header)
+            n_fields = len(header)
+            continue
+        if len(fields) != n_fields:
+            hint = "" if last_break else _CUT_HINT
+            raise LogError(
+                _error_at(
+                    path,
+                    k,
+                    f"{len(fields)} fields, expected {n_fields} (one per header column)" + hint,
+                ),
+                line=k,
+            )
+        if _PLAIN_ROW.fullmatch(text) is None:  # letters, other scripts, other spaces
+            _check_fields(path, k, fields, columns, header)
+        try:
+            data.extend([float(fields[c]) for c in columns])
+        except ValueError:
+            _raise_bad_field(path, k, fields, columns, header)
+        lines.append(k)
     if header is None:
         raise LogError(f"{path}: no header line; expected {','.join(LOG_COLUMNS)}")
     if not last_break:
@@ -347,7 +354,7 @@ def read_log(
                 path,
                 int(line_numbers[r]),
                 f"column '{names[c]}': non-finite value "
-                f"{table[r, c]!r}; a log holds finite numbers (drop or repair the sample)",
+                f"{float(table[r, c])!r}; a log holds finite numbers (drop or repair the sample)",
             ),
             line=int(line_numbers[r]),
             column=names[c],
@@ -453,20 +460,39 @@ def _header(path: Path, line: int, header: list[str]) -> tuple[list[int], bool]:
     return [header.index(c) for c in order], tracker
 
 
+#: A data row of plain numbers: ASCII digits, signs, points, exponents, commas and
+#: spaces only, and its line break (anything else is checked field by field,
+#: :func:`~stewart_pin.formats.csv_tables.parse_number`).
+_PLAIN_ROW = re.compile(r"[0-9eE+\-., ]*\r?\n?", re.ASCII)
+
+
+def _check_fields(
+    path: Path, line: int, fields: list[str], columns: list[int], header: list[str]
+) -> None:
+    """Raise :class:`LogValueError` for the first read field that is not a number as CSV
+    tools write it (:data:`~stewart_pin.formats.csv_tables.NUMBER`)."""
+    for c in columns:
+        if NUMBER.fullmatch(fields[c]) is None:
+            _raise_bad_field(path, line, fields, [c], header)
+
+
 def _raise_bad_field(
     path: Path, line: int, fields: list[str], columns: list[int], header: list[str]
 ) -> None:
     for c in columns:
         try:
-            float(fields[c])
+            parse_number(fields[c])
         except ValueError:
             raise LogValueError(
                 _error_at(
-                    path, line, f"column '{header[c]}': {fields[c].strip()!r} is not a number"
+                    path,
+                    line,
+                    f"column '{header[c]}': {fields[c].strip(' ')!r} is not a number (ASCII "
+                    "decimal or scientific notation, e.g. -1.5 or 2e-3, nothing else)",
                 ),
                 line=line,
                 column=header[c],
-                value=fields[c].strip(),
+                value=fields[c].strip(" "),
             ) from None
     raise AssertionError("unreachable")  # pragma: no cover
 
@@ -525,6 +551,7 @@ def check_log(
     t = log.times
     if len(log) < 2:
         raise LogTimeError(f"{src}: {len(log)} sample(s), at least 2 needed for a time step")
+    _check_magnitudes(log)
     dt = np.diff(t)
     bad = np.flatnonzero(~(dt > 0))
     if bad.size:
@@ -575,6 +602,36 @@ def check_log(
         _check_effort_limits(log, effort_limits)
     if clip_run:
         _check_clipping(log, int(clip_run))
+
+
+def _check_magnitudes(log: ActuatorLog) -> None:
+    """Positions, efforts and tracker positions within :data:`MAX_MAGNITUDE` (a value far
+    past any actuator's is a corrupt sample or a wrong unit: unchecked, 1e200 N made the
+    regressor lose rank and 1e308 N made its SVD fail)."""
+    blocks = [
+        (log.positions, POSITION_COLUMNS, "position"),
+        (log.efforts, EFFORT_COLUMNS, "effort"),
+    ]
+    if log.tracker_poses is not None:
+        blocks.append((log.tracker_poses[:, :3, 3], TRACKER_COLUMNS[:3], "tracker position"))
+    found = []
+    for values, names, what in blocks:
+        bad = np.argwhere(~(np.abs(values) <= MAX_MAGNITUDE))
+        if bad.size:
+            k, i = (int(v) for v in bad[0])
+            found.append((k, i, values, names, what))
+    if found:
+        k, i, values, names, what = min(found, key=lambda f: (f[0], f[1]))
+        raise _sample_error(
+            LogValueError,
+            log,
+            k,
+            f"column '{names[i]}': {what} {float(values[k, i]):.6g} is beyond "
+            f"{MAX_MAGNITUDE:g} (SI units: m, rad, N, N m): no actuator reads that; a "
+            "corrupt sample or a wrong unit (drop or repair the sample)",
+            column=names[i],
+            value=float(values[k, i]),
+        )
 
 
 def _check_positions(log: ActuatorLog, robot: RobotLike) -> None:
@@ -658,6 +715,7 @@ __all__ = [
     "EFFORT_COLUMNS",
     "LOG_COLUMNS",
     "MAX_GAP",
+    "MAX_MAGNITUDE",
     "MIN_STEP",
     "POSITION_COLUMNS",
     "TRACKER_COLUMNS",
