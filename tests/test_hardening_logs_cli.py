@@ -154,3 +154,138 @@ def test_the_bound_leaves_long_comment_and_data_lines_alone(tmp_path):
     assert len(read_log(path)) == 12
     assert isinstance(LogError("x"), FileFormatError) and math.isfinite(MAX_MAGNITUDE)
     np.testing.assert_array_equal(read_log(path).positions, 0.5)
+
+
+# ====================================================================== item 18: Ctrl-C
+
+
+def test_keyboard_interrupt_in_forces_keeps_the_states_so_far():
+    from stewart_pin import SimulationInterrupted, StewartPinError, StewartRobot, simulate
+
+    robot = StewartRobot.from_preset("simulator")
+
+    def forces(t, T, V):
+        if t > 0.0105:
+            raise KeyboardInterrupt
+        return np.zeros(6)
+
+    with pytest.raises(SimulationInterrupted) as info:
+        simulate(robot, 1.0, forces=forces, dt=1e-3)
+    e = info.value
+    assert isinstance(e, KeyboardInterrupt) and not isinstance(e, (Exception, StewartPinError))
+    # the accepted states: t = 0, 1 ms, ..., 10 ms (the 11 ms step was being tried)
+    np.testing.assert_allclose(e.result.t, np.arange(11) * 1e-3, rtol=0, atol=1e-15)
+    assert e.time == pytest.approx(0.010, abs=1e-15)
+
+
+def test_cli_simulate_interrupted_saves_the_partial_file_exit_130(tmp_path, capsys, monkeypatch):
+    from contextlib import contextmanager
+
+    from stewart_pin.cli import main, motion_cmds
+    from stewart_pin.motion.simulation import SimulationResult
+
+    @contextmanager
+    def bar(total, unit, enabled=True):
+        class Bar:
+            def to(self, t):  # Ctrl-C once 20 ms are simulated
+                if t >= 0.02 - 1e-12:
+                    raise KeyboardInterrupt
+
+        yield Bar()
+
+    monkeypatch.setattr(motion_cmds, "progress_bar", bar)
+    out = tmp_path / "run.csv"
+    code = main(["simulate", "--motion", "free", "--duration", "5", "-o", str(out)])
+    err = capsys.readouterr().err.strip()
+    partial = tmp_path / "run.partial.csv"
+    assert code == 130 and "\n" not in err, err
+    assert err.startswith("stewart-pin simulate: simulation interrupted at t = 0.02 s")
+    assert str(partial) in err
+    assert not out.exists()
+    saved = SimulationResult.load(partial)
+    np.testing.assert_allclose(saved.t, np.arange(21) * 1e-3, rtol=0, atol=1e-12)
+
+
+def test_cli_simulate_sigint_in_a_child_process_exit_130(tmp_path):
+    """A real SIGINT to ``stewart-pin simulate`` once its progress bar shows: one line on
+    stderr, exit code 130, the states so far saved beside the output."""
+    import os
+    import re
+    import select
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run.npz"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    argv = [sys.executable, "-m", "stewart_pin.cli", "simulate", "--motion", "sinusoid"]
+    child = subprocess.Popen(
+        [*argv, "--duration", "1000", "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    try:
+        seen = b""
+        deadline = time.monotonic() + 120
+        moving = re.compile(rb"\| *(?!0/)[0-9.e+-]+/1e\+03 s")  # the bar past 0 s
+        while moving.search(seen) is None and time.monotonic() < deadline:
+            ready, _, _ = select.select([child.stderr], [], [], 1.0)
+            if ready:
+                seen += os.read(child.stderr.fileno(), 4096)
+            assert child.poll() is None, seen
+        assert moving.search(seen) is not None, seen
+        child.send_signal(signal.SIGINT)
+        _, rest = child.communicate(timeout=60)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    lines = [x for x in (seen + rest).decode().replace("\r", "\n").splitlines() if x.strip()]
+    assert child.returncode == 130, lines
+    assert lines[-1].startswith("stewart-pin simulate: simulation interrupted at t = ")
+    assert "Traceback" not in "\n".join(lines)
+    from stewart_pin.motion.simulation import SimulationResult
+
+    saved = SimulationResult.load(tmp_path / "run.partial.npz")
+    assert len(saved.t) >= 2 and str(tmp_path / "run.partial.npz") in lines[-1]
+
+
+def test_ctrl_c_during_the_planner_is_a_keyboard_interrupt(monkeypatch):
+    """SIGINT while IPOPT iterates: CasADi catches it and returns a failed status; the
+    planner raises KeyboardInterrupt, not a ConvergenceError with a false message."""
+    import os
+    import signal
+    import threading
+
+    from stewart_pin import StewartRobot
+    from stewart_pin.planning import point_to_point
+
+    nlpsol = point_to_point.cs.nlpsol
+
+    def slow_nlpsol(*args, **kwargs):
+        solver = nlpsol(*args, **kwargs)
+
+        class Interrupted:
+            def __call__(self, **kw):
+                timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+                timer.start()
+                try:
+                    return solver(**kw)
+                finally:
+                    timer.cancel()
+
+            def stats(self):
+                return solver.stats()
+
+        return Interrupted()
+
+    monkeypatch.setattr(point_to_point.cs, "nlpsol", slow_nlpsol)
+    robot = StewartRobot.from_preset("simulator")
+    goal = robot.home_pose
+    goal[:3, 3] += [0.15, -0.1, 0.1]
+    with pytest.raises(KeyboardInterrupt):
+        # many intervals and a tight tolerance: IPOPT iterates for seconds
+        point_to_point.optimal_point_to_point(
+            robot, robot.home_pose, goal, 1.0, intervals=200, tol=1e-14, max_iterations=3000
+        )

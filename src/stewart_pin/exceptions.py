@@ -48,6 +48,9 @@ expected, what was received and how to fix it::
     ├── BaseParameterWarning                 base parameters that barely act
     ├── ApproximationWarning                 an export that changes the robot
     └── ModelImportWarning                   an import that corrected or ignored something
+
+    KeyboardInterrupt
+    └── SimulationInterrupted                Ctrl-C during a simulation, with its states
 """
 
 from __future__ import annotations
@@ -308,6 +311,22 @@ class SimulationError(StewartPinError):
 
     def __init__(self, message: str, time: float, result: object) -> None:
         super().__init__(message)
+        self.time, self.result = time, result
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C (``KeyboardInterrupt``) during a simulation, with what was simulated until
+    then. A ``KeyboardInterrupt``, not a :class:`StewartPinError`: ``except Exception``
+    and ``except StewartPinError`` let it through, as any interrupt.
+
+    Attributes:
+        time: the simulated time [s] of the last accepted state.
+        result: the ``SimulationResult`` up to and including that state (accepted
+            states only; empty when the interrupt came before the first).
+    """
+
+    def __init__(self, time: float, result: object) -> None:
+        super().__init__(f"simulation interrupted at t = {time:.9g} s (simulated time)")
         self.time, self.result = time, result
 
 

@@ -24,7 +24,12 @@ from stewart_pin.cli._common import (
     refuse_general,
     robot_from_args,
 )
-from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
+from stewart_pin.exceptions import (
+    InputError,
+    SimulationError,
+    SimulationInterrupted,
+    StewartPinError,
+)
 from stewart_pin.motion.trajectories import MOTION_KINDS
 
 if TYPE_CHECKING:  # imported where used, to keep the command quick to start
@@ -38,23 +43,34 @@ def partial_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.partial{out.suffix}")
 
 
+def _save_states(result: SimulationResult, out: Path) -> str:
+    """Save a run's accepted states ``result`` beside ``out`` (:func:`partial_path`,
+    atomically as every write); what was done, as a clause of the one-line message."""
+    if len(result.t) == 0:
+        return "no state was accepted, nothing saved"
+    path = partial_path(out)
+    try:
+        result.save(path)
+    except (OSError, StewartPinError) as e:
+        return f"the partial result could not be saved to {path}: {e}"
+    return (
+        f"partial result ({len(result.t)} samples, t = {result.t[0]:g} to "
+        f"{result.t[-1]:.6g} s) saved to {path}"
+    )
+
+
 def _save_partial(error: SimulationError, out: Path) -> SimulationError:
     """Save a stopped run's accepted states beside ``out``; the error to report, naming
     the file (one line)."""
     result = cast("SimulationResult", error.result)  # simulate attaches its partial result
-    if len(result.t) == 0:
-        note = "no state was accepted, nothing saved"
-    else:
-        path = partial_path(out)
-        try:
-            result.save(path)
-            note = (
-                f"partial result ({len(result.t)} samples, t = {result.t[0]:g} to "
-                f"{result.t[-1]:.6g} s) saved to {path}"
-            )
-        except (OSError, StewartPinError) as e:
-            note = f"the partial result could not be saved to {path}: {e}"
-    return SimulationError(f"{error}; {note}", error.time, result)
+    return SimulationError(f"{error}; {_save_states(result, out)}", error.time, result)
+
+
+def _save_interrupted(interrupt: SimulationInterrupted, out: Path) -> KeyboardInterrupt:
+    """Save an interrupted run's accepted states beside ``out``; the interrupt to raise
+    again, naming the file (the command line prints it, one line, and exits with 130)."""
+    result = cast("SimulationResult", interrupt.result)
+    return KeyboardInterrupt(f"{interrupt}; {_save_states(result, out)}")
 
 
 def _simulate(args: argparse.Namespace) -> int:
@@ -106,6 +122,8 @@ def _simulate(args: argparse.Namespace) -> int:
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e
+    except SimulationInterrupted as e:
+        raise _save_interrupted(e, out) from e
     result.save(out)
     lines = [f"simulated {duration:g} s of '{robot.name}' ({args.motion}, {args.method}): {out}"]
     if motion is not None:
@@ -200,6 +218,8 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e
+    except SimulationInterrupted as e:
+        raise _save_interrupted(e, out) from e
     sim.save(out)
     fraction, period = _sweep(args)
     lines = [

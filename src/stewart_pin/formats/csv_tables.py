@@ -84,16 +84,11 @@ NUMBER = re.compile(
 )
 
 
-def parse_number(text: str) -> float:
-    """The float of one CSV field, accepting only :data:`NUMBER` (Python's ``float``
-    alone would also take ``1_000``, Arabic-Indic digits and non-breaking spaces).
-
-    Raises:
-        ValueError: ``text`` is not such a number.
-    """
-    if NUMBER.fullmatch(text) is None:
-        raise ValueError(f"not a number: {text!r}")
-    return float(text)
+def parse_number(text: str) -> float | None:
+    """The float of one CSV field, ``None`` unless it is a :data:`NUMBER` (Python's
+    ``float`` alone would also take ``1_000``, Arabic-Indic digits and non-breaking
+    spaces)."""
+    return float(text) if NUMBER.fullmatch(text) is not None else None
 
 
 def iter_lines(path: Path, error: Callable[[str, int], Exception]) -> Iterator[tuple[int, str]]:
@@ -221,12 +216,12 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
             )
         for c, j in enumerate(order):
             text = fields[j].strip(" ")
-            try:
-                value = parse_number(text)
-            except ValueError:
+            value = parse_number(text)
+            if value is None:
                 raise FileFormatError(
-                    f"{path}, line {k}, column '{columns[c]}': {text!r} is not a number"
-                ) from None
+                    f"{path}, line {k}, column '{columns[c]}': {text!r} is not a number "
+                    "(ASCII decimal or scientific notation, e.g. -1.5 or 2e-3, nothing else)"
+                )
             if not math.isfinite(value):
                 raise FileFormatError(
                     f"{path}, line {k}, column '{columns[c]}': non-finite value {text!r}"

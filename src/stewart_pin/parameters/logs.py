@@ -480,9 +480,7 @@ def _raise_bad_field(
     path: Path, line: int, fields: list[str], columns: list[int], header: list[str]
 ) -> None:
     for c in columns:
-        try:
-            parse_number(fields[c])
-        except ValueError:
+        if parse_number(fields[c]) is None:
             raise LogValueError(
                 _error_at(
                     path,
@@ -493,7 +491,7 @@ def _raise_bad_field(
                 line=line,
                 column=header[c],
                 value=fields[c].strip(" "),
-            ) from None
+            )
     raise AssertionError("unreachable")  # pragma: no cover
 
 
