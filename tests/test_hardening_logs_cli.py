@@ -289,3 +289,76 @@ def test_ctrl_c_during_the_planner_is_a_keyboard_interrupt(monkeypatch):
         point_to_point.optimal_point_to_point(
             robot, robot.home_pose, goal, 1.0, intervals=200, tol=1e-14, max_iterations=3000
         )
+
+
+# ====================================================================== item 16: sizes
+
+HUGE = "100000000000"  # 1e11: petabytes at any of the measured costs per unit
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["validate", "--states", HUGE],
+        ["base-params", "--states", HUGE],
+        ["identify", "--samples", HUGE],
+        ["bench", "--batch", HUGE],
+        ["animate", "--duration", "1e9"],
+        ["view", "--duration", "1e9"],
+    ],
+)
+def test_cli_sizes_beyond_the_machine_memory_are_one_line_exit_2(argv, capsys):
+    from stewart_pin.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err.strip()
+    assert info.value.code == 2 and "\n" not in err
+    assert "GB of memory" in err and "more than this machine's" in err and "give at most" in err
+
+
+def test_the_memory_bound_is_the_machine_memory_over_the_cost_per_unit(monkeypatch):
+    import argparse
+
+    from stewart_pin import _argtypes
+
+    monkeypatch.setattr(_argtypes, "physical_memory", lambda: 10**9)  # a 1 GB machine
+    states = _argtypes.count_within_memory(10_000, "state")
+    assert states("100000") == 100_000  # exactly 1 GB
+    with pytest.raises(argparse.ArgumentTypeError, match="give at most 100000$"):
+        states("100001")
+    with pytest.raises(argparse.ArgumentTypeError, match="an integer >= 1"):
+        states("0")
+    seconds = _argtypes.duration_within_memory(700_000)
+    assert seconds("1428.5") == 1428.5
+    with pytest.raises(argparse.ArgumentTypeError, match="give at most 1428$"):
+        seconds("1429")
+    monkeypatch.setattr(_argtypes, "physical_memory", lambda: None)  # unknown: no bound
+    assert states(HUGE) == 10**11
+
+
+def test_decimation_beyond_the_log_length_is_refused_at_once(tmp_path, capsys):
+    """--decimation 100000 on a 2000-sample log: refused with the largest factor that
+    fits, instead of designing a 1.6-million-tap filter."""
+    from stewart_pin import StewartRobot
+    from stewart_pin.cli import main
+    from stewart_pin.exceptions import InputError
+    from stewart_pin.parameters.logs import ActuatorLog, write_log
+    from stewart_pin.parameters.state_estimation import FIR_HALF, design_filters
+
+    robot = StewartRobot.from_preset("random-2")
+    t = np.arange(2000) / 200.0
+    T = np.tile(robot.home_pose, (len(t), 1, 1))
+    T[:, 2, 3] += 0.01 * np.sin(2 * np.pi * 0.5 * t)
+    log = ActuatorLog(t, robot.actuator_positions(T), np.sin(t)[:, None] * np.ones(6))
+    d = design_filters(log)
+    usable = len(log) - 2 * d.edge
+    longest = (usable - 1) // (2 * FIR_HALF)
+    assert design_filters(log, decimation=longest).decimation == longest
+    with pytest.raises(InputError, match=rf"decimation factor of {longest} or less"):
+        design_filters(log, decimation=longest + 1)
+    path = write_log(tmp_path / "log.csv", log)
+    argv = ["identify", "--preset", "random-2", "--log", str(path), "--no-progress"]
+    code = main([*argv, "--decimation", "100000"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and f"{longest} or less" in err

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from stewart_pin._argtypes import BYTES_PER_ANIMATION_SECOND, duration_within_memory
 from stewart_pin.cli._common import (
     add_payload_args,
     add_robot_args,
@@ -431,7 +432,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_robot_args(p)
     p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
     p.add_argument("--motion", choices=MOTION_KINDS, default="sinusoid", help="else this motion")
-    p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
+    p.add_argument(
+        "--duration",
+        type=duration_within_memory(BYTES_PER_ANIMATION_SECOND),
+        default=4.0,
+        help="[s] of the motion (at most what this machine's memory holds, about 0.7 MB per s)",
+    )
     p.add_argument("--fps", type=positive_finite_float, default=30.0, help="key frames per second")
     p.add_argument("-o", "--output", default="animation.html", help="HTML file to write")
     add_payload_motion_args(p, drawing=True)
@@ -446,7 +452,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="none",
         help="else this motion (none: the robot at rest)",
     )
-    p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
+    p.add_argument(
+        "--duration",
+        type=duration_within_memory(BYTES_PER_ANIMATION_SECOND),
+        default=4.0,
+        help="[s] of the motion (at most what this machine's memory holds, about 0.7 MB per s)",
+    )
     p.add_argument("--open", action="store_true", help="open the page in the web browser")
     p.add_argument("--no-wait", action="store_true", help="show, then exit (no waiting)")
     add_payload_motion_args(p, drawing=True)
