@@ -325,13 +325,13 @@ def test_the_memory_bound_is_the_machine_memory_over_the_cost_per_unit(monkeypat
     monkeypatch.setattr(_argtypes, "physical_memory", lambda: 10**9)  # a 1 GB machine
     states = _argtypes.count_within_memory(10_000, "state")
     assert states("100000") == 100_000  # exactly 1 GB
-    with pytest.raises(argparse.ArgumentTypeError, match="give at most 100000$"):
+    with pytest.raises(argparse.ArgumentTypeError, match=r"give at most 100000$"):
         states("100001")
     with pytest.raises(argparse.ArgumentTypeError, match="an integer >= 1"):
         states("0")
     seconds = _argtypes.duration_within_memory(700_000)
     assert seconds("1428.5") == 1428.5
-    with pytest.raises(argparse.ArgumentTypeError, match="give at most 1428$"):
+    with pytest.raises(argparse.ArgumentTypeError, match=r"give at most 1428$"):
         seconds("1429")
     monkeypatch.setattr(_argtypes, "physical_memory", lambda: None)  # unknown: no bound
     assert states(HUGE) == 10**11
@@ -362,3 +362,69 @@ def test_decimation_beyond_the_log_length_is_refused_at_once(tmp_path, capsys):
     code = main([*argv, "--decimation", "100000"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err and f"{longest} or less" in err
+
+
+# ====================================================================== item 20: physical fit
+
+
+@pytest.fixture(scope="module")
+def negated_log():
+    """A noisy log of the 6-UPS preset random-2 on an exciting trajectory, its efforts
+    negated: least squares fits it as well as the true log (with negative masses), but no
+    robot with positive masses makes these efforts."""
+    from stewart_pin import StewartRobot
+    from stewart_pin.parameters.identification import exciting_trajectory
+    from stewart_pin.parameters.logs import ActuatorLog
+
+    robot = StewartRobot.from_preset("random-2")
+    traj, _ = exciting_trajectory(
+        robot, base_frequency=0.5, n_harmonics=3, seed=1, optimise=False, n_samples=10
+    )
+    t = np.arange(1600) / 200.0
+    s = traj.fourier.sample(t)
+    gamma = robot.inverse_dynamics(s.poses, s.twists, s.accels)
+    gamma = gamma + np.random.default_rng(1).normal(size=gamma.shape) * 0.5
+    positions = robot.actuator_positions(s.poses)
+    return robot, ActuatorLog(t, positions, gamma), ActuatorLog(t, positions, -gamma)
+
+
+def test_physical_fit_of_negated_efforts_is_refused(negated_log):
+    from stewart_pin.exceptions import IdentificationError, PhysicalFitError
+    from stewart_pin.parameters.base import base_parameters
+    from stewart_pin.parameters.identification import identify_log
+    from stewart_pin.parameters.physical import (
+        MAX_FIT_LOSS,
+        MAX_SIGNAL_LOSS,
+        physically_consistent,
+    )
+
+    robot, good, negated = negated_log
+    base = base_parameters(robot)
+    ok = physically_consistent(robot, identify_log(robot, good, base))
+    assert ok.fit_loss < MAX_FIT_LOSS  # the true log: credible
+    ident = identify_log(robot, negated, base)
+    # least squares fits the negated efforts as well: the negated parameters
+    np.testing.assert_allclose(
+        ident.result.estimate, -identify_log(robot, good, base).result.estimate, rtol=1e-9
+    )
+    with pytest.raises(PhysicalFitError, match="no physically consistent robot") as info:
+        physically_consistent(robot, ident)
+    e = info.value
+    assert isinstance(e, IdentificationError)
+    assert e.fit_loss > MAX_FIT_LOSS and e.signal_loss > MAX_SIGNAL_LOSS
+
+
+def test_cli_identify_physical_of_negated_efforts_writes_nothing(tmp_path, capsys, negated_log):
+    from stewart_pin.cli import main
+    from stewart_pin.parameters.logs import write_log
+
+    _, _, negated = negated_log
+    path = write_log(tmp_path / "neg.csv", negated)
+    out = tmp_path / "id.toml"
+    argv = ["identify", "--preset", "random-2", "--log", str(path), "--no-progress"]
+    code = main([*argv, "--physical", "--write-description", str(out)])
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert code == 2 and "\n" not in err and "no physically consistent robot" in err
+    assert "base parameters" in captured.out  # the least-squares report is still shown
+    assert not out.exists()
