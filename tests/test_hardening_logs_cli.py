@@ -428,3 +428,31 @@ def test_cli_identify_physical_of_negated_efforts_writes_nothing(tmp_path, capsy
     assert code == 2 and "\n" not in err and "no physically consistent robot" in err
     assert "base parameters" in captured.out  # the least-squares report is still shown
     assert not out.exists()
+
+
+# ====================================================================== item 17: memory
+
+
+def test_log_memory_is_thirteen_floats_and_a_line_number_per_sample(tmp_path):
+    """tracemalloc (numpy's allocations included): the log keeps 13 floats and the line
+    number per sample (112 bytes) and reads with a peak of at most 1.25 times that (the
+    arrays grow by a quarter in place) plus small temporaries; it was 340 bytes."""
+    import tracemalloc
+
+    n = 30_000
+    path = tmp_path / "log.csv"
+    t = np.arange(n) / 1000.0
+    rows = np.column_stack([t, 0.5 + 0.01 * np.sin(t[:, None] + np.arange(6))])
+    rows = np.column_stack([rows, 100.0 * np.cos(t[:, None] + np.arange(6))])
+    path.write_text(HEADER + "".join(",".join(map(repr, r)) + "\n" for r in rows.tolist()))
+    tracemalloc.start()
+    try:
+        log = read_log(path, clip_run=0)
+        kept, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(log) == n
+    assert kept / n < 112 + 2  # the arrays, plus a few objects
+    assert peak / n < 1.25 * 112 + 16
+    np.testing.assert_array_equal(log.efforts, rows[:, 7:13])  # read exactly
+    assert not log.efforts.flags.writeable
