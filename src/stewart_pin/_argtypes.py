@@ -102,6 +102,7 @@ def count_within_memory(bytes_each: float, unit: str) -> Callable[[str], int]:
         return value
 
     parse.__name__ = f"an integer >= 1 ({unit}s)"
+    parse.within_memory = True  # type: ignore[attr-defined]
     return parse
 
 
@@ -117,4 +118,5 @@ def duration_within_memory(bytes_per_second: float) -> Callable[[str], float]:
         return value
 
     parse.__name__ = "a finite duration > 0 [s]"
+    parse.within_memory = True  # type: ignore[attr-defined]
     return parse
