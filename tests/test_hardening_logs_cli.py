@@ -456,3 +456,33 @@ def test_log_memory_is_thirteen_floats_and_a_line_number_per_sample(tmp_path):
     assert peak / n < 1.25 * 112 + 16
     np.testing.assert_array_equal(log.efforts, rows[:, 7:13])  # read exactly
     assert not log.efforts.flags.writeable
+
+
+@pytest.mark.parametrize("value", ["1e308", "-1e200"])
+def test_measurement_csv_effort_beyond_the_bound_names_its_line(tmp_path, value, capsys):
+    """identify --csv (the measurement CSV): the same bound, instead of an SVD traceback
+    (1e308) or a misleading "lost rank" (1e200)."""
+    from stewart_pin.cli import main
+    from stewart_pin.parameters.identification import CSV_COLUMNS, read_measurements_csv
+
+    row = ["0", "0", "0", "1", "0", "0", "0", "1"] + ["0"] * 12 + ["10"] * 6
+    lines = [",".join(CSV_COLUMNS)]
+    for k in range(20):
+        r = list(row)
+        r[0] = repr(k / 100.0)
+        lines.append(",".join(r))
+    good = tmp_path / "m.csv"
+    good.write_text("\n".join(lines) + "\n")
+    assert len(read_measurements_csv(good)) == 20
+    r = lines[8].split(",")
+    r[CSV_COLUMNS.index("gamma5")] = value
+    lines[8] = ",".join(r)
+    path = tmp_path / "bad.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(
+        FileFormatError, match=r"bad\.csv, line 9, column 'gamma5': .* beyond 1e\+09"
+    ):
+        read_measurements_csv(path)
+    code = main(["identify", "--preset", "simulator", "--csv", str(path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "line 9" in err

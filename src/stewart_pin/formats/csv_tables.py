@@ -70,6 +70,13 @@ LENGTH_SLICE = slice(FORCE_SLICE.stop, FORCE_SLICE.stop + len(LENGTH_COLUMNS))
 #: Tolerance on |q| - 1 of a quaternion read from a file (renormalised within it).
 QUATERNION_TOLERANCE = 1e-6
 
+#: The largest magnitude of a measured value (a position, velocity, acceleration [SI], an
+#: effort [N or N m]) in a log or a measurement CSV: far past any hexapod's, and far
+#: enough inside double precision that the regressor's products and squares stay exact in
+#: their relative precision (unchecked, an effort of 1e200 N made the regressor lose rank
+#: and 1e308 N made its SVD fail).
+MAX_MAGNITUDE = 1e9
+
 #: The longest line a CSV reader accepts [bytes]: a row of 32 numbers written with
 #: ``repr`` takes under 800; a file with no line break (a binary file, ``/dev/zero``)
 #: would otherwise be read as one endless line.
@@ -169,14 +176,21 @@ def write_csv(path: str | Path, columns: Sequence[str], table: np.ndarray) -> Pa
     return path
 
 
-def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.ndarray:
+def read_csv(
+    path: str | Path,
+    columns: Sequence[str],
+    min_rows: int = 1,
+    max_magnitude: float | None = None,
+) -> np.ndarray:
     """Read a table holding exactly ``columns`` (any order): rows (N, len(columns)) in the
-    order of ``columns``.
+    order of ``columns``; with ``max_magnitude``, every value but the time ``t`` at most
+    that in magnitude (measurements: :data:`MAX_MAGNITUDE`).
 
     Raises:
         FileFormatError: text that is not UTF-8, a last line without its line break (a
             file cut short), a missing, unknown or repeated column, a row with the wrong
-            number of fields, a non-numeric or non-finite value, a non-unit quaternion
+            number of fields, a non-numeric or non-finite value, a value beyond
+            ``max_magnitude``, a non-unit quaternion
             (when the table has ``qx..qw``), a time ``t`` that does not increase, or fewer
             than ``min_rows`` rows; the message names the line.
         OSError: the file cannot be read.
@@ -225,6 +239,12 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
             if not math.isfinite(value):
                 raise FileFormatError(
                     f"{path}, line {k}, column '{columns[c]}': non-finite value {text!r}"
+                )
+            if max_magnitude is not None and abs(value) > max_magnitude and columns[c] != "t":
+                raise FileFormatError(
+                    f"{path}, line {k}, column '{columns[c]}': {value:.6g} is beyond "
+                    f"{max_magnitude:g} (SI units): no robot measures that; a corrupt sample "
+                    "or a wrong unit (drop or repair the sample)"
                 )
             rows[r, c] = value
     if cut:

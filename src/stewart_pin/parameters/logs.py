@@ -82,6 +82,7 @@ from stewart_pin.exceptions import (
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     LENGTH_COLUMNS,
+    MAX_MAGNITUDE,
     NUMBER,
     QUATERNION_TOLERANCE,
     STATE_COLUMNS,
@@ -105,11 +106,6 @@ IGNORED_COLUMNS: tuple[str, ...] = STATE_COLUMNS[STATE_COLUMNS.index("vx") :]
 #: The columns of a log without tracker, in the order :func:`write_log` writes them.
 LOG_COLUMNS: tuple[str, ...] = (TIME_COLUMN, *POSITION_COLUMNS, *EFFORT_COLUMNS)
 
-#: The largest magnitude of a position [m or rad], an effort [N or N m] or a tracker
-#: position [m] (:class:`LogValueError` beyond): a million kilometres, radians or
-#: meganewton-kilometres, far past any hexapod, and far enough inside double precision
-#: that the regressor's products and squares stay exact in their relative precision.
-MAX_MAGNITUDE = 1e9
 #: A step longer than this multiple of the median step is a gap (:class:`LogGapError`).
 MAX_GAP = 1.5
 #: A step shorter than this multiple of the median is irregular sampling (:class:`LogTimeError`).
