@@ -486,3 +486,18 @@ def test_measurement_csv_effort_beyond_the_bound_names_its_line(tmp_path, value,
     code = main(["identify", "--preset", "simulator", "--csv", str(path)])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err and "line 9" in err
+
+
+def test_old_mac_line_breaks_and_utf8_errors_keep_their_line_numbers(tmp_path):
+    """Line breaks ``\\r`` (split as before), and a byte that is not UTF-8 on line 4."""
+    text = _log_text(n=1200)  # over 64 kB with "\\r" line breaks: not one long line
+    path = tmp_path / "mac.csv"
+    path.write_bytes(text.replace("\n", "\r").encode())
+    assert len(text) > MAX_LINE_LENGTH and len(read_log(path)) == 1200
+    lines = text.encode().split(b"\n")
+    lines[3] = lines[3].replace(b"0.5", b"0.\xe95", 1)
+    path.write_bytes(b"\n".join(lines))
+    with pytest.raises(LogError, match=r"mac\.csv, line 4: not UTF-8 text \(byte 0xe9"):
+        read_log(path)
+    with pytest.raises(FileFormatError, match=r"mac\.csv, line 4: not UTF-8 text"):
+        read_csv(path, STATE_COLUMNS)

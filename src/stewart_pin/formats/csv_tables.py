@@ -6,7 +6,7 @@ the same floats. Lines starting with ``#`` and blank lines are skipped. The file
 (a byte-order mark is allowed) and every line, the last one included, ends with a line
 break: a file whose last line has none may have been cut while it was written, and is
 refused (if it is complete, add the line break). A line longer than
-:data:`MAX_LINE_LENGTH` bytes, or a NUL byte (a binary file), is refused before the
+:data:`MAX_LINE_LENGTH` characters, or a NUL byte (a binary file), is refused before the
 rest is read. A number is what CSV tools write: ASCII decimal or scientific notation
 (``-1.5``, ``2e-3``, ``.5``, ``1E+06``), optionally between ASCII spaces; no digit
 separators (``1_000``, ``1,000``), no other scripts' digits, no other white space (a tab,
@@ -25,9 +25,7 @@ temporary file in the folder, renamed into place). The columns:
 
 from __future__ import annotations
 
-import codecs
 import csv
-import io
 import math
 import re
 import zipfile
@@ -77,7 +75,7 @@ QUATERNION_TOLERANCE = 1e-6
 #: and 1e308 N made its SVD fail).
 MAX_MAGNITUDE = 1e9
 
-#: The longest line a CSV reader accepts [bytes]: a row of 32 numbers written with
+#: The longest line a CSV reader accepts [characters]: a row of 32 numbers written with
 #: ``repr`` takes under 800; a file with no line break (a binary file, ``/dev/zero``)
 #: would otherwise be read as one endless line.
 MAX_LINE_LENGTH = 65536
@@ -101,41 +99,34 @@ def parse_number(text: str) -> float | None:
 def iter_lines(path: Path, error: Callable[[str, int], Exception]) -> Iterator[tuple[int, str]]:
     """``(line number, line)`` of a UTF-8 text file (optional byte-order mark), line breaks
     kept (``\\n``, ``\\r\\n`` or ``\\r``), streamed: a line longer than
-    :data:`MAX_LINE_LENGTH` bytes (no line break: a binary file, ``/dev/zero``), a NUL byte
-    (a binary file) or bytes that are not UTF-8 raise ``error(message, line)`` at that
-    line, before the rest of the file is read."""
-    with open(path, "rb") as f:
+    :data:`MAX_LINE_LENGTH` characters (no line break: a binary file, ``/dev/zero``), a
+    NUL byte (a binary file) or bytes that are not UTF-8 raise ``error(message, line)`` at
+    that line, before the rest of the file is read."""
+    with open(path, encoding="utf-8-sig", errors="surrogateescape", newline="") as f:
         k = 0
         while True:
-            raw = f.readline(MAX_LINE_LENGTH + 1)
-            if not raw:
+            line = f.readline(MAX_LINE_LENGTH + 1)
+            if not line:
                 return
-            if k == 0 and raw.startswith(codecs.BOM_UTF8):
-                raw = raw[len(codecs.BOM_UTF8) :]
             k += 1
-            if len(raw) > MAX_LINE_LENGTH:
+            if len(line) > MAX_LINE_LENGTH:
                 raise error(
-                    f"{path}, line {k}: a line longer than {MAX_LINE_LENGTH} bytes (no line "
-                    "break): not a CSV text file (a binary file?)",
+                    f"{path}, line {k}: a line longer than {MAX_LINE_LENGTH} characters (no "
+                    "line break): not a CSV text file (a binary file?)",
                     k,
                 )
-            if b"\0" in raw:
+            if "\0" in line:
                 raise error(f"{path}, line {k}: a NUL byte: a binary file, not CSV text", k)
             try:
-                line = raw.decode("utf-8")
-            except UnicodeDecodeError as e:
+                line.encode("utf-8")  # bytes that were not UTF-8 are lone surrogates here
+            except UnicodeEncodeError as e:
                 raise error(
-                    f"{path}, line {k}: not UTF-8 text ({e.reason} at byte {e.start} of the "
-                    "line); save the file as UTF-8",
+                    f"{path}, line {k}: not UTF-8 text (byte "
+                    f"{ord(line[e.start]) - 0xDC00:#04x} at character {e.start}); save the "
+                    "file as UTF-8",
                     k,
                 ) from None
-            if "\r" in line[:-1]:  # old Mac line breaks inside: split there too
-                for part in io.StringIO(line, newline=""):
-                    yield k, part
-                    k += 1
-                k -= 1
-            else:
-                yield k, line
+            yield k, line
 
 
 #: Conversions between 0Rp and the ``qx qy qz qw`` columns (re-exported names).

@@ -27,7 +27,7 @@ line for what would make identification silently wrong:
 The CSV format: a header line, then one line per sample; comma-separated (no quoting),
 SI units, columns in any order, blank lines and lines starting with ``#`` skipped, UTF-8,
 every line ending with a line break, none longer than
-:data:`~stewart_pin.formats.csv_tables.MAX_LINE_LENGTH` bytes and no NUL byte (a binary
+:data:`~stewart_pin.formats.csv_tables.MAX_LINE_LENGTH` characters and no NUL byte (a binary
 file is refused at its first line, not read whole):
 
 - ``t`` [s], strictly increasing, uniformly sampled;
