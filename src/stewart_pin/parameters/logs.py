@@ -306,7 +306,6 @@ class _Samples:
 
     def __init__(self, tracker: bool) -> None:
         self.width = len(LOG_COLUMNS) + (len(TRACKER_COLUMNS) if tracker else 0)
-        self.tracker = tracker
         self.n = 0
         self.buffer = array("d")
         self.buffer_lines = array("q")
