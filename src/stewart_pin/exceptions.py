@@ -37,6 +37,7 @@ expected, what was received and how to fix it::
     ├── ConvergenceError (RuntimeError)      an iteration that did not converge
     ├── SimulationError                      a simulation stopped before its end
     ├── IdentificationError (ValueError)     measurements that identify nothing
+    │   └── PhysicalFitError                 no realisable robot explains the data
     ├── CompilationError (RuntimeError)      the C library not built or loaded
     │   └── UnsafeCacheError                 a cache others could write to
     ├── ViewerError (RuntimeError)           the 3-D viewer's server did not start
@@ -49,6 +50,9 @@ expected, what was received and how to fix it::
     ├── BaseParameterWarning                 base parameters that barely act
     ├── ApproximationWarning                 an export that changes the robot
     └── ModelImportWarning                   an import that corrected or ignored something
+
+    KeyboardInterrupt
+    └── SimulationInterrupted                Ctrl-C during a simulation, with its states
 """
 
 from __future__ import annotations
@@ -314,6 +318,22 @@ class SimulationError(StewartPinError):
         self.time, self.result = time, result
 
 
+class SimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C (``KeyboardInterrupt``) during a simulation, with what was simulated until
+    then. A ``KeyboardInterrupt``, not a :class:`StewartPinError`: ``except Exception``
+    and ``except StewartPinError`` let it through, as any interrupt.
+
+    Attributes:
+        time: the simulated time [s] of the last accepted state.
+        result: the ``SimulationResult`` up to and including that state (accepted
+            states only; empty when the interrupt came before the first).
+    """
+
+    def __init__(self, time: float, result: object) -> None:
+        super().__init__(f"simulation interrupted at t = {time:.9g} s (simulated time)")
+        self.time, self.result = time, result
+
+
 # ---------------------------------------------------------------------------- identification
 class IdentificationError(StewartPinError, ValueError):
     """Measurements that cannot identify the base parameters: too few equations, or a
@@ -329,6 +349,36 @@ class IdentificationError(StewartPinError, ValueError):
     ) -> None:
         super().__init__(message)
         self.rank, self.n_parameters = rank, n_parameters
+
+
+class PhysicalFitError(IdentificationError):
+    """A physically consistent fit whose residual is not credible: far worse than least
+    squares (more than :data:`~stewart_pin.parameters.physical.MAX_FIT_LOSS` of its
+    residual in the noise's units) and losing a large part of the efforts (more than
+    :data:`~stewart_pin.parameters.physical.MAX_SIGNAL_LOSS` of their weighted energy):
+    no realisable robot explains the data (efforts of the wrong sign, a wrong robot, a
+    wrong unit), so none is written.
+
+    Attributes:
+        fit_loss: ``rss / rss_least_squares - 1``.
+        signal_loss: ``(rss - rss_least_squares) / |W y|^2``, the fraction of the
+            weighted efforts' energy the physical fit misses beyond least squares.
+        mahalanobis: the distance of the physical fit from the estimate in units of its
+            covariance.
+        solver: the solver and its status.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        fit_loss: float,
+        signal_loss: float,
+        mahalanobis: float,
+        solver: str,
+    ) -> None:
+        super().__init__(message)
+        self.fit_loss, self.signal_loss = fit_loss, signal_loss
+        self.mahalanobis, self.solver = mahalanobis, solver
 
 
 # ---------------------------------------------------------------------------- codegen, viz

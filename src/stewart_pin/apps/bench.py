@@ -46,7 +46,7 @@ import pinocchio as pin
 
 import stewart_pin
 from stewart_pin import StewartRobot
-from stewart_pin._argtypes import positive_int
+from stewart_pin._argtypes import BYTES_PER_STATE, count_within_memory, positive_int
 from stewart_pin._io import write_text_atomic
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
@@ -317,7 +317,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=ARCHITECTURES,
         help="comma-separated presets of the default-backend rows (one per architecture)",
     )
-    parser.add_argument("--batch", type=positive_int, default=10_000, help="states per batch")
+    parser.add_argument(
+        "--batch",
+        type=count_within_memory(BYTES_PER_STATE, "state"),
+        default=10_000,
+        help="states per batch (at most what this machine's memory holds, about 8 kB each)",
+    )
     parser.add_argument(
         "--repeats", type=positive_int, default=300, help="timed calls (the median is shown)"
     )

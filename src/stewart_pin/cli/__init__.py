@@ -5,8 +5,9 @@ in the base frame F0; a twist [v, w] is the velocity of the origin of Fp and the
 velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i [N] is the
 force of actuator i, positive when it extends the leg.
 
-Bad inputs exit with code 2 and a one-line message (``--debug`` shows the traceback).
-Every ``--help`` shows the options' defaults.
+Bad inputs exit with code 2 and a one-line message (``--debug`` shows the traceback);
+Ctrl-C with code 130 and one line (``simulate`` saves the states so far first). Every
+``--help`` shows the options' defaults.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from stewart_pin.cli import (
     parameters_cmds,
 )
 from stewart_pin.exceptions import StewartPinError
+
+#: The exit code after Ctrl-C (128 + SIGINT, as a shell reports it).
+INTERRUPTED = 130
 
 
 class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -82,6 +86,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = " ".join(str(e).split())  # one line
         print(f"stewart-pin {args.command}: error: {message}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as e:  # Ctrl-C: one line, the shell's code for SIGINT
+        if args.debug:
+            raise
+        note = " ".join(str(e).split()) or "interrupted"
+        print(f"stewart-pin {args.command}: {note}", file=sys.stderr)
+        return INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from stewart_pin._argtypes import BYTES_PER_STATE, count_within_memory
 from stewart_pin.check.constrained_dynamics import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.cli._common import (
     add_payload_args,
@@ -15,7 +16,6 @@ from stewart_pin.cli._common import (
     non_negative_finite_float,
     non_negative_int,
     payload_robot_from_args,
-    positive_int,
     report_stream,
     robot_from_args,
     written,
@@ -114,7 +114,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_robot_args(p)
     add_payload_args(p)
-    p.add_argument("--states", type=positive_int, default=200, help="random states")
+    p.add_argument(
+        "--states",
+        type=count_within_memory(BYTES_PER_STATE, "state"),
+        default=200,
+        help="random states (at most what this machine's memory holds, about 8 kB each)",
+    )
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the states")
     p.add_argument(
         "--translation",

@@ -20,7 +20,7 @@ from stewart_pin.cli._common import (
     progress_bar,
 )
 from stewart_pin.cli._common import robot_from_args as _robot
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, PhysicalFitError
 
 
 def _outputs(args: argparse.Namespace, inputs: list[str | None]) -> dict[str, Path | None]:
@@ -94,7 +94,11 @@ def run(args: argparse.Namespace) -> int:
     if args.physical:
         from stewart_pin.parameters.physical import physically_consistent
 
-        physical = physically_consistent(robot, ident)
+        try:
+            physical = physically_consistent(robot, ident)
+        except PhysicalFitError:  # the least-squares report still shown; nothing written
+            print("\n".join(lines))
+            raise
         lines += [
             "physically consistent estimate (every body's pseudo-inertia positive definite, "
             f"joint terms non-negative; solver {physical.solver}): weighted residual "

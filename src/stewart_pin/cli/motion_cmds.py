@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from stewart_pin._argtypes import BYTES_PER_ANIMATION_SECOND, duration_within_memory
 from stewart_pin.cli._common import (
     PRESET_HELP,
     add_payload_args,
@@ -27,7 +28,12 @@ from stewart_pin.cli._common import (
     robot_from_args,
     written,
 )
-from stewart_pin.exceptions import InputError, SimulationError, StewartPinError
+from stewart_pin.exceptions import (
+    InputError,
+    SimulationError,
+    SimulationInterrupted,
+    StewartPinError,
+)
 from stewart_pin.motion.trajectories import MOTION_KINDS
 
 if TYPE_CHECKING:  # imported where used, to keep the command quick to start
@@ -41,25 +47,36 @@ def partial_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.partial{out.suffix}")
 
 
+def _save_states(result: SimulationResult, out: Path) -> str:
+    """Save a run's accepted states ``result`` beside ``out`` (:func:`partial_path`,
+    atomically as every write); what was done, as a clause of the one-line message."""
+    if len(result.t) == 0:
+        return "no state was accepted, nothing saved"
+    if is_stdout(out):
+        return "nothing written to standard output (-o -): give a file name to keep them"
+    path = partial_path(out)
+    try:
+        result.save(path)
+    except (OSError, StewartPinError) as e:
+        return f"the partial result could not be saved to {path}: {e}"
+    return (
+        f"partial result ({len(result.t)} samples, t = {result.t[0]:g} to "
+        f"{result.t[-1]:.6g} s) saved to {path}"
+    )
+
+
 def _save_partial(error: SimulationError, out: Path) -> SimulationError:
     """Save a stopped run's accepted states beside ``out``; the error to report, naming
     the file (one line)."""
     result = cast("SimulationResult", error.result)  # simulate attaches its partial result
-    if len(result.t) == 0:
-        note = "no state was accepted, nothing saved"
-    elif is_stdout(out):
-        note = "nothing written to standard output (-o -): give a file name to keep them"
-    else:
-        path = partial_path(out)
-        try:
-            result.save(path)
-            note = (
-                f"partial result ({len(result.t)} samples, t = {result.t[0]:g} to "
-                f"{result.t[-1]:.6g} s) saved to {path}"
-            )
-        except (OSError, StewartPinError) as e:
-            note = f"the partial result could not be saved to {path}: {e}"
-    return SimulationError(f"{error}; {note}", error.time, result)
+    return SimulationError(f"{error}; {_save_states(result, out)}", error.time, result)
+
+
+def _save_interrupted(interrupt: SimulationInterrupted, out: Path) -> KeyboardInterrupt:
+    """Save an interrupted run's accepted states beside ``out``; the interrupt to raise
+    again, naming the file (the command line prints it, one line, and exits with 130)."""
+    result = cast("SimulationResult", interrupt.result)
+    return KeyboardInterrupt(f"{interrupt}; {_save_states(result, out)}")
 
 
 def _simulate(args: argparse.Namespace) -> int:
@@ -114,6 +131,8 @@ def _simulate(args: argparse.Namespace) -> int:
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e
+    except SimulationInterrupted as e:
+        raise _save_interrupted(e, out) from e
     with written(out, "simulation.csv") as path:
         result.save(path)
     lines = [f"simulated {duration:g} s of '{robot.name}' ({args.motion}, {args.method}): {out}"]
@@ -209,6 +228,8 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e
+    except SimulationInterrupted as e:
+        raise _save_interrupted(e, out) from e
     sim.save(out)
     fraction, period = _sweep(args)
     lines = [
@@ -431,7 +452,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_robot_args(p)
     p.add_argument("--result", help="a simulation result (.npz or .csv) to play")
     p.add_argument("--motion", choices=MOTION_KINDS, default="sinusoid", help="else this motion")
-    p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
+    p.add_argument(
+        "--duration",
+        type=duration_within_memory(BYTES_PER_ANIMATION_SECOND),
+        default=4.0,
+        help="[s] of the motion (at most what this machine's memory holds, about 0.7 MB per s)",
+    )
     p.add_argument("--fps", type=positive_finite_float, default=30.0, help="key frames per second")
     p.add_argument(
         "-o",
@@ -451,7 +477,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="none",
         help="else this motion (none: the robot at rest)",
     )
-    p.add_argument("--duration", type=positive_finite_float, default=4.0, help="[s] of the motion")
+    p.add_argument(
+        "--duration",
+        type=duration_within_memory(BYTES_PER_ANIMATION_SECOND),
+        default=4.0,
+        help="[s] of the motion (at most what this machine's memory holds, about 0.7 MB per s)",
+    )
     p.add_argument("--open", action="store_true", help="open the page in the web browser")
     p.add_argument("--no-wait", action="store_true", help="show, then exit (no waiting)")
     add_payload_motion_args(p, drawing=True)

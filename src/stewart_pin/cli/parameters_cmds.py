@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from stewart_pin._argtypes import BYTES_PER_REGRESSOR_STATE, count_within_memory
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import file_in_folder
 from stewart_pin.cli import identify_log
@@ -187,7 +188,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="the paper's grouping rules (analytic) or QR of the stacked regressor",
     )
     p.add_argument(
-        "--states", type=positive_int, default=60, help="random states stacked for the rank"
+        "--states",
+        type=count_within_memory(BYTES_PER_REGRESSOR_STATE, "state"),
+        default=60,
+        help="random states stacked for the rank (at most what this machine's memory holds, "
+        "about 36 kB each)",
     )
     p.add_argument(
         "--threshold",
@@ -219,7 +224,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--seed", type=non_negative_int, default=0, help="seed of the trajectory and the noise"
     )
-    p.add_argument("--samples", type=positive_int, default=200, help="samples of the trajectory")
+    p.add_argument(
+        "--samples",
+        type=count_within_memory(BYTES_PER_REGRESSOR_STATE, "sample"),
+        default=200,
+        help="samples of the trajectory (at most what this machine's memory holds, about "
+        "36 kB each)",
+    )
     p.add_argument("--duration", type=positive_finite_float, help="[s] (default: one period)")
     p.add_argument("--harmonics", type=positive_int, default=5, help="Fourier harmonics per axis")
     p.add_argument(

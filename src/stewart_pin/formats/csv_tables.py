@@ -5,7 +5,13 @@ sample, SI units, numbers written with Python's ``repr`` so that reading them ba
 the same floats. Lines starting with ``#`` and blank lines are skipped. The file is UTF-8
 (a byte-order mark is allowed) and every line, the last one included, ends with a line
 break: a file whose last line has none may have been cut while it was written, and is
-refused (if it is complete, add the line break). Files are written atomically (a
+refused (if it is complete, add the line break). A line longer than
+:data:`MAX_LINE_LENGTH` characters, or a NUL byte (a binary file), is refused before the
+rest is read. A number is what CSV tools write: ASCII decimal or scientific notation
+(``-1.5``, ``2e-3``, ``.5``, ``1E+06``), optionally between ASCII spaces; no digit
+separators (``1_000``, ``1,000``), no other scripts' digits, no other white space (a tab,
+a non-breaking space); ``nan`` and ``inf`` are read as numbers and refused as non-finite
+(:func:`parse_number`). Files are written atomically (a
 temporary file in the folder, renamed into place). The columns:
 
 - :data:`STATE_COLUMNS`: ``t`` [s]; ``x y z``, the position of O_p in F0 [m];
@@ -20,11 +26,11 @@ temporary file in the folder, renamed into place). The columns:
 from __future__ import annotations
 
 import csv
-import io
 import math
+import re
 import zipfile
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +67,66 @@ LENGTH_SLICE = slice(FORCE_SLICE.stop, FORCE_SLICE.stop + len(LENGTH_COLUMNS))
 
 #: Tolerance on ``|q| - 1`` of a quaternion read from a file (renormalised within it).
 QUATERNION_TOLERANCE = 1e-6
+
+#: The largest magnitude of a measured value (a position, velocity, acceleration [SI], an
+#: effort [N or N m]) in a log or a measurement CSV: far past any hexapod's, and far
+#: enough inside double precision that the regressor's products and squares stay exact in
+#: their relative precision (unchecked, an effort of 1e200 N made the regressor lose rank
+#: and 1e308 N made its SVD fail).
+MAX_MAGNITUDE = 1e9
+
+#: The longest line a CSV reader accepts [characters]: a row of 32 numbers written with
+#: ``repr`` takes under 800; a file with no line break (a binary file, ``/dev/zero``)
+#: would otherwise be read as one endless line.
+MAX_LINE_LENGTH = 65536
+
+#: A number as CSV tools write it (ASCII only, optional surrounding ASCII spaces): decimal
+#: or scientific notation, or ``nan`` / ``inf`` / ``infinity`` with an optional sign (read,
+#: then refused as non-finite by the readers).
+NUMBER = re.compile(
+    r" *[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf|infinity) *",
+    re.ASCII | re.IGNORECASE,
+)
+
+
+def parse_number(text: str) -> float | None:
+    """The float of one CSV field, ``None`` unless it is a :data:`NUMBER` (Python's
+    ``float`` alone would also take ``1_000``, Arabic-Indic digits and non-breaking
+    spaces)."""
+    return float(text) if NUMBER.fullmatch(text) is not None else None
+
+
+def iter_lines(path: Path, error: Callable[[str, int], Exception]) -> Iterator[tuple[int, str]]:
+    """``(line number, line)`` of a UTF-8 text file (optional byte-order mark), line breaks
+    kept (``\\n``, ``\\r\\n`` or ``\\r``), streamed: a line longer than
+    :data:`MAX_LINE_LENGTH` characters (no line break: a binary file, ``/dev/zero``), a
+    NUL byte (a binary file) or bytes that are not UTF-8 raise ``error(message, line)`` at
+    that line, before the rest of the file is read."""
+    with open(path, encoding="utf-8-sig", errors="surrogateescape", newline="") as f:
+        k = 0
+        while True:
+            line = f.readline(MAX_LINE_LENGTH + 1)
+            if not line:
+                return
+            k += 1
+            if len(line) > MAX_LINE_LENGTH:
+                raise error(
+                    f"{path}, line {k}: a line longer than {MAX_LINE_LENGTH} characters (no "
+                    "line break): not a CSV text file (a binary file?)",
+                    k,
+                )
+            if "\0" in line:
+                raise error(f"{path}, line {k}: a NUL byte: a binary file, not CSV text", k)
+            try:
+                line.encode("utf-8")  # bytes that were not UTF-8 are lone surrogates here
+            except UnicodeEncodeError as e:
+                raise error(
+                    f"{path}, line {k}: not UTF-8 text (byte "
+                    f"{ord(line[e.start]) - 0xDC00:#04x} at character {e.start}); save the "
+                    "file as UTF-8",
+                    k,
+                ) from None
+            yield k, line
 
 
 #: Conversions between 0Rp and the ``qx qy qz qw`` columns (re-exported names).
@@ -101,23 +167,28 @@ def write_csv(path: str | Path, columns: Sequence[str], table: np.ndarray) -> Pa
     return path
 
 
-def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.ndarray:
+def read_csv(
+    path: str | Path,
+    columns: Sequence[str],
+    min_rows: int = 1,
+    max_magnitude: float | None = None,
+) -> np.ndarray:
     """Read a table holding exactly ``columns`` (any order): rows (N, len(columns)) in the
-    order of ``columns``.
+    order of ``columns``; with ``max_magnitude``, every value but the time ``t`` at most
+    that in magnitude (measurements: :data:`MAX_MAGNITUDE`).
 
     Raises:
         FileFormatError: text that is not UTF-8, a last line without its line break (a
             file cut short), a missing, unknown or repeated column, a row with the wrong
-            number of fields, a non-numeric or non-finite value, a non-unit quaternion
+            number of fields, a non-numeric or non-finite value, a value beyond
+            ``max_magnitude``, a non-unit quaternion
             (when the table has ``qx..qw``), a time ``t`` that does not increase, or fewer
             than ``min_rows`` rows; the message names the line.
         OSError: the file cannot be read.
     """
     path = Path(path)
     columns = tuple(columns)
-    lines = [
-        (k, line) for k, line in enumerate(_read_lines(path), 1) if line.strip() and line[0] != "#"
-    ]
+    lines = [(k, line) for k, line in _read_lines(path) if line.strip() and line[0] != "#"]
     # A last line without its line break: the file may have been cut while written.
     cut = bool(lines) and not lines[-1][1].endswith(("\n", "\r"))
     if not lines:
@@ -149,16 +220,22 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
                 f"header column){hint}"
             )
         for c, j in enumerate(order):
-            text = fields[j].strip()
-            try:
-                value = float(text)
-            except ValueError:
+            text = fields[j].strip(" ")
+            value = parse_number(text)
+            if value is None:
                 raise FileFormatError(
-                    f"{path}, line {k}, column '{columns[c]}': {text!r} is not a number"
-                ) from None
+                    f"{path}, line {k}, column '{columns[c]}': {text!r} is not a number "
+                    "(ASCII decimal or scientific notation, e.g. -1.5 or 2e-3, nothing else)"
+                )
             if not math.isfinite(value):
                 raise FileFormatError(
                     f"{path}, line {k}, column '{columns[c]}': non-finite value {text!r}"
+                )
+            if max_magnitude is not None and abs(value) > max_magnitude and columns[c] != "t":
+                raise FileFormatError(
+                    f"{path}, line {k}, column '{columns[c]}': {value:.6g} is beyond "
+                    f"{max_magnitude:g} (SI units): no robot measures that; a corrupt sample "
+                    "or a wrong unit (drop or repair the sample)"
                 )
             rows[r, c] = value
     if cut:
@@ -198,18 +275,9 @@ def read_csv(path: str | Path, columns: Sequence[str], min_rows: int = 1) -> np.
 _CUT_HINT = ": the file ends inside this line, it was probably cut short while being written"
 
 
-def _read_lines(path: Path) -> list[str]:
-    """The lines of a UTF-8 file (optional byte-order mark), line breaks kept."""
-    data = path.read_bytes()
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        line = data.count(b"\n", 0, e.start) + 1
-        raise FileFormatError(
-            f"{path}, line {line}: not UTF-8 text ({e.reason} at byte {e.start}); save the "
-            "table as UTF-8"
-        ) from None
-    return list(io.StringIO(text, newline=""))
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    """``(line number, line)`` of a table's file (:func:`iter_lines`)."""
+    return list(iter_lines(path, lambda message, line: FileFormatError(message)))
 
 
 #: Tolerance on ``max |R^T R - I|`` and on the last row of a pose read from an ``.npz``.

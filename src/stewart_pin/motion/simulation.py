@@ -49,6 +49,7 @@ from stewart_pin.exceptions import (
     InputError,
     JointLimitError,
     SimulationError,
+    SimulationInterrupted,
     SingularityError,
     StewartPinError,
     WorkspaceError,
@@ -418,6 +419,8 @@ def simulate(
             located to the step resolution), a leg singularity, the adaptive step falling
             below the minimum, more than :data:`MAX_STEPS` accepted steps, or ``forces`` /
             ``progress`` raising.
+        SimulationInterrupted: a ``KeyboardInterrupt`` (Ctrl-C, or raised by ``forces``
+            or ``progress``) during the run; ``.result`` holds the accepted states.
     """
     duration = check_scalar(duration, "duration", positive=True, unit="s")
     dt = check_scalar(dt, "dt", positive=True, unit="s")
@@ -621,6 +624,12 @@ class _Run:
             raise self.stop(str(e), self._time()) from e
         except Exception as e:  # not a named error: keep what was simulated all the same
             raise self.stop(f"{type(e).__name__}: {e}", self._time()) from e
+        except KeyboardInterrupt as e:  # Ctrl-C: still an interrupt, with the states so far
+            if isinstance(e, SimulationInterrupted):
+                raise
+            if self.last is not None:
+                self.record(self.last, final=True)
+            raise SimulationInterrupted(self._time(), self.result()) from e
         return self.result()
 
     def _time(self) -> float:

@@ -50,6 +50,7 @@ from stewart_pin.exceptions import (
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     FORCE_SLICE,
+    MAX_MAGNITUDE,
     STATE_COLUMNS,
     read_csv,
     state_table,
@@ -538,12 +539,14 @@ def read_measurements_csv(path: str | Path, min_rows: int = 1) -> Measurements:
 
     Raises:
         FileFormatError: a missing, unknown or repeated column, a row with the wrong number
-            of fields, a non-numeric or non-finite value, a non-unit quaternion, a time
+            of fields, a non-numeric or non-finite value, a value beyond
+            :data:`~stewart_pin.formats.csv_tables.MAX_MAGNITUDE` (1e9, SI units), a
+            non-unit quaternion, a time
             that does not increase, or fewer than ``min_rows`` rows; the message names the
             line.
         OSError: the file cannot be read.
     """
-    rows = read_csv(path, CSV_COLUMNS, min_rows)
+    rows = read_csv(path, CSV_COLUMNS, min_rows, max_magnitude=MAX_MAGNITUDE)
     try:
         return Measurements(*states_from_table(rows), rows[:, FORCE_SLICE])
     except InputError as e:  # pragma: no cover - read_csv's checks cover the format

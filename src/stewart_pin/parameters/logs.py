@@ -7,8 +7,11 @@ CSV file (format below and in ``docs/identification.md``) and checks it
 (:func:`check_log`), raising a named :class:`~stewart_pin.exceptions.LogError` with the
 line for what would make identification silently wrong:
 
-- :class:`~stewart_pin.exceptions.LogValueError`: a field that is not a number, or not
-  finite; a tracker quaternion that is not unit;
+- :class:`~stewart_pin.exceptions.LogValueError`: a field that is not a number as CSV
+  tools write it (ASCII decimal or scientific notation between optional ASCII spaces:
+  no ``1_000``, no other scripts' digits, no non-breaking space), or not finite (``nan``,
+  ``inf``); a position, effort or tracker position beyond :data:`MAX_MAGNITUDE` (1e9 in
+  SI units); a tracker quaternion that is not unit;
 - :class:`~stewart_pin.exceptions.LogTimeError`: a time that does not increase, or a
   step below ``min_step`` (0.5) times the median step: the filters take the samples as
   uniformly spaced at the median step;
@@ -23,7 +26,9 @@ line for what would make identification silently wrong:
 
 The CSV format: a header line, then one line per sample; comma-separated (no quoting),
 SI units, columns in any order, blank lines and lines starting with ``#`` skipped, UTF-8,
-every line ending with a line break:
+every line ending with a line break, none longer than
+:data:`~stewart_pin.formats.csv_tables.MAX_LINE_LENGTH` characters and no NUL byte (a binary
+file is refused at its first line, not read whole):
 
 - ``t`` [s], strictly increasing, uniformly sampled;
 - ``l1 .. l6``: the actuated joint positions [m or rad] (leg lengths for UPS, crank
@@ -45,13 +50,18 @@ taking the held value as the sample would put the efforts half a sample ahead of
 motion: a bias of ``step / 2`` times the efforts' rate of change, 3 % of them for 5 Hz
 content at 500 Hz).
 
-The reader streams the file: memory grows with the samples kept (13 floats each), not
-with the text.
+The reader streams the file: memory grows with the samples kept, not with the text. The
+log keeps 13 floats and the line number per sample (112 bytes; the tracker adds 16
+floats for its 4x4 pose); reading peaks at about 1.25 times that (the arrays grow in
+place by a quarter) plus column-sized temporaries: 136 bytes per sample measured by
+``scripts/bench_log_memory.py`` (200 000 samples, ``tracemalloc``; 340 before the
+arrays were grown in place).
 """
 
 from __future__ import annotations
 
 import math
+import re
 from array import array
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,8 +82,12 @@ from stewart_pin.exceptions import (
 from stewart_pin.formats.csv_tables import (
     FORCE_COLUMNS,
     LENGTH_COLUMNS,
+    MAX_MAGNITUDE,
+    NUMBER,
     QUATERNION_TOLERANCE,
     STATE_COLUMNS,
+    iter_lines,
+    parse_number,
     quaternions_from_rotations,
     rotations_from_quaternions,
 )
@@ -141,6 +155,36 @@ class ActuatorLog:
         if self.lines is not None:
             values["lines"] = np.asarray(self.lines, dtype=np.int64).reshape(n)
         freeze_fields(self, values)
+
+    @classmethod
+    def _of_checked_arrays(
+        cls,
+        times: np.ndarray,
+        positions: np.ndarray,
+        efforts: np.ndarray,
+        tracker_poses: np.ndarray | None,
+        lines: np.ndarray,
+        source: str,
+        effort_hold: bool,
+    ) -> ActuatorLog:
+        """A log of arrays :func:`read_log` built and checked (float64, finite, of the
+        right shapes), kept as they are (made read-only, not copied: a long log's
+        numbers are held once)."""
+        log = cls.__new__(cls)
+        fields = {
+            "times": times,
+            "positions": positions,
+            "efforts": efforts,
+            "tracker_poses": tracker_poses,
+            "lines": lines,
+            "source": source,
+            "effort_hold": bool(effort_hold),
+        }
+        for key, value in fields.items():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+            object.__setattr__(log, key, value)
+        return log
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
@@ -250,6 +294,68 @@ def _sample_error(
     )
 
 
+class _Samples:
+    """The numbers of the rows read so far, kept in the log's own arrays: ``times`` (n,),
+    ``positions`` and ``efforts`` (n, 6), the tracker's seven columns (n, 7) if any and
+    the line numbers (n,), grown in place (``ndarray.resize``, a ``realloc``) by a
+    quarter when full, from a buffer of :data:`BLOCK` rows: the file's numbers are held
+    once (13 floats and a line number per sample), never copied into a second table."""
+
+    #: Rows parsed into the buffer before they are moved into the arrays.
+    BLOCK = 4096
+
+    def __init__(self, tracker: bool) -> None:
+        self.width = len(LOG_COLUMNS) + (len(TRACKER_COLUMNS) if tracker else 0)
+        self.n = 0
+        self.buffer = array("d")
+        self.buffer_lines = array("q")
+        cap = self.BLOCK
+        self.times = np.empty(cap)
+        self.positions = np.empty((cap, 6))
+        self.efforts = np.empty((cap, 6))
+        self.track = np.empty((cap, len(TRACKER_COLUMNS))) if tracker else None
+        self.lines = np.empty(cap, dtype=np.int64)
+
+    def append(self, row: list[float], line: int) -> None:
+        self.buffer.extend(row)
+        self.buffer_lines.append(line)
+        if len(self.buffer_lines) == self.BLOCK:
+            self._flush()
+
+    def _resize(self, cap: int) -> None:
+        for a in (self.times, self.positions, self.efforts, self.track, self.lines):
+            if a is not None:
+                a.resize((cap, *a.shape[1:]), refcheck=False)
+
+    def _flush(self) -> None:
+        m = len(self.buffer_lines)
+        if m == 0:
+            return
+        if self.n + m > len(self.times):
+            self._resize(max(self.n + m, len(self.times) + len(self.times) // 4))
+        block = np.frombuffer(self.buffer, dtype=float).reshape(m, self.width)
+        rows = slice(self.n, self.n + m)
+        self.times[rows] = block[:, 0]
+        self.positions[rows] = block[:, 1:7]
+        self.efforts[rows] = block[:, 7:13]
+        if self.track is not None:
+            self.track[rows] = block[:, 13:20]
+        self.lines[rows] = np.frombuffer(self.buffer_lines, dtype=np.int64)
+        del block
+        self.n += m
+        self.buffer = array("d")
+        self.buffer_lines = array("q")
+
+    def arrays(
+        self,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+        """``(times, positions, efforts, tracker columns or None, lines)``, n rows each
+        (the arrays shrunk in place to the rows read)."""
+        self._flush()
+        self._resize(self.n)
+        return self.times, self.positions, self.efforts, self.track, self.lines
+
+
 def read_log(
     path: str | Path,
     robot: RobotLike | None = None,
@@ -284,47 +390,41 @@ def read_log(
     columns: list[int] = []
     n_fields = 0
     tracker = False
-    data = array("d")
-    lines = array("q")
+    store: _Samples | None = None
     last_line, last_text, last_break = 0, "", True
     hold = False
-    k = 0
-    try:
-        with open(path, encoding="utf-8-sig", newline="") as f:
-            for k, text in enumerate(f, 1):
-                if not text.strip() or text[0] == "#":
-                    if header is None and _directive(text) is not None:
-                        hold = _directive(text) == "hold"
-                    continue
-                last_line, last_text = k, text
-                last_break = text.endswith(("\n", "\r"))
-                fields = text.rstrip("\r\n").split(",")
-                if header is None:
-                    header = [h.strip() for h in fields]
-                    columns, tracker = _header(path, k, header)
-                    n_fields = len(header)
-                    continue
-                if len(fields) != n_fields:
-                    hint = "" if last_break else _CUT_HINT
-                    raise LogError(
-                        _error_at(
-                            path,
-                            k,
-                            f"{len(fields)} fields, expected {n_fields} (one per header column)"
-                            + hint,
-                        ),
-                        line=k,
-                    )
-                try:
-                    data.extend([float(fields[c]) for c in columns])
-                except ValueError:
-                    _raise_bad_field(path, k, fields, columns, header)
-                lines.append(k)
-    except UnicodeDecodeError as e:
-        raise LogError(
-            f"{path}, line {k + 1}: not UTF-8 text ({e.reason}); save the log as UTF-8",
-            line=k + 1,
-        ) from None
+    for k, text in iter_lines(path, lambda message, line: LogError(message, line=line)):
+        if not text.strip() or text[0] == "#":
+            if header is None and _directive(text) is not None:
+                hold = _directive(text) == "hold"
+            continue
+        last_line, last_text = k, text
+        last_break = text.endswith(("\n", "\r"))
+        fields = text.rstrip("\r\n").split(",")
+        if header is None:
+            header = [h.strip() for h in fields]
+            columns, tracker = _header(path, k, header)
+            n_fields = len(header)
+            store = _Samples(tracker)
+            continue
+        if len(fields) != n_fields:
+            hint = "" if last_break else _CUT_HINT
+            raise LogError(
+                _error_at(
+                    path,
+                    k,
+                    f"{len(fields)} fields, expected {n_fields} (one per header column)" + hint,
+                ),
+                line=k,
+            )
+        if _PLAIN_ROW.fullmatch(text) is None:  # letters, other scripts, other spaces
+            _check_fields(path, k, fields, columns, header)
+        try:
+            row = [float(fields[c]) for c in columns]
+        except ValueError:
+            _raise_bad_field(path, k, fields, columns, header)
+        assert store is not None  # set with the header
+        store.append(row, k)
     if header is None:
         raise LogError(f"{path}: no header line; expected {','.join(LOG_COLUMNS)}")
     if not last_break:
@@ -335,32 +435,37 @@ def read_log(
             "complete)",
             line=last_line,
         )
-    width = len(columns)
-    table = np.frombuffer(data, dtype=float).reshape(-1, width)
-    line_numbers = np.frombuffer(lines, dtype=np.int64)
+    assert store is not None  # set with the header
+    times, positions, efforts, track, line_numbers = store.arrays()
     names = [header[c] for c in columns]
-    bad = np.argwhere(~np.isfinite(table))
-    if bad.size:
-        r, c = (int(v) for v in bad[0])
-        raise LogValueError(
-            _error_at(
-                path,
-                int(line_numbers[r]),
-                f"column '{names[c]}': non-finite value "
-                f"{table[r, c]!r}; a log holds finite numbers (drop or repair the sample)",
-            ),
-            line=int(line_numbers[r]),
-            column=names[c],
-            value=float(table[r, c]),
-        )
-    if table.shape[0] < min_rows:
+    blocks = [(times[:, None], names[:1]), (positions, names[1:7]), (efforts, names[7:13])]
+    if track is not None:
+        blocks.append((track, names[13:20]))
+    for values, block_names in blocks:  # column by column: a small temporary
+        for c in range(values.shape[1]):
+            finite = np.isfinite(values[:, c])
+            if finite.all():
+                continue
+            r = int(np.argmin(finite))
+            raise LogValueError(
+                _error_at(
+                    path,
+                    int(line_numbers[r]),
+                    f"column '{block_names[c]}': non-finite value {float(values[r, c])!r}; "
+                    "a log holds finite numbers (drop or repair the sample)",
+                ),
+                line=int(line_numbers[r]),
+                column=block_names[c],
+                value=float(values[r, c]),
+            )
+    if len(times) < min_rows:
         raise LogError(
-            f"{path}: {table.shape[0]} sample(s), at least {min_rows} needed",
+            f"{path}: {len(times)} sample(s), at least {min_rows} needed",
             line=last_line or None,
         )
     poses = None
-    if tracker:
-        quat = table[:, 16:20]
+    if track is not None:
+        quat = track[:, 3:7]
         norms = np.linalg.norm(quat, axis=1)
         off = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
         if off.size:
@@ -377,11 +482,11 @@ def read_log(
                 column="qw",
                 value=float(norms[r]),
             )
-        poses = np.tile(np.eye(4), (table.shape[0], 1, 1))
-        poses[:, :3, 3] = table[:, 13:16]
+        poses = np.tile(np.eye(4), (len(times), 1, 1))
+        poses[:, :3, 3] = track[:, 0:3]
         poses[:, :3, :3] = rotations_from_quaternions(quat / norms[:, None])
-    log = ActuatorLog(
-        table[:, 0], table[:, 1:7], table[:, 7:13], poses, line_numbers.copy(), str(path), hold
+    log = ActuatorLog._of_checked_arrays(
+        times, positions, efforts, poses, line_numbers, str(path), hold
     )
     check_log(
         log,
@@ -453,21 +558,38 @@ def _header(path: Path, line: int, header: list[str]) -> tuple[list[int], bool]:
     return [header.index(c) for c in order], tracker
 
 
+#: A data row of plain numbers: ASCII digits, signs, points, exponents, commas and
+#: spaces only, and its line break (anything else is checked field by field,
+#: :func:`~stewart_pin.formats.csv_tables.parse_number`).
+_PLAIN_ROW = re.compile(r"[0-9eE+\-., ]*\r?\n?", re.ASCII)
+
+
+def _check_fields(
+    path: Path, line: int, fields: list[str], columns: list[int], header: list[str]
+) -> None:
+    """Raise :class:`LogValueError` for the first read field that is not a number as CSV
+    tools write it (:data:`~stewart_pin.formats.csv_tables.NUMBER`)."""
+    for c in columns:
+        if NUMBER.fullmatch(fields[c]) is None:
+            _raise_bad_field(path, line, fields, [c], header)
+
+
 def _raise_bad_field(
     path: Path, line: int, fields: list[str], columns: list[int], header: list[str]
 ) -> None:
     for c in columns:
-        try:
-            float(fields[c])
-        except ValueError:
+        if parse_number(fields[c]) is None:
             raise LogValueError(
                 _error_at(
-                    path, line, f"column '{header[c]}': {fields[c].strip()!r} is not a number"
+                    path,
+                    line,
+                    f"column '{header[c]}': {fields[c].strip(' ')!r} is not a number (ASCII "
+                    "decimal or scientific notation, e.g. -1.5 or 2e-3, nothing else)",
                 ),
                 line=line,
                 column=header[c],
-                value=fields[c].strip(),
-            ) from None
+                value=fields[c].strip(" "),
+            )
     raise AssertionError("unreachable")  # pragma: no cover
 
 
@@ -525,6 +647,7 @@ def check_log(
     t = log.times
     if len(log) < 2:
         raise LogTimeError(f"{src}: {len(log)} sample(s), at least 2 needed for a time step")
+    _check_magnitudes(log)
     dt = np.diff(t)
     bad = np.flatnonzero(~(dt > 0))
     if bad.size:
@@ -577,17 +700,50 @@ def check_log(
         _check_clipping(log, int(clip_run))
 
 
+def _check_magnitudes(log: ActuatorLog) -> None:
+    """Positions, efforts and tracker positions within :data:`MAX_MAGNITUDE` (a value far
+    past any actuator's is a corrupt sample or a wrong unit: unchecked, 1e200 N made the
+    regressor lose rank and 1e308 N made its SVD fail)."""
+    blocks = [
+        (log.positions, POSITION_COLUMNS, "position"),
+        (log.efforts, EFFORT_COLUMNS, "effort"),
+    ]
+    if log.tracker_poses is not None:
+        blocks.append((log.tracker_poses[:, :3, 3], TRACKER_COLUMNS[:3], "tracker position"))
+    found = []
+    for values, names, what in blocks:
+        for i in range(values.shape[1]):  # column by column: a small temporary
+            within = np.abs(values[:, i]) <= MAX_MAGNITUDE
+            if not within.all():
+                found.append((int(np.argmin(within)), i, values, names, what))
+    if found:
+        k, i, values, names, what = min(found, key=lambda f: (f[0], f[1]))
+        raise _sample_error(
+            LogValueError,
+            log,
+            k,
+            f"column '{names[i]}': {what} {float(values[k, i]):.6g} is beyond "
+            f"{MAX_MAGNITUDE:g} (SI units: m, rad, N, N m): no actuator reads that; a "
+            "corrupt sample or a wrong unit (drop or repair the sample)",
+            column=names[i],
+            value=float(values[k, i]),
+        )
+
+
 def _check_positions(log: ActuatorLog, robot: RobotLike) -> None:
     lower, upper, revolute = _limits_of(robot)
     q = log.positions
-    with np.errstate(invalid="ignore"):
-        wrapped = np.where(
-            revolute & np.isfinite(lower), lower + np.mod(q - lower, 2 * math.pi), q
-        )
-        outside = (wrapped < lower) | (wrapped > upper)
-    bad = np.argwhere(outside)
-    if bad.size:
-        k, i = (int(v) for v in bad[0])
+    found = []
+    for i in range(6):  # column by column: small temporaries
+        qi = q[:, i]
+        if revolute[i] and math.isfinite(lower[i]):
+            qi = lower[i] + np.mod(qi - lower[i], 2 * math.pi)
+        with np.errstate(invalid="ignore"):
+            inside = (qi >= lower[i]) & (qi <= upper[i])
+        if not inside.all():
+            found.append((int(np.argmin(inside)), i))
+    if found:
+        k, i = min(found)
         unit = "rad" if revolute[i] else "m"
         what = "stroke" if robot.description.is_ideal_ups else "joint limits"
         raise _sample_error(
@@ -606,9 +762,13 @@ def _check_effort_limits(log: ActuatorLog, effort_limits: Any) -> None:
     if isinstance(effort_limits, (int, float)) and not isinstance(effort_limits, bool):
         effort_limits = [float(effort_limits)] * 6
     limits = check_array(effort_limits, (6,), "effort_limits")
-    bad = np.argwhere(np.abs(log.efforts) >= limits)
-    if bad.size:
-        k, i = (int(v) for v in bad[0])
+    found = []
+    for i in range(6):  # column by column: a small temporary
+        below = np.abs(log.efforts[:, i]) < limits[i]
+        if not below.all():
+            found.append((int(np.argmin(below)), i))
+    if found:
+        k, i = min(found)
         raise _sample_error(
             LogSaturationError,
             log,
@@ -658,6 +818,7 @@ __all__ = [
     "EFFORT_COLUMNS",
     "LOG_COLUMNS",
     "MAX_GAP",
+    "MAX_MAGNITUDE",
     "MIN_STEP",
     "POSITION_COLUMNS",
     "TRACKER_COLUMNS",

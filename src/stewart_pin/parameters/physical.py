@@ -62,7 +62,12 @@ from stewart_pin.dynamics.regressor import (
     standard_parameters,
     with_standard_parameters,
 )
-from stewart_pin.exceptions import IdentificationError, InputError, StewartPinError
+from stewart_pin.exceptions import (
+    IdentificationError,
+    InputError,
+    PhysicalFitError,
+    StewartPinError,
+)
 from stewart_pin.parameters.base import BaseParameters
 from stewart_pin.protocols import RobotLike
 
@@ -92,6 +97,18 @@ PRIOR_FLOOR = 1e-12
 #: sizes].
 REST_RANGE_REVOLUTE = 2 * math.pi
 REST_RANGE_PRISMATIC = 10.0
+#: A physical fit is not credible (:class:`PhysicalFitError`) when both its weighted
+#: residual exceeds the least-squares one by more than this fraction of it (1: the
+#: residual sum of squares doubled; the least-squares residual per equation estimates the
+#: noise, so this is an increase of one noise variance per equation; the lab tests
+#: measure 0.36 to 0.43 with model and filter errors)...
+MAX_FIT_LOSS = 1.0
+#: ...and it misses more than this fraction of the weighted efforts' energy ``|W y|^2``
+#: beyond least squares (1e-4: an RMS effort error of 1 % of the efforts; this keeps
+#: noise-free data, whose least-squares residual is round-off, credible: they lose
+#: 5e-23; the lab tests lose 1e-5 to 2e-5, a log with negated efforts 3e-2, fitted by
+#: springs and offsets as far as they go).
+MAX_SIGNAL_LOSS = 1e-4
 
 
 def pseudo_inertia(params: Any) -> np.ndarray:
@@ -174,6 +191,10 @@ def physically_consistent(
         ImportError: cvxpy missing (install the ``ident`` extra).
         IdentificationError: the solver fails, or its answer does not pass the
             description's checks.
+        PhysicalFitError: the fit is not credible: its residual is more than
+            :data:`MAX_FIT_LOSS` over the least-squares one and it misses more than
+            :data:`MAX_SIGNAL_LOSS` of the efforts' weighted energy (e.g. efforts logged
+            with the wrong sign: no robot with positive masses makes them).
     """
     cp = _cvxpy()
     result = getattr(result, "result", result)  # a LogIdentification
@@ -353,6 +374,21 @@ def physically_consistent(
         mahal = float(d @ np.linalg.solve(result.covariance, d))
     except np.linalg.LinAlgError:
         mahal = math.inf
+    signal = sol.weighted_residual(np.zeros_like(x_ls))  # |W y|^2, the efforts' energy
+    signal_loss = (rss - rss_ls) / signal if signal > 0 else 0.0
+    if fit_loss > MAX_FIT_LOSS and signal_loss > MAX_SIGNAL_LOSS:
+        raise PhysicalFitError(
+            f"no physically consistent robot explains the data: the best one found "
+            f"({used}) leaves a weighted residual {fit_loss + 1:.4g} times the least-squares "
+            f"one (Mahalanobis distance {mahal:.4g} for {len(x_ls)} parameters) and misses "
+            f"{100 * signal_loss:.3g} % of the efforts' weighted energy (credible: at most "
+            f"{MAX_FIT_LOSS + 1:g} times and {100 * MAX_SIGNAL_LOSS:g} %); check the "
+            "efforts' sign and units, the column order and the robot description",
+            fit_loss,
+            signal_loss,
+            mahal,
+            used,
+        )
     eig = []
     for body, m0 in zip(groups.bodies, body_mass, strict=True):
         S = np.diag([1 / L, 1 / L, 1 / L, 1.0])
@@ -371,6 +407,8 @@ def physically_consistent(
 
 
 __all__ = [
+    "MAX_FIT_LOSS",
+    "MAX_SIGNAL_LOSS",
     "PHYSICAL_MARGIN",
     "PhysicalEstimate",
     "physically_consistent",

@@ -230,7 +230,14 @@ def design_filters(
     method: str = "butterworth",
 ) -> FilterDesign:
     """The filters for ``log`` (module docstring): the cut-off from the excitation
-    bandwidth unless given [Hz], the decimation factor from the cut-off unless given."""
+    bandwidth unless given [Hz], the decimation factor from the cut-off unless given.
+
+    Raises:
+        InputError: an unknown method, a cut-off outside (0, Nyquist), or a decimation
+            factor whose filter (``2 FIR_HALF D + 1`` samples) is longer than the log less
+            the state filter's edges (no decimated equation; a factor of 100 000 would
+            otherwise design a filter of 1.6 million taps).
+        LogError: a log without excitation."""
     if method not in METHODS:
         raise InputError(f"unknown filter method {method!r}: one of {METHODS}")
     fs = log.sample_rate
@@ -264,6 +271,21 @@ def design_filters(
         window = round((4.0 * fs / fc + 4.6) / 3.2)
         window = max(window + (window + 1) % 2, order + 2 + (order + 1) % 2)  # odd, > order
         edge = window // 2 + 1
+    span = 2 * FIR_HALF * D + 1  # the decimation filter's window [samples]
+    usable = len(log) - 2 * edge  # what the state filter leaves
+    if span > usable:
+        longest = max((usable - 1) // (2 * FIR_HALF), 0)
+        given = "" if decimation is None else " given"
+        raise InputError(
+            f"{log.source}: decimation factor {D}{given} needs a decimation filter of "
+            f"{span} samples (2 x {FIR_HALF} x {D} + 1), more than the {max(usable, 0)} the "
+            f"log's {len(log)} samples leave after the state filter's {edge} at each end: "
+            + (
+                f"give a decimation factor of {longest} or less"
+                if longest >= 1
+                else "the log is too short for this cut-off (record longer)"
+            )
+        )
     if D > 1:
         taps = scipy.signal.firwin(2 * FIR_HALF * D + 1, FIR_CUTOFF / D, window="hamming")
         taps = taps / taps.sum()

@@ -44,8 +44,13 @@ Every leg architecture (the DDM is generated for each: ``ups``, ``ups-offset``, 
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from types import FrameType
 from typing import Any
 
 import casadi as cs
@@ -304,6 +309,32 @@ def _initial_guess(
     return X, 0.5 * (gammas[:-1] + gammas[1:])
 
 
+@contextmanager
+def _interrupts_recorded() -> Iterator[list[int]]:
+    """Record SIGINT during the block (the list gets the signal number), the previous
+    handler still run: CasADi turns the ``KeyboardInterrupt`` that handler raises into an
+    IPOPT status, and the caller raises it again from the record. Outside the main
+    thread (no handler can be set there) nothing is recorded."""
+    seen: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield seen
+        return
+    previous = signal.getsignal(signal.SIGINT)
+    if not callable(previous):  # SIG_IGN (ignored: nothing to record) or SIG_DFL
+        yield seen
+        return
+
+    def record(signum: int, frame: FrameType | None) -> Any:
+        seen.append(signum)
+        return previous(signum, frame)
+
+    signal.signal(signal.SIGINT, record)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def optimal_point_to_point(
     robot: RobotLike,
     start_pose: Any,
@@ -343,6 +374,8 @@ def optimal_point_to_point(
         the :class:`OptimalMotion`.
 
     Raises:
+        KeyboardInterrupt: Ctrl-C during the solve (CasADi stops IPOPT and reports a
+            failed status: that is an interrupt, not a ConvergenceError).
         InputError: a bad argument, or a start or goal pose outside the actuated joints'
             limits less the margin. WorkspaceError / SingularityError: a start or goal pose
             the robot cannot take, or an optimised node outside a passive joint's limits
@@ -412,7 +445,10 @@ def optimal_point_to_point(
     solver = cs.nlpsol("optimal_point_to_point", "ipopt", {"x": w, "f": cost, "g": g}, options)
     w0 = np.concatenate([X_guess.ravel(), U_guess.ravel()])
     started = time.perf_counter()
-    sol = solver(x0=w0, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
+    with _interrupts_recorded() as interrupted:
+        sol = solver(x0=w0, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
+    if interrupted:  # CasADi catches Ctrl-C in IPOPT and returns a failed status
+        raise KeyboardInterrupt
     elapsed = time.perf_counter() - started
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
