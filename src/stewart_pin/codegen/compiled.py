@@ -7,11 +7,16 @@ N states and a guard per state, the system C compiler builds it (``-O2``, no
 :mod:`ctypes` loads it. Compiling takes a few seconds.
 
 The cache. Libraries are kept under ``$STEWART_PIN_CACHE`` (default
-``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of the generated C
-source itself, the compiler (resolved path and ``--version`` output) and the flags, so
-that everything that shapes the library is in its key (robots that differ only in
-inertial parameters, name or U-joint limits generate the same source and share a
-library; no text from a description or an argument enters the source). Integrity rules:
+``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of what the
+library is made from, the compiler (resolved path and ``--version`` output) and the flags.
+What it is made from is, for a robot, :func:`library_identity`: the description's
+canonical serialisation (every field, name excepted: the numbers baked into the C) and
+:func:`generator_version` (a digest of the generator's source files and CasADi's
+version, computed once per process), so that a new process finds its library without
+regenerating the C source, and a change of the robot or of the code that writes the C
+gives another key (robots that differ only in their name share a library; no text from a
+description or an argument enters the source). A description that cannot be serialised
+so is keyed by its generated C source itself. Integrity rules:
 
 - the cache folder, each key folder and every file in them must belong to the current
   user and not be writable by group or others (no symbolic links): otherwise
@@ -59,7 +64,9 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import hashlib
+import importlib.util
 import json
 import math
 import os
@@ -213,13 +220,105 @@ def compiler_identity(compiler: str) -> str:
 
 def cache_key(source: str, compiler: str) -> str:
     """The name of a library's cache folder: the SHA-256 (first 32 hex digits) of the C
-    ``source`` (:func:`c_source`), the compiler (:func:`compiler_identity`) and the flags."""
+    ``source`` (:func:`c_source`) or of what it is made from (:func:`library_identity`),
+    the compiler (:func:`compiler_identity`) and the flags."""
     h = hashlib.sha256()
     for part in (source, compiler_identity(compiler), " ".join(CFLAGS), " ".join(LDLIBS)):
         data = part.encode()
         h.update(len(data).to_bytes(8, "little"))
         h.update(data)
     return h.hexdigest()[:32]
+
+
+#: The generator's source files: every module of the package but those of the layers above
+#: ``codegen`` (``pyproject.toml``'s layering contract: the generator cannot import them).
+_NOT_GENERATOR = ("cli", "apps", "viz", "planning", "check", "robot.py", "payload_robot.py")
+_GENERATOR_VERSION: list[str] = []
+
+
+def source_digest(package: Path) -> str:
+    """The SHA-256 of the generator's source files under ``package`` (the folder of
+    ``stewart_pin``): every ``*.py`` file but those of :data:`_NOT_GENERATOR`, each with its
+    relative path, in sorted order."""
+    h = hashlib.sha256()
+    files = sorted(
+        f.relative_to(package).as_posix()
+        for f in package.rglob("*.py")
+        if f.relative_to(package).parts[0] not in _NOT_GENERATOR
+    )
+    for name in files:
+        for data in (name.encode(), (package / name).read_bytes()):
+            h.update(len(data).to_bytes(8, "little"))
+            h.update(data)
+    return h.hexdigest()
+
+
+def _casadi_identity() -> str:
+    """CasADi's version as its installed metadata names it (the folder name of its
+    ``*.dist-info``), with the path, size and time of its ``__init__.py``: found without
+    importing it."""
+    spec = importlib.util.find_spec("casadi")
+    if spec is None or spec.origin is None:
+        return "no casadi"
+    origin = Path(spec.origin)
+    site = origin.parent.parent
+    try:
+        infos = sorted(n for n in os.listdir(site) if n.lower().startswith("casadi-"))
+        st = origin.stat()
+    except OSError as e:
+        return f"{origin}: {e.strerror}"
+    return f"{origin} {st.st_size} {st.st_mtime_ns} {' '.join(infos)}"
+
+
+def generator_version() -> str:
+    """The version of the code that writes a library's C source: the generators' own
+    version numbers, CasADi's identity and the digest of the generator's source files
+    (:func:`source_digest`), so that a change of any of them can never reuse a stale
+    library. Computed once per process (a few milliseconds)."""
+    if not _GENERATOR_VERSION:
+        package = Path(__file__).resolve().parent.parent
+        _GENERATOR_VERSION.append(
+            f"{GENERATOR_VERSION} {GENERAL_GENERATOR_VERSION}\n{_casadi_identity()}\n"
+            f"{source_digest(package)}"
+        )
+    return _GENERATOR_VERSION[0]
+
+
+def _canonical(x: Any) -> Any:
+    """``x`` as plain JSON data, exactly (floats by their shortest repr, arrays with their
+    dtype and shape, dataclasses field by field under their class name); a TypeError for
+    anything else (a function, say)."""
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        fields = {f.name: _canonical(getattr(x, f.name)) for f in dataclasses.fields(x)}
+        return {type(x).__qualname__: fields}
+    if isinstance(x, np.ndarray):
+        return [str(x.dtype), list(x.shape), x.tolist()]
+    if isinstance(x, (list, tuple)):
+        return [_canonical(v) for v in x]
+    if isinstance(x, dict):
+        return [[_canonical(k), _canonical(v)] for k, v in x.items()]
+    if isinstance(x, np.generic):
+        return x.item()
+    if x is None or isinstance(x, (bool, int, float, str)):
+        return x
+    raise TypeError(f"cannot serialise a {type(x).__name__}")
+
+
+def library_identity(desc: Any, what: str) -> str | None:
+    """What the library ``what`` (``"models"``, ``"derivatives"``) of ``desc`` is made from,
+    as text for :func:`cache_key`: the description's every field but its name (the
+    numbers baked into the C; :func:`_canonical`) and :func:`generator_version`. None when
+    the description cannot be serialised so (then the source itself is the key)."""
+    try:
+        fields = {
+            f.name: _canonical(getattr(desc, f.name))
+            for f in dataclasses.fields(desc)
+            if f.name != "name"
+        }
+        text = json.dumps(fields, sort_keys=True, allow_nan=True)
+    except (TypeError, ValueError):
+        return None
+    return f"stewart-pin library {what}\n{generator_version()}\n{type(desc).__qualname__}\n{text}"
 
 
 def model_layout(desc: Any) -> AuxLayout:
@@ -468,7 +567,9 @@ def build_library(
     found or the compilation fails. See the module docstring for the cache's rules.
     """
     what = f"the dynamic models of robot '{_printable(desc)}'" if announce else None
-    return build_source_library(lambda: c_source(desc), cache_dir, compiler, load, what)
+    return build_source_library(
+        lambda: c_source(desc), cache_dir, compiler, load, what, library_identity(desc, "models")
+    )
 
 
 def build_source_library(
@@ -477,17 +578,21 @@ def build_source_library(
     compiler: str | None = None,
     load: Any = None,
     announce: str | None = None,
+    identity: str | None = None,
 ) -> tuple[Path, bool]:
-    """:func:`build_library` for any generated C source (``source_of()``, called once a
-    compiler is found): the same cache folder, key, integrity rules, lock and build (the
-    exact derivatives of :mod:`.derivatives` use it). ``announce``: what is compiled, said
-    in one line on stderr with about how long it takes (only when it compiles), or None."""
+    """:func:`build_library` for any generated C source (``source_of()``): the same cache
+    folder, key, integrity rules, lock and build (the exact derivatives of
+    :mod:`.derivatives` use it). ``announce``: what is compiled, said in one line on stderr
+    with about how long it takes (only when it compiles), or None. ``identity``: what the
+    source is made from (:func:`library_identity`), keyed instead of the source, which is
+    then generated only to be compiled; None: the source is generated (once a compiler is
+    found) and keyed."""
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")
     root = Path(cache_dir) if cache_dir is not None else cache_root()
-    source = source_of()
-    key = cache_key(source, compiler)
+    source = source_of() if identity is None else None
+    key = cache_key(source if source is not None else identity or "", compiler)
     folder = root / key
     try:
         _private_dir(root, follow=True)
@@ -501,6 +606,8 @@ def build_source_library(
                         RuntimeWarning,
                         stacklevel=3,
                     )
+                if source is None:
+                    source = source_of()
                 if announce:
                     seconds = max(1, round(build_seconds(source)))
                     print(

@@ -60,6 +60,7 @@ from stewart_pin.codegen.compiled import (
     CompiledDynamics,
     build_source_library,
     compiled_backend,
+    library_identity,
     split_batch,
 )
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
@@ -385,6 +386,7 @@ class CompiledDerivatives:
                     cache_dir,
                     compiler if isinstance(compiler, str) else None,
                     self._load,
+                    identity=library_identity(robot.description, "derivatives"),
                 )
                 self.kind = "compiled"
             except UnsafeCacheError:
