@@ -10,7 +10,9 @@ Median wall-clock time [s] of whole fresh Python processes (``time.perf_counter`
   library is already in the cache (aim: under 0.5 s in all). The cache is a temporary
   folder filled once before timing (the compilation is not timed).
 
-For reference, a bare ``python -c pass`` is timed too (the interpreter's own start-up).
+For reference, a bare ``python -c pass`` is timed too (the interpreter's own start-up),
+and each figure's CPU time (user + system, of the child process): on a loaded machine the
+wall-clock time includes the time spent waiting for a core, the CPU time does not.
 The processes run with this checkout's ``src`` first on ``PYTHONPATH``.
 
 Usage: ``python scripts/bench_startup.py [--runs 7] [--preset simulator] [--json out.json]``.
@@ -21,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -56,11 +59,16 @@ def environment(cache: str) -> dict[str, str]:
     return env
 
 
-def timed(args: list[str], env: dict[str, str]) -> float:
-    """Wall-clock seconds of one fresh process ``python *args`` (which must succeed)."""
+def timed(args: list[str], env: dict[str, str]) -> tuple[float, float]:
+    """Wall-clock and CPU (user + system) seconds of one fresh process ``python *args``
+    (which must succeed)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run([sys.executable, *args], env=env, check=True, capture_output=True)
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+    return wall, cpu
 
 
 def run(runs: int, preset: str) -> dict[str, dict[str, float | None]]:
@@ -75,8 +83,13 @@ def run(runs: int, preset: str) -> dict[str, dict[str, float | None]]:
         out: dict[str, dict[str, float | None]] = {}
         for label, args, aim in cases:
             timed(args, env)  # warm the file-system cache
-            times = [timed(args, env) for _ in range(runs)]
-            out[label] = {"median_s": statistics.median(times), "min_s": min(times), "aim_s": aim}
+            wall, cpu = zip(*(timed(args, env) for _ in range(runs)), strict=True)
+            out[label] = {
+                "median_s": statistics.median(wall),
+                "min_s": min(wall),
+                "cpu_median_s": statistics.median(cpu),
+                "aim_s": aim,
+            }
     return out
 
 
@@ -103,7 +116,10 @@ def main() -> None:
         if aim is not None:
             met = "met" if (f["median_s"] or 0.0) < aim else "NOT met"
             verdict = f"  aim < {aim:.1f} s: {met}"
-        print(f"  {label:45s} {f['median_s']:6.3f} s (min {f['min_s']:.3f}){verdict}")
+        print(
+            f"  {label:45s} {f['median_s']:6.3f} s (min {f['min_s']:.3f}, CPU "
+            f"{f['cpu_median_s']:.3f}){verdict}"
+        )
     if a.json:
         from stewart_pin._io import write_text_atomic
 

@@ -11,9 +11,9 @@ imported on first use (PEP 562 module ``__getattr__``), so ``import stewart_pin`
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from stewart_pin._lazy import lazy_names
 from stewart_pin.exceptions import (
     ApproximationWarning,
     ArchitectureError,
@@ -72,37 +72,24 @@ if TYPE_CHECKING:  # what mypy and editors see; at run time :func:`__getattr__` 
 
 __version__ = "0.1.0"
 
-#: The public names imported on first use, and the module each comes from.
-_LAZY = {
-    "validate": "stewart_pin.check.constrained_dynamics",
-    "PRESETS": "stewart_pin.description.presets",
-    "preset": "stewart_pin.description.presets",
-    "random_robot": "stewart_pin.description.presets",
-    "RobotDescription": "stewart_pin.description.robot_description",
-    "leg_base_rotation_from_axis": "stewart_pin.description.robot_description",
-    "leg_frame_from_mdh": "stewart_pin.description.robot_description",
-    "symmetric_hexapod": "stewart_pin.description.symmetric_hexapod",
-    "simulate": "stewart_pin.motion.simulation",
-    "base_parameters": "stewart_pin.parameters.base",
-    "essential_parameters": "stewart_pin.parameters.base",
-    "PayloadRobot": "stewart_pin.payload_robot",
-    "StewartRobot": "stewart_pin.robot",
-}
-
-
-def __getattr__(name: str) -> Any:
-    """A public name of :data:`_LAZY`, imported on first use and kept in the package."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'stewart_pin' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY})
-
+__getattr__, __dir__ = lazy_names(
+    __name__,
+    {
+        "validate": "stewart_pin.check.constrained_dynamics",
+        "PRESETS": "stewart_pin.description.presets",
+        "preset": "stewart_pin.description.presets",
+        "random_robot": "stewart_pin.description.presets",
+        "RobotDescription": "stewart_pin.description.robot_description",
+        "leg_base_rotation_from_axis": "stewart_pin.description.robot_description",
+        "leg_frame_from_mdh": "stewart_pin.description.robot_description",
+        "symmetric_hexapod": "stewart_pin.description.symmetric_hexapod",
+        "simulate": "stewart_pin.motion.simulation",
+        "base_parameters": "stewart_pin.parameters.base",
+        "essential_parameters": "stewart_pin.parameters.base",
+        "PayloadRobot": "stewart_pin.payload_robot",
+        "StewartRobot": "stewart_pin.robot",
+    },
+)
 
 __all__ = [
     "PRESETS",
