@@ -24,6 +24,7 @@ from helpers import rel_error
 
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics, UnsafeCacheError
+from stewart_pin.codegen import _identity as identity
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.compiled import build_library, c_source
 from stewart_pin.kinematics.workspace import sample_states
@@ -86,7 +87,7 @@ def test_cache_key_is_what_shapes_the_source(cache, monkeypatch):
     lib, built = build_library(desc)
     assert built
     assert lib.parent.name == compiled_module.cache_key(
-        compiled_module.library_identity(desc, "models"), compiled_module.find_compiler()
+        identity.library_identity(desc, "models"), compiled_module.find_compiler()
     )
     monkeypatch.setattr(compiled_module, "c_source", _no_source)
     again, built = build_library(desc)
@@ -94,8 +95,8 @@ def test_cache_key_is_what_shapes_the_source(cache, monkeypatch):
     monkeypatch.undo()
     monkeypatch.setenv(compiled_module.CACHE_ENV, str(cache))
     monkeypatch.setattr(compiled_module, "LEG_SINGULARITY_SIN", 0.5)
-    version = compiled_module.generator_version()
-    monkeypatch.setattr(compiled_module, "_GENERATOR_VERSION", [version + " edited"])
+    version = identity.generator_version()
+    monkeypatch.setattr(identity, "_GENERATOR_VERSION", [version + " edited"])
     other, built = build_library(desc)
     assert built and other.parent != lib.parent
     assert "0.25" in (other.parent / "stewart_models.c").read_text()  # 0.5^2, compiled in

@@ -56,11 +56,11 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin._checks import check_states
+from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
     CompiledDynamics,
     build_source_library,
     compiled_backend,
-    library_identity,
     split_batch,
 )
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
