@@ -151,6 +151,8 @@ def test_key_changes_with_every_baked_number():
     points[3, 1] += 1e-9
     assert key != identity.library_identity(_with(ups, base_points=points), "models")
     assert key != identity.library_identity(ups, "derivatives")
+    # Something that has no exact serialisation: no identity (the C source is keyed).
+    assert identity.library_identity(_with(ups, source=object()), "models") is None
 
     rus = get_robot("rus").description
     base = identity.library_identity(rus, "models")

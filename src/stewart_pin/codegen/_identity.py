@@ -83,24 +83,25 @@ def generator_version() -> str:
     return _GENERATOR_VERSION[0]
 
 
-def _canonical(x: Any) -> Any:
+def _canonical(x: Any, unknown: list[str]) -> Any:
     """``x`` as plain JSON data, exactly (floats by their shortest repr, arrays with their
-    dtype and shape, dataclasses field by field under their class name); a TypeError for
-    anything else (a function, say)."""
+    dtype and shape, dataclasses field by field under their class name); anything else (a
+    function, say) is named in ``unknown``."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        fields = {f.name: _canonical(getattr(x, f.name)) for f in dataclasses.fields(x)}
+        fields = {f.name: _canonical(getattr(x, f.name), unknown) for f in dataclasses.fields(x)}
         return {type(x).__qualname__: fields}
-    if isinstance(x, np.ndarray):
+    if isinstance(x, np.ndarray) and x.dtype.kind in "biuf":
         return [str(x.dtype), list(x.shape), x.tolist()]
     if isinstance(x, (list, tuple)):
-        return [_canonical(v) for v in x]
+        return [_canonical(v, unknown) for v in x]
     if isinstance(x, dict):
-        return [[_canonical(k), _canonical(v)] for k, v in x.items()]
-    if isinstance(x, np.generic):
+        return [[_canonical(k, unknown), _canonical(v, unknown)] for k, v in x.items()]
+    if isinstance(x, np.generic) and x.dtype.kind in "biuf":
         return x.item()
     if x is None or isinstance(x, (bool, int, float, str)):
         return x
-    raise TypeError(f"cannot serialise a {type(x).__name__}")
+    unknown.append(type(x).__name__)
+    return None
 
 
 def library_identity(desc: Any, what: str) -> str | None:
@@ -108,13 +109,15 @@ def library_identity(desc: Any, what: str) -> str | None:
     as text for :func:`.compiled.cache_key`: the description's every field but its name (the
     numbers baked into the C; :func:`_canonical`) and :func:`generator_version`. None when
     the description cannot be serialised so (then the source itself is the key)."""
-    try:
-        fields = {
-            f.name: _canonical(getattr(desc, f.name))
-            for f in dataclasses.fields(desc)
-            if f.name != "name"
-        }
-        text = json.dumps(fields, sort_keys=True, allow_nan=True)
-    except (TypeError, ValueError):
+    if not dataclasses.is_dataclass(desc) or isinstance(desc, type):
         return None
+    unknown: list[str] = []
+    fields = {
+        f.name: _canonical(getattr(desc, f.name), unknown)
+        for f in dataclasses.fields(desc)
+        if f.name != "name"
+    }
+    if unknown:
+        return None
+    text = json.dumps(fields, sort_keys=True, allow_nan=True)
     return f"stewart-pin library {what}\n{generator_version()}\n{type(desc).__qualname__}\n{text}"
