@@ -9,14 +9,14 @@ N states and a guard per state, the system C compiler builds it (``-O2``, no
 The cache. Libraries are kept under ``$STEWART_PIN_CACHE`` (default
 ``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of what the
 library is made from, the compiler (resolved path and ``--version`` output) and the flags.
-What it is made from is, for a robot, :func:`library_identity`: the description's
-canonical serialisation (every field, name excepted: the numbers baked into the C) and
-:func:`generator_version` (a digest of the generator's source files and CasADi's
-version, computed once per process), so that a new process finds its library without
-regenerating the C source, and a change of the robot or of the code that writes the C
-gives another key (robots that differ only in their name share a library; no text from a
-description or an argument enters the source). A description that cannot be serialised
-so is keyed by its generated C source itself. Integrity rules:
+What it is made from is, for a robot, :func:`._identity.library_identity`: the
+description's canonical serialisation (every field, name excepted: the numbers baked into
+the C) and :func:`._identity.generator_version` (a digest of the generator's source files
+and CasADi's version, computed once per process), so that a new process finds its library
+without regenerating the C source, and a change of the robot or of the code that writes
+the C gives another key (robots that differ only in their name share a library; no text
+from a description or an argument enters the source). A description that cannot be
+serialised so is keyed by its generated C source itself. Integrity rules:
 
 - the cache folder, each key folder and every file in them must belong to the current
   user and not be writable by group or others (no symbolic links): otherwise
