@@ -27,6 +27,7 @@ from helpers import rel_error
 import stewart_pin
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics, UnsafeCacheError
+from stewart_pin.codegen import _identity as identity
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.compiled import build_library, c_source
 from stewart_pin.kinematics.workspace import sample_states
@@ -80,21 +81,32 @@ def test_name_with_comment_close_cannot_inject_c(cache, tmp_path):
     assert CompiledDynamics(StewartRobot(_with_name(plain, "other"))).library == backend.library
 
 
-def test_cache_key_is_the_hash_of_the_source(cache, monkeypatch):
-    """Everything that shapes the source is in the key: a threshold compiled into the guard
-    (here the leg-singularity threshold, not a description field) gives another library."""
+def test_cache_key_is_what_shapes_the_source(cache, monkeypatch):
+    """Everything that shapes the source is in the key: the description's numbers and the
+    generator's version (its source files, whose constants are compiled into the guard;
+    a code change is simulated by another version string), without the source being
+    generated to find a cached library (issue 24)."""
     desc = get_robot("random-1").description
     lib, built = build_library(desc)
     assert built
     assert lib.parent.name == compiled_module.cache_key(
-        c_source(desc), compiled_module.find_compiler()
+        identity.library_identity(desc, "models"), compiled_module.find_compiler()
     )
+    monkeypatch.setattr(compiled_module, "c_source", _no_source)
     again, built = build_library(desc)
     assert (again, built) == (lib, False)
+    monkeypatch.undo()
+    monkeypatch.setenv(compiled_module.CACHE_ENV, str(cache))
     monkeypatch.setattr(compiled_module, "LEG_SINGULARITY_SIN", 0.5)
+    version = identity.generator_version()
+    monkeypatch.setattr(identity, "_GENERATOR_VERSION", [version + " edited"])
     other, built = build_library(desc)
     assert built and other.parent != lib.parent
     assert "0.25" in (other.parent / "stewart_models.c").read_text()  # 0.5^2, compiled in
+
+
+def _no_source(desc):
+    raise AssertionError("the C source was generated to find a cached library")
 
 
 # ---------------------------------------------------------------------------- item 2

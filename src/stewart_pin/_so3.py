@@ -15,7 +15,18 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
+
+_PINOCCHIO: list[Any] = []
+
+
+def _pin() -> Any:
+    """Pinocchio, imported on first use (importing this module, hence the descriptions and
+    the CSV tables, stays cheap: ``import stewart_pin``, the command's ``--help``)."""
+    if not _PINOCCHIO:
+        import pinocchio
+
+        _PINOCCHIO.append(pinocchio)
+    return _PINOCCHIO[0]
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -112,18 +123,21 @@ def so3_left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
     """``J_l(xi)^-1`` (3, 3) of one rotation vector xi (3,): ``dxi/dt = J_l^-1 w`` for
     ``R = exp(xi^) R_0``, w in F0."""
     # J_l(xi) = J_r(-xi) = J_r(xi)^T, and pin.Jlog3(exp3(xi)) = J_r(xi)^-1.
+    pin = _pin()
     return pin.Jlog3(pin.exp3(xi)).T
 
 
 def so3_log(R: np.ndarray) -> np.ndarray:
     """Rotation vectors (N, 3) [rad] of rotation matrices R (N, 3, 3) (``pin.log3``)."""
-    return np.array([pin.log3(r) for r in R]).reshape(-1, 3)
+    log3 = _pin().log3
+    return np.array([log3(r) for r in R]).reshape(-1, 3)
 
 
 # ------------------------------------------------------------------------- quaternions
 def quaternions_xyzw_from_rotations(R: np.ndarray) -> np.ndarray:
     """Unit quaternions ``[x, y, z, w]`` (N, 4) with ``w >= 0`` of rotation matrices (N, 3, 3)."""
-    q = np.array([pin.Quaternion(r).normalized().coeffs() for r in R]).reshape(-1, 4)
+    quaternion = _pin().Quaternion
+    q = np.array([quaternion(r).normalized().coeffs() for r in R]).reshape(-1, 4)
     return q * np.where(q[:, 3:] < 0, -1.0, 1.0)
 
 
@@ -156,4 +170,4 @@ def quaternion_wxyz_from_rotation(R: np.ndarray) -> np.ndarray:
 
 def rotation_from_quaternion_wxyz(q: np.ndarray) -> np.ndarray:
     """The rotation matrix (3, 3) of a quaternion ``(w, x, y, z)`` (4,), normalised first."""
-    return pin.Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()
+    return _pin().Quaternion(*(q / np.linalg.norm(q))).toRotationMatrix()

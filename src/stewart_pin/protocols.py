@@ -9,14 +9,16 @@ facade wires them all) and a test double or another robot class can stand in.
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from stewart_pin._typing import ArrayLike, FloatArray, Forces, JointValues, Pose
 from stewart_pin.description import RobotDescription
-from stewart_pin.models.payload import Payload
-from stewart_pin.models.pinocchio_models import TreeModel
+
+if TYPE_CHECKING:  # annotations only: the protocol imports no Pinocchio model
+    from stewart_pin.models.payload import Payload
+    from stewart_pin.models.pinocchio_models import TreeModel
 
 __all__ = ["PayloadRobotLike", "RobotLike"]
 

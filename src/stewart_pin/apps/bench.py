@@ -46,8 +46,8 @@ import pinocchio as pin
 
 import stewart_pin
 from stewart_pin import StewartRobot
-from stewart_pin._argtypes import BYTES_PER_STATE, count_within_memory, positive_int
 from stewart_pin._io import write_text_atomic
+from stewart_pin.apps.bench_args import ARCHITECTURES, add_arguments
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
     reference_actuator_efforts,
@@ -200,8 +200,7 @@ def mujoco_rows(
 #: The operation counts of the JSON: the ideal 6-UPS's models with the 88 base and the 52
 #: essential parameters as inputs; general legs' with every value baked in (``numeric``).
 _COUNT_KEYS = ("base", "essential", "numeric", "critical_path")
-#: The architectures' presets of the default-backend rows, and the batch sizes.
-ARCHITECTURES = ("simulator", "rus", "pus")
+#: The batch sizes of the default-backend rows.
 ARCHITECTURE_BATCHES = (10_000, 100_000)
 
 
@@ -302,43 +301,6 @@ def run(
         "median_us_per_state": rows,
         "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
     }
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--preset",
-        default="simulator",
-        help="any preset: simulator, desktop, paper, random-<seed>, ups-offset, rus, pus, "
-        "random-<kind>-<seed>",
-    )
-    parser.add_argument(
-        "--architectures",
-        type=_preset_list,
-        default=ARCHITECTURES,
-        help="comma-separated presets of the default-backend rows (one per architecture)",
-    )
-    parser.add_argument(
-        "--batch",
-        type=count_within_memory(BYTES_PER_STATE, "state"),
-        default=10_000,
-        help="states per batch (at most what this machine's memory holds, about 8 kB each)",
-    )
-    parser.add_argument(
-        "--repeats", type=positive_int, default=300, help="timed calls (the median is shown)"
-    )
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="skip the 1 000 000-state batch; time the architectures at --batch states only",
-    )
-    parser.add_argument("--json", type=Path, help="write the results as JSON here")
-
-
-def _preset_list(text: str) -> tuple[str, ...]:
-    names = tuple(n.strip() for n in text.split(",") if n.strip())
-    if not names:
-        raise argparse.ArgumentTypeError("give at least one preset name")
-    return names
 
 
 def report(args: argparse.Namespace) -> dict[str, object]:

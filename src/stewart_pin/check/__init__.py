@@ -10,11 +10,28 @@ armatures and the joint torques (friction, springs, dampers). :mod:`.payload` ch
 hexapod carrying a payload against the whole tree (the payload appended to the platform).
 """
 
-from .constrained_dynamics import (
-    ValidationReport,
-    constrained_forward_dynamics,
-    constrained_inverse_dynamics,
-    validate,
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from stewart_pin._lazy import lazy_names
+
+if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
+    from .constrained_dynamics import (
+        ValidationReport,
+        constrained_forward_dynamics,
+        constrained_inverse_dynamics,
+        validate,
+    )
+
+__getattr__, __dir__ = lazy_names(
+    __name__,
+    {
+        "ValidationReport": ".constrained_dynamics",
+        "constrained_forward_dynamics": ".constrained_dynamics",
+        "constrained_inverse_dynamics": ".constrained_dynamics",
+        "validate": ".constrained_dynamics",
+    },
 )
 
 __all__ = [

@@ -51,6 +51,7 @@ from stewart_pin.check.general_legs import (
     reference_energy,
     reference_inverse_dynamics,
 )
+from stewart_pin.check.tolerances import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.exceptions import (
@@ -81,10 +82,6 @@ __all__ = [
 #: Floor of the relative errors, as a fraction of the largest reference magnitude in the
 #: batch: ``err_n = max_k |a_nk - b_nk| / max(max_k |b_nk|, RELATIVE_FLOOR * max |b|)``.
 RELATIVE_FLOOR = 1e-6
-#: Default relative tolerances of :meth:`ValidationReport.passed`: the inverse model, and
-#: the direct model with the round trips (the one definition; the CLI's defaults).
-IDM_TOLERANCE = 1e-9
-DDM_TOLERANCE = 1e-8
 
 #: Settings of ``pin.constraintDynamics``: absolute accuracy, ``mu = 0`` (no proximal
 #: regularisation), one iteration: an exact KKT solve.

@@ -19,10 +19,9 @@ import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._argtypes import (
     finite_float,
@@ -34,7 +33,9 @@ from stewart_pin._argtypes import (
 )
 from stewart_pin._io import check_destination
 from stewart_pin.exceptions import InputError
-from stewart_pin.robot import StewartRobot
+
+if TYPE_CHECKING:  # imported where used: the command parses its arguments first
+    from stewart_pin.robot import StewartRobot
 
 __all__ = [
     "add_payload_args",
@@ -167,6 +168,8 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
 def robot_from_args(args: argparse.Namespace) -> StewartRobot:
     """The robot of ``--preset`` / ``--description`` / ``--model`` (imported): every
     command takes every leg architecture."""
+    from stewart_pin.robot import StewartRobot
+
     if getattr(args, "description", None):
         robot = StewartRobot.from_file(args.description)
     elif getattr(args, "model", None):
@@ -182,6 +185,7 @@ def _imported_robot(args: argparse.Namespace) -> StewartRobot:
     rather than as Python warnings with a source line."""
     from stewart_pin.exceptions import ModelImportWarning
     from stewart_pin.importers import import_model
+    from stewart_pin.robot import StewartRobot
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -198,6 +202,8 @@ def _imported_robot(args: argparse.Namespace) -> StewartRobot:
 
 def pose_from_args(values: Sequence[float] | None, robot: StewartRobot) -> np.ndarray:
     """A pose from ``x y z roll pitch yaw`` [m, rad] relative to the home pose, in F0."""
+    import pinocchio as pin
+
     T = robot.home_pose
     if values is not None:
         T[:3, 3] += values[:3]
@@ -258,6 +264,8 @@ def payload_robot_from_args(args: argparse.Namespace, robot: StewartRobot) -> An
     placement = None
     values = getattr(args, "payload_placement", None)
     if values is not None:
+        import pinocchio as pin
+
         placement = np.eye(4)
         placement[:3, :3] = pin.rpy.rpyToMatrix(*values[3:])
         placement[:3, 3] = values[:3]

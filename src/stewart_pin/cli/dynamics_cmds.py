@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._argtypes import BYTES_PER_STATE, count_within_memory
-from stewart_pin.check.constrained_dynamics import DDM_TOLERANCE, IDM_TOLERANCE
+from stewart_pin.check.tolerances import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.cli._common import (
     add_payload_args,
     add_robot_args,
@@ -186,7 +186,7 @@ def register_performance(sub: argparse._SubParsersAction) -> None:
     )
     p.set_defaults(func=_cost)
 
-    from stewart_pin.apps.bench import add_arguments
+    from stewart_pin.apps.bench_args import add_arguments
 
     p = sub.add_parser(
         "bench",

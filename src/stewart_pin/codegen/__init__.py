@@ -14,29 +14,57 @@
   CasADi's algorithmic differentiation of the generated models, compiled the same way.
 - :func:`auto_backend`: what the default ``backend="auto"`` of ``StewartRobot`` runs.
 
-Importing this subpackage imports CasADi; ``import stewart_pin`` does not.
+Importing this subpackage imports none of them (nor CasADi): each name is imported on first
+use.
 """
 
-from stewart_pin.codegen.compiled import (
-    CompiledDynamics,
-    auto_backend,
-    cache_root,
-    compiled_backend,
-)
-from stewart_pin.codegen.derivatives import (
-    CompiledDerivatives,
-    derivatives_backend,
-    symbolic_derivatives,
-)
-from stewart_pin.codegen.opcount import (
-    OperationCount,
-    architecture_table,
-    cost_dict,
-    cost_table,
-    count_operations,
-)
-from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from stewart_pin._lazy import lazy_names
 from stewart_pin.exceptions import CompilationError, UnsafeCacheError  # their old home
+
+if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
+    from stewart_pin.codegen.compiled import (
+        CompiledDynamics,
+        auto_backend,
+        cache_root,
+        compiled_backend,
+    )
+    from stewart_pin.codegen.derivatives import (
+        CompiledDerivatives,
+        derivatives_backend,
+        symbolic_derivatives,
+    )
+    from stewart_pin.codegen.opcount import (
+        OperationCount,
+        architecture_table,
+        cost_dict,
+        cost_table,
+        count_operations,
+    )
+    from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
+
+__getattr__, __dir__ = lazy_names(
+    __name__,
+    {
+        "CompiledDynamics": "stewart_pin.codegen.compiled",
+        "auto_backend": "stewart_pin.codegen.compiled",
+        "cache_root": "stewart_pin.codegen.compiled",
+        "compiled_backend": "stewart_pin.codegen.compiled",
+        "CompiledDerivatives": "stewart_pin.codegen.derivatives",
+        "derivatives_backend": "stewart_pin.codegen.derivatives",
+        "symbolic_derivatives": "stewart_pin.codegen.derivatives",
+        "OperationCount": "stewart_pin.codegen.opcount",
+        "architecture_table": "stewart_pin.codegen.opcount",
+        "cost_dict": "stewart_pin.codegen.opcount",
+        "cost_table": "stewart_pin.codegen.opcount",
+        "count_operations": "stewart_pin.codegen.opcount",
+        "SymbolicModels": "stewart_pin.codegen.symbolic",
+        "generate_models": "stewart_pin.codegen.symbolic",
+    },
+)
 
 __all__ = [
     "CompilationError",

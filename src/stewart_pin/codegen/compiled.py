@@ -7,11 +7,16 @@ N states and a guard per state, the system C compiler builds it (``-O2``, no
 :mod:`ctypes` loads it. Compiling takes a few seconds.
 
 The cache. Libraries are kept under ``$STEWART_PIN_CACHE`` (default
-``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of the generated C
-source itself, the compiler (resolved path and ``--version`` output) and the flags, so
-that everything that shapes the library is in its key (robots that differ only in
-inertial parameters, name or U-joint limits generate the same source and share a
-library; no text from a description or an argument enters the source). Integrity rules:
+``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of what the
+library is made from, the compiler (resolved path and ``--version`` output) and the flags.
+What it is made from is, for a robot, :func:`._identity.library_identity`: the
+description's canonical serialisation (every field, name excepted: the numbers baked into
+the C) and :func:`._identity.generator_version` (a digest of the generator's source files
+and CasADi's version, computed once per process), so that a new process finds its library
+without regenerating the C source, and a change of the robot or of the code that writes
+the C gives another key (robots that differ only in their name share a library; no text
+from a description or an argument enters the source). A description that cannot be
+serialised so is keyed by its generated C source itself. Integrity rules:
 
 - the cache folder, each key folder and every file in them must belong to the current
   user and not be writable by group or others (no symbolic links): otherwise
@@ -84,6 +89,7 @@ import numpy as np
 from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states
 from stewart_pin.codegen import _csource
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
+from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.general_symbolic import (
     GENERAL_GENERATOR_VERSION,
     AuxLayout,
@@ -246,7 +252,8 @@ def compile_timeout() -> float:
 
 def cache_key(source: str, compiler: str) -> str:
     """The name of a library's cache folder: the SHA-256 (first 32 hex digits) of the C
-    ``source`` (:func:`c_source`), the compiler (:func:`compiler_identity`) and the flags."""
+    ``source`` (:func:`c_source`) or of what it is made from (:func:`library_identity`),
+    the compiler (:func:`compiler_identity`) and the flags."""
     h = hashlib.sha256()
     for part in (source, compiler_identity(compiler), " ".join(CFLAGS), " ".join(LDLIBS)):
         data = part.encode()
@@ -601,7 +608,9 @@ def build_library(
     found or the compilation fails. See the module docstring for the cache's rules.
     """
     what = f"the dynamic models of robot '{_printable(desc)}'" if announce else None
-    return build_source_library(lambda: c_source(desc), cache_dir, compiler, load, what)
+    return build_source_library(
+        lambda: c_source(desc), cache_dir, compiler, load, what, library_identity(desc, "models")
+    )
 
 
 def build_source_library(
@@ -610,17 +619,21 @@ def build_source_library(
     compiler: str | None = None,
     load: Any = None,
     announce: str | None = None,
+    identity: str | None = None,
 ) -> tuple[Path, bool]:
-    """:func:`build_library` for any generated C source (``source_of()``, called once a
-    compiler is found): the same cache folder, key, integrity rules, lock and build (the
-    exact derivatives of :mod:`.derivatives` use it). ``announce``: what is compiled, said
-    in one line on stderr with about how long it takes (only when it compiles), or None."""
+    """:func:`build_library` for any generated C source (``source_of()``): the same cache
+    folder, key, integrity rules, lock and build (the exact derivatives of
+    :mod:`.derivatives` use it). ``announce``: what is compiled, said in one line on stderr
+    with about how long it takes (only when it compiles), or None. ``identity``: what the
+    source is made from (:func:`library_identity`), keyed instead of the source, which is
+    then generated only to be compiled; None: the source is generated (once a compiler is
+    found) and keyed."""
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")
     root = Path(cache_dir) if cache_dir is not None else cache_root()
-    source = source_of()
-    key = cache_key(source, compiler)
+    source = source_of() if identity is None else None
+    key = cache_key(source if source is not None else identity or "", compiler)
     folder = root / key
     try:
         _private_dir(root, follow=True)
@@ -641,6 +654,8 @@ def build_source_library(
                         RuntimeWarning,
                         stacklevel=3,
                     )
+                if source is None:
+                    source = source_of()
                 if announce:
                     seconds = max(1, round(build_seconds(source)))
                     print(

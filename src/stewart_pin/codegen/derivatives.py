@@ -56,6 +56,7 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin._checks import check_states
+from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
     CompiledDynamics,
     build_source_library,
@@ -422,6 +423,7 @@ class CompiledDerivatives:
                     cache_dir,
                     compiler if isinstance(compiler, str) else None,
                     self._load,
+                    identity=library_identity(robot.description, "derivatives"),
                 )
                 self.kind = "compiled"
             except UnsafeCacheError:

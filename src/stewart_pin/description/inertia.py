@@ -12,14 +12,16 @@ and to URDF's ``<inertial>`` (centre of mass and the tensor about it).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_scalar
 from stewart_pin._so3 import rotation_from_quaternion_wxyz, skew
 from stewart_pin.exceptions import InertiaError, InputError
+
+if TYPE_CHECKING:  # imported where used: reading a description needs no Pinocchio
+    import pinocchio as pin
 
 #: Names of the 10 standard parameters, in Khalil's order.
 KHALIL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
@@ -65,6 +67,8 @@ def pin_inertia_from_khalil(params: Any) -> pin.Inertia:
     ``pin.Inertia.Zero()`` plus its rotational inertia, without dividing by the mass
     (``FromDynamicParameters`` would return NaN for the centre of mass).
     """
+    import pinocchio as pin
+
     p = check_array(params, (10,), "inertial parameters")
     if p[9] == 0.0:
         I_O = inertia_tensor(p)
@@ -165,6 +169,8 @@ def khalil_from_inertial_table(table: Any, body: str) -> np.ndarray:
     )
     margin = PHYSICAL_TOLERANCE * max(float(np.linalg.norm(I_axes)), np.finfo(float).tiny)
     _check_principal_moments(I_axes, margin, body, "ixy, ixz, iyz")
+    import pinocchio as pin
+
     R = pin.rpy.rpyToMatrix(*rpy)
     I_c = R @ I_axes @ R.T
     return khalil_from_urdf_inertial(mass, com, 0.5 * (I_c + I_c.T))

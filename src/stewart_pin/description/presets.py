@@ -14,7 +14,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._so3 import rotation_from_quaternion_wxyz
 from stewart_pin.description.general_presets import GENERAL_PRESETS, random_hexapod
@@ -136,6 +135,8 @@ def random_robot(seed: int = 0) -> RobotDescription:
 
 def _slerp_identity(R: np.ndarray, fraction: float) -> np.ndarray:
     """The rotation ``fraction`` of the way from the identity to ``R``."""
+    import pinocchio as pin  # here: reading a description needs no Pinocchio
+
     return pin.exp3(fraction * pin.log3(R))
 
 

@@ -12,12 +12,39 @@ dispatch to them for a robot carrying ``legs`` that is not ``is_ideal_ups``),
 package data), :mod:`.csv_tables`.
 """
 
-from .general_mjcf import general_mjcf_string, write_general_mjcf
-from .general_urdf import general_urdf_string, write_general_urdf
-from .mjcf import mjcf_string, write_mjcf
-from .robot_files import model_files, robot_file_names, write_robot_files
-from .urdf import read_closures, urdf_string, write_urdf
-from .xacro import write_xacro_args, xacro_args
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from stewart_pin._lazy import lazy_names
+
+if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
+    from .general_mjcf import general_mjcf_string, write_general_mjcf
+    from .general_urdf import general_urdf_string, write_general_urdf
+    from .mjcf import mjcf_string, write_mjcf
+    from .robot_files import model_files, robot_file_names, write_robot_files
+    from .urdf import read_closures, urdf_string, write_urdf
+    from .xacro import write_xacro_args, xacro_args
+
+__getattr__, __dir__ = lazy_names(
+    __name__,
+    {
+        "general_mjcf_string": ".general_mjcf",
+        "write_general_mjcf": ".general_mjcf",
+        "general_urdf_string": ".general_urdf",
+        "write_general_urdf": ".general_urdf",
+        "mjcf_string": ".mjcf",
+        "write_mjcf": ".mjcf",
+        "model_files": ".robot_files",
+        "robot_file_names": ".robot_files",
+        "write_robot_files": ".robot_files",
+        "read_closures": ".urdf",
+        "urdf_string": ".urdf",
+        "write_urdf": ".urdf",
+        "write_xacro_args": ".xacro",
+        "xacro_args": ".xacro",
+    },
+)
 
 __all__ = [
     "general_mjcf_string",

@@ -8,15 +8,39 @@ The simulator and the controller take any robot with the dynamics of
 :class:`stewart_pin.robot.StewartRobot` (a protocol, :mod:`stewart_pin._typing`).
 """
 
-from .control import ComputedTorqueController, pose_error, tracking_errors
-from .simulation import SimulationResult, simulate
-from .trajectories import (
-    CoordinateMotion,
-    FourierTrajectory,
-    Trajectory,
-    minimum_jerk,
-    standard_motion,
-    washout,
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from stewart_pin._lazy import lazy_names
+
+if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
+    from .control import ComputedTorqueController, pose_error, tracking_errors
+    from .simulation import SimulationResult, simulate
+    from .trajectories import (
+        CoordinateMotion,
+        FourierTrajectory,
+        Trajectory,
+        minimum_jerk,
+        standard_motion,
+        washout,
+    )
+
+__getattr__, __dir__ = lazy_names(
+    __name__,
+    {
+        "ComputedTorqueController": ".control",
+        "pose_error": ".control",
+        "tracking_errors": ".control",
+        "SimulationResult": ".simulation",
+        "simulate": ".simulation",
+        "CoordinateMotion": ".trajectories",
+        "FourierTrajectory": ".trajectories",
+        "Trajectory": ".trajectories",
+        "minimum_jerk": ".trajectories",
+        "standard_motion": ".trajectories",
+        "washout": ".trajectories",
+    },
 )
 
 __all__ = [

@@ -36,7 +36,6 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from stewart_pin._checks import check_scalar
 from stewart_pin.description import RobotDescription
@@ -516,6 +515,8 @@ def numerical_base_parameters(
             f"read from them; use more states (6 x n_states above the {n} standard "
             f"parameters: n_states >= {n // 6 + 1})"
         )
+    import scipy.linalg  # here: importing the module stays cheap (a new process's first call)
+
     _, R, perm = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
     R1, R2 = R[:rank, :rank], R[:rank, rank:]
     beta_n = scipy.linalg.solve_triangular(R1, R2)  # in scaled columns
