@@ -21,7 +21,6 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.inertia import khalil_from_urdf_inertial, random_physical_khalil
@@ -62,6 +61,8 @@ def random_joint_dynamics(
 
 
 def _rot(rng: np.random.Generator, amount: float) -> np.ndarray:
+    import pinocchio as pin  # imported when used: the package imports without it
+
     return pin.exp3(rng.uniform(-amount, amount, 3))
 
 
