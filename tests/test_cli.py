@@ -476,3 +476,53 @@ def test_every_help_shows_the_defaults():
             if has_value and action.default not in (None, argparse.SUPPRESS):
                 shown = f"(default: {action.default})"
                 assert shown in text, f"stewart-pin {name} --help: {action.dest} {shown}"
+
+
+# ---------------------------------------------------------------------- missing extras
+def _without(monkeypatch: pytest.MonkeyPatch, *modules: str) -> None:
+    """Make ``import <module>`` fail as if the package were not installed (a ``None`` in
+    ``sys.modules`` halts the import with an ImportError)."""
+    import sys
+
+    for name in modules:
+        monkeypatch.setitem(sys.modules, name, None)
+
+
+_NO_MATPLOTLIB = ("matplotlib", "matplotlib.figure", "matplotlib.pyplot")
+_NO_MESHCAT = ("meshcat", "meshcat.animation", "meshcat.geometry")
+
+
+@pytest.mark.parametrize(
+    ("command", "missing", "package", "extra"),
+    [
+        (["demo", "--preset", "desktop", "-o", "out"], _NO_MATPLOTLIB, "matplotlib", "viz"),
+        (["demo", "--preset", "desktop", "-o", "out"], _NO_MESHCAT, "meshcat", "viz"),
+        (["animate", "--preset", "desktop", "--duration", "0.2"], _NO_MESHCAT, "meshcat", "viz"),
+        (
+            ["simulate", "--preset", "desktop", "--duration", "0.05", "--quiet", "--plots", "p"],
+            _NO_MATPLOTLIB,
+            "matplotlib",
+            "viz",
+        ),
+        (["import", "MODEL", "-o", "out.toml"], ("mujoco",), "mujoco", "import"),
+        (["ik", "--model", "MODEL"], ("mujoco",), "mujoco", "import"),
+    ],
+)
+def test_a_missing_extra_is_one_line_before_the_work(
+    tmp_path, capsys, monkeypatch, command, missing, package, extra
+):
+    """Without the extra a command needs: one line naming the package and the quoted
+    install hint, exit 2, and nothing done (these used to run for a minute, then end in a
+    traceback)."""
+    from stewart_pin.formats.mjcf import write_mjcf
+
+    model = write_mjcf(preset("desktop"), tmp_path / "desktop.xml")
+    monkeypatch.chdir(tmp_path)
+    command = [str(model) if a == "MODEL" else a for a in command]
+    _without(monkeypatch, *missing)
+    before = set(tmp_path.iterdir())
+    assert main(command) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert f"{package}, needed for" in err and f'pip install "stewart-pin[{extra}]"' in err
+    assert set(tmp_path.iterdir()) == before  # nothing written

@@ -26,7 +26,7 @@ from helpers import points_in_base, tip_frame
 from helpers import tree_configuration as tree_configuration_by_hand
 
 from stewart_pin import StewartRobot
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, MissingDependencyError
 from stewart_pin.formats.urdf import VisualSizes, plate_visual
 from stewart_pin.motion.simulation import simulate
 
@@ -456,7 +456,7 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path):
 
 def test_missing_meshcat_gives_the_install_hint(simulator, monkeypatch):
     monkeypatch.setitem(__import__("sys").modules, "meshcat", None)
-    with pytest.raises(ImportError, match=re.escape("pip install stewart-pin[viz]")):
+    with pytest.raises(MissingDependencyError, match=re.escape('pip install "stewart-pin[viz]"')):
         Viewer(simulator)
 
 
@@ -556,5 +556,5 @@ def test_reference_poses_forms(desktop):
 
 def test_missing_matplotlib_gives_the_install_hint(monkeypatch):
     monkeypatch.setitem(__import__("sys").modules, "matplotlib.figure", None)
-    with pytest.raises(ImportError, match=re.escape("pip install stewart-pin[viz]")):
+    with pytest.raises(MissingDependencyError, match=re.escape('pip install "stewart-pin[viz]"')):
         plot_energy([0.0, 1.0], [1.0, 1.0])

@@ -32,7 +32,8 @@ from stewart_pin.models.payload import Payload
 from stewart_pin.motion.payload import JointMotion, PayloadComputedTorque, simulate_payload
 from stewart_pin.payload_robot import PayloadRobot
 from stewart_pin.robot import StewartRobot
-from stewart_pin.viz.plots import INSTALL_HINT, LEG_LABELS
+from stewart_pin.viz.plots import LEG_LABELS, require_matplotlib
+from stewart_pin.viz.viewer import require_meshcat
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -154,10 +155,7 @@ def plot_payload_demo(demo: PayloadDemo) -> Figure:
     """Three panels: the efforts with the arm moving (solid) and at rest in the same
     configurations (dashed); their difference, the arm's dynamic reaction; the arm base's
     displacement with and without compensation [mm]."""
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as e:
-        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
+    Figure = require_matplotlib()
     unit = "N" if demo.robot.robot.is_ideal_ups else "N or N m"
     fig = Figure(figsize=(8.0, 9.0), layout="constrained")
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
@@ -190,6 +188,9 @@ def run_payload_demo(
     """Run :func:`payload_demo` and write into ``out``: ``payload_demo.png`` (the figure),
     ``payload_demo.npz`` (the arrays) and, with ``animation``, ``payload_demo.html`` (the
     arm's meshes on the platform); returns the files by role."""
+    require_matplotlib()  # the extras before the work (MissingDependencyError)
+    if animation:
+        require_meshcat()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     demo = payload_demo(preset, payload, **kwargs)

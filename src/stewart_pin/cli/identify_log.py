@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from stewart_pin._extras import require
 from stewart_pin._io import write_text_atomic
 from stewart_pin.cli._common import (
     check_output,
@@ -61,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give --log (actuator log) or --csv (measurement CSV), not both")
     inputs = [args.log, args.validation_log, args.description]
     outputs = _outputs(args, inputs)
+    if args.physical:  # the ident extra before the work
+        require("identify --physical", "ident", "cvxpy")
     robot = _robot(args)
     log = read_log(args.log, robot)
     base = base_parameters(robot, args.method)

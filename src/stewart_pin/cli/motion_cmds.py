@@ -70,6 +70,10 @@ def _simulate(args: argparse.Namespace) -> int:
     out = check_output(args.output, (".npz", ".csv"))
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
+    if args.plots:  # the viz extra before the run, not after it
+        from stewart_pin.viz.plots import require_matplotlib
+
+        require_matplotlib()
     robot = robot_from_args(args)
     check_backend(robot, args.backend, "simulate")  # before the run starts, one line
     carrier = payload_robot_from_args(args, robot)
@@ -265,8 +269,9 @@ def _payload_samples(
 
 
 def _animate(args: argparse.Namespace) -> int:
-    from stewart_pin.viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer, require_meshcat
 
+    require_meshcat()  # the viz extra before the work
     path = check_output(args.output, (".html", ".htm"), [args.result])
     robot = robot_from_args(args)
     carrier = payload_robot_from_args(args, robot)
@@ -287,8 +292,9 @@ def _view(args: argparse.Namespace) -> int:
     import time
 
     from stewart_pin.viz.payload_scene import PayloadViewer
-    from stewart_pin.viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer, require_meshcat
 
+    require_meshcat()  # the viz extra before the work
     robot = robot_from_args(args)
     carrier = payload_robot_from_args(args, robot)
     if carrier is not None:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from stewart_pin._checks import check_array, check_poses
+from stewart_pin._extras import install_hint, require
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import InputError
 from stewart_pin.motion.control import tracking_errors
@@ -26,17 +27,22 @@ if TYPE_CHECKING:
     from stewart_pin.robot import StewartRobot
 
 #: Install hint of the optional figure dependency.
-INSTALL_HINT = "pip install stewart-pin[viz]"
+INSTALL_HINT = install_hint("viz")
 #: Size of every figure [inch].
 FIGSIZE = (8.0, 4.5)
 LEG_LABELS = tuple(f"leg {i}" for i in range(1, 7))
 
 
+def require_matplotlib() -> type[Figure]:
+    """matplotlib's ``Figure`` class, or :class:`~stewart_pin.exceptions.MissingDependencyError`
+    with the install hint (the command line checks it before the work that ends in figures).
+    """
+    (module,) = require("the figures", "viz", "matplotlib.figure")
+    return module.Figure
+
+
 def _figure(nrows: int = 1) -> tuple[Figure, list[Any]]:
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as e:
-        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
+    Figure = require_matplotlib()
     height = FIGSIZE[1] if nrows == 1 else FIGSIZE[1] * 0.8 * nrows
     fig = Figure(figsize=(FIGSIZE[0], height), layout="constrained")
     axes = fig.subplots(nrows, 1, sharex=True, squeeze=False)[:, 0]
