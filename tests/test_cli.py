@@ -526,3 +526,33 @@ def test_a_missing_extra_is_one_line_before_the_work(
     assert err.count("\n") == 1, err
     assert f"{package}, needed for" in err and f'pip install "stewart-pin[{extra}]"' in err
     assert set(tmp_path.iterdir()) == before  # nothing written
+
+
+# ---------------------------------------------------------------------- pipes
+@pytest.mark.parametrize(
+    "command", [["ik", "--preset", "desktop"], ["base-params", "--preset", "desktop"]]
+)
+def test_a_reader_that_stops_early_ends_the_command_quietly(command):
+    """``stewart-pin ... | head``: the reader closes the pipe before the command writes.
+    Nothing on stderr (it printed "error: [Errno 32] Broken pipe" and exited 2), exit code
+    141 (128 + SIGPIPE, as a shell reports for a Unix tool ended by the closed pipe)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import stewart_pin
+    from stewart_pin.cli import EXIT_BROKEN_PIPE
+
+    env = {**os.environ, "PYTHONPATH": str(Path(stewart_pin.__file__).parents[1])}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "stewart_pin.cli", *command],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # the reader is gone before the first line
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == EXIT_BROKEN_PIPE and EXIT_BROKEN_PIPE == 141
+    assert err == ""

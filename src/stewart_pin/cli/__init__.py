@@ -6,12 +6,15 @@ velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i [N] 
 force of actuator i, positive when it extends the leg.
 
 Bad inputs exit with code 2 and a one-line message (``--debug`` shows the traceback).
-Every ``--help`` shows the options' defaults.
+Every ``--help`` shows the options' defaults. Output piped into a reader that stops early
+(``stewart-pin base-params | head``) ends the command quietly with code 141 (128 + SIGPIPE,
+what a shell reports for a Unix tool ended by the closed pipe).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -71,11 +74,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Exit code when the reader of the standard output goes away (``| head``): 128 + SIGPIPE,
+#: as a shell reports a Unix tool ended by the closed pipe.
+EXIT_BROKEN_PIPE = 141
+
+
+def _stdout_to_devnull() -> None:
+    """Point the standard output at /dev/null, so that the interpreter's flush at exit
+    writes nowhere instead of reporting the closed pipe again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, sys.stdout.fileno())
+    finally:
+        os.close(devnull)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        code: int = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not at the interpreter's exit
+        return code
+    except BrokenPipeError:  # the reader stopped early (| head): quietly, as Unix tools
+        _stdout_to_devnull()
+        return EXIT_BROKEN_PIPE
     except (StewartPinError, OSError) as e:
         if args.debug:
             raise
