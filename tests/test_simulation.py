@@ -460,7 +460,10 @@ def test_cli_simulate_output_reads_as_an_identification_log(tmp_path, capsys):
     assert main(["simulate", *args, "-o", str(log)]) == 0
     t = np.loadtxt(log, delimiter=",", comments="#", skiprows=1, usecols=0)
     np.testing.assert_array_equal(t, np.arange(1501) * 1e-3)
-    capsys.readouterr()
+    # the cranks' torques [N m] through angles [rad] (the torques were labelled N)
+    assert re.search(r"peak \|Gamma\| \S+ N m; .* rad$", capsys.readouterr().out, re.M)
     ident = ["--cutoff", "50", "--decimation", "1", "--no-progress"]
     assert main(["identify", "--preset", "rus", "--log", str(log), *ident]) == 0
-    assert "irregular" not in capsys.readouterr().err
+    out, err = capsys.readouterr()
+    assert "irregular" not in err
+    assert "noise std (from the residuals) [N m]:" in out and "[N]" not in out

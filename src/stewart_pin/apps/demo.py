@@ -91,11 +91,10 @@ def run_demo(
     files["forces"] = write_csv(
         out / "forces.csv", ("t", *FORCE_COLUMNS), np.column_stack([traj.times, gamma])
     )
-    kinds = {leg.joints[leg.actuated - 1].kind for leg in desc.leg_architectures}
-    unit = {frozenset({"prismatic"}): "N", frozenset({"revolute"}): "N m"}.get(
-        frozenset(kinds), "N or N m"
+    say(
+        f"== inverse dynamics along it: peak |Gamma| = {np.abs(gamma).max():.4g} "
+        f"{desc.effort_unit}"
     )
-    say(f"== inverse dynamics along it: peak |Gamma| = {np.abs(gamma).max():.4g} {unit}")
 
     T0, V0, _ = motion(0.0)
     ctrl = ComputedTorqueController(robot, motion, backend=backend)

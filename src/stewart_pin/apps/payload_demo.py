@@ -89,11 +89,12 @@ class PayloadDemo:
 
     def summary(self) -> str:
         react = np.abs(self.gamma_moving - self.gamma_still).max()
+        unit = self.robot.robot.description.effort_unit
         return (
             f"'{self.robot.name}': the arm ({self.robot.payload.mass:.3g} kg, "
             f"{self.robot.nv} joints) moves in {self.joints.duration:.3g} s; its motion "
-            f"changes the efforts by up to {react:.4g} (peak |Gamma| "
-            f"{np.abs(self.gamma_moving).max():.4g}); the arm's base moves by "
+            f"changes the efforts by up to {react:.4g} {unit} (peak |Gamma| "
+            f"{np.abs(self.gamma_moving).max():.4g} {unit}); the arm's base moves by "
             f"{1e3 * self.base_error.max():.3g} mm when the hexapod compensates, "
             f"{1e3 * self.base_error_ignorant.max():.3g} mm when it does not"
         )
@@ -156,7 +157,7 @@ def plot_payload_demo(demo: PayloadDemo) -> Figure:
     configurations (dashed); their difference, the arm's dynamic reaction; the arm base's
     displacement with and without compensation [mm]."""
     Figure = require_matplotlib()
-    unit = "N" if demo.robot.robot.is_ideal_ups else "N or N m"
+    unit = demo.robot.robot.description.effort_unit
     fig = Figure(figsize=(8.0, 9.0), layout="constrained")
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     colours = [f"C{i}" for i in range(6)]

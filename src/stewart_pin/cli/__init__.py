@@ -2,8 +2,9 @@
 
 Units and frames everywhere: SI (m, rad, N, kg, s). A pose is 0Tp, the platform frame Fp
 in the base frame F0; a twist [v, w] is the velocity of the origin of Fp and the angular
-velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i [N] is the
-force of actuator i, positive when it extends the leg.
+velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i is the
+effort of actuator i from its joint type: a force [N] for a prismatic actuator (positive
+when it extends the leg), a torque [N m] for a revolute one (RUS cranks), joint side.
 
 Bad inputs exit with code 2 and a one-line message (``--debug`` shows the traceback).
 Every ``--help`` shows the options' defaults. Output piped into a reader that stops early

@@ -35,7 +35,7 @@ def _idm(args: argparse.Namespace) -> int:
     gamma = robot.inverse_dynamics(poses, twists, accels)  # NumericalError if not finite
     write_csv(out, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
     peak = np.abs(gamma).max(axis=0)
-    unit = "N" if robot.is_ideal_ups else "N or N m (actuated joints, joint side)"
+    unit = robot.description.effort_unit
     print(
         f"inverse dynamics of {len(times)} states of {args.trajectory} on '{robot.name}': "
         f"peak |Gamma_i| = {np.array2string(peak, precision=5)} {unit}; wrote {out}"
@@ -83,8 +83,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Reads a trajectory CSV with columns "
         + ",".join(STATE_COLUMNS)
         + " (time [s]; O_p in F0 [m]; quaternion of 0Rp; twist [v, w] in F0 [m/s, rad/s]; "
-        "classical acceleration in F0 [m/s^2, rad/s^2]) and writes t,gamma1..gamma6 [N] "
-        "(positive extends the leg).",
+        "classical acceleration in F0 [m/s^2, rad/s^2]) and writes t,gamma1..gamma6, the "
+        "actuator efforts: forces [N] for prismatic actuators (positive extends the leg), "
+        "torques [N m] for revolute ones (RUS cranks), joint side.",
     )
     add_robot_args(p)
     p.add_argument("--trajectory", required=True, help="platform trajectory CSV")

@@ -119,16 +119,12 @@ def _simulate(args: argparse.Namespace) -> int:
         lines.append(
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )
-    if robot.is_ideal_ups:
-        lines.append(
-            f"peak |Gamma| {np.abs(result.gammas).max():.5g} N; leg lengths "
-            f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] m"
-        )
-    else:
-        lines.append(
-            f"peak |Gamma| {np.abs(result.gammas).max():.5g} (N or N m, actuated joints); "
-            f"actuated joint values [{result.lengths.min():.5g}, {result.lengths.max():.5g}]"
-        )
+    desc = robot.description
+    what = "leg lengths" if robot.is_ideal_ups else "actuated joint positions"
+    lines.append(
+        f"peak |Gamma| {np.abs(result.gammas).max():.5g} {desc.effort_unit}; {what} "
+        f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] {desc.position_unit}"
+    )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
 
@@ -220,13 +216,18 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )
     lines.append(
-        f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g}; peak |payload torque| "
-        f"{np.abs(sim.tau).max():.5g}"
+        f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g} {robot.description.effort_unit}; "
+        f"peak |payload torque| {np.abs(sim.tau).max():.5g} (N m, N for slides)"
     )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
 
-        paths = save_figures(sim.result, Path(args.plots), reference=motion)
+        paths = save_figures(
+            sim.result,
+            Path(args.plots),
+            reference=motion,
+            effort_unit=robot.description.effort_unit,
+        )
         lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
     print("\n".join(lines))
     return 0
@@ -364,7 +365,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Integrates the direct dynamic model on SE(3). A motion (about the home "
         "pose, scaled on the robot) is tracked by computed-torque control (inverse model "
         "plus PD) sampled at --control-period; 'free' runs with zero actuator force. "
-        "Results: .npz or .csv (t, pose, twist, classical acceleration, forces, leg lengths). "
+        "Results: .npz or .csv (t, pose, twist, classical acceleration, actuator efforts "
+        "[N, or N m for revolute actuators], actuated joint positions [m or rad]). "
         "A run that stops early (a leg at its stroke end, a U-joint at its limit, a "
         "singularity, the controller failing) exits with code 2 and saves the states "
         "simulated so far beside the output, as <stem>.partial<suffix>.",

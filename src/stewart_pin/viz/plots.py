@@ -62,18 +62,26 @@ def _series(t: Any, values: Any, width: int | None, name: str) -> tuple[np.ndarr
     return t, values
 
 
-def plot_forces(t: Any, gammas: Any) -> Figure:
-    """The six actuator forces against time.
+#: What an actuator's effort is called, by its unit (``RobotDescription.effort_unit``).
+_EFFORT_NAMES = {"N": "force", "N m": "torque"}
+
+
+def plot_forces(t: Any, gammas: Any, unit: str = "N") -> Figure:
+    """The six actuator efforts against time.
 
     Args:
-        t: shape (K,) [s]; gammas: shape (K, 6) [N], positive extending the leg.
+        t: shape (K,) [s]; gammas: shape (K, 6), positive extending the leg (a prismatic
+            actuator) or turning its joint positively (a revolute one).
+        unit: the efforts' unit, ``robot.description.effort_unit``: ``"N"`` (forces),
+            ``"N m"`` (torques: RUS cranks) or ``"N or N m"`` (mixed legs).
     """
     t, gammas = _series(t, gammas, 6, "gammas")
     fig, (ax,) = _figure()
     for i in range(6):
         ax.plot(t, gammas[:, i], label=LEG_LABELS[i])
-    ax.set_ylabel("actuator force [N]")
-    ax.set_title("Actuator forces")
+    name = _EFFORT_NAMES.get(unit, "effort")
+    ax.set_ylabel(f"actuator {name} [{unit}]")
+    ax.set_title(f"Actuator {name}s")
     _legend_right(ax)
     return fig
 
@@ -167,6 +175,7 @@ def save_figures(
     reference: Any = None,
     robot: StewartRobot | None = None,
     dpi: int = 100,
+    effort_unit: str | None = None,
 ) -> dict[str, Path]:
     """Write the figures of a simulated motion as PNG files in ``folder``.
 
@@ -178,6 +187,8 @@ def save_figures(
         folder: created when missing.
         reference: the reference motion, as :func:`reference_poses` takes it.
         robot: the simulated robot.
+        effort_unit: the unit of ``result.gammas`` (default: the robot's
+            ``description.effort_unit``, ``"N"`` without a robot).
 
     Returns:
         ``{"forces": path, ...}`` of the files written.
@@ -185,8 +196,10 @@ def save_figures(
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     general = robot is not None and _general_legs(robot)
+    if effort_unit is None:
+        effort_unit = "N" if robot is None else robot.description.effort_unit
     figures = {
-        "forces": plot_forces(result.t, result.gammas),
+        "forces": plot_forces(result.t, result.gammas, effort_unit),
         "lengths": plot_lengths(
             result.t,
             result.lengths,
@@ -196,7 +209,8 @@ def save_figures(
     if general:
         # general legs: the actuated joint values (slides [m], cranks [rad]), no stroke
         (ax,) = figures["lengths"].axes
-        ax.set_ylabel("actuated joint [m or rad]")
+        assert robot is not None
+        ax.set_ylabel(f"actuated joint [{robot.description.position_unit}]")
         ax.set_title("Actuator positions")
     if reference is not None:
         reference = reference_poses(reference, result.t)
