@@ -145,7 +145,18 @@ class FileFormatError(StewartPinError, ValueError):
 
 # ---------------------------------------------------------------------------- workspace
 class WorkspaceError(StewartPinError, ValueError):
-    """A pose the robot cannot reach (base class of the more specific errors)."""
+    """A pose the robot cannot reach (base class of the more specific errors).
+
+    Attributes (of every subclass):
+        state: in a batch, the first failing state (0-based); ``None`` for one state or
+            when unknown. The message then says "(first failing state n; k of N states
+            fail)".
+        n_bad, n_states: how many states fail, of how many (``None`` when unknown).
+    """
+
+    state: int | None = None
+    n_bad: int | None = None
+    n_states: int | None = None
 
 
 class StrokeLimitError(WorkspaceError):
@@ -218,7 +229,14 @@ class SingularityError(StewartPinError, ValueError):
             ``None`` when none was computed.
         threshold: the threshold it crossed, ``None`` when there is none.
         leg: the leg concerned (1-based) or ``None`` for the parallel (platform) singularity.
+        state, n_bad, n_states: in a batch, the first failing state (0-based) and how many
+            states fail, of how many (``None`` for one state or when unknown), as
+            :class:`WorkspaceError`.
     """
+
+    state: int | None = None
+    n_bad: int | None = None
+    n_states: int | None = None
 
     def __init__(
         self,
