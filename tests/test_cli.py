@@ -135,6 +135,19 @@ def test_validate_passes_and_reports(capsys):
     assert "PASSED" in out and "inverse dynamics" in out
 
 
+def test_validate_gives_one_verdict_at_the_tolerances_given(capsys):
+    """It printed PASSED twice, and PASSED (at the defaults) then FAILED with a tolerance
+    no double reaches: one verdict, naming the tolerances it used."""
+    assert main(["validate", "--preset", "desktop", "--states", "5"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("PASSED") == 1 and "FAILED" not in out
+    assert "PASSED at the default tolerances (IDM 1e-09, DDM 1e-08)" in out
+    assert main(["validate", "--preset", "desktop", "--states", "5", "--tol-idm", "1e-20"]) == 1
+    out = capsys.readouterr().out
+    assert out.count("FAILED") == 1 and "PASSED" not in out
+    assert "FAILED at the tolerances (IDM 1e-20, DDM 1e-08)" in out
+
+
 def test_simulate_tracks_and_writes_the_result(tmp_path, capsys):
     from stewart_pin.motion.simulation import SimulationResult
 
