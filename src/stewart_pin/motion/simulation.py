@@ -657,9 +657,10 @@ class _Run:
                 target = min(target, self._output_time(self.n_output))
             if t_bad is not None:
                 target = min(target, t_bad)
-            # A step that reaches the target (to the step resolution) lands on it exactly:
-            # never a sliver of round-off left to step over (one sample per grid time).
-            if h_cur >= target - s.t - self.h_min:
+            # A step that reaches the target to round-off (a few ulps of the time) lands on
+            # it exactly: no sliver left to step over (one sample per grid time). The
+            # allowance is below half the shortest step, so a halved trial never snaps.
+            if target - s.t <= h_cur + 4 * np.spacing(target):
                 h, t_new = target - s.t, target
             else:
                 h, t_new = h_cur, s.t + h_cur
