@@ -161,6 +161,17 @@ def test_simulate_tracks_and_writes_the_result(tmp_path, capsys):
     assert error_mm < 0.01
 
 
+def test_simulate_a_washout_for_the_duration_asked(tmp_path, capsys):
+    from stewart_pin.motion.simulation import SimulationResult
+
+    out = tmp_path / "run.npz"
+    args = ["simulate", "--preset", "desktop", "--motion", "washout", "--duration", "0.3"]
+    assert main([*args, "--backend", "pinocchio", "-o", str(out), "--quiet"]) == 0
+    res = SimulationResult.load(out)
+    assert res.t[-1] == 0.3 and len(res.t) == 301  # it ran the 4.5 s cue
+    assert "simulated 0.3 s" in capsys.readouterr().out
+
+
 def test_bad_arguments_exit_2_with_one_line(capsys):
     with pytest.raises(SystemExit) as e:
         main(["simulate", "--motion", "loop-the-loop"])
