@@ -153,7 +153,7 @@ def test_simulate_tracks_and_writes_the_result(tmp_path, capsys):
 
     out = tmp_path / "run.csv"
     args = ["simulate", "--preset", "desktop", "--motion", "minimum-jerk", "--duration", "0.2"]
-    assert main([*args, "-o", str(out), "--quiet"]) == 0
+    assert main([*args, "-o", str(out), "--no-progress"]) == 0
     res = SimulationResult.load(out)
     assert res.t[-1] == pytest.approx(0.2) and len(res.t) == 201
     text = capsys.readouterr().out
@@ -166,7 +166,7 @@ def test_simulate_a_washout_for_the_duration_asked(tmp_path, capsys):
 
     out = tmp_path / "run.npz"
     args = ["simulate", "--preset", "desktop", "--motion", "washout", "--duration", "0.3"]
-    assert main([*args, "--backend", "pinocchio", "-o", str(out), "--quiet"]) == 0
+    assert main([*args, "--backend", "pinocchio", "-o", str(out), "--no-progress"]) == 0
     res = SimulationResult.load(out)
     assert res.t[-1] == 0.3 and len(res.t) == 301  # it ran the 4.5 s cue
     assert "simulated 0.3 s" in capsys.readouterr().out
@@ -523,7 +523,16 @@ _NO_MESHCAT = ("meshcat", "meshcat.animation", "meshcat.geometry")
         (["demo", "--preset", "desktop", "-o", "out"], _NO_MESHCAT, "meshcat", "viz"),
         (["animate", "--preset", "desktop", "--duration", "0.2"], _NO_MESHCAT, "meshcat", "viz"),
         (
-            ["simulate", "--preset", "desktop", "--duration", "0.05", "--quiet", "--plots", "p"],
+            [
+                "simulate",
+                "--preset",
+                "desktop",
+                "--duration",
+                "0.05",
+                "--no-progress",
+                "--plots",
+                "p",
+            ],
             _NO_MATPLOTLIB,
             "matplotlib",
             "viz",
@@ -580,3 +589,18 @@ def test_a_reader_that_stops_early_ends_the_command_quietly(command):
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == EXIT_BROKEN_PIPE and EXIT_BROKEN_PIPE == 141
     assert err == ""
+
+
+def test_no_progress_is_the_one_name_and_quiet_a_deprecated_alias(tmp_path, capsys):
+    """``--quiet`` (simulate) and ``--no-progress`` (identify) meant the same thing: one
+    name everywhere, the old one kept with a warning and out of the help."""
+    parsers = subcommand_parsers()
+    for name in ("simulate", "identify"):
+        assert "--no-progress" in parsers[name].format_help()
+        assert "--quiet" not in parsers[name].format_help()
+    args = ["simulate", "--preset", "desktop", "--duration", "0.01", "--backend", "pinocchio"]
+    assert main([*args, "--quiet", "-o", str(tmp_path / "a.npz")]) == 0
+    err = capsys.readouterr().err
+    assert err == "stewart-pin simulate: warning: --quiet is deprecated, use --no-progress\n"
+    assert main([*args, "--no-progress", "-o", str(tmp_path / "b.npz")]) == 0
+    assert capsys.readouterr().err == ""

@@ -298,7 +298,9 @@ def test_chromium_draws_the_arm_on_the_platform(exported, tmp_path):
 def test_cli_simulate_and_animate_with_a_payload(tmp_path, capsys):
     out = tmp_path / "run.npz"
     args = ["--preset", "rus", "--payload", "so101", "--duration", "0.05", "--dt", "5e-3"]
-    assert main(["simulate", *args, "--control-period", "5e-3", "-o", str(out), "--quiet"]) == 0
+    assert (
+        main(["simulate", *args, "--control-period", "5e-3", "-o", str(out), "--no-progress"]) == 0
+    )
     text = capsys.readouterr().out
     assert "rus+so101" in text and "tracking error" in text
     assert payload_path(out).is_file()

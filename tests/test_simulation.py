@@ -311,7 +311,9 @@ def test_cli_simulate_saves_the_partial_result_beside_the_output(tmp_path, capsy
     for suffix in (".npz", ".csv"):
         out = tmp_path / f"run{suffix}"
         args = ["simulate", "--preset", "desktop", "--motion", "free", "--duration", "2"]
-        code = main([*args, "--backend", "pinocchio", "--dt", "2e-3", "-o", str(out), "--quiet"])
+        code = main(
+            [*args, "--backend", "pinocchio", "--dt", "2e-3", "-o", str(out), "--no-progress"]
+        )
         assert code == 2
         err = capsys.readouterr().err
         partial = tmp_path / f"run.partial{suffix}"
@@ -359,7 +361,7 @@ def test_unbounded_durations_and_steps_are_refused_up_front(desktop, kwargs):
 
 def test_cli_refuses_a_vanishing_step_in_one_line(tmp_path, capsys):
     out = tmp_path / "run.npz"
-    assert main(["simulate", "--dt", "1e-300", "--quiet", "-o", str(out)]) == 2
+    assert main(["simulate", "--dt", "1e-300", "--no-progress", "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "dt = 1e-300 s is below the smallest step" in err
     assert not out.exists() and not (tmp_path / "run.partial.npz").exists()
@@ -456,7 +458,7 @@ def test_cli_simulate_output_reads_as_an_identification_log(tmp_path, capsys):
     split grid steps past t = 1 s made the log fail with "irregular sampling". A 1.5 s run
     (past 1 s; the short log asks for a wider state filter and no decimation)."""
     log = tmp_path / "run.csv"
-    args = ["--preset", "rus", "--backend", "pinocchio", "--duration", "1.5", "--quiet"]
+    args = ["--preset", "rus", "--backend", "pinocchio", "--duration", "1.5", "--no-progress"]
     assert main(["simulate", *args, "-o", str(log)]) == 0
     t = np.loadtxt(log, delimiter=",", comments="#", skiprows=1, usecols=0)
     np.testing.assert_array_equal(t, np.arange(1501) * 1e-3)

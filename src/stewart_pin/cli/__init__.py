@@ -42,7 +42,7 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
             help is None
             or "%(default)" in help
             or not action.option_strings
-            or action.nargs == 0  # flags (--quiet) and --help / --version
+            or action.nargs == 0  # flags (--no-progress) and --help / --version
             or action.default is None
             or action.default is argparse.SUPPRESS
         ):

@@ -35,6 +35,7 @@ from stewart_pin.robot import StewartRobot
 
 __all__ = [
     "add_payload_args",
+    "add_progress_arg",
     "add_robot_args",
     "check_output",
     "finite_float",
@@ -165,6 +166,41 @@ def pose_from_args(values: Sequence[float] | None, robot: StewartRobot) -> np.nd
         T[:3, 3] += values[:3]
         T[:3, :3] = pin.rpy.rpyToMatrix(*values[3:]) @ T[:3, :3]
     return T
+
+
+class _DeprecatedFlag(argparse.Action):
+    """A flag kept under an old name: sets ``dest`` as the new flag does, with a one-line
+    warning on stderr naming the new one."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, new: str, **kwargs: Any):
+        super().__init__(option_strings, dest, nargs=0, default=False, **kwargs)
+        self.new = new
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        print(
+            f"{parser.prog}: warning: {option_string} is deprecated, use {self.new}",
+            file=sys.stderr,
+        )
+        setattr(namespace, self.dest, True)
+
+
+def add_progress_arg(p: Any) -> None:
+    """``--no-progress`` (``args.no_progress``): no progress bar. ``--quiet``, which meant
+    the same on ``simulate``, is kept as a deprecated alias (a warning on stderr)."""
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--quiet",
+        dest="no_progress",
+        action=_DeprecatedFlag,
+        new="--no-progress",
+        help=argparse.SUPPRESS,
+    )
 
 
 @contextmanager

@@ -15,6 +15,7 @@ from pathlib import Path
 from stewart_pin._extras import require
 from stewart_pin._io import write_text_atomic
 from stewart_pin.cli._common import (
+    add_progress_arg,
     check_output,
     positive_finite_float,
     positive_int,
@@ -176,4 +177,4 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--write-description", help="write the identified robot (.toml or .json)")
     g.add_argument("--write-urdf", help="write the identified robot as URDF (+ sidecar)")
     g.add_argument("--write-mjcf", help="write the identified robot as MJCF (.xml)")
-    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_progress_arg(g)

@@ -14,6 +14,7 @@ import numpy as np
 
 from stewart_pin.cli._common import (
     add_payload_args,
+    add_progress_arg,
     add_robot_args,
     check_output,
     finite_float,
@@ -96,7 +97,7 @@ def _simulate(args: argparse.Namespace) -> int:
         T0, V0, _ = motion(0.0)
         start = (T0, V0)
     try:
-        with progress_bar(duration, "s", not args.quiet) as bar:
+        with progress_bar(duration, "s", not args.no_progress) as bar:
             result = simulate(
                 robot,
                 duration,
@@ -186,7 +187,7 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
     )
     side = payload_path(out)
     try:
-        with progress_bar(duration, "s", not args.quiet) as bar:
+        with progress_bar(duration, "s", not args.no_progress) as bar:
             sim = simulate_payload(
                 carrier,
                 duration,
@@ -409,7 +410,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", default="simulation.npz", help=".npz or .csv")
     add_payload_motion_args(p)
     p.add_argument("--plots", help="folder for PNG plots")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_progress_arg(p)
     p.set_defaults(func=_simulate)
 
     p = sub.add_parser(
