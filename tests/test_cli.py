@@ -199,6 +199,55 @@ def test_bench_writes_json(tmp_path, capsys):
     assert data["machine"]["cpus"] >= 1
 
 
+def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
+    """``bench`` printed a raw dict header and nothing until the end: a progress line per
+    stage (stderr), a readable machine line and one table (the timings stubbed: the
+    output is under test, not the machine)."""
+    from stewart_pin.apps import bench
+
+    def arch(name, repeats, batches):
+        rows = {"pin.constraintDynamics (raw call)": 10.0, "IDM single": 2.0}
+        return {
+            "architecture": name,
+            "backend": "compiled (c)",
+            "threads": 2,
+            "median_us_per_state": rows,
+            "ratio_to_pin_constraintDynamics": {k: t / 10.0 for k, t in rows.items()},
+        }
+
+    monkeypatch.setattr(bench, "median_us", lambda fn, repeats, per=1: 4.0)
+    monkeypatch.setattr(bench, "architecture_rows", arch)
+    monkeypatch.setattr(bench, "compiled_rows", lambda *a: ({"compiled IDM single (c)": 1.0}, {}))
+    monkeypatch.setattr(bench, "mujoco_rows", lambda *a: {})
+    monkeypatch.setattr(
+        bench,
+        "cost_dict",
+        lambda robot: {
+            m: dict.fromkeys(("base", "essential", "critical_path"), 1) for m in ("IDM", "DDM")
+        },
+    )
+    args = ["bench", "--preset", "desktop", "--architectures", "rus,pus", "--batch", "5"]
+    assert main([*args, "--repeats", "1", "--quick"]) == 0
+    out, err = capsys.readouterr()
+    stages = [line for line in err.splitlines() if line.startswith("bench: [")]
+    assert len(stages) == 5 and stages[0].startswith("bench: [1/5] 'rus'")
+    lines = out.splitlines()
+    assert "{" not in lines[0] and "CPUs" in lines[0] and "Python" in lines[0]
+    assert lines[1].split() == [
+        "robot",
+        "backend",
+        "timing",
+        "[us/state]",
+        "/",
+        "pin.constraintDynamics",
+    ]
+    rows = [line.split() for line in lines[2:]]
+    assert [r[0] for r in rows] == ["rus"] * 2 + ["pus"] * 2 + ["desktop"] * 9
+    assert rows[1][-2:] == ["2.000", "0.200"] and rows[-1][-2:] == ["1.000", "0.250"]
+    assert main([*args, "--repeats", "1", "--quick", "--no-progress"]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_animate_writes_a_standalone_page(tmp_path, capsys):
     out = tmp_path / "a.html"
     args = ["animate", "--preset", "desktop", "--motion", "minimum-jerk", "--duration", "1"]
