@@ -493,7 +493,16 @@ class RodSpinError(ModelImportError):
 class ModelImportWarning(StewartPinWarning):
     """An import that proceeded after a correction or by ignoring something the file holds
     (loops assembled from a small residual, an S-S rod's asymmetric spin inertia accepted
-    by option, a spherical joint's limits): the message says what and how much."""
+    by option, a spherical joint's limits): the message says what and how much.
+
+    Attributes:
+        short: the same in a few words, or ``None``: what the robot commands that take
+            ``--model`` print, once (``stewart-pin import`` prints the whole message).
+    """
+
+    def __init__(self, message: str, short: str | None = None) -> None:
+        super().__init__(message)
+        self.short = short
 
 
 # ---------------------------------------------------------------------------- logs

@@ -129,10 +129,16 @@ def robot_from_args(args: argparse.Namespace, ideal_only: str | None = None) -> 
     return robot
 
 
+#: The short import notes already printed in this process (each said once).
+_NOTES_SAID: set[str] = set()
+
+
 def _imported_robot(args: argparse.Namespace) -> StewartRobot:
     """The robot of ``--model``; the importer's warnings (rounded loops, nearly parallel
-    axes...) printed as one line each on stderr, as ``stewart-pin import`` prints them,
-    rather than as Python warnings with a source line."""
+    axes...) printed as one line each on stderr rather than as Python warnings with a
+    source line. A warning with a short form (the loops' residual, which every ``--model``
+    command would repeat) is a short note, once per process, pointing at ``stewart-pin
+    import``, which prints it whole."""
     from stewart_pin.exceptions import ModelImportWarning
     from stewart_pin.importers import import_model
 
@@ -141,11 +147,19 @@ def _imported_robot(args: argparse.Namespace) -> StewartRobot:
         robot = StewartRobot(import_model(args.model).description)
     command = getattr(args, "command", None) or "stewart-pin"
     for w in caught:
-        if issubclass(w.category, ModelImportWarning):
+        if not issubclass(w.category, ModelImportWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        short = getattr(w.message, "short", None)
+        if short is None:
             message = " ".join(str(w.message).split())
             print(f"stewart-pin {command}: warning: {message}", file=sys.stderr)
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        elif short not in _NOTES_SAID:
+            _NOTES_SAID.add(short)
+            print(
+                f"stewart-pin {command}: note: {short} (`stewart-pin import` says more)",
+                file=sys.stderr,
+            )
     return robot
 
 
