@@ -1,5 +1,5 @@
-"""Figures of a motion: actuator forces, leg lengths against the stroke, tracking error,
-mechanical energy.
+"""Figures of a motion: actuator efforts, leg lengths against the stroke, tracking error,
+mechanical energy (free motion) and the work-energy balance (driven motion).
 
 Each ``plot_*`` function takes arrays and returns a ``matplotlib.figure.Figure`` built
 without pyplot (no global state, no display: it saves through the Agg canvas).
@@ -146,6 +146,58 @@ def plot_energy(t: Any, energy: Any) -> Figure:
     return fig
 
 
+def actuator_work(gammas: Any, positions: Any) -> np.ndarray:
+    """The actuators' work since the first sample [J], shape (K,): ``sum_k Gamma_k .
+    (q_a,k+1 - q_a,k)``, each sample's efforts held until the next (exact for the
+    zero-order hold of ``simulate(control_period=...)``, whose samples record the efforts
+    applied from them; first order in the step for efforts that vary within a step).
+
+    Args:
+        gammas: shape (K, 6), the actuators' efforts [N or N m].
+        positions: shape (K, 6), the actuated joint positions [m or rad]
+            (``SimulationResult.actuator_positions``).
+    """
+    gammas = check_array(gammas, (None, 6), "gammas")
+    positions = check_array(positions, (len(gammas), 6), "positions")
+    steps = np.sum(gammas[:-1] * np.diff(positions, axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def plot_energy_balance(t: Any, energy: Any, work: Any, dissipated: Any = None) -> Figure:
+    """The work-energy balance of a driven motion: the change of the mechanical energy,
+    the actuators' work and the joints' losses (top), and the balance's residual
+    ``E - E(0) + losses - work``, ~0 up to the integration error (bottom, in the title).
+
+    Args:
+        t: shape (K,) [s]; energy: shape (K,) [J] (``robot.energy(poses, twists)``);
+        work: shape (K,) [J] the actuators' work since ``t[0]`` (:func:`actuator_work`);
+        dissipated: shape (K,) [W] the power lost in the joints
+            (``robot.dissipated_power(poses, twists)``), ``None`` for none.
+    """
+    t, energy = _series(t, energy, None, "energy")
+    work = check_array(work, (len(t),), "work")
+    losses = np.zeros(len(t))
+    if dissipated is not None:
+        power = check_array(dissipated, (len(t),), "dissipated")
+        losses[1:] = np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))
+    change = energy - energy[0] if len(energy) else energy
+    residual = change + losses - work
+    fig, (ax, ax_r) = _figure(2)
+    ax.plot(t, change, label="E - E(0) (kinetic + potential)")
+    ax.plot(t, work, "--", label="actuators' work")
+    if dissipated is not None:
+        ax.plot(t, losses, ":", label="joint losses")
+    ax.set_ylabel("energy [J]")
+    ax.legend(fontsize="small")
+    ax_r.plot(t, residual, color="black", linewidth=1.0)
+    ax_r.set_ylabel("residual [J]")
+    worst = float(np.max(np.abs(residual))) if len(residual) else 0.0
+    scale = float(np.max(np.abs(work))) if len(work) else 0.0
+    relative = f" ({worst / scale:.2g} of the work)" if scale > 0 else ""
+    ax.set_title(f"Work-energy balance: max |E - E(0) + losses - work| = {worst:.3g} J{relative}")
+    return fig
+
+
 def reference_poses(reference: Any, times: Any) -> np.ndarray:
     """The reference poses at ``times`` (K,) [s], shape (K, 4, 4), from either
 
@@ -180,7 +232,9 @@ def save_figures(
     """Write the figures of a simulated motion as PNG files in ``folder``.
 
     Always ``forces.png`` and ``lengths.png``; ``tracking_error.png`` with a
-    ``reference``; ``energy.png`` with the ``robot`` (which also draws the stroke limits).
+    ``reference``; ``energy.png`` with the ``robot`` (which also draws the stroke limits):
+    the work-energy balance (:func:`plot_energy_balance`), whose residual is ~0 for a
+    driven motion as for a free one.
 
     Args:
         result: the motion.
@@ -216,7 +270,12 @@ def save_figures(
         reference = reference_poses(reference, result.t)
         figures["tracking_error"] = plot_tracking_error(result.t, result.poses, reference)
     if robot is not None:
-        figures["energy"] = plot_energy(result.t, robot.energy(result.poses, result.twists))
+        figures["energy"] = plot_energy_balance(
+            result.t,
+            robot.energy(result.poses, result.twists),
+            actuator_work(result.gammas, result.lengths),
+            robot.dissipated_power(result.poses, result.twists),
+        )
     paths = {}
     for name, fig in figures.items():
         paths[name] = folder / f"{name}.png"
