@@ -404,7 +404,11 @@ def test_save_figures_of_general_legs(tmp_path, monkeypatch):
     )
     from stewart_pin import preset
 
-    robot = SimpleNamespace(description=preset("rus"), energy=lambda poses, twists: np.ones(5))
+    robot = SimpleNamespace(
+        description=preset("rus"),
+        energy=lambda poses, twists: np.ones(5),
+        dissipated_power=lambda poses, twists: np.zeros(5),
+    )
     seen = {}
     save = plots.plot_lengths
 
