@@ -127,8 +127,8 @@ def test_compensating_the_arm_keeps_its_base_still():
 
     compensated = run(joints)
     ignorant = run(JointMotion.still(robot.payload, joints.q0))
-    assert compensated < 1e-5  # m: the zero-order hold of a 2 ms controller (2.5 um seen)
-    assert ignorant > 100 * compensated  # 0.5 mm seen
+    assert compensated < 1e-5  # m: the zero-order hold of a 2 ms controller (3.2 um seen)
+    assert ignorant > 50 * compensated  # 0.26 mm seen (80 times; from the Panda's ready pose)
 
 
 def test_payload_simulation_saves_the_joints_beside_the_result(tmp_path):

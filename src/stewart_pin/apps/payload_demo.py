@@ -2,7 +2,7 @@
 keeps the arm's base still.
 
 The arm (default: a Panda, 17 kg, on the ``paper`` preset's 45 kg platform) swings from
-its home configuration (the middle of its joints' ranges) to a reach configuration by a
+its home configuration (its SRDF's ready pose, clear of the platform) to a reach configuration by a
 minimum-jerk move, then holds. The hexapod's reference is its home pose, held:
 
 - **efforts**: the actuator efforts that hold the platform still while the arm moves
@@ -50,13 +50,14 @@ __all__ = [
 def reach_motion(
     payload: Payload, duration: float, hold: float = 0.0, fraction: float = 0.5
 ) -> JointMotion:
-    """From the home configuration (the middle of each joint's range) to a reach
-    configuration, each joint moved by ``fraction`` of its half-range
-    (:meth:`Payload.half_ranges`), alternately up and down, by a minimum-jerk move of
+    """From the home configuration (the SRDF's reference posture where the arm has one,
+    else the middle of each joint's range) to a reach configuration, each joint moved by
+    ``fraction`` of its room there (:meth:`Payload.room`: the distance to its nearer
+    limit, at most its half-range), alternately up and down, by a minimum-jerk move of
     ``duration`` [s], then held for ``hold`` [s]."""
     signs = np.where(np.arange(payload.nv) % 2 == 0, 1.0, -1.0)
     home = payload.home_configuration()
-    goal = np.asarray(pin.integrate(payload.model, home, fraction * signs * payload.half_ranges()))
+    goal = np.asarray(pin.integrate(payload.model, home, fraction * signs * payload.room(home)))
     return JointMotion.point_to_point(payload, home, goal, duration, hold)
 
 

@@ -150,7 +150,7 @@ def _sweep(args: argparse.Namespace) -> tuple[float, float]:
 
 def _payload_joints(args: argparse.Namespace, carrier: Any, duration: float) -> Any:
     """The payload's joint motion of the command line: every joint sweeping a quarter of
-    its half-range about the middle of its range (``JointMotion.sweep``)."""
+    its room about its home posture (``JointMotion.sweep``)."""
     from stewart_pin.motion.payload import JointMotion
 
     return JointMotion.sweep(carrier.payload, *_sweep(args), duration)
