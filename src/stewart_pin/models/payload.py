@@ -31,6 +31,7 @@ import dataclasses
 import functools
 import importlib
 import importlib.metadata
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -460,11 +461,7 @@ class Payload:
         q = np.array(pin.neutral(self.model), dtype=float)
         lo = np.array(self.model.lowerPositionLimit, dtype=float)
         hi = np.array(self.model.upperPositionLimit, dtype=float)
-        for j in range(1, self.model.njoints):
-            joint = self.model.joints[j]
-            if joint.nq != joint.nv:
-                continue
-            k = slice(joint.idx_q, joint.idx_q + joint.nq)
+        for k, _ in self._joint_slices():
             ok = np.isfinite(lo[k]) & np.isfinite(hi[k]) & (lo[k] <= hi[k])
             ok &= (np.abs(lo[k]) <= 2 * np.pi + 1e-9) & (np.abs(hi[k]) <= 2 * np.pi + 1e-9)
             q[k] = np.where(ok, 0.5 * (lo[k] + hi[k]), q[k])
@@ -478,14 +475,7 @@ class Payload:
         room = self.half_ranges()
         lo = np.asarray(self.model.lowerPositionLimit, dtype=float)
         hi = np.asarray(self.model.upperPositionLimit, dtype=float)
-        for j in range(1, self.model.njoints):
-            joint = self.model.joints[j]
-            if joint.nq != joint.nv:
-                continue
-            qs, vs = (
-                slice(joint.idx_q, joint.idx_q + joint.nq),
-                slice(joint.idx_v, joint.idx_v + joint.nv),
-            )
+        for qs, vs in self._joint_slices():
             with np.errstate(invalid="ignore"):
                 near = np.minimum(q[qs] - lo[qs], hi[qs] - q[qs])
             room[vs] = np.where(
@@ -500,18 +490,22 @@ class Payload:
         half = np.full(self.nv, np.pi)
         lo = np.asarray(self.model.lowerPositionLimit, dtype=float)
         hi = np.asarray(self.model.upperPositionLimit, dtype=float)
+        for qs, vs in self._joint_slices():
+            width = 0.5 * (hi[qs] - lo[qs])
+            ok = np.isfinite(width) & (width >= 0)
+            half[vs] = np.where(ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi)
+        return half
+
+    def _joint_slices(self) -> Iterator[tuple[slice, slice]]:
+        """``(q slice, v slice)`` of each joint with as many positions as rates (not a
+        continuous joint's ``(cos, sin)``, nor a spherical joint's quaternion)."""
         for j in range(1, self.model.njoints):
             joint = self.model.joints[j]
-            if joint.nq != joint.nv:
-                continue
-            width = 0.5 * (
-                hi[joint.idx_q : joint.idx_q + joint.nq] - lo[joint.idx_q : joint.idx_q + joint.nq]
-            )
-            ok = np.isfinite(width) & (width >= 0)
-            half[joint.idx_v : joint.idx_v + joint.nv] = np.where(
-                ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi
-            )
-        return half
+            if joint.nq == joint.nv:
+                yield (
+                    slice(joint.idx_q, joint.idx_q + joint.nq),
+                    slice(joint.idx_v, joint.idx_v + joint.nv),
+                )
 
     def random_configurations(
         self, n: int, rng: np.random.Generator | int | None = None
