@@ -246,23 +246,28 @@ class CoordinateMotion:
                 robot.inverse_geometry(traj.poses[chunk])
                 robot.jacobian(traj.poses[chunk])
             except (WorkspaceError, SingularityError) as e:
-                bad = _first_bad(robot, traj.poses[chunk])
-                # Same exception (type and attributes), its message prefixed with the time.
-                e.args = (
-                    f"the motion leaves the workspace at t = {traj.times[k + bad]:.4g} s: {e}",
+                bad, error = _first_bad(robot, traj.poses[chunk])
+                # The first failing sample's own error (type and attributes; no batch
+                # note), its message prefixed with the time.
+                error = error or e
+                error.args = (
+                    f"the motion leaves the workspace at t = {traj.times[k + bad]:.4g} s: {error}",
                 )
-                raise
+                raise error from None
         return traj
 
 
-def _first_bad(robot: RobotLike, poses: np.ndarray) -> int:
+def _first_bad(
+    robot: RobotLike, poses: np.ndarray
+) -> tuple[int, WorkspaceError | SingularityError | None]:
+    """The first pose of ``poses`` out of the workspace, and its error."""
     for n, T in enumerate(poses):
         try:
             robot.inverse_geometry(T)
             robot.jacobian(T)
-        except (WorkspaceError, SingularityError):
-            return n
-    return 0
+        except (WorkspaceError, SingularityError) as e:
+            return n, e
+    return 0, None
 
 
 def _quintic(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
