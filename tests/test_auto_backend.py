@@ -215,7 +215,7 @@ def test_simulate_the_controller_identification_and_the_cli_take_auto(auto, caps
     assert auto_backend(traj_robot) is not None  # identification's forces, compiled
     assert rel_error(m.gammas, traj_robot.inverse_dynamics(P, V, A, backend="pinocchio")) < TOL
     out = tmp_path / "sim.npz"
-    argv = ["simulate", "--preset", "pus", "--duration", "0.01", "--quiet", "-o", str(out)]
+    argv = ["simulate", "--preset", "pus", "--duration", "0.01", "--no-progress", "-o", str(out)]
     assert main(argv) == 0
     assert len(_compiling_lines(capsys.readouterr().err)) == 1  # pus: built here, on first use
 

@@ -135,17 +135,41 @@ def test_validate_passes_and_reports(capsys):
     assert "PASSED" in out and "inverse dynamics" in out
 
 
+def test_validate_gives_one_verdict_at_the_tolerances_given(capsys):
+    """It printed PASSED twice, and PASSED (at the defaults) then FAILED with a tolerance
+    no double reaches: one verdict, naming the tolerances it used."""
+    assert main(["validate", "--preset", "desktop", "--states", "5"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("PASSED") == 1 and "FAILED" not in out
+    assert "PASSED at the default tolerances (IDM 1e-09, DDM 1e-08)" in out
+    assert main(["validate", "--preset", "desktop", "--states", "5", "--tol-idm", "1e-20"]) == 1
+    out = capsys.readouterr().out
+    assert out.count("FAILED") == 1 and "PASSED" not in out
+    assert "FAILED at the tolerances (IDM 1e-20, DDM 1e-08)" in out
+
+
 def test_simulate_tracks_and_writes_the_result(tmp_path, capsys):
     from stewart_pin.motion.simulation import SimulationResult
 
     out = tmp_path / "run.csv"
     args = ["simulate", "--preset", "desktop", "--motion", "minimum-jerk", "--duration", "0.2"]
-    assert main([*args, "-o", str(out), "--quiet"]) == 0
+    assert main([*args, "-o", str(out), "--no-progress"]) == 0
     res = SimulationResult.load(out)
     assert res.t[-1] == pytest.approx(0.2) and len(res.t) == 201
     text = capsys.readouterr().out
     error_mm = float(text.split("tracking error: max ")[1].split(" mm")[0])
     assert error_mm < 0.01
+
+
+def test_simulate_a_washout_for_the_duration_asked(tmp_path, capsys):
+    from stewart_pin.motion.simulation import SimulationResult
+
+    out = tmp_path / "run.npz"
+    args = ["simulate", "--preset", "desktop", "--motion", "washout", "--duration", "0.3"]
+    assert main([*args, "--backend", "pinocchio", "-o", str(out), "--no-progress"]) == 0
+    res = SimulationResult.load(out)
+    assert res.t[-1] == 0.3 and len(res.t) == 301  # it ran the 4.5 s cue
+    assert "simulated 0.3 s" in capsys.readouterr().out
 
 
 def test_bad_arguments_exit_2_with_one_line(capsys):
@@ -173,6 +197,55 @@ def test_bench_writes_json(tmp_path, capsys):
     assert "pin.constraintDynamics (raw call)" in rows and "IDM single" in rows
     assert all(t > 0 for t in rows.values())
     assert data["machine"]["cpus"] >= 1
+
+
+def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
+    """``bench`` printed a raw dict header and nothing until the end: a progress line per
+    stage (stderr), a readable machine line and one table (the timings stubbed: the
+    output is under test, not the machine)."""
+    from stewart_pin.apps import bench
+
+    def arch(name, repeats, batches):
+        rows = {"pin.constraintDynamics (raw call)": 10.0, "IDM single": 2.0}
+        return {
+            "architecture": name,
+            "backend": "compiled (c)",
+            "threads": 2,
+            "median_us_per_state": rows,
+            "ratio_to_pin_constraintDynamics": {k: t / 10.0 for k, t in rows.items()},
+        }
+
+    monkeypatch.setattr(bench, "median_us", lambda fn, repeats, per=1: 4.0)
+    monkeypatch.setattr(bench, "architecture_rows", arch)
+    monkeypatch.setattr(bench, "compiled_rows", lambda *a: ({"compiled IDM single (c)": 1.0}, {}))
+    monkeypatch.setattr(bench, "mujoco_rows", lambda *a: {})
+    monkeypatch.setattr(
+        bench,
+        "cost_dict",
+        lambda robot: {
+            m: dict.fromkeys(("base", "essential", "critical_path"), 1) for m in ("IDM", "DDM")
+        },
+    )
+    args = ["bench", "--preset", "desktop", "--architectures", "rus,pus", "--batch", "5"]
+    assert main([*args, "--repeats", "1", "--quick"]) == 0
+    out, err = capsys.readouterr()
+    stages = [line for line in err.splitlines() if line.startswith("bench: [")]
+    assert len(stages) == 5 and stages[0].startswith("bench: [1/5] 'rus'")
+    lines = out.splitlines()
+    assert "{" not in lines[0] and "CPUs" in lines[0] and "Python" in lines[0]
+    assert lines[1].split() == [
+        "robot",
+        "backend",
+        "timing",
+        "[us/state]",
+        "/",
+        "pin.constraintDynamics",
+    ]
+    rows = [line.split() for line in lines[2:]]
+    assert [r[0] for r in rows] == ["rus"] * 2 + ["pus"] * 2 + ["desktop"] * 9
+    assert rows[1][-2:] == ["2.000", "0.200"] and rows[-1][-2:] == ["1.000", "0.250"]
+    assert main([*args, "--repeats", "1", "--quick", "--no-progress"]) == 0
+    assert capsys.readouterr().err == ""
 
 
 def test_animate_writes_a_standalone_page(tmp_path, capsys):
@@ -495,3 +568,107 @@ def test_every_preset_option_names_every_preset():
                 text = " ".join(parser.format_help().split())
                 for preset_name in (*PRESET_NAMES, "random-<seed>", "random-<kind>-<seed>"):
                     assert preset_name in text, f"stewart-pin {name} --help: {preset_name}"
+
+
+# ---------------------------------------------------------------------- missing extras
+def _without(monkeypatch: pytest.MonkeyPatch, *modules: str) -> None:
+    """Make ``import <module>`` fail as if the package were not installed (a ``None`` in
+    ``sys.modules`` halts the import with an ImportError)."""
+    import sys
+
+    for name in modules:
+        monkeypatch.setitem(sys.modules, name, None)
+
+
+_NO_MATPLOTLIB = ("matplotlib", "matplotlib.figure", "matplotlib.pyplot")
+_NO_MESHCAT = ("meshcat", "meshcat.animation", "meshcat.geometry")
+
+
+@pytest.mark.parametrize(
+    ("command", "missing", "package", "extra"),
+    [
+        (["demo", "--preset", "desktop", "-o", "out"], _NO_MATPLOTLIB, "matplotlib", "viz"),
+        (["demo", "--preset", "desktop", "-o", "out"], _NO_MESHCAT, "meshcat", "viz"),
+        (["animate", "--preset", "desktop", "--duration", "0.2"], _NO_MESHCAT, "meshcat", "viz"),
+        (
+            [
+                "simulate",
+                "--preset",
+                "desktop",
+                "--duration",
+                "0.05",
+                "--no-progress",
+                "--plots",
+                "p",
+            ],
+            _NO_MATPLOTLIB,
+            "matplotlib",
+            "viz",
+        ),
+        (["import", "MODEL", "-o", "out.toml"], ("mujoco",), "mujoco", "import"),
+        (["ik", "--model", "MODEL"], ("mujoco",), "mujoco", "import"),
+    ],
+)
+def test_a_missing_extra_is_one_line_before_the_work(
+    tmp_path, capsys, monkeypatch, command, missing, package, extra
+):
+    """Without the extra a command needs: one line naming the package and the quoted
+    install hint, exit 2, and nothing done (these used to run for a minute, then end in a
+    traceback)."""
+    from stewart_pin.formats.mjcf import write_mjcf
+
+    model = write_mjcf(preset("desktop"), tmp_path / "desktop.xml")
+    monkeypatch.chdir(tmp_path)
+    command = [str(model) if a == "MODEL" else a for a in command]
+    _without(monkeypatch, *missing)
+    before = set(tmp_path.iterdir())
+    assert main(command) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert f"{package}, needed for" in err and f'pip install "stewart-pin[{extra}]"' in err
+    assert set(tmp_path.iterdir()) == before  # nothing written
+
+
+# ---------------------------------------------------------------------- pipes
+@pytest.mark.parametrize(
+    "command", [["ik", "--preset", "desktop"], ["base-params", "--preset", "desktop"]]
+)
+def test_a_reader_that_stops_early_ends_the_command_quietly(command):
+    """``stewart-pin ... | head``: the reader closes the pipe before the command writes.
+    Nothing on stderr (it printed "error: [Errno 32] Broken pipe" and exited 2), exit code
+    141 (128 + SIGPIPE, as a shell reports for a Unix tool ended by the closed pipe)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import stewart_pin
+    from stewart_pin.cli import EXIT_BROKEN_PIPE
+
+    env = {**os.environ, "PYTHONPATH": str(Path(stewart_pin.__file__).parents[1])}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "stewart_pin.cli", *command],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # the reader is gone before the first line
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == EXIT_BROKEN_PIPE and EXIT_BROKEN_PIPE == 141
+    assert err == ""
+
+
+def test_no_progress_is_the_one_name_and_quiet_a_deprecated_alias(tmp_path, capsys):
+    """``--quiet`` (simulate) and ``--no-progress`` (identify) meant the same thing: one
+    name everywhere, the old one kept with a warning and out of the help."""
+    parsers = subcommand_parsers()
+    for name in ("simulate", "identify"):
+        assert "--no-progress" in parsers[name].format_help()
+        assert "--quiet" not in parsers[name].format_help()
+    args = ["simulate", "--preset", "desktop", "--duration", "0.01", "--backend", "pinocchio"]
+    assert main([*args, "--quiet", "-o", str(tmp_path / "a.npz")]) == 0
+    err = capsys.readouterr().err
+    assert err == "stewart-pin simulate: warning: --quiet is deprecated, use --no-progress\n"
+    assert main([*args, "--no-progress", "-o", str(tmp_path / "b.npz")]) == 0
+    assert capsys.readouterr().err == ""

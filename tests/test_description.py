@@ -651,3 +651,23 @@ def test_utf8_byte_order_mark_is_accepted_in_csv_tables(tmp_path):
     path = tmp_path / "bom.csv"
     path.write_bytes(b"\xef\xbb\xbf" + text.encode())  # as spreadsheet tools save UTF-8
     np.testing.assert_array_equal(read_csv(path, STATE_COLUMNS), rows)
+
+
+@pytest.mark.parametrize(
+    ("name", "efforts", "positions"),
+    [("desktop", "N", "m"), ("ups-offset", "N", "m"), ("rus", "N m", "rad"), ("pus", "N", "m")],
+)
+def test_actuator_units_follow_the_actuated_joint(name, efforts, positions):
+    """A prismatic actuator (6-UPS legs, PUS slides) exerts a force [N] and moves by
+    metres; a revolute one (RUS cranks) a torque [N m] through radians. Crank torques were
+    labelled [N] in the plots, identify's report and the help."""
+    desc = preset(name)
+    assert desc.actuator_units == (efforts,) * 6
+    assert (desc.effort_unit, desc.position_unit) == (efforts, positions)
+
+
+def test_mixed_legs_name_both_units():
+    rus, pus = preset("rus"), preset("pus")
+    mixed = rus.replace(legs=rus.legs[:3] + pus.legs[3:])
+    assert mixed.actuator_units == ("N m",) * 3 + ("N",) * 3
+    assert (mixed.effort_unit, mixed.position_unit) == ("N m or N", "rad or m")

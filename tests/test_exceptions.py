@@ -198,3 +198,92 @@ def test_the_compiled_backend_raises_numerical_error_itself(desktop):
     e = info.value
     assert (e.output, e.index) == ("inverse dynamics Gamma", 1)
     assert str(e).startswith("inverse dynamics Gamma is not finite at state 1")
+
+
+# ---------------------------------------------------------------------- errors in a batch
+def _lifted(robot: StewartRobot, dz: list[float]) -> np.ndarray:
+    """Home poses raised by ``dz`` [m] each, (N, 4, 4)."""
+    T = np.repeat(robot.home_pose[None], len(dz), axis=0)
+    T[:, 2, 3] += dz
+    return T
+
+
+def test_a_stroke_error_in_a_batch_names_the_first_failing_state_and_the_count(desktop):
+    """Six-UPS batch: states 2 and 4 leave the stroke, 4 further. The error named no state;
+    it names state 2 (the first), with its leg length, and that 2 of 5 states fail."""
+    from helpers import leg_lengths_by_hand
+
+    from stewart_pin import StrokeLimitError
+
+    hi = desktop.description.stroke[1]
+    T = _lifted(desktop, [0.0, 0.0, 0.05, 0.0, 0.1])
+    lengths = leg_lengths_by_hand(desktop.description, T[2])
+    assert lengths.max() > hi and leg_lengths_by_hand(desktop.description, T[4]).min() > hi
+    with pytest.raises(StrokeLimitError) as info:
+        desktop.inverse_geometry(T)
+    e = info.value
+    assert (e.state, e.n_bad, e.n_states) == (2, 2, 5)
+    leg = int(np.argmax(lengths > hi))
+    assert e.leg == leg + 1 and e.value == pytest.approx(lengths[leg], rel=1e-12)
+    assert str(e).endswith("(first failing state 2; 2 of 5 states fail)")
+    with pytest.raises(StrokeLimitError) as one:  # one state: no batch location
+        desktop.inverse_geometry(T[4])
+    assert one.value.state is None and "failing state" not in str(one.value)
+
+
+def test_a_leg_reach_error_names_the_first_failing_state_not_the_worst():
+    """RUS cranks: state 1 just out of reach, state 3 far out. The error named the worst
+    (state 3, by the largest |cos|); it names the first and the count."""
+    from stewart_pin import LegReachError
+
+    rus = StewartRobot.from_preset("rus")
+    size = rus.description.size
+    T = _lifted(rus, [0.0, 0.3 * size, 0.0, 1.0 * size])
+    with pytest.raises(LegReachError) as first:
+        rus.inverse_geometry(T[1], check_limits=False)
+    with pytest.raises(LegReachError) as worst:
+        rus.inverse_geometry(T[3], check_limits=False)
+    assert first.value.value < worst.value.value
+    with pytest.raises(LegReachError) as info:
+        rus.inverse_geometry(T, check_limits=False)
+    e = info.value
+    assert (e.state, e.n_bad, e.n_states) == (1, 2, 4)
+    assert (e.leg, e.value) == (first.value.leg, first.value.value)
+    assert "(first failing state 1; 2 of 4 states fail)" in str(e)
+
+
+def test_a_parallel_singularity_in_a_batch_names_the_first_failing_state(desktop):
+    """Rotations about z of 0, 0.4, 0.1 and 0.5 rad, the threshold between the measures at
+    0.1 and 0.4 rad: states 1 and 3 fail (the measure grows with the twist of the legs)."""
+    import pinocchio as pin
+
+    T = np.repeat(desktop.home_pose[None], 4, axis=0)
+    for k, angle in enumerate([0.0, 0.4, 0.1, 0.5]):
+        T[k, :3, :3] = pin.exp3(np.array([0.0, 0.0, angle])) @ T[k, :3, :3]
+    cond = np.array([desktop.condition_number(P) for P in T])  # one pose at a time
+    assert cond[0] < cond[2] < cond[1] < cond[3]
+    strict = StewartRobot(desktop.description, max_condition=0.5 * (cond[2] + cond[1]))
+    zeros = np.zeros((4, 6))
+    with pytest.raises(SingularityError) as info:
+        strict.inverse_dynamics(T, zeros, zeros, backend="pinocchio")
+    e = info.value
+    assert (e.state, e.n_bad, e.n_states) == (1, 2, 4) and e.value == pytest.approx(cond[1])
+    assert "(first failing state 1; 2 of 4 states fail)" in str(e)
+
+
+def test_a_bad_rotation_in_a_batch_names_the_first_not_the_worst(desktop):
+    T = np.repeat(desktop.home_pose[None], 3, axis=0)
+    T[1, 0, 0] += 1e-3  # not a rotation
+    T[2, 0, 0] += 0.5  # much worse
+    with pytest.raises(InputError, match=r"pose\[1\] rotation .* \(2 of 3 poses fail\)"):
+        desktop.inverse_geometry(T)
+
+
+def test_a_batch_not_positive_definite_names_the_first_failing_state():
+    from stewart_pin.dynamics.closed_loop import closure_direct_dynamics
+
+    A = np.array([np.eye(6), -np.eye(6), np.eye(6), -np.eye(6)])
+    J = np.repeat(np.eye(6)[None], 4, axis=0)
+    with pytest.raises(SingularityError, match="not positive definite") as info:
+        closure_direct_dynamics(A, np.zeros((4, 6)), J, np.zeros((4, 6)))
+    assert (info.value.state, info.value.n_bad, info.value.n_states) == (1, 2, 4)

@@ -546,7 +546,7 @@ def test_simulate_unknown_backend_is_refused_before_the_run(tmp_path, capsys):
     out = tmp_path / "sim.npz"
     capsys.readouterr()
     with pytest.raises(SystemExit) as exit_info:
-        main(["simulate", "--preset", "rus", "--backend", "fast", "--quiet", "-o", str(out)])
+        main(["simulate", "--preset", "rus", "--backend", "fast", "--no-progress", "-o", str(out)])
     assert exit_info.value.code == 2
     assert not list(tmp_path.iterdir())  # nothing run, nothing saved
     robot = StewartRobot.from_preset("rus")

@@ -99,6 +99,34 @@ def test_example_robot_data_names_locate_the_installed_files():
 
 
 @needs_erd
+def test_home_is_the_srdf_reference_posture_where_the_arm_has_one():
+    """The Panda's home was the middle of its joints' ranges (the elbow and wrist folded
+    down towards the platform); example-robot-data's SRDF gives its ready pose, read here
+    from the file with the standard library. The UR5's SRDF has no posture: the middle of
+    its ranges as before. The sweeps about home stay within the limits."""
+    import xml.etree.ElementTree as ET
+
+    from stewart_pin.motion.payload import JointMotion
+
+    panda = load_payload("panda")
+    urdf = example_robot_urdf("panda")
+    root = ET.parse(urdf.parent.parent / "srdf" / "panda.srdf").getroot()
+    state = next(s for s in root.iter("group_state") if s.get("name") == "default")
+    values = {j.get("name"): float(j.get("value")) for j in state.iter("joint")}
+    q = panda.home_configuration()
+    for jid, name in enumerate(panda.model.names[1:], start=1):
+        expected = values.get(name, 0.0)  # a joint the state leaves out: neutral
+        assert q[panda.model.joints[jid].idx_q] == pytest.approx(expected, abs=1e-12), name
+    assert q[3] == pytest.approx(-2.35619) and q[5] == pytest.approx(1.5707)
+    ur5 = load_payload("ur5")
+    lo, hi = ur5.model.lowerPositionLimit, ur5.model.upperPositionLimit
+    np.testing.assert_allclose(ur5.home_configuration(), 0.5 * (lo + hi), atol=1e-15)
+    np.testing.assert_allclose(ur5.room(), ur5.half_ranges(), atol=1e-15)
+    for p in (panda, ur5, panda.scaled(2.0, 8.0)):
+        JointMotion.sweep(p, 1.0, 1.0).check_limits()  # the whole room, both ways
+
+
+@needs_erd
 def test_unknown_payload_name_lists_the_robots():
     with pytest.raises(UnknownPayloadError, match="ur5") as info:
         load_payload("no-such-arm")

@@ -127,8 +127,8 @@ def test_compensating_the_arm_keeps_its_base_still():
 
     compensated = run(joints)
     ignorant = run(JointMotion.still(robot.payload, joints.q0))
-    assert compensated < 1e-5  # m: the zero-order hold of a 2 ms controller (2.5 um seen)
-    assert ignorant > 100 * compensated  # 0.5 mm seen
+    assert compensated < 1e-5  # m: the zero-order hold of a 2 ms controller (3.2 um seen)
+    assert ignorant > 50 * compensated  # 0.26 mm seen (80 times; from the Panda's ready pose)
 
 
 def test_payload_simulation_saves_the_joints_beside_the_result(tmp_path):
@@ -298,7 +298,9 @@ def test_chromium_draws_the_arm_on_the_platform(exported, tmp_path):
 def test_cli_simulate_and_animate_with_a_payload(tmp_path, capsys):
     out = tmp_path / "run.npz"
     args = ["--preset", "rus", "--payload", "so101", "--duration", "0.05", "--dt", "5e-3"]
-    assert main(["simulate", *args, "--control-period", "5e-3", "-o", str(out), "--quiet"]) == 0
+    assert (
+        main(["simulate", *args, "--control-period", "5e-3", "-o", str(out), "--no-progress"]) == 0
+    )
     text = capsys.readouterr().out
     assert "rus+so101" in text and "tracking error" in text
     assert payload_path(out).is_file()

@@ -311,7 +311,9 @@ def test_cli_simulate_saves_the_partial_result_beside_the_output(tmp_path, capsy
     for suffix in (".npz", ".csv"):
         out = tmp_path / f"run{suffix}"
         args = ["simulate", "--preset", "desktop", "--motion", "free", "--duration", "2"]
-        code = main([*args, "--backend", "pinocchio", "--dt", "2e-3", "-o", str(out), "--quiet"])
+        code = main(
+            [*args, "--backend", "pinocchio", "--dt", "2e-3", "-o", str(out), "--no-progress"]
+        )
         assert code == 2
         err = capsys.readouterr().err
         partial = tmp_path / f"run.partial{suffix}"
@@ -359,7 +361,7 @@ def test_unbounded_durations_and_steps_are_refused_up_front(desktop, kwargs):
 
 def test_cli_refuses_a_vanishing_step_in_one_line(tmp_path, capsys):
     out = tmp_path / "run.npz"
-    assert main(["simulate", "--dt", "1e-300", "--quiet", "-o", str(out)]) == 2
+    assert main(["simulate", "--dt", "1e-300", "--no-progress", "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "dt = 1e-300 s is below the smallest step" in err
     assert not out.exists() and not (tmp_path / "run.partial.npz").exists()
@@ -422,3 +424,48 @@ def test_zero_order_hold_samples_accepted_states_only(desktop):
         runs[method] = res
     end = {m: r.poses[-1][:3, 3] for m, r in runs.items()}
     np.testing.assert_allclose(end["rk4"], end["adaptive"], rtol=0, atol=1e-12)
+
+
+# ---------------------------------------------------------------------- time grid
+def _at_rest(t, T, V, gamma):
+    """A direct model that holds the platform still (zero acceleration): the time grid
+    alone is under test, at no cost."""
+    return np.zeros(6)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "step"),
+    [
+        ({"dt": 1e-3}, 1e-3),
+        ({"dt": 1e-3, "control_period": 5e-3}, 1e-3),
+        ({"dt": 1e-3, "output_dt": 5e-3}, 5e-3),
+        ({"method": "adaptive", "dt": 1e-3, "output_dt": 1e-3}, 1e-3),
+        ({"method": "adaptive", "control_period": 1e-3, "output_dt": 1e-3}, 1e-3),
+    ],
+)
+def test_one_sample_per_grid_time(desktop, kwargs, step):
+    """Past t = 1 s the rk4 grid was built by accumulation: every step split in two, 2.2e-16
+    s apart (2497 samples for 2 s at 1e-3 s instead of 2001). The samples are the grid
+    ``k * step`` exactly, bit for bit, one per grid time, for either integrator."""
+    res = simulate(desktop, 2.0, dynamics=_at_rest, **kwargs)
+    grid = np.arange(round(2.0 / step) + 1) * step
+    assert len(res.t) == len(grid)
+    np.testing.assert_array_equal(res.t, grid)
+
+
+def test_cli_simulate_output_reads_as_an_identification_log(tmp_path, capsys):
+    """The documented path ``simulate -o run.csv`` then ``identify --log run.csv``: the
+    split grid steps past t = 1 s made the log fail with "irregular sampling". A 1.5 s run
+    (past 1 s; the short log asks for a wider state filter and no decimation)."""
+    log = tmp_path / "run.csv"
+    args = ["--preset", "rus", "--backend", "pinocchio", "--duration", "1.5", "--no-progress"]
+    assert main(["simulate", *args, "-o", str(log)]) == 0
+    t = np.loadtxt(log, delimiter=",", comments="#", skiprows=1, usecols=0)
+    np.testing.assert_array_equal(t, np.arange(1501) * 1e-3)
+    # the cranks' torques [N m] through angles [rad] (the torques were labelled N)
+    assert re.search(r"peak \|Gamma\| \S+ N m; .* rad$", capsys.readouterr().out, re.M)
+    ident = ["--cutoff", "50", "--decimation", "1", "--no-progress"]
+    assert main(["identify", "--preset", "rus", "--log", str(log), *ident]) == 0
+    out, err = capsys.readouterr()
+    assert "irregular" not in err
+    assert "noise std (from the residuals) [N m]:" in out and "[N]" not in out

@@ -65,12 +65,29 @@ def test_washout_returns_to_the_centre(robot):
     assert peak[0, 3] - robot.home_pose[0, 3] == pytest.approx(0.2, abs=1e-15)
 
 
+def test_the_standard_washout_lasts_the_duration_asked(robot):
+    """``simulate --motion washout --duration 3`` simulated 4.5 s: the cue's phases scale
+    with the duration; it starts and ends at home, the surge peaking at 0.5 / 4.5 of it."""
+    from stewart_pin.motion.trajectories import standard_motion
+
+    s = robot.description.stroke_mid
+    for duration in (3.0, 4.5, 1.5):
+        m = standard_motion(robot, "washout", duration)
+        assert m.duration == pytest.approx(duration, rel=1e-15)
+        ends = m.sample(np.array([0.0, duration])).poses
+        np.testing.assert_allclose(ends, [robot.home_pose] * 2, atol=1e-15)
+        peak = m.sample(np.array([duration * 0.5 / 4.5])).poses[0]
+        assert peak[0, 3] - robot.home_pose[0, 3] == pytest.approx(0.08 * s, abs=1e-15)
+
+
 def test_workspace_checked_before_a_run(robot):
     for motion in motions(robot):
         motion.check_workspace(robot)  # all reachable
     too_far = minimum_jerk(robot.home_pose, [0, 0, 1.0, 0, 0, 0], 2.0)
-    with pytest.raises(StrokeLimitError, match=r"leaves the workspace at t = [\d.]+ s: leg"):
+    with pytest.raises(StrokeLimitError, match=r"leaves the workspace at t = [\d.]+ s: leg") as e:
         too_far.check_workspace(robot)
+    # the sample's own error: no note of a batch state counted inside the sampled chunk
+    assert "failing state" not in str(e.value) and e.value.state is None
 
 
 def test_callable_reference_equals_sampling(robot):

@@ -402,7 +402,13 @@ def test_save_figures_of_general_legs(tmp_path, monkeypatch):
         poses=np.tile(np.eye(4), (5, 1, 1)),
         twists=np.zeros((5, 6)),
     )
-    robot = SimpleNamespace(description=rus_preset(), energy=lambda poses, twists: np.ones(5))
+    from stewart_pin import preset
+
+    robot = SimpleNamespace(
+        description=preset("rus"),
+        energy=lambda poses, twists: np.ones(5),
+        dissipated_power=lambda poses, twists: np.zeros(5),
+    )
     seen = {}
     save = plots.plot_lengths
 
@@ -413,9 +419,15 @@ def test_save_figures_of_general_legs(tmp_path, monkeypatch):
         return fig
 
     monkeypatch.setattr(plots, "plot_lengths", spy)
+    forces = plots.plot_forces
+    monkeypatch.setattr(plots, "plot_forces", lambda *a: seen.setdefault("forces", forces(*a)))
     paths = plots.save_figures(result, tmp_path, robot=robot)
     assert seen["stroke"] is None
     (ax,) = seen["fig"].axes
     assert ax.get_title() == "Actuator positions" and len(ax.lines) == 6
+    # RUS cranks: torques [N m] through angles [rad] (the torques were labelled [N])
+    assert ax.get_ylabel() == "actuated joint [rad]"
+    (ax,) = seen["forces"].axes
+    assert ax.get_ylabel() == "actuator torque [N m]" and ax.get_title() == "Actuator torques"
     assert set(paths) == {"forces", "lengths", "energy"}
     assert matplotlib.image.imread(paths["lengths"]).shape[2] in (3, 4)

@@ -13,11 +13,18 @@ import numbers
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
-from stewart_pin.exceptions import FileFormatError, InputError, StewartPinError, StewartPinWarning
+from stewart_pin.exceptions import (
+    FileFormatError,
+    InputError,
+    SingularityError,
+    StewartPinError,
+    StewartPinWarning,
+    WorkspaceError,
+)
 
 #: Tolerance on ``R^T R - I`` for a rotation matrix given by a user.
 ROTATION_TOLERANCE = 1e-9
@@ -271,18 +278,58 @@ def check_poses(poses: Any, name: str = "pose") -> tuple[np.ndarray, bool]:
         raise InputError(f"{name}: the last row of every pose must be [0, 0, 0, 1]")
     R = T[:, :3, :3]
     err = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))
-    if np.any(err > ROTATION_TOLERANCE):
-        k = int(np.argmax(err))
+    bad = ~(err <= ROTATION_TOLERANCE)
+    if np.any(bad):
+        k = int(np.argmax(bad))  # the first failing pose, not the worst
         raise InputError(
             f"{name}[{k}] rotation block is not a rotation: max |R^T R - I| = {err[k]:.3g}"
+            + _how_many(bad)
         )
     det = np.linalg.det(R)
     if np.any(det < 0):
         k = int(np.argmax(det < 0))
         raise InputError(
             f"{name}[{k}] rotation block is a reflection (det = {det[k]:.6g}), not a rotation"
+            + _how_many(det < 0)
         )
     return T, batched
+
+
+BatchError = TypeVar("BatchError", bound=WorkspaceError | SingularityError)
+
+
+def in_batch(error: BatchError, bad: Any) -> BatchError:
+    """``error`` located in its batch: ``bad`` (N,) or (N, ...) marks the failing states
+    (any entry along the trailing axes). For a batch of more than one state, sets
+    ``error.state`` (the first failing state, not the worst), ``n_bad`` and ``n_states``,
+    and appends "(first failing state n; k of N states fail)" to the message; one state
+    is left as it is (``None`` each)."""
+    bad = np.asarray(bad, dtype=bool)
+    per_state = bad.reshape(len(bad), -1).any(axis=1) if bad.ndim else bad[None]
+    if per_state.size < 2 or not per_state.any():
+        return error
+    error.state = int(np.argmax(per_state))
+    error.n_bad, error.n_states = int(per_state.sum()), int(per_state.size)
+    where = f" (first failing state {error.state}; {error.n_bad} of {error.n_states} states fail)"
+    error.args = (f"{error.args[0] if error.args else ''}{where}", *error.args[1:])
+    return error
+
+
+def cholesky_failures(A: np.ndarray) -> np.ndarray:
+    """(N,) whether the Cholesky factorisation of each matrix of ``A`` (N, n, n) fails (not
+    positive definite): which states a failed batched factorisation stands for."""
+    failed = np.zeros(len(A), dtype=bool)
+    for k, matrix in enumerate(A):
+        try:
+            np.linalg.cholesky(matrix)
+        except np.linalg.LinAlgError:
+            failed[k] = True
+    return failed
+
+
+def _how_many(bad: np.ndarray) -> str:
+    """``" (k of N poses fail)"`` for a batch (N > 1) whose poses ``bad`` (N,) fail."""
+    return f" ({int(bad.sum())} of {bad.size} poses fail)" if bad.size > 1 else ""
 
 
 def is_se3(x: Any) -> bool:

@@ -152,7 +152,18 @@ class FileFormatError(StewartPinError, ValueError):
 
 # ---------------------------------------------------------------------------- workspace
 class WorkspaceError(StewartPinError, ValueError):
-    """A pose the robot cannot reach (base class of the more specific errors)."""
+    """A pose the robot cannot reach (base class of the more specific errors).
+
+    Attributes (of every subclass):
+        state: in a batch, the first failing state (0-based); ``None`` for one state or
+            when unknown. The message then says "(first failing state n; k of N states
+            fail)".
+        n_bad, n_states: how many states fail, of how many (``None`` when unknown).
+    """
+
+    state: int | None = None
+    n_bad: int | None = None
+    n_states: int | None = None
 
 
 class StrokeLimitError(WorkspaceError):
@@ -225,7 +236,14 @@ class SingularityError(StewartPinError, ValueError):
             ``None`` when none was computed.
         threshold: the threshold it crossed, ``None`` when there is none.
         leg: the leg concerned (1-based) or ``None`` for the parallel (platform) singularity.
+        state, n_bad, n_states: in a batch, the first failing state (0-based) and how many
+            states fail, of how many (``None`` for one state or when unknown), as
+            :class:`WorkspaceError`.
     """
+
+    state: int | None = None
+    n_bad: int | None = None
+    n_states: int | None = None
 
     def __init__(
         self,
@@ -544,7 +562,16 @@ class RodSpinError(ModelImportError):
 class ModelImportWarning(StewartPinWarning):
     """An import that proceeded after a correction or by ignoring something the file holds
     (loops assembled from a small residual, an S-S rod's asymmetric spin inertia accepted
-    by option, a spherical joint's limits): the message says what and how much."""
+    by option, a spherical joint's limits): the message says what and how much.
+
+    Attributes:
+        short: the same in a few words, or ``None``: what the robot commands that take
+            ``--model`` print, once (``stewart-pin import`` prints the whole message).
+    """
+
+    def __init__(self, message: str, short: str | None = None) -> None:
+        super().__init__(message)
+        self.short = short
 
 
 # ---------------------------------------------------------------------------- logs

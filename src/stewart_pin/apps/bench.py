@@ -33,6 +33,7 @@ import json
 import os
 import platform
 import statistics
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -246,9 +247,18 @@ def run(
     repeats: int,
     quick: bool = False,
     architectures: tuple[str, ...] = ARCHITECTURES,
+    progress: Callable[[str], None] | None = None,
 ) -> dict[str, object]:
+    """Every timing, as a JSON-ready dict; ``progress(message)`` is told each stage as it
+    starts (a run takes minutes)."""
+    say = progress or (lambda message: None)
+    stages = len(architectures) + 3
     batches = (batch,) if quick else ARCHITECTURE_BATCHES
-    arch = {name: architecture_rows(name, repeats, batches) for name in architectures}
+    arch = {}
+    for k, name in enumerate(architectures, 1):
+        say(f"[{k}/{stages}] '{name}': the default backend (compiled on first use)")
+        arch[name] = architecture_rows(name, repeats, batches)
+    say(f"[{stages - 2}/{stages}] '{preset}': the reference path and pin.constraintDynamics")
     robot = StewartRobot.from_preset(preset)  # any architecture
     poses, twists, accels = robot.sample_states(batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
@@ -283,8 +293,10 @@ def run(
             lambda: reference_actuator_efforts(robot, T, V, A), repeats
         ),
     }
+    say(f"[{stages - 1}/{stages}] '{preset}': the compiled models (CompiledDynamics)")
     more, compiled_info = compiled_rows(robot, poses, twists, accels, gammas, repeats, quick)
     rows.update(more)
+    say(f"[{stages}/{stages}] '{preset}': MuJoCo mj_forward (when MuJoCo imports)")
     rows.update(mujoco_rows(robot, T, G, repeats))
     reference = rows["pin.constraintDynamics (raw call)"]
     counts = cost_dict(robot)
@@ -303,30 +315,61 @@ def run(
     }
 
 
-def report(args: argparse.Namespace) -> dict[str, object]:
-    """Run the benchmark, print the table (and write the JSON) as ``args`` say."""
-    archs = getattr(args, "architectures", ARCHITECTURES)
-    result = run(args.preset, args.batch, args.repeats, args.quick, archs)
-    print(f"stewart-pin {stewart_pin.__version__}, {result['machine']}")
-    head = f"{'[us]':>10s} {'/ pin.constraintDynamics':>26s}"
-    print(f"{'default backend (auto), per state':48s} {head}")
-    archs_result = cast(dict[str, dict[str, object]], result.get("architectures", {}))
-    for name, entry in archs_result.items():
-        print(
-            f"-- '{name}' ({entry['architecture']}): {entry['backend']}, "
-            f"{entry['threads']} thread(s)"
-        )
-        a_rows = cast(dict[str, float], entry["median_us_per_state"])
-        a_ratios = cast(dict[str, float], entry["ratio_to_pin_constraintDynamics"])
-        for row, t in a_rows.items():
-            print(f"{row:48s} {t:10.3f} {a_ratios[row]:26.3f}")
-    print(f"-- preset '{args.preset}'")
-    print(f"{'median time per state':48s} {'[us]':>10s} {'/ pin.constraintDynamics':>26s}")
-    rows = cast(dict[str, float], result["median_us_per_state"])
+def machine_line(info: object) -> str:
+    """The machine of a run in one readable line (``machine()``'s dict)."""
+    if not isinstance(info, dict):
+        return str(info)
+    load = info.get("load_average_1min")
+    return (
+        f"{info.get('cpu_model')} ({info.get('cpus')} CPUs, load {load:.2f}), "
+        f"{info.get('platform')}; Python {info.get('python')}, Pinocchio "
+        f"{info.get('pinocchio')}, NumPy {info.get('numpy')}, CasADi {info.get('casadi')}"
+        if isinstance(load, float)
+        else ", ".join(f"{k} {v}" for k, v in info.items())
+    )
+
+
+def table(result: dict[str, object], preset: str) -> list[str]:
+    """One table of every timing: the robot, the backend that ran (the default-backend
+    rows) or ``every path`` (the ``--preset`` rows), the row, the median time per state
+    [us] and its ratio to the ``pin.constraintDynamics`` call on that robot."""
+    lines: list[tuple[str, str, str, float, float]] = []
+    archs = cast(dict[str, dict[str, object]], result.get("architectures", {}))
+    for name, entry in archs.items():
+        backend = f"auto: {entry['backend']}, {entry['threads']} thread(s)"
+        times = cast(dict[str, float], entry["median_us_per_state"])
+        ratios = cast(dict[str, float], entry["ratio_to_pin_constraintDynamics"])
+        lines += [(name, backend, row, t, ratios[row]) for row, t in times.items()]
+    times = cast(dict[str, float], result["median_us_per_state"])
     ratios = cast(dict[str, float], result["ratio_to_pin_constraintDynamics"])
-    for name, t in rows.items():
-        ratio = ratios[name]
-        print(f"{name:48s} {t:10.2f} {ratio:26.2f}")
+    lines += [(preset, "every path", row, t, ratios[row]) for row, t in times.items()]
+    w_robot = max([5, *(len(r[0]) for r in lines)])
+    w_backend = max([7, *(len(r[1]) for r in lines)])
+    w_row = max([6, *(len(r[2]) for r in lines)])
+    head = (
+        f"{'robot':{w_robot}s}  {'backend':{w_backend}s}  {'timing':{w_row}s}  "
+        f"{'[us/state]':>10s}  {'/ pin.constraintDynamics':>24s}"
+    )
+    return [head] + [
+        f"{r:{w_robot}s}  {b:{w_backend}s}  {n:{w_row}s}  {t:10.3f}  {q:24.3f}"
+        for r, b, n, t, q in lines
+    ]
+
+
+def report(args: argparse.Namespace) -> dict[str, object]:
+    """Run the benchmark with progress lines on stderr (unless ``--no-progress``), then
+    print one table (and write the JSON) as ``args`` say."""
+    archs = getattr(args, "architectures", ARCHITECTURES)
+
+    def progress(message: str) -> None:
+        print(f"bench: {message}...", file=sys.stderr, flush=True)
+
+    quiet = getattr(args, "no_progress", False)
+    result = run(
+        args.preset, args.batch, args.repeats, args.quick, archs, None if quiet else progress
+    )
+    print(f"stewart-pin {stewart_pin.__version__} on {machine_line(result['machine'])}")
+    print("\n".join(table(result, args.preset)))
     if args.json:
         write_text_atomic(args.json, json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.json}")

@@ -42,6 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="skip the 1 000 000-state batch; time the architectures at --batch states only",
     )
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
+    parser.add_argument("--no-progress", action="store_true", help="no progress lines (on stderr)")
 
 
 def _preset_list(text: str) -> tuple[str, ...]:

@@ -22,7 +22,8 @@ from stewart_pin.motion.control import ComputedTorqueController, tracking_errors
 from stewart_pin.motion.simulation import simulate
 from stewart_pin.motion.trajectories import standard_motion
 from stewart_pin.robot import StewartRobot
-from stewart_pin.viz.plots import INSTALL_HINT
+from stewart_pin.viz.plots import require_matplotlib, save_figures
+from stewart_pin.viz.viewer import Viewer, require_meshcat
 
 
 def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -33,10 +34,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _validation_figure(
     path: Path, t_idm: np.ndarray, err_idm: np.ndarray, t_ddm: np.ndarray, err_ddm: np.ndarray
 ) -> Path:
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as e:
-        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
+    Figure = require_matplotlib()
 
     fig = Figure(figsize=(8, 3.5), layout="constrained")
     ax = fig.add_subplot()
@@ -63,7 +61,14 @@ def _validation_figure(
 def run_demo(
     preset: str, out: Path, motion_kind: str = "sinusoid", duration: float = 4.0
 ) -> dict[str, Path]:
-    """Run the workflow on ``preset``, writing into ``out``; returns the files by role."""
+    """Run the workflow on ``preset``, writing into ``out``; returns the files by role.
+
+    Raises:
+        MissingDependencyError: matplotlib or meshcat (the viz extra) is not installed,
+            before any work.
+    """
+    require_matplotlib()
+    require_meshcat()
     robot = StewartRobot.from_preset(preset)
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
@@ -86,11 +91,10 @@ def run_demo(
     files["forces"] = write_csv(
         out / "forces.csv", ("t", *FORCE_COLUMNS), np.column_stack([traj.times, gamma])
     )
-    kinds = {leg.joints[leg.actuated - 1].kind for leg in desc.leg_architectures}
-    unit = {frozenset({"prismatic"}): "N", frozenset({"revolute"}): "N m"}.get(
-        frozenset(kinds), "N or N m"
+    say(
+        f"== inverse dynamics along it: peak |Gamma| = {np.abs(gamma).max():.4g} "
+        f"{desc.effort_unit}"
     )
-    say(f"== inverse dynamics along it: peak |Gamma| = {np.abs(gamma).max():.4g} {unit}")
 
     T0, V0, _ = motion(0.0)
     ctrl = ComputedTorqueController(robot, motion, backend=backend)
@@ -119,20 +123,11 @@ def run_demo(
         f"== against Pinocchio's constrained dynamics: inverse {err_idm.max():.2e}, direct "
         f"{err_ddm.max():.2e} (largest relative difference)"
     )
-    try:
-        files["validation figure"] = _validation_figure(
-            out / "validation.png", traj.times[::every], err_idm, result.t[sim], err_ddm
-        )
-        from stewart_pin.viz.plots import save_figures
-
-        for name, path in save_figures(
-            result, out / "plots", reference=motion, robot=robot
-        ).items():
-            files[f"plot {name}"] = path
-    except ImportError as e:
-        say(f"   (no figures: {e})")
-
-    from stewart_pin.viz.viewer import Viewer
+    files["validation figure"] = _validation_figure(
+        out / "validation.png", traj.times[::every], err_idm, result.t[sim], err_ddm
+    )
+    for name, path in save_figures(result, out / "plots", reference=motion, robot=robot).items():
+        files[f"plot {name}"] = path
 
     files["animation"] = Viewer(robot).export_html(out / "animation.html", result.poses, result.t)
     say(f"\nfiles in {out}/:")

@@ -2,7 +2,7 @@
 keeps the arm's base still.
 
 The arm (default: a Panda, 17 kg, on the ``paper`` preset's 45 kg platform) swings from
-its home configuration (the middle of its joints' ranges) to a reach configuration by a
+its home configuration (its SRDF's ready pose, clear of the platform) to a reach configuration by a
 minimum-jerk move, then holds. The hexapod's reference is its home pose, held:
 
 - **efforts**: the actuator efforts that hold the platform still while the arm moves
@@ -32,7 +32,8 @@ from stewart_pin.models.payload import Payload, load_payload
 from stewart_pin.motion.payload import JointMotion, PayloadComputedTorque, simulate_payload
 from stewart_pin.payload_robot import PayloadRobot
 from stewart_pin.robot import StewartRobot
-from stewart_pin.viz.plots import INSTALL_HINT, LEG_LABELS
+from stewart_pin.viz.plots import LEG_LABELS, require_matplotlib
+from stewart_pin.viz.viewer import require_meshcat
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -49,13 +50,14 @@ __all__ = [
 def reach_motion(
     payload: Payload, duration: float, hold: float = 0.0, fraction: float = 0.5
 ) -> JointMotion:
-    """From the home configuration (the middle of each joint's range) to a reach
-    configuration, each joint moved by ``fraction`` of its half-range
-    (:meth:`Payload.half_ranges`), alternately up and down, by a minimum-jerk move of
+    """From the home configuration (the SRDF's reference posture where the arm has one,
+    else the middle of each joint's range) to a reach configuration, each joint moved by
+    ``fraction`` of its room there (:meth:`Payload.room`: the distance to its nearer
+    limit, at most its half-range), alternately up and down, by a minimum-jerk move of
     ``duration`` [s], then held for ``hold`` [s]."""
     signs = np.where(np.arange(payload.nv) % 2 == 0, 1.0, -1.0)
     home = payload.home_configuration()
-    goal = np.asarray(pin.integrate(payload.model, home, fraction * signs * payload.half_ranges()))
+    goal = np.asarray(pin.integrate(payload.model, home, fraction * signs * payload.room(home)))
     return JointMotion.point_to_point(payload, home, goal, duration, hold)
 
 
@@ -88,11 +90,12 @@ class PayloadDemo:
 
     def summary(self) -> str:
         react = np.abs(self.gamma_moving - self.gamma_still).max()
+        unit = self.robot.robot.description.effort_unit
         return (
             f"'{self.robot.name}': the arm ({self.robot.payload.mass:.3g} kg, "
             f"{self.robot.nv} joints) moves in {self.joints.duration:.3g} s; its motion "
-            f"changes the efforts by up to {react:.4g} (peak |Gamma| "
-            f"{np.abs(self.gamma_moving).max():.4g}); the arm's base moves by "
+            f"changes the efforts by up to {react:.4g} {unit} (peak |Gamma| "
+            f"{np.abs(self.gamma_moving).max():.4g} {unit}); the arm's base moves by "
             f"{1e3 * self.base_error.max():.3g} mm when the hexapod compensates, "
             f"{1e3 * self.base_error_ignorant.max():.3g} mm when it does not"
         )
@@ -154,11 +157,8 @@ def plot_payload_demo(demo: PayloadDemo) -> Figure:
     """Three panels: the efforts with the arm moving (solid) and at rest in the same
     configurations (dashed); their difference, the arm's dynamic reaction; the arm base's
     displacement with and without compensation [mm]."""
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as e:
-        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
-    unit = "N" if demo.robot.robot.is_ideal_ups else "N or N m"
+    Figure = require_matplotlib()
+    unit = demo.robot.robot.description.effort_unit
     fig = Figure(figsize=(8.0, 9.0), layout="constrained")
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     colours = [f"C{i}" for i in range(6)]
@@ -190,6 +190,9 @@ def run_payload_demo(
     """Run :func:`payload_demo` and write into ``out``: ``payload_demo.png`` (the figure),
     ``payload_demo.npz`` (the arrays) and, with ``animation``, ``payload_demo.html`` (the
     arm's meshes on the platform); returns the files by role."""
+    require_matplotlib()  # the extras before the work (MissingDependencyError)
+    if animation:
+        require_meshcat()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if animation:  # a mesh the page may not carry (PayloadMeshError): before the run

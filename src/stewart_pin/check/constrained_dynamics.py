@@ -513,8 +513,9 @@ class ValidationReport:
             and self.reference_error <= tol_ddm
         )
 
-    def __str__(self) -> str:
-        verdict = "PASSED" if self.passed() else "FAILED"
+    def summary(self, tol_idm: float = IDM_TOLERANCE, tol_ddm: float = DDM_TOLERANCE) -> str:
+        """The errors and one verdict, at the tolerances given (``str(report)``: the
+        defaults)."""
         return (
             f"validation of '{self.robot}' against Pinocchio's constrained tree, "
             f"{self.n_states} random states (relative errors, floor {self.floor:g}):\n"
@@ -522,8 +523,21 @@ class ValidationReport:
             f"  direct dynamics   Vdot          {self.ddm_error:.3e}\n"
             f"  round trip        DDM(IDM)      {self.round_trip_error:.3e}\n"
             f"  reference         FD(ID) tree   {self.reference_error:.3e}\n"
-            f"  {verdict} at the default tolerances (IDM {IDM_TOLERANCE:g}, DDM {DDM_TOLERANCE:g})"
+            + verdict_line(self.passed(tol_idm, tol_ddm), tol_idm, tol_ddm)
         )
+
+    def __str__(self) -> str:
+        return self.summary()
+
+
+def verdict_line(passed: bool, tol_idm: float, tol_ddm: float) -> str:
+    """``"  PASSED at the default tolerances (IDM 1e-09, DDM 1e-08)"`` or ``FAILED``, the
+    tolerances named as given (a validation report's last line, once)."""
+    default = (tol_idm, tol_ddm) == (IDM_TOLERANCE, DDM_TOLERANCE)
+    return (
+        f"  {'PASSED' if passed else 'FAILED'} at the {'default ' if default else ''}"
+        f"tolerances (IDM {tol_idm:g}, DDM {tol_ddm:g})"
+    )
 
 
 def _integer(value: Any, name: str, least: int) -> int:

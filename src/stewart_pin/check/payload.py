@@ -44,6 +44,7 @@ from stewart_pin.check.constrained_dynamics import (
     IDM_TOLERANCE,
     RELATIVE_FLOOR,
     relative_error,
+    verdict_line,
 )
 from stewart_pin.check.general_legs import (
     CLOSURE_TOLERANCE,
@@ -348,8 +349,9 @@ class PayloadValidationReport:
             <= tol_ddm
         )
 
-    def __str__(self) -> str:
-        verdict = "PASSED" if self.passed() else "FAILED"
+    def summary(self, tol_idm: float = IDM_TOLERANCE, tol_ddm: float = DDM_TOLERANCE) -> str:
+        """The errors and one verdict, at the tolerances given (``str(report)``: the
+        defaults)."""
         return (
             f"validation of '{self.robot}' (hexapod and payload) against Pinocchio's "
             f"constrained dynamics of the whole tree, {self.n_states} random states "
@@ -360,8 +362,11 @@ class PayloadValidationReport:
             f"  direct dynamics   prescribed qdd   {self.prescribed_error:.3e}\n"
             f"  round trip        DDM(IDM)         {self.round_trip_error:.3e}\n"
             f"  reference         FD(ID) tree      {self.reference_error:.3e}\n"
-            f"  {verdict} at the default tolerances (IDM {IDM_TOLERANCE:g}, DDM {DDM_TOLERANCE:g})"
+            + verdict_line(self.passed(tol_idm, tol_ddm), tol_idm, tol_ddm)
         )
+
+    def __str__(self) -> str:
+        return self.summary()
 
 
 def validate_payload(

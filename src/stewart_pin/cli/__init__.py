@@ -2,17 +2,21 @@
 
 Units and frames everywhere: SI (m, rad, N, kg, s). A pose is 0Tp, the platform frame Fp
 in the base frame F0; a twist [v, w] is the velocity of the origin of Fp and the angular
-velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i [N] is the
-force of actuator i, positive when it extends the leg.
+velocity, both in F0; accelerations are classical (d/dt of [v, w]). Gamma_i is the
+effort of actuator i from its joint type: a force [N] for a prismatic actuator (positive
+when it extends the leg), a torque [N m] for a revolute one (RUS cranks), joint side.
 
 Bad inputs exit with code 2 and a one-line message (``--debug`` shows the traceback);
 Ctrl-C with code 130 and one line (``simulate`` saves the states so far first). Every
-``--help`` shows the options' defaults.
+``--help`` shows the options' defaults. Output piped into a reader that stops early
+(``stewart-pin base-params | head``) ends the command quietly with code 141 (128 + SIGPIPE,
+what a shell reports for a Unix tool ended by the closed pipe).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -42,7 +46,7 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
             help is None
             or "%(default)" in help
             or not action.option_strings
-            or action.nargs == 0  # flags (--quiet) and --help / --version
+            or action.nargs == 0  # flags (--no-progress) and --help / --version
             or action.default is None
             or action.default is argparse.SUPPRESS
         ):
@@ -75,11 +79,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Exit code when the reader of the standard output goes away (``| head``): 128 + SIGPIPE,
+#: as a shell reports a Unix tool ended by the closed pipe.
+EXIT_BROKEN_PIPE = 141
+
+
+def _stdout_to_devnull() -> None:
+    """Point the standard output at /dev/null, so that the interpreter's flush at exit
+    writes nowhere instead of reporting the closed pipe again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, sys.stdout.fileno())
+    finally:
+        os.close(devnull)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        code: int = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not at the interpreter's exit
+        return code
+    except BrokenPipeError:  # the reader stopped early (| head): quietly, as Unix tools
+        _stdout_to_devnull()
+        return EXIT_BROKEN_PIPE
     except (StewartPinError, OSError) as e:
         if args.debug:
             raise

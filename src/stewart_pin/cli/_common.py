@@ -39,6 +39,7 @@ if TYPE_CHECKING:  # imported where used: the command parses its arguments first
 
 __all__ = [
     "add_payload_args",
+    "add_progress_arg",
     "add_robot_args",
     "check_output",
     "finite_float",
@@ -179,10 +180,16 @@ def robot_from_args(args: argparse.Namespace) -> StewartRobot:
     return robot
 
 
+#: The short import notes already printed in this process (each said once).
+_NOTES_SAID: set[str] = set()
+
+
 def _imported_robot(args: argparse.Namespace) -> StewartRobot:
     """The robot of ``--model``; the importer's warnings (rounded loops, nearly parallel
-    axes...) printed as one line each on stderr, as ``stewart-pin import`` prints them,
-    rather than as Python warnings with a source line."""
+    axes...) printed as one line each on stderr rather than as Python warnings with a
+    source line. A warning with a short form (the loops' residual, which every ``--model``
+    command would repeat) is a short note, once per process, pointing at ``stewart-pin
+    import``, which prints it whole."""
     from stewart_pin.exceptions import ModelImportWarning
     from stewart_pin.importers import import_model
     from stewart_pin.robot import StewartRobot
@@ -192,11 +199,19 @@ def _imported_robot(args: argparse.Namespace) -> StewartRobot:
         robot = StewartRobot(import_model(args.model).description)
     command = getattr(args, "command", None) or "stewart-pin"
     for w in caught:
-        if issubclass(w.category, ModelImportWarning):
+        if not issubclass(w.category, ModelImportWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        short = getattr(w.message, "short", None)
+        if short is None:
             message = " ".join(str(w.message).split())
             print(f"stewart-pin {command}: warning: {message}", file=sys.stderr)
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        elif short not in _NOTES_SAID:
+            _NOTES_SAID.add(short)
+            print(
+                f"stewart-pin {command}: note: {short} (`stewart-pin import` says more)",
+                file=sys.stderr,
+            )
     return robot
 
 
@@ -209,6 +224,41 @@ def pose_from_args(values: Sequence[float] | None, robot: StewartRobot) -> np.nd
         T[:3, 3] += values[:3]
         T[:3, :3] = pin.rpy.rpyToMatrix(*values[3:]) @ T[:3, :3]
     return T
+
+
+class _DeprecatedFlag(argparse.Action):
+    """A flag kept under an old name: sets ``dest`` as the new flag does, with a one-line
+    warning on stderr naming the new one."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, new: str, **kwargs: Any):
+        super().__init__(option_strings, dest, nargs=0, default=False, **kwargs)
+        self.new = new
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        print(
+            f"{parser.prog}: warning: {option_string} is deprecated, use {self.new}",
+            file=sys.stderr,
+        )
+        setattr(namespace, self.dest, True)
+
+
+def add_progress_arg(p: Any) -> None:
+    """``--no-progress`` (``args.no_progress``): no progress bar. ``--quiet``, which meant
+    the same on ``simulate``, is kept as a deprecated alias (a warning on stderr)."""
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--quiet",
+        dest="no_progress",
+        action=_DeprecatedFlag,
+        new="--no-progress",
+        help=argparse.SUPPRESS,
+    )
 
 
 @contextmanager

@@ -40,7 +40,7 @@ def _idm(args: argparse.Namespace) -> int:
     with written(out, "forces.csv") as path:
         write_csv(path, ("t", *FORCE_COLUMNS), np.column_stack([times, gamma]))
     peak = np.abs(gamma).max(axis=0)
-    unit = "N" if robot.is_ideal_ups else "N or N m (actuated joints, joint side)"
+    unit = robot.description.effort_unit
     print(
         f"inverse dynamics of {len(times)} states of {args.trajectory} on '{robot.name}': "
         f"peak |Gamma_i| = {np.array2string(peak, precision=5)} {unit}; wrote {out}",
@@ -73,13 +73,8 @@ def _validate(args: argparse.Namespace) -> int:
             translation_range=args.translation,
             rotation_range=args.rotation,
         )
-    print(report)
-    ok = report.passed(args.tol_idm, args.tol_ddm)
-    print(
-        f"{'PASSED' if ok else 'FAILED'}: tolerances {args.tol_idm:g} (inverse), "
-        f"{args.tol_ddm:g} (direct)"
-    )
-    return 0 if ok else 1
+    print(report.summary(args.tol_idm, args.tol_ddm))  # one verdict, at these tolerances
+    return 0 if report.passed(args.tol_idm, args.tol_ddm) else 1
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -89,8 +84,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Reads a trajectory CSV with columns "
         + ",".join(STATE_COLUMNS)
         + " (time [s]; O_p in F0 [m]; quaternion of 0Rp; twist [v, w] in F0 [m/s, rad/s]; "
-        "classical acceleration in F0 [m/s^2, rad/s^2]) and writes t,gamma1..gamma6 [N] "
-        "(positive extends the leg).",
+        "classical acceleration in F0 [m/s^2, rad/s^2]) and writes t,gamma1..gamma6, the "
+        "actuator efforts: forces [N] for prismatic actuators (positive extends the leg), "
+        "torques [N m] for revolute ones (RUS cranks), joint side.",
     )
     add_robot_args(p)
     p.add_argument("--trajectory", required=True, help="platform trajectory CSV")

@@ -12,8 +12,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from stewart_pin._extras import require
 from stewart_pin._io import write_text_atomic
 from stewart_pin.cli._common import (
+    add_progress_arg,
     check_output,
     positive_finite_float,
     positive_int,
@@ -69,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give --log (actuator log) or --csv (measurement CSV), not both")
     inputs = [args.log, args.validation_log, args.description]
     outputs = _outputs(args, inputs)
+    if args.physical:  # the ident extra before the work
+        require("identify --physical", "ident", "cvxpy")
     robot = _robot(args)
     log = read_log(args.log, robot)
     base = base_parameters(robot, args.method)
@@ -185,4 +189,4 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--write-description", help="write the identified robot (.toml or .json)")
     g.add_argument("--write-urdf", help="write the identified robot as URDF (+ sidecar)")
     g.add_argument("--write-mjcf", help="write the identified robot as MJCF (.xml)")
-    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_progress_arg(g)

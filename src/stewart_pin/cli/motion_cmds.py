@@ -16,6 +16,7 @@ from stewart_pin._argtypes import BYTES_PER_ANIMATION_SECOND, duration_within_me
 from stewart_pin.cli._common import (
     PRESET_HELP,
     add_payload_args,
+    add_progress_arg,
     add_robot_args,
     check_output,
     finite_float,
@@ -97,6 +98,10 @@ def _simulate(args: argparse.Namespace) -> int:
         )
     if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
         raise InputError(f"--plots {args.plots} is a file; give a folder for the PNG plots")
+    if args.plots:  # the viz extra before the run, not after it
+        from stewart_pin.viz.plots import require_matplotlib
+
+        require_matplotlib()
     robot = robot_from_args(args)
     check_backend(robot, args.backend, "simulate")  # before the run starts, one line
     carrier = payload_robot_from_args(args, robot)
@@ -117,7 +122,7 @@ def _simulate(args: argparse.Namespace) -> int:
         T0, V0, _ = motion(0.0)
         start = (T0, V0)
     try:
-        with progress_bar(duration, "s", not args.quiet) as bar:
+        with progress_bar(duration, "s", not args.no_progress) as bar:
             result = simulate(
                 robot,
                 duration,
@@ -143,16 +148,12 @@ def _simulate(args: argparse.Namespace) -> int:
         lines.append(
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )
-    if robot.is_ideal_ups:
-        lines.append(
-            f"peak |Gamma| {np.abs(result.gammas).max():.5g} N; leg lengths "
-            f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] m"
-        )
-    else:
-        lines.append(
-            f"peak |Gamma| {np.abs(result.gammas).max():.5g} (N or N m, actuated joints); "
-            f"actuated joint values [{result.lengths.min():.5g}, {result.lengths.max():.5g}]"
-        )
+    desc = robot.description
+    what = "leg lengths" if robot.is_ideal_ups else "actuated joint positions"
+    lines.append(
+        f"peak |Gamma| {np.abs(result.gammas).max():.5g} {desc.effort_unit}; {what} "
+        f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] {desc.position_unit}"
+    )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
 
@@ -177,7 +178,7 @@ def _sweep(args: argparse.Namespace) -> tuple[float, float]:
 
 def _payload_joints(args: argparse.Namespace, carrier: Any, duration: float) -> Any:
     """The payload's joint motion of the command line: every joint sweeping a quarter of
-    its half-range about the middle of its range (``JointMotion.sweep``)."""
+    its room about its home posture (``JointMotion.sweep``)."""
     from stewart_pin.motion.payload import JointMotion
 
     return JointMotion.sweep(carrier.payload, *_sweep(args), duration)
@@ -214,7 +215,7 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
     )
     side = payload_path(out)
     try:
-        with progress_bar(duration, "s", not args.quiet) as bar:
+        with progress_bar(duration, "s", not args.no_progress) as bar:
             sim = simulate_payload(
                 carrier,
                 duration,
@@ -246,13 +247,18 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )
     lines.append(
-        f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g}; peak |payload torque| "
-        f"{np.abs(sim.tau).max(initial=0.0):.5g}"
+        f"peak |Gamma| {np.abs(sim.result.gammas).max():.5g} {robot.description.effort_unit}; "
+        f"peak |payload torque| {np.abs(sim.tau).max(initial=0.0):.5g} (N m, N for slides)"
     )
     if args.plots:
         from stewart_pin.viz.plots import save_figures
 
-        paths = save_figures(sim.result, Path(args.plots), reference=motion)
+        paths = save_figures(
+            sim.result,
+            Path(args.plots),
+            reference=motion,
+            effort_unit=robot.description.effort_unit,
+        )
         lines.append("plots: " + ", ".join(str(p) for p in paths.values()))
     print("\n".join(lines), file=report_stream(out))
     return 0
@@ -295,8 +301,9 @@ def _payload_samples(
 
 
 def _animate(args: argparse.Namespace) -> int:
-    from stewart_pin.viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer, require_meshcat
 
+    require_meshcat()  # the viz extra before the work
     path = check_output(args.output, (".html", ".htm"), [args.result])
     robot = robot_from_args(args)
     carrier = payload_robot_from_args(args, robot)
@@ -317,8 +324,9 @@ def _view(args: argparse.Namespace) -> int:
     import time
 
     from stewart_pin.viz.payload_scene import PayloadViewer
-    from stewart_pin.viz.viewer import Viewer
+    from stewart_pin.viz.viewer import Viewer, require_meshcat
 
+    require_meshcat()  # the viz extra before the work
     robot = robot_from_args(args)
     carrier = payload_robot_from_args(args, robot)
     if carrier is not None:
@@ -393,7 +401,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Integrates the direct dynamic model on SE(3). A motion (about the home "
         "pose, scaled on the robot) is tracked by computed-torque control (inverse model "
         "plus PD) sampled at --control-period; 'free' runs with zero actuator force. "
-        "Results: .npz or .csv (t, pose, twist, classical acceleration, forces, leg lengths). "
+        "Results: .npz or .csv (t, pose, twist, classical acceleration, actuator efforts "
+        "[N, or N m for revolute actuators], actuated joint positions [m or rad]). "
         "A run that stops early (a leg at its stroke end, a U-joint at its limit, a "
         "singularity, the controller failing) exits with code 2 and saves the states "
         "simulated so far beside the output, as <stem>.partial<suffix>.",
@@ -442,7 +451,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_payload_motion_args(p)
     p.add_argument("--plots", help="folder for PNG plots")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_progress_arg(p)
     p.set_defaults(func=_simulate)
 
     p = sub.add_parser(

@@ -86,7 +86,7 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states
+from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states, in_batch
 from stewart_pin.codegen import _csource
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
@@ -1091,7 +1091,7 @@ class CompiledDynamics:
             if np.any(~(np.linalg.cond(J) <= max_condition)):
                 check_condition(inverse_jacobian_batch(desc, T), max_condition, desc)
         if bits & _NOT_PD:
-            raise SingularityError.not_positive_definite()
+            raise in_batch(SingularityError.not_positive_definite(), flags & _NOT_PD)
         if bits & _NONFINITE:
             bad = (flags & _NONFINITE) != 0
             raise NumericalError(
@@ -1177,7 +1177,7 @@ class CompiledDynamics:
                 J = aux[k, AUX_JINV].reshape(6, 6)
                 out[k] = aux[k, AUX_IDM_HZ] + np.linalg.solve(J.T, aux[k, AUX_IDM_F])
         elif np.any(~(aux[:, AUX_DDM_D] > 0.0)):
-            raise SingularityError.not_positive_definite()
+            raise in_batch(SingularityError.not_positive_definite(), ~(aux[:, AUX_DDM_D] > 0.0))
         check_finite(out, _OUTPUTS[which])
         return out if batched else out[0]
 

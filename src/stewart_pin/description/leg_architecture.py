@@ -435,6 +435,17 @@ class LegArchitecture:
         return tuple(j.kind for j in self.joints)  # type: ignore[return-value]
 
     @property
+    def effort_unit(self) -> str:
+        """The unit of the actuator's effort: ``"N"`` for a prismatic actuated joint (a
+        force), ``"N m"`` for a revolute one (a torque; joint side)."""
+        return "N m" if self.joints[self.actuated - 1].revolute else "N"
+
+    @property
+    def position_unit(self) -> str:
+        """The unit of the actuated joint's position: ``"m"`` (prismatic) or ``"rad"``."""
+        return "rad" if self.joints[self.actuated - 1].revolute else "m"
+
+    @property
     def limits(self) -> np.ndarray:
         """Joint limits, shape (3, 2) ``[lower, upper]``."""
         return np.array([[j.lower, j.upper] for j in self.joints])

@@ -455,6 +455,25 @@ class RobotDescription:
         )
 
     @property
+    def actuator_units(self) -> tuple[str, ...]:
+        """The unit of each actuator's effort (6,), from its joint type: ``"N"`` for a
+        prismatic actuated joint (6-UPS, PUS legs), ``"N m"`` for a revolute one (RUS
+        cranks); joint side."""
+        return tuple(leg.effort_unit for leg in self.leg_architectures)
+
+    @property
+    def effort_unit(self) -> str:
+        """The unit of the actuators' efforts for one label: ``"N"`` or ``"N m"`` when the
+        six legs share it, ``"N or N m"`` for legs that mix them."""
+        return _shared_unit(self.actuator_units)
+
+    @property
+    def position_unit(self) -> str:
+        """The unit of the actuated joints' positions for one label: ``"m"`` or ``"rad"``
+        when the six legs share it, ``"m or rad"`` for legs that mix them."""
+        return _shared_unit(tuple(leg.position_unit for leg in self.leg_architectures))
+
+    @property
     def architecture(self) -> str:
         """The legs' common architecture (``"ups"``, ``"ups-offset"``, ``"rus"``,
         ``"pus"``, ``"custom"``), or ``"mixed"``."""
@@ -468,6 +487,11 @@ class RobotDescription:
         """A length scale of the robot: the mean base-point distance to their centroid [m]."""
         c = self.base_points - self.base_points.mean(axis=0)
         return float(np.linalg.norm(c, axis=1).mean())
+
+
+def _shared_unit(units: tuple[str, ...]) -> str:
+    """The unit the entries share, or the distinct ones joined by "or" (in first order)."""
+    return " or ".join(dict.fromkeys(units))
 
 
 def check_robot_name(name: Any) -> str:

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from stewart_pin._checks import cholesky_failures, in_batch
 from stewart_pin._so3 import cross, skew
 from stewart_pin._typing import Accels, FloatArray, Forces, Poses, Twists
 from stewart_pin.description import RobotDescription
@@ -221,7 +222,7 @@ def closure_direct_dynamics(
     try:
         chol = np.linalg.cholesky(A_robot)
     except np.linalg.LinAlgError as e:
-        raise SingularityError.not_positive_definite() from e
+        raise in_batch(SingularityError.not_positive_definite(), cholesky_failures(A_robot)) from e
     y = np.linalg.solve(chol, rhs[..., None])
     accel = np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0]
     return check_finite(accel, DDM_OUTPUT)

@@ -50,6 +50,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin._checks import cholesky_failures, in_batch
 from stewart_pin._so3 import cross
 from stewart_pin._typing import FloatArray
 from stewart_pin.dynamics.closed_loop import check_finite
@@ -242,7 +243,7 @@ def _cholesky_solve(K: FloatArray, rhs: FloatArray, what: str) -> FloatArray:
     try:
         chol = np.linalg.cholesky(K)
     except np.linalg.LinAlgError as e:
-        raise SingularityError.not_positive_definite() from e
+        raise in_batch(SingularityError.not_positive_definite(), cholesky_failures(K)) from e
     y = np.linalg.solve(chol, rhs[..., None])
     return np.asarray(np.linalg.solve(np.swapaxes(chol, 1, 2), y)[..., 0], dtype=np.float64)
 

@@ -642,11 +642,14 @@ def build(
         )
     if np.any(residuals > EXACT_CLOSURE * size):
         warnings.warn(
-            f"model {shown(model.name)}: the loops close at the reference configuration "
-            f"({model.reference}) only to {residuals.max():.3g} m (per leg: "
-            f"{', '.join(f'{r:.2e}' for r in residuals)}; tolerance {tol:.3g} m): the robot is "
-            "assembled at the platform's reference pose, each leg re-solved",
-            ModelImportWarning,
+            ModelImportWarning(
+                f"model {shown(model.name)}: the loops close at the reference configuration "
+                f"({model.reference}) only to {residuals.max():.3g} m (per leg: "
+                f"{', '.join(f'{r:.2e}' for r in residuals)}; tolerance {tol:.3g} m): the "
+                "robot is assembled at the platform's reference pose, each leg re-solved",
+                short=f"model {shown(model.name)}: loops closed from a residual of "
+                f"{residuals.max():.3g} m",
+            ),
             stacklevel=3,
         )
 

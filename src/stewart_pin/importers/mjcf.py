@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from stewart_pin._extras import require
 from stewart_pin.exceptions import FileFormatError, ModelImportError
 from stewart_pin.importers.tree import (
     BALL,
@@ -53,12 +54,8 @@ from stewart_pin.importers.tree import (
 
 
 def _mujoco() -> Any:
-    try:
-        import mujoco
-    except ImportError as e:  # pragma: no cover (the test environment has MuJoCo)
-        raise ImportError(
-            'reading MJCF needs MuJoCo: pip install "stewart-pin[import]" (or pip install mujoco)'
-        ) from e
+    """The ``mujoco`` module, or :class:`MissingDependencyError` with the install hint."""
+    (mujoco,) = require("reading MJCF", "import", "mujoco")
     return mujoco
 
 

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_array, decode_utf8
+from stewart_pin._extras import require
 from stewart_pin.description.leg_architecture import JointDynamics
 from stewart_pin.exceptions import (
     FileFormatError,
@@ -71,13 +72,8 @@ class UrdfRead:
 
 
 def _yourdfpy() -> Any:
-    try:
-        import yourdfpy
-    except ImportError as e:  # pragma: no cover (the test environment has yourdfpy)
-        raise ImportError(
-            'reading URDF needs yourdfpy: pip install "stewart-pin[import]" (or pip install '
-            "yourdfpy)"
-        ) from e
+    """The ``yourdfpy`` module, or :class:`MissingDependencyError` with the install hint."""
+    (yourdfpy,) = require("reading URDF", "import", "yourdfpy")
     return yourdfpy
 
 
@@ -85,7 +81,7 @@ def _strict_parse(path: Path) -> Any:
     """The file's root element; refuses a file that is not well-formed XML, or whose
     ``<inertia>`` / ``<mass>`` miss attributes (yourdfpy would default them to 1 kg m^2 /
     0 kg)."""
-    from lxml import etree
+    (etree,) = require("reading URDF", "import", "lxml.etree")
 
     parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False)
     try:

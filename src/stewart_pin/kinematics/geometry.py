@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_poses
+from stewart_pin._checks import check_poses, in_batch
 from stewart_pin._typing import ArrayLike, FloatArray, JointValues, Poses
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import (
@@ -110,15 +110,19 @@ def inverse_geometry_batch(
     d = leg_vectors(desc, poses)[0] if vectors is None else vectors
     q3 = np.linalg.norm(d, axis=-1)
     min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
-    if np.any(~(q3 >= min_length)):
-        n, k = np.argwhere(~(q3 >= min_length))[0]
-        raise SingularityError(
-            f"leg {k + 1} has zero length or nearly ({q3[n, k]:.3g} m < {min_length:.3g} m, "
-            f"{LEG_MIN_LENGTH_RATIO:g} of the platform radius) at pose {n}: its U-joint "
-            "angles are ill-defined there",
-            float(q3[n, k]),
-            min_length,
-            leg=int(k + 1),
+    short = ~(q3 >= min_length)
+    if np.any(short):
+        n, k = np.argwhere(short)[0]  # the first failing state (its first leg)
+        raise in_batch(
+            SingularityError(
+                f"leg {k + 1} has zero length or nearly ({q3[n, k]:.3g} m < {min_length:.3g} m, "
+                f"{LEG_MIN_LENGTH_RATIO:g} of the platform radius): its U-joint angles are "
+                "ill-defined there",
+                float(q3[n, k]),
+                min_length,
+                leg=int(k + 1),
+            ),
+            short,
         )
     u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
     q = np.empty(d.shape)
@@ -127,15 +131,19 @@ def inverse_geometry_batch(
     # atan2, not arccos(-u_z): arccos loses the relative accuracy eps / sin^2 q2 near 0, pi.
     q[..., 1] = np.arctan2(sin_q2, -u[..., 2])
     q[..., 2] = q3
-    if np.any(~(sin_q2 >= LEG_SINGULARITY_SIN)):
-        n, k = np.argwhere(~(sin_q2 >= LEG_SINGULARITY_SIN))[0]
-        raise SingularityError(
-            f"leg {k + 1} lies along its first U-joint axis or too close to it (sin q2{k + 1} = "
-            f"{sin_q2[n, k]:.3g} < {LEG_SINGULARITY_SIN:g}) at pose {n}: its Jacobian is "
-            "singular or too ill-conditioned there for an accurate model",
-            float(sin_q2[n, k]),
-            LEG_SINGULARITY_SIN,
-            leg=int(k + 1),
+    along = ~(sin_q2 >= LEG_SINGULARITY_SIN)
+    if np.any(along):
+        n, k = np.argwhere(along)[0]  # the first failing state (its first leg)
+        raise in_batch(
+            SingularityError(
+                f"leg {k + 1} lies along its first U-joint axis or too close to it "
+                f"(sin q2{k + 1} = {sin_q2[n, k]:.3g} < {LEG_SINGULARITY_SIN:g}): its Jacobian "
+                "is singular or too ill-conditioned there for an accurate model",
+                float(sin_q2[n, k]),
+                LEG_SINGULARITY_SIN,
+                leg=int(k + 1),
+            ),
+            along,
         )
     if check_limits:
         check_leg_limits(desc, q)
@@ -143,20 +151,28 @@ def inverse_geometry_batch(
 
 
 def check_leg_limits(desc: RobotDescription, q: JointValues) -> None:
-    """Raise :class:`StrokeLimitError` / :class:`JointLimitError` for leg values (N, 6, 3)."""
+    """Raise :class:`StrokeLimitError` / :class:`JointLimitError` for leg values (N, 6, 3),
+    naming the first failing state's first failing leg, and how many states fail."""
     lo, hi = desc.ideal_stroke("the 6-UPS leg limit check")
     bad = (q[..., 2] < lo) | (q[..., 2] > hi)
     if np.any(bad):
         n, k = np.argwhere(bad)[0]
-        raise StrokeLimitError(int(k + 1), float(q[n, k, 2]), float(lo), float(hi))
+        raise in_batch(StrokeLimitError(int(k + 1), float(q[n, k, 2]), float(lo), float(hi)), bad)
     if desc.u_joint_limits is not None:
         lim = desc.u_joint_limits
         for j in range(2):
             bad = (q[..., j] < lim[:, j, 0]) | (q[..., j] > lim[:, j, 1])
             if np.any(bad):
                 n, k = np.argwhere(bad)[0]
-                raise JointLimitError(
-                    int(k + 1), j + 1, float(q[n, k, j]), float(lim[k, j, 0]), float(lim[k, j, 1])
+                raise in_batch(
+                    JointLimitError(
+                        int(k + 1),
+                        j + 1,
+                        float(q[n, k, j]),
+                        float(lim[k, j, 0]),
+                        float(lim[k, j, 1]),
+                    ),
+                    bad,
                 )
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_batch, check_poses
+from stewart_pin._checks import check_batch, check_poses, in_batch
 from stewart_pin._so3 import cross
 from stewart_pin._typing import Accels, ArrayLike, FloatArray, JointValues, Poses, Twists
 from stewart_pin.description import RobotDescription
@@ -178,13 +178,16 @@ def check_condition(J_inv: FloatArray, max_condition: float, desc: RobotDescript
     c = np.linalg.cond(scaled_inverse_jacobian(J_inv, length))
     bad = ~(c <= max_condition)
     if np.any(bad):
-        n = int(np.argmax(bad))
-        raise SingularityError(
-            f"the platform is at or near a parallel singularity at state {n}: cond(Jp^-1) = "
-            f"{c[n]:.3g} > {max_condition:g} (angular columns scaled by the platform radius "
-            f"{length:.3g} m); move away from it (a higher max_condition costs accuracy)",
-            float(c[n]),
-            max_condition,
+        n = int(np.argmax(bad))  # the first failing state
+        raise in_batch(
+            SingularityError(
+                f"the platform is at or near a parallel singularity: cond(Jp^-1) = "
+                f"{c[n]:.3g} > {max_condition:g} (angular columns scaled by the platform radius "
+                f"{length:.3g} m); move away from it (a higher max_condition costs accuracy)",
+                float(c[n]),
+                max_condition,
+            ),
+            bad,
         )
     return c
 

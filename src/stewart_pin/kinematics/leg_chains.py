@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array, check_pose, check_poses, check_states
+from stewart_pin._checks import check_array, check_pose, check_poses, check_states, in_batch
 from stewart_pin._so3 import cross
 from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import LegArchitecture, wrap_into_limits
@@ -213,27 +213,33 @@ def check_serial(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> Non
     lever = np.linalg.norm(frames.P[:, :, None, :] - frames.origins, axis=-1)
     short = c.revolute & ~(lever >= LEG_MIN_LENGTH_RATIO * radius)
     if radius > 0 and np.any(short):
-        n, k, j = np.argwhere(short)[0]
-        raise SingularityError(
-            f"leg {k + 1} is at or too near a serial singularity at state {n}: P_{k + 1} is "
-            f"{lever[n, k, j]:.3g} m from the origin of its revolute joint {j + 1}, less than "
-            f"{LEG_MIN_LENGTH_RATIO:g} of the platform radius {radius:.3g} m (a vanishing leg: "
-            "its joint rates grow without bound)",
-            float(lever[n, k, j] / radius),
-            LEG_MIN_LENGTH_RATIO,
-            leg=int(k + 1),
+        n, k, j = np.argwhere(short)[0]  # the first failing state
+        raise in_batch(
+            SingularityError(
+                f"leg {k + 1} is at or too near a serial singularity: P_{k + 1} is "
+                f"{lever[n, k, j]:.3g} m from the origin of its revolute joint {j + 1}, less "
+                f"than {LEG_MIN_LENGTH_RATIO:g} of the platform radius {radius:.3g} m (a "
+                "vanishing leg: its joint rates grow without bound)",
+                float(lever[n, k, j] / radius),
+                LEG_MIN_LENGTH_RATIO,
+                leg=int(k + 1),
+            ),
+            short,
         )
     s = serial_measure(robot, frames, J)
     bad = ~(s >= LEG_SINGULARITY)
     if np.any(bad):
-        n, k = np.argwhere(bad)[0]
-        raise SingularityError(
-            f"leg {k + 1} is at or too near a serial singularity (normalised smallest "
-            f"singular value of its Jacobian {s[n, k]:.3g} < {LEG_SINGULARITY:g}) at state "
-            f"{n}: e.g. crank and rod aligned, or a leg along its first U-joint axis",
-            float(s[n, k]),
-            LEG_SINGULARITY,
-            leg=int(k + 1),
+        n, k = np.argwhere(bad)[0]  # the first failing state
+        raise in_batch(
+            SingularityError(
+                f"leg {k + 1} is at or too near a serial singularity (normalised smallest "
+                f"singular value of its Jacobian {s[n, k]:.3g} < {LEG_SINGULARITY:g}): e.g. "
+                "crank and rod aligned, or a leg along its first U-joint axis",
+                float(s[n, k]),
+                LEG_SINGULARITY,
+                leg=int(k + 1),
+            ),
+            bad,
         )
 
 
@@ -249,13 +255,18 @@ def _pre_joint1(leg: LegArchitecture, P0i: np.ndarray) -> np.ndarray:
     return (P0i - A[:3, 3]) @ A[:3, :3]
 
 
-def _reach_error(leg_index: int, value: np.ndarray, what: str) -> LegReachError:
-    n = int(np.argmax(value))
-    return LegReachError(
-        f"leg {leg_index + 1} cannot reach its platform point at state {n}: {what}; choose a "
-        "pose closer to the workspace centre (or longer cranks / rods)",
-        leg_index + 1,
-        float(value[n]),
+def _reach_error(leg_index: int, value: np.ndarray, bad: np.ndarray, what: str) -> LegReachError:
+    """The error of leg ``leg_index`` out of reach where ``bad`` (N,), naming the first
+    failing state (not the worst) with its ``value`` (N,), and how many states fail."""
+    n = int(np.argmax(bad))
+    return in_batch(
+        LegReachError(
+            f"leg {leg_index + 1} cannot reach its platform point: {what}; choose a pose closer "
+            "to the workspace centre (or longer cranks / rods)",
+            leg_index + 1,
+            float(value[n]),
+        ),
+        bad,
     )
 
 
@@ -270,7 +281,12 @@ def _solve_u(leg: LegArchitecture, w: np.ndarray, k_leg: int) -> tuple[np.ndarra
     rad = math.hypot(a, b)
     ratio = k / rad
     if np.any(np.abs(ratio) > 1.0 + 1e-12):
-        raise _reach_error(k_leg, np.abs(ratio), "the universal joint cannot point the rod there")
+        raise _reach_error(
+            k_leg,
+            np.abs(ratio),
+            np.abs(ratio) > 1.0 + 1e-12,
+            "the universal joint cannot point the rod there",
+        )
     psi3 = math.atan2(b, a) - np.arccos(np.clip(ratio, -1.0, 1.0))
     c3, s3 = np.cos(psi3), np.sin(psi3)
     vx = c3 * t[0] - s3 * t[1]
@@ -295,7 +311,9 @@ def _inverse_leg(
         raise NumericalError(f"leg {k + 1} inverse geometry q", None) from None
     if not np.all(np.isfinite(q)):
         bad = ~np.all(np.isfinite(q), axis=1)
-        raise NumericalError(f"leg {k + 1} inverse geometry q", int(np.argmax(bad)))
+        raise NumericalError(
+            f"leg {k + 1} inverse geometry q", int(np.argmax(bad)), int(bad.sum()), int(bad.size)
+        )
     return q
 
 
@@ -321,10 +339,11 @@ def _closed_form(leg: LegArchitecture, P0i: np.ndarray, k: int, q: np.ndarray) -
         B = p[:, 1] * c[0] - p[:, 0] * c[1]
         K = 0.5 * (np.einsum("ni,ni->n", p, p) + c @ c - ell2) - p[:, 2] * c[2]
         R = np.hypot(A, B)
-        if np.any(np.abs(K) > R):
+        out = np.abs(K) > R
+        if np.any(out):
             with np.errstate(divide="ignore", over="ignore"):  # |K| / 0 = inf: unreachable
-                ratio = np.where(np.abs(K) > R, np.abs(K) / R, 0.0)
-            raise _reach_error(k, ratio, "the crank equation has no solution (|cos| > 1)")
+                ratio = np.where(out, np.abs(K) / R, 0.0)
+            raise _reach_error(k, ratio, out, "the crank equation has no solution (|cos| > 1)")
         phi = np.arctan2(B, A) - b * np.arccos(K / R)
         q[:, 0] = _wrap(phi - j1.theta)
         cp, sp = np.cos(phi), np.sin(phi)
@@ -337,7 +356,7 @@ def _closed_form(leg: LegArchitecture, P0i: np.ndarray, k: int, q: np.ndarray) -
         e = p - (Rz1 @ c + np.array([0.0, 0.0, j1.r]))
         disc = ell2 - e[:, 0] ** 2 - e[:, 1] ** 2
         if np.any(disc < 0):
-            raise _reach_error(k, -disc, "the rod is too short to reach from the rail")
+            raise _reach_error(k, -disc, disc < 0, "the rod is too short to reach from the rail")
         q[:, 0] = e[:, 2] - b * np.sqrt(disc)
         rel = e - q[:, :1] * np.array([0.0, 0.0, 1.0])  # P - C in the rotated frame
         w = (rel @ Rz1) @ Rx2
@@ -432,9 +451,16 @@ def check_joint_limits(robot: GeneralHexapod, q: np.ndarray) -> None:
     c = constants(robot)
     bad = (q < c.lower) | (q > c.upper)
     if np.any(bad):
-        n, k, j = np.argwhere(bad)[0]
-        raise LegJointLimitError(
-            int(k + 1), int(j + 1), float(q[n, k, j]), float(c.lower[k, j]), float(c.upper[k, j])
+        n, k, j = np.argwhere(bad)[0]  # the first failing state
+        raise in_batch(
+            LegJointLimitError(
+                int(k + 1),
+                int(j + 1),
+                float(q[n, k, j]),
+                float(c.lower[k, j]),
+                float(c.upper[k, j]),
+            ),
+            bad,
         )
 
 
@@ -554,13 +580,16 @@ def check_parallel(
     cond = condition_number_batch(robot, J_inv)
     bad = ~(cond <= max_condition)
     if np.any(bad):
-        n = int(np.argmax(bad))
-        raise SingularityError(
-            f"parallel singularity at state {n}: the condition number of Jp^-1 "
-            f"{cond[n]:.3g} exceeds {max_condition:g}",
-            float(cond[n]),
-            max_condition,
-            leg=None,
+        n = int(np.argmax(bad))  # the first failing state
+        raise in_batch(
+            SingularityError(
+                f"parallel singularity: the condition number of Jp^-1 {cond[n]:.3g} exceeds "
+                f"{max_condition:g}",
+                float(cond[n]),
+                max_condition,
+                leg=None,
+            ),
+            bad,
         )
 
 

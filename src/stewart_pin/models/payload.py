@@ -27,10 +27,12 @@ appends it to the platform of the closed-loop tree, :mod:`stewart_pin.check.payl
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import importlib.metadata
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -235,6 +237,35 @@ def example_robot_urdf(name: str) -> Path:
     )
 
 
+#: The SRDF group states taken as a payload's reference posture, in this order of preference
+#: (else the first the file has).
+REFERENCE_STATES = ("default", "ready", "arm_up", "home")
+
+
+def _srdf_reference(model: pin.Model, urdf: Path) -> np.ndarray | None:
+    """The reference posture of example-robot-data's SRDF beside ``urdf``
+    (``<robot>_description/srdf/<stem>.srdf``), ``None`` without one (or without a
+    group state of every joint within its limits)."""
+    srdf = urdf.parent.parent / "srdf" / f"{urdf.stem}.srdf"
+    if not srdf.is_file():
+        return None
+    copy = pin.Model(model)
+    try:
+        pin.loadReferenceConfigurations(copy, str(srdf), False)
+    except (RuntimeError, ValueError):
+        return None
+    states = {
+        entry.key(): np.array(entry.data(), dtype=float) for entry in copy.referenceConfigurations
+    }
+    for name in (*REFERENCE_STATES, *states):
+        q = states.get(name)
+        if q is not None and q.shape == (model.nq,):
+            lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+            if np.all((q >= lo - 1e-12) & (q <= hi + 1e-12)):
+                return q
+    return None
+
+
 # ---------------------------------------------------------------------------- the payload
 def _check_fixed_base(model: pin.Model, name: str) -> None:
     for jid in range(1, model.njoints):
@@ -260,6 +291,8 @@ class Payload:
         urdf: the URDF file it came from (its visual geometry), or ``None``.
         package_dirs: folders resolving the URDF's ``package://`` URIs.
         visual_scale: the length scale applied by :meth:`scaled` (drawing the meshes).
+        reference: the robot's own reference posture (nq,), e.g. the ``default`` group
+            state of example-robot-data's SRDF, or ``None``: :meth:`home_configuration`.
     """
 
     name: str
@@ -268,6 +301,7 @@ class Payload:
     urdf: Path | None = None
     package_dirs: tuple[Path, ...] = ()
     visual_scale: float = 1.0
+    reference: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.model, pin.Model):
@@ -279,6 +313,15 @@ class Payload:
         T = check_pose(self.placement, "payload placement")
         T.flags.writeable = False
         object.__setattr__(self, "placement", T)
+        if self.reference is not None:
+            q = check_array(self.reference, (self.nq,), "payload reference posture")
+            lo, hi = self.model.lowerPositionLimit, self.model.upperPositionLimit
+            if np.any((q < lo - 1e-12) | (q > hi + 1e-12)):
+                raise PayloadError(
+                    f"payload '{self.name}': the reference posture {q} leaves the joint limits"
+                )
+            q.flags.writeable = False
+            object.__setattr__(self, "reference", q)
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -324,7 +367,8 @@ class Payload:
         """
         path = example_robot_urdf(name)
         p = cls.from_urdf(path, placement, name.strip().lower(), _library().package_dirs)
-        return p
+        reference = _srdf_reference(p.model, path)
+        return p if reference is None else dataclasses.replace(p, reference=reference)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -353,14 +397,7 @@ class Payload:
     # ------------------------------------------------------------------ variants
     def with_placement(self, placement: Any) -> Payload:
         """The same payload mounted at ``placement`` ``T_p_b`` (4, 4)."""
-        return Payload(
-            self.name,
-            self.model,
-            _placement(placement),
-            self.urdf,
-            self.package_dirs,
-            self.visual_scale,
-        )
+        return dataclasses.replace(self, placement=_placement(placement))
 
     def scaled(self, length: float = 1.0, mass: float = 1.0) -> Payload:
         """The payload scaled geometrically: every length by ``length`` (joint and frame
@@ -398,27 +435,57 @@ class Payload:
         model.lowerPositionLimit, model.upperPositionLimit = lower, upper
         model.velocityLimit, model.armature = velocity, armature
         name = f"{self.name}-x{s:g}" if s != 1.0 or m != 1.0 else self.name
+        reference = None
+        if self.reference is not None:  # a slide's position scales with the lengths
+            reference = self.reference.copy()
+            for j in range(1, model.njoints):
+                joint = model.joints[j]
+                if _is_prismatic(joint):
+                    reference[joint.idx_q : joint.idx_q + joint.nq] *= s
         return Payload(
-            name, model, self.placement, self.urdf, self.package_dirs, self.visual_scale * s
+            name,
+            model,
+            self.placement,
+            self.urdf,
+            self.package_dirs,
+            self.visual_scale * s,
+            reference,
         )
 
     # ------------------------------------------------------------------ configurations
     def home_configuration(self) -> np.ndarray:
-        """The middle of each joint's range, (nq,): a joint with finite limits (within
-        ``+-2 pi``) at the middle of them, any other at Pinocchio's neutral value (a
-        continuous joint at angle 0)."""
+        """The home posture, (nq,): the robot's own :attr:`reference` posture where it has
+        one (example-robot-data's SRDF ``default`` state: the Panda's ready pose, its arm
+        clear of the platform, where the middle of the ranges folded it down), else the
+        middle of each joint's range: a joint with finite limits (within ``+-2 pi``) at
+        the middle of them, any other at Pinocchio's neutral value (a continuous joint at
+        angle 0)."""
+        if self.reference is not None:
+            return self.reference.copy()
         q = np.array(pin.neutral(self.model), dtype=float)
         lo = np.array(self.model.lowerPositionLimit, dtype=float)
         hi = np.array(self.model.upperPositionLimit, dtype=float)
-        for j in range(1, self.model.njoints):
-            joint = self.model.joints[j]
-            if joint.nq != joint.nv:
-                continue
-            k = slice(joint.idx_q, joint.idx_q + joint.nq)
+        for k, _ in self._joint_slices():
             ok = np.isfinite(lo[k]) & np.isfinite(hi[k]) & (lo[k] <= hi[k])
             ok &= (np.abs(lo[k]) <= 2 * np.pi + 1e-9) & (np.abs(hi[k]) <= 2 * np.pi + 1e-9)
             q[k] = np.where(ok, 0.5 * (lo[k] + hi[k]), q[k])
         return q
+
+    def room(self, q: Any = None) -> np.ndarray:
+        """How far each degree of freedom can move either way from ``q`` (default the home
+        posture) within its limits, (nv,) [rad or m]: the distance to the nearer limit,
+        at most :meth:`half_ranges` (so, at the middle of the ranges, the half-ranges)."""
+        q = self.home_configuration() if q is None else check_array(q, (self.nq,), "q")
+        room = self.half_ranges()
+        lo = np.asarray(self.model.lowerPositionLimit, dtype=float)
+        hi = np.asarray(self.model.upperPositionLimit, dtype=float)
+        for qs, vs in self._joint_slices():
+            with np.errstate(invalid="ignore"):
+                near = np.minimum(q[qs] - lo[qs], hi[qs] - q[qs])
+            room[vs] = np.where(
+                np.isfinite(near), np.minimum(room[vs], np.maximum(near, 0.0)), room[vs]
+            )
+        return room
 
     def half_ranges(self) -> np.ndarray:
         """Each degree of freedom's half-range (nv,) [rad or m]: half the distance between
@@ -427,18 +494,22 @@ class Payload:
         half = np.full(self.nv, np.pi)
         lo = np.asarray(self.model.lowerPositionLimit, dtype=float)
         hi = np.asarray(self.model.upperPositionLimit, dtype=float)
+        for qs, vs in self._joint_slices():
+            width = 0.5 * (hi[qs] - lo[qs])
+            ok = np.isfinite(width) & (width >= 0)
+            half[vs] = np.where(ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi)
+        return half
+
+    def _joint_slices(self) -> Iterator[tuple[slice, slice]]:
+        """``(q slice, v slice)`` of each joint with as many positions as rates (not a
+        continuous joint's ``(cos, sin)``, nor a spherical joint's quaternion)."""
         for j in range(1, self.model.njoints):
             joint = self.model.joints[j]
-            if joint.nq != joint.nv:
-                continue
-            width = 0.5 * (
-                hi[joint.idx_q : joint.idx_q + joint.nq] - lo[joint.idx_q : joint.idx_q + joint.nq]
-            )
-            ok = np.isfinite(width) & (width >= 0)
-            half[joint.idx_v : joint.idx_v + joint.nv] = np.where(
-                ok, np.minimum(np.where(ok, width, 0.0), np.pi), np.pi
-            )
-        return half
+            if joint.nq == joint.nv:
+                yield (
+                    slice(joint.idx_q, joint.idx_q + joint.nq),
+                    slice(joint.idx_v, joint.idx_v + joint.nv),
+                )
 
     def random_configurations(
         self, n: int, rng: np.random.Generator | int | None = None

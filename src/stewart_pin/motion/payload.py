@@ -120,18 +120,17 @@ class JointMotion:
         period: float = 1.0,
         duration: float | None = None,
     ) -> JointMotion:
-        """Every joint swinging about the home configuration (the middle of its range) by
-        ``fraction`` of its half-range (a joint without finite limits: of pi, and at most
-        pi) in a sinusoid of ``period`` [s], joint k ahead by ``k / nv`` of a period
-        (already moving at t = 0): within the limits by construction (``fraction`` in
-        (0, 1])."""
+        """Every joint swinging about the home configuration by ``fraction`` of its room
+        there (:meth:`Payload.room`: the distance to its nearer limit, at most its
+        half-range and pi; at the middle of the range, the half-range) in a sinusoid of
+        ``period`` [s], joint k ahead by ``k / nv`` of a period (already moving at t = 0):
+        within the limits by construction (``fraction`` in (0, 1])."""
         f = check_scalar(fraction, "fraction", positive=True)
         if f > 1.0:
             raise InputError(f"fraction must be in (0, 1], got {fraction}")
         T = check_scalar(period, "period", positive=True, unit="s")
         nv = payload.nv
-        half = payload.half_ranges()
-        a = f * half
+        a = f * payload.room()
         w = 2 * np.pi / T
         phase = 2 * np.pi * np.arange(nv) / max(nv, 1)
 

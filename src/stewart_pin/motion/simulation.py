@@ -7,7 +7,8 @@ acceleration from :meth:`StewartRobot.direct_dynamics`. Each step integrates in 
 ``dxi/dt = J_l(xi)^-1 w``, and maps back with the exponential: the rotation stays on
 SO(3) to round-off, with no drift off the manifold.
 
-- ``method="rk4"``: classical fixed-step RK4 (order 4).
+- ``method="rk4"``: classical fixed-step RK4 (order 4) on the grid ``k * dt`` (each grid
+  time computed, never accumulated: one sample per grid time).
 - ``method="adaptive"``: Dormand-Prince 5(4) with error control on the position [m],
   rotation [rad] and twist, ``rtol`` / ``atol`` as in ``scipy.integrate.solve_ivp``.
 
@@ -396,8 +397,9 @@ def simulate(
         control_period: sample-and-hold period of ``forces`` [s] (``None``: continuous).
             The forces are sampled at accepted states only, at the start of each period,
             and held over it; no step crosses a period boundary.
-        output_dt: spacing of the returned samples [s] (default: every step for rk4 and
-            for the adaptive method, its accepted steps).
+        output_dt: spacing of the returned samples [s]: no step crosses an output time,
+            so the samples lie at ``k * output_dt`` exactly (and at ``duration``); default:
+            every step (rk4: the grid ``k * dt``; adaptive: its accepted steps).
         progress: called with the simulated time [s] after each accepted step (a progress
             bar's hook).
         backend: the direct model's backend: ``"auto"`` (default: compiled where a C
@@ -488,7 +490,7 @@ class _Run:
         self.progress = progress
         self.rows: list[_State] = []
         self.last: _State | None = None
-        self.next_output = 0.0
+        self.n_output = 0  # output_dt: the index of the next output time
         # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
         self.h_min = max(MIN_STEP, 16 * np.finfo(float).eps * duration)
         stroke = robot.description.stroke
@@ -503,11 +505,18 @@ class _Run:
         if self.rows and self.rows[-1].t == s.t:
             return
         out = self.output_dt
-        if out is not None and not final:
-            if s.t < self.next_output - MIN_STEP and s.t < self.duration - MIN_STEP:
+        if out is not None:
+            if not final and s.t < self._output_time(self.n_output) - self.h_min:
                 return
-            self.next_output += out
+            self.n_output = int(np.floor(s.t / out + _RATIO_SLACK)) + 1
         self.rows.append(s)
+
+    def _output_time(self, k: int) -> float:
+        """The k-th output time ``k * output_dt`` [s] (``duration`` past the end): computed,
+        never accumulated, so the samples lie on the grid."""
+        assert self.output_dt is not None
+        t = k * self.output_dt
+        return self.duration if t > self.duration - self.h_min else t
 
     def result(self) -> SimulationResult:
         if not self.rows:
@@ -653,10 +662,17 @@ class _Run:
                 target = duration
                 if integ.period is not None:
                     target = min(target, (integ.period_index(s.t) + 1) * integ.period)
+            if self.output_dt is not None:  # no step crosses an output time
+                target = min(target, self._output_time(self.n_output))
             if t_bad is not None:
                 target = min(target, t_bad)
-            h = min(h_cur, target - s.t)
-            t_new = target if h == target - s.t else s.t + h
+            # A step that reaches the target to round-off (a few ulps of the time) lands on
+            # it exactly: no sliver left to step over (one sample per grid time). The
+            # allowance is below half the shortest step, so a halved trial never snaps.
+            if target - s.t <= h_cur + 4 * np.spacing(target):
+                h, t_new = target - s.t, target
+            else:
+                h, t_new = h_cur, s.t + h_cur
             try:
                 new, err = integ.trial(s, h, t_new, self.method, self.rtol, self.atol)
             except _Failure as failure:

@@ -33,7 +33,13 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array, check_increasing_times, check_pose, check_poses
+from stewart_pin._checks import (
+    check_array,
+    check_increasing_times,
+    check_pose,
+    check_poses,
+    check_scalar,
+)
 from stewart_pin._so3 import (
     so3_coefficients,
     so3_exp,
@@ -240,23 +246,28 @@ class CoordinateMotion:
                 robot.inverse_geometry(traj.poses[chunk])
                 robot.jacobian(traj.poses[chunk])
             except (WorkspaceError, SingularityError) as e:
-                bad = _first_bad(robot, traj.poses[chunk])
-                # Same exception (type and attributes), its message prefixed with the time.
-                e.args = (
-                    f"the motion leaves the workspace at t = {traj.times[k + bad]:.4g} s: {e}",
+                bad, error = _first_bad(robot, traj.poses[chunk])
+                # The first failing sample's own error (type and attributes; no batch
+                # note), its message prefixed with the time.
+                error = error or e
+                error.args = (
+                    f"the motion leaves the workspace at t = {traj.times[k + bad]:.4g} s: {error}",
                 )
-                raise
+                raise error from None
         return traj
 
 
-def _first_bad(robot: RobotLike, poses: np.ndarray) -> int:
+def _first_bad(
+    robot: RobotLike, poses: np.ndarray
+) -> tuple[int, WorkspaceError | SingularityError | None]:
+    """The first pose of ``poses`` out of the workspace, and its error."""
     for n, T in enumerate(poses):
         try:
             robot.inverse_geometry(T)
             robot.jacobian(T)
-        except (WorkspaceError, SingularityError):
-            return n
-    return 0
+        except (WorkspaceError, SingularityError) as e:
+            return n, e
+    return 0, None
 
 
 def _quintic(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -390,6 +401,8 @@ class Sinusoids(CoordinateMotion):
         )
 
 
+#: The length [s] of :func:`washout` at its default phases (onset, hold, washout).
+WASHOUT_DURATION = 4.5
 #: The kinds :func:`standard_motion` builds.
 MOTION_KINDS = ("sinusoid", "minimum-jerk", "washout")
 
@@ -401,7 +414,9 @@ def standard_motion(
 
     - ``sinusoid``: multi-axis sinusoids (4 % of s, 3 deg, 0.4-0.9 Hz) for ``duration``;
     - ``minimum-jerk``: to ``[5, -4, 6] % s`` and ``[3, -2, 4] deg`` in ``duration``;
-    - ``washout``: a 8 % s surge with a 4 deg tilt, washed out (4.5 s, ``duration`` unused).
+    - ``washout``: a 8 % s surge with a 4 deg tilt, washed out in ``duration`` (the cue's
+      phases, 0.5 s onset, 1.5 s hold and 2.5 s washout at :data:`WASHOUT_DURATION`,
+      scaled in time to last ``duration``).
     """
     s = robot.description.stroke_mid
     T0 = robot.home_pose
@@ -417,5 +432,13 @@ def standard_motion(
         goal = [0.05 * s, -0.04 * s, 0.06 * s, *np.radians([3.0, -2.0, 4.0])]
         return minimum_jerk(T0, goal, duration)
     if kind == "washout":
-        return washout(T0, surge=0.08 * s, tilt=np.radians(4.0))
+        c = check_scalar(duration, "duration", positive=True, unit="s") / WASHOUT_DURATION
+        return washout(
+            T0,
+            surge=0.08 * s,
+            tilt=np.radians(4.0),
+            onset=0.5 * c,
+            hold=1.5 * c,
+            washout_time=2.5 * c,
+        )
     raise InputError(f"unknown motion '{kind}'; choose one of {MOTION_KINDS}")

@@ -732,13 +732,14 @@ class IdentificationResult:
         with what to do about them."""
         flags = {f.index: f for f in self.poorly_identified(max_relative_std)}
         what = "weighted least squares" if self.weighted else "ordinary least squares"
+        unit = "N" if self.base.robot is None else self.base.robot.description.effort_unit
         lines = [
             f"{len(self.names)} base parameters by {what} from {self.n_samples} samples "
             f"({6 * self.n_samples} equations)",
             f"condition number of the scaled base regressor: {self.condition_number:.4g}",
-            "per-actuator noise std (from the residuals) [N]: "
+            f"per-actuator noise std (from the residuals) [{unit}]: "
             + " ".join(f"{s:.4g}" for s in self.sigma),
-            "per-actuator residual RMS (final) [N]: "
+            f"per-actuator residual RMS (final) [{unit}]: "
             + " ".join(f"{s:.4g}" for s in self.residual_rms),
             "",
         ]

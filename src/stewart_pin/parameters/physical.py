@@ -55,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from stewart_pin._extras import require
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import inertia_tensor
 from stewart_pin.dynamics.regressor import (
@@ -157,13 +158,8 @@ class PhysicalEstimate:
 
 
 def _cvxpy() -> Any:
-    try:
-        import cvxpy
-    except ImportError as e:  # pragma: no cover - cvxpy is in the test environment
-        raise ImportError(
-            "physically consistent parameters need cvxpy with an SDP solver: "
-            'pip install "stewart-pin[ident]" (cvxpy and clarabel)'
-        ) from e
+    """The ``cvxpy`` module, or :class:`MissingDependencyError` with the install hint."""
+    (cvxpy,) = require("physically consistent parameters", "ident", "cvxpy")
     return cvxpy
 
 

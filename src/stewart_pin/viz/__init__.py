@@ -8,7 +8,9 @@ matplotlib for the figures; each is imported where it is used.
 
 from stewart_pin.viz.leg_scene import LegScene, general_robot
 from stewart_pin.viz.plots import (
+    actuator_work,
     plot_energy,
+    plot_energy_balance,
     plot_forces,
     plot_lengths,
     plot_tracking_error,
@@ -21,8 +23,10 @@ __all__ = [
     "CameraView",
     "LegScene",
     "Viewer",
+    "actuator_work",
     "general_robot",
     "plot_energy",
+    "plot_energy_balance",
     "plot_forces",
     "plot_lengths",
     "plot_tracking_error",

@@ -1,5 +1,5 @@
-"""Figures of a motion: actuator forces, leg lengths against the stroke, tracking error,
-mechanical energy.
+"""Figures of a motion: actuator efforts, leg lengths against the stroke, tracking error,
+mechanical energy (free motion) and the work-energy balance (driven motion).
 
 Each ``plot_*`` function takes arrays and returns a ``matplotlib.figure.Figure`` built
 without pyplot (no global state, no display: it saves through the Agg canvas).
@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from stewart_pin._checks import check_array, check_poses
+from stewart_pin._extras import install_hint, require
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import InputError
 from stewart_pin.motion.control import tracking_errors
@@ -26,17 +27,22 @@ if TYPE_CHECKING:
     from stewart_pin.robot import StewartRobot
 
 #: Install hint of the optional figure dependency.
-INSTALL_HINT = "pip install stewart-pin[viz]"
+INSTALL_HINT = install_hint("viz")
 #: Size of every figure [inch].
 FIGSIZE = (8.0, 4.5)
 LEG_LABELS = tuple(f"leg {i}" for i in range(1, 7))
 
 
+def require_matplotlib() -> type[Figure]:
+    """matplotlib's ``Figure`` class, or :class:`~stewart_pin.exceptions.MissingDependencyError`
+    with the install hint (the command line checks it before the work that ends in figures).
+    """
+    (module,) = require("the figures", "viz", "matplotlib.figure")
+    return module.Figure
+
+
 def _figure(nrows: int = 1) -> tuple[Figure, list[Any]]:
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as e:
-        raise ImportError(f"the figures need matplotlib: {INSTALL_HINT} ({e})") from e
+    Figure = require_matplotlib()
     height = FIGSIZE[1] if nrows == 1 else FIGSIZE[1] * 0.8 * nrows
     fig = Figure(figsize=(FIGSIZE[0], height), layout="constrained")
     axes = fig.subplots(nrows, 1, sharex=True, squeeze=False)[:, 0]
@@ -56,18 +62,26 @@ def _series(t: Any, values: Any, width: int | None, name: str) -> tuple[np.ndarr
     return t, values
 
 
-def plot_forces(t: Any, gammas: Any) -> Figure:
-    """The six actuator forces against time.
+#: What an actuator's effort is called, by its unit (``RobotDescription.effort_unit``).
+_EFFORT_NAMES = {"N": "force", "N m": "torque"}
+
+
+def plot_forces(t: Any, gammas: Any, unit: str = "N") -> Figure:
+    """The six actuator efforts against time.
 
     Args:
-        t: shape (K,) [s]; gammas: shape (K, 6) [N], positive extending the leg.
+        t: shape (K,) [s]; gammas: shape (K, 6), positive extending the leg (a prismatic
+            actuator) or turning its joint positively (a revolute one).
+        unit: the efforts' unit, ``robot.description.effort_unit``: ``"N"`` (forces),
+            ``"N m"`` (torques: RUS cranks) or ``"N or N m"`` (mixed legs).
     """
     t, gammas = _series(t, gammas, 6, "gammas")
     fig, (ax,) = _figure()
     for i in range(6):
         ax.plot(t, gammas[:, i], label=LEG_LABELS[i])
-    ax.set_ylabel("actuator force [N]")
-    ax.set_title("Actuator forces")
+    name = _EFFORT_NAMES.get(unit, "effort")
+    ax.set_ylabel(f"actuator {name} [{unit}]")
+    ax.set_title(f"Actuator {name}s")
     _legend_right(ax)
     return fig
 
@@ -132,6 +146,58 @@ def plot_energy(t: Any, energy: Any) -> Figure:
     return fig
 
 
+def actuator_work(gammas: Any, positions: Any) -> np.ndarray:
+    """The actuators' work since the first sample [J], shape (K,): ``sum_k Gamma_k .
+    (q_a,k+1 - q_a,k)``, each sample's efforts held until the next (exact for the
+    zero-order hold of ``simulate(control_period=...)``, whose samples record the efforts
+    applied from them; first order in the step for efforts that vary within a step).
+
+    Args:
+        gammas: shape (K, 6), the actuators' efforts [N or N m].
+        positions: shape (K, 6), the actuated joint positions [m or rad]
+            (``SimulationResult.actuator_positions``).
+    """
+    gammas = check_array(gammas, (None, 6), "gammas")
+    positions = check_array(positions, (len(gammas), 6), "positions")
+    steps = np.sum(gammas[:-1] * np.diff(positions, axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def plot_energy_balance(t: Any, energy: Any, work: Any, dissipated: Any = None) -> Figure:
+    """The work-energy balance of a driven motion: the change of the mechanical energy,
+    the actuators' work and the joints' losses (top), and the balance's residual
+    ``E - E(0) + losses - work``, ~0 up to the integration error (bottom, in the title).
+
+    Args:
+        t: shape (K,) [s]; energy: shape (K,) [J] (``robot.energy(poses, twists)``);
+        work: shape (K,) [J] the actuators' work since ``t[0]`` (:func:`actuator_work`);
+        dissipated: shape (K,) [W] the power lost in the joints
+            (``robot.dissipated_power(poses, twists)``), ``None`` for none.
+    """
+    t, energy = _series(t, energy, None, "energy")
+    work = check_array(work, (len(t),), "work")
+    losses = np.zeros(len(t))
+    if dissipated is not None:
+        power = check_array(dissipated, (len(t),), "dissipated")
+        losses[1:] = np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))
+    change = energy - energy[0] if len(energy) else energy
+    residual = change + losses - work
+    fig, (ax, ax_r) = _figure(2)
+    ax.plot(t, change, label="E - E(0) (kinetic + potential)")
+    ax.plot(t, work, "--", label="actuators' work")
+    if dissipated is not None:
+        ax.plot(t, losses, ":", label="joint losses")
+    ax.set_ylabel("energy [J]")
+    ax.legend(fontsize="small")
+    ax_r.plot(t, residual, color="black", linewidth=1.0)
+    ax_r.set_ylabel("residual [J]")
+    worst = float(np.max(np.abs(residual))) if len(residual) else 0.0
+    scale = float(np.max(np.abs(work))) if len(work) else 0.0
+    relative = f" ({worst / scale:.2g} of the work)" if scale > 0 else ""
+    ax.set_title(f"Work-energy balance: max |E - E(0) + losses - work| = {worst:.3g} J{relative}")
+    return fig
+
+
 def reference_poses(reference: Any, times: Any) -> np.ndarray:
     """The reference poses at ``times`` (K,) [s], shape (K, 4, 4), from either
 
@@ -161,17 +227,22 @@ def save_figures(
     reference: Any = None,
     robot: StewartRobot | None = None,
     dpi: int = 100,
+    effort_unit: str | None = None,
 ) -> dict[str, Path]:
     """Write the figures of a simulated motion as PNG files in ``folder``.
 
     Always ``forces.png`` and ``lengths.png``; ``tracking_error.png`` with a
-    ``reference``; ``energy.png`` with the ``robot`` (which also draws the stroke limits).
+    ``reference``; ``energy.png`` with the ``robot`` (which also draws the stroke limits):
+    the work-energy balance (:func:`plot_energy_balance`), whose residual is ~0 for a
+    driven motion as for a free one.
 
     Args:
         result: the motion.
         folder: created when missing.
         reference: the reference motion, as :func:`reference_poses` takes it.
         robot: the simulated robot.
+        effort_unit: the unit of ``result.gammas`` (default: the robot's
+            ``description.effort_unit``, ``"N"`` without a robot).
 
     Returns:
         ``{"forces": path, ...}`` of the files written.
@@ -179,8 +250,10 @@ def save_figures(
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     general = robot is not None and _general_legs(robot)
+    if effort_unit is None:
+        effort_unit = "N" if robot is None else robot.description.effort_unit
     figures = {
-        "forces": plot_forces(result.t, result.gammas),
+        "forces": plot_forces(result.t, result.gammas, effort_unit),
         "lengths": plot_lengths(
             result.t,
             result.lengths,
@@ -190,13 +263,19 @@ def save_figures(
     if general:
         # general legs: the actuated joint values (slides [m], cranks [rad]), no stroke
         (ax,) = figures["lengths"].axes
-        ax.set_ylabel("actuated joint [m or rad]")
+        assert robot is not None
+        ax.set_ylabel(f"actuated joint [{robot.description.position_unit}]")
         ax.set_title("Actuator positions")
     if reference is not None:
         reference = reference_poses(reference, result.t)
         figures["tracking_error"] = plot_tracking_error(result.t, result.poses, reference)
     if robot is not None:
-        figures["energy"] = plot_energy(result.t, robot.energy(result.poses, result.twists))
+        figures["energy"] = plot_energy_balance(
+            result.t,
+            robot.energy(result.poses, result.twists),
+            actuator_work(result.gammas, result.lengths),
+            robot.dissipated_power(result.poses, result.twists),
+        )
     paths = {}
     for name, fig in figures.items():
         paths[name] = folder / f"{name}.png"

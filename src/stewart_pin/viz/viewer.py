@@ -43,6 +43,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_increasing_times, check_pose, check_poses
+from stewart_pin._extras import install_hint, require
 from stewart_pin._io import write_text_atomic
 from stewart_pin.exceptions import InputError, ViewerError
 from stewart_pin.formats.urdf import VisualSizes
@@ -53,7 +54,7 @@ if TYPE_CHECKING:
     from stewart_pin.robot import StewartRobot
 
 #: Install hint of the optional viewer dependencies.
-INSTALL_HINT = "pip install stewart-pin[viz]"
+INSTALL_HINT = install_hint("viz")
 #: Node under ``/meshcat`` holding the robot.
 ROOT_NODE = "stewart_pin"
 #: meshcat's default perspective camera: vertical field of view [deg].
@@ -69,13 +70,15 @@ SERVER_TIMEOUT = 30.0
 REQUEST_TIMEOUT = 120.0
 
 
-def _require_meshcat() -> Any:
-    try:
-        import meshcat
-        import meshcat.animation
-        from pinocchio.visualize import MeshcatVisualizer  # noqa: F401
-    except ImportError as e:
-        raise ImportError(f"the viewer needs meshcat: {INSTALL_HINT} ({e})") from e
+def require_meshcat() -> Any:
+    """The ``meshcat`` module, or :class:`~stewart_pin.exceptions.MissingDependencyError`
+    with the install hint (the command line checks it before the work that ends in a
+    viewer or an HTML animation)."""
+    meshcat, _ = require(
+        "the viewer and the HTML animations", "viz", "meshcat", "meshcat.animation"
+    )
+    from pinocchio.visualize import MeshcatVisualizer  # noqa: F401
+
     return meshcat
 
 
@@ -196,7 +199,7 @@ class _Server:
     """meshcat's server in a child process on 127.0.0.1, and a client connected to it."""
 
     def __init__(self, quiet: bool = False, timeout: float = SERVER_TIMEOUT):
-        meshcat = _require_meshcat()
+        meshcat = require_meshcat()
 
         script = Path(__file__).with_name("_meshcat_server.py")
         env = dict(os.environ)
@@ -312,7 +315,7 @@ class Viewer:
     """
 
     def __init__(self, robot: StewartRobot | Any, camera: CameraView | None = None):
-        _require_meshcat()
+        require_meshcat()
         self.robot = robot
         #: The robot with general legs when it is drawn by :class:`LegScene`, else None.
         self.general = general_robot(robot)
