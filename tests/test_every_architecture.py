@@ -264,10 +264,10 @@ def test_simulate_with_a_model_error_on_general_legs(tmp_path, capsys):
     plus what the controller adds (checked: finite, and the run completes)."""
     out = tmp_path / "run.npz"
     args = ["simulate", "--preset", "rus", "--motion", "minimum-jerk", "--duration", "0.2"]
-    assert main([*args, "--model-error", "0.2", "-o", str(out), "--quiet"]) == 0
+    assert main([*args, "--model-error", "0.2", "-o", str(out), "--no-progress"]) == 0
     text = capsys.readouterr().out
     assert "tracking error" in text and out.exists()
-    assert main([*args, "-o", str(tmp_path / "exact.npz"), "--quiet"]) == 0
+    assert main([*args, "-o", str(tmp_path / "exact.npz"), "--no-progress"]) == 0
     exact = capsys.readouterr().out
     worse = float(text.split("tracking error: max ")[1].split()[0])
     better = float(exact.split("tracking error: max ")[1].split()[0])

@@ -77,7 +77,7 @@ def test_cli_refuses_special_outputs_in_one_line(tmp_path, capsys):
     files = _special_files(tmp_path)
     for name, path in files.items():
         capsys.readouterr()
-        code = main(["simulate", "--duration", "0.002", "--quiet", "-o", str(path)])
+        code = main(["simulate", "--duration", "0.002", "--no-progress", "-o", str(path)])
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1 and name in err, err
         assert stat.S_ISREG(os.lstat(path).st_mode) is False
@@ -108,7 +108,7 @@ def test_idm_writes_the_forces_csv_to_stdout(tmp_path, capsysbinary):
 
 def test_simulate_and_import_write_to_stdout(tmp_path, capsysbinary, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    args = ["simulate", "--duration", "0.003", "--quiet", "--backend", "pinocchio"]
+    args = ["simulate", "--duration", "0.003", "--no-progress", "--backend", "pinocchio"]
     assert main([*args, "-o", "-"]) == 0
     captured = capsysbinary.readouterr()
     assert captured.out.startswith(b"t,x,y,z,") and b"simulated" in captured.err
@@ -352,7 +352,7 @@ def test_payload_numbers_are_parsed_strictly(mass, inertia, shown, tmp_path, cap
     with pytest.raises(PayloadError, match="is not a number") as info:
         Payload.from_urdf(bad)
     assert shown in str(info.value)
-    argv = ["simulate", "--duration", "0.002", "--quiet", "--payload", str(bad)]
+    argv = ["simulate", "--duration", "0.002", "--no-progress", "--payload", str(bad)]
     assert main([*argv, "-o", str(tmp_path / "s.npz")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and shown in err, err
@@ -550,6 +550,6 @@ def test_a_payload_without_joints_is_the_platform_with_its_inertia(tmp_path, cap
     # the command line: validate passes, simulate runs
     assert main(["validate", "--payload", str(path), "--states", "4"]) == 0
     assert "PASSED" in capsys.readouterr().out
-    sim = ["simulate", "--payload", str(path), "--duration", "0.004", "--quiet"]
+    sim = ["simulate", "--payload", str(path), "--duration", "0.004", "--no-progress"]
     assert main([*sim, "-o", str(tmp_path / "s.npz")]) == 0
     assert (tmp_path / "s.npz").is_file() and (tmp_path / "s.payload.npz").is_file()
