@@ -44,16 +44,23 @@ from stewart_pin.description.inertia import khalil_from_urdf_inertial, urdf_iner
 from stewart_pin.description.presets import preset
 from stewart_pin.dynamics.general_legs import GeneralDynamics
 from stewart_pin.exceptions import FileFormatError, LegJointLimitError, LegReachError
-from stewart_pin.formats.general_mjcf import general_mujoco_inertials
-from stewart_pin.formats.general_urdf import (
+from stewart_pin.formats.mjcf import (
+    LOOP_SOLIMP,
+    LOOP_SOLREF,
+    mjcf_string,
+    mujoco_inertials,
+    mujoco_qpos,
+    write_mjcf,
+)
+from stewart_pin.formats.urdf import (
     JOINT_TERMS_KEY,
     URDF_UNBOUNDED,
     is_general,
     parse_joint_terms,
-    write_general_urdf,
+    read_closures,
+    urdf_string,
+    write_urdf,
 )
-from stewart_pin.formats.mjcf import LOOP_SOLIMP, LOOP_SOLREF, mjcf_string, mujoco_qpos, write_mjcf
-from stewart_pin.formats.urdf import read_closures, urdf_string, write_urdf
 from stewart_pin.kinematics.leg_chains import inverse_geometry
 from stewart_pin.models.pinocchio_models import TreeModel, load_tree
 
@@ -128,6 +135,35 @@ def test_dispatch_keeps_6ups_files():
     assert is_general(rus_preset())
 
 
+def test_deprecated_general_modules_warn_and_write_the_same_files(tmp_path):
+    """The former twins ``formats.general_urdf`` / ``general_mjcf`` (issue 19) keep their
+    names: each warns, naming its new place, and gives what the one writer gives."""
+    import stewart_pin.formats as formats
+    from stewart_pin.formats import general_mjcf, general_urdf
+
+    h = rus_preset()
+    with pytest.warns(DeprecationWarning, match=r"stewart_pin\.formats\.urdf_string"):
+        assert formats.general_urdf_string(h) == urdf_string(h)
+    with pytest.warns(DeprecationWarning, match=r"stewart_pin\.formats\.mjcf_string"):
+        assert formats.general_mjcf_string(h, True) == mjcf_string(h, True)
+    with pytest.warns(DeprecationWarning, match=r"stewart_pin\.formats\.write_urdf"):
+        old = general_urdf.write_general_urdf(h, tmp_path / "old.urdf")
+    new = write_urdf(h, tmp_path / "new.urdf")
+    assert old[0].read_text() == new[0].read_text()
+    assert json.loads(old[1].read_text()) | {"urdf": ""} == json.loads(new[1].read_text()) | {
+        "urdf": ""
+    }
+    with pytest.warns(DeprecationWarning, match=r"stewart_pin\.formats\.write_mjcf"):
+        path = general_mjcf.write_general_mjcf(h, tmp_path / "old.xml")
+    assert path.read_text() == mjcf_string(h)
+    with pytest.warns(DeprecationWarning, match=r"stewart_pin\.formats\.urdf\.parse_joint_terms"):
+        assert general_urdf.parse_joint_terms is parse_joint_terms
+    with pytest.warns(DeprecationWarning, match=r"stewart_pin\.formats\.mjcf\.mujoco_inertials"):
+        assert general_mjcf.general_mujoco_inertials is mujoco_inertials
+    with pytest.raises(AttributeError, match="no_such_name"):
+        _ = general_urdf.no_such_name
+
+
 @pytest.mark.parametrize("name", ROBOTS)
 def test_urdf_tree_equals_reference_tree(name, tmp_path):
     """Pinocchio's URDF parser, the sidecar's closures and armatures: the same constrained
@@ -179,7 +215,7 @@ def test_urdf_joints_limits_and_dynamics(name):
 
 def test_sidecar_content(tmp_path):
     h = random_hexapod("rus", 2)
-    _, sidecar = write_general_urdf(h, tmp_path / "r.urdf")
+    _, sidecar = write_urdf(h, tmp_path / "r.urdf")
     data = json.loads(sidecar.read_text())
     closures = read_closures(sidecar)
     assert [c.link1 for c in closures] == [f"leg{i}_link3" for i in range(1, 7)]
@@ -320,7 +356,7 @@ def test_massless_links_are_merged_exactly(tmp_path):
     inertia[:, 1] = 0.0
     inertia[::2, 0] = 0.0
     light = h.replace(leg_inertia=inertia)
-    assert general_mujoco_inertials(light).has_body[:, :2].sum() == 3
+    assert mujoco_inertials(light).has_body[:, :2].sum() == 3
     m, data = _mj(light)
     assert m.nbody == 1 + 1 + 6 * 3 - 9 + 1
     T, V, A, Q = states("random-custom-0", 3, seed=4)
@@ -411,7 +447,7 @@ def test_pinocchio_layout_gives_the_reference_dynamics(name, tmp_path):
 
 
 def test_xacro_arguments_of_general_legs_name_the_general_source(tmp_path):
-    # the rendering itself is checked against general_urdf_string in tests/test_xacro.py
+    # the rendering itself is checked against urdf_string in tests/test_xacro.py
     from stewart_pin.formats.xacro import write_xacro_args, xacro_args
 
     args = xacro_args(rus_preset())

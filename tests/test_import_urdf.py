@@ -388,7 +388,7 @@ def test_sidecar_limit_alone_and_terms_of_unknown_joints_are_refused(tmp_path):
 def test_sidecar_joint_terms_take_numbers_only(tmp_path, value):
     """The sidecar reader of the Pinocchio models (``parse_joint_terms``) took ``true`` as
     1 and ``"0.1"`` as 0.1: numbers only, the joint and the key named."""
-    from stewart_pin.formats.general_urdf import parse_joint_terms
+    from stewart_pin.formats.urdf import parse_joint_terms
 
     _, data = _round_trip_files(tmp_path)
     assert (

@@ -155,10 +155,8 @@ def test_general_args_file_reads_back_exactly(rendered_general):
 
 def test_general_rendered_xml_equals_writer_output(rendered_general):
     # Same elements (visuals included), order and attribute strings.
-    from stewart_pin.formats.general_urdf import general_urdf_string
-
     desc, _, text = rendered_general
-    assert canonical(ET.fromstring(text)) == canonical(ET.fromstring(general_urdf_string(desc)))
+    assert canonical(ET.fromstring(text)) == canonical(ET.fromstring(urdf_string(desc)))
 
 
 def _joint_elements(text: str) -> dict[str, ET.Element]:
@@ -198,10 +196,8 @@ def test_general_joints_carry_the_description(rendered_general):
 
 
 def test_general_pinocchio_models_agree(rendered_general):
-    from stewart_pin.formats.general_urdf import general_urdf_string
-
     desc, _, text = rendered_general
-    a, b = pin.buildModelFromXML(text), pin.buildModelFromXML(general_urdf_string(desc))
+    a, b = pin.buildModelFromXML(text), pin.buildModelFromXML(urdf_string(desc))
     assert_models_agree(
         a, b, desc.name, ("lowerPositionLimit", "upperPositionLimit", "damping", "friction")
     )

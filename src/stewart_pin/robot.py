@@ -224,7 +224,7 @@ class StewartRobot:
     # ------------------------------------------------------------------ files and models
     def urdf(self) -> str:
         """The URDF text of the tree (general legs: their chains, see
-        :mod:`stewart_pin.formats.general_urdf`)."""
+        :mod:`stewart_pin.formats.urdf`)."""
         return urdf_string(self.description)
 
     def write_urdf(self, path: str | Path) -> tuple[Path, Path]:
@@ -234,7 +234,7 @@ class StewartRobot:
 
     def mjcf(self, pinocchio_layout: bool = False) -> str:
         """The MJCF text of the closed-loop robot (MuJoCo equality constraints close the
-        six loops; general legs: their chains, :mod:`stewart_pin.formats.general_mjcf`).
+        six loops; general legs: their chains, :mod:`stewart_pin.formats.mjcf`).
         ``pinocchio_layout``: the layout Pinocchio's parser reads (MuJoCo refuses it)."""
         return mjcf_string(self.description, pinocchio_layout)
 

@@ -60,7 +60,7 @@ from dataclasses import dataclass
 import casadi as cs
 import numpy as np
 
-from stewart_pin.codegen.symbolic import (
+from stewart_pin.codegen._sx_common import (
     Mat,
     ModelConstants,
     Scalar,

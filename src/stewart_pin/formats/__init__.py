@@ -4,11 +4,10 @@ MJCF for MuJoCo, and the CSV / NPZ tables of states, forces and lengths.
 Every writer is atomic (:mod:`stewart_pin._io`) and writes no user text unescaped;
 every reader names the file and line of what it refuses (``FileFormatError``).
 
-Modules: :mod:`.urdf` (the 24-dof tree, ``*.closures.json``), :mod:`.xacro`,
-:mod:`.mjcf`, :mod:`.general_urdf` and :mod:`.general_mjcf` (robots with general
-three-joint legs: ``urdf_string``, ``write_urdf``, ``mjcf_string`` and ``write_mjcf``
-dispatch to them for a robot carrying ``legs`` that is not ``is_ideal_ups``),
-:mod:`.robot_files` (all of a robot's files into one folder; the model files shipped as
+Modules: :mod:`.urdf` (the 24-dof tree, ``*.closures.json``) and :mod:`.mjcf`, each
+the writer of every leg architecture (``general_urdf`` and ``general_mjcf`` remain as
+deprecated aliases), :mod:`.xacro`, :mod:`.robot_files` (all of a robot's files into
+one folder; the model files shipped as
 package data), :mod:`.csv_tables`.
 """
 

@@ -37,10 +37,36 @@ then finds the 25-value keyframe too long). ``pinocchio_layout=True`` nests the 
 at the identity, in ``base_link``: Pinocchio reads the whole closed-loop robot, six point
 anchors and the keyframe (it converts the quaternion to its (x, y, z, w)); MuJoCo refuses
 that file. Either way, set ``model.gravity`` in Pinocchio yourself.
+
+One writer for every leg architecture: a robot with general legs
+(:func:`~stewart_pin.formats.urdf.is_general`, duck-typed as there) gets the same bodies,
+frames, names and inertials as its URDF, and what URDF cannot hold:
+
+- each leg joint is a ``hinge`` (revolute) or ``slide`` (prismatic) about ``z`` of its MDH
+  frame, the body placed by the MDH placement (``pos``, ``quat``), with its dynamics:
+  ``armature`` = the joint-side armature (rotor inertia reflected through the
+  transmission), ``damping`` = viscous + damper coefficients, ``frictionloss`` = the
+  Coulomb coefficient (MuJoCo's dry friction is a constraint solved with the others, not
+  a smooth ``Fc sign(qdot)`` term: a slipping joint feels ``Fc``, a still one up to
+  ``Fc``), ``stiffness`` and ``springref`` = the spring and its rest position, ``range``
+  = the limits when both are finite (MuJoCo has no one-sided range: a half-bounded joint
+  is written unlimited);
+- the site ``leg{i}_tip`` at P_i in frame 3i (the leg's ``tip``);
+- a ``<motor>`` ``leg{i}_motor`` (gear 1: the joint-side effort, N or N m) on each leg's
+  actuated joint, in leg order; the transmission ratio and rotor inertia are not
+  MuJoCo's (the motor-side effort is the joint-side one divided by the ratio; the rotor
+  inertia is in ``armature``);
+- the ``home`` keyframe from each leg's branch of the inverse geometry.
+
+Bodies MuJoCo refuses are handled by :func:`mujoco_inertials` as for the 6-UPS, the rods'
+point masses at each leg's ``tip``; a link without a body passes its joint to the next
+body with ``pos`` and ``axis`` such that MuJoCo's sequential joint motion is the chain's
+(exact; its visuals are not drawn).
 """
 
 from __future__ import annotations
 
+import math
 import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
@@ -62,16 +88,23 @@ from stewart_pin.description.inertia import (
     urdf_inertial_from_khalil,
 )
 from stewart_pin.exceptions import ApproximationWarning
-from stewart_pin.formats._xml import mjcf_body, mjcf_geom, mjcf_inertial, vec
+from stewart_pin.formats._xml import MJCF_RGBA, mjcf_body, mjcf_geom, mjcf_inertial, num, vec
 from stewart_pin.formats.urdf import (
     BASE_LINK,
     PLATFORM_JOINT,
     PLATFORM_LINK,
+    LegVisualSizes,
     VisualSizes,
+    is_general,
     joint_limits,
+    joint_placement,
     leg_joint,
+    leg_joint_values,
     leg_link,
+    next_point,
     plate_visual,
+    robot_size,
+    travel,
 )
 from stewart_pin.kinematics.geometry import inverse_geometry
 
@@ -79,6 +112,8 @@ __all__ = [
     "LOOP_SOLIMP",
     "LOOP_SOLREF",
     "MujocoInertials",
+    "leg_chains_mjcf_string",
+    "leg_chains_mujoco_qpos",
     "leg_tip_site",
     "mjcf_string",
     "mujoco_inertials",
@@ -219,9 +254,17 @@ def mujoco_inertials(
         desc: the robot (``leg_inertia`` (6, 3, 10) in the link frames, ``platform_inertia``
             (10,) in Fp, ``platform_points`` (6, 3) in Fp, and ``size`` unless given).
         tips: (6, 3) P_i in frame 3i of each rod [m], where a rod's point mass goes; default
-            the origin of frame 3i (6-UPS). General legs pass each leg's ``tip``.
-        size: the robot's length scale [m]; default ``desc.size``.
+            each leg's ``tip`` for general legs (:func:`~stewart_pin.formats.urdf.is_general`),
+            the origin of frame 3i for the 6-UPS.
+        size: the robot's length scale [m]; default
+            :func:`~stewart_pin.formats.urdf.robot_size` for general legs, ``desc.size``
+            for the 6-UPS.
     """
+    if is_general(desc):
+        if tips is None:
+            tips = np.array([np.asarray(lg.tip, dtype=float) for lg in desc.legs])
+        if size is None:
+            size = robot_size(desc)
     leg = np.array(desc.leg_inertia, dtype=float)
     platform = np.array(desc.platform_inertia, dtype=float)
     P = np.asarray(desc.platform_points, dtype=float)
@@ -367,10 +410,8 @@ def mujoco_qpos(desc: RobotDescription, pose: Any) -> np.ndarray:
     """MuJoCo's ``qpos`` (25,) at a platform pose 0Tp (4x4): the 18 leg joints (leg 1
     first, ``q1i, q2i, q3i`` of the default U-joint branch, limits unchecked), then the
     platform's ``[p [m], quat (w, x, y, z)]``. General legs: each leg's branch."""
-    from stewart_pin.formats import general_mjcf, general_urdf
-
-    if general_urdf.is_general(desc):
-        return general_mjcf.general_mujoco_qpos(desc, pose)
+    if is_general(desc):
+        return leg_chains_mujoco_qpos(desc, pose)
     T = np.asarray(pose, dtype=float)
     q_legs = inverse_geometry(desc, T, check_limits=False)
     return np.concatenate([q_legs.ravel(), T[:3, 3], quaternion_wxyz(T[:3, :3])])
@@ -384,16 +425,14 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
         pinocchio_layout: nest the platform in ``base_link`` (at the identity) so that
             Pinocchio's parser reads it; MuJoCo refuses such a file.
 
-    A robot with general legs (``legs`` and not ``is_ideal_ups``) gets
-    :func:`stewart_pin.formats.general_mjcf.general_mjcf_string`.
+    A robot with general legs (:func:`~stewart_pin.formats.urdf.is_general`) gets its
+    legs' joint chains (module docstring).
 
     The robot name goes into the ``model`` attribute only, escaped by ElementTree (and
     refused by :class:`InputError` if XML cannot hold it); the comments are fixed text.
     """
-    from stewart_pin.formats import general_mjcf, general_urdf
-
-    if general_urdf.is_general(desc):
-        return general_mjcf.general_mjcf_string(desc, pinocchio_layout)
+    if is_general(desc):
+        return leg_chains_mjcf_string(desc, pinocchio_layout)
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
 
@@ -497,6 +536,134 @@ def closed_loop_mjcf(
     return (
         "<!-- Generated by stewart-pin from the robot description; do not edit by hand. -->\n"
         f"<!-- {comment} -->\n" + ET.tostring(root, encoding="unicode") + "\n"
+    )
+
+
+def _chain_joint(body: ET.Element, name: str, joint: Any, X: np.ndarray) -> None:
+    """A hinge or slide about ``z`` of the joint frame ``X`` (4x4, in the body frame)."""
+    attrs = {"name": name, "type": "hinge" if joint.revolute else "slide"}
+    if np.any(X[:3, 3] != 0.0):
+        attrs["pos"] = vec(X[:3, 3])
+    attrs["axis"] = vec(X[:3, 2]) if np.any(X[:3, :3] != np.eye(3)) else "0 0 1"
+    if math.isfinite(joint.lower) and math.isfinite(joint.upper):
+        attrs["range"] = vec((joint.lower, joint.upper))
+    d = joint.dynamics
+    terms = {
+        "armature": d.total_armature,
+        "damping": d.viscous + d.damping,
+        "frictionloss": d.coulomb,
+        "stiffness": d.stiffness,
+    }
+    for key, value in terms.items():
+        if value != 0.0:
+            attrs[key] = num(value)
+    if d.stiffness != 0.0:
+        attrs["springref"] = num(d.rest_position)
+    ET.SubElement(body, "joint", attrs)
+
+
+def _fromto(body: ET.Element, a: np.ndarray, b: np.ndarray, radius: float, rgba: str) -> None:
+    if float(np.linalg.norm(b - a)) <= 1e-9:
+        return
+    ET.SubElement(
+        body,
+        "geom",
+        type="cylinder",
+        fromto=vec(np.r_[a, b]),
+        size=num(radius),
+        rgba=MJCF_RGBA[rgba],
+    )
+
+
+def _chain(transforms: list[np.ndarray]) -> np.ndarray:
+    """The product of 4x4 transforms in order (identity for none)."""
+    T = np.eye(4)
+    for X in transforms:
+        T = T @ X
+    return T
+
+
+def _chain_leg(
+    base: ET.Element,
+    desc: Any,
+    k: int,
+    vs: LegVisualSizes,
+    inertia: np.ndarray,
+    has_body: np.ndarray,
+    q_home: np.ndarray,
+) -> None:
+    """Leg k's (0-based) bodies; a link without a body passes its joint to the next body."""
+    i = k + 1
+    leg = desc.legs[k]
+    parent, carried = base, []
+    parent_has_body = True
+    for j in range(3):
+        carried.append(j)
+        if not has_body[j]:
+            continue
+        placements = [joint_placement(desc, k, n) for n in carried]
+        T = _chain(placements)
+        body = mjcf_body(parent, leg_link(i, j + 1), T[:3, 3], T[:3, :3])
+        for m, n in enumerate(carried):
+            after = placements[m + 1 :]
+            X = np.linalg.inv(_chain(after))
+            _chain_joint(body, leg_joint(i, n + 1), leg.joints[n], X)
+        mjcf_inertial(body, inertia[j])
+        # visuals of this link (those of merged massless links are not drawn)
+        _fromto(
+            body,
+            np.zeros(3),
+            next_point(desc, k, j),
+            vs.bar_radius,
+            "rod" if j == 2 else "cylinder",
+        )
+        joint = leg.joints[j]
+        if joint.revolute:
+            h = vs.joint_radius
+            _fromto(body, np.array([0, 0, -h]), np.array([0, 0, h]), 0.8 * h, "joint")
+        else:
+            c = vs.carriage / 2
+            mjcf_geom(body, "box", "joint", (c, c, c))
+            if len(carried) == 1 and parent_has_body:
+                lo, hi = travel(desc, k, j, q_home)
+                Tj = joint_placement(desc, k, j)
+                z = Tj[:3, 2]
+                _fromto(parent, Tj[:3, 3] + lo * z, Tj[:3, 3] + hi * z, vs.rail_radius, "cylinder")
+        if j == 2:
+            tip = np.asarray(leg.tip, dtype=float)
+            mjcf_geom(body, "sphere", "joint", (vs.joint_radius,), tip)
+            ET.SubElement(body, "site", name=leg_tip_site(i), pos=vec(tip))
+        parent, carried, parent_has_body = body, [], True
+
+
+def leg_chains_mujoco_qpos(desc: Any, pose: Any) -> np.ndarray:
+    """MuJoCo's ``qpos`` (25,) of :func:`leg_chains_mjcf_string` at a platform pose 0Tp:
+    the 18 leg joints from the inverse geometry (each leg's branch, limits unchecked), then
+    ``[p [m], quat (w, x, y, z)]``."""
+    T = np.asarray(pose, dtype=float)
+    q_legs = leg_joint_values(desc, T)
+    return np.concatenate([q_legs.ravel(), T[:3, 3], quaternion_wxyz(T[:3, :3])])
+
+
+def leg_chains_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
+    """The MJCF of a robot's legs' joint chains (module docstring): what :func:`mjcf_string`
+    writes for general legs; ``pinocchio_layout`` as there."""
+    vs = LegVisualSizes.for_robot(desc)
+    q_home = leg_joint_values(desc)
+
+    def write_leg(base: ET.Element, k: int, inertia: np.ndarray, has_body: np.ndarray) -> None:
+        _chain_leg(base, desc, k, vs, inertia, has_body, q_home)
+
+    layout = "Pinocchio's parser (MuJoCo refuses it)" if pinocchio_layout else "MuJoCo"
+    return closed_loop_mjcf(
+        desc,
+        None if pinocchio_layout else mujoco_inertials(desc),
+        vs.plate(),
+        write_leg,
+        [leg_joint(i, leg.actuated) for i, leg in enumerate(desc.legs, start=1)],
+        lambda: leg_chains_mujoco_qpos(desc, desc.home_pose),
+        f"General legs. Layout for {layout}: see stewart_pin/formats/mjcf.py. "
+        "SI units, angles in rad.",
     )
 
 

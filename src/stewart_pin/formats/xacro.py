@@ -31,9 +31,9 @@ Relative ``args_file`` paths are resolved against the current directory by xacro
 against the xacro file's directory by ROS's ``xacro``: pass an absolute path.
 
 A robot with general legs (RUS, PUS, offset UPS, custom: see
-:func:`stewart_pin.formats.general_urdf.is_general`) gets the arguments of
+:func:`stewart_pin.formats.urdf.is_general`) gets the arguments of
 ``models/urdf/stewart_general.urdf.xacro`` instead (:func:`general_xacro_args`), which
-renders to :func:`stewart_pin.formats.general_urdf.general_urdf_string`.
+renders to the document :func:`stewart_pin.formats.urdf.urdf_string` writes for it.
 """
 
 from __future__ import annotations
@@ -52,8 +52,14 @@ from stewart_pin.formats._xml import Visual
 from stewart_pin.formats.urdf import (
     URDF_EFFORT,
     URDF_VELOCITY,
+    LegVisualSizes,
     VisualSizes,
+    is_general,
     joint_limits,
+    joint_placement,
+    leg_joint_values,
+    leg_visuals,
+    limit_values,
     plate_disc,
     plate_visual,
 )
@@ -85,8 +91,6 @@ def xacro_args(desc: Any) -> dict[str, Any]:
     A robot with general legs gets :func:`general_xacro_args` (the arguments of
     ``models/urdf/stewart_general.urdf.xacro``).
     """
-    from stewart_pin.formats.general_urdf import is_general
-
     if is_general(desc):
         return general_xacro_args(desc)
     vs = VisualSizes.for_robot(desc)
@@ -134,7 +138,7 @@ def _visual(visual: Visual) -> dict[str, Any]:
 
 def general_xacro_args(desc: Any) -> dict[str, Any]:
     """The arguments of ``models/urdf/stewart_general.urdf.xacro`` for a robot with general
-    legs (duck-typed as :func:`stewart_pin.formats.general_urdf.general_urdf_string`)::
+    legs (duck-typed as :func:`stewart_pin.formats.urdf.is_general`)::
 
         name: "rus"
         effort: 1000000.0                   # URDF placeholder limits [N], [m/s]
@@ -153,19 +157,11 @@ def general_xacro_args(desc: Any) -> dict[str, Any]:
 
     with ``visual = {shape: "cylinder" | "sphere" | "box", material, xyz, rpy, size:
     {radius, length} | {radius} | {size: [x, y, z]}}``. Every number is the one
-    :func:`~stewart_pin.formats.general_urdf.general_urdf_string` writes, so the rendered
+    :func:`~stewart_pin.formats.urdf.urdf_string` writes, so the rendered
     URDF is the same document. The terms URDF cannot hold (armature, stiffness, true
     limits, transmission) stay in the ``.closures.json`` sidecar.
     """
-    from stewart_pin.formats.general_urdf import (
-        GeneralVisualSizes,
-        joint_placement,
-        leg_joint_values,
-        leg_visuals,
-        limit_values,
-    )
-
-    vs = GeneralVisualSizes.for_robot(desc)
+    vs = LegVisualSizes.for_robot(desc)
     q_home = leg_joint_values(desc)
     base_visuals = [_visual(plate_disc(desc.base_points, vs.plate(), -1.0, "base_grey"))]
     legs = []
@@ -259,8 +255,6 @@ def write_xacro_args(desc: Any, path: str | Path) -> Path:
     """Write :func:`xacro_args` of ``desc`` as YAML to ``path`` (atomically: a temporary
     file in the folder, then renamed); returns the path. The header names the xacro
     source to render: ``stewart.urdf.xacro`` (6-UPS) or ``stewart_general.urdf.xacro``."""
-    from stewart_pin.formats.general_urdf import is_general
-
     path = Path(path)
     source = "stewart_general.urdf.xacro" if is_general(desc) else "stewart.urdf.xacro"
     header = (

@@ -43,8 +43,7 @@ from stewart_pin.exceptions import (
     ModelImportError,
 )
 from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
-from stewart_pin.formats.general_urdf import JOINT_TERMS_KEY
-from stewart_pin.formats.urdf import non_finite_number, parse_closures
+from stewart_pin.formats.urdf import JOINT_TERMS_KEY, non_finite_number, parse_closures
 from stewart_pin.importers.tree import (
     FREE,
     KinematicModel,

@@ -21,13 +21,14 @@ import pinocchio as pin
 from stewart_pin._checks import decode_utf8
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import FileFormatError
-from stewart_pin.formats.general_urdf import read_actuated_joints, read_joint_terms
 from stewart_pin.formats.urdf import (
     PLATFORM_JOINT,
     Closure,
     closures_dict,
     leg_joint,
     parse_closures,
+    read_actuated_joints,
+    read_joint_terms,
     read_sidecar,
     urdf_string,
 )
