@@ -535,8 +535,9 @@ def inverse_geometry_batch(
     q = np.empty(P0i.shape)
     for k, leg in enumerate(robot.legs):
         q[:, k] = _inverse_leg(leg, P0i[:, k], k, None)
-    c = constants(robot)  # revolute values modulo 2 pi
-    q = wrap_into_limits(q, c.revolute, c.lower, c.upper)
+    lim = np.array([leg.limits for leg in robot.legs])  # revolute values modulo 2 pi
+    rev = np.array([[j.revolute for j in leg.joints] for leg in robot.legs])
+    q = wrap_into_limits(q, rev, lim[..., 0], lim[..., 1])
     if check_limits:
         check_joint_limits(robot, q)
     return q
