@@ -577,21 +577,21 @@ def admissible_poses(
             invalid operation at some state (where :func:`inverse_geometry_batch` raises a
             :class:`NumericalError`); the caller decides the batch state by state.
     """
-    n = poses.shape[0]
     P0i = _leg_points(robot, poses)
-    q = np.empty(P0i.shape)
-    ok = np.ones(n, dtype=bool)
-    for k, leg in enumerate(robot.legs):
+    q = np.zeros(P0i.shape)
+    ok = np.ones(poses.shape[0], dtype=bool)
+    for k, leg in enumerate(robot.legs):  # each leg on the states its predecessors reach
+        idx = np.flatnonzero(ok)
+        m = idx.size
         if leg.name == "custom":
-            q[:, k], converged = _solve_leg_each(
-                leg, P0i[:, k], np.broadcast_to(leg.guess, (n, 3))
-            )
-            ok &= converged
-            continue
-        unreachable = np.zeros(n, dtype=bool)
-        with np.errstate(over="raise", divide="raise", invalid="raise"):
-            q[:, k] = _closed_form(leg, P0i[:, k], k, np.empty((n, 3)), unreachable)
-        ok &= ~unreachable & np.all(np.isfinite(q[:, k]), axis=1)
+            qk, good = _solve_leg_each(leg, P0i[idx, k], np.broadcast_to(leg.guess, (m, 3)))
+        else:
+            unreachable = np.zeros(m, dtype=bool)
+            with np.errstate(over="raise", divide="raise", invalid="raise"):
+                qk = _closed_form(leg, P0i[idx, k], k, np.empty((m, 3)), unreachable)
+            good = ~unreachable & np.all(np.isfinite(qk), axis=1)
+        q[idx, k] = np.where(good[:, None], qk, 0.0)
+        ok[idx[~good]] = False
     c = constants(robot)
     q = wrap_into_limits(q, c.revolute, c.lower, c.upper)
     ok &= ~np.any(_outside_limits(robot, q), axis=(1, 2))
