@@ -13,31 +13,13 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import get_robot
+from test_every_architecture import ARCHITECTURES, robot_of
 
 from stewart_pin import StewartRobot, WorkspaceError
 from stewart_pin.exceptions import StewartPinError
 from stewart_pin.kinematics import leg_chains, workspace
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import check_condition, inverse_jacobian_batch
-
-ARCHITECTURES = ("simulator", "ups-offset", "rus", "pus", "random-custom-0", "mixed")
-
-_ROBOTS: dict[str, StewartRobot] = {}
-
-
-def robot_of(name: str) -> StewartRobot:
-    """``mixed``: ``random-pus-4`` with legs 4-6 declared ``custom`` (Newton on those)."""
-    if name not in _ROBOTS:
-        if name == "mixed":
-            desc = get_robot("random-pus-4").description
-            legs = tuple(
-                leg if k < 3 else leg.replace(name="custom") for k, leg in enumerate(desc.legs)
-            )
-            _ROBOTS[name] = StewartRobot(desc.replace(legs=legs))
-        else:
-            _ROBOTS[name] = get_robot(name)
-    return _ROBOTS[name]
 
 
 def one_at_a_time(robot, n, seed, translation=None, rotation=0.25, max_draws=100):
