@@ -16,7 +16,7 @@ import pytest
 from test_every_architecture import ARCHITECTURES, robot_of
 
 from stewart_pin import StewartRobot, WorkspaceError
-from stewart_pin.exceptions import StewartPinError
+from stewart_pin.exceptions import LegReachError, StewartPinError
 from stewart_pin.kinematics import leg_chains, workspace
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import check_condition, inverse_jacobian_batch
@@ -186,3 +186,33 @@ def test_zero_states_and_the_draw_budget():
     assert robot.sample_poses(0, 0).shape == (0, 4, 4)
     with pytest.raises(WorkspaceError, match=r"only 0 of 3 poses reachable after 300 draws"):
         robot.sample_poses(3, 0, translation=10.0)
+
+
+@pytest.mark.parametrize("name", ["ups-offset", "rus", "pus", "mixed"])
+def test_closed_forms_over_a_batch_equal_each_leg_alone(name):
+    """The closed forms over a batch with unreachable states marked (not raised): the
+    marked states are those where the leg alone raises :class:`LegReachError`, the others
+    have the joint values of the leg alone (1e-12)."""
+    robot = robot_of(name)
+    desc = robot.description
+    rng = np.random.default_rng(8)
+    m = 120
+    T = np.broadcast_to(desc.home_pose, (m, 4, 4)).copy()
+    T[:, :3, 3] += rng.uniform(-1, 1, (m, 3)) * 0.4 * desc.stroke_mid
+    P0i = leg_chains._leg_points(robot.general, T)
+    marked = 0
+    for k, leg in enumerate(robot.general.legs):
+        if leg.name == "custom":
+            continue
+        unreachable = np.zeros(m, dtype=bool)
+        q = leg_chains._closed_form(leg, P0i[:, k], k, np.empty((m, 3)), unreachable)
+        for n in range(m):
+            try:
+                alone = leg_chains._inverse_leg(leg, P0i[n : n + 1, k], k, None)
+            except LegReachError:
+                assert unreachable[n]
+                continue
+            assert not unreachable[n]
+            np.testing.assert_allclose(q[n], alone[0], rtol=0, atol=1e-12)
+        marked += unreachable.sum()
+    assert (marked > 0) == (name != "ups-offset")  # an offset U-joint leg reaches anywhere
