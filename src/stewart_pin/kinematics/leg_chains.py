@@ -18,6 +18,8 @@ leg (6) and the joint (3): joint values ``q`` (N, 6, 3) [rad or m].
   ``m_i = J_i^-T e_ai``.
 - :func:`forward_geometry` : the pose from the six actuated joint values (Newton on
   SE(3), the correction twist from ``Jp^-1``).
+- :func:`admissible_poses` : the decision of the raising checks below on every pose of a
+  batch at once (the sampler's), each state computed as it would be alone.
 
 Singularities: serial (a leg's ``J_i``), measured by the smallest singular value of
 ``J_i`` with each revolute column divided by its lever arm ``|P_i - O_j|`` (unit-free; for
