@@ -108,8 +108,8 @@ def inverse_geometry_batch(
             :data:`LEG_SINGULARITY_SIN`) or nearly zero-length (:data:`LEG_MIN_LENGTH_RATIO`).
     """
     d = leg_vectors(desc, poses)[0] if vectors is None else vectors
-    q, sin_q2, min_length = _leg_values(desc, d)
-    q3 = q[..., 2]
+    q3 = np.linalg.norm(d, axis=-1)
+    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
     if np.any(~(q3 >= min_length)):
         n, k = np.argwhere(~(q3 >= min_length))[0]
         raise SingularityError(
@@ -120,6 +120,13 @@ def inverse_geometry_batch(
             min_length,
             leg=int(k + 1),
         )
+    u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
+    q = np.empty(d.shape)
+    q[..., 0] = np.arctan2(u[..., 1], u[..., 0])
+    sin_q2 = np.hypot(u[..., 0], u[..., 1])
+    # atan2, not arccos(-u_z): arccos loses the relative accuracy eps / sin^2 q2 near 0, pi.
+    q[..., 1] = np.arctan2(sin_q2, -u[..., 2])
+    q[..., 2] = q3
     if np.any(~(sin_q2 >= LEG_SINGULARITY_SIN)):
         n, k = np.argwhere(~(sin_q2 >= LEG_SINGULARITY_SIN))[0]
         raise SingularityError(
@@ -133,41 +140,6 @@ def inverse_geometry_batch(
     if check_limits:
         check_leg_limits(desc, q)
     return q
-
-
-def _leg_values(desc: RobotDescription, d: FloatArray) -> tuple[FloatArray, FloatArray, float]:
-    """``(q (N, 6, 3), sin q2i (N, 6), the shortest admissible leg [m])`` from the leg
-    vectors ``B_i P_i`` (N, 6, 3); the values of a leg shorter than that are meaningless."""
-    q3 = np.linalg.norm(d, axis=-1)
-    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
-    with np.errstate(divide="ignore", invalid="ignore"):  # a zero-length leg: refused
-        u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
-    q = np.empty(d.shape)
-    q[..., 0] = np.arctan2(u[..., 1], u[..., 0])
-    sin_q2 = np.hypot(u[..., 0], u[..., 1])
-    # atan2, not arccos(-u_z): arccos loses the relative accuracy eps / sin^2 q2 near 0, pi.
-    q[..., 1] = np.arctan2(sin_q2, -u[..., 2])
-    q[..., 2] = q3
-    return q, sin_q2, min_length
-
-
-def admissible_poses(desc: RobotDescription, poses: Poses) -> np.ndarray:
-    """(N,) bool: the validated poses (N, 4, 4) that :func:`inverse_geometry_batch` (with
-    ``check_limits``) accepts, decided for the whole batch at once."""
-    q, sin_q2, min_length = _leg_values(desc, leg_vectors(desc, poses)[0])
-    ok = np.all((q[..., 2] >= min_length) & (sin_q2 >= LEG_SINGULARITY_SIN), axis=1)
-    return ok & ~_outside_leg_limits(desc, q)
-
-
-def _outside_leg_limits(desc: RobotDescription, q: JointValues) -> np.ndarray:
-    """(N,) bool: leg values (N, 6, 3) outside the stroke or the U-joint limits."""
-    lo, hi = desc.ideal_stroke("the 6-UPS leg limit check")
-    bad = np.any((q[..., 2] < lo) | (q[..., 2] > hi), axis=1)
-    if desc.u_joint_limits is not None:
-        lim = desc.u_joint_limits
-        for j in range(2):
-            bad |= np.any((q[..., j] < lim[:, j, 0]) | (q[..., j] > lim[:, j, 1]), axis=1)
-    return bad
 
 
 def check_leg_limits(desc: RobotDescription, q: JointValues) -> None:
@@ -198,3 +170,32 @@ def inverse_geometry(
     T, batched = check_poses(pose)
     q = inverse_geometry_batch(desc, T, check_limits)
     return q if batched else q[0]
+
+
+def admissible_poses(desc: RobotDescription, poses: Poses) -> np.ndarray:
+    """(N,) bool: the validated poses (N, 4, 4) that :func:`inverse_geometry_batch` (with
+    ``check_limits``) accepts, decided for the whole batch at once: its length and
+    serial-singularity tests (the same arithmetic), then its limits on the values of the
+    poses that pass them."""
+    d = leg_vectors(desc, poses)[0]
+    q3 = np.linalg.norm(d, axis=-1)
+    ok = np.all(q3 >= LEG_MIN_LENGTH_RATIO * characteristic_length(desc), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a zero-length leg: refused above
+        u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
+    ok &= np.all(np.hypot(u[..., 0], u[..., 1]) >= LEG_SINGULARITY_SIN, axis=1)
+    fine = np.flatnonzero(ok)
+    q = inverse_geometry_batch(desc, poses[fine], check_limits=False, vectors=d[fine])
+    ok[fine] = ~_outside_leg_limits(desc, q)
+    return ok
+
+
+def _outside_leg_limits(desc: RobotDescription, q: JointValues) -> np.ndarray:
+    """(N,) bool: leg values (N, 6, 3) outside the stroke or the U-joint limits (the
+    tests of :func:`check_leg_limits`)."""
+    lo, hi = desc.ideal_stroke("the 6-UPS leg limit check")
+    bad = np.any((q[..., 2] < lo) | (q[..., 2] > hi), axis=1)
+    if desc.u_joint_limits is not None:
+        lim = desc.u_joint_limits
+        for j in range(2):
+            bad |= np.any((q[..., j] < lim[:, j, 0]) | (q[..., j] > lim[:, j, 1]), axis=1)
+    return bad

@@ -202,24 +202,13 @@ def serial_measure(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> n
     return np.linalg.svd(J / scale[:, :, None, :], compute_uv=False)[..., -1]
 
 
-def _short_levers(
-    robot: GeneralHexapod, frames: LegFrames
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(short (N, 6, 3) bool, lever (N, 6, 3) [m], radius [m])``: revolute joints whose
-    origin is closer to P_i than :data:`LEG_MIN_LENGTH_RATIO` of the platform radius
-    (none when the radius is 0)."""
+def serial_admissible(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> np.ndarray:
+    """(N,) bool: the states :func:`check_serial` accepts (its tests, state by state)."""
     c = constants(robot)
     P0 = np.asarray(robot.platform_points)
     radius = float(np.linalg.norm(P0 - P0.mean(axis=0), axis=1).mean())
     lever = np.linalg.norm(frames.P[:, :, None, :] - frames.origins, axis=-1)
     short = c.revolute & ~(lever >= LEG_MIN_LENGTH_RATIO * radius) & (radius > 0)
-    return short, lever, radius
-
-
-def serial_admissible(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> np.ndarray:
-    """(N,) bool: the states :func:`check_serial` accepts (every leg away from its serial
-    singularities)."""
-    short, _, _ = _short_levers(robot, frames)
     s = serial_measure(robot, frames, J)
     return ~np.any(short, axis=(1, 2)) & np.all(s >= LEG_SINGULARITY, axis=1)
 
@@ -231,8 +220,12 @@ def check_serial(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> Non
     :data:`~stewart_pin.kinematics.geometry.LEG_MIN_LENGTH_RATIO` of the platform radius
     (for 6-UPS: a leg shorter than 5 % of it, today's rule; the normalised measure alone
     would not see it, being ``|sin q2|`` whatever the length)."""
-    short, lever, radius = _short_levers(robot, frames)
-    if np.any(short):
+    c = constants(robot)
+    P0 = np.asarray(robot.platform_points)
+    radius = float(np.linalg.norm(P0 - P0.mean(axis=0), axis=1).mean())
+    lever = np.linalg.norm(frames.P[:, :, None, :] - frames.origins, axis=-1)
+    short = c.revolute & ~(lever >= LEG_MIN_LENGTH_RATIO * radius)
+    if radius > 0 and np.any(short):
         n, k, j = np.argwhere(short)[0]
         raise SingularityError(
             f"leg {k + 1} is at or too near a serial singularity at state {n}: P_{k + 1} is "
@@ -269,8 +262,10 @@ def _pre_joint1(leg: LegArchitecture, P0i: np.ndarray) -> np.ndarray:
     return (P0i - A[:3, 3]) @ A[:3, :3]
 
 
-def _reach_error(leg_index: int, value: np.ndarray, what: str) -> LegReachError:
-    n = int(np.argmax(value))
+def _reach_error(leg_index: int, value: np.ndarray, bad: np.ndarray, what: str) -> LegReachError:
+    """The error of leg ``leg_index`` out of reach where ``bad`` (N,), naming the first
+    failing state with its ``value`` (N,)."""
+    n = int(np.argmax(bad))
     return LegReachError(
         f"leg {leg_index + 1} cannot reach its platform point at state {n}: {what}; choose a "
         "pose closer to the workspace centre (or longer cranks / rods)",
@@ -286,7 +281,7 @@ def _unreachable(
     (``value()`` the measure it reports) when ``out`` is None, else marked in ``out``."""
     if out is None:
         if np.any(bad):
-            raise _reach_error(k_leg, value(), what)
+            raise _reach_error(k_leg, value(), bad, what)
     else:
         out |= bad
     return bad
@@ -545,68 +540,15 @@ def inverse_geometry_batch(
     return q
 
 
-def _outside_limits(robot: GeneralHexapod, q: np.ndarray) -> np.ndarray:
-    """(N, 6, 3) bool: joint values (N, 6, 3) outside their limits."""
-    c = constants(robot)
-    return (q < c.lower) | (q > c.upper)
-
-
 def check_joint_limits(robot: GeneralHexapod, q: np.ndarray) -> None:
     """:class:`LegJointLimitError` for joint values (N, 6, 3) outside their limits."""
     c = constants(robot)
-    bad = _outside_limits(robot, q)
+    bad = (q < c.lower) | (q > c.upper)
     if np.any(bad):
         n, k, j = np.argwhere(bad)[0]
         raise LegJointLimitError(
             int(k + 1), int(j + 1), float(q[n, k, j]), float(c.lower[k, j]), float(c.upper[k, j])
         )
-
-
-def admissible_poses(
-    robot: GeneralHexapod, poses: np.ndarray, max_condition: float = MAX_CONDITION
-) -> np.ndarray:
-    """(N,) bool: the validated poses (N, 4, 4) that the raising checks accept, decided
-    for the whole batch at once: every leg reaches (closed forms, or Newton state by
-    state for custom legs), every joint within its limits (:func:`inverse_geometry_batch`
-    with ``check_limits``), no serial singularity (:func:`check_serial`) and the
-    condition number of ``Jp^-1`` at most ``max_condition`` (:func:`check_parallel`).
-
-    The computation of each state is the one :func:`leg_state` and :func:`check_parallel`
-    make on that state alone, so the decision is theirs.
-
-    Raises:
-        FloatingPointError: a closed form met an overflow, a division by zero or an
-            invalid operation at some state (where :func:`inverse_geometry_batch` raises a
-            :class:`NumericalError`); the caller decides the batch state by state.
-    """
-    P0i = _leg_points(robot, poses)
-    q = np.zeros(P0i.shape)
-    ok = np.ones(poses.shape[0], dtype=bool)
-    for k, leg in enumerate(robot.legs):  # each leg on the states its predecessors reach
-        idx = np.flatnonzero(ok)
-        m = idx.size
-        if leg.name == "custom":
-            qk, good = _solve_leg_each(leg, P0i[idx, k], np.broadcast_to(leg.guess, (m, 3)))
-        else:
-            unreachable = np.zeros(m, dtype=bool)
-            with np.errstate(over="raise", divide="raise", invalid="raise"):
-                qk = _closed_form(leg, P0i[idx, k], k, np.empty((m, 3)), unreachable)
-            good = ~unreachable & np.all(np.isfinite(qk), axis=1)
-        q[idx, k] = np.where(good[:, None], qk, 0.0)
-        ok[idx[~good]] = False
-    c = constants(robot)
-    q = wrap_into_limits(q, c.revolute, c.lower, c.upper)
-    ok &= ~np.any(_outside_limits(robot, q), axis=(1, 2))
-    idx = np.flatnonzero(ok)
-    frames = leg_forward(robot, q[idx])
-    J = leg_jacobians(robot, frames)
-    regular = serial_admissible(robot, frames, J)
-    ok[idx[~regular]] = False
-    idx = idx[regular]
-    L = np.einsum("nij,kj->nki", poses[idx, :3, :3], robot.platform_points)
-    J_inv = inverse_jacobian_from_legs(robot, np.linalg.inv(J[regular]), L)
-    ok[idx] = condition_number_batch(robot, J_inv) <= max_condition
-    return ok
 
 
 def inverse_geometry(robot: GeneralHexapod, pose: Any, check_limits: bool = True) -> np.ndarray:
@@ -707,6 +649,59 @@ def inverse_jacobian(robot: GeneralHexapod, pose: Any) -> np.ndarray:
     T, batched = check_poses(pose)
     J = inverse_jacobian_batch(robot, T)
     return J if batched else J[0]
+
+
+def _outside_limits(robot: GeneralHexapod, q: np.ndarray) -> np.ndarray:
+    """(N, 6, 3) bool: joint values (N, 6, 3) outside their limits."""
+    c = constants(robot)
+    return (q < c.lower) | (q > c.upper)
+
+
+def admissible_poses(
+    robot: GeneralHexapod, poses: np.ndarray, max_condition: float = MAX_CONDITION
+) -> np.ndarray:
+    """(N,) bool: the validated poses (N, 4, 4) that the raising checks accept, decided
+    for the whole batch at once: every leg reaches (closed forms, or Newton state by
+    state for custom legs), every joint within its limits (:func:`inverse_geometry_batch`
+    with ``check_limits``), no serial singularity (:func:`check_serial`) and the
+    condition number of ``Jp^-1`` at most ``max_condition`` (:func:`check_parallel`).
+
+    The computation of each state is the one :func:`leg_state` and :func:`check_parallel`
+    make on that state alone, so the decision is theirs.
+
+    Raises:
+        FloatingPointError: a closed form met an overflow, a division by zero or an
+            invalid operation at some state (where :func:`inverse_geometry_batch` raises a
+            :class:`NumericalError`); the caller decides the batch state by state.
+    """
+    P0i = _leg_points(robot, poses)
+    q = np.zeros(P0i.shape)
+    ok = np.ones(poses.shape[0], dtype=bool)
+    for k, leg in enumerate(robot.legs):  # each leg on the states its predecessors reach
+        idx = np.flatnonzero(ok)
+        m = idx.size
+        if leg.name == "custom":
+            qk, good = _solve_leg_each(leg, P0i[idx, k], np.broadcast_to(leg.guess, (m, 3)))
+        else:
+            unreachable = np.zeros(m, dtype=bool)
+            with np.errstate(over="raise", divide="raise", invalid="raise"):
+                qk = _closed_form(leg, P0i[idx, k], k, np.empty((m, 3)), unreachable)
+            good = ~unreachable & np.all(np.isfinite(qk), axis=1)
+        q[idx, k] = np.where(good[:, None], qk, 0.0)
+        ok[idx[~good]] = False
+    c = constants(robot)
+    q = wrap_into_limits(q, c.revolute, c.lower, c.upper)
+    ok &= ~np.any(_outside_limits(robot, q), axis=(1, 2))
+    idx = np.flatnonzero(ok)
+    frames = leg_forward(robot, q[idx])
+    J = leg_jacobians(robot, frames)
+    regular = serial_admissible(robot, frames, J)
+    ok[idx[~regular]] = False
+    idx = idx[regular]
+    L = np.einsum("nij,kj->nki", poses[idx, :3, :3], robot.platform_points)
+    J_inv = inverse_jacobian_from_legs(robot, np.linalg.inv(J[regular]), L)
+    ok[idx] = condition_number_batch(robot, J_inv) <= max_condition
+    return ok
 
 
 def condition_number_batch(robot: GeneralHexapod, J_inv: np.ndarray) -> np.ndarray:
