@@ -186,3 +186,32 @@ def inverse_geometry(
     T, batched = check_poses(pose)
     q = inverse_geometry_batch(desc, T, check_limits)
     return q if batched else q[0]
+
+
+def admissible_poses(desc: RobotDescription, poses: Poses) -> np.ndarray:
+    """(N,) bool: the validated poses (N, 4, 4) that :func:`inverse_geometry_batch` (with
+    ``check_limits``) accepts, decided for the whole batch at once: its length and
+    serial-singularity tests (the same arithmetic), then its limits on the values of the
+    poses that pass them."""
+    d = leg_vectors(desc, poses)[0]
+    q3 = np.linalg.norm(d, axis=-1)
+    ok = np.all(q3 >= LEG_MIN_LENGTH_RATIO * characteristic_length(desc), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a zero-length leg: refused above
+        u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
+    ok &= np.all(np.hypot(u[..., 0], u[..., 1]) >= LEG_SINGULARITY_SIN, axis=1)
+    fine = np.flatnonzero(ok)
+    q = inverse_geometry_batch(desc, poses[fine], check_limits=False, vectors=d[fine])
+    ok[fine] = ~_outside_leg_limits(desc, q)
+    return ok
+
+
+def _outside_leg_limits(desc: RobotDescription, q: JointValues) -> np.ndarray:
+    """(N,) bool: leg values (N, 6, 3) outside the stroke or the U-joint limits (the
+    tests of :func:`check_leg_limits`)."""
+    lo, hi = desc.ideal_stroke("the 6-UPS leg limit check")
+    bad = np.any((q[..., 2] < lo) | (q[..., 2] > hi), axis=1)
+    if desc.u_joint_limits is not None:
+        lim = desc.u_joint_limits
+        for j in range(2):
+            bad |= np.any((q[..., j] < lim[:, j, 0]) | (q[..., j] > lim[:, j, 1]), axis=1)
+    return bad

@@ -18,6 +18,8 @@ leg (6) and the joint (3): joint values ``q`` (N, 6, 3) [rad or m].
   ``m_i = J_i^-T e_ai``.
 - :func:`forward_geometry` : the pose from the six actuated joint values (Newton on
   SE(3), the correction twist from ``Jp^-1``).
+- :func:`admissible_poses` : the decision of the raising checks below on every pose of a
+  batch at once (the sampler's), each state computed as it would be alone.
 
 Singularities: serial (a leg's ``J_i``), measured by the smallest singular value of
 ``J_i`` with each revolute column divided by its lever arm ``|P_i - O_j|`` (unit-free; for
@@ -200,6 +202,17 @@ def serial_measure(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> n
     return np.linalg.svd(J / scale[:, :, None, :], compute_uv=False)[..., -1]
 
 
+def serial_admissible(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> np.ndarray:
+    """(N,) bool: the states :func:`check_serial` accepts (its tests, state by state)."""
+    c = constants(robot)
+    P0 = np.asarray(robot.platform_points)
+    radius = float(np.linalg.norm(P0 - P0.mean(axis=0), axis=1).mean())
+    lever = np.linalg.norm(frames.P[:, :, None, :] - frames.origins, axis=-1)
+    short = c.revolute & ~(lever >= LEG_MIN_LENGTH_RATIO * radius) & (radius > 0)
+    s = serial_measure(robot, frames, J)
+    return ~np.any(short, axis=(1, 2)) & np.all(s >= LEG_SINGULARITY, axis=1)
+
+
 def check_serial(robot: GeneralHexapod, frames: LegFrames, J: np.ndarray) -> None:
     """:class:`SingularityError` when a leg is at (or too near) a serial singularity: its
     normalised Jacobian (:func:`serial_measure`) below :data:`LEG_SINGULARITY`, or a
@@ -270,9 +283,25 @@ def _reach_error(leg_index: int, value: np.ndarray, bad: np.ndarray, what: str) 
     )
 
 
-def _solve_u(leg: LegArchitecture, w: np.ndarray, k_leg: int) -> tuple[np.ndarray, np.ndarray]:
+def _unreachable(
+    k_leg: int, bad: np.ndarray, value: Callable[[], np.ndarray], what: str, out: np.ndarray | None
+) -> np.ndarray:
+    """``bad`` (N,), the states leg ``k_leg`` cannot reach: a :class:`LegReachError`
+    (``value()`` the measure it reports) when ``out`` is None, else marked in ``out``."""
+    if out is None:
+        if np.any(bad):
+            raise _reach_error(k_leg, value(), bad, what)
+    else:
+        out |= bad
+    return bad
+
+
+def _solve_u(
+    leg: LegArchitecture, w: np.ndarray, k_leg: int, unreachable: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The universal joint (joints 2, 3 with intersecting axes): ``q2, q3`` (N,) such that
-    ``Rz(psi2) Rx(alpha3) Rz(psi3) tip = w`` (w in frame 1 rotated by ``Rx(alpha2)``)."""
+    ``Rz(psi2) Rx(alpha3) Rz(psi3) tip = w`` (w in frame 1 rotated by ``Rx(alpha2)``).
+    ``unreachable``: see :func:`_closed_form`."""
     j2, j3 = leg.joints[1], leg.joints[2]
     t = leg.tip
     sa, ca = math.sin(j3.alpha), math.cos(j3.alpha)
@@ -280,13 +309,13 @@ def _solve_u(leg: LegArchitecture, w: np.ndarray, k_leg: int) -> tuple[np.ndarra
     k = w[:, 2] - ca * t[2]
     rad = math.hypot(a, b)
     ratio = k / rad
-    if np.any(np.abs(ratio) > 1.0 + 1e-12):
-        raise _reach_error(
-            k_leg,
-            np.abs(ratio),
-            np.abs(ratio) > 1.0 + 1e-12,
-            "the universal joint cannot point the rod there",
-        )
+    _unreachable(
+        k_leg,
+        np.abs(ratio) > 1.0 + 1e-12,
+        lambda: np.abs(ratio),
+        "the universal joint cannot point the rod there",
+        unreachable,
+    )
     psi3 = math.atan2(b, a) - np.arccos(np.clip(ratio, -1.0, 1.0))
     c3, s3 = np.cos(psi3), np.sin(psi3)
     vx = c3 * t[0] - s3 * t[1]
@@ -317,8 +346,19 @@ def _inverse_leg(
     return q
 
 
-def _closed_form(leg: LegArchitecture, P0i: np.ndarray, k: int, q: np.ndarray) -> np.ndarray:
-    """The closed forms of the named legs, filling ``q`` (N, 3)."""
+def _closed_form(
+    leg: LegArchitecture,
+    P0i: np.ndarray,
+    k: int,
+    q: np.ndarray,
+    unreachable: np.ndarray | None = None,
+) -> np.ndarray:
+    """The closed forms of the named legs, filling ``q`` (N, 3).
+
+    ``unreachable``: None, a :class:`LegReachError` for a state the leg cannot reach; else
+    a bool array (N,) where those states are marked (their values in ``q`` are then
+    meaningless but computed without a floating-point exception: the square root and
+    arc-cosine arguments of the marked states are clamped)."""
     j1, j2, _ = leg.joints
     b = leg.branch
     p = _pre_joint1(leg, P0i)
@@ -339,11 +379,16 @@ def _closed_form(leg: LegArchitecture, P0i: np.ndarray, k: int, q: np.ndarray) -
         B = p[:, 1] * c[0] - p[:, 0] * c[1]
         K = 0.5 * (np.einsum("ni,ni->n", p, p) + c @ c - ell2) - p[:, 2] * c[2]
         R = np.hypot(A, B)
-        out = np.abs(K) > R
-        if np.any(out):
+
+        def ratio() -> np.ndarray:
             with np.errstate(divide="ignore", over="ignore"):  # |K| / 0 = inf: unreachable
-                ratio = np.where(out, np.abs(K) / R, 0.0)
-            raise _reach_error(k, ratio, out, "the crank equation has no solution (|cos| > 1)")
+                return np.where(np.abs(K) > R, np.abs(K) / R, 0.0)
+
+        bad = _unreachable(
+            k, np.abs(K) > R, ratio, "the crank equation has no solution (|cos| > 1)", unreachable
+        )
+        if unreachable is not None:
+            K, R = np.where(bad, 0.0, K), np.where(bad, 1.0, R)
         phi = np.arctan2(B, A) - b * np.arccos(K / R)
         q[:, 0] = _wrap(phi - j1.theta)
         cp, sp = np.cos(phi), np.sin(phi)
@@ -355,13 +400,36 @@ def _closed_form(leg: LegArchitecture, P0i: np.ndarray, k: int, q: np.ndarray) -
         Rz1 = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
         e = p - (Rz1 @ c + np.array([0.0, 0.0, j1.r]))
         disc = ell2 - e[:, 0] ** 2 - e[:, 1] ** 2
-        if np.any(disc < 0):
-            raise _reach_error(k, -disc, disc < 0, "the rod is too short to reach from the rail")
-        q[:, 0] = e[:, 2] - b * np.sqrt(disc)
+        bad = _unreachable(
+            k, disc < 0, lambda: -disc, "the rod is too short to reach from the rail", unreachable
+        )
+        q[:, 0] = e[:, 2] - b * np.sqrt(np.where(bad, 0.0, disc))
         rel = e - q[:, :1] * np.array([0.0, 0.0, 1.0])  # P - C in the rotated frame
         w = (rel @ Rz1) @ Rx2
-    q[:, 1], q[:, 2] = _solve_u(leg, w, k)
+    q[:, 1], q[:, 2] = _solve_u(leg, w, k, unreachable)
     return q
+
+
+def _leg_tip(
+    leg: LegArchitecture, T_0_0i: np.ndarray, q: np.ndarray
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """The frames 0i, 1i, 2i, 3i (each (N, 4, 4), the first ``T_0_0i``) and the tip (N, 3)
+    of one leg at joint values ``q`` (N, 3)."""
+    Ts = [T_0_0i]
+    for joint, qj in zip(leg.joints, q.T, strict=True):
+        theta = joint.theta + (qj if joint.revolute else 0.0)
+        r = joint.r + (0.0 if joint.revolute else qj)
+        Ts.append(Ts[-1] @ _mdh(joint.alpha, joint.d, theta, r))
+    return Ts, Ts[-1][:, :3, :3] @ leg.tip + Ts[-1][:, :3, 3]
+
+
+def _leg_tip_jacobian(leg: LegArchitecture, Ts: list[np.ndarray], tip: np.ndarray) -> np.ndarray:
+    """``J_i`` (N, 3, 3) of one leg from :func:`_leg_tip`'s frames and tip."""
+    cols = []
+    for joint, T in zip(leg.joints, Ts[1:], strict=True):
+        z = T[:, :3, 2]
+        cols.append(np.cross(z, tip - T[:, :3, 3]) if joint.revolute else z)
+    return np.stack(cols, -1)
 
 
 def solve_leg(
@@ -387,23 +455,14 @@ def solve_leg(
     P = np.asarray(P, dtype=float)
     residual = np.inf
     for iteration in range(max_iterations + 1):
-        Ts = [T_0_0i]
-        for joint, qj in zip(leg.joints, q.T, strict=True):
-            theta = joint.theta + (qj if joint.revolute else 0.0)
-            r = joint.r + (0.0 if joint.revolute else qj)
-            Ts.append(Ts[-1] @ _mdh(joint.alpha, joint.d, theta, r))
-        tip = Ts[-1][:, :3, :3] @ leg.tip + Ts[-1][:, :3, 3]
+        Ts, tip = _leg_tip(leg, T_0_0i, q)
         err = P - tip
         residual = float(np.linalg.norm(err, axis=-1).max())
         if residual <= tol:
             return q
         if iteration == max_iterations:
             break
-        cols = []
-        for joint, T in zip(leg.joints, Ts[1:], strict=True):
-            z = T[:, :3, 2]
-            cols.append(np.cross(z, tip - T[:, :3, 3]) if joint.revolute else z)
-        J = np.stack(cols, -1)
+        J = _leg_tip_jacobian(leg, Ts, tip)
         try:
             q += np.linalg.solve(J, err[..., None])[..., 0]
         except np.linalg.LinAlgError as e:
@@ -423,6 +482,54 @@ def solve_leg(
     )
 
 
+def _solve_leg_each(
+    leg: LegArchitecture,
+    P: np.ndarray,
+    guess: np.ndarray,
+    tol: float = LEG_TOLERANCE,
+    max_iterations: int = LEG_MAX_ITERATIONS,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve_leg` (frame 0i the identity) state by state over a batch: ``(q (N, 3),
+    converged (N,) bool)``. Each state stops at the first iterate within ``tol``, as
+    :func:`solve_leg` on that state alone would; a state that does not converge or meets
+    a singular ``J_i`` is marked False (its values are meaningless)."""
+    q = np.array(guess, dtype=float, copy=True)
+    P = np.asarray(P, dtype=float)
+    converged = np.zeros(q.shape[0], dtype=bool)
+    active = np.arange(q.shape[0])
+    eye = np.eye(4)
+    for iteration in range(max_iterations + 1):
+        Ts, tip = _leg_tip(leg, eye, q[active])
+        err = P[active] - tip
+        done = np.linalg.norm(err, axis=-1) <= tol
+        converged[active[done]] = True
+        active, err, tip = active[~done], err[~done], tip[~done]
+        if active.size == 0 or iteration == max_iterations:
+            break
+        Ts = [T if T.ndim == 2 else T[~done] for T in Ts]
+        J = _leg_tip_jacobian(leg, Ts, tip)
+        regular = np.ones(active.size, dtype=bool)
+        try:
+            step = np.linalg.solve(J, err[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a singular J_i refuses the whole batch: one by one
+            step = np.zeros_like(err)
+            for i in range(active.size):
+                try:
+                    step[i] = np.linalg.solve(J[i], err[i])
+                except np.linalg.LinAlgError:
+                    regular[i] = False
+        q[active] += step
+        active = active[regular]
+    return q, converged
+
+
+def _leg_points(robot: GeneralHexapod, poses: np.ndarray) -> np.ndarray:
+    """P_i in the frames 0i (N, 6, 3) [m] for validated poses (N, 4, 4)."""
+    R, p = poses[:, :3, :3], poses[:, :3, 3]
+    P = np.einsum("nij,kj->nki", R, robot.platform_points) + p[:, None, :]
+    return np.einsum("kji,nkj->nki", robot.leg_base_rotations, P - robot.base_points)
+
+
 def inverse_geometry_batch(
     robot: GeneralHexapod, poses: np.ndarray, check_limits: bool = True
 ) -> np.ndarray:
@@ -432,10 +539,8 @@ def inverse_geometry_batch(
         LegReachError: a leg cannot reach. LegJointLimitError: a joint outside its limits
         (``check_limits``). ConvergenceError, SingularityError: from a custom leg's Newton.
     """
-    R, p = poses[:, :3, :3], poses[:, :3, 3]
-    P = np.einsum("nij,kj->nki", R, robot.platform_points) + p[:, None, :]
-    P0i = np.einsum("kji,nkj->nki", robot.leg_base_rotations, P - robot.base_points)
-    q = np.empty(P.shape)
+    P0i = _leg_points(robot, poses)
+    q = np.empty(P0i.shape)
     for k, leg in enumerate(robot.legs):
         q[:, k] = _inverse_leg(leg, P0i[:, k], k, None)
     lim = np.array([leg.limits for leg in robot.legs])  # revolute values modulo 2 pi
@@ -564,6 +669,59 @@ def inverse_jacobian(robot: GeneralHexapod, pose: Any) -> np.ndarray:
     return J if batched else J[0]
 
 
+def _outside_limits(robot: GeneralHexapod, q: np.ndarray) -> np.ndarray:
+    """(N, 6, 3) bool: joint values (N, 6, 3) outside their limits."""
+    c = constants(robot)
+    return (q < c.lower) | (q > c.upper)
+
+
+def admissible_poses(
+    robot: GeneralHexapod, poses: np.ndarray, max_condition: float = MAX_CONDITION
+) -> np.ndarray:
+    """(N,) bool: the validated poses (N, 4, 4) that the raising checks accept, decided
+    for the whole batch at once: every leg reaches (closed forms, or Newton state by
+    state for custom legs), every joint within its limits (:func:`inverse_geometry_batch`
+    with ``check_limits``), no serial singularity (:func:`check_serial`) and the
+    condition number of ``Jp^-1`` at most ``max_condition`` (:func:`check_parallel`).
+
+    The computation of each state is the one :func:`leg_state` and :func:`check_parallel`
+    make on that state alone, so the decision is theirs.
+
+    Raises:
+        FloatingPointError: a closed form met an overflow, a division by zero or an
+            invalid operation at some state (where :func:`inverse_geometry_batch` raises a
+            :class:`NumericalError`); the caller decides the batch state by state.
+    """
+    P0i = _leg_points(robot, poses)
+    q = np.zeros(P0i.shape)
+    ok = np.ones(poses.shape[0], dtype=bool)
+    for k, leg in enumerate(robot.legs):  # each leg on the states its predecessors reach
+        idx = np.flatnonzero(ok)
+        m = idx.size
+        if leg.name == "custom":
+            qk, good = _solve_leg_each(leg, P0i[idx, k], np.broadcast_to(leg.guess, (m, 3)))
+        else:
+            unreachable = np.zeros(m, dtype=bool)
+            with np.errstate(over="raise", divide="raise", invalid="raise"):
+                qk = _closed_form(leg, P0i[idx, k], k, np.empty((m, 3)), unreachable)
+            good = ~unreachable & np.all(np.isfinite(qk), axis=1)
+        q[idx, k] = np.where(good[:, None], qk, 0.0)
+        ok[idx[~good]] = False
+    c = constants(robot)
+    q = wrap_into_limits(q, c.revolute, c.lower, c.upper)
+    ok &= ~np.any(_outside_limits(robot, q), axis=(1, 2))
+    idx = np.flatnonzero(ok)
+    frames = leg_forward(robot, q[idx])
+    J = leg_jacobians(robot, frames)
+    regular = serial_admissible(robot, frames, J)
+    ok[idx[~regular]] = False
+    idx = idx[regular]
+    L = np.einsum("nij,kj->nki", poses[idx, :3, :3], robot.platform_points)
+    J_inv = inverse_jacobian_from_legs(robot, np.linalg.inv(J[regular]), L)
+    ok[idx] = condition_number_batch(robot, J_inv) <= max_condition
+    return ok
+
+
 def condition_number_batch(robot: GeneralHexapod, J_inv: np.ndarray) -> np.ndarray:
     """Unit-free condition number of ``Jp^-1`` (N,): angular columns over the size."""
     scaled = J_inv.copy()
@@ -636,6 +794,7 @@ __all__ = [
     "LegFrames",
     "LegKinematics",
     "actuator_positions",
+    "admissible_poses",
     "check_joint_limits",
     "check_parallel",
     "check_serial",
@@ -651,6 +810,7 @@ __all__ = [
     "leg_jacobians",
     "leg_kinematics",
     "leg_state",
+    "serial_admissible",
     "serial_measure",
     "solve_leg",
 ]

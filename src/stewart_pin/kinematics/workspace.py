@@ -12,8 +12,16 @@ import pinocchio as pin
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.exceptions import InputError, StewartPinError, WorkspaceError
-from stewart_pin.kinematics.geometry import inverse_geometry_batch
-from stewart_pin.kinematics.jacobians import MAX_CONDITION, check_condition, inverse_jacobian_batch
+from stewart_pin.kinematics.geometry import admissible_poses, inverse_geometry_batch
+from stewart_pin.kinematics.jacobians import (
+    MAX_CONDITION,
+    check_condition,
+    condition_number_batch,
+    inverse_jacobian_batch,
+)
+from stewart_pin.kinematics.leg_chains import (
+    admissible_poses as general_admissible_poses,
+)
 from stewart_pin.kinematics.leg_chains import (
     check_parallel,
     inverse_jacobian_from_legs,
@@ -38,6 +46,10 @@ def _range(value: object, name: str, unit: str) -> float:
     return x
 
 
+#: Candidate poses decided together at most (memory: a few kB each for general legs).
+CHUNK = 8192
+
+
 def _draw_poses(
     desc: RobotDescription,
     n: int,
@@ -46,34 +58,69 @@ def _draw_poses(
     rotation: float,
     max_draws: int,
     accept: Callable[[np.ndarray], object],
+    admissible: Callable[[np.ndarray], np.ndarray],
 ) -> np.ndarray:
     """The sampling loop of :func:`sample_poses` and :func:`sample_general_poses`: draws
-    around the home pose until ``n`` pass ``accept(T[None])`` (which raises a
-    :class:`StewartPinError` to reject)."""
+    around the home pose until ``n`` are accepted.
+
+    ``accept(T[None])`` decides one pose (it raises a :class:`StewartPinError` to
+    reject); ``admissible(T)`` (m, 4, 4) -> (m,) bool decides a batch the same way (or
+    raises ``FloatingPointError``, and ``accept`` decides that batch pose by pose).
+
+    The draws are those of one pose at a time, in the same order from the same
+    generator: six numbers each (the translation, then the rotation vector), the first
+    ``n`` accepted kept. Candidates are drawn and decided in batches of at most
+    :data:`CHUNK`; the generator is then set back to the state right after the last
+    draw used, so that the poses and the generator's state afterwards are those of
+    drawing and deciding one pose at a time.
+    """
     rng = _rng(rng)
     half = (
         0.15 * desc.stroke_mid if translation is None else _range(translation, "translation", "m")
     )
     rotation = _range(rotation, "rotation", "rad")
     home = desc.home_pose
+    low = np.array([-half] * 3 + [-rotation] * 3)
+    budget = max_draws * max(n, 1)
     out: list[np.ndarray] = []
-    draws = 0
-    while len(out) < n:
-        if draws >= max_draws * max(n, 1):
+    found = draws = 0
+    while found < n:
+        if draws >= budget:
             raise WorkspaceError(
-                f"only {len(out)} of {n} poses reachable after {draws} draws; reduce the "
+                f"only {found} of {n} poses reachable after {draws} draws; reduce the "
                 f"translation ({half:g} m) or rotation ({rotation:g} rad) range"
             )
-        draws += 1
-        T = home.copy()
-        T[:3, 3] += rng.uniform(-half, half, 3)
-        T[:3, :3] = pin.exp3(rng.uniform(-rotation, rotation, 3)) @ home[:3, :3]
+        rate = max(found, 1) / draws if draws else 1.0  # acceptance so far
+        m = int(min(budget - draws, CHUNK, np.ceil((n - found) / rate * 1.1) + 8))
+        state = rng.bit_generator.state
+        # rng.uniform(-half, half, 3) then rng.uniform(-rotation, rotation, 3), m times
+        u = rng.uniform(low, -low, (m, 6))
+        T = np.broadcast_to(home, (m, 4, 4)).copy()
+        T[:, :3, 3] += u[:, :3]
+        T[:, :3, :3] = np.array([pin.exp3(w) for w in u[:, 3:]]).reshape(m, 3, 3) @ home[:3, :3]
         try:
-            accept(T[None])
-        except StewartPinError:
-            continue
-        out.append(T)
-    return np.array(out).reshape(n, 4, 4)
+            ok = admissible(T)
+        except FloatingPointError:
+            ok = np.array([_accepts(accept, Ti) for Ti in T], dtype=bool)
+        kept = np.flatnonzero(ok)[: n - found]
+        used = m if kept.size < n - found else int(kept[-1]) + 1
+        if used < m:  # the generator as after `used` draws
+            rng.bit_generator.state = state
+            rng.uniform(low, -low, (used, 6))
+        out.append(T[kept])
+        found += kept.size
+        draws += used
+    return np.concatenate(out).reshape(n, 4, 4) if out else np.empty((0, 4, 4))
+
+
+def _accepts(accept: Callable[[np.ndarray], object], T: np.ndarray) -> bool:
+    """Whether ``accept(T[None])`` accepts the pose T (4, 4) (raises no
+    :class:`StewartPinError`)."""
+    try:
+        accept(T[None])
+    except StewartPinError:
+        return False
+    return True
 
 
 def sample_poses(
@@ -92,14 +139,22 @@ def sample_poses(
     uniform in ``[-rotation, rotation]`` [rad]. Draws that leave the stroke or the U-joint
     limits, or pass ``max_condition``, are rejected; after ``max_draws * n`` draws the
     function raises :class:`WorkspaceError`. ``translation`` and ``rotation`` must be
-    finite and >= 0 (:class:`InputError`).
+    finite and >= 0 (:class:`InputError`). The same generator state gives the same poses
+    (the draws are decided in batches, with the decision and the order of one at a time:
+    :func:`_draw_poses`).
     """
 
     def accept(T: np.ndarray) -> None:
         inverse_geometry_batch(desc, T)
         check_condition(inverse_jacobian_batch(desc, T), max_condition, desc)
 
-    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept)
+    def admissible(T: np.ndarray) -> np.ndarray:
+        ok = admissible_poses(desc, T)
+        fine = np.flatnonzero(ok)
+        ok[fine] = condition_number_batch(desc, T[fine]) <= max_condition
+        return ok
+
+    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept, admissible)
 
 
 def sample_states(
@@ -158,7 +213,10 @@ def sample_general_poses(
         legs = leg_state(robot, T, zero, check_limits=True)
         check_parallel(robot, inverse_jacobian_from_legs(robot, legs.J_inv, legs.L), max_condition)
 
-    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept)
+    def admissible(T: np.ndarray) -> np.ndarray:
+        return general_admissible_poses(robot, T, max_condition)
+
+    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept, admissible)
 
 
 def sample_general_states(
