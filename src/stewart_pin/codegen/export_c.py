@@ -108,17 +108,14 @@ def file_names(prefix: str) -> tuple[str, ...]:
 
 
 def check_folder(folder: str | os.PathLike[str], prefix: str) -> Path:
-    """The output folder as a :class:`Path`: absent (created), or a folder (not a symbolic
-    link) holding nothing but the files of an export with this prefix (overwritten);
-    anything else is an :class:`~stewart_pin.exceptions.ExportError`."""
+    """The output folder as a :class:`Path`: absent (created by :func:`export_c` once
+    the library is generated), or a folder (not a symbolic link) holding nothing but the
+    files of an export with this prefix (overwritten); anything else is an
+    :class:`~stewart_pin.exceptions.ExportError`."""
     out = Path(folder)
     try:
         mode = os.lstat(out).st_mode
     except FileNotFoundError:
-        try:
-            out.mkdir(parents=True)
-        except OSError as e:
-            raise ExportError(f"output folder {out}: cannot create it: {e}") from e
         return out
     except OSError as e:
         raise ExportError(f"output folder {out}: cannot inspect it: {e}") from e
@@ -381,9 +378,14 @@ def export_c(
     prefix = check_prefix(prefix)
     if not isinstance(samples, int) or isinstance(samples, bool) or not 1 <= samples <= 1000:
         raise ExportError(f"samples must be an integer in [1, 1000], got {samples!r}")
+    check_folder(folder, prefix)  # before the work
     header, source, numbers = c_library(robot, prefix)
     values = reference_values(robot, samples, int(seed))
     out = check_folder(folder, prefix)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ExportError(f"output folder {out}: cannot create it: {e}") from e
     texts: Sequence[str] = (
         header,
         source,
