@@ -36,8 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--prefix",
         required=True,
-        help="a C identifier (letter, then letters, digits, _): the files' and functions' "
-        "prefix",
+        help="a C identifier (letter, then letters, digits, _): the files' and functions' prefix",
     )
     p.add_argument(
         "-o",

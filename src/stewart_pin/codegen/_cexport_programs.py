@@ -168,8 +168,8 @@ int main(int argc, char** argv) {
 }
 """
 
-CONTROL_LOOP = r"""// ${P}_control_loop.cpp: a fixed-rate computed-torque loop with the exported inverse
-// dynamic model, written the way a ros2_control controller is (on_configure allocates,
+CONTROL_LOOP = r"""// ${P}_control_loop.cpp: a fixed-rate computed-torque loop with the exported
+// inverse dynamic model, written the way a ros2_control controller is (on_configure allocates,
 // update(time, period) runs at the loop rate and allocates nothing). Plain C++17, no ROS:
 // the "hardware" is the exported direct dynamic model, integrated at the loop rate.
 //
@@ -230,7 +230,8 @@ class ComputedTorqueController {
   int update(double time, double /*period*/, const Pose& pose, const Vec6& twist,
              Vec6& gamma) {
     const double w = 2.0 * 3.14159265358979 * frequency_;
-    double p_d[3] = {set_point_[3], set_point_[7], set_point_[11] + amplitude_ * std::sin(w * time)};
+    double p_d[3] = {set_point_[3], set_point_[7],
+                     set_point_[11] + amplitude_ * std::sin(w * time)};
     double v_d[3] = {0.0, 0.0, amplitude_ * w * std::cos(w * time)};
     double a_d[3] = {0.0, 0.0, -amplitude_ * w * w * std::sin(w * time)};
     double accel[6];
@@ -296,8 +297,8 @@ int main(int argc, char** argv) {
       std::printf("the plant left the workspace at step %d\n", k);
       return 1;
     }
-    for (int i = 0; i < 6; ++i) twist[static_cast<size_t>(i)] += dt * accel[i];
-    for (int i = 0; i < 3; ++i) pose[static_cast<size_t>(4 * i + 3)] += dt * twist[static_cast<size_t>(i)];
+    for (size_t i = 0; i < 6; ++i) twist[i] += dt * accel[i];
+    for (size_t i = 0; i < 3; ++i) pose[4 * i + 3] += dt * twist[i];
     const double w[3] = {dt * twist[3], dt * twist[4], dt * twist[5]};
     rotate(w, pose.data());
     worst_error = std::max(worst_error, std::fabs(pose[11] - controller.target_z(t + dt)));
@@ -306,7 +307,8 @@ int main(int argc, char** argv) {
   }
   std::vector<double> sorted = update_us;
   std::sort(sorted.begin(), sorted.end());
-  std::printf("%d steps at %g Hz: update() median %.3f us, max %.3f us; largest |z - z_d| %.3g m; %d failed calls\n",
+  std::printf("%d steps at %g Hz: update() median %.3f us, max %.3f us; "
+              "largest |z - z_d| %.3g m; %d failed calls\n",
               steps, rate, sorted[sorted.size() / 2], sorted.back(), worst_error, failures);
   return failures ? 1 : 0;
 }
@@ -396,13 +398,14 @@ int ${P}_direct_dynamics(const double pose[16], const double twist[6],
 Every function returns `${PU}_OK` (0) or a negative code, and on an error writes NaN to
 its outputs:
 
-| code | value | meaning |
-| --- | --- | --- |
-| `${PU}_ERR_INPUT` | ${ERR_INPUT} | a non-finite input, or a matrix that is not a pose |
-| `${PU}_ERR_RANGE` | ${ERR_RANGE} | out of stroke, joint range or reach, or near a leg's serial singularity |
-| `${PU}_ERR_SINGULAR` | ${ERR_SINGULAR} | condition number of Jp^-1 past `${PU}_MAX_CONDITION` (${max_condition}), or a mass matrix not positive definite |
-| `${PU}_ERR_NO_CONVERGENCE` | ${ERR_NO_CONVERGENCE} | forward geometry: no convergence in `${PU}_FORWARD_MAX_ITERATIONS` steps |
-| `${PU}_ERR_NUMERICAL` | ${ERR_NUMERICAL} | finite inputs, a non-finite result |
+- `${PU}_ERR_INPUT` (${ERR_INPUT}): a non-finite input, or a matrix that is not a pose;
+- `${PU}_ERR_RANGE` (${ERR_RANGE}): out of the stroke, a joint's range or a leg's reach,
+  or near a leg's serial singularity;
+- `${PU}_ERR_SINGULAR` (${ERR_SINGULAR}): the condition number of Jp^-1 past
+  `${PU}_MAX_CONDITION` (${max_condition}), or a mass matrix not positive definite;
+- `${PU}_ERR_NO_CONVERGENCE` (${ERR_NO_CONVERGENCE}): forward geometry, not converged in
+  `${PU}_FORWARD_MAX_ITERATIONS` steps;
+- `${PU}_ERR_NUMERICAL` (${ERR_NUMERICAL}): finite inputs, a non-finite result.
 
 The guards are those of stewart-pin's compiled models, with small margins: a state
 within about 1e-9 (relative) of a joint limit, or 1e-6 of a leg's serial-singularity

@@ -195,7 +195,9 @@ static int sp_finite6(const double* x) {
 }
 """
 
-TEMPLATE = GUARDS + r"""
+TEMPLATE = (
+    GUARDS
+    + r"""
 /* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
 #ifndef SP_EXPORT
 #define SP_EXPORT __attribute__((visibility("default")))
@@ -283,3 +285,4 @@ SP_EXPORT int sp_ddm_one(const double* in, const double* chi, double max_cond, d
   return f;
 }
 """
+)

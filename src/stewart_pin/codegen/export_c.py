@@ -60,9 +60,9 @@ from stewart_pin.codegen.symbolic import (
     model_constants,
     pose_from_input,
 )
-from stewart_pin.exceptions import ExportError
-from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
+from stewart_pin.exceptions import ExportError, StewartPinError
 from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -300,8 +300,18 @@ def reference_values(robot: Any, n: int, seed: int) -> dict[str, np.ndarray]:
     scale = float(np.abs(gamma).max())
     gamma_in = gamma + rng.uniform(-0.1, 0.1, gamma.shape) * scale
     accel = np.asarray(robot.direct_dynamics(poses, twists, gamma_in, backend="pinocchio"))
-    guesses = np.array([_perturbed(T, rng, GUESS_OFFSET) for T in poses])
-    fg = np.array([robot.forward_geometry(q[k], guesses[k]) for k in range(n)])
+    guesses = np.empty((n, 4, 4))
+    fg = np.empty((n, 4, 4))
+    for k in range(n):  # a guess the reference iterates from (redrawn, closer, if not)
+        for attempt in range(20):
+            guesses[k] = _perturbed(poses[k], rng, GUESS_OFFSET / 2**attempt)
+            try:
+                fg[k] = robot.forward_geometry(q[k], guesses[k])
+                break
+            except StewartPinError:
+                continue
+        else:  # pragma: no cover - a state the Newton iteration cannot even polish
+            raise ExportError(f"the reference forward geometry fails at sampled state {k}")
     far = np.array(robot.home_pose, dtype=float)
     far[2, 3] += 10.0 * singularity_length(robot.description)
     bad = np.array(robot.home_pose, dtype=float)
