@@ -13,6 +13,8 @@
   Jacobians of both models in the platform state (pose chart, twist, third argument), by
   CasADi's algorithmic differentiation of the generated models, compiled the same way.
 - :func:`auto_backend`: what the default ``backend="auto"`` of ``StewartRobot`` runs.
+- :func:`export_c` (:mod:`.export_c`): the models as a standalone C99 library (no CasADi,
+  no Python, no allocation), with a test program, a benchmark and a C++ example.
 
 Importing this subpackage imports none of them (nor CasADi): each name is imported on first
 use.
@@ -37,6 +39,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported o
         derivatives_backend,
         symbolic_derivatives,
     )
+    from stewart_pin.codegen.export_c import export_c
     from stewart_pin.codegen.opcount import (
         OperationCount,
         architecture_table,
@@ -56,6 +59,7 @@ __getattr__, __dir__ = lazy_names(
         "CompiledDerivatives": "stewart_pin.codegen.derivatives",
         "derivatives_backend": "stewart_pin.codegen.derivatives",
         "symbolic_derivatives": "stewart_pin.codegen.derivatives",
+        "export_c": "stewart_pin.codegen.export_c",
         "OperationCount": "stewart_pin.codegen.opcount",
         "architecture_table": "stewart_pin.codegen.opcount",
         "cost_dict": "stewart_pin.codegen.opcount",
@@ -81,6 +85,7 @@ __all__ = [
     "cost_table",
     "count_operations",
     "derivatives_backend",
+    "export_c",
     "generate_models",
     "symbolic_derivatives",
 ]

@@ -27,6 +27,7 @@ no name or other text from the robot's description.
 
 from __future__ import annotations
 
+import importlib.metadata
 import math
 import os
 import re
@@ -39,7 +40,6 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from stewart_pin import __version__
 from stewart_pin._checks import ROTATION_TOLERANCE
 from stewart_pin._io import write_text_atomic
 from stewart_pin.codegen import _cexport, _cexport_programs, _csource
@@ -166,6 +166,14 @@ def geometry_function(desc: Any, name: str) -> tuple[cs.Function, int, int]:
     return f, 0, 36
 
 
+def _version() -> str:
+    """stewart-pin's version, as installed (``unknown`` when it is not)."""
+    try:
+        return importlib.metadata.version("stewart-pin")
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover - run from a checkout
+        return "unknown"
+
+
 def _number(x: float) -> str:
     """A finite float as a C literal that reads back exactly."""
     x = float(x)
@@ -208,7 +216,7 @@ def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
     generated = cg.dump()
     layout = model_layout(desc)
     if desc.is_ideal_ups:
-        lo, hi = (float(x) for x in desc.stroke)
+        lo, hi = (float(x) for x in desc.ideal_stroke("the C export"))
         min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
         check_legs = _csource.CHECK_LEGS_UPS % {
             "lo2": lo * lo * (1.0 + 1e-9),
@@ -235,7 +243,7 @@ def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
     numbers: dict[str, Any] = {
         "P": prefix,
         "PU": prefix.upper(),
-        "version": __version__,
+        "version": _version(),
         "work_size": max(naux.values()) + sz_w + 1,
         "rotation_tol": f"{ROTATION_TOLERANCE:g}",
         "max_condition": _number(robot.max_condition),
