@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stewart_pin.cli._common import add_robot_args, robot_from_args
+from stewart_pin.cli._common import add_robot_args, positive_int, robot_from_args
 
 
 def _export_c(args: argparse.Namespace) -> int:
@@ -46,8 +46,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--samples",
-        type=int,
+        type=positive_int,
         default=8,
-        help="random states embedded in the test program with their reference values",
+        help="random states embedded in the test program with their reference values "
+        "(at most 1000)",
     )
     p.set_defaults(func=_export_c)
