@@ -295,7 +295,8 @@ int ${P}_forward_geometry(const double q_act[6], const double pose_guess[16],
     if (f & SP_NONFINITE) break;  /* an iterate out of a leg's reach */
     for (k = 0; k < 6; ++k) {
       e[k] = q_act[k] - q[k];
-      if (sp_revolute[k]) e[k] = atan2(sin(e[k]), cos(e[k]));
+      /* wrapped into (-pi, pi] (atan2(sin e, cos e), the reference's; e itself within) */
+      if (sp_revolute[k] && !(fabs(e[k]) <= 3.141592653589793)) e[k] = atan2(sin(e[k]), cos(e[k]));
       if (fabs(e[k]) > residual) residual = fabs(e[k]);
     }
     if (residual <= ${PU}_FORWARD_TOLERANCE) {
