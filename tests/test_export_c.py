@@ -267,3 +267,49 @@ def test_only_numbers_from_the_description(exported: dict[str, tuple[Path, str]]
     texts = [p.read_text() for p in folder.iterdir() if p.suffix in (".c", ".h", ".cpp", ".md")]
     assert len(texts) == 7
     assert not any(NAME in text for text in texts)
+
+
+def test_derivatives(tmp_path: Path) -> None:
+    """``--derivatives``: ``PREFIX_inverse_dynamics_derivatives`` equals its embedded
+    reference to 1e-12, and that reference is checked here against central differences
+    of the Pinocchio reference path (the pose perturbed in the chart p + dp,
+    R <- exp(dtheta^) R)."""
+    import pinocchio as pin
+
+    robot = StewartRobot.from_preset("simulator")
+    folder = tmp_path / "d"
+    argv = ["export-c", "--prefix", "sd", "-o", str(folder), "--samples", "2", "--derivatives"]
+    assert main(argv) == 0
+    assert "sd_inverse_dynamics_derivatives" in (folder / "sd.h").read_text()
+    program = _build(folder, "sd", "sd_test.c", "check", "-O1")
+    run = _run([str(program)], folder)
+    assert run.returncode == 0, run.stdout
+    assert re.search(r"derivatives +largest relative error", run.stdout)
+    from stewart_pin.codegen.export_c import reference_values
+
+    values = reference_values(robot, 2, 0, derivatives=True)
+    T = values["poses"][0].reshape(4, 4)
+    V, A = values["twists"][0], values["accels"][0]
+    D = values["ref_didm"][0].reshape(3, 6, 6)
+
+    def idm(T: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
+        return np.asarray(robot.inverse_dynamics(T, V, A, backend="pinocchio"))
+
+    h = 1e-6
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = h
+        moved = []
+        for sign in (1.0, -1.0):
+            Tm = T.copy()
+            Tm[:3, 3] += sign * e[:3]
+            Tm[:3, :3] = pin.exp3(sign * e[3:]) @ T[:3, :3]
+            moved.append(idm(Tm, V, A))
+        columns = (
+            (moved[0] - moved[1]) / (2 * h),
+            (idm(T, V + e, A) - idm(T, V - e, A)) / (2 * h),
+            (idm(T, V, A + e) - idm(T, V, A - e)) / (2 * h),
+        )
+        for b, column in enumerate(columns):
+            scale = np.abs(D[b]).max()
+            np.testing.assert_allclose(D[b][:, j], column, atol=1e-6 * scale, rtol=0)

@@ -725,7 +725,12 @@ class StewartRobot:
 
     # ------------------------------------------------------------------ C export
     def export_c(
-        self, folder: str | Path, prefix: str, samples: int = 8, seed: int = 0
+        self,
+        folder: str | Path,
+        prefix: str,
+        samples: int = 8,
+        seed: int = 0,
+        derivatives: bool = False,
     ) -> list[Path]:
         """Write the closed-form models as a standalone C99 library into ``folder``:
         ``PREFIX.h``, ``PREFIX.c`` (no CasADi, no Python, no heap allocation), a test
@@ -737,6 +742,7 @@ class StewartRobot:
             folder: absent (created) or holding only a previous export with this prefix.
             prefix: a C identifier naming the files and functions (``PREFIX_inverse_dynamics``).
             samples: random states embedded in the test program. seed: their seed.
+            derivatives: also ``PREFIX_inverse_dynamics_derivatives`` (Gamma's Jacobians).
 
         Returns:
             The paths written.
@@ -747,7 +753,7 @@ class StewartRobot:
         """
         from stewart_pin.codegen.export_c import export_c
 
-        return export_c(self, folder, prefix, samples=samples, seed=seed)
+        return export_c(self, folder, prefix, samples=samples, seed=seed, derivatives=derivatives)
 
     # ------------------------------------------------------------------ payload
     def with_payload(self, payload: Any, placement: Any = None) -> PayloadRobot:

@@ -13,7 +13,9 @@ def _export_c(args: argparse.Namespace) -> int:
     check_prefix(args.prefix)  # before building the robot
     check_folder(args.output, args.prefix)
     robot = robot_from_args(args)
-    paths = robot.export_c(args.output, prefix=args.prefix, samples=args.samples)
+    paths = robot.export_c(
+        args.output, prefix=args.prefix, samples=args.samples, derivatives=args.derivatives
+    )
     folder = paths[0].parent
     print(f"wrote {len(paths)} files to {folder}: {', '.join(p.name for p in paths)}")
     print(
@@ -50,5 +52,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=8,
         help="random states embedded in the test program with their reference values "
         "(at most 1000)",
+    )
+    p.add_argument(
+        "--derivatives",
+        action="store_true",
+        help="also export PREFIX_inverse_dynamics_derivatives (Gamma's Jacobians in the "
+        "pose chart, the twist and the acceleration; a longer source to compile)",
     )
     p.set_defaults(func=_export_c)

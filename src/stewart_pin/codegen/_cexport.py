@@ -81,6 +81,7 @@ int ${P}_inverse_dynamics(const double pose[16], const double twist[6],
 int ${P}_direct_dynamics(const double pose[16], const double twist[6],
                          const double gamma[6], double accel[6], double *work);
 
+${derivatives_decl}
 #ifdef __cplusplus
 }
 #endif
@@ -362,5 +363,46 @@ int ${P}_direct_dynamics(const double pose[16], const double twist[6],
   for (k = 0; k < 6; ++k) if (!(aux[SP_DDM_D + k] > 0.0)) f |= SP_NOT_PD;
   if (!sp_finite6(accel)) f |= SP_NONFINITE;
   return sp_finish(f, accel, 6);
+}
+"""
+
+#: The optional derivatives (``export_c(..., derivatives=True)``): the declaration.
+DERIVATIVES_DECL = r"""
+#define ${PU}_HAS_DERIVATIVES 1
+/* Gamma (as ${P}_inverse_dynamics, same checks and codes) and its Jacobians, each 6x6
+   row-major: d_pose = dGamma/d delta, delta = [dp, dtheta] in F0 (p + dp,
+   R <- exp(dtheta^) R); d_twist = dGamma/d twist; d_accel = dGamma/d accel. Along a
+   motion dGamma/dt = d_pose twist + d_twist accel + d_accel d(accel)/dt. */
+int ${P}_inverse_dynamics_derivatives(const double pose[16], const double twist[6],
+                                      const double accel[6], double gamma[6],
+                                      double d_pose[36], double d_twist[36],
+                                      double d_accel[36], double *work);
+"""
+
+#: The optional derivatives: the definition.
+DERIVATIVES = r"""
+int ${P}_inverse_dynamics_derivatives(const double pose[16], const double twist[6],
+                                      const double accel[6], double gamma[6],
+                                      double d_pose[36], double d_twist[36],
+                                      double d_accel[36], double* work) {
+  const casadi_real* arg[SP_NARG];
+  casadi_real* res[SP_NRES];
+  int f = ${P}_inverse_dynamics(pose, twist, accel, gamma, work), k;
+  if (f == 0) {
+    arg[0] = pose;
+    arg[1] = twist;
+    arg[2] = accel;
+    arg[3] = 0;
+    res[0] = work;
+    ${P}_cg_didm(arg, res, 0, work + 108, 0);
+    for (k = 0; k < 108; ++k) if (!isfinite(work[k])) f = ${PU}_ERR_NUMERICAL;
+  }
+  for (k = 0; k < 36; ++k) {
+    d_pose[k] = f ? NAN : work[k];
+    d_twist[k] = f ? NAN : work[36 + k];
+    d_accel[k] = f ? NAN : work[72 + k];
+  }
+  if (f) for (k = 0; k < 6; ++k) gamma[k] = NAN;
+  return f;
 }
 """

@@ -70,6 +70,23 @@ int main(void) {
   for (k = 0; k < 5; ++k)
     printf("%-18s largest relative error %.3g over %d states\n", names[k], worst[k],
            ${PU}_REF_N);
+#ifdef ${PU}_HAS_DERIVATIVES
+  {
+    static const char* blocks[3] = {"d_pose", "d_twist", "d_accel"};
+    double g[6], d[108], worst_d = 0.0;
+    int b;
+    for (s = 0; s < ${PU}_REF_N; ++s) {
+      int rc = ${P}_inverse_dynamics_derivatives(${P}_poses[s], ${P}_twists[s], ${P}_accels[s],
+                                                 g, d, d + 36, d + 72, work);
+      for (b = 0; b < 3; ++b) {
+        e = compare(blocks[b], s, rc, d + 36 * b, ${P}_ref_didm[s] + 36 * b, 36);
+        if (e > worst_d) worst_d = e;
+      }
+    }
+    printf("%-18s largest relative error %.3g over %d states\n", "derivatives", worst_d,
+           ${PU}_REF_N);
+  }
+#endif
   /* a pose out of reach, a matrix that is not a pose: error codes and NaN outputs */
   expect("inverse_geometry out of reach",
          ${P}_inverse_geometry(${P}_far_pose, out, work), ${PU}_ERR_RANGE);
@@ -137,19 +154,33 @@ static int call(int which, int s, double* out, double* work) {
     case 2: return ${P}_forward_geometry(${P}_ref_q[s], ${P}_guesses[s], out, work);
     case 3:
       return ${P}_inverse_dynamics(${P}_poses[s], ${P}_twists[s], ${P}_accels[s], out, work);
-    default:
+    case 4:
       return ${P}_direct_dynamics(${P}_poses[s], ${P}_twists[s], ${P}_gammas_in[s], out, work);
+    default: {
+#ifdef ${PU}_HAS_DERIVATIVES
+      double d[108];
+      return ${P}_inverse_dynamics_derivatives(${P}_poses[s], ${P}_twists[s], ${P}_accels[s],
+                                               out, d, d + 36, d + 72, work);
+#else
+      return 0;
+#endif
+    }
   }
 }
 
 int main(int argc, char** argv) {
-  static const char* names[5] = {"inverse_geometry", "inverse_jacobian", "forward_geometry",
-                                 "inverse_dynamics", "direct_dynamics"};
+  static const char* names[6] = {"inverse_geometry", "inverse_jacobian", "forward_geometry",
+                                 "inverse_dynamics", "direct_dynamics", "derivatives"};
+#ifdef ${PU}_HAS_DERIVATIVES
+  const int functions = 6;
+#else
+  const int functions = 5;
+#endif
   double work[${PU}_WORK_SIZE], out[36], times[ROUNDS];
   int calls = argc > 1 ? atoi(argv[1]) : 2000, which, r, c;
   if (calls < 1) calls = 1;
   printf("median time per call over %d rounds of %d calls\n", ROUNDS, calls);
-  for (which = 0; which < 5; ++which) {
+  for (which = 0; which < functions; ++which) {
     for (r = 0; r < ROUNDS; ++r) {
       double t0 = now();
       for (c = 0; c < calls; ++c) {

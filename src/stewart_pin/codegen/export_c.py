@@ -44,6 +44,7 @@ from stewart_pin._checks import ROTATION_TOLERANCE
 from stewart_pin._io import write_text_atomic
 from stewart_pin.codegen import _cexport, _cexport_programs, _csource
 from stewart_pin.codegen.compiled import model_layout, singularity_length
+from stewart_pin.codegen.derivatives import symbolic_derivatives
 from stewart_pin.codegen.general_symbolic import (
     _leg_constants,
     _leg_kinematics,
@@ -183,8 +184,11 @@ def _number(x: float) -> str:
     return text if any(ch in text for ch in ".en") else f"{text}.0"
 
 
-def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
-    """The header, the source and the numbers of the exported library of ``robot``."""
+def c_library(
+    robot: RobotLike, prefix: str, derivatives: bool = False
+) -> tuple[str, str, dict[str, Any]]:
+    """The header, the source and the numbers of the exported library of ``robot``
+    (``derivatives``: with ``PREFIX_inverse_dynamics_derivatives``)."""
     desc = robot.description
     if desc.is_ideal_ups and desc.u_joint_limits is not None:
         raise ExportError(
@@ -200,6 +204,10 @@ def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
         f"{prefix}_cg_idm": cs.Function(f"{prefix}_cg_idm", fi.sx_in(), fi.call(fi.sx_in())),
         f"{prefix}_cg_ddm": cs.Function(f"{prefix}_cg_ddm", fd.sx_in(), fd.call(fd.sx_in())),
     }
+    if derivatives:
+        fdi = symbolic_derivatives(models).idm_flat
+        name = f"{prefix}_cg_didm"
+        funcs[name] = cs.Function(name, fdi.sx_in(), fdi.call(fdi.sx_in()))
     if any(f.sz_iw() for f in funcs.values()):
         raise ExportError("this robot's generated models need integer work: cannot export")
     cg = cs.CodeGenerator(
@@ -239,6 +247,8 @@ def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
         "inv_length": 1.0 / length,
     }
     naux = {"geo": geo.size1_out(1), "idm": layout.idm_size, "ddm": layout.ddm_size}
+    if derivatives:
+        naux["didm"] = 108
     sz_w = max(f.sz_w() for f in funcs.values())
     numbers: dict[str, Any] = {
         "P": prefix,
@@ -269,6 +279,9 @@ def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
         "revolute": ", ".join(str(r) for r in revolute),
         **_cexport.ERROR_CODES,
     }
+    numbers["derivatives_decl"] = (
+        Template(_cexport.DERIVATIVES_DECL).substitute(numbers) if derivatives else ""
+    )
     assert FORWARD_TOLERANCE == leg_chains.FORWARD_TOLERANCE
     assert FORWARD_MAX_ITERATIONS == leg_chains.FORWARD_MAX_ITERATIONS
     header = Template(_cexport.HEADER).substitute(numbers)
@@ -278,6 +291,7 @@ def c_library(robot: RobotLike, prefix: str) -> tuple[str, str, dict[str, Any]]:
         + _cexport.SOURCE_TAIL
         + guards
         + Template(_cexport.FUNCTIONS).substitute(numbers)
+        + (Template(_cexport.DERIVATIVES).substitute(numbers) if derivatives else "")
     )
     return header, source, numbers
 
@@ -295,11 +309,16 @@ def _perturbed(T: np.ndarray, rng: np.random.Generator, offset: float) -> np.nda
     return out
 
 
-def reference_values(robot: Any, n: int, seed: int) -> dict[str, np.ndarray]:
+def reference_values(
+    robot: Any, n: int, seed: int, derivatives: bool = False
+) -> dict[str, np.ndarray]:
     """``n`` random states of ``robot`` and the reference path's values at them: the
     actuated joint values, ``Jp^-1``, the IDM and the DDM (``backend="pinocchio"``), the
     forward geometry from a guess :data:`GUESS_OFFSET` off the solution; an out-of-reach
-    pose and a pose whose rotation block is not a rotation."""
+    pose and a pose whose rotation block is not a rotation; ``derivatives``: the IDM's
+    Jacobians (``ref_didm``, the three 6x6 blocks row-major one after the other) by the
+    Python path's generated expression (:mod:`.derivatives`, in CasADi's virtual
+    machine)."""
     rng = np.random.default_rng(seed)
     poses, twists, accels = robot.sample_states(n, rng)
     q = np.asarray(robot.actuator_positions(poses, check_limits=True))
@@ -324,7 +343,7 @@ def reference_values(robot: Any, n: int, seed: int) -> dict[str, np.ndarray]:
     far[2, 3] += 10.0 * singularity_length(robot.description)
     bad = np.array(robot.home_pose, dtype=float)
     bad[0, 0] *= 1.01
-    return {
+    out = {
         "poses": poses.reshape(n, 16),
         "twists": twists,
         "accels": accels,
@@ -339,6 +358,18 @@ def reference_values(robot: Any, n: int, seed: int) -> dict[str, np.ndarray]:
         "bad_pose": bad.reshape(16),
         "home_pose": np.array(robot.home_pose, dtype=float).reshape(16),
     }
+    if derivatives:
+        f = symbolic_derivatives(generate_models(robot.description)).idm_flat
+        chi = np.zeros(f.size1_in(3))
+        if robot.description.is_ideal_ups:
+            chi = np.asarray(model_constants(robot.description).parameter_values, dtype=float)
+        out["ref_didm"] = np.array(
+            [
+                np.array(f(T.reshape(16), V, A, chi)).ravel()
+                for T, V, A in zip(poses, twists, accels, strict=True)
+            ]
+        )
+    return out
 
 
 def _c_array(name: str, values: np.ndarray) -> str:
@@ -374,6 +405,7 @@ def export_c(
     prefix: str,
     samples: int = SAMPLES,
     seed: int = 0,
+    derivatives: bool = False,
 ) -> list[Path]:
     """Write the standalone C99 library of ``robot``'s models into ``folder``.
 
@@ -385,6 +417,9 @@ def export_c(
             functions' prefix (``PREFIX_inverse_dynamics``...); upper-cased for the macros.
         samples: random states embedded in the test program (at least 1).
         seed: the seed of their random generator.
+        derivatives: also export ``PREFIX_inverse_dynamics_derivatives`` (Gamma and its
+            Jacobians in the pose chart, the twist and the acceleration; a longer source:
+            several seconds more to compile).
 
     Returns:
         The paths written (:func:`file_names`).
@@ -397,8 +432,8 @@ def export_c(
     if not isinstance(samples, int) or isinstance(samples, bool) or not 1 <= samples <= 1000:
         raise ExportError(f"samples must be an integer in [1, 1000], got {samples!r}")
     check_folder(folder, prefix)  # before the work
-    header, source, numbers = c_library(robot, prefix)
-    values = reference_values(robot, samples, int(seed))
+    header, source, numbers = c_library(robot, prefix, derivatives)
+    values = reference_values(robot, samples, int(seed), derivatives)
     out = check_folder(folder, prefix)
     try:
         out.mkdir(parents=True, exist_ok=True)
