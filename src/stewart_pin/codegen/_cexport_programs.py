@@ -423,7 +423,7 @@ int ${P}_inverse_dynamics(const double pose[16], const double twist[6],
 int ${P}_direct_dynamics(const double pose[16], const double twist[6],
                          const double gamma[6], double accel[6], double *work);
 ```
-
+${derivatives_readme}
 ## Error codes
 
 Every function returns `${PU}_OK` (0) or a negative code, and on an error writes NaN to

@@ -279,6 +279,13 @@ def c_library(
         "revolute": ", ".join(str(r) for r in revolute),
         **_cexport.ERROR_CODES,
     }
+    numbers["derivatives_readme"] = (
+        f"\nWith `{prefix}_inverse_dynamics_derivatives` (`{numbers['PU']}_HAS_DERIVATIVES`): "
+        "Gamma and its Jacobians\n(6x6 row-major) in the pose chart `[dp, dtheta]` (F0), the "
+        "twist and the acceleration.\n"
+        if derivatives
+        else ""
+    )
     numbers["derivatives_decl"] = (
         Template(_cexport.DERIVATIVES_DECL).substitute(numbers) if derivatives else ""
     )
