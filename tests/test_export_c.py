@@ -313,3 +313,15 @@ def test_derivatives(tmp_path: Path) -> None:
         for b, column in enumerate(columns):
             scale = np.abs(D[b]).max()
             np.testing.assert_allclose(D[b][:, j], column, atol=1e-6 * scale, rtol=0)
+
+
+@pytest.mark.parametrize("preset", ["paper", "ups-offset", "pus", "random-custom-3"])
+def test_every_architecture_exports(tmp_path: Path, preset: str) -> None:
+    """The other leg architectures (a custom leg's Newton steps included): the strict
+    build (-O0, quick to compile) equals the reference path to 1e-12 on their states."""
+    robot = StewartRobot.from_preset(preset)
+    robot.export_c(tmp_path, prefix="arch", samples=3, seed=1)
+    program = _build(tmp_path, "arch", "arch_test.c", "check", "-O0")
+    run = _run([str(program)], tmp_path)
+    assert run.returncode == 0, run.stdout
+    assert "passed: 0 failure(s)" in run.stdout
