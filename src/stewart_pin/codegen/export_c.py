@@ -43,7 +43,7 @@ import numpy as np
 from stewart_pin._checks import ROTATION_TOLERANCE
 from stewart_pin._io import write_text_atomic
 from stewart_pin.codegen import _cexport, _cexport_programs, _csource
-from stewart_pin.codegen.compiled import model_layout, singularity_length
+from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
 from stewart_pin.codegen.derivatives import symbolic_derivatives
 from stewart_pin.codegen.general_symbolic import (
     _leg_constants,
@@ -64,11 +64,6 @@ from stewart_pin.codegen.symbolic import (
 from stewart_pin.exceptions import ExportError, StewartPinError
 from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
-from stewart_pin.kinematics.geometry import (
-    LEG_MIN_LENGTH_RATIO,
-    LEG_SINGULARITY_SIN,
-    characteristic_length,
-)
 from stewart_pin.protocols import RobotLike
 
 #: A prefix: a letter, then letters, digits or underscores (at most 40 characters).
@@ -227,20 +222,9 @@ def c_library(
         cg.add(f)
     generated = cg.dump()
     layout = model_layout(desc)
-    if desc.is_ideal_ups:
-        lo, hi = (float(x) for x in desc.ideal_stroke("the C export"))
-        min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
-        check_legs = _csource.CHECK_LEGS_UPS % {
-            "lo2": lo * lo * (1.0 + 1e-9),
-            "hi2": hi * hi * (1.0 - 1e-9),
-            "min_length2": min_length**2 * (1.0 + 1e-6),
-            "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
-            "q3sq": AUX_Q3SQ.start,
-            "rho2": AUX_RHO2.start,
-        }
-        revolute = [0] * 6
-    else:
-        check_legs = _csource.CHECK_LEGS_GENERAL % {"n_slack": layout.n_slack}
+    check_legs = leg_checks_source(desc, layout)
+    revolute = [0] * 6
+    if not desc.is_ideal_ups:
         hexapod = general_robot(desc)
         revolute = [int(leg.joints[leg.actuated - 1].revolute) for leg in hexapod.legs]
     length = singularity_length(desc)
