@@ -284,28 +284,50 @@ static void sp_rotate(const double* w, double* T) {
     for (j = 0; j < 3; ++j) T[4 * i + j] = R[i][j];
 }
 
+/* atan2(y, x) of a small angle (x > 0, |y| < 0.01 x) by its series (no libm call;
+   truncation below 1e-22 relative), else atan2. */
+static double sp_angle(double y, double x) {
+  if (x > 0.0 && fabs(y) < 0.01 * x) {
+    double t = y / x, t2 = t * t;
+    return t * (1.0 - t2 * (1.0 / 3.0 - t2 * (1.0 / 5.0 - t2 * (1.0 / 7.0 - t2 / 9.0))));
+  }
+  return atan2(y, x);
+}
+
 int ${P}_forward_geometry(const double q_act[6], const double pose_guess[16],
                           double pose[16], double* work) {
-  double T[16], q[6], e[6], step[6];
+  const casadi_real* arg[SP_NARG];
+  casadi_real* res[SP_NRES];
+  double T[16], q[6], e[6], step[6], target[12];
+  double* yx = work;
+  double* J = work + 12;
   int it, k, f = sp_check_inputs(pose_guess, q_act, q_act);
   if (f) return sp_finish(f, pose, 16);
   for (k = 0; k < 16; ++k) T[k] = pose_guess[k];
+  for (k = 0; k < 6; ++k) {
+    target[2 * k] = sp_revolute[k] ? cos(q_act[k]) : q_act[k];
+    target[2 * k + 1] = sp_revolute[k] ? sin(q_act[k]) : 0.0;
+  }
+  arg[0] = T;
+  arg[1] = target;
+  res[0] = yx;
+  res[1] = J;
   for (it = 0; it <= ${PU}_FORWARD_MAX_ITERATIONS; ++it) {
     double residual = 0.0;
-    f = sp_geometry(T, q, work);
-    if (f & SP_NONFINITE) break;  /* an iterate out of a leg's reach */
+    ${P}_cg_newton(arg, res, 0, work + 48, 0);
     for (k = 0; k < 6; ++k) {
-      e[k] = q_act[k] - q[k];
-      /* wrapped into (-pi, pi] (atan2(sin e, cos e), the reference's; e itself within) */
-      if (sp_revolute[k] && !(fabs(e[k]) <= 3.141592653589793)) e[k] = atan2(sin(e[k]), cos(e[k]));
-      if (fabs(e[k]) > residual) residual = fabs(e[k]);
+      /* a revolute error wrapped into (-pi, pi], as the reference wraps it */
+      e[k] = sp_revolute[k] ? sp_angle(yx[k], yx[6 + k]) : yx[k];
+      if (!(fabs(e[k]) <= residual)) residual = fabs(e[k]); /* NaN: no convergence */
     }
+    if (!(residual < HUGE_VAL)) break; /* an iterate out of a leg's reach */
     if (residual <= ${PU}_FORWARD_TOLERANCE) {
+      f = sp_geometry(T, q, work); /* the converged pose's leg checks */
       for (k = 0; k < 16; ++k) pose[k] = T[k];
       return sp_finish(f, pose, 16);
     }
     if (it == ${PU}_FORWARD_MAX_ITERATIONS) break;
-    if (!sp_solve6(work + SP_GEO_JINV, e, step)) return sp_finish(SP_COND, pose, 16);
+    if (!sp_solve6(J, e, step)) return sp_finish(SP_COND, pose, 16);
     T[3] += step[0];
     T[7] += step[1];
     T[11] += step[2];

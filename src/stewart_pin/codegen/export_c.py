@@ -166,6 +166,49 @@ def geometry_function(desc: Any, name: str) -> tuple[cs.Function, int, int]:
     return f, 0, 36
 
 
+def newton_function(desc: Any, name: str) -> cs.Function:
+    """``name(pose, target) -> (yx (12), J_inv (36))``: the forward geometry's residual
+    without a trigonometric call. ``target`` holds per leg ``[cos q_a, sin q_a]`` of a
+    revolute actuated joint's wanted value ``q_a``, else ``[q_a, 0]``; then per leg
+    ``y = sin(q_a - q)``, ``x = cos(q_a - q)`` (revolute; the error is ``atan2(y, x)``,
+    wrapped into (-pi, pi] as the reference wraps it) or ``y = q_a - q``, ``x = 1``
+    (prismatic), ``q`` the joint's value at ``pose``; and ``Jp^-1`` row-major. No guard
+    slack: the converged pose is checked by :func:`geometry_function`'s."""
+    x_pose = cs.SX.sym("pose", 16)
+    x_target = cs.SX.sym("target", 12)
+    t = [x_target[i] for i in range(12)]
+    p, R = pose_from_input(x_pose, "matrix")
+    ys: list[Any] = []
+    xs: list[Any] = []
+    jinv: list[Any] = []
+    if desc.is_ideal_ups:
+        c = model_constants(desc)
+        for k in range(6):
+            g = _leg_geometry(c, k, p, R)
+            ys.append(t[2 * k] - cs.sqrt(g.q3sq))
+            xs.append(1.0)
+            jinv += [*g.a, *_cross(g.L, g.a)]
+    else:
+        robot = general_robot(desc)
+        zero = [0.0, 0.0, 0.0]
+        for k in range(6):
+            lc = _leg_constants(robot, k, inline_newton=False)
+            kin = _leg_kinematics(lc, p, R, zero, zero)
+            J = kin.geo.joints[lc.actuated]
+            if J.k.revolute:  # cos, sin of q from those of theta + q
+                cq = J.c * J.k.ct + J.s * J.k.st
+                sq = J.s * J.k.ct - J.c * J.k.st
+                ys.append(t[2 * k + 1] * cq - t[2 * k] * sq)
+                xs.append(t[2 * k] * cq + t[2 * k + 1] * sq)
+            else:
+                ys.append(t[2 * k] - J.value())
+                xs.append(1.0)
+            jinv += kin.row
+    return function(
+        name, [("pose", x_pose), ("target", x_target)], [("yx", [*ys, *xs]), ("J_inv", jinv)]
+    )
+
+
 def _version() -> str:
     """stewart-pin's version, as installed (``unknown`` when it is not)."""
     try:
@@ -200,6 +243,7 @@ def c_library(
     geo, geo_jinv, geo_slack = geometry_function(desc, f"{prefix}_cg_geo")
     funcs = {
         f"{prefix}_cg_geo": geo,
+        f"{prefix}_cg_newton": newton_function(desc, f"{prefix}_cg_newton"),
         f"{prefix}_cg_idm": cs.Function(f"{prefix}_cg_idm", fi.sx_in(), fi.call(fi.sx_in())),
         f"{prefix}_cg_ddm": cs.Function(f"{prefix}_cg_ddm", fd.sx_in(), fd.call(fd.sx_in())),
     }
@@ -235,6 +279,7 @@ def c_library(
         "inv_length": 1.0 / length,
     }
     naux = {"geo": geo.size1_out(1), "idm": layout.idm_size, "ddm": layout.ddm_size}
+    naux["newton"] = 48
     if derivatives:
         naux["didm"] = 108
     sz_w = max(f.sz_w() for f in funcs.values())
@@ -475,6 +520,7 @@ __all__ = [
     "export_c",
     "file_names",
     "geometry_function",
+    "newton_function",
     "reference_tolerance",
     "reference_values",
 ]
