@@ -325,3 +325,20 @@ def test_every_architecture_exports(tmp_path: Path, preset: str) -> None:
     run = _run([str(program)], tmp_path)
     assert run.returncode == 0, run.stdout
     assert "passed: 0 failure(s)" in run.stdout
+
+
+def test_benchmark_program(exported: dict[str, tuple[Path, str]]) -> None:
+    """The benchmark builds with the strict flags and prints a median time per call of
+    each function (a few calls: what it measures is not checked here)."""
+    folder, prefix = exported["rus"]
+    program = _build(folder, prefix, f"{prefix}_bench.c", "bench", "-O0")
+    run = _run([str(program), "3"], folder)
+    assert run.returncode == 0, run.stdout
+    names = re.findall(r"^(\w+) +[\d.]+ us$", run.stdout, re.M)
+    assert names == [
+        "inverse_geometry",
+        "inverse_jacobian",
+        "forward_geometry",
+        "inverse_dynamics",
+        "direct_dynamics",
+    ]

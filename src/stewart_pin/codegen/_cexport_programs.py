@@ -109,13 +109,22 @@ int main(void) {
          ${P}_forward_geometry(${P}_ref_q[0], ${P}_bad_pose, out, work), ${PU}_ERR_INPUT);
   {
     double q[6];
-    int rc;
-    for (k = 0; k < 6; ++k) q[k] = ${P}_ref_q[0][k] + 1e3;
-    rc = ${P}_forward_geometry(q, ${P}_home_pose, out, work);
-    if (rc >= 0) {
-      printf("FAIL forward_geometry of unreachable values returned %d\n", rc);
-      ++failures;
+    for (k = 0; k < 6; ++k) q[k] = ${P}_ref_q[0][k];
+    q[0] = NAN;
+    expect("forward_geometry NaN", ${P}_forward_geometry(q, ${P}_home_pose, out, work),
+           ${PU}_ERR_INPUT);
+#if ${PU}_REF_HAS_PRISMATIC
+    {
+      int rc;
+      /* every prismatic actuated joint 1 km out: out of its range, wherever Newton ends */
+      for (k = 0; k < 6; ++k) q[k] = ${P}_ref_q[0][k] + 1e3 * ${P}_prismatic[k];
+      rc = ${P}_forward_geometry(q, ${P}_home_pose, out, work);
+      if (rc >= 0) {
+        printf("FAIL forward_geometry of unreachable values returned %d\n", rc);
+        ++failures;
+      }
     }
+#endif
   }
   printf("%s: %d failure(s)\n", failures ? "FAILED" : "passed", failures);
   return failures ? 1 : 0;

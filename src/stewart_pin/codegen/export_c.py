@@ -209,6 +209,13 @@ def newton_function(desc: Any, name: str) -> cs.Function:
     )
 
 
+def actuated_revolute(desc: Any) -> list[int]:
+    """1 for each leg whose actuated joint is revolute, else 0 (leg order)."""
+    if desc.is_ideal_ups:
+        return [0] * 6
+    return [int(leg.joints[leg.actuated - 1].revolute) for leg in general_robot(desc).legs]
+
+
 def _version() -> str:
     """stewart-pin's version, as installed (``unknown`` when it is not)."""
     try:
@@ -267,10 +274,7 @@ def c_library(
     generated = cg.dump()
     layout = model_layout(desc)
     check_legs = leg_checks_source(desc, layout)
-    revolute = [0] * 6
-    if not desc.is_ideal_ups:
-        hexapod = general_robot(desc)
-        revolute = [int(leg.joints[leg.actuated - 1].revolute) for leg in hexapod.legs]
+    revolute = actuated_revolute(desc)
     length = singularity_length(desc)
     guards = _csource.GUARDS % {
         "check_legs": check_legs,
@@ -397,6 +401,7 @@ def reference_values(
         "far_pose": far.reshape(16),
         "bad_pose": bad.reshape(16),
         "home_pose": np.array(robot.home_pose, dtype=float).reshape(16),
+        "prismatic": np.array([1.0 - r for r in actuated_revolute(robot.description)]),
     }
     if derivatives:
         f = symbolic_derivatives(generate_models(robot.description)).idm_flat
@@ -434,7 +439,8 @@ def reference_header(
         f"   reference path at them (stewart-pin {numbers['version']}, backend pinocchio). */\n",
         f"#ifndef {PU}_REFERENCE_H\n#define {PU}_REFERENCE_H\n\n",
         f"#define {PU}_REF_N {n}\n",
-        f"#define {PU}_REF_TOLERANCE {_number(tolerance)}\n\n",
+        f"#define {PU}_REF_TOLERANCE {_number(tolerance)}\n",
+        f"#define {PU}_REF_HAS_PRISMATIC {int(values['prismatic'].any())}\n\n",
     ]
     parts += [_c_array(f"{P}_{key}", values[key]) for key in values]
     parts.append(f"\n#endif /* {PU}_REFERENCE_H */\n")
