@@ -358,7 +358,7 @@ CMAKE = r"""# The exported library of stewart-pin ${version} (export-c), its tes
 # benchmark and the C++ control-loop example.
 #   cmake -S . -B build && cmake --build build && ctest --test-dir build
 cmake_minimum_required(VERSION 3.10)
-project(${P} C CXX)
+project(${P} C)
 
 if(NOT CMAKE_BUILD_TYPE)
   set(CMAKE_BUILD_TYPE Release)
@@ -380,10 +380,16 @@ add_executable(${P}_bench ${P}_bench.c)
 target_link_libraries(${P}_bench PRIVATE ${P})
 set_target_properties(${P}_bench PROPERTIES C_STANDARD 99 C_EXTENSIONS OFF)
 
-find_package(Threads)
-add_executable(${P}_control_loop ${P}_control_loop.cpp)
-target_link_libraries(${P}_control_loop PRIVATE ${P} Threads::Threads)
-set_target_properties(${P}_control_loop PROPERTIES CXX_STANDARD 17 CXX_STANDARD_REQUIRED ON)
+# The C++ example, where a C++ compiler is found (the library itself is C only).
+include(CheckLanguage)
+check_language(CXX)
+if(CMAKE_CXX_COMPILER)
+  enable_language(CXX)
+  find_package(Threads REQUIRED)
+  add_executable(${P}_control_loop ${P}_control_loop.cpp)
+  target_link_libraries(${P}_control_loop PRIVATE ${P} Threads::Threads)
+  set_target_properties(${P}_control_loop PROPERTIES CXX_STANDARD 17 CXX_STANDARD_REQUIRED ON)
+endif()
 
 enable_testing()
 add_test(NAME ${P}_test COMMAND ${P}_test)
