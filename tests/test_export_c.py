@@ -15,7 +15,7 @@ import pytest
 
 from stewart_pin import StewartRobot
 from stewart_pin.cli import main
-from stewart_pin.codegen.export_c import file_names
+from stewart_pin.codegen.c_export import file_names
 from stewart_pin.exceptions import ExportError, WorkspaceError
 
 STRICT = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic")
@@ -285,7 +285,7 @@ def test_derivatives(tmp_path: Path) -> None:
     run = _run([str(program)], folder)
     assert run.returncode == 0, run.stdout
     assert re.search(r"derivatives +largest relative error", run.stdout)
-    from stewart_pin.codegen.export_c import reference_values
+    from stewart_pin.codegen.c_export import reference_values
 
     values = reference_values(robot, 2, 0, derivatives=True)
     T = values["poses"][0].reshape(4, 4)

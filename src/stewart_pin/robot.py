@@ -736,7 +736,7 @@ class StewartRobot:
         ``PREFIX.h``, ``PREFIX.c`` (no CasADi, no Python, no heap allocation), a test
         program with reference values of this robot's Python path, a benchmark, a C++
         control-loop example, ``CMakeLists.txt`` and ``README.md`` (``docs/export_c.md``;
-        :func:`stewart_pin.codegen.export_c.export_c`).
+        :func:`stewart_pin.codegen.c_export.export_c`).
 
         Args:
             folder: absent (created) or holding only a previous export with this prefix.
@@ -751,7 +751,7 @@ class StewartRobot:
             ExportError: a prefix that is not a C identifier, an output folder that exists
                 with other files, a robot that cannot export.
         """
-        from stewart_pin.codegen.export_c import export_c
+        from stewart_pin.codegen.c_export import export_c
 
         return export_c(self, folder, prefix, samples=samples, seed=seed, derivatives=derivatives)
 

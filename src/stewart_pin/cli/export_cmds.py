@@ -8,7 +8,7 @@ from stewart_pin.cli._common import add_robot_args, positive_int, robot_from_arg
 
 
 def _export_c(args: argparse.Namespace) -> int:
-    from stewart_pin.codegen.export_c import check_folder, check_prefix
+    from stewart_pin.codegen.c_export import check_folder, check_prefix
 
     check_prefix(args.prefix)  # before building the robot
     check_folder(args.output, args.prefix)

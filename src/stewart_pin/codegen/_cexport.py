@@ -1,4 +1,4 @@
-"""The hand-written C, C++, CMake and Markdown of an exported library (:mod:`.export_c`).
+"""The hand-written C, C++, CMake and Markdown of an exported library (:mod:`.c_export`).
 
 Templates for :class:`string.Template` (``$name`` / ``${name}``; C has no ``$``): ``P`` is
 the prefix (a checked C identifier), ``PU`` the prefix upper-cased; every other field is a

@@ -1,4 +1,4 @@
-"""The programs, build file and README of an exported library (:mod:`.export_c`).
+"""The programs, build file and README of an exported library (:mod:`.c_export`).
 
 :class:`string.Template` texts (``$$`` is a literal ``$``, as CMake needs): ``P`` the
 prefix, ``PU`` upper-cased, numbers otherwise.

@@ -85,7 +85,7 @@ static int sp_check_legs(const double* aux, int slack) {
 
 #: The state guards (validity of the inputs, the leg checks, the condition bound, the
 #: partial-pivoting solve): shared by the batch loops (:data:`TEMPLATE`) and the exported
-#: library of :mod:`.export_c`.
+#: library of :mod:`.c_export`.
 GUARDS = r"""
 /* ---- stewart-pin: state guards (hand-written, see _csource.py) ---- */
 #include <math.h>
