@@ -225,7 +225,7 @@ int ${P}_inverse_jacobian(const double pose[16], double J_inv[36], double* work)
   double q[6];
   int f = sp_pose_ok(pose), k;
   if (!f) f = sp_geometry(pose, q, work);
-  for (k = 0; k < 36; ++k) J_inv[k] = work[SP_GEO_JINV + k];
+  if (!f) for (k = 0; k < 36; ++k) J_inv[k] = work[SP_GEO_JINV + k];
   return sp_finish(f, J_inv, 36);
 }
 
