@@ -342,3 +342,59 @@ def test_benchmark_program(exported: dict[str, tuple[Path, str]]) -> None:
         "inverse_dynamics",
         "direct_dynamics",
     ]
+
+
+SINGULAR_HARNESS = r"""#include <stdio.h>
+#include "PREFIX.h"
+static const double poses[NSTATES][16] = {POSES};
+int main(void) {
+  double work[PU_WORK_SIZE], out[6], zero[6] = {0, 0, 0, 0, 0, 0};
+  int s;
+  for (s = 0; s < NSTATES; ++s) {
+    int a = PREFIX_inverse_dynamics(poses[s], zero, zero, out, work);
+    int b = PREFIX_direct_dynamics(poses[s], zero, zero, out, work);
+    printf("%d %d\n", a, b);
+  }
+  return 0;
+}
+"""
+
+
+def test_singular_code_where_the_reference_refuses(tmp_path: Path) -> None:
+    """A robot whose max_condition lies amid its poses' condition numbers: the C returns
+    ERR_SINGULAR (-3) exactly for the poses the reference path refuses with a
+    SingularityError (the cheap bounds flag more poses: the exact measure decides)."""
+    from stewart_pin.codegen.compiled import singularity_length
+    from stewart_pin.exceptions import SingularityError
+
+    base = StewartRobot.from_preset("simulator")
+    poses = base.sample_poses(12, np.random.default_rng(5), rotation=0.6)
+    cond = np.asarray(base.condition_number(poses))
+    limit = float(np.sort(cond)[5] + np.sort(cond)[6]) / 2
+    robot = StewartRobot(base.description, max_condition=limit)
+    robot.export_c(tmp_path, prefix="sg", samples=2)
+    rows = ", ".join("{" + ", ".join(repr(float(x)) for x in T.ravel()) + "}" for T in poses)
+    harness = SINGULAR_HARNESS.replace("PREFIX", "sg").replace("PU_", "SG_")
+    (tmp_path / "harness.c").write_text(harness.replace("NSTATES", "12").replace("POSES", rows))
+    program = _build(tmp_path, "sg", "harness.c", "harness", "-O0")
+    codes = [
+        tuple(map(int, line.split()))
+        for line in _run([str(program)], tmp_path).stdout.split("\n")
+        if line
+    ]
+    refused = []
+    for T in poses:
+        try:
+            robot.inverse_dynamics(T, np.zeros(6), np.zeros(6), backend="pinocchio")
+            refused.append(False)
+        except SingularityError:
+            refused.append(True)
+    assert sum(refused) == 6
+    # the accepted poses pass the Frobenius bound ||S||_F ||S^-1||_F: the C's exact
+    # 2-norm measure (Jacobi) accepts them, not the cheap bounds
+    S = np.asarray(base.inverse_jacobian(poses))
+    S[:, :, 3:] /= singularity_length(base.description)
+    bound = np.linalg.norm(S, axis=(1, 2)) * np.linalg.norm(np.linalg.inv(S), axis=(1, 2))
+    assert np.all(bound[~np.array(refused)] > limit)
+    assert [c == (-3, -3) for c in codes] == refused
+    assert all(c in ((0, 0), (-3, -3)) for c in codes)
