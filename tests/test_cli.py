@@ -354,6 +354,7 @@ BAD_NUMBERS = [
     ),
     ("import", "--closure-tolerance", "0"),
     ("import", "--closure-tolerance", "nan"),
+    ("export-c", "--samples", "0"),
 ]
 
 

@@ -421,6 +421,12 @@ class UnsafeCacheError(CompilationError):
         self.path, self.reason = path, reason
 
 
+class ExportError(InputError):
+    """The C exporter refuses (``robot.export_c``, ``stewart-pin export-c``): a prefix that
+    is not a C identifier, an output folder that exists with other files, a robot that
+    cannot export."""
+
+
 class ViewerError(StewartPinError, RuntimeError):
     """The 3-D viewer's meshcat server did not start (timed out or exited early)."""
 

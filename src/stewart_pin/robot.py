@@ -723,6 +723,38 @@ class StewartRobot:
             W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
         return W if batched else W[0]
 
+    # ------------------------------------------------------------------ C export
+    def export_c(
+        self,
+        folder: str | Path,
+        prefix: str,
+        samples: int = 8,
+        seed: int = 0,
+        derivatives: bool = False,
+    ) -> list[Path]:
+        """Write the closed-form models as a standalone C99 library into ``folder``:
+        ``PREFIX.h``, ``PREFIX.c`` (no CasADi, no Python, no heap allocation), a test
+        program with reference values of this robot's Python path, a benchmark, a C++
+        control-loop example, ``CMakeLists.txt`` and ``README.md`` (``docs/export_c.md``;
+        :func:`stewart_pin.codegen.c_export.export_c`).
+
+        Args:
+            folder: absent (created) or holding only a previous export with this prefix.
+            prefix: a C identifier naming the files and functions (``PREFIX_inverse_dynamics``).
+            samples: random states embedded in the test program. seed: their seed.
+            derivatives: also ``PREFIX_inverse_dynamics_derivatives`` (Gamma's Jacobians).
+
+        Returns:
+            The paths written.
+
+        Raises:
+            ExportError: a prefix that is not a C identifier, an output folder that exists
+                with other files, a robot that cannot export.
+        """
+        from stewart_pin.codegen.c_export import export_c
+
+        return export_c(self, folder, prefix, samples=samples, seed=seed, derivatives=derivatives)
+
     # ------------------------------------------------------------------ payload
     def with_payload(self, payload: Any, placement: Any = None) -> PayloadRobot:
         """This hexapod carrying ``payload`` on its platform: a

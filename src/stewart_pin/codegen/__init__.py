@@ -13,6 +13,8 @@
   Jacobians of both models in the platform state (pose chart, twist, third argument), by
   CasADi's algorithmic differentiation of the generated models, compiled the same way.
 - :func:`auto_backend`: what the default ``backend="auto"`` of ``StewartRobot`` runs.
+- :func:`export_c` (:mod:`.c_export`): the models as a standalone C99 library (no CasADi,
+  no Python, no allocation), with a test program, a benchmark and a C++ example.
 
 Importing this subpackage imports none of them (nor CasADi): each name is imported on first
 use.
@@ -26,6 +28,7 @@ from stewart_pin._lazy import lazy_names
 from stewart_pin.exceptions import CompilationError, UnsafeCacheError  # their old home
 
 if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
+    from stewart_pin.codegen.c_export import export_c
     from stewart_pin.codegen.compiled import (
         CompiledDynamics,
         auto_backend,
@@ -56,6 +59,7 @@ __getattr__, __dir__ = lazy_names(
         "CompiledDerivatives": "stewart_pin.codegen.derivatives",
         "derivatives_backend": "stewart_pin.codegen.derivatives",
         "symbolic_derivatives": "stewart_pin.codegen.derivatives",
+        "export_c": "stewart_pin.codegen.c_export",
         "OperationCount": "stewart_pin.codegen.opcount",
         "architecture_table": "stewart_pin.codegen.opcount",
         "cost_dict": "stewart_pin.codegen.opcount",
@@ -81,6 +85,7 @@ __all__ = [
     "cost_table",
     "count_operations",
     "derivatives_backend",
+    "export_c",
     "generate_models",
     "symbolic_derivatives",
 ]

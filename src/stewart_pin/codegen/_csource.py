@@ -83,13 +83,12 @@ static int sp_check_legs(const double* aux, int slack) {
 }
 """
 
-TEMPLATE = r"""
-/* ---- stewart-pin: batch loops and state guards (hand-written, see _csource.py) ---- */
+#: The state guards (validity of the inputs, the leg checks, the condition bound, the
+#: partial-pivoting solve): shared by the batch loops (:data:`TEMPLATE`) and the exported
+#: library of :mod:`.c_export`.
+GUARDS = r"""
+/* ---- stewart-pin: state guards (hand-written, see _csource.py) ---- */
 #include <math.h>
-
-#ifndef SP_EXPORT
-#define SP_EXPORT __attribute__((visibility("default")))
-#endif
 
 #define SP_INPUT 1
 #define SP_GEOMETRY 2
@@ -194,6 +193,15 @@ static int sp_finite6(const double* x) {
   for (k = 0; k < 6; ++k) if (!isfinite(x[k])) return 0;
   return 1;
 }
+"""
+
+TEMPLATE = (
+    GUARDS
+    + r"""
+/* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
+#ifndef SP_EXPORT
+#define SP_EXPORT __attribute__((visibility("default")))
+#endif
 
 #define SP_IDM_NAUX %(idm_naux)d
 #define SP_DDM_NAUX %(ddm_naux)d
@@ -277,3 +285,4 @@ SP_EXPORT int sp_ddm_one(const double* in, const double* chi, double max_cond, d
   return f;
 }
 """
+)

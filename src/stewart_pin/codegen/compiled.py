@@ -279,6 +279,25 @@ def singularity_length(desc: Any) -> float:
     return general_robot(desc).size
 
 
+def leg_checks_source(desc: Any, layout: AuxLayout) -> str:
+    """The C of ``sp_check_legs`` for ``desc``: the 6-UPS leg lengths and leg
+    singularities (:data:`._csource.CHECK_LEGS_UPS`, the thresholds of
+    :mod:`stewart_pin.kinematics.geometry` with margins), or every slack of the general
+    models positive (:data:`._csource.CHECK_LEGS_GENERAL`)."""
+    if not desc.is_ideal_ups:
+        return _csource.CHECK_LEGS_GENERAL % {"n_slack": layout.n_slack}
+    lo, hi = (float(x) for x in desc.stroke)
+    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
+    return _csource.CHECK_LEGS_UPS % {
+        "lo2": lo * lo * (1.0 + 1e-9),
+        "hi2": hi * hi * (1.0 - 1e-9),
+        "min_length2": min_length**2 * (1.0 + 1e-6),
+        "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
+        "q3sq": AUX_Q3SQ.start,
+        "rho2": AUX_RHO2.start,
+    }
+
+
 def c_source(desc: Any) -> str:
     """The C source of a robot's library: CasADi's generated IDM and DDM (guarded
     variants) followed by the batch loops and guards of :mod:`._csource` (the leg checks
@@ -294,22 +313,9 @@ def c_source(desc: Any) -> str:
     cg.add(models.idm_guarded)
     cg.add(models.ddm_guarded)
     layout = model_layout(desc)
-    if desc.is_ideal_ups:
-        lo, hi = (float(x) for x in desc.stroke)
-        min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
-        check_legs = _csource.CHECK_LEGS_UPS % {
-            "lo2": lo * lo * (1.0 + 1e-9),
-            "hi2": hi * hi * (1.0 - 1e-9),
-            "min_length2": min_length**2 * (1.0 + 1e-6),
-            "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
-            "q3sq": AUX_Q3SQ.start,
-            "rho2": AUX_RHO2.start,
-        }
-    else:
-        check_legs = _csource.CHECK_LEGS_GENERAL % {"n_slack": layout.n_slack}
     fi, fd = models.idm_guarded, models.ddm_guarded
     wrapper = _csource.TEMPLATE % {
-        "check_legs": check_legs,
+        "check_legs": leg_checks_source(desc, layout),
         "rotation_tol": ROTATION_TOLERANCE * (1.0 - 1e-3),
         "growth_limit": GROWTH_LIMIT,
         "inv_length": 1.0 / singularity_length(desc),
