@@ -154,11 +154,10 @@ class FileFormatError(StewartPinError, ValueError):
 class WorkspaceError(StewartPinError, ValueError):
     """A pose the robot cannot reach (base class of the more specific errors).
 
-    Attributes (of every subclass):
-        state: in a batch, the first failing state (0-based); ``None`` for one state or
-            when unknown. The message then says "(first failing state n; k of N states
-            fail)".
-        n_bad, n_states: how many states fail, of how many (``None`` when unknown).
+    Every subclass carries ``state``, in a batch the first failing state (0-based;
+    ``None`` for one state or when unknown), and ``n_bad`` / ``n_states``, how many states
+    fail of how many (``None`` when unknown); the message then says "(first failing state
+    n; k of N states fail)".
     """
 
     state: int | None = None

@@ -43,21 +43,20 @@ import numpy as np
 from stewart_pin._checks import ROTATION_TOLERANCE
 from stewart_pin._io import write_text_atomic
 from stewart_pin.codegen import _cexport, _cexport_programs, _csource
+from stewart_pin.codegen._sx_common import function, vcross
 from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
 from stewart_pin.codegen.derivatives import symbolic_derivatives
 from stewart_pin.codegen.general_symbolic import (
-    _leg_constants,
-    _leg_kinematics,
     general_robot,
+    leg_constants,
+    leg_kinematics,
 )
 from stewart_pin.codegen.symbolic import (
     AUX_JINV,
     AUX_Q3SQ,
     AUX_RHO2,
-    _cross,
-    _leg_geometry,
-    function,
     generate_models,
+    leg_geometry,
     model_constants,
     pose_from_input,
 )
@@ -145,9 +144,9 @@ def geometry_function(desc: Any, name: str) -> tuple[cs.Function, int, int]:
     p, R = pose_from_input(x_pose, "matrix")
     if desc.is_ideal_ups:
         c = model_constants(desc)
-        legs = [_leg_geometry(c, k, p, R) for k in range(6)]
+        legs = [leg_geometry(c, k, p, R) for k in range(6)]
         q = [cs.sqrt(g.q3sq) for g in legs]
-        rows = [[*g.a, *_cross(g.L, g.a)] for g in legs]
+        rows = [[*g.a, *vcross(g.L, g.a)] for g in legs]
         aux: list[Any] = [0.0] * AUX_JINV.stop
         aux[AUX_Q3SQ] = [g.q3sq for g in legs]
         aux[AUX_RHO2] = [g.rho2 for g in legs]
@@ -157,8 +156,8 @@ def geometry_function(desc: Any, name: str) -> tuple[cs.Function, int, int]:
     zero = [0.0, 0.0, 0.0]
     q, jinv, slacks = [], [], []
     for k in range(6):
-        lc = _leg_constants(robot, k, inline_newton=False)
-        kin = _leg_kinematics(lc, p, R, zero, zero)
+        lc = leg_constants(robot, k, inline_newton=False)
+        kin = leg_kinematics(lc, p, R, zero, zero)
         q.append(kin.geo.joints[lc.actuated].value())
         jinv += kin.row
         slacks += kin.slacks
@@ -184,16 +183,16 @@ def newton_function(desc: Any, name: str) -> cs.Function:
     if desc.is_ideal_ups:
         c = model_constants(desc)
         for k in range(6):
-            g = _leg_geometry(c, k, p, R)
+            g = leg_geometry(c, k, p, R)
             ys.append(t[2 * k] - cs.sqrt(g.q3sq))
             xs.append(1.0)
-            jinv += [*g.a, *_cross(g.L, g.a)]
+            jinv += [*g.a, *vcross(g.L, g.a)]
     else:
         robot = general_robot(desc)
         zero = [0.0, 0.0, 0.0]
         for k in range(6):
-            lc = _leg_constants(robot, k, inline_newton=False)
-            kin = _leg_kinematics(lc, p, R, zero, zero)
+            lc = leg_constants(robot, k, inline_newton=False)
+            kin = leg_kinematics(lc, p, R, zero, zero)
             J = kin.geo.joints[lc.actuated]
             if J.k.revolute:  # cos, sin of q from those of theta + q
                 cq = J.c * J.k.ct + J.s * J.k.st

@@ -267,7 +267,7 @@ class _LegConst:
     inline_newton: bool = True  # custom legs: Newton's steps inline, or calls of one step
 
 
-def _leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> _LegConst:
+def leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> _LegConst:
     leg: LegArchitecture = robot.legs[k]
     size = max(robot.size, float(np.abs(robot.base_points).max()), 1e-300)
     joints = []
@@ -713,7 +713,7 @@ class _LegKinematics:
     slacks: list[Scalar]
 
 
-def _leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinematics:
+def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinematics:
     """Inverse geometry, ``J_i^-1``, the guard's slacks, ``qdot`` and the Jp^-1 row."""
     L = _rotate(R, list(lc.pL))
     P0 = _rotate_T(lc.R, [_plus(_minus(p[i], lc.B[i]), L[i]) for i in range(3)])
@@ -800,7 +800,7 @@ def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Sca
 def _idm_leg(
     lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat
 ) -> dict[str, list[Scalar]]:
-    kin = _leg_kinematics(lc, p, R, v, w)
+    kin = leg_kinematics(lc, p, R, v, w)
     A_P = _add(vd, [_dot(K[i], kin.L) for i in range(3)])
     H, _ = _leg_torques(lc, kin, A_P)
     a = lc.actuated
@@ -839,7 +839,7 @@ def _leg_block(A0: Mat, L: Vec) -> list[Scalar]:
 def _ddm_leg(
     lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, gamma_k: Scalar
 ) -> dict[str, list[Scalar]]:
-    kin = _leg_kinematics(lc, p, R, v, w)
+    kin = leg_kinematics(lc, p, R, v, w)
     joints = kin.geo.joints
     # The leg's share of h_robot (general-legs.md): G^T (A_x (w x (w x L) - Jdot qdot) +
     # J^-T h), h the nonlinear effects (gravity, velocity, joint terms) at zero qddot.
@@ -952,7 +952,7 @@ def build_general_models(
     without: they take as long again to generate). ``inline_newton``: a custom leg's
     Newton steps written out (for the operation counts) rather than called."""
     robot = general_robot(desc)
-    legs = [_leg_constants(robot, k, inline_newton) for k in range(6)]
+    legs = [leg_constants(robot, k, inline_newton) for k in range(6)]
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
     npose = pose_size(pose)
@@ -1041,8 +1041,8 @@ def actuator_function(desc: RobotDescription | GeneralHexapod) -> cs.Function:
     tw = split(x_twist)
     q_a, qd_a = [], []
     for k in range(6):
-        lc = _leg_constants(robot, k, inline_newton=False)
-        kin = _leg_kinematics(lc, p, R, tw[:3], tw[3:])
+        lc = leg_constants(robot, k, inline_newton=False)
+        kin = leg_kinematics(lc, p, R, tw[:3], tw[3:])
         q_a.append(kin.geo.joints[lc.actuated].value())
         qd_a.append(kin.qd[lc.actuated])
     return cs.Function(

@@ -184,7 +184,7 @@ class _LegGeometry:
     dz: Scalar  # (P_i - B_i) . z1 = -q3 cos q2
 
 
-def _leg_geometry(c: ModelConstants, k: int, p: Vec, R: list[list[Scalar]]) -> _LegGeometry:
+def leg_geometry(c: ModelConstants, k: int, p: Vec, R: list[list[Scalar]]) -> _LegGeometry:
     """Inverse geometry of leg k (eq. 1-4) without trigonometry: ``q3``, ``rho``, the frame
     3k axes in F0 and ``L_k``."""
     pL = [float(x) for x in c.platform_points[k]]
@@ -277,7 +277,7 @@ def _idm_leg(
     vdg: Vec,
     P: dict[str, Scalar],
 ) -> dict[str, list[Scalar]]:
-    g = _leg_geometry(c, k, p, R)
+    g = leg_geometry(c, k, p, R)
     V = vadd(v, vcross(w, g.L))
     Ag = vadd(vdg, matvec(K, g.L))  # acceleration of P_k minus gravity, F0
     grav = _to_frame3(g, [float(x) for x in c.gravity])
@@ -304,7 +304,7 @@ def _ddm_leg(
     gamma_k: Scalar,
     P: dict[str, Scalar],
 ) -> dict[str, list[Scalar]]:
-    g = _leg_geometry(c, k, p, R)
+    g = leg_geometry(c, k, p, R)
     wL = vcross(w, g.L)
     V3 = _to_frame3(g, vadd(v, wL))
     grav = _to_frame3(g, [float(x) for x in c.gravity])

@@ -147,10 +147,12 @@ def plot_energy(t: Any, energy: Any) -> Figure:
 
 
 def actuator_work(gammas: Any, positions: Any) -> np.ndarray:
-    """The actuators' work since the first sample [J], shape (K,): ``sum_k Gamma_k .
-    (q_a,k+1 - q_a,k)``, each sample's efforts held until the next (exact for the
-    zero-order hold of ``simulate(control_period=...)``, whose samples record the efforts
-    applied from them; first order in the step for efforts that vary within a step).
+    """The actuators' work since the first sample [J], shape (K,).
+
+    ``W_K = sum_k Gamma_k . (q_a,k+1 - q_a,k)``, each sample's efforts held until the
+    next (exact for the zero-order hold of ``simulate(control_period=...)``, whose
+    samples record the efforts applied from them; first order in the step for efforts
+    that vary within a step).
 
     Args:
         gammas: shape (K, 6), the actuators' efforts [N or N m].
