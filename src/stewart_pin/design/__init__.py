@@ -1,0 +1,32 @@
+"""Design studies: workspaces, singularity-free regions, actuator sizing, geometry sweeps.
+
+- :mod:`.feasibility`: :func:`feasible`, which poses satisfy every limit, as a mask.
+- :mod:`.workspace`: :func:`workspace` (constant orientation), :func:`orientation_workspace`,
+  :func:`dexterous_workspace`, each a :class:`Workspace` with a volume, its standard error,
+  boundary points and slices.
+- :mod:`.sizing`: :func:`actuator_loads` (peak / RMS effort, speed and power along given
+  motions), :func:`worst_case` (the worst state of a box of states, by optimisation from
+  the sampled worst), :func:`dynamic_capability` (the largest platform acceleration in
+  each direction under the effort limits, one LP per direction).
+- :mod:`.sweep`: :func:`sweep`, a family of geometries evaluated in parallel on Dask.
+
+Sits above the planning, parameters and motion layers and the robot facade (it builds
+robots from descriptions), below the viewer, the applications and the command line.
+Dask is imported only by :func:`sweep` (``pip install "stewart-pin[design]"``).
+"""
+
+from stewart_pin.design.feasibility import feasible
+from stewart_pin.design.workspace import (
+    Workspace,
+    dexterous_workspace,
+    orientation_workspace,
+    workspace,
+)
+
+__all__ = [
+    "Workspace",
+    "dexterous_workspace",
+    "feasible",
+    "orientation_workspace",
+    "workspace",
+]

@@ -1,0 +1,105 @@
+"""Per-state feasibility without exceptions: which poses satisfy every limit of a robot.
+
+:func:`feasible` returns a boolean mask (N,) where the library's checked calls would raise
+at the first offending state. A pose is feasible when every actuator is inside its stroke
+or range, every passive joint inside its limits, no leg is at (or too near) a serial
+singularity, and the singularity measure (:meth:`StewartRobot.condition_number`) is at
+most the bound (default the robot's ``max_condition``).
+
+The ideal 6-UPS is decided in closed form on the whole batch (the computations of
+:func:`stewart_pin.kinematics.geometry.inverse_geometry_batch`, without raising); general
+legs through the checked batch calls on chunks, a chunk that raises being split until the
+offending states are isolated (slower: workspaces of general legs want fewer states).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from stewart_pin._checks import check_poses
+from stewart_pin.exceptions import InputError, StewartPinError
+from stewart_pin.kinematics import geometry, jacobians, leg_chains
+
+#: States per chunk of the closed-form mask (bounds the temporary arrays: ~100 MB).
+CHUNK = 100_000
+#: Below this size a chunk of general-leg states that raises is checked state by state.
+_SPLIT_FLOOR = 16
+
+
+def _bound(robot: Any, max_condition: float | None) -> float:
+    value = robot.max_condition if max_condition is None else max_condition
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 1.0):
+        raise InputError(f"max_condition must be a number >= 1, got {value!r}")
+    return float(value)
+
+
+def feasible(robot: Any, poses: Any, max_condition: float | None = None) -> np.ndarray:
+    """Boolean mask (N,) of the poses 0Tp (N, 4, 4) (or one pose -> shape (1,)) that satisfy
+    every limit of ``robot`` (a :class:`~stewart_pin.robot.StewartRobot`) and whose
+    singularity measure is at most ``max_condition`` (default ``robot.max_condition``)."""
+    T = check_poses(poses)[0]
+    bound = _bound(robot, max_condition)
+    out = np.zeros(T.shape[0], dtype=bool)
+    for start in range(0, T.shape[0], CHUNK):
+        chunk = T[start : start + CHUNK]
+        if robot.is_ideal_ups:
+            out[start : start + CHUNK] = _ups_mask(robot.description, chunk, bound)
+        else:
+            out[start : start + CHUNK] = _general_mask(robot, chunk, bound)
+    return out
+
+
+def _ups_mask(desc: Any, T: np.ndarray, bound: float) -> np.ndarray:
+    """The ideal 6-UPS: stroke, U-joint limits, leg singularities, then the measure."""
+    d = geometry.leg_vectors(desc, T)[0]
+    q3 = np.linalg.norm(d, axis=-1)
+    lo, hi = desc.ideal_stroke("the 6-UPS feasibility mask")
+    ok = np.all((q3 >= lo) & (q3 <= hi), axis=1)
+    min_length = geometry.LEG_MIN_LENGTH_RATIO * geometry.characteristic_length(desc)
+    ok &= np.all(q3 >= min_length, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.einsum("kji,nkj->nki", desc.leg_base_rotations, d) / q3[..., None]
+    sin_q2 = np.hypot(u[..., 0], u[..., 1])
+    ok &= np.all(sin_q2 >= geometry.LEG_SINGULARITY_SIN, axis=1)
+    if desc.u_joint_limits is not None:
+        lim = desc.u_joint_limits
+        q1 = np.arctan2(u[..., 1], u[..., 0])
+        q2 = np.arctan2(sin_q2, -u[..., 2])
+        for j, q in enumerate((q1, q2)):
+            ok &= np.all((q >= lim[:, j, 0]) & (q <= lim[:, j, 1]), axis=1)
+    if np.any(ok):
+        c = jacobians.condition_number_batch(desc, T[ok])
+        ok[ok] = c <= bound
+    return ok
+
+
+def _general_ok(robot: Any, T: np.ndarray, bound: float) -> bool:
+    """Whether every state of ``T`` passes the checked calls of the general legs."""
+    try:
+        leg_chains.inverse_geometry_batch(robot.general, T, check_limits=True)
+        J_inv = leg_chains.inverse_jacobian_batch(robot.general, T)
+        leg_chains.check_parallel(robot.general, J_inv, bound)
+    except StewartPinError:
+        return False
+    return True
+
+
+def _general_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
+    """General legs: checked calls on halves of the batch until each chunk passes or is a
+    single state (states far from the limits cost one batched call per chunk)."""
+    n = T.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    with np.errstate(all="ignore"):
+        if _general_ok(robot, T, bound):
+            return np.ones(n, dtype=bool)
+    if n == 1:
+        return np.zeros(1, dtype=bool)
+    if n <= _SPLIT_FLOOR:
+        return np.array([_general_ok(robot, T[i : i + 1], bound) for i in range(n)])
+    half = n // 2
+    return np.concatenate(
+        [_general_mask(robot, T[:half], bound), _general_mask(robot, T[half:], bound)]
+    )

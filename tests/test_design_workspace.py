@@ -1,0 +1,116 @@
+"""Design studies, workspaces (issue 22 items 1): the volume against a dense Monte-Carlo
+count written here, boundary points on a limit, named errors for empty workspaces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import get_robot
+
+from stewart_pin import EmptyWorkspaceError, InputError, design
+
+
+def _own_feasible(robot, positions, R, bound):
+    """Independent of stewart_pin.design: leg lengths |R p_i + t - b_i| in the stroke (the
+    desktop preset has no U-joint limits), and the singularity measure under ``bound``."""
+    desc = robot.description
+    P = np.einsum("ij,kj->ki", R, desc.platform_points)  # (6, 3)
+    legs = positions[:, None, :] + P[None] - desc.base_points[None]
+    q = np.linalg.norm(legs, axis=-1)
+    lo, hi = desc.stroke
+    ok = np.all((q >= lo) & (q <= hi), axis=1)
+    T = np.tile(np.eye(4), (int(ok.sum()), 1, 1))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = positions[ok]
+    ok[ok] = np.asarray(robot.condition_number(T)) <= bound
+    return ok
+
+
+@pytest.fixture(scope="module")
+def desktop_ws():
+    robot = get_robot("desktop")
+    R = pin.rpy.rpyToMatrix(0.05, -0.03, 0.1) @ robot.home_pose[:3, :3]
+    return robot, R, design.workspace(robot, orientation=R, resolution=36, rng=1)
+
+
+def test_volume_matches_a_dense_monte_carlo_count(desktop_ws):
+    robot, R, ws = desktop_ws
+    assert robot.description.u_joint_limits is None
+    assert not ws.touches_box
+    rng = np.random.default_rng(7)
+    n = 400_000
+    pts = rng.uniform(ws.lower, ws.upper, (n, 3))
+    ok = _own_feasible(robot, pts, R, robot.max_condition)
+    ok &= pts[:, 2] > 0  # the platform above the base (the mirror assembly excluded)
+    box = float(np.prod(ws.upper - ws.lower))
+    p = ok.mean()
+    v_mc, se_mc = box * p, box * np.sqrt(p * (1 - p) / n)
+    assert ws.volume > 0 and 0 < ws.volume_error < 0.05 * ws.volume
+    assert abs(ws.volume - v_mc) <= 3.0 * np.hypot(ws.volume_error, se_mc), (
+        ws.volume,
+        ws.volume_error,
+        v_mc,
+        se_mc,
+    )
+
+
+def test_boundary_points_lie_on_a_limit(desktop_ws):
+    robot, R, ws = desktop_ws
+    b = ws.boundary()
+    desc = robot.description
+    P = np.einsum("ij,kj->ki", R, desc.platform_points)
+    q = np.linalg.norm(b[:, None, :] + P[None] - desc.base_points[None], axis=-1)
+    lo, hi = desc.stroke
+    T = np.tile(np.eye(4), (len(b), 1, 1))
+    T[:, :3, :3], T[:, :3, 3] = R, b
+    c = np.asarray(robot.condition_number(T))
+    # distance to the nearest limit: a stroke end [m], or the measure bound (relative)
+    stroke_gap = np.minimum(np.abs(q - lo), np.abs(q - hi)).min(axis=1)
+    cond_gap = np.abs(c - robot.max_condition) / robot.max_condition
+    assert np.all(np.minimum(stroke_gap, cond_gap) <= 1e-6), (stroke_gap, cond_gap)
+    # and inside: every stroke satisfied to the tolerance
+    assert np.all((q >= lo - 1e-9) & (q <= hi + 1e-9))
+
+
+def test_slice_and_orientation_and_dexterous_workspaces(desktop_ws):
+    robot, _, ws = desktop_ws
+    mask, extent = ws.slice(2)
+    assert mask.shape == (ws.shape[0], ws.shape[1]) and mask.any() and extent[1] > extent[0]
+    ow = design.orientation_workspace(robot, max_angle=0.5, resolution=12)
+    assert 0 < ow.volume <= 1.0**3 + 1e-12
+    Rs = np.array([pin.rpy.rpyToMatrix(0, 0, a) @ robot.home_pose[:3, :3] for a in (-0.1, 0.1)])
+    dw = design.dexterous_workspace(robot, Rs, resolution=20)
+    w0 = design.workspace(robot, resolution=20)
+    assert 0 < dw.volume < w0.volume
+
+
+def test_empty_workspaces_are_named_errors():
+    robot = get_robot("desktop")
+    flipped = pin.rpy.rpyToMatrix(np.pi, 0, 0) @ robot.home_pose[:3, :3]
+    with pytest.raises(EmptyWorkspaceError, match="home position"):
+        design.workspace(robot, orientation=flipped)
+    with pytest.raises(EmptyWorkspaceError):
+        design.dexterous_workspace(robot, [robot.home_pose[:3, :3], flipped])
+    far = robot.home_pose[:3, 3] + [0, 0, 10.0]
+    with pytest.raises(EmptyWorkspaceError):
+        design.workspace(robot, box=(far - 0.01, far + 0.01))
+    with pytest.raises(InputError):
+        design.workspace(robot, resolution=1)
+
+
+def test_feasible_mask_agrees_with_the_checked_calls():
+    """The mask is True exactly where inverse geometry with limits and the measure pass."""
+    robot = get_robot("desktop")
+    rng = np.random.default_rng(3)
+    T = np.tile(robot.home_pose, (300, 1, 1))
+    T[:, :3, 3] += rng.uniform(-0.06, 0.06, (300, 3))
+    mask = design.feasible(robot, T)
+    for k in range(300):
+        try:
+            robot.inverse_geometry(T[k])
+            ok = robot.condition_number(T[k]) <= robot.max_condition
+        except Exception:
+            ok = False
+        assert mask[k] == ok, k
+    assert 0 < mask.sum() < 300
