@@ -16,6 +16,16 @@ Dask is imported only by :func:`sweep` (``pip install "stewart-pin[design]"``).
 """
 
 from stewart_pin.design.feasibility import feasible
+from stewart_pin.design.sizing import (
+    ActuatorLoads,
+    Capability,
+    StateBox,
+    WorstCase,
+    actuator_loads,
+    dynamic_capability,
+    worst_case,
+    write_report,
+)
 from stewart_pin.design.workspace import (
     Workspace,
     dexterous_workspace,
@@ -24,9 +34,17 @@ from stewart_pin.design.workspace import (
 )
 
 __all__ = [
+    "ActuatorLoads",
+    "Capability",
+    "StateBox",
     "Workspace",
+    "WorstCase",
+    "actuator_loads",
     "dexterous_workspace",
+    "dynamic_capability",
     "feasible",
     "orientation_workspace",
     "workspace",
+    "worst_case",
+    "write_report",
 ]
