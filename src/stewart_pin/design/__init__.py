@@ -26,6 +26,14 @@ from stewart_pin.design.sizing import (
     worst_case,
     write_report,
 )
+from stewart_pin.design.sweep import (
+    BASE_GEOMETRY,
+    SweepResult,
+    SweepSettings,
+    evaluate_geometry,
+    grid,
+    sweep,
+)
 from stewart_pin.design.workspace import (
     Workspace,
     dexterous_workspace,
@@ -34,16 +42,22 @@ from stewart_pin.design.workspace import (
 )
 
 __all__ = [
+    "BASE_GEOMETRY",
     "ActuatorLoads",
     "Capability",
     "StateBox",
+    "SweepResult",
+    "SweepSettings",
     "Workspace",
     "WorstCase",
     "actuator_loads",
     "dexterous_workspace",
     "dynamic_capability",
+    "evaluate_geometry",
     "feasible",
+    "grid",
     "orientation_workspace",
+    "sweep",
     "workspace",
     "worst_case",
     "write_report",
