@@ -45,14 +45,14 @@ class SweepSettings:
     """What :func:`evaluate_geometry` computes for each geometry: the constant-orientation
     workspace at the home orientation on a grid of ``resolution`` cells along its longest
     side, and the loads at ``samples`` states drawn (seed ``seed``) in the box of states
-    ``|dp_k| <= translation * stroke span`` [m], ``|w_k| <= rotation`` [rad],
-    ``speed`` [m/s], ``angular_speed`` [rad/s], ``accel`` [m/s^2], ``angular_accel``
-    [rad/s^2]; ``backend`` as :meth:`StewartRobot.inverse_dynamics`."""
+    ``|dp_k| <= translation * stroke_mid`` [m] (a fraction of the mid-stroke),
+    ``|w_k| <= rotation`` [rad], ``speed`` [m/s], ``angular_speed`` [rad/s], ``accel``
+    [m/s^2], ``angular_accel`` [rad/s^2]; ``backend`` as :meth:`StewartRobot.inverse_dynamics`."""
 
     resolution: int = 16
     samples: int = 200
     seed: int = 0
-    translation: float = 0.2
+    translation: float = 0.08
     rotation: float = 0.05
     speed: float = 0.1
     angular_speed: float = 0.5
@@ -96,11 +96,14 @@ def evaluate_geometry(
     try:
         robot = StewartRobot(symmetric_hexapod(**params))
         ws = workspace(robot, resolution=s.resolution, rng=s.seed)
-        lo, hi = robot.description.stroke
         box = StateBox(
-            s.translation * (hi - lo), s.rotation, s.speed, s.angular_speed, s.accel,
+            s.translation * robot.description.stroke_mid,
+            s.rotation,
+            s.speed,
+            s.angular_speed,
+            s.accel,
             s.angular_accel,
-        )  # fmt: skip
+        )
         x = box.sample(robot, s.samples, s.seed)
         loads = actuator_loads(robot, *box.states(robot, x), backend=s.backend)
         row.update(
