@@ -19,6 +19,7 @@ from typing import Any
 
 from stewart_pin import __version__
 from stewart_pin.cli import (
+    design_cmds,
     dynamics_cmds,
     geometry_cmds,
     import_cmds,
@@ -70,7 +71,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"stewart-pin {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (geometry_cmds, dynamics_cmds, parameters_cmds, motion_cmds, import_cmds):
+    modules = (
+        geometry_cmds,
+        dynamics_cmds,
+        parameters_cmds,
+        motion_cmds,
+        import_cmds,
+        design_cmds,
+    )
+    for module in modules:
         module.register(sub)
     return parser
 
