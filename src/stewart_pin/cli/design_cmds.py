@@ -11,6 +11,7 @@ from typing import Any
 
 from stewart_pin._argtypes import (
     non_negative_finite_float,
+    non_negative_int,
     positive_finite_float,
     positive_int,
 )
@@ -189,7 +190,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--resolution", type=positive_int, default=40, help="cells on the longest side")
     p.add_argument("--max-condition", type=positive_finite_float, help="singularity bound")
-    p.add_argument("--seed", type=int, default=0, help="the jitter's seed")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="the jitter's seed")
     p.add_argument("-o", "--output", default="workspace.csv", help="CSV of the cells' states")
     p.add_argument("--boundary", help="CSV of boundary points (bisection along 26 rays)")
     p.set_defaults(func=_workspace)
@@ -214,7 +215,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             help=f"half-width of the box of states, per component [{unit}]",
         )
     p.add_argument("--samples", type=positive_int, default=2000, help="states sampled")
-    p.add_argument("--seed", type=int, default=0, help="the sampling seed")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="the sampling seed")
     p.add_argument("--no-optimise", action="store_true", help="skip the worst-case search")
     p.add_argument(
         "--effort-limit",
@@ -237,7 +238,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stroke", type=_stroke_list, help="MIN:MAX pairs, comma-separated [m]")
     p.add_argument("--resolution", type=positive_int, default=16, help="workspace cells")
     p.add_argument("--samples", type=positive_int, default=200, help="states per geometry")
-    p.add_argument("--seed", type=int, default=0, help="seed of every geometry's draws")
+    p.add_argument(
+        "--seed", type=non_negative_int, default=0, help="seed of every geometry's draws"
+    )
     p.add_argument(
         "--scheduler",
         help="a Dask scheduler's address, e.g. tcp://host:8786 (default: a LocalCluster)",
