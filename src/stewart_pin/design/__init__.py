@@ -4,6 +4,9 @@
 - :mod:`.workspace`: :func:`workspace` (constant orientation), :func:`orientation_workspace`,
   :func:`dexterous_workspace`, each a :class:`Workspace` with a volume, its standard error,
   boundary points and slices.
+- :mod:`.regions`: :func:`singularity_free_region` (the largest sphere and cube around a
+  pose where the singularity measure stays under a bound, over a set of orientations),
+  :func:`singularity_map` (the measure on a slice).
 - :mod:`.sizing`: :func:`actuator_loads` (peak / RMS effort, speed and power along given
   motions), :func:`worst_case` (the worst state of a box of states, by optimisation from
   the sampled worst), :func:`dynamic_capability` (the largest platform acceleration in
@@ -16,6 +19,11 @@ Dask is imported only by :func:`sweep` (``pip install "stewart-pin[design]"``).
 """
 
 from stewart_pin.design.feasibility import feasible
+from stewart_pin.design.regions import (
+    SingularityFreeRegion,
+    singularity_free_region,
+    singularity_map,
+)
 from stewart_pin.design.sizing import (
     ActuatorLoads,
     Capability,
@@ -45,6 +53,7 @@ __all__ = [
     "BASE_GEOMETRY",
     "ActuatorLoads",
     "Capability",
+    "SingularityFreeRegion",
     "StateBox",
     "SweepResult",
     "SweepSettings",
@@ -57,6 +66,8 @@ __all__ = [
     "feasible",
     "grid",
     "orientation_workspace",
+    "singularity_free_region",
+    "singularity_map",
     "sweep",
     "workspace",
     "worst_case",
