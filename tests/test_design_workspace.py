@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 from conftest import get_robot
 
-from stewart_pin import EmptyWorkspaceError, InputError, design
+from stewart_pin import EmptyWorkspaceError, InputError, StewartRobot, design
 
 
 def _own_feasible(robot, positions, R, bound):
@@ -114,3 +114,24 @@ def test_feasible_mask_agrees_with_the_checked_calls():
             ok = False
         assert mask[k] == ok, k
     assert 0 < mask.sum() < 300
+
+
+def test_general_legs_mask_and_workspace():
+    """A 6-RUS: the mask agrees with the checked calls (inverse geometry with the joint
+    limits, the parallel singularity), and its workspace is a finite non-empty volume."""
+    robot = StewartRobot.from_preset("rus")
+    rng = np.random.default_rng(4)
+    T = np.tile(robot.home_pose, (60, 1, 1))
+    T[:, :3, 3] += rng.uniform(-0.05, 0.05, (60, 3))
+    mask = design.feasible(robot, T)
+    for k in range(60):
+        try:
+            robot.inverse_geometry(T[k])
+            robot.jacobian(T[k])
+            ok = True
+        except Exception:
+            ok = False
+        assert mask[k] == ok, k
+    assert 0 < mask.sum() < 60
+    ws = design.workspace(robot, resolution=8)
+    assert ws.volume > 0 and np.isfinite(ws.volume_error)
