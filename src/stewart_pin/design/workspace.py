@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_rotation, check_scalar
-from stewart_pin.design.feasibility import _bound, feasible
+from stewart_pin.design.feasibility import _bound, mask
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
 
 #: Cells along the longest side of the box (default).
@@ -356,7 +356,7 @@ def workspace(
     bound = _bound(robot, max_condition)
 
     def test(p: np.ndarray) -> np.ndarray:
-        return feasible(robot, _poses(p, R), bound)
+        return mask(robot, _poses(p, R), bound)
 
     start = home[:3, 3].copy()
     _start_check(test, start, "the home position at this orientation")
@@ -389,7 +389,7 @@ def orientation_workspace(
 
     def test(rpys: np.ndarray) -> np.ndarray:
         R = np.array([rpy.rpyToMatrix(*r) for r in rpys]) @ home[:3, :3]
-        return feasible(robot, _poses(np.broadcast_to(p, rpys.shape), R), bound)
+        return mask(robot, _poses(np.broadcast_to(p, rpys.shape), R), bound)
 
     start = np.zeros(3)
     _start_check(test, start, "the home orientation at this position")
@@ -420,7 +420,7 @@ def dexterous_workspace(
     def test(p: np.ndarray) -> np.ndarray:
         n, k = p.shape[0], Rs.shape[0]
         T = _poses(np.repeat(p, k, axis=0), np.tile(Rs, (n, 1, 1)))
-        return np.asarray(feasible(robot, T, bound).reshape(n, k).all(axis=1))
+        return np.asarray(mask(robot, T, bound).reshape(n, k).all(axis=1))
 
     start = home[:3, 3].copy()
     _start_check(test, start, "the home position at some orientation of the set")
