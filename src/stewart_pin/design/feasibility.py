@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_poses
+from stewart_pin._checks import check_poses, check_rotation
 from stewart_pin.exceptions import InputError, StewartPinError
 from stewart_pin.kinematics import geometry, jacobians, leg_chains
 
@@ -28,7 +28,9 @@ CHUNK = 100_000
 _SPLIT_FLOOR = 16
 
 
-def _bound(robot: Any, max_condition: float | None) -> float:
+def condition_bound(robot: Any, max_condition: float | None) -> float:
+    """The singularity measure bound: ``max_condition`` checked (a number >= 1), or the
+    robot's ``max_condition`` when None."""
     value = robot.max_condition if max_condition is None else max_condition
     if not (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 1.0):
         raise InputError(f"max_condition must be a number >= 1, got {value!r}")
@@ -39,7 +41,7 @@ def feasible(robot: Any, poses: Any, max_condition: float | None = None) -> np.n
     """Boolean mask (N,) of the poses 0Tp (N, 4, 4) (or one pose -> shape (1,)) that satisfy
     every limit of ``robot`` (a :class:`~stewart_pin.robot.StewartRobot`) and whose
     singularity measure is at most ``max_condition`` (default ``robot.max_condition``)."""
-    return mask(robot, check_poses(poses)[0], _bound(robot, max_condition))
+    return mask(robot, check_poses(poses)[0], condition_bound(robot, max_condition))
 
 
 def mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
@@ -110,3 +112,16 @@ def _general_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
     return np.concatenate(
         [_general_mask(robot, T[:half], bound), _general_mask(robot, T[half:], bound)]
     )
+
+
+def check_rotations(orientations: Any) -> np.ndarray:
+    """Rotation matrices (K, 3, 3), each checked; a single (3, 3) gives K = 1."""
+    try:
+        R = np.asarray(orientations, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"orientations must be rotation matrices, got {orientations!r}") from None
+    if R.shape == (3, 3):
+        R = R[None]
+    if R.ndim != 3 or R.shape[1:] != (3, 3) or R.shape[0] == 0:
+        raise InputError(f"orientations must be (3, 3) or (K, 3, 3), got shape {R.shape}")
+    return np.array([check_rotation(r, f"orientation {k}") for k, r in enumerate(R)])

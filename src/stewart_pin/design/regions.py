@@ -22,8 +22,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_pose, check_scalar
-from stewart_pin.design.feasibility import _bound
-from stewart_pin.design.workspace import _rotations
+from stewart_pin.design.feasibility import check_rotations, condition_bound
 from stewart_pin.exceptions import InputError, SingularityError, StewartPinError
 
 
@@ -141,8 +140,8 @@ def singularity_free_region(
 
     T0 = robot.home_pose if pose is None else check_pose(pose)
     center = T0[:3, 3].copy()
-    Rs = _rotations(T0[:3, :3] if orientations is None else orientations, T0)
-    bound = _bound(robot, max_condition)
+    Rs = check_rotations(T0[:3, :3] if orientations is None else orientations)
+    bound = condition_bound(robot, max_condition)
     desc = robot.description
     if reach is None:
         reach = float(desc.stroke_mid if desc.stroke is not None else desc.size)
@@ -216,7 +215,7 @@ def singularity_map(
     if axis not in (0, 1, 2):
         raise InputError(f"axis must be 0, 1 or 2, got {axis!r}")
     home = robot.home_pose
-    R = home[:3, :3] if orientation is None else _rotations(orientation, home)[0]
+    R = home[:3, :3] if orientation is None else check_rotations(orientation)[0]
     desc = robot.description
     h = half_width
     if h is None:

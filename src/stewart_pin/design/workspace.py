@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_rotation, check_scalar
-from stewart_pin.design.feasibility import _bound, mask
+from stewart_pin._checks import check_scalar
+from stewart_pin.design.feasibility import check_rotations, condition_bound, mask
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
 
 #: Cells along the longest side of the box (default).
@@ -268,16 +268,6 @@ def _component(ok: np.ndarray, points: np.ndarray, start: np.ndarray, kind: str)
     return np.asarray(labels == labels[i, j, k])
 
 
-def _rotations(orientations: Any, home: np.ndarray) -> np.ndarray:
-    """Rotation matrices (K, 3, 3), each checked; a single (3, 3) gives K = 1."""
-    R = np.asarray(orientations, dtype=float)
-    if R.shape == (3, 3):
-        R = R[None]
-    if R.ndim != 3 or R.shape[1:] != (3, 3) or R.shape[0] == 0:
-        raise InputError(f"orientations must be (3, 3) or (K, 3, 3), got shape {R.shape}")
-    return np.array([check_rotation(r, f"orientation {k}") for k, r in enumerate(R)])
-
-
 def _poses(positions: np.ndarray, R: np.ndarray) -> np.ndarray:
     T = np.zeros((positions.shape[0], 4, 4))
     T[:, :3, :3] = R
@@ -352,8 +342,8 @@ def workspace(
         EmptyWorkspaceError: the home position infeasible at ``orientation``.
     """
     home = robot.home_pose
-    R = home[:3, :3] if orientation is None else _rotations(orientation, home)[0]
-    bound = _bound(robot, max_condition)
+    R = home[:3, :3] if orientation is None else check_rotations(orientation)[0]
+    bound = condition_bound(robot, max_condition)
 
     def test(p: np.ndarray) -> np.ndarray:
         return mask(robot, _poses(p, R), bound)
@@ -385,7 +375,7 @@ def orientation_workspace(
     home = robot.home_pose
     p = home[:3, 3] if position is None else np.asarray(position, dtype=float).reshape(3)
     a = check_scalar(max_angle, "max_angle", positive=True)
-    bound = _bound(robot, max_condition)
+    bound = condition_bound(robot, max_condition)
 
     def test(rpys: np.ndarray) -> np.ndarray:
         R = np.array([rpy.rpyToMatrix(*r) for r in rpys]) @ home[:3, :3]
@@ -414,8 +404,8 @@ def dexterous_workspace(
             unreachable orientation set).
     """
     home = robot.home_pose
-    Rs = _rotations(orientations, home)
-    bound = _bound(robot, max_condition)
+    Rs = check_rotations(orientations)
+    bound = condition_bound(robot, max_condition)
 
     def test(p: np.ndarray) -> np.ndarray:
         n, k = p.shape[0], Rs.shape[0]
