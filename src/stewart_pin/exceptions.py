@@ -31,7 +31,9 @@ expected, what was received and how to fix it::
     │   ├── StrokeLimitError                 a leg length outside its stroke
     │   ├── JointLimitError                  a U-joint angle outside its limits
     │   ├── LegReachError                    a general leg that cannot reach its P_i
-    │   └── LegJointLimitError               a general leg's joint outside its limits
+    │   ├── LegJointLimitError               a general leg's joint outside its limits
+    │   └── EmptyWorkspaceError              no feasible state: an empty workspace, an
+    │                                        unreachable orientation set
     ├── SingularityError (ValueError)        at or too near a singularity
     ├── NumericalError (ArithmeticError)     finite inputs, non-finite result
     ├── ConvergenceError (RuntimeError)      an iteration that did not converge
@@ -41,7 +43,7 @@ expected, what was received and how to fix it::
     ├── CompilationError (RuntimeError)      the C library not built or loaded
     │   └── UnsafeCacheError                 a cache others could write to
     ├── ViewerError (RuntimeError)           the 3-D viewer's server did not start
-├── SchedulerError (ConnectionError)     a Dask scheduler that cannot be reached
+    ├── SchedulerError (ConnectionError)     a Dask scheduler that cannot be reached
     ├── PayloadError (ValueError)            a payload model that cannot be mounted
     │   ├── UnknownPayloadError              a payload name no installed package knows
     │   └── PayloadMeshError                 a mesh file outside the payload's folders
