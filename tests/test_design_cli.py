@@ -22,8 +22,9 @@ def test_workspace_command_writes_cells_and_boundary(tmp_path, capsys):
 
 def test_size_command_writes_the_report(tmp_path, capsys):
     rc = main(["size", "--preset", "desktop", "--samples", "50", "--no-optimise",
-               "--effort-limit", "20", "-o", str(tmp_path / "r")])  # fmt: skip
+               "--effort-limit", "20", "--html", "-o", str(tmp_path / "r")])  # fmt: skip
     assert rc == 0
+    assert (tmp_path / "r" / "report.html").read_text().count("data:image/png") == 2
     report = json.loads((tmp_path / "r" / "report.json").read_text())
     assert set(report) == {"loads", "capability"}
     assert len(report["capability"]) == 6

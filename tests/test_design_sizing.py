@@ -50,6 +50,10 @@ def test_loads_speeds_match_finite_differences_and_the_table(tmp_path):
     assert json.loads((tmp_path / "report.json").read_text())["loads"][0]["actuator"] == 1
     assert (tmp_path / "loads.csv").read_text().startswith("actuator,peak_effort")
     assert len(paths) == 2
+    pytest.importorskip("matplotlib")
+    paths = sizing.write_report(tmp_path / "h", loads=loads, html=True)
+    page = (tmp_path / "h" / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 1 and page.count("<tr>") == 7
 
 
 def test_worst_case_at_least_as_bad_as_dense_sampling():

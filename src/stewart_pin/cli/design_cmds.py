@@ -118,7 +118,7 @@ def _size(args: argparse.Namespace) -> int:
     cap = None
     if limits is not None or robot.description.effort_limits is not None:
         cap = dynamic_capability(robot, limits)
-    paths = write_report(out, loads, worst, cap)
+    paths = write_report(out, loads, worst, cap, html=args.html)
     print("actuator  peak effort   rms effort   peak speed   peak power  worst (optimised)")
     for k, row in enumerate(loads.table()):
         w = f"{worst[k].effort:12.6g}" if worst else "           -"
@@ -156,7 +156,9 @@ def _sweep(args: argparse.Namespace) -> int:
     if args.stroke:
         axes["stroke"] = args.stroke
     geometries = grid(**axes) if axes else [{}]
-    settings = SweepSettings(resolution=args.resolution, samples=args.samples, seed=args.seed)
+    settings = SweepSettings(
+        resolution=args.resolution, samples=args.samples, seed=args.seed, backend=args.backend
+    )
     result = sweep(
         geometries,
         settings,
@@ -223,6 +225,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="every actuator's effort limit [N or N m] for the dynamic capability "
         "(default: the description's effort_limits; none: no capability table)",
     )
+    p.add_argument("--html", action="store_true", help="also report.html with the plots")
     p.add_argument("-o", "--output", default="sizing", help="folder of the report's tables")
     p.set_defaults(func=_size)
 
@@ -250,6 +253,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--serial", action="store_true", help="evaluate in this process, no Dask")
     p.add_argument(
         "--timeout", type=positive_finite_float, default=10.0, help="scheduler timeout [s]"
+    )
+    p.add_argument(
+        "--backend",
+        choices=("auto", "pinocchio", "compiled"),
+        default="auto",
+        help="inverse dynamics backend (auto: each geometry compiled once, where it runs)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("-o", "--output", default="sweep.csv", help="the table (CSV)")

@@ -389,9 +389,12 @@ def write_report(
     loads: ActuatorLoads | None = None,
     worst: Sequence[WorstCase] | None = None,
     capability: Capability | None = None,
+    html: bool = False,
 ) -> list[Path]:
     """Write the given tables into ``folder`` (created): ``loads.csv``, ``worst_case.csv``,
-    ``capability.csv`` and all of them in ``report.json``; returns the paths written."""
+    ``capability.csv`` and all of them in ``report.json``; with ``html``, also
+    ``report.html``, one standalone page with the tables and their plots (PNG embedded;
+    needs matplotlib, the viz extra). Returns the paths written."""
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     tables: dict[str, list[dict[str, Any]]] = {}
@@ -409,4 +412,69 @@ def write_report(
         json.dump(tables, f, indent=1)
         f.write("\n")
     written.append(out / "report.json")
+    if html:
+        with atomic_open(out / "report.html") as f:
+            f.write(_html(tables, loads, capability))
+        written.append(out / "report.html")
     return written
+
+
+def _png(fig: Any) -> str:
+    import base64
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _html(
+    tables: dict[str, list[dict[str, Any]]],
+    loads: ActuatorLoads | None,
+    capability: Capability | None,
+) -> str:
+    """The standalone page of :func:`write_report` (every cell escaped)."""
+    from html import escape
+
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as e:
+        from stewart_pin.exceptions import MissingDependencyError
+
+        raise MissingDependencyError(
+            'the HTML report\'s plots need matplotlib: pip install "stewart-pin[viz]"',
+            "matplotlib",
+            "viz",
+        ) from e
+    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'>",
+             "<title>stewart-pin actuator sizing</title></head><body>",
+             "<h1>Actuator sizing</h1>"]  # fmt: skip
+    if loads is not None:
+        fig = Figure(figsize=(8, 3.5), layout="constrained")
+        ax = fig.subplots()
+        rows = tables["loads"]
+        x = np.arange(1, 7)
+        ax.bar(x - 0.2, [r["peak_effort"] for r in rows], 0.4, label="peak")
+        ax.bar(x + 0.2, [r["rms_effort"] for r in rows], 0.4, label="RMS")
+        ax.set_xlabel("actuator")
+        ax.set_ylabel("effort [N or N m]")
+        ax.legend()
+        parts.append(f"<img alt='efforts' src='data:image/png;base64,{_png(fig)}'>")
+    if capability is not None:
+        fig = Figure(figsize=(8, 3.5), layout="constrained")
+        ax = fig.subplots()
+        labels = [f"({d[0]:.2g}, {d[1]:.2g}, {d[2]:.2g})" for d in capability.directions]
+        ax.bar(labels, capability.accel)
+        ax.set_xlabel("direction in F0")
+        ax.set_ylabel("largest acceleration [m/s^2]")
+        parts.append(f"<img alt='capability' src='data:image/png;base64,{_png(fig)}'>")
+    for name, rows in tables.items():
+        parts.append(f"<h2>{escape(name.replace('_', ' '))}</h2><table border='1'><tr>")
+        parts += [f"<th>{escape(str(k))}</th>" for k in rows[0]]
+        parts.append("</tr>")
+        for row in rows:
+            cells = (f"{v:.6g}" if isinstance(v, float) else str(v) for v in row.values())
+            parts.append("<tr>" + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
+        parts.append("</table>")
+    parts.append("</body></html>\n")
+    return "\n".join(parts)

@@ -199,7 +199,10 @@ def _client(scheduler: str | None, workers: int, processes: bool, timeout: float
         from stewart_pin.exceptions import MissingDependencyError
 
         raise MissingDependencyError(
-            'geometry sweeps on Dask need dask.distributed: pip install "stewart-pin[design]"'
+            'geometry sweeps on Dask need dask.distributed: pip install "stewart-pin[design]" '
+            '(or scheduler="serial")',
+            "dask",
+            "design",
         ) from e
     if scheduler is None:
         cluster = LocalCluster(
