@@ -6,7 +6,8 @@ speed-up and parallel efficiency (speed-up / workers), and whether the two table
 identical (their CSV text). Run on an idle machine; report the load (``uptime``).
 
 Usage: ``python scripts/bench_design.py [--preset desktop] [--states 1000000]
-[--geometries 200] [--workers 2] [--backend pinocchio]``.
+[--geometries 200] [--workers 2] [--resolution 24] [--samples 1000]
+[--backend pinocchio]``.
 """
 
 from __future__ import annotations
@@ -39,7 +40,9 @@ def bench_workspace(preset: str, states: int) -> None:
     )
 
 
-def bench_sweep(geometries: int, workers: int, backend: str) -> None:
+def bench_sweep(
+    geometries: int, workers: int, backend: str, resolution: int, samples: int
+) -> None:
     rng = np.random.default_rng(0)
     geoms = [
         {
@@ -49,23 +52,33 @@ def bench_sweep(geometries: int, workers: int, backend: str) -> None:
         }
         for _ in range(geometries)
     ]
-    settings = design.SweepSettings(resolution=16, samples=200, backend=backend)
+    from dask.distributed import Client, LocalCluster
+
+    settings = design.SweepSettings(resolution=resolution, samples=samples, backend=backend)
     t = time.perf_counter()
     serial = design.sweep(geoms, settings, scheduler="serial", progress=False)
     t_serial = time.perf_counter() - t
     t = time.perf_counter()
-    parallel = design.sweep(geoms, settings, workers=workers, progress=False)
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)
+    client = Client(cluster)
+    design.sweep(geoms[:workers], settings, client=client, progress=False)  # workers' imports
+    t_start = time.perf_counter() - t
+    t = time.perf_counter()
+    parallel = design.sweep(geoms, settings, client=client, progress=False)
     t_par = time.perf_counter() - t
+    client.close()
+    cluster.close()
     with tempfile.TemporaryDirectory() as folder:
         a = serial.to_csv(Path(folder) / "a.csv").read_text()
         b = parallel.to_csv(Path(folder) / "b.csv").read_text()
     speedup = t_serial / t_par
     failed = sum(1 for r in serial.rows if r["error"])
     print(
-        f"sweep of {geometries} geometries ({failed} failed rows), backend {backend}: serial "
-        f"{t_serial:.1f} s, LocalCluster of {workers} processes {t_par:.1f} s (cluster start "
-        f"included), speed-up {speedup:.2f}, parallel efficiency {speedup / workers:.0%}, "
-        f"identical tables: {a == b}"
+        f"sweep of {geometries} geometries ({failed} failed rows; resolution {resolution}, "
+        f"{samples} samples, backend {backend}): serial {t_serial:.1f} s, LocalCluster of "
+        f"{workers} processes {t_par:.1f} s (+ {t_start:.1f} s to start it and import in "
+        f"the workers), speed-up {speedup:.2f}, parallel efficiency "
+        f"{speedup / workers:.0%}, identical tables: {a == b}"
     )
 
 
@@ -75,13 +88,15 @@ def main() -> None:
     parser.add_argument("--states", type=int, default=1_000_000)
     parser.add_argument("--geometries", type=int, default=200)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--resolution", type=int, default=24, help="workspace cells")
+    parser.add_argument("--samples", type=int, default=1000, help="states per geometry")
     parser.add_argument(
         "--backend", default="pinocchio", help="the sweep's inverse dynamics backend"
     )
     args = parser.parse_args()
     print(f"load: {os.getloadavg()[0]:.2f} (1 min), {os.cpu_count()} cores")
     bench_workspace(args.preset, args.states)
-    bench_sweep(args.geometries, args.workers, args.backend)
+    bench_sweep(args.geometries, args.workers, args.backend, args.resolution, args.samples)
 
 
 if __name__ == "__main__":

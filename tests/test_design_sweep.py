@@ -71,3 +71,13 @@ def test_unreachable_scheduler_and_bad_input_are_named_errors():
         design.sweep([], SETTINGS, scheduler="serial")
     with pytest.raises(InputError):
         design.grid(base_radius=0.1)
+
+
+def test_an_open_client_is_used_and_left_open(serial, tmp_path):
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            table = design.sweep(GEOMETRIES[:2], SETTINGS, client=client, progress=False)
+            assert client.status == "running"
+    assert table.rows == serial.rows[:2]

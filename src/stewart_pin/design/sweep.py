@@ -232,6 +232,7 @@ def sweep(
     processes: bool = True,
     progress: bool = True,
     timeout: float = 10.0,
+    client: Any = None,
 ) -> SweepResult:
     """Evaluate each geometry (:func:`evaluate_geometry`) and return the table.
 
@@ -244,6 +245,8 @@ def sweep(
             (``"tcp://host:8786"``), or ``"serial"`` (this process, no Dask).
         progress: a tqdm bar over the geometries.
         timeout: seconds to wait for a scheduler given by address.
+        client: an open ``dask.distributed.Client`` to run on (then ``scheduler``,
+            ``workers`` and ``processes`` are not used, and the client stays open).
 
     Raises:
         SchedulerError: the scheduler cannot be reached.
@@ -269,7 +272,9 @@ def sweep(
         else:
             from dask.distributed import as_completed
 
-            client = _client(scheduler, workers, processes, timeout)
+            own = client is None
+            if own:
+                client = _client(scheduler, workers, processes, timeout)
             try:
                 futures = client.map(evaluate_geometry, geoms, settings=s, pure=False)
                 index = {f.key: k for k, f in enumerate(futures)}
@@ -277,10 +282,11 @@ def sweep(
                     rows[index[f.key]] = f.result()
                     bar.update(1)
             finally:
-                cluster = client.cluster if scheduler is None else None
-                client.close()
-                if cluster is not None:
-                    cluster.close()
+                if own:
+                    cluster = client.cluster if scheduler is None else None
+                    client.close()
+                    if cluster is not None:
+                        cluster.close()
     done = [r for r in rows if r is not None]
     keys: list[str] = []
     for r in done:
