@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import get_robot
+from conftest import get_robot, use_compile_cache
 
 from stewart_pin import EmptyWorkspaceError, InputError, design
 from stewart_pin.design import sizing
@@ -113,3 +113,32 @@ def test_an_infeasible_state_box_is_a_named_error():
         box.sample(robot, 2000, rng=0)
     with pytest.raises(InputError):
         _ = design.StateBox(translation=-1.0).half_widths
+
+
+@pytest.fixture
+def compile_cache(shared_compile_cache):
+    yield from use_compile_cache(shared_compile_cache)
+
+
+def test_exact_gradient_matches_differences_and_worst_case(compile_cache):
+    """The chain rule of the exact Jacobians (rotation chart exp(w) R_home) against
+    central differences of the inverse dynamics, at a state away from home."""
+    robot = get_robot("desktop")
+    box = design.StateBox(0.01, 0.05, 0.1, 0.5, 2.0, 5.0)
+    x = box.sample(robot, 1, rng=3)[0]
+    for k in (0, 3):
+        f, g = sizing._exact_value_and_gradient(robot, box, x, k, 1.0, 1e9)
+        fd = np.empty(18)
+        h = 1e-6
+        for j in range(18):
+            e = np.zeros(18)
+            e[j] = h
+            up = robot.inverse_dynamics(*box.states(robot, x + e))[0, k]
+            dn = robot.inverse_dynamics(*box.states(robot, x - e))[0, k]
+            fd[j] = -(up - dn) / (2 * h)
+        assert f == pytest.approx(-robot.inverse_dynamics(*box.states(robot, x))[0, k])
+        np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+    worst = design.worst_case(robot, box, samples=100, actuators=[2], gradient="exact")
+    dense = box.sample(robot, 5000, rng=99)
+    g_dense = np.asarray(robot.inverse_dynamics(*box.states(robot, dense)))[:, 1]
+    assert abs(worst[0].effort) >= np.abs(g_dense).max()

@@ -113,7 +113,11 @@ def _size(args: argparse.Namespace) -> int:
     )  # fmt: skip
     x = box.sample(robot, args.samples, args.seed)
     loads = actuator_loads(robot, *box.states(robot, x))
-    worst = [] if args.no_optimise else worst_case(robot, box, samples=args.samples, rng=args.seed)
+    worst = (
+        []
+        if args.no_optimise
+        else worst_case(robot, box, samples=args.samples, rng=args.seed, gradient=args.gradient)
+    )
     limits = args.effort_limit
     cap = None
     if limits is not None or robot.description.effort_limits is not None:
@@ -219,6 +223,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=positive_int, default=2000, help="states sampled")
     p.add_argument("--seed", type=non_negative_int, default=0, help="the sampling seed")
     p.add_argument("--no-optimise", action="store_true", help="skip the worst-case search")
+    p.add_argument(
+        "--gradient",
+        choices=("differences", "exact"),
+        default="differences",
+        help="the worst-case search's gradients (exact: compiled Jacobians, built once)",
+    )
     p.add_argument(
         "--effort-limit",
         type=positive_finite_float,

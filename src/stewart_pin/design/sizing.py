@@ -192,12 +192,21 @@ def worst_case(
     rng: np.random.Generator | int | None = 0,
     max_iterations: int = 100,
     backend: str = "auto",
+    gradient: str = "differences",
 ) -> list[WorstCase]:
     """Per actuator (1-based indices, default all six), the state of ``box`` with the
     largest ``|Gamma_i|``: the worst of ``samples`` feasible states drawn in the box, then
-    L-BFGS-B on ``sign * Gamma_i`` over the box (central-difference gradients, one batched
-    inverse dynamics call each; infeasible states are refused by a penalty)."""
+    L-BFGS-B on ``sign * Gamma_i`` over the box (infeasible states are refused by a
+    penalty).
+
+    ``gradient``: ``"differences"`` (central differences, one batched inverse dynamics
+    call per gradient) or ``"exact"`` (:meth:`StewartRobot.inverse_dynamics_derivatives`,
+    the compiled exact Jacobians, built on first use: seconds once per robot; the
+    rotation's chart ``exp(w) R_home`` mapped through the left Jacobian of SO(3))."""
     from scipy.optimize import minimize
+
+    if gradient not in ("differences", "exact"):
+        raise InputError(f"gradient must be 'differences' or 'exact', got {gradient!r}")
 
     n = int(check_scalar(samples, "samples", positive=True, integer=True))
     acts = list(range(1, 7)) if actuators is None else [int(a) for a in actuators]
@@ -215,6 +224,8 @@ def worst_case(
         penalty = 10.0 * sampled + 1.0
 
         def fun(x: np.ndarray, k: int = k, sign: float = sign, penalty: float = penalty) -> Any:
+            if gradient == "exact":
+                return _exact_value_and_gradient(robot, box, x, k, sign, penalty)
             return _value_and_gradient(robot, box, x, k, sign, penalty, backend)
 
         res = minimize(
@@ -267,6 +278,23 @@ def _value_and_gradient(
     )
     grad = np.where(np.isfinite(grad), grad, 0.0)
     return float(-sign * f0), -sign * grad
+
+
+def _exact_value_and_gradient(
+    robot: Any, box: StateBox, x: np.ndarray, k: int, sign: float, penalty: float
+) -> tuple[float, np.ndarray]:
+    """:func:`_value_and_gradient` from the exact Jacobians: ``D.pose`` is with respect to
+    ``[dp, dtheta]`` (``R <- exp(dtheta^) R``, F0), and ``exp(w + dw) = exp(J_l(w) dw)
+    exp(w)`` to first order (``J_l(w) = J_r(-w)``, pinocchio's ``Jexp3``)."""
+    from pinocchio import Jexp3
+
+    T, V, A = box.states(robot, x)
+    if not bool(feasible(robot, T)[0]):
+        return penalty, np.zeros(18)
+    D = robot.inverse_dynamics_derivatives(T[0], V[0], A[0])
+    w = np.atleast_2d(x)[0, 3:6] * box.half_widths[3:6]
+    row = np.concatenate([D.pose[k, :3], D.pose[k, 3:] @ Jexp3(-w), D.twist[k], D.accel[k]])
+    return float(-sign * D.gamma[k]), -sign * row * box.half_widths
 
 
 # ---------------------------------------------------------------------------- capability
