@@ -81,3 +81,23 @@ def test_an_open_client_is_used_and_left_open(serial, tmp_path):
             table = design.sweep(GEOMETRIES[:2], SETTINGS, client=client, progress=False)
             assert client.status == "running"
     assert table.rows == serial.rows[:2]
+
+
+def lowest_condition(robot):
+    """A custom metric (module level: Dask pickles it by reference)."""
+    return {"home_condition": float(robot.condition_number(robot.home_pose))}
+
+
+def test_custom_metrics():
+    table = design.sweep(
+        GEOMETRIES, SETTINGS, scheduler="serial", progress=False, metrics=lowest_condition
+    )
+    assert table.columns[-2:] == ["home_condition", "error"]
+    from stewart_pin import StewartRobot, symmetric_hexapod
+
+    params = {**design.BASE_GEOMETRY, **GEOMETRIES[0]}
+    c = StewartRobot(symmetric_hexapod(**params)).condition_number(
+        StewartRobot(symmetric_hexapod(**params)).home_pose
+    )
+    assert table.rows[0]["home_condition"] == c
+    assert math.isnan(table.rows[-1]["home_condition"]) and table.rows[-1]["error"]

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -76,13 +76,20 @@ def _one_line(e: BaseException) -> str:
 
 
 def evaluate_geometry(
-    geometry: Mapping[str, Any], settings: SweepSettings | None = None
+    geometry: Mapping[str, Any],
+    settings: SweepSettings | None = None,
+    metrics: Callable[[Any], Mapping[str, float]] | None = None,
 ) -> dict[str, Any]:
     """One row of a sweep: the geometry's keys (over :data:`BASE_GEOMETRY`), the
     :data:`METRICS` (workspace ``volume`` and ``volume_error`` [m^3], the largest
     ``peak_effort`` [N], ``peak_speed`` [m/s] and ``peak_power`` [W] of any actuator over
     the sampled states) and ``error`` (``""``, or the error's class and one-line message,
-    the metrics then NaN)."""
+    the metrics then NaN).
+
+    ``metrics``: a function of the built :class:`~stewart_pin.robot.StewartRobot`
+    returning the row's metrics (name -> number) instead of :data:`METRICS` (a module-level
+    function, so that Dask can send it to the workers); the errors of the package it
+    raises become the row's ``error``."""
     from stewart_pin.description.symmetric_hexapod import symmetric_hexapod
     from stewart_pin.design.sizing import StateBox, actuator_loads
     from stewart_pin.design.workspace import workspace
@@ -91,10 +98,17 @@ def evaluate_geometry(
     s = SweepSettings() if settings is None else settings
     params = {**BASE_GEOMETRY, **geometry}
     row: dict[str, Any] = {k: geometry[k] for k in geometry}
-    row.update(dict.fromkeys(METRICS, math.nan))
+    if metrics is None:
+        row.update(dict.fromkeys(METRICS, math.nan))
     row["error"] = ""
     try:
         robot = StewartRobot(symmetric_hexapod(**params))
+        if metrics is not None:
+            values = {str(k): float(v) for k, v in metrics(robot).items()}
+            row.pop("error")
+            row.update(values)
+            row["error"] = ""
+            return row
         ws = workspace(robot, resolution=s.resolution, rng=s.seed)
         box = StateBox(
             s.translation * robot.description.stroke_mid,
@@ -233,6 +247,7 @@ def sweep(
     progress: bool = True,
     timeout: float = 10.0,
     client: Any = None,
+    metrics: Callable[[Any], Mapping[str, float]] | None = None,
 ) -> SweepResult:
     """Evaluate each geometry (:func:`evaluate_geometry`) and return the table.
 
@@ -245,6 +260,9 @@ def sweep(
             (``"tcp://host:8786"``), or ``"serial"`` (this process, no Dask).
         progress: a tqdm bar over the geometries.
         timeout: seconds to wait for a scheduler given by address.
+        metrics: what to compute for each robot instead of :data:`METRICS`
+            (:func:`evaluate_geometry`); the table's columns are the union of the rows'
+            keys, a failed row's missing metrics NaN.
         client: an open ``dask.distributed.Client`` to run on (then ``scheduler``,
             ``workers`` and ``processes`` are not used, and the client stays open).
 
@@ -267,7 +285,7 @@ def sweep(
     with tqdm(total=len(geoms), unit="geometry", disable=not progress, leave=False) as bar:
         if scheduler == "serial":
             for k, g in enumerate(geoms):
-                rows[k] = evaluate_geometry(g, s)
+                rows[k] = evaluate_geometry(g, s, metrics)
                 bar.update(1)
         else:
             from dask.distributed import as_completed
@@ -276,7 +294,9 @@ def sweep(
             if own:
                 client = _client(scheduler, workers, processes, timeout)
             try:
-                futures = client.map(evaluate_geometry, geoms, settings=s, pure=False)
+                futures = client.map(
+                    evaluate_geometry, geoms, settings=s, metrics=metrics, pure=False
+                )
                 index = {f.key: k for k, f in enumerate(futures)}
                 for f in as_completed(futures):
                     rows[index[f.key]] = f.result()
@@ -288,7 +308,13 @@ def sweep(
                     if cluster is not None:
                         cluster.close()
     done = [r for r in rows if r is not None]
-    keys: list[str] = []
+    names: list[str] = []  # the geometries' keys, in order of appearance
+    for g in geoms:
+        names += [key for key in g if key not in names]
+    measured: list[str] = list(METRICS) if metrics is None else []
     for r in done:
-        keys += [k for k in r if k not in keys and k not in (*METRICS, "error")]
-    return SweepResult(done, [*keys, *METRICS, "error"])
+        measured += [c for c in r if c not in names and c not in measured and c != "error"]
+    for r in done:  # a failed row's metrics: NaN
+        for name in measured:
+            r.setdefault(name, math.nan)
+    return SweepResult(done, [*names, *measured, "error"])
