@@ -135,3 +135,50 @@ def test_general_legs_mask_and_workspace():
     assert 0 < mask.sum() < 60
     ws = design.workspace(robot, resolution=8)
     assert ws.volume > 0 and np.isfinite(ws.volume_error)
+
+
+def test_segment_distance_against_a_dense_grid():
+    rng = np.random.default_rng(11)
+    P = rng.normal(size=(40, 4, 3))
+    P[0, 1] = P[0, 0]  # a point against a segment
+    P[1, 3] = P[1, 2]
+    P[2, 1], P[2, 3] = P[2, 0], P[2, 2]  # two points
+    P[3, 2:] = P[3, :2] + [0.3, 0.0, 0.0]  # parallel segments
+    d = design.segment_distance(P[:, 0], P[:, 1], P[:, 2], P[:, 3])
+    s = np.linspace(0, 1, 401)
+    for k in range(40):
+        a = P[k, 0] + s[:, None] * (P[k, 1] - P[k, 0])
+        b = P[k, 2] + s[:, None] * (P[k, 3] - P[k, 2])
+        brute = np.linalg.norm(a[:, None] - b[None], axis=-1).min()
+        assert d[k] <= brute + 1e-12
+        assert brute - d[k] <= 2e-2 * np.abs(P[k]).max()  # the grid's resolution
+
+
+def test_leg_interference_shrinks_the_workspace():
+    robot = get_robot("desktop")
+    home = robot.home_pose
+    d0 = design.leg_distance(robot, home)[0]
+    desc = robot.description
+    P = desc.platform_points @ home[:3, :3].T + home[:3, 3]
+    own = min(
+        design.segment_distance(desc.base_points[i], P[i], desc.base_points[j], P[j])
+        for i in range(6)
+        for j in range(i + 1, 6)
+    )
+    assert d0 == pytest.approx(own)
+    w = design.workspace(robot, resolution=16)
+    # the legs come closest (at their base ends) at some positions: a clearance between
+    # that and the home pose's removes those
+    lowest = design.leg_distance(robot, _poses_at(w.inside_points, home)).min()
+    assert lowest < d0
+    gap = 0.5 * (lowest + d0)
+    w_gap = design.workspace(robot, resolution=16, min_leg_distance=gap)
+    assert 0 < w_gap.volume < w.volume
+    assert np.all(design.leg_distance(robot, _poses_at(w_gap.inside_points, home)) >= gap)
+    assert not design.feasible(robot, home, min_leg_distance=1.01 * d0)[0]
+
+
+def _poses_at(points, home):
+    T = np.tile(home, (len(points), 1, 1))
+    T[:, :3, 3] = points
+    return T

@@ -1,6 +1,7 @@
 """Design studies: workspaces, singularity-free regions, actuator sizing, geometry sweeps.
 
-- :mod:`.feasibility`: :func:`feasible`, which poses satisfy every limit, as a mask.
+- :mod:`.feasibility`: :func:`feasible`, which poses satisfy every limit, as a mask;
+  :func:`leg_distance`, the smallest distance between two legs (interference).
 - :mod:`.workspace`: :func:`workspace` (constant orientation), :func:`orientation_workspace`,
   :func:`dexterous_workspace`, each a :class:`Workspace` with a volume, its standard error,
   boundary points and slices.
@@ -18,7 +19,7 @@ robots from descriptions), below the viewer, the applications and the command li
 Dask is imported only by :func:`sweep` (``pip install "stewart-pin[design]"``).
 """
 
-from stewart_pin.design.feasibility import feasible
+from stewart_pin.design.feasibility import feasible, leg_distance, segment_distance
 from stewart_pin.design.regions import (
     SingularityFreeRegion,
     singularity_free_region,
@@ -65,7 +66,9 @@ __all__ = [
     "evaluate_geometry",
     "feasible",
     "grid",
+    "leg_distance",
     "orientation_workspace",
+    "segment_distance",
     "singularity_free_region",
     "singularity_map",
     "sweep",

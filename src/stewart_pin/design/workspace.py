@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_scalar
-from stewart_pin.design.feasibility import check_rotations, condition_bound, mask
+from stewart_pin.design.feasibility import check_distance, check_rotations, condition_bound, mask
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
 
 #: Cells along the longest side of the box (default).
@@ -322,6 +322,7 @@ def workspace(
     box: Sequence[Any] | None = None,
     resolution: int = RESOLUTION,
     max_condition: float | None = None,
+    min_leg_distance: float | None = None,
     rng: np.random.Generator | int | None = 0,
 ) -> Workspace:
     """The constant-orientation workspace: positions of O_p in F0 [m] where the platform,
@@ -336,6 +337,9 @@ def workspace(
             component touches; ``touches_box`` says whether it still does.
         resolution: cells along the box's longest side (the cells are about cubic).
         max_condition: the singularity measure bound (default ``robot.max_condition``).
+        min_leg_distance: with it, no two legs closer than this [m] (leg-leg
+            interference, :func:`~stewart_pin.design.feasibility.leg_distance`); the other
+            workspaces take it too.
         rng: the jitter's generator or seed (default 0: reproducible).
 
     Raises:
@@ -344,9 +348,10 @@ def workspace(
     home = robot.home_pose
     R = home[:3, :3] if orientation is None else check_rotations(orientation)[0]
     bound = condition_bound(robot, max_condition)
+    gap = check_distance(min_leg_distance)
 
     def test(p: np.ndarray) -> np.ndarray:
-        return mask(robot, _poses(p, R), bound)
+        return mask(robot, _poses(p, R), bound, gap)
 
     start = home[:3, 3].copy()
     _start_check(test, start, "the home position at this orientation")
@@ -360,6 +365,7 @@ def orientation_workspace(
     max_angle: float = 0.6,
     resolution: int = 24,
     max_condition: float | None = None,
+    min_leg_distance: float | None = None,
     rng: np.random.Generator | int | None = 0,
 ) -> Workspace:
     """The orientation workspace at ``position`` (3,) [m] of O_p in F0 (default the home
@@ -376,10 +382,11 @@ def orientation_workspace(
     p = home[:3, 3] if position is None else np.asarray(position, dtype=float).reshape(3)
     a = check_scalar(max_angle, "max_angle", positive=True)
     bound = condition_bound(robot, max_condition)
+    gap = check_distance(min_leg_distance)
 
     def test(rpys: np.ndarray) -> np.ndarray:
         R = np.array([rpy.rpyToMatrix(*r) for r in rpys]) @ home[:3, :3]
-        return mask(robot, _poses(np.broadcast_to(p, rpys.shape), R), bound)
+        return mask(robot, _poses(np.broadcast_to(p, rpys.shape), R), bound, gap)
 
     start = np.zeros(3)
     _start_check(test, start, "the home orientation at this position")
@@ -394,6 +401,7 @@ def dexterous_workspace(
     box: Sequence[Any] | None = None,
     resolution: int = RESOLUTION,
     max_condition: float | None = None,
+    min_leg_distance: float | None = None,
     rng: np.random.Generator | int | None = 0,
 ) -> Workspace:
     """The dexterous workspace: positions of O_p [m] where the platform reaches every
@@ -406,11 +414,12 @@ def dexterous_workspace(
     home = robot.home_pose
     Rs = check_rotations(orientations)
     bound = condition_bound(robot, max_condition)
+    gap = check_distance(min_leg_distance)
 
     def test(p: np.ndarray) -> np.ndarray:
         n, k = p.shape[0], Rs.shape[0]
         T = _poses(np.repeat(p, k, axis=0), np.tile(Rs, (n, 1, 1)))
-        return np.asarray(mask(robot, T, bound).reshape(n, k).all(axis=1))
+        return np.asarray(mask(robot, T, bound, gap).reshape(n, k).all(axis=1))
 
     start = home[:3, 3].copy()
     _start_check(test, start, "the home position at some orientation of the set")
