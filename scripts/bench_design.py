@@ -95,8 +95,9 @@ def main() -> None:
     )
     args = parser.parse_args()
     print(f"load: {os.getloadavg()[0]:.2f} (1 min), {os.cpu_count()} cores")
-    bench_workspace(args.preset, args.states)
+    # the sweep first: the workspace's large arrays would stay in this process's heap
     bench_sweep(args.geometries, args.workers, args.backend, args.resolution, args.samples)
+    bench_workspace(args.preset, args.states)
 
 
 if __name__ == "__main__":
