@@ -101,3 +101,19 @@ def test_custom_metrics():
     )
     assert table.rows[0]["home_condition"] == c
     assert math.isnan(table.rows[-1]["home_condition"]) and table.rows[-1]["error"]
+
+
+def broken_metric(robot):
+    """A custom metric with a bug: the row keeps its error, the sweep goes on."""
+    raise ZeroDivisionError("division by zero in the user's metric")
+
+
+def test_any_failure_is_a_row():
+    table = design.sweep(
+        GEOMETRIES[:2], SETTINGS, scheduler="serial", progress=False, metrics=broken_metric
+    )
+    assert [r["error"] for r in table.rows] == [
+        "ZeroDivisionError: division by zero in the user's metric"
+    ] * 2
+    bad = design.sweep([{"no_such_key": 1.0}], SETTINGS, scheduler="serial", progress=False)
+    assert bad.rows[0]["error"].startswith("TypeError:")

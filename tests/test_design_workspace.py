@@ -182,3 +182,32 @@ def _poses_at(points, home):
     T = np.tile(home, (len(points), 1, 1))
     T[:, :3, 3] = points
     return T
+
+
+def test_orientation_workspace_volume_matches_a_monte_carlo_count():
+    """Roll, pitch, yaw (R = Rz Ry Rx R_home) at the home position: the volume [rad^3]
+    against a uniform count with the feasibility written here; the set is connected to
+    the home orientation, and the box small enough that it is all of it."""
+    robot = get_robot("desktop")
+    ow = design.orientation_workspace(robot, max_angle=0.35, resolution=20, rng=2)
+    rng = np.random.default_rng(8)
+    n = 60_000
+    rpy = rng.uniform(-0.35, 0.35, (n, 3))
+    home = robot.home_pose
+    ok = np.zeros(n, dtype=bool)
+    for k in range(0, n, 5000):
+        R = np.array([pin.rpy.rpyToMatrix(*r) for r in rpy[k : k + 5000]]) @ home[:3, :3]
+        desc = robot.description
+        P = np.einsum("nij,kj->nki", R, desc.platform_points) + home[:3, 3]
+        q = np.linalg.norm(P - desc.base_points, axis=-1)
+        lo, hi = desc.stroke
+        good = np.all((q >= lo) & (q <= hi), axis=1)
+        T = np.tile(home, (int(good.sum()), 1, 1))
+        T[:, :3, :3] = R[good]
+        good[good] = np.asarray(robot.condition_number(T)) <= robot.max_condition
+        ok[k : k + 5000] = good
+    box = 0.7**3
+    p = ok.mean()
+    v_mc, se_mc = box * p, box * np.sqrt(p * (1 - p) / n)
+    assert ow.feasible.sum() == ow.inside.sum()  # one component in this box
+    assert abs(ow.volume - v_mc) <= 3.0 * np.hypot(ow.volume_error, se_mc), (ow.volume, v_mc)

@@ -209,8 +209,8 @@ def worst_case(
         raise InputError(f"gradient must be 'differences' or 'exact', got {gradient!r}")
 
     n = int(check_scalar(samples, "samples", positive=True, integer=True))
-    acts = list(range(1, 7)) if actuators is None else [int(a) for a in actuators]
-    if not acts or any(a not in range(1, 7) for a in acts):
+    acts = list(range(1, 7)) if actuators is None else list(actuators)
+    if not acts or any(isinstance(a, bool) or a not in range(1, 7) for a in acts):
         raise InputError(f"actuators must be indices in 1..6, got {actuators!r}")
     _ = box.half_widths  # checks the bounds before sampling
     x0s = box.sample(robot, n, rng)

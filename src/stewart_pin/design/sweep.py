@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._io import atomic_open
-from stewart_pin.exceptions import InputError, SchedulerError, StewartPinError
+from stewart_pin.exceptions import InputError, SchedulerError
 
 #: The geometry every sweep starts from (a desktop-size 6-UPS, SI units); a sweep's
 #: geometries override some of these keys (see :func:`stewart_pin.symmetric_hexapod`).
@@ -88,8 +88,8 @@ def evaluate_geometry(
 
     ``metrics``: a function of the built :class:`~stewart_pin.robot.StewartRobot`
     returning the row's metrics (name -> number) instead of :data:`METRICS` (a module-level
-    function, so that Dask can send it to the workers); the errors of the package it
-    raises become the row's ``error``."""
+    function, so that Dask can send it to the workers); any exception it raises becomes
+    the row's ``error``."""
     from stewart_pin.description.symmetric_hexapod import symmetric_hexapod
     from stewart_pin.design.sizing import StateBox, actuator_loads
     from stewart_pin.design.workspace import workspace
@@ -127,7 +127,9 @@ def evaluate_geometry(
             peak_speed=float(np.abs(loads.speeds).max()),
             peak_power=float(loads.powers.max()),
         )
-    except (StewartPinError, TypeError) as e:  # TypeError: an unknown geometry key
+    except Exception as e:  # any failure is the row's, never the sweep's
+        # the package's errors (a geometry that cannot assemble, an empty workspace), an
+        # unknown geometry key (TypeError), whatever a custom metrics function raises
         row["error"] = _one_line(e)
     return row
 

@@ -289,6 +289,8 @@ def _positions(
     ``start`` (within ``reach`` [m] of it), padded by a quarter on every side and widened
     where the component touches it."""
     if box is not None:
+        if isinstance(box, (str, bytes)) or len(box) != 2:
+            raise InputError(f"box must be (lower (3,), upper (3,)), got {box!r}")
         return _grid(kind, test, start, *_box(*box), resolution, rng)
     limit = (start - reach, start + reach)
     pts = _ray_boundary(test, start, _DIRECTIONS, *limit, 1e-6 * reach)
