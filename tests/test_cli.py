@@ -285,6 +285,8 @@ BAD_NUMBERS = [
     ("workspace", "--resolution", "0"),
     ("workspace", "--max-condition", "0"),
     ("workspace", "--seed", "-1"),
+    ("workspace", "--max-angle", "0"),
+    ("workspace", "--min-leg-distance", "-1"),
     ("size", "--translation", "-1"),
     ("size", "--rotation", "nan"),
     ("size", "--speed", "-1"),

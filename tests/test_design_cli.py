@@ -20,6 +20,20 @@ def test_workspace_command_writes_cells_and_boundary(tmp_path, capsys):
     assert np.loadtxt(b, delimiter=",", skiprows=1).shape == (26, 3)
 
 
+def test_workspace_command_other_kinds(tmp_path, capsys):
+    out = tmp_path / "o.csv"
+    rc = main(["workspace", "--preset", "desktop", "--kind", "orientation", "--max-angle",
+               "0.3", "--resolution", "8", "-o", str(out)])  # fmt: skip
+    assert rc == 0 and "orientation workspace volume" in capsys.readouterr().out
+    assert out.read_text().startswith("roll,pitch,yaw\n")
+    rc = main(["workspace", "--preset", "desktop", "--kind", "dexterous", "--max-angle",
+               "0.05", "--resolution", "8", "-o", str(out)])  # fmt: skip
+    assert rc == 0 and "dexterous workspace volume" in capsys.readouterr().out
+    rc = main(["workspace", "--preset", "desktop", "--kind", "dexterous", "--max-angle",
+               "3", "-o", str(out)])  # fmt: skip
+    assert rc == 2 and "not feasible" in capsys.readouterr().err
+
+
 def test_size_command_writes_the_report(tmp_path, capsys):
     rc = main(["size", "--preset", "desktop", "--samples", "50", "--no-optimise",
                "--effort-limit", "20", "--html", "-o", str(tmp_path / "r")])  # fmt: skip

@@ -61,24 +61,37 @@ def _workspace(args: argparse.Namespace) -> int:
         else None
     )
     import numpy as np
+    import pinocchio as pin
 
     from stewart_pin._io import atomic_open
-    from stewart_pin.design import workspace
+    from stewart_pin.design import dexterous_workspace, orientation_workspace, workspace
 
     robot = robot_from_args(args)
-    ws = workspace(
-        robot,
-        _orientation(args, robot),
-        resolution=args.resolution,
-        max_condition=args.max_condition,
-        rng=args.seed,
-    )
-    header = "x,y,z"
+    common = {
+        "resolution": args.resolution,
+        "max_condition": args.max_condition,
+        "min_leg_distance": args.min_leg_distance,
+        "rng": args.seed,
+    }
+    R = _orientation(args, robot)
+    if args.kind == "orientation":
+        ws = orientation_workspace(robot, max_angle=args.max_angle, **common)
+        header, unit = "roll,pitch,yaw", "rad^3"
+    elif args.kind == "dexterous":
+        a = args.max_angle
+        grid = [(r, p, y) for r in (-a, 0, a) for p in (-a, 0, a) for y in (-a, 0, a)]
+        Rs = np.array([pin.rpy.rpyToMatrix(*rpy) @ R for rpy in grid])
+        ws = dexterous_workspace(robot, Rs, **common)
+        header, unit = "x,y,z", "m^3"
+    else:
+        ws = workspace(robot, R, **common)
+        header, unit = "x,y,z", "m^3"
     with atomic_open(out) as f:
         np.savetxt(f, ws.inside_points, delimiter=",", header=header, comments="", fmt="%.17g")
     print(
-        f"workspace volume {ws.volume:.6g} m^3 +- {ws.volume_error:.2g} (one standard error), "
-        f"{int(ws.inside.sum())} of {ws.inside.size} cells {ws.shape}; wrote {out}"
+        f"{ws.kind} workspace volume {ws.volume:.6g} {unit} +- {ws.volume_error:.2g} (one "
+        f"standard error), {int(ws.inside.sum())} of {ws.inside.size} cells {ws.shape}; "
+        f"wrote {out}"
     )
     if ws.touches_box:
         print("note: the workspace touches the box; pass a larger box to the library call")
@@ -193,6 +206,25 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=finite_float,
         metavar=("ROLL", "PITCH", "YAW"),
         help="rotation applied in F0 to the home orientation [rad] (default: home)",
+    )
+    p.add_argument(
+        "--kind",
+        choices=("position", "orientation", "dexterous"),
+        default="position",
+        help="position: O_p at a fixed orientation; orientation: roll, pitch, yaw within "
+        "--max-angle at the home position; dexterous: positions reaching every rotation "
+        "of the grid {-A, 0, A}^3 (A = --max-angle) of roll, pitch, yaw",
+    )
+    p.add_argument(
+        "--max-angle",
+        type=positive_finite_float,
+        default=0.1,
+        help="the orientation box's half-width / the dexterous set's angle [rad]",
+    )
+    p.add_argument(
+        "--min-leg-distance",
+        type=non_negative_finite_float,
+        help="no two legs closer than this [m] (leg-leg interference; default: not checked)",
     )
     p.add_argument("--resolution", type=positive_int, default=40, help="cells on the longest side")
     p.add_argument("--max-condition", type=positive_finite_float, help="singularity bound")
