@@ -60,3 +60,32 @@ def test_sweep_command_and_its_errors_in_one_line(tmp_path, capsys):
                "-o", str(tmp_path / "w.csv")])  # fmt: skip
     err = capsys.readouterr().err
     assert rc == 2 and "not feasible" in err and err.count("\n") == 1
+
+
+def test_size_along_a_trajectory(tmp_path, capsys):
+    """The loads along a trajectory CSV: the peak efforts are those of the inverse
+    dynamics at its states, the speeds the rates of the leg lengths (differences)."""
+    from stewart_pin import StewartRobot
+    from stewart_pin.formats.csv_tables import STATE_COLUMNS, state_table, write_csv
+    from stewart_pin.motion.trajectories import standard_motion
+
+    robot = StewartRobot.from_preset("desktop")
+    times = np.linspace(0, 4.0, 41)
+    tr = standard_motion(robot, "washout").sample(times)
+    traj = write_csv(
+        tmp_path / "traj.csv", STATE_COLUMNS, state_table(tr.times, tr.poses, tr.twists, tr.accels)
+    )
+    rc = main(
+        ["size", "--preset", "desktop", "--trajectory", str(traj), "-o", str(tmp_path / "r")]
+    )
+    assert rc == 0
+    rows = json.loads((tmp_path / "r" / "report.json").read_text())["loads"]
+    gamma = robot.inverse_dynamics(tr.poses, tr.twists, tr.accels)
+    np.testing.assert_allclose([r["peak_effort"] for r in rows], np.abs(gamma).max(axis=0))
+    motion, h = standard_motion(robot, "washout"), 1e-6
+    qp = robot.actuator_positions(motion.sample(times + h).poses)
+    qm = robot.actuator_positions(motion.sample(times - h).poses)
+    rates = (qp - qm) / (2 * h)
+    np.testing.assert_allclose(
+        [r["peak_speed"] for r in rows], np.abs(rates).max(axis=0), rtol=1e-6
+    )

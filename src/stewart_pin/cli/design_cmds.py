@@ -124,13 +124,22 @@ def _size(args: argparse.Namespace) -> int:
         args.translation, args.rotation, args.speed, args.angular_speed, args.accel,
         args.angular_accel,
     )  # fmt: skip
-    x = box.sample(robot, args.samples, args.seed)
-    loads = actuator_loads(robot, *box.states(robot, x))
-    worst = (
-        []
-        if args.no_optimise
-        else worst_case(robot, box, samples=args.samples, rng=args.seed, gradient=args.gradient)
-    )
+    if args.trajectory:  # the loads along a given motion; no box to search
+        from stewart_pin.formats.csv_tables import STATE_COLUMNS, read_csv, states_from_table
+
+        _, poses, twists, accels = states_from_table(read_csv(args.trajectory, STATE_COLUMNS))
+        loads = actuator_loads(robot, poses, twists, accels)
+        worst = []
+    else:
+        x = box.sample(robot, args.samples, args.seed)
+        loads = actuator_loads(robot, *box.states(robot, x))
+        worst = (
+            []
+            if args.no_optimise
+            else worst_case(
+                robot, box, samples=args.samples, rng=args.seed, gradient=args.gradient
+            )
+        )
     limits = args.effort_limit
     cap = None
     if limits is not None or robot.description.effort_limits is not None:
@@ -252,6 +261,11 @@ def register(sub: argparse._SubParsersAction) -> None:
             default=default,
             help=f"half-width of the box of states, per component [{unit}]",
         )
+    p.add_argument(
+        "--trajectory",
+        help="a platform trajectory CSV (the columns of `idm --trajectory`): the loads "
+        "along it instead of over the box of states (no worst-case search)",
+    )
     p.add_argument("--samples", type=positive_int, default=2000, help="states sampled")
     p.add_argument("--seed", type=non_negative_int, default=0, help="the sampling seed")
     p.add_argument("--no-optimise", action="store_true", help="skip the worst-case search")
