@@ -121,9 +121,13 @@ def _size(args: argparse.Namespace) -> int:
 
     robot = robot_from_args(args)
     box = StateBox(
-        args.translation, args.rotation, args.speed, args.angular_speed, args.accel,
+        args.translation,
+        args.rotation,
+        args.speed,
+        args.angular_speed,
+        args.accel,
         args.angular_accel,
-    )  # fmt: skip
+    )
     if args.trajectory:  # the loads along a given motion; no box to search
         from stewart_pin.formats.csv_tables import STATE_COLUMNS, read_csv, states_from_table
 

@@ -474,9 +474,11 @@ def _html(
             "matplotlib",
             "viz",
         ) from e
-    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'>",
-             "<title>stewart-pin actuator sizing</title></head><body>",
-             "<h1>Actuator sizing</h1>"]  # fmt: skip
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'>",
+        "<title>stewart-pin actuator sizing</title></head><body>",
+        "<h1>Actuator sizing</h1>",
+    ]
     if loads is not None:
         fig = Figure(figsize=(8, 3.5), layout="constrained")
         ax = fig.subplots()

@@ -215,9 +215,19 @@ def _grid(
     v = float(np.prod(cell))
     se = v * float(np.sqrt(np.sum((y[0::2] - y[1::2]) ** 2)))
     return Workspace(
-        kind, lo, hi, shape, points, ok, inside, v * int(inside.sum()), se, start,
-        bool(_faces(inside).any()), test,
-    )  # fmt: skip
+        kind,
+        lo,
+        hi,
+        shape,
+        points,
+        ok,
+        inside,
+        v * int(inside.sum()),
+        se,
+        start,
+        bool(_faces(inside).any()),
+        test,
+    )
 
 
 def _faces(inside: np.ndarray) -> np.ndarray:
