@@ -38,6 +38,7 @@ GALLERY_ORDER = (
     "identification",
     "trajectory_optimisation",
     "payload",
+    "design_studies",
 )
 CACHE_ENV = "STEWART_PIN_EXECUTED_NOTEBOOKS"
 TIMEOUT = 600  # [s] per cell

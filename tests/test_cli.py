@@ -355,6 +355,26 @@ BAD_NUMBERS = [
     ("import", "--closure-tolerance", "0"),
     ("import", "--closure-tolerance", "nan"),
     ("export-c", "--samples", "0"),
+    ("workspace", "--orientation", "nan"),
+    ("workspace", "--resolution", "0"),
+    ("workspace", "--max-condition", "0"),
+    ("workspace", "--seed", "-1"),
+    ("workspace", "--max-angle", "0"),
+    ("workspace", "--min-leg-distance", "-1"),
+    ("size", "--translation", "-1"),
+    ("size", "--rotation", "nan"),
+    ("size", "--speed", "-1"),
+    ("size", "--angular-speed", "inf"),
+    ("size", "--accel", "-1"),
+    ("size", "--angular-accel", "nan"),
+    ("size", "--samples", "0"),
+    ("size", "--seed", "-1"),
+    ("size", "--effort-limit", "0"),
+    ("sweep", "--resolution", "0"),
+    ("sweep", "--samples", "0"),
+    ("sweep", "--seed", "-1"),
+    ("sweep", "--workers", "0"),
+    ("sweep", "--timeout", "0"),
 ]
 
 
@@ -364,6 +384,8 @@ BAD_NUMBERS = [
 def test_bad_number_argument_exits_2_with_one_line(command, option, value, capsys):
     if option in ("--pose", "--payload-placement"):
         argv = [command, option, value, "0", "0", "0", "0", "0"]
+    elif option == "--orientation":  # three numbers
+        argv = [command, option, value, "0", "0"]
     else:
         argv = [command, f"{option}={value}"]  # '--tol-idm -1e-9' would read as an option
     with pytest.raises(SystemExit) as e:  # refused while parsing: before any work

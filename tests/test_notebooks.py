@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 #: The figures (``image/png`` outputs) each notebook shows, at least.
 FIGURES = {
+    "design_studies": 3,
     "identification": 1,
     "leg_architectures": 3,
     "payload": 1,

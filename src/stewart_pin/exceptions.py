@@ -31,7 +31,9 @@ expected, what was received and how to fix it::
     │   ├── StrokeLimitError                 a leg length outside its stroke
     │   ├── JointLimitError                  a U-joint angle outside its limits
     │   ├── LegReachError                    a general leg that cannot reach its P_i
-    │   └── LegJointLimitError               a general leg's joint outside its limits
+    │   ├── LegJointLimitError               a general leg's joint outside its limits
+    │   └── EmptyWorkspaceError              no feasible state: an empty workspace, an
+    │                                        unreachable orientation set
     ├── SingularityError (ValueError)        at or too near a singularity
     ├── NumericalError (ArithmeticError)     finite inputs, non-finite result
     ├── ConvergenceError (RuntimeError)      an iteration that did not converge
@@ -41,6 +43,7 @@ expected, what was received and how to fix it::
     ├── CompilationError (RuntimeError)      the C library not built or loaded
     │   └── UnsafeCacheError                 a cache others could write to
     ├── ViewerError (RuntimeError)           the 3-D viewer's server did not start
+    ├── SchedulerError (ConnectionError)     a Dask scheduler that cannot be reached
     ├── PayloadError (ValueError)            a payload model that cannot be mounted
     │   ├── UnknownPayloadError              a payload name no installed package knows
     │   └── PayloadMeshError                 a mesh file outside the payload's folders
@@ -225,6 +228,13 @@ class LegJointLimitError(WorkspaceError):
             "choose a pose closer to the workspace centre or widen the limits"
         )
         self.leg, self.joint, self.value, self.lower, self.upper = leg, joint, value, lower, upper
+
+
+class EmptyWorkspaceError(WorkspaceError):
+    """A design study with no feasible state to work on: an empty workspace (no state of
+    the box satisfies every limit), a start (the home position, the home orientation)
+    that is itself infeasible, an orientation set the platform cannot reach
+    (:mod:`stewart_pin.design`)."""
 
 
 class SingularityError(StewartPinError, ValueError):
@@ -430,7 +440,22 @@ class ViewerError(StewartPinError, RuntimeError):
     """The 3-D viewer's meshcat server did not start (timed out or exited early)."""
 
 
+class SchedulerError(StewartPinError, ConnectionError):
+    """A Dask scheduler (``--scheduler tcp://host:port``) that cannot be reached or that
+    refused the connection (:func:`stewart_pin.design.sweep`).
+
+    Attributes:
+        address: the scheduler's address, as given.
+    """
+
+    def __init__(self, message: str, address: str) -> None:
+        super().__init__(message)
+        self.address = address
+
+
 # ---------------------------------------------------------------------------- warnings
+
+
 class StewartPinWarning(UserWarning):
     """Base class of stewart-pin's warnings; raised itself for input accepted after a
     documented correction (e.g. a rotation given to a few significant digits, projected

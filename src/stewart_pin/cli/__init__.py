@@ -23,6 +23,7 @@ from typing import Any
 
 from stewart_pin import __version__
 from stewart_pin.cli import (
+    design_cmds,
     dynamics_cmds,
     export_cmds,
     geometry_cmds,
@@ -75,14 +76,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"stewart-pin {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (
+    modules = (
         geometry_cmds,
         dynamics_cmds,
         parameters_cmds,
         motion_cmds,
         import_cmds,
         export_cmds,
-    ):
+        design_cmds,
+    )
+    for module in modules:
         module.register(sub)
     return parser
 
