@@ -184,8 +184,22 @@ def _general_ok(robot: Any, T: np.ndarray, bound: float) -> bool:
 
 
 def _general_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
-    """General legs: checked calls on halves of the batch until each chunk passes or is a
-    single state (states far from the limits cost one batched call per chunk)."""
+    """General legs: the batch decided at once by
+    :func:`~stewart_pin.kinematics.leg_chains.admissible_poses` (the decision of the checked
+    calls, state by state); where a closed form meets a floating-point fault, checked calls
+    on halves of the batch until each chunk passes or is a single state."""
+    n = T.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    try:
+        return leg_chains.admissible_poses(robot.general, T, bound)
+    except FloatingPointError:
+        return _split_mask(robot, T, bound)
+
+
+def _split_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
+    """Checked calls on halves of the batch until each chunk passes or is a single state
+    (states far from the limits cost one batched call per chunk)."""
     n = T.shape[0]
     if n == 0:
         return np.zeros(0, dtype=bool)
@@ -198,7 +212,7 @@ def _general_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
         return np.array([_general_ok(robot, T[i : i + 1], bound) for i in range(n)])
     half = n // 2
     return np.concatenate(
-        [_general_mask(robot, T[:half], bound), _general_mask(robot, T[half:], bound)]
+        [_split_mask(robot, T[:half], bound), _split_mask(robot, T[half:], bound)]
     )
 
 
