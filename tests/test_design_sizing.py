@@ -105,6 +105,50 @@ def test_dynamic_capability_against_a_bisection():
         design.dynamic_capability(robot, 0.5 * np.abs(g0).max())
 
 
+@pytest.mark.parametrize("name", ["desktop", "rus"])
+@pytest.mark.parametrize("kind", ["force", "moment"])
+def test_wrench_capability_by_virtual_work_and_bisection(name, kind):
+    """The efforts of the largest wrench, less those holding the robot at rest, do the
+    virtual work of the wrench on every small displacement: checked with central
+    differences of the actuator positions (inverse geometry, not the Jacobian); and a
+    bisection on the efforts finds the same largest magnitude."""
+    robot = get_robot(name)
+    home = robot.home_pose
+    g0 = robot.inverse_dynamics(home, np.zeros(6), np.zeros(6), backend="pinocchio")
+    lim = 2.0 * np.abs(g0).max() * np.ones(6)
+    dirs = np.array([[1, 0, 0], [0, 0, 1], [0, 0, -1], [1, -1, 0.5]], float)
+    cap = design.wrench_capability(robot, lim, directions=dirs, kind=kind, backend="pinocchio")
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    assert np.all(cap.magnitude > 0)
+    rng = np.random.default_rng(3)
+    h = 1e-6
+    # the efforts beyond g0 for a unit wrench along each direction, from the result
+    for d, s in zip(dirs, cap.magnitude, strict=True):
+        w = np.concatenate([d, np.zeros(3)] if kind == "force" else [np.zeros(3), d])
+        K = np.linalg.inv(robot.inverse_jacobian(home).T)
+        extra = K @ (s * w)
+        assert np.max(np.abs(g0 + extra) / lim) == pytest.approx(1.0, rel=1e-9)
+        for _ in range(3):  # virtual work with finite differences of the inverse geometry
+            delta = rng.normal(size=6)
+            q = []
+            for sign in (1.0, -1.0):
+                T = home.copy()
+                T[:3, 3] += sign * h * delta[:3]
+                T[:3, :3] = pin.exp3(sign * h * delta[3:]) @ home[:3, :3]
+                q.append(robot.actuator_positions(T))
+            dq = (q[0] - q[1]) / (2 * h)
+            assert extra @ dq == pytest.approx(s * w @ delta, rel=1e-6, abs=1e-9 * s)
+        lo, hi = 0.0, 2.0 * s + 1.0  # bisection on |g0 + K w t| <= lim
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if np.all(np.abs(g0 + K @ (mid * w)) <= lim) else (lo, mid)
+        assert s == pytest.approx(lo, rel=1e-9)
+    with pytest.raises(InputError, match="kind"):
+        design.wrench_capability(robot, lim, kind="torque")
+    with pytest.raises(InputError, match="cannot hold"):
+        design.wrench_capability(robot, 0.5 * np.abs(g0).max(), backend="pinocchio")
+
+
 def test_an_infeasible_state_box_is_a_named_error():
     robot = get_robot("desktop")
     box = design.StateBox(translation=1.0)

@@ -11,7 +11,8 @@
 - :mod:`.sizing`: :func:`actuator_loads` (peak / RMS effort, speed and power along given
   motions), :func:`worst_case` (the worst state of a box of states, by optimisation from
   the sampled worst), :func:`dynamic_capability` (the largest platform acceleration in
-  each direction under the effort limits, one LP per direction).
+  each direction under the effort limits, one LP per direction), :func:`wrench_capability`
+  (the largest static force or moment the platform exerts in each direction).
 - :mod:`.sweep`: :func:`sweep`, a family of geometries evaluated in parallel on Dask.
 
 Sits above the planning, parameters and motion layers and the robot facade (it builds
@@ -30,9 +31,11 @@ from stewart_pin.design.sizing import (
     Capability,
     StateBox,
     WorstCase,
+    WrenchCapability,
     actuator_loads,
     dynamic_capability,
     worst_case,
+    wrench_capability,
     write_report,
 )
 from stewart_pin.design.sweep import (
@@ -60,6 +63,7 @@ __all__ = [
     "SweepSettings",
     "Workspace",
     "WorstCase",
+    "WrenchCapability",
     "actuator_loads",
     "dexterous_workspace",
     "dynamic_capability",
@@ -74,5 +78,6 @@ __all__ = [
     "sweep",
     "workspace",
     "worst_case",
+    "wrench_capability",
     "write_report",
 ]

@@ -8,6 +8,8 @@ capability, and a report.
   on the displacement, rotation, twist and acceleration; per actuator, the largest
   ``|Gamma_i|`` found by L-BFGS-B (gradients by central differences, one batched call per
   gradient) started from the worst of the sampled states; never below the sampled worst.
+- :func:`wrench_capability`: at one pose, at rest, the largest force (or moment) the
+  platform exerts along each direction under the effort limits.
 - :func:`dynamic_capability`: at one state, the largest linear acceleration of O_p in each
   direction under the effort limits ``|Gamma_i| <= limit_i``: efforts are affine in the
   acceleration at a given pose and twist, so each direction is a small linear program
@@ -328,6 +330,38 @@ class Capability:
 AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 
 
+def _effort_limits(robot: Any, effort_limits: Any, what: str) -> np.ndarray:
+    """The effort limits (6,) [N or N m]: ``effort_limits`` or the description's, checked."""
+    lim_src = robot.description.effort_limits if effort_limits is None else effort_limits
+    if lim_src is None:
+        raise InputError(
+            f"{what} needs effort limits: pass effort_limits (6,) [N or N m] or "
+            "set effort_limits in the robot description"
+        )
+    lim = np.broadcast_to(np.asarray(lim_src, dtype=float), (6,))
+    if not np.all(np.isfinite(lim)) or np.any(lim <= 0):
+        raise InputError(f"effort_limits must be finite and > 0, got {lim_src!r}")
+    return lim
+
+
+def _unit_directions(directions: Any) -> np.ndarray:
+    """``directions`` (K, 3) (default :data:`AXES`) as unit vectors, checked."""
+    D = AXES if directions is None else np.asarray(directions, dtype=float)
+    if D.ndim != 2 or D.shape[1] != 3 or np.any(np.linalg.norm(D, axis=1) == 0):
+        raise InputError(f"directions must be non-zero (K, 3) vectors, got shape {D.shape}")
+    return D / np.linalg.norm(D, axis=1)[:, None]
+
+
+def _holds(g0: np.ndarray, lim: np.ndarray) -> None:
+    """Refuse a state whose efforts ``g0`` at zero acceleration pass the limits."""
+    if np.any(np.abs(g0) > lim):
+        i = int(np.argmax(np.abs(g0) / lim))
+        raise InputError(
+            f"actuator {i + 1} needs {g0[i]:.6g} at zero acceleration, beyond its limit "
+            f"{lim[i]:.6g}: the robot cannot hold this state"
+        )
+
+
 def dynamic_capability(
     robot: Any,
     effort_limits: Any = None,
@@ -354,32 +388,16 @@ def dynamic_capability(
     """
     from scipy.optimize import linprog
 
-    lim_src = robot.description.effort_limits if effort_limits is None else effort_limits
-    if lim_src is None:
-        raise InputError(
-            "dynamic_capability needs effort limits: pass effort_limits (6,) [N or N m] or "
-            "set effort_limits in the robot description"
-        )
-    lim = np.broadcast_to(np.asarray(lim_src, dtype=float), (6,))
-    if not np.all(np.isfinite(lim)) or np.any(lim <= 0):
-        raise InputError(f"effort_limits must be finite and > 0, got {lim_src!r}")
+    lim = _effort_limits(robot, effort_limits, "dynamic_capability")
     T = robot.home_pose if pose is None else np.asarray(pose, dtype=float)
     V = np.zeros(6) if twist is None else np.asarray(twist, dtype=float).reshape(6)
-    D = AXES if directions is None else np.asarray(directions, dtype=float)
-    if D.ndim != 2 or D.shape[1] != 3 or np.any(np.linalg.norm(D, axis=1) == 0):
-        raise InputError(f"directions must be non-zero (K, 3) vectors, got shape {D.shape}")
-    D = D / np.linalg.norm(D, axis=1)[:, None]
+    D = _unit_directions(directions)
     accels = np.vstack([np.zeros(6), np.eye(6)])
     g = np.asarray(
         robot.inverse_dynamics(np.tile(T, (7, 1, 1)), np.tile(V, (7, 1)), accels, backend=backend)
     )
     g0, G = g[0], (g[1:] - g[0]).T  # Gamma = g0 + G a
-    if np.any(np.abs(g0) > lim):
-        i = int(np.argmax(np.abs(g0) / lim))
-        raise InputError(
-            f"actuator {i + 1} needs {g0[i]:.6g} at zero acceleration, beyond its limit "
-            f"{lim[i]:.6g}: the robot cannot hold this state"
-        )
+    _holds(g0, lim)
     out_s, out_alpha, out_i = [], [], []
     bounds = [(0.0, None)] + [(None, None) if free_rotation else (0.0, 0.0)] * 3
     for d in D:
@@ -399,6 +417,89 @@ def dynamic_capability(
         out_alpha.append(alpha)
         out_i.append(int(np.argmax(np.abs(gamma) / lim)) + 1)
     return Capability(D, np.array(out_s), np.array(out_alpha), np.array(out_i))
+
+
+@dataclass(frozen=True)
+class WrenchCapability:
+    """The largest static wrench the platform can exert under the effort limits at one
+    pose: ``directions`` (K, 3) unit vectors in F0, ``kind`` ``"force"`` (a force at O_p
+    along each direction [N], no moment) or ``"moment"`` (a moment about each direction
+    [N m], no force), ``magnitude`` (K,) and ``limiting`` (K,) the 1-based actuator at its
+    limit."""
+
+    directions: np.ndarray
+    kind: str
+    magnitude: np.ndarray
+    limiting: np.ndarray
+
+    def table(self) -> list[dict[str, float | int | str]]:
+        """One row per direction: ``dx, dy, dz``, ``kind``, ``magnitude``, ``limiting``."""
+        return [
+            {
+                "dx": float(d[0]),
+                "dy": float(d[1]),
+                "dz": float(d[2]),
+                "kind": self.kind,
+                "magnitude": float(m),
+                "limiting": int(i),
+            }
+            for d, m, i in zip(self.directions, self.magnitude, self.limiting, strict=True)
+        ]
+
+
+def wrench_capability(
+    robot: Any,
+    effort_limits: Any = None,
+    *,
+    pose: Any = None,
+    directions: Any = None,
+    kind: str = "force",
+    backend: str = "auto",
+) -> WrenchCapability:
+    """The largest static wrench the platform can exert on its surroundings along each unit
+    direction ``d`` (K, 3) in F0 (default :data:`AXES`) with ``|Gamma_i| <=
+    effort_limits_i`` (6,) [N or N m] (default the description's ``effort_limits``), at
+    ``pose`` (default home), at rest, its own weight and the legs' held: a force ``s d``
+    at O_p [N] (``kind="force"``) or a moment ``s d`` [N m] (``kind="moment"``).
+
+    At rest the actuators' efforts beyond those holding the robot, ``Gamma - Gamma_0``,
+    balance the wrench ``w = [f, m]`` the surroundings exert back on the platform through
+    the virtual work ``Gamma . qdot_a = w_act . [v, w]``: ``J_inv^T (Gamma - Gamma_0) = w``
+    (``J_inv`` the inverse Jacobian, ``qdot_a = J_inv [v, w]``), so ``Gamma = Gamma_0 +
+    J_inv^-T w`` and per direction ``max s`` subject to ``-lim <= Gamma <= lim`` by
+    ``scipy.optimize.linprog`` (HiGHS).
+
+    Raises:
+        InputError: no effort limits, limits the robot already exceeds at rest, a ``kind``
+            other than ``"force"`` or ``"moment"``, or a direction no actuator opposes.
+    """
+    from scipy.optimize import linprog
+
+    if kind not in ("force", "moment"):
+        raise InputError(f"kind must be 'force' or 'moment', got {kind!r}")
+    lim = _effort_limits(robot, effort_limits, "wrench_capability")
+    T = robot.home_pose if pose is None else np.asarray(pose, dtype=float)
+    D = _unit_directions(directions)
+    g0 = np.asarray(robot.inverse_dynamics(T, np.zeros(6), np.zeros(6), backend=backend))
+    _holds(g0, lim)
+    K = np.linalg.solve(np.asarray(robot.inverse_jacobian(T)).T, np.eye(6))  # J_inv^-T
+    cols = K[:, :3] if kind == "force" else K[:, 3:]
+    out_s, out_i = [], []
+    for d in D:
+        m = cols @ d  # Gamma - g0 = m s
+        res = linprog(
+            c=[-1.0],
+            A_ub=np.concatenate([m, -m])[:, None],
+            b_ub=np.concatenate([lim - g0, lim + g0]),
+            bounds=[(0.0, None)],
+            method="highs",
+        )
+        if res.status == 3:  # unbounded: no actuator takes this wrench
+            raise InputError(f"the {kind} along {d} is unbounded under the limits")
+        s = float(res.x[0])
+        out_s.append(s)
+        out_i.append(int(np.argmax(np.abs(g0 + m * s) / lim)) + 1)
+    return WrenchCapability(D, kind, np.array(out_s), np.array(out_i))
 
 
 # ---------------------------------------------------------------------------- report
