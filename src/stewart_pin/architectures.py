@@ -10,7 +10,7 @@ dynamics; no method of the facade asks which architecture it holds.
   closure layer of :mod:`stewart_pin.dynamics.closed_loop`).
 - :class:`LegChainPath`: every other robot (``ups-offset``, ``rus``, ``pus``, custom,
   mixed), its legs as three-joint chains (:mod:`stewart_pin.kinematics.leg_chains`,
-  :class:`~stewart_pin.dynamics.general_legs.GeneralDynamics`, joint terms included).
+  :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics`, joint terms included).
 
 The paths hold no state (the models they use are cached on the robot, which each method
 takes as its first argument: a :class:`PathOwner`), so a robot keeps no reference cycle
@@ -34,10 +34,10 @@ from stewart_pin._typing import (
     Twists,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.dynamics import closed_loop as closure
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
-from stewart_pin.dynamics.general_legs import (
+from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
     GeneralDynamics,
     GeneralInverseDynamics,

@@ -13,7 +13,7 @@ never ask which architecture they hold): the paper's ideal
 6-UPS robot keeps its closed forms and its Pinocchio leg models; a robot with general
 three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``, custom,
 mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
-:class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
+:class:`stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics` (joint dynamics included). On
 such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
 for a revolute one, joint side). Every feature takes every architecture: the tree
 (:attr:`StewartRobot.tree`), the leg models, the model files (URDF, xacro, MJCF), the
@@ -50,10 +50,10 @@ from stewart_pin._typing import (
 )
 from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
-from stewart_pin.dynamics.general_legs import (
+from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
     GeneralDynamics,
     GeneralInverseDynamics,
@@ -443,7 +443,7 @@ class StewartRobot:
         Returns:
             Gamma (6,) or (N, 6); positive extends the leg. General legs: the actuated
             joints' efforts, joint side [N or N m]; ``details=True`` gives the
-            :class:`~stewart_pin.dynamics.general_legs.GeneralInverseDynamics` (its
+            :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralInverseDynamics` (its
             ``joint_efforts`` (N, 6, 3): Gamma on the actuated joints, 0 on the passive
             ones; ``H`` each leg's own joint efforts, joint terms included).
 
@@ -517,7 +517,7 @@ class StewartRobot:
     ) -> CartesianDynamics | GeneralCartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
         :class:`NumericalError` when either is not finite. General legs: a
-        :class:`~stewart_pin.dynamics.general_legs.GeneralCartesianDynamics`."""
+        :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralCartesianDynamics`."""
         return self._kind.cartesian_dynamics(self, pose, twist)
 
     def gravity_compensation(self, pose: ArrayLike) -> FloatArray:

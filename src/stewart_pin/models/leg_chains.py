@@ -27,8 +27,8 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.inertia import pin_inertia_from_khalil
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
     build_leg_models,

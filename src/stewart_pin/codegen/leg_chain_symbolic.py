@@ -85,8 +85,8 @@ from stewart_pin.codegen._sx_common import (
     stage_function,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND, LegArchitecture
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.geometry import LEG_MIN_LENGTH_RATIO

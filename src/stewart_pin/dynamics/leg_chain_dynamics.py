@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_poses, check_states
-from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.dynamics.closed_loop import (
     closure_cartesian_dynamics,
     closure_direct_dynamics,

@@ -1,6 +1,6 @@
 """The independent check for general-leg robots: Pinocchio's constrained tree.
 
-Shares no algebra with :mod:`stewart_pin.dynamics.general_legs` or
+Shares no algebra with :mod:`stewart_pin.dynamics.leg_chain_dynamics` or
 :mod:`stewart_pin.kinematics.leg_chains` (it imports neither): the robot is the 24-dof
 tree of :func:`stewart_pin.models.leg_chains.build_general_tree` (six chains, the
 platform as a free-flyer, ``model.armature`` for the armatures) closed by six 3D point
@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import coulomb_sign
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.exceptions import InputError, SingularityError
 from stewart_pin.models.leg_chains import build_general_tree, leg_joint_name
 from stewart_pin.models.pinocchio_models import TreeModel

@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.inertia import khalil_from_urdf_inertial, random_physical_khalil
 from stewart_pin.description.leg_architecture import (
     PRISMATIC,
@@ -34,6 +33,7 @@ from stewart_pin.description.leg_architecture import (
     ups,
     ups_offset,
 )
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.symmetric_presets import desktop
 from stewart_pin.exceptions import ArchitectureError
 
