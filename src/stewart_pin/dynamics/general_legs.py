@@ -1,0 +1,14 @@
+"""Deprecated: renamed :mod:`stewart_pin.dynamics.leg_chain_dynamics` (the dynamics of
+three-joint leg chains, joint terms included; issue 19 named the ``general_*`` twins after
+what they hold).
+
+Every name read from this module is that of the new module and warns
+(``DeprecationWarning``) naming its new place.
+"""
+
+from __future__ import annotations
+
+from stewart_pin._moved import moved_module
+from stewart_pin.dynamics import leg_chain_dynamics as _new
+
+__getattr__ = moved_module(__name__, _new)
