@@ -94,5 +94,5 @@ def test_the_facade_asks_no_architecture_question():
 def test_the_path_follows_the_architecture(name, kind):
     """The ideal 6-UPS (the paper's closed forms) and every other robot (leg chains)."""
     desc = preset(name)
-    assert isinstance(reference_path(desc), kind)
+    assert type(reference_path(desc)) is kind
     assert reference_path(desc).is_ideal_ups == desc.is_ideal_ups

@@ -4,13 +4,15 @@
 :func:`reference_path`) and calls it for geometry, kinematics, sampling and the reference
 dynamics; no method of the facade asks which architecture it holds.
 
-- :class:`IdealUpsPath`: the paper's ideal 6-UPS, its closed forms (eq. 13-19,
-  :mod:`stewart_pin.kinematics.geometry`, :mod:`stewart_pin.kinematics.jacobians`) and its
-  Pinocchio leg models (:class:`~stewart_pin.dynamics.leg_dynamics.LegDynamics`, the
-  closure layer of :mod:`stewart_pin.dynamics.closed_loop`).
-- :class:`LegChainPath`: every other robot (``ups-offset``, ``rus``, ``pus``, custom,
-  mixed), its legs as three-joint chains (:mod:`stewart_pin.kinematics.leg_chains`,
-  :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics`, joint terms included).
+- :class:`LegChainPath`: any robot, its legs as three-joint chains
+  (:mod:`stewart_pin.kinematics.leg_chains`,
+  :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics`, joint terms
+  included): the path of ``ups-offset``, ``rus``, ``pus``, custom and mixed robots.
+- :class:`IdealUpsPath`: the paper's ideal 6-UPS, overriding it with its closed forms
+  (eq. 13-19, :mod:`stewart_pin.kinematics.geometry`,
+  :mod:`stewart_pin.kinematics.jacobians`) and its Pinocchio leg models
+  (:class:`~stewart_pin.dynamics.leg_dynamics.LegDynamics`, the closure layer of
+  :mod:`stewart_pin.dynamics.closed_loop`).
 
 The paths hold no state (the models they use are cached on the robot, which each method
 takes as its first argument: a :class:`PathOwner`), so a robot keeps no reference cycle
@@ -49,7 +51,7 @@ from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import leg_state
 
-__all__ = ["ArchitecturePath", "IdealUpsPath", "LegChainPath", "PathOwner", "reference_path"]
+__all__ = ["IdealUpsPath", "LegChainPath", "PathOwner", "reference_path"]
 
 
 class PathOwner(Protocol):
@@ -79,242 +81,15 @@ def quiet_overflow() -> np.errstate:
     return np.errstate(over="ignore", invalid="ignore")
 
 
-class ArchitecturePath:
-    """The operations whose algorithm depends on the architecture (arguments, shapes and
-    units as the :class:`~stewart_pin.robot.StewartRobot` methods of the same names)."""
+class LegChainPath:
+    """Every robot as six three-joint leg chains, joint terms included: the path of every
+    architecture but the ideal 6-UPS, which overrides it with its closed forms
+    (:class:`IdealUpsPath`). Arguments, shapes and units as the
+    :class:`~stewart_pin.robot.StewartRobot` methods of the same names; each method takes
+    the robot holding the path first."""
 
     #: Whether this is the paper's ideal 6-UPS path.
     is_ideal_ups: bool = False
-
-    def check_home(self, r: PathOwner) -> None:
-        """Raise :class:`ArchitectureError` when the home pose is not a valid pose."""
-
-    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
-        raise NotImplementedError
-
-    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
-        raise NotImplementedError
-
-    def forward_geometry(
-        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
-    ) -> Pose:
-        raise NotImplementedError
-
-    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
-        raise NotImplementedError
-
-    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
-        raise NotImplementedError
-
-    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
-        raise NotImplementedError
-
-    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
-        raise NotImplementedError
-
-    def leg_kinematics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
-    ) -> tuple[JointValues, JointValues, JointValues | None]:
-        """Batch arrays ``(q, qdot, qddot)`` (N, 6, 3), unchecked."""
-        raise NotImplementedError
-
-    def sample_poses(
-        self,
-        r: PathOwner,
-        n: int,
-        rng: np.random.Generator | int | None,
-        translation: float | None,
-        rotation: float,
-    ) -> FloatArray:
-        raise NotImplementedError
-
-    def sample_states(
-        self,
-        r: PathOwner,
-        n: int,
-        rng: np.random.Generator | int | None,
-        translation: float | None,
-        rotation: float,
-    ) -> tuple[Poses, Twists, Accels]:
-        raise NotImplementedError
-
-    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
-        raise NotImplementedError
-
-    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
-        """Actuator efforts on the motor side (``Gamma / ratio``)."""
-        raise NotImplementedError
-
-    def inverse_dynamics(
-        self,
-        r: PathOwner,
-        pose: ArrayLike,
-        twist: ArrayLike,
-        accel: ArrayLike,
-        details: bool,
-        motor: bool,
-    ) -> Any:
-        """The reference inverse dynamics (Gamma, or the details record)."""
-        raise NotImplementedError
-
-    def direct_dynamics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
-    ) -> FloatArray:
-        raise NotImplementedError
-
-    def cartesian_dynamics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> CartesianDynamics | GeneralCartesianDynamics:
-        raise NotImplementedError
-
-    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
-        raise NotImplementedError
-
-    def dissipated_power(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> FloatArray | float:
-        raise NotImplementedError
-
-    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
-        """The regressor of checked batch states, (N, 6, n)."""
-        raise NotImplementedError
-
-
-class IdealUpsPath(ArchitecturePath):
-    """The paper's ideal 6-UPS: closed forms and the Pinocchio leg models."""
-
-    is_ideal_ups = True
-
-    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
-        return geometry.inverse_geometry(r.description, pose, check_limits)
-
-    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
-        if check_limits:
-            q = geometry.inverse_geometry(r.description, pose, True)
-            return np.asarray(q[..., 2], dtype=np.float64)
-        return geometry.leg_lengths(r.description, pose)
-
-    def forward_geometry(
-        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
-    ) -> Pose:
-        return forward_geometry(r.description, lengths, guess, **kwargs)
-
-    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
-        return kinematics.inverse_jacobian(r.description, pose)
-
-    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
-        return kinematics.jacobian(r.description, pose, r.max_condition)
-
-    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
-        return kinematics.condition_number(r.description, pose)
-
-    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
-        q = self.inverse_geometry(r, pose, True)
-        J = kinematics.leg_jacobians(r.description, np.reshape(q, (-1, 6, 3)))
-        return J if q.ndim == 3 else J[0]
-
-    def leg_kinematics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
-    ) -> tuple[JointValues, JointValues, JointValues | None]:
-        q, qd, qdd = kinematics.leg_kinematics(r.description, pose, twist, accel)
-        q, qd = np.reshape(q, (-1, 6, 3)), np.reshape(qd, (-1, 6, 3))
-        return q, qd, None if qdd is None else np.reshape(qdd, (-1, 6, 3))
-
-    def sample_poses(
-        self,
-        r: PathOwner,
-        n: int,
-        rng: np.random.Generator | int | None,
-        translation: float | None,
-        rotation: float,
-    ) -> FloatArray:
-        return workspace.sample_poses(
-            r.description, n, rng, translation, rotation, r.max_condition
-        )
-
-    def sample_states(
-        self,
-        r: PathOwner,
-        n: int,
-        rng: np.random.Generator | int | None,
-        translation: float | None,
-        rotation: float,
-    ) -> tuple[Poses, Twists, Accels]:
-        return workspace.sample_states(
-            r.description,
-            n,
-            rng,
-            translation=translation,
-            rotation=rotation,
-            max_condition=r.max_condition,
-        )
-
-    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
-        return LegDynamics(r.description)
-
-    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
-        return gamma  # no transmission on the ideal 6-UPS
-
-    def inverse_dynamics(
-        self,
-        r: PathOwner,
-        pose: ArrayLike,
-        twist: ArrayLike,
-        accel: ArrayLike,
-        details: bool,
-        motor: bool,
-    ) -> FloatArray | InverseDynamicsResult:
-        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        with quiet_overflow():
-            res = closure.inverse_dynamics(r.description, r.leg_dynamics, T, V, A, r.max_condition)
-        if details:
-            return res
-        return res.gamma if batched else res.gamma[0]
-
-    def direct_dynamics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
-    ) -> FloatArray:
-        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
-        with quiet_overflow():
-            accel, _ = closure.direct_dynamics(
-                r.description, r.leg_dynamics, T, V, G, r.max_condition
-            )
-        return accel if batched else accel[0]
-
-    def cartesian_dynamics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> CartesianDynamics:
-        _, T, V = check_states(pose, (twist, "twist"))
-        with quiet_overflow():
-            cd = closure.cartesian_dynamics(r.description, r.leg_dynamics, T, V, r.max_condition)
-        check_finite(cd.A_robot, "cartesian dynamics A_robot")
-        check_finite(cd.h_robot, "cartesian dynamics h_robot")
-        return cd
-
-    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
-        batched, T, V = check_states(pose, (twist, "twist"))
-        with quiet_overflow():
-            legs = leg_state(r.description, T, V, check_limits=False)
-            kin, pot = r.leg_dynamics.energy(legs.q, legs.qdot)
-            kin_p, pot_p = closure.platform_energy(r.description, T, V)
-            total = check_finite(kin + pot + kin_p + pot_p, "energy")
-        return total if batched else float(total[0])
-
-    def dissipated_power(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> FloatArray | float:
-        batched, T, _ = check_states(pose, (twist, "twist"))
-        return np.zeros(T.shape[0]) if batched else 0.0  # frictionless
-
-    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
-        from stewart_pin.dynamics.regressor import regressor_batch
-
-        with quiet_overflow():
-            return regressor_batch(r.description, r.leg_dynamics, T, V, A, r.max_condition)
-
-
-class LegChainPath(ArchitecturePath):
-    """Every other robot: three-joint leg chains, joint terms included."""
 
     def check_home(self, r: PathOwner) -> None:
         """A general robot's home pose must be reachable, inside the joint limits and away
@@ -414,7 +189,7 @@ class LegChainPath(ArchitecturePath):
         accel: ArrayLike,
         details: bool,
         motor: bool,
-    ) -> FloatArray | GeneralInverseDynamics:
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
         with quiet_overflow():
             res = r.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
         if details:
@@ -430,12 +205,9 @@ class LegChainPath(ArchitecturePath):
 
     def cartesian_dynamics(
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> GeneralCartesianDynamics:
+    ) -> CartesianDynamics | GeneralCartesianDynamics:
         with quiet_overflow():
-            gcd = r.general_dynamics.cartesian_dynamics(pose, twist)
-        check_finite(gcd.A_robot, "cartesian dynamics A_robot")
-        check_finite(gcd.h_robot, "cartesian dynamics h_robot")
-        return gcd
+            return r.general_dynamics.cartesian_dynamics(pose, twist)
 
     def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
         with quiet_overflow():
@@ -461,10 +233,144 @@ class LegChainPath(ArchitecturePath):
             )
 
 
+class IdealUpsPath(LegChainPath):
+    """The paper's ideal 6-UPS: its closed forms (eq. 13-19) and its Pinocchio leg models
+    in place of the chains' Newton steps and joint terms (it has none)."""
+
+    is_ideal_ups = True
+
+    def check_home(self, r: PathOwner) -> None:
+        """Nothing to check: the description's validation covers the stroke and U-joints."""
+
+    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
+        return geometry.inverse_geometry(r.description, pose, check_limits)
+
+    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
+        if check_limits:
+            q = geometry.inverse_geometry(r.description, pose, True)
+            return np.asarray(q[..., 2], dtype=np.float64)
+        return geometry.leg_lengths(r.description, pose)
+
+    def forward_geometry(
+        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
+    ) -> Pose:
+        return forward_geometry(r.description, lengths, guess, **kwargs)
+
+    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        return kinematics.inverse_jacobian(r.description, pose)
+
+    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        return kinematics.jacobian(r.description, pose, r.max_condition)
+
+    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
+        return kinematics.condition_number(r.description, pose)
+
+    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        q = self.inverse_geometry(r, pose, True)
+        J = kinematics.leg_jacobians(r.description, np.reshape(q, (-1, 6, 3)))
+        return J if q.ndim == 3 else J[0]
+
+    def leg_kinematics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
+        q, qd, qdd = kinematics.leg_kinematics(r.description, pose, twist, accel)
+        q, qd = np.reshape(q, (-1, 6, 3)), np.reshape(qd, (-1, 6, 3))
+        return q, qd, None if qdd is None else np.reshape(qdd, (-1, 6, 3))
+
+    def sample_poses(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> FloatArray:
+        return workspace.sample_poses(
+            r.description, n, rng, translation, rotation, r.max_condition
+        )
+
+    def sample_states(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> tuple[Poses, Twists, Accels]:
+        return workspace.sample_states(
+            r.description,
+            n,
+            rng,
+            translation=translation,
+            rotation=rotation,
+            max_condition=r.max_condition,
+        )
+
+    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
+        return LegDynamics(r.description)
+
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma  # no transmission on the ideal 6-UPS
+
+    def inverse_dynamics(
+        self,
+        r: PathOwner,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: bool,
+        motor: bool,
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        with quiet_overflow():
+            res = closure.inverse_dynamics(r.description, r.leg_dynamics, T, V, A, r.max_condition)
+        if details:
+            return res
+        return res.gamma if batched else res.gamma[0]
+
+    def direct_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
+    ) -> FloatArray:
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        with quiet_overflow():
+            accel, _ = closure.direct_dynamics(
+                r.description, r.leg_dynamics, T, V, G, r.max_condition
+            )
+        return accel if batched else accel[0]
+
+    def cartesian_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> CartesianDynamics:
+        _, T, V = check_states(pose, (twist, "twist"))
+        with quiet_overflow():
+            return closure.cartesian_dynamics(r.description, r.leg_dynamics, T, V, r.max_condition)
+
+    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
+        batched, T, V = check_states(pose, (twist, "twist"))
+        with quiet_overflow():
+            legs = leg_state(r.description, T, V, check_limits=False)
+            kin, pot = r.leg_dynamics.energy(legs.q, legs.qdot)
+            kin_p, pot_p = closure.platform_energy(r.description, T, V)
+            total = check_finite(kin + pot + kin_p + pot_p, "energy")
+        return total if batched else float(total[0])
+
+    def dissipated_power(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> FloatArray | float:
+        batched, T, _ = check_states(pose, (twist, "twist"))
+        return np.zeros(T.shape[0]) if batched else 0.0  # frictionless
+
+    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
+        from stewart_pin.dynamics.regressor import regressor_batch
+
+        with quiet_overflow():
+            return regressor_batch(r.description, r.leg_dynamics, T, V, A, r.max_condition)
+
+
 #: The two paths (stateless: one instance each).
 _IDEAL_UPS, _LEG_CHAINS = IdealUpsPath(), LegChainPath()
 
 
-def reference_path(description: RobotDescription) -> ArchitecturePath:
+def reference_path(description: RobotDescription) -> LegChainPath:
     """The path of ``description``'s architecture: the one place the choice is made."""
     return _IDEAL_UPS if description.is_ideal_ups else _LEG_CHAINS

@@ -518,7 +518,10 @@ class StewartRobot:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
         :class:`NumericalError` when either is not finite. General legs: a
         :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralCartesianDynamics`."""
-        return self._kind.cartesian_dynamics(self, pose, twist)
+        cd = self._kind.cartesian_dynamics(self, pose, twist)
+        check_finite(cd.A_robot, "cartesian dynamics A_robot")
+        check_finite(cd.h_robot, "cartesian dynamics h_robot")
+        return cd
 
     def gravity_compensation(self, pose: ArrayLike) -> FloatArray:
         """The static inverse dynamic model: Gamma holding the robot still at ``pose`` [N]."""
