@@ -1,22 +1,17 @@
 """The ``general_*`` twins renamed after what they hold (issue 19, item 4): each old module
 path keeps working as an alias whose every name is the new module's object and warns
-(``DeprecationWarning``) naming the new place; and the facade asks no architecture
-question (its methods call the path chosen once, :mod:`stewart_pin.architectures`).
+(``DeprecationWarning``) naming the new place.
 
-References: the new modules themselves (identity of the objects), the source text of
-``robot.py`` (no branch on the architecture)."""
+References: the new modules themselves (identity of the objects)."""
 
 from __future__ import annotations
 
-import ast
 import importlib
 from pathlib import Path
 
 import pytest
 
 import stewart_pin
-from stewart_pin.architectures import IdealUpsPath, LegChainPath, reference_path
-from stewart_pin.description.presets import preset
 
 #: Old module -> (its new module, a public name both must give).
 RENAMED = {
@@ -69,30 +64,3 @@ def test_no_general_module_but_the_aliases():
     assert set(left) == set(RENAMED) | formats
     for name in left:
         assert "Deprecated" in (importlib.import_module(name).__doc__ or ""), name
-
-
-def test_the_facade_asks_no_architecture_question():
-    """``robot.py`` has no ``if``/conditional expression on ``is_ideal_ups`` or
-    ``is_general``: each method calls the path chosen when the robot is built."""
-    tree = ast.parse((Path(stewart_pin.__file__).parent / "robot.py").read_text())
-    tests = [n.test for n in ast.walk(tree) if isinstance(n, (ast.If, ast.IfExp))]
-    asked = [ast.unparse(t) for t in tests if "is_ideal_ups" in ast.unparse(t)]
-    asked += [ast.unparse(t) for t in tests if "is_general" in ast.unparse(t)]
-    assert asked == []
-
-
-@pytest.mark.parametrize(
-    ("name", "kind"),
-    [
-        ("simulator", IdealUpsPath),
-        ("paper", IdealUpsPath),
-        ("rus", LegChainPath),
-        ("pus", LegChainPath),
-        ("ups-offset", LegChainPath),
-    ],
-)
-def test_the_path_follows_the_architecture(name, kind):
-    """The ideal 6-UPS (the paper's closed forms) and every other robot (leg chains)."""
-    desc = preset(name)
-    assert type(reference_path(desc)) is kind
-    assert reference_path(desc).is_ideal_ups == desc.is_ideal_ups

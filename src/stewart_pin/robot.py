@@ -100,7 +100,14 @@ class StewartRobot:
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without its compiled backends (loaded libraries; found again in the
         cache on first use)."""
-        return {k: v for k, v in self.__dict__.items() if not k.startswith("_stewart_pin_")}
+        skip = ("_stewart_pin_", "_kind")
+        return {k: v for k, v in self.__dict__.items() if not k.startswith(skip)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled: the path of its architecture chosen again (a pickle holds no path, so
+        one written before the paths existed loads too)."""
+        self.__dict__.update(state)
+        self._kind = reference_path(self.description)
 
     def _compiled_backend(self) -> Any:
         """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept on the robot by
