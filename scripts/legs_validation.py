@@ -5,7 +5,7 @@ Prints, per architecture, on random asymmetric robots with every joint term non-
 errors of:
 
 - IDM: ``GeneralDynamics.inverse_dynamics`` against the KKT solve on Pinocchio's
-  constrained tree (``check.general_legs.reference_inverse_dynamics``);
+  constrained tree (``check.leg_chain_tree.reference_inverse_dynamics``);
 - DDM: ``GeneralDynamics.direct_dynamics`` against ``pin.constraintDynamics`` on the
   tree, for the reference's forces;
 - DDM(IDM): the direct model on the inverse model's forces against the acceleration put in;
@@ -28,15 +28,15 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.check.general_legs import (
+from stewart_pin.check.leg_chain_tree import (
     GeneralTreeSolver,
     reference_direct_dynamics,
     reference_energy,
     reference_inverse_dynamics,
 )
-from stewart_pin.description.general_hexapod import GeneralHexapod
-from stewart_pin.description.general_presets import GENERAL_PRESETS, random_hexapod
-from stewart_pin.dynamics.general_legs import GeneralDynamics
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_presets import GENERAL_PRESETS, random_hexapod
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import LegReachError
 from stewart_pin.kinematics import leg_chains as lc
 from stewart_pin.kinematics.leg_chains import inverse_geometry_batch

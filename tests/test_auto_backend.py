@@ -25,7 +25,7 @@ from stewart_pin import StewartRobot
 from stewart_pin.cli import main
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.compiled import BACKEND_ENV, CACHE_ENV, auto_backend
-from stewart_pin.dynamics.general_legs import GeneralInverseDynamics
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralInverseDynamics
 from stewart_pin.exceptions import InputError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.simulation import simulate

@@ -31,7 +31,7 @@ from stewart_pin.check.constrained_dynamics import (
     tree_state,
 )
 from stewart_pin.check.constrained_dynamics import energy as check_energy
-from stewart_pin.check.general_legs import GeneralTreeSolver
+from stewart_pin.check.leg_chain_tree import GeneralTreeSolver
 from stewart_pin.cli import main
 from stewart_pin.formats.mjcf import mujoco_qpos
 from stewart_pin.models.payload import load_payload

@@ -19,8 +19,8 @@ import pytest
 from test_base_params import special_robot
 
 from stewart_pin import RobotDescription, StewartRobot, random_robot
-from stewart_pin.description.general_hexapod import general_from_description
-from stewart_pin.description.general_presets import random_joint_dynamics
+from stewart_pin.description.leg_chain_hexapod import general_from_description
+from stewart_pin.description.leg_chain_presets import random_joint_dynamics
 from stewart_pin.description.presets import preset
 from stewart_pin.dynamics.regressor import (
     GENERAL_STANDARD_NAMES,

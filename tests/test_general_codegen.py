@@ -1,5 +1,5 @@
 """Compiled closed-form models of general legs (issue 14, item 2): the generated IDM and DDM
-of every architecture and joint model (:mod:`stewart_pin.codegen.general_symbolic`) against
+of every architecture and joint model (:mod:`stewart_pin.codegen.leg_chain_symbolic`) against
 the reference path (Pinocchio's RNEA and CRBA on the leg chains, joint terms, the closure
 layer: ``backend="pinocchio"``), which shares no algebra with them; the same errors as the
 reference; the 6-UPS hand-derived path kept; operation counts per architecture. No timing
@@ -39,10 +39,10 @@ from stewart_pin.cli import main
 from stewart_pin.codegen import CompiledDynamics, cost_dict, count_operations, generate_models
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.compiled import THREAD_MIN_STATES, build_library, c_source
-from stewart_pin.codegen.general_symbolic import NEWTON_ITERATIONS, build_general_models
+from stewart_pin.codegen.leg_chain_symbolic import NEWTON_ITERATIONS, build_general_models
 from stewart_pin.codegen.opcount import architecture_dict, architecture_table, cost_table
-from stewart_pin.description.general_presets import random_hexapod
 from stewart_pin.description.leg_architecture import JointDynamics
+from stewart_pin.description.leg_chain_presets import random_hexapod
 from stewart_pin.exceptions import (
     InputError,
     LegJointLimitError,

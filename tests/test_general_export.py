@@ -3,7 +3,7 @@
 Independent references:
 - the URDF and its sidecar, read back by Pinocchio's URDF parser
   (:func:`stewart_pin.models.pinocchio_models.load_tree`), give the same constrained
-  dynamics as the tree built with the Pinocchio API (:mod:`stewart_pin.check.general_legs`)
+  dynamics as the tree built with the Pinocchio API (:mod:`stewart_pin.check.leg_chain_tree`)
   to 1e-12;
 - the MJCF, loaded in MuJoCo: inverse dynamics by a KKT solve on MuJoCo's own mass matrix
   (``mj_fullM``, armature included), bias and passive forces (``qfrc_bias``,
@@ -28,21 +28,21 @@ import pinocchio as pin
 import pytest
 from helpers import mujoco_leg_dofs, mujoco_set_loop_state
 
-from stewart_pin.check.general_legs import (
+from stewart_pin.check.leg_chain_tree import (
     GeneralTreeSolver,
     reference_direct_dynamics,
     reference_inverse_dynamics,
 )
-from stewart_pin.description.general_hexapod import GeneralHexapod
-from stewart_pin.description.general_presets import (
+from stewart_pin.description.inertia import khalil_from_urdf_inertial, urdf_inertial_from_khalil
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_presets import (
     pus_preset,
     random_hexapod,
     rus_preset,
     ups_offset_preset,
 )
-from stewart_pin.description.inertia import khalil_from_urdf_inertial, urdf_inertial_from_khalil
 from stewart_pin.description.presets import preset
-from stewart_pin.dynamics.general_legs import GeneralDynamics
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import FileFormatError, LegJointLimitError, LegReachError
 from stewart_pin.formats.mjcf import (
     LOOP_SOLIMP,

@@ -4,7 +4,7 @@ References: the inverse dynamic model (``robot.inverse_dynamics``: Pinocchio's R
 chains with ``model.armature``, the joint terms, the closure layer) for ``W chi``;
 finite differences of that model in each standard parameter, through
 ``with_standard_parameters``, for each column; and the independent constrained tree
-(``check.general_legs.reference_regressor``: Pinocchio's joint-torque regressor on the
+(``check.leg_chain_tree.reference_regressor``: Pinocchio's joint-torque regressor on the
 24-dof tree, each column mapped to the actuators by the KKT solve) for every entry.
 """
 
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from stewart_pin import StewartRobot
-from stewart_pin.check.general_legs import GeneralTreeSolver, reference_regressor
-from stewart_pin.description.general_hexapod import general_from_description
+from stewart_pin.check.leg_chain_tree import GeneralTreeSolver, reference_regressor
 from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND
-from stewart_pin.dynamics.general_legs import GeneralDynamics
+from stewart_pin.description.leg_chain_hexapod import general_from_description
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.dynamics.regressor import (
     GENERAL_STANDARD_NAMES,
     JOINT_TERM_NAMES,

@@ -1,7 +1,7 @@
 """General three-joint legs through the description and the facade (issue 11).
 
 References: Pinocchio's constrained tree with ``model.armature`` and the joint torques
-(:mod:`stewart_pin.check.general_legs`, which imports none of the dynamics or the leg
+(:mod:`stewart_pin.check.leg_chain_tree`, which imports none of the dynamics or the leg
 kinematics it checks; it is given the leg joint *positions* of the facade's inverse
 geometry and checks with Pinocchio's forward kinematics that they close the loops), and
 for the ideal 6-UPS the existing closed-form path.
@@ -29,15 +29,15 @@ from stewart_pin import (
     validate,
 )
 from stewart_pin.check.constrained_dynamics import relative_error
-from stewart_pin.check.general_legs import (
+from stewart_pin.check.leg_chain_tree import (
     GeneralTreeSolver,
     reference_direct_dynamics,
     reference_energy,
     reference_inverse_dynamics,
 )
 from stewart_pin.cli import main
-from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.description.leg_architecture import JointDynamics
+from stewart_pin.description.leg_chain_hexapod import general_from_description
 
 PRESETS = ("ups-offset", "rus", "pus")
 #: Random asymmetric robots with every joint term non-zero (gear and screw transmissions).

@@ -428,7 +428,7 @@ def test_an_mjcf_loop_away_from_the_platform_is_refused(element, name, bodies, t
     pytest.importorskip("mujoco")
     from cad_models import cad_mjcf
 
-    from stewart_pin.description.general_presets import rus_preset
+    from stewart_pin.description.leg_chain_presets import rus_preset
     from stewart_pin.importers import import_mjcf
 
     text = cad_mjcf(rus_preset(), "connect-site", seed=3)

@@ -17,7 +17,7 @@ from cad_models import cad_mjcf, cad_urdf
 
 from stewart_pin import ModelImportWarning, RobotDescription, StewartRobot
 from stewart_pin.cli import main
-from stewart_pin.description.general_presets import pus_preset
+from stewart_pin.description.leg_chain_presets import pus_preset
 from stewart_pin.description.presets import preset
 from stewart_pin.formats.mjcf import write_mjcf
 

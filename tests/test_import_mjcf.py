@@ -38,10 +38,10 @@ from stewart_pin import (
     RodSpinError,
     StewartRobot,
 )
-from stewart_pin.description.general_presets import pus_preset, random_hexapod, rus_preset
 from stewart_pin.description.leg_architecture import JointDynamics
+from stewart_pin.description.leg_chain_presets import pus_preset, random_hexapod, rus_preset
 from stewart_pin.description.presets import preset
-from stewart_pin.dynamics.general_legs import GeneralDynamics
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.formats.mjcf import mjcf_string
 from stewart_pin.importers import canonical_description, import_mjcf
 

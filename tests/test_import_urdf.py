@@ -35,8 +35,8 @@ from stewart_pin import (
     ModelImportWarning,
     StewartRobot,
 )
-from stewart_pin.description.general_presets import pus_preset, random_hexapod, rus_preset
 from stewart_pin.description.leg_architecture import coulomb_sign
+from stewart_pin.description.leg_chain_presets import pus_preset, random_hexapod, rus_preset
 from stewart_pin.description.presets import preset
 from stewart_pin.formats import model_files
 from stewart_pin.formats.urdf import write_urdf

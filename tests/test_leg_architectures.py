@@ -1,7 +1,7 @@
 """General three-joint legs (6-UPS, 6-UPS with offset U-joints, 6-RUS, 6-PUS).
 
 Independent references:
-- Pinocchio's constrained tree (:mod:`stewart_pin.check.general_legs`: KKT inverse
+- Pinocchio's constrained tree (:mod:`stewart_pin.check.leg_chain_tree`: KKT inverse
   dynamics, ``pin.constraintDynamics``), which shares no algebra with the closure layer;
 - today's 6-UPS models (``StewartRobot``) for the ``ups`` builder;
 - the power balance ``Gamma . qdot_a = dE/dt + dissipated power`` with ``dE/dt`` by
@@ -20,14 +20,12 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import StewartRobot
-from stewart_pin.check.general_legs import (
+from stewart_pin.check.leg_chain_tree import (
     GeneralTreeSolver,
     reference_direct_dynamics,
     reference_energy,
     reference_inverse_dynamics,
 )
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
-from stewart_pin.description.general_presets import GENERAL_PRESETS, random_hexapod
 from stewart_pin.description.leg_architecture import (
     Joint,
     JointDynamics,
@@ -37,7 +35,9 @@ from stewart_pin.description.leg_architecture import (
     rus,
     ups,
 )
-from stewart_pin.dynamics.general_legs import GeneralDynamics
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
+from stewart_pin.description.leg_chain_presets import GENERAL_PRESETS, random_hexapod
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import (
     ArchitectureError,
     ConvergenceError,
@@ -382,7 +382,7 @@ def test_unreachable_limits_and_singularities():
 
 
 def test_reference_shares_no_algebra():
-    """check/general_legs.py (the reference) imports nothing from ``stewart_pin.dynamics``
+    """check/leg_chain_tree.py (the reference) imports nothing from ``stewart_pin.dynamics``
     nor ``stewart_pin.kinematics``: it does not reuse the closure algebra (eqs. of the
     paper), the leg Jacobians or the drift terms of the code under test.
 
@@ -395,7 +395,7 @@ def test_reference_shares_no_algebra():
     import ast
     import inspect
 
-    import stewart_pin.check.general_legs as ref
+    import stewart_pin.check.leg_chain_tree as ref
 
     tree = ast.parse(inspect.getsource(ref))
     imported = set()
@@ -457,7 +457,7 @@ def test_a_vanishing_ups_leg_is_a_serial_singularity():
     a revolute joint's origin (today's 6-UPS rule) is refused. Reference: the leg length
     q3 itself, set in the test; a leg at 10 % of the radius passes."""
     from stewart_pin.description import preset
-    from stewart_pin.description.general_hexapod import general_from_description
+    from stewart_pin.description.leg_chain_hexapod import general_from_description
     from stewart_pin.kinematics.leg_chains import check_serial, leg_forward, leg_jacobians
 
     robot = general_from_description(preset("simulator"))

@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from stewart_pin.description.general_presets import (
+from stewart_pin.description.leg_chain_presets import (
     pus_preset,
     random_hexapod,
     rus_preset,

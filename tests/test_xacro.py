@@ -128,7 +128,7 @@ def make_general(name: str):
     """A general preset through the facade, or "custom-<seed>": a random custom-leg robot
     with every joint term non-zero (limits, damping, Coulomb friction)."""
     if name.startswith("custom-"):
-        from stewart_pin.description.general_presets import random_hexapod
+        from stewart_pin.description.leg_chain_presets import random_hexapod
 
         return random_hexapod("custom", int(name.removeprefix("custom-")), joint_terms=True)
     from stewart_pin import StewartRobot

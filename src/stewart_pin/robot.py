@@ -7,11 +7,13 @@ acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma_3i`
 positive when it extends leg i. Every method takes one state or a batch with a leading
 N axis, and returns the same.
 
-Two reference paths, chosen by :attr:`RobotDescription.is_ideal_ups`: the paper's ideal
+Two reference paths, chosen once when the robot is built
+(:func:`stewart_pin.architectures.reference_path`; the facade's methods call the path and
+never ask which architecture they hold): the paper's ideal
 6-UPS robot keeps its closed forms and its Pinocchio leg models; a robot with general
 three-joint legs (``legs`` in its description: ``ups-offset``, ``rus``, ``pus``, custom,
 mixed) goes through :mod:`stewart_pin.kinematics.leg_chains` and
-:class:`stewart_pin.dynamics.general_legs.GeneralDynamics` (joint dynamics included). On
+:class:`stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics` (joint dynamics included). On
 such a robot the actuator efforts are the actuated joints' (N for a prismatic joint, N m
 for a revolute one, joint side). Every feature takes every architecture: the tree
 (:attr:`StewartRobot.tree`), the leg models, the model files (URDF, xacro, MJCF), the
@@ -46,31 +48,27 @@ from stewart_pin._typing import (
     Poses,
     Twists,
 )
+from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
-from stewart_pin.dynamics import closed_loop as closure
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
-from stewart_pin.dynamics.general_legs import (
+from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
     GeneralDynamics,
     GeneralInverseDynamics,
 )
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
 from stewart_pin.exceptions import (
-    ArchitectureError,
     InputError,
     InputTypeError,
     NumericalError,
-    StewartPinError,
 )
 from stewart_pin.formats.mjcf import mjcf_string, write_mjcf
 from stewart_pin.formats.urdf import urdf_string, write_urdf
 from stewart_pin.formats.xacro import write_xacro_args
-from stewart_pin.kinematics import geometry, leg_chains, workspace
-from stewart_pin.kinematics import jacobians as kinematics
-from stewart_pin.kinematics.forward_geometry import forward_geometry
-from stewart_pin.kinematics.jacobians import MAX_CONDITION, leg_state
+from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics.jacobians import MAX_CONDITION
 from stewart_pin.models import leg_chains as models
 from stewart_pin.models.pinocchio_models import TreeModel
 
@@ -95,13 +93,21 @@ class StewartRobot:
             )
         self.description = description
         self.max_condition = check_scalar(max_condition, "max_condition", positive=True)
-        if not description.is_ideal_ups:
-            self._check_home()
+        #: The reference path of the robot's architecture (chosen here, once).
+        self._kind = reference_path(description)
+        self._kind.check_home(self)
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without its compiled backends (loaded libraries; found again in the
         cache on first use)."""
-        return {k: v for k, v in self.__dict__.items() if not k.startswith("_stewart_pin_")}
+        skip = ("_stewart_pin_", "_kind")
+        return {k: v for k, v in self.__dict__.items() if not k.startswith(skip)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled: the path of its architecture chosen again (a pickle holds no path, so
+        one written before the paths existed loads too)."""
+        self.__dict__.update(state)
+        self._kind = reference_path(self.description)
 
     def _compiled_backend(self) -> Any:
         """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept on the robot by
@@ -117,7 +123,7 @@ class StewartRobot:
     @property
     def is_ideal_ups(self) -> bool:
         """Whether the robot is the paper's ideal 6-UPS (the closed-form, compiled path)."""
-        return self.description.is_ideal_ups
+        return self._kind.is_ideal_ups
 
     @property
     def architecture(self) -> str:
@@ -140,21 +146,6 @@ class StewartRobot:
         (``model.armature`` set) with its six 3D loop closures (for a general robot the
         same as :attr:`tree`; for the ideal 6-UPS its ``ups`` legs built as chains)."""
         return models.build_general_tree(self.general)
-
-    def _check_home(self) -> None:
-        """A general robot's home pose must be reachable, inside the joint limits and away
-        from both singularities (:class:`ArchitectureError` naming the cause)."""
-        T = self.description.home_pose[None]
-        try:
-            legs = leg_chains.leg_state(self.general, T, np.zeros((1, 6)), check_limits=True)
-            J_inv = leg_chains.inverse_jacobian_from_legs(self.general, legs.J_inv, legs.L)
-            leg_chains.check_parallel(self.general, J_inv, self.max_condition)
-        except StewartPinError as e:
-            raise ArchitectureError(
-                f"robot '{self.name}': the home pose is not a valid pose of its legs: {e}",
-                "home_pose",
-                type(e).__name__,
-            ) from e
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -271,9 +262,7 @@ class StewartRobot:
         """Leg joint values (6, 3) (or (N, 6, 3)): for 6-UPS columns q1i, q2i [rad], q3i
         [m]; for general legs the three joints' values from the base [rad or m], each leg
         on its branch (:func:`stewart_pin.kinematics.leg_chains.inverse_geometry`)."""
-        if not self.is_ideal_ups:
-            return leg_chains.inverse_geometry(self.general, pose, check_limits)
-        return geometry.inverse_geometry(self.description, pose, check_limits)
+        return self._kind.inverse_geometry(self, pose, check_limits)
 
     def leg_lengths(self, pose: ArrayLike) -> FloatArray:
         """The 6-UPS's name for :meth:`actuator_positions` (without limit checks): leg
@@ -286,12 +275,7 @@ class StewartRobot:
         ideal 6-UPS exactly :meth:`leg_lengths`), crank angles [rad] for RUS, slide
         positions [m] for PUS. ``check_limits``: :class:`~stewart_pin.exceptions.WorkspaceError`
         outside a joint's limits (default off, as :meth:`leg_lengths`)."""
-        if self.is_ideal_ups:
-            if check_limits:
-                q = geometry.inverse_geometry(self.description, pose, True)
-                return np.asarray(q[..., 2], dtype=np.float64)
-            return geometry.leg_lengths(self.description, pose)
-        return leg_chains.actuator_positions(self.general, pose, check_limits)
+        return self._kind.actuator_positions(self, pose, check_limits)
 
     def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None, **kwargs: Any) -> Pose:
         """The pose 0Tp (4x4) with actuated joint values ``lengths`` (6,) (leg lengths [m]
@@ -299,9 +283,7 @@ class StewartRobot:
         default the home pose; see
         :func:`stewart_pin.kinematics.forward_geometry.forward_geometry` and
         :func:`stewart_pin.kinematics.leg_chains.forward_geometry`."""
-        if not self.is_ideal_ups:
-            return leg_chains.forward_geometry(self.general, lengths, guess, **kwargs)
-        return forward_geometry(self.description, lengths, guess, **kwargs)
+        return self._kind.forward_geometry(self, lengths, guess, **kwargs)
 
     def limit_margin(self, pose: ArrayLike) -> tuple[float, str]:
         """The smallest distance of a joint of a general robot to its limits at one pose,
@@ -328,30 +310,17 @@ class StewartRobot:
     def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp^-1`` (6, 6): ``qdot_a = Jp^-1 [v, w]`` (eq. 13; general legs: rows
         ``e_ai^T J_i^-1 G_i``)."""
-        if not self.is_ideal_ups:
-            return leg_chains.inverse_jacobian(self.general, pose)
-        return kinematics.inverse_jacobian(self.description, pose)
+        return self._kind.inverse_jacobian(self, pose)
 
     def jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp`` (6, 6); raises :class:`SingularityError` past ``max_condition``."""
-        if not self.is_ideal_ups:
-            T, batched = check_poses(pose)
-            J_inv = leg_chains.inverse_jacobian_batch(self.general, T)
-            leg_chains.check_parallel(self.general, J_inv, self.max_condition)
-            J = np.asarray(np.linalg.inv(J_inv), dtype=np.float64)
-            return J if batched else J[0]
-        return kinematics.jacobian(self.description, pose, self.max_condition)
+        return self._kind.jacobian(self, pose)
 
     def condition_number(self, pose: ArrayLike) -> float | FloatArray:
         """The singularity measure: cond(Jp^-1), its angular columns divided by the platform
         radius (unit-free; see :func:`stewart_pin.kinematics.jacobians.condition_number`;
         general legs: :func:`stewart_pin.kinematics.leg_chains.condition_number_batch`)."""
-        if not self.is_ideal_ups:
-            T, batched = check_poses(pose)
-            J_inv = leg_chains.inverse_jacobian_batch(self.general, T)
-            c = leg_chains.condition_number_batch(self.general, J_inv)
-            return c if batched else float(c[0])
-        return kinematics.condition_number(self.description, pose)
+        return self._kind.condition_number(self, pose)
 
     def leg_state(
         self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
@@ -363,28 +332,15 @@ class StewartRobot:
 
     def leg_jacobians(self, pose: ArrayLike) -> FloatArray:
         """Each leg's Jacobian ``J_3i`` at P_i in F0, (6, 3, 3) (or (N, 6, 3, 3))."""
-        if not self.is_ideal_ups:
-            T, batched = check_poses(pose)
-            J = self.leg_state(T, np.zeros((T.shape[0], 6))).J
-            return J if batched else J[0]
-        q = self.inverse_geometry(pose)
-        J = kinematics.leg_jacobians(self.description, np.reshape(q, (-1, 6, 3)))
-        return J if q.ndim == 3 else J[0]
+        return self._kind.leg_jacobians(self, pose)
 
     def leg_kinematics(
         self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
     ) -> tuple[JointValues, JointValues, JointValues | None]:
         """``(q, qdot, qddot)`` of the legs, each (6, 3) or (N, 6, 3) (eq. 14-19)."""
         with np.errstate(over="ignore", invalid="ignore"):  # overflow: NumericalError below
-            if not self.is_ideal_ups:
-                batched = check_poses(pose)[1]
-                ks = self.leg_state(pose, twist, accel)
-                q, qd, qdd = ks.q, ks.qdot, None if accel is None else ks.qddot
-            else:
-                batched = check_poses(pose)[1]
-                q, qd, qdd = kinematics.leg_kinematics(self.description, pose, twist, accel)
-                q, qd = np.reshape(q, (-1, 6, 3)), np.reshape(qd, (-1, 6, 3))
-                qdd = None if qdd is None else np.reshape(qdd, (-1, 6, 3))
+            batched = check_poses(pose)[1]
+            q, qd, qdd = self._kind.leg_kinematics(self, pose, twist, accel)
         check_finite(qd, "leg joint rates")
         if qdd is not None:
             check_finite(qdd, "leg joint accelerations")
@@ -408,13 +364,7 @@ class StewartRobot:
         translation 15 % of the mean ``|B_i P_i|`` at home; unreachable poses, joint
         limits and both singularities redrawn).
         """
-        if not self.is_ideal_ups:
-            return workspace.sample_general_poses(
-                self.description, self.general, n, rng, translation, rotation, self.max_condition
-            )
-        return workspace.sample_poses(
-            self.description, n, rng, translation, rotation, self.max_condition
-        )
+        return self._kind.sample_poses(self, n, rng, translation, rotation)
 
     def sample_states(
         self,
@@ -426,24 +376,7 @@ class StewartRobot:
         """``(poses (n, 4, 4), twists (n, 6), accels (n, 6))``: :meth:`sample_poses` with
         random twists and accelerations
         (:func:`stewart_pin.kinematics.workspace.sample_states`)."""
-        if not self.is_ideal_ups:
-            return workspace.sample_general_states(
-                self.description,
-                self.general,
-                n,
-                rng,
-                translation=translation,
-                rotation=rotation,
-                max_condition=self.max_condition,
-            )
-        return workspace.sample_states(
-            self.description,
-            n,
-            rng,
-            translation=translation,
-            rotation=rotation,
-            max_condition=self.max_condition,
-        )
+        return self._kind.sample_states(self, n, rng, translation, rotation)
 
     # ------------------------------------------------------------------ dynamics
     @cached_property
@@ -451,9 +384,7 @@ class StewartRobot:
         """Pinocchio's RNEA / CRBA on the six legs (``H_i``, ``A_i``, ``h_i``); general
         legs: :attr:`general_dynamics`'s, with the joint terms (armature, friction,
         springs)."""
-        if not self.is_ideal_ups:
-            return self.general_dynamics.legs
-        return LegDynamics(self.description)
+        return self._kind.leg_dynamics(self)
 
     @overload
     def inverse_dynamics(
@@ -519,7 +450,7 @@ class StewartRobot:
         Returns:
             Gamma (6,) or (N, 6); positive extends the leg. General legs: the actuated
             joints' efforts, joint side [N or N m]; ``details=True`` gives the
-            :class:`~stewart_pin.dynamics.general_legs.GeneralInverseDynamics` (its
+            :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralInverseDynamics` (its
             ``joint_efforts`` (N, 6, 3): Gamma on the actuated joints, 0 on the passive
             ones; ``H`` each leg's own joint efforts, joint terms included).
 
@@ -533,22 +464,8 @@ class StewartRobot:
             fast = self._fast_backend(backend, details)
         if fast is not None:
             out = fast.inverse_dynamics(pose, twist, accel)
-            return out / self._motor_ratio if motor and not self.is_ideal_ups else out
-        if not self.is_ideal_ups:
-            with _quiet_overflow():
-                r = self.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
-            if details:
-                return r
-            out = check_finite(r.motor if motor else r.gamma, "inverse dynamics Gamma")
-            return out if check_poses(pose)[1] else out[0]
-        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        with _quiet_overflow():
-            res = closure.inverse_dynamics(
-                self.description, self.leg_dynamics, T, V, A, self.max_condition
-            )
-        if details:
-            return res
-        return res.gamma if batched else res.gamma[0]
+            return self._kind.motor_side(self, out) if motor else out
+        return self._kind.inverse_dynamics(self, pose, twist, accel, details, motor)
 
     def direct_dynamics(
         self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "auto"
@@ -576,16 +493,7 @@ class StewartRobot:
             fast = self._fast_backend(backend)
         if fast is not None:
             return fast.direct_dynamics(pose, twist, gamma)
-        if not self.is_ideal_ups:
-            with _quiet_overflow():
-                out = self.general_dynamics.direct_dynamics(pose, twist, gamma)
-            return out
-        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
-        with _quiet_overflow():
-            accel, _ = closure.direct_dynamics(
-                self.description, self.leg_dynamics, T, V, G, self.max_condition
-            )
-        return accel if batched else accel[0]
+        return self._kind.direct_dynamics(self, pose, twist, gamma)
 
     # ------------------------------------------------------------------ derivatives
     def inverse_dynamics_derivatives(
@@ -616,18 +524,8 @@ class StewartRobot:
     ) -> CartesianDynamics | GeneralCartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
         :class:`NumericalError` when either is not finite. General legs: a
-        :class:`~stewart_pin.dynamics.general_legs.GeneralCartesianDynamics`."""
-        if not self.is_ideal_ups:
-            with _quiet_overflow():
-                gcd = self.general_dynamics.cartesian_dynamics(pose, twist)
-            check_finite(gcd.A_robot, "cartesian dynamics A_robot")
-            check_finite(gcd.h_robot, "cartesian dynamics h_robot")
-            return gcd
-        _, T, V = check_states(pose, (twist, "twist"))
-        with _quiet_overflow():
-            cd = closure.cartesian_dynamics(
-                self.description, self.leg_dynamics, T, V, self.max_condition
-            )
+        :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralCartesianDynamics`."""
+        cd = self._kind.cartesian_dynamics(self, pose, twist)
         check_finite(cd.A_robot, "cartesian dynamics A_robot")
         check_finite(cd.h_robot, "cartesian dynamics h_robot")
         return cd
@@ -646,32 +544,14 @@ class StewartRobot:
         """Total mechanical energy of platform + legs [J]: kinetic plus gravitational
         potential (zero with every centre of mass at the origin of F0); general legs: the
         armatures' kinetic energy and the joint springs' potential included."""
-        if not self.is_ideal_ups:
-            with _quiet_overflow():
-                k, u = self.general_dynamics.energy(pose, twist)
-            if np.ndim(k) == 0:
-                return float(check_finite(np.array([k + u]), "energy")[0])
-            return check_finite(np.asarray(k) + np.asarray(u), "energy")
-        batched, T, V = check_states(pose, (twist, "twist"))
-        with _quiet_overflow():
-            legs = leg_state(self.description, T, V, check_limits=False)
-            kin, pot = self.leg_dynamics.energy(legs.q, legs.qdot)
-            kin_p, pot_p = closure.platform_energy(self.description, T, V)
-            total = check_finite(kin + pot + kin_p + pot_p, "energy")
-        return total if batched else float(total[0])
+        return self._kind.energy(self, pose, twist)
 
     def dissipated_power(self, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
         """Power lost in the joints' friction and dampers [W]:
         ``sum (Fv + D) qdot^2 + Fc |qdot|`` over the 18 joints; 0 for the ideal 6-UPS
         (frictionless). With it the power balance reads
         ``Gamma . qdot_a = dE/dt + dissipated_power``."""
-        if self.is_ideal_ups:
-            batched, T, _ = check_states(pose, (twist, "twist"))
-            return np.zeros(T.shape[0]) if batched else 0.0
-        with np.errstate(over="ignore", invalid="ignore"):  # overflow: NumericalError below
-            power = np.asarray(self.general_dynamics.dissipated_power(pose, twist), dtype=float)
-        checked = check_finite(np.atleast_1d(power), "dissipated power")
-        return checked if power.ndim else float(checked[0])
+        return self._kind.dissipated_power(self, pose, twist)
 
     def _fast_backend(self, backend: str, details: bool = False) -> Any:
         """The compiled backend serving a dynamics call, or ``None`` for the reference
@@ -709,18 +589,7 @@ class StewartRobot:
         :func:`stewart_pin.dynamics.regressor.standard_parameter_names`.
         """
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        if not self.is_ideal_ups:
-            from stewart_pin.dynamics.regressor import general_regressor_batch
-
-            with _quiet_overflow():
-                W = general_regressor_batch(
-                    self.general, self.general_dynamics.legs, T, V, A, self.max_condition, True
-                )
-            return W if batched else W[0]
-        from stewart_pin.dynamics.regressor import regressor_batch
-
-        with _quiet_overflow():
-            W = regressor_batch(self.description, self.leg_dynamics, T, V, A, self.max_condition)
+        W = self._kind.regressor(self, T, V, A)
         return W if batched else W[0]
 
     # ------------------------------------------------------------------ C export
@@ -782,13 +651,6 @@ BACKENDS = ("pinocchio", "compiled", "auto")
 _COMPILED_BACKEND: list[Any] = []
 #: :func:`stewart_pin.codegen.compiled.auto_backend`, imported on first use.
 _AUTO_BACKEND: list[Any] = []
-
-
-def _quiet_overflow() -> np.errstate:
-    """No RuntimeWarning for overflow or invalid operations: the outputs are checked
-    (:func:`stewart_pin.dynamics.closed_loop.check_finite`), and a non-finite one raises
-    :class:`NumericalError` instead."""
-    return np.errstate(over="ignore", invalid="ignore")
 
 
 def _compiled(backend: str, details: bool = False) -> bool:

@@ -55,7 +55,7 @@ from stewart_pin.check.constrained_dynamics import (
     tree_solver,
     tree_state,
 )
-from stewart_pin.check.general_legs import GeneralTreeSolver
+from stewart_pin.check.leg_chain_tree import GeneralTreeSolver
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
 

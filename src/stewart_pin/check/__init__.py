@@ -5,7 +5,7 @@ loop-closure Jacobians), compared with the paper's models.
 Shares no algebra with :mod:`stewart_pin.dynamics`, :mod:`stewart_pin.codegen` or the
 Jacobians of :mod:`stewart_pin.kinematics`: a check that reused the code it checks would
 prove nothing (the layering contract in ``pyproject.toml`` enforces it).
-:mod:`.general_legs` is the same check for general legs: the constrained tree with the
+:mod:`.leg_chain_tree` is the same check for general legs: the constrained tree with the
 armatures and the joint torques (friction, springs, dampers). :mod:`.payload` checks a
 hexapod carrying a payload against the whole tree (the payload appended to the platform).
 """

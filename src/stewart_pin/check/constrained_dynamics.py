@@ -45,7 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_states
-from stewart_pin.check.general_legs import (
+from stewart_pin.check.leg_chain_tree import (
     GeneralTreeSolver,
     reference_direct_dynamics,
     reference_energy,
@@ -53,7 +53,7 @@ from stewart_pin.check.general_legs import (
 )
 from stewart_pin.check.tolerances import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import general_from_description
+from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.exceptions import (
     InputError,
     InputTypeError,
@@ -376,7 +376,7 @@ def constrained_inverse_dynamics(
 def reference_actuator_efforts(robot: RobotLike, pose: Any, twist: Any, accel: Any) -> np.ndarray:
     """The actuated joints' efforts from the constrained tree, for any leg architecture:
     :func:`constrained_inverse_dynamics`'s ``gamma`` for the ideal 6-UPS, the KKT solve
-    of :class:`~stewart_pin.check.general_legs.GeneralTreeSolver` for general legs (with
+    of :class:`~stewart_pin.check.leg_chain_tree.GeneralTreeSolver` for general legs (with
     the leg joint positions from the robot's inverse geometry: see
     :func:`_general_reference`).
 
@@ -570,13 +570,13 @@ def _general_reference(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The reference Gamma and Vdot of a robot with general legs: Pinocchio's constrained
     tree with ``model.armature`` and the joint torques
-    (:class:`stewart_pin.check.general_legs.GeneralTreeSolver`).
+    (:class:`stewart_pin.check.leg_chain_tree.GeneralTreeSolver`).
 
     The leg joint *positions* come from the robot's own inverse geometry
     (``robot.inverse_geometry``, through :mod:`stewart_pin.kinematics.leg_chains`): that
     part is not independent, but the solver checks with Pinocchio's forward kinematics
     that they close the six loops (within
-    :data:`stewart_pin.check.general_legs.CLOSURE_TOLERANCE`); every rate, acceleration
+    :data:`stewart_pin.check.leg_chain_tree.CLOSURE_TOLERANCE`); every rate, acceleration
     and dynamic term is the tree's own.
     """
     solver = _general_solver(robot)
@@ -598,7 +598,7 @@ def validate(
     Draws ``n_states`` states with ``robot.sample_states`` (seeded; for a
     :class:`~stewart_pin.StewartRobot`, :func:`stewart_pin.kinematics.workspace.sample_states`),
     computes the reference Gamma with :func:`constrained_inverse_dynamics` (general legs:
-    :class:`~stewart_pin.check.general_legs.GeneralTreeSolver`, the tree with the joint
+    :class:`~stewart_pin.check.leg_chain_tree.GeneralTreeSolver`, the tree with the joint
     dynamics, fed the robot's own leg joint positions, whose loop closure it checks; see
     :func:`_general_reference`), then compares
     ``robot.inverse_dynamics(poses, twists, accels)`` with it, ``robot.direct_dynamics``

@@ -7,7 +7,7 @@ the payload's free-flyer RNEA of :mod:`stewart_pin.dynamics.payload`). The tree 
 robot's own closed-loop tree (6-UPS: from the generated URDF,
 :func:`~stewart_pin.models.pinocchio_models.build_tree`; general legs:
 :func:`~stewart_pin.models.leg_chains.build_general_tree` with ``model.armature`` and the
-joint terms of :class:`~stewart_pin.check.general_legs.GeneralTreeSolver`), with the
+joint terms of :class:`~stewart_pin.check.leg_chain_tree.GeneralTreeSolver`), with the
 payload's model appended at ``T_p_b`` on the platform's joint
 (:func:`~stewart_pin.models.payload.attach_payload`). The leg joint *positions* come
 from the robot's inverse geometry (checked to close the loops); everything else from
@@ -46,12 +46,12 @@ from stewart_pin.check.constrained_dynamics import (
     relative_error,
     verdict_line,
 )
-from stewart_pin.check.general_legs import (
+from stewart_pin.check.leg_chain_tree import (
     CLOSURE_TOLERANCE,
     GeneralTreeSolver,
     largest_loop_gap,
 )
-from stewart_pin.description.general_hexapod import general_from_description
+from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.exceptions import InputError, InputTypeError, SingularityError, WorkspaceError
 from stewart_pin.models.payload import Payload, attach_payload
 from stewart_pin.models.pinocchio_models import TreeModel

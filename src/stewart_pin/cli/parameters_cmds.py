@@ -23,7 +23,7 @@ from stewart_pin.cli._common import robot_from_args as _robot
 
 def _cmd_base_params(args: argparse.Namespace) -> int:
     from stewart_pin.parameters.base import base_parameters, numerical_base_parameters
-    from stewart_pin.parameters.general_base import uncovered_legs
+    from stewart_pin.parameters.leg_chain_base import uncovered_legs
 
     robot = _robot(args)
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
@@ -90,7 +90,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     inputs = [args.csv, args.validation_csv, args.description, args.model]
     out = check_output(args.output, (), inputs, "-o") if args.output else None
-    from stewart_pin.parameters.general_base import uncovered_legs
+    from stewart_pin.parameters.leg_chain_base import uncovered_legs
 
     robot = _robot(args)
     if not args.csv:  # the simulated measurements are written: check where, up front

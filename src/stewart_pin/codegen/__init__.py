@@ -2,7 +2,7 @@
 
 - :func:`generate_models` (:mod:`.symbolic`): the IDM and DDM of a robot as straight-line
   CasADi SX functions, the geometry baked in, the 88 base parameters an input; for a robot
-  with general legs, the generic models of :mod:`.general_symbolic` (every number baked
+  with general legs, the generic models of :mod:`.leg_chain_symbolic` (every number baked
   in, any leg architecture and joint term).
 - :func:`cost_table` / :func:`cost_dict` / :func:`architecture_table` (:mod:`.opcount`):
   their operation counts beside the paper's Table IV.

@@ -13,7 +13,7 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
   :mod:`stewart_pin.kinematics.geometry`); for general legs (:data:`CHECK_LEGS_GENERAL`), a
   slack of the generated code not positive (a leg out of reach or near it, near a serial
   singularity, a joint at or near its limits, a custom leg's Newton residual: see
-  :mod:`stewart_pin.codegen.general_symbolic`);
+  :mod:`stewart_pin.codegen.leg_chain_symbolic`);
 - ``COND``: the upper bound ``2 / |det S| (||S||_F^2 / 6)^3`` of cond(S) (Guggenheimer,
   Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
   measure's matrix (``l`` the characteristic length), passes half the threshold, and so

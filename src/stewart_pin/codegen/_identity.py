@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin.codegen.general_symbolic import GENERAL_GENERATOR_VERSION
+from stewart_pin.codegen.leg_chain_symbolic import GENERAL_GENERATOR_VERSION
 from stewart_pin.codegen.symbolic import GENERATOR_VERSION
 
 __all__ = ["generator_version", "library_identity", "source_digest"]

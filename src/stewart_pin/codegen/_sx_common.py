@@ -3,7 +3,7 @@ generator: 3-vector and 3x3 algebra on SX scalars, the pose input, the platform'
 Newton-Euler, the closure of the IDM (static-pivot LU of ``Jp^-T``) and of the DDM
 (``L D L^T``), the stages and the :class:`SymbolicModels` container.
 
-:mod:`.symbolic` (the paper's 6-UPS, hand-derived) and :mod:`.general_symbolic` (general
+:mod:`.symbolic` (the paper's 6-UPS, hand-derived) and :mod:`.leg_chain_symbolic` (general
 three-joint legs) both build on this module, which imports neither: the generators depend
 on it, never the reverse.
 """
@@ -335,7 +335,7 @@ class SymbolicModels:
             used to validate a state, layout ``AUX_*``); this is what gets compiled.
         idm_stages, ddm_stages: the models split for parallel evaluation (``None`` for
             the general-leg models unless asked for:
-            :func:`stewart_pin.codegen.general_symbolic.build_general_models`).
+            :func:`stewart_pin.codegen.leg_chain_symbolic.build_general_models`).
         pose: ``"matrix"`` (input ``pose`` = 0Tp row-major, 16) or ``"quaternion"``
             (``[x, y, z, qx, qy, qz, qw]``).
         parameters: ``"base"`` (88 symbolic base parameters), ``"essential"`` (only the

@@ -7,7 +7,7 @@ and no heap allocation (see ``docs/export_c.md``):
   (bounded Newton on SE(3) in C, from the generated inverse geometry and ``Jp^-1``),
   ``PREFIX_inverse_jacobian``, ``PREFIX_inverse_dynamics``, ``PREFIX_direct_dynamics``:
   CasADi's generated code for the guarded models (:mod:`.symbolic` /
-  :mod:`.general_symbolic`, every number of the robot baked in) and an inverse geometry
+  :mod:`.leg_chain_symbolic`, every number of the robot baked in) and an inverse geometry
   function, behind the state guards of :mod:`._csource`. Each function returns 0 or a
   negative error code (:data:`._cexport.ERROR_CODES`) and writes NaN on an error: a
   state the guard flags (where the Python path would ask its reference checks) is an
@@ -46,7 +46,7 @@ from stewart_pin.codegen import _cexport, _cexport_programs, _csource
 from stewart_pin.codegen._sx_common import function, vcross
 from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
 from stewart_pin.codegen.derivatives import symbolic_derivatives
-from stewart_pin.codegen.general_symbolic import (
+from stewart_pin.codegen.leg_chain_symbolic import (
     general_robot,
     leg_constants,
     leg_kinematics,

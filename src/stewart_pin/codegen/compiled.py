@@ -90,7 +90,7 @@ from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states, i
 from stewart_pin.codegen import _csource
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
-from stewart_pin.codegen.general_symbolic import (
+from stewart_pin.codegen.leg_chain_symbolic import (
     GENERAL_GENERATOR_VERSION,
     AuxLayout,
     aux_layout,
@@ -112,7 +112,7 @@ from stewart_pin.codegen.symbolic import (
     generate_models,
 )
 from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
-from stewart_pin.dynamics.general_legs import GeneralDynamics
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import (
     CompilationError,
     InputError,
@@ -768,7 +768,7 @@ class CompiledDynamics:
     """The generated IDM and DDM of a robot, compiled to C (or in CasADi's VM).
 
     Any robot: the paper's 6-UPS closed forms (:mod:`.symbolic`, the 88 base parameters an
-    input) or, for general legs, the generic models of :mod:`.general_symbolic` (every
+    input) or, for general legs, the generic models of :mod:`.leg_chain_symbolic` (every
     number of the robot compiled in; the actuated joints' efforts, joint side).
 
     Args:

@@ -63,7 +63,7 @@ from stewart_pin.codegen.compiled import (
     compiled_backend,
     split_batch,
 )
-from stewart_pin.codegen.general_symbolic import actuator_function
+from stewart_pin.codegen.leg_chain_symbolic import actuator_function
 from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import (
     CompilationError,
@@ -220,7 +220,7 @@ def symbolic_models_for(robot: RobotLike) -> SymbolicModels:
     This is the one place that says which architectures have them: every robot, through
     :func:`~.symbolic.generate_models` (the ideal 6-UPS: the paper's models with the 88
     base parameters as an input; general legs, ``ups-offset``, ``rus``, ``pus``, custom,
-    mixed: the generic models of :mod:`.general_symbolic`, every number baked in and an
+    mixed: the generic models of :mod:`.leg_chain_symbolic`, every number baked in and an
     empty ``base_parameters`` input, so that the derivatives take an empty parameter
     vector).
     """
@@ -235,7 +235,7 @@ def symbolic_actuators_for(robot: RobotLike) -> cs.Function:
     The ideal 6-UPS keeps its closed form, the leg lengths ``l_i = |p + R P_i - B_i|``
     [m] and their rates ``a_i . (v + w x L_i)`` (eq. 13); every other robot takes the
     generated models' leg code
-    (:func:`~stewart_pin.codegen.general_symbolic.actuator_function`)."""
+    (:func:`~stewart_pin.codegen.leg_chain_symbolic.actuator_function`)."""
     desc = robot.description
     if not desc.is_ideal_ups:
         return actuator_function(desc)

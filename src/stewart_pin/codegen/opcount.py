@@ -32,10 +32,10 @@ closure`` (legs on six processors, then the platform and the closure on one; the
 seven-processor figure lets the platform run beside the legs: ``shared + max(max(leg),
 platform) + closure``, given too).
 
-Robots with general legs (:mod:`.general_symbolic`) have every parameter value baked in
+Robots with general legs (:mod:`.leg_chain_symbolic`) have every parameter value baked in
 (the ``"numeric"`` rows; no base or essential parameters), and their leg inverse geometry
 uses square roots and, for a joint with a spring, one ``atan2`` (``trig``); a ``custom``
-leg's Newton steps are counted written out (:data:`~.general_symbolic.NEWTON_ITERATIONS`
+leg's Newton steps are counted written out (:data:`~.leg_chain_symbolic.NEWTON_ITERATIONS`
 of them, with their sines and cosines). :func:`architecture_table` compares the
 architectures.
 """
@@ -248,7 +248,7 @@ def _general_cost_dict(desc: RobotDescription) -> dict[str, Any]:
 
 
 def _count_general(desc: RobotDescription) -> dict[str, Any]:
-    from stewart_pin.codegen.general_symbolic import build_general_models
+    from stewart_pin.codegen.leg_chain_symbolic import build_general_models
 
     models: SymbolicModels = build_general_models(desc, stages=True, inline_newton=True)[0]
     quat = build_general_models(desc, "quaternion", inline_newton=True)[0]
@@ -351,7 +351,7 @@ def architecture_dict() -> dict[str, Any]:
 
 @functools.lru_cache(maxsize=1)
 def _architecture_dict() -> dict[str, Any]:
-    from stewart_pin.codegen.general_symbolic import build_general_models
+    from stewart_pin.codegen.leg_chain_symbolic import build_general_models
     from stewart_pin.description.presets import preset
 
     out: dict[str, Any] = {}

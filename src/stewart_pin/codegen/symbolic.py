@@ -42,7 +42,7 @@ sub-expressions eliminated with :func:`casadi.cse`) and as its stages
 (``SymbolicModels.idm_stages``): a shared prelude, six independent leg functions and the
 platform (which could run on seven processors), then the closure.
 
-The pieces shared with the general-leg generator (:mod:`.general_symbolic`): the SX
+The pieces shared with the general-leg generator (:mod:`.leg_chain_symbolic`): the SX
 algebra, the platform, both closures, the stages and :class:`SymbolicModels`, live in
 :mod:`._sx_common`, below both generators.
 """
@@ -525,7 +525,7 @@ def generate_models(
     """Generate the symbolic IDM and DDM of a robot (cached per description).
 
     A robot with general legs (``desc.legs`` set) gets the generic models of
-    :mod:`stewart_pin.codegen.general_symbolic`: every number of the robot baked in, an
+    :mod:`stewart_pin.codegen.leg_chain_symbolic`: every number of the robot baked in, an
     empty ``base_parameters`` input (``parameters`` ``"base"`` or ``"numeric"``), no
     stages.
 
@@ -552,7 +552,7 @@ def generate_models(
         if desc.is_ideal_ups:
             _CACHE[key] = _build(desc, pose, parameters, "stewart_")
         else:
-            from stewart_pin.codegen.general_symbolic import build_general_models
+            from stewart_pin.codegen.leg_chain_symbolic import build_general_models
 
             _CACHE[key] = build_general_models(desc, pose)[0]
     return _CACHE[key]

@@ -18,8 +18,8 @@ friction, springs, transmissions), the legs and their builders (``ups``, ``ups_o
 Modules: :mod:`.robot_description` (``RobotDescription``, the file format),
 :mod:`.leg_architecture`, :mod:`.leg_io` (the ``[[legs]]`` file section), :mod:`.inertia`,
 :mod:`.presets` (6-UPS presets, and the names of the general ones),
-:mod:`.general_presets` (``ups-offset``, ``rus``, ``pus``, random general robots),
-:mod:`.general_hexapod` (the resolved view of a robot's legs), :mod:`.symmetric_hexapod`
+:mod:`.leg_chain_presets` (``ups-offset``, ``rus``, ``pus``, random general robots),
+:mod:`.leg_chain_hexapod` (the resolved view of a robot's legs), :mod:`.symmetric_hexapod`
 (the builder of symmetric 6-6 and 6-3 hexapods).
 """
 

@@ -2,8 +2,8 @@
 spherical joint on the platform (``general-legs.md``; Khalil & Ibrahim 2007):
 :class:`JointDynamics`, :class:`Joint`, :class:`LegArchitecture` and the builders
 :func:`ups`, :func:`ups_offset`, :func:`rus`, :func:`pus`. The robot that holds six legs is
-:class:`~stewart_pin.description.general_hexapod.GeneralHexapod`; generators and presets
-are in :mod:`stewart_pin.description.general_presets`.
+:class:`~stewart_pin.description.leg_chain_hexapod.GeneralHexapod`; generators and presets
+are in :mod:`stewart_pin.description.leg_chain_presets`.
 
 Frames (Khalil-Kleinfinger modified DH, SI units):
 

@@ -16,8 +16,8 @@ from collections.abc import Callable
 import numpy as np
 
 from stewart_pin._so3 import rotation_from_quaternion_wxyz
-from stewart_pin.description.general_presets import GENERAL_PRESETS, random_hexapod
 from stewart_pin.description.inertia import random_physical_khalil, transform_khalil
+from stewart_pin.description.leg_chain_presets import GENERAL_PRESETS, random_hexapod
 from stewart_pin.description.robot_description import RobotDescription, leg_base_rotation_from_axis
 from stewart_pin.description.symmetric_presets import (
     GRAVITY,
@@ -156,7 +156,7 @@ def _general(name: str) -> Callable[[], RobotDescription]:
     return build
 
 
-#: The general-leg presets (:mod:`stewart_pin.description.general_presets`): a 6-UPS with
+#: The general-leg presets (:mod:`stewart_pin.description.leg_chain_presets`): a 6-UPS with
 #: offset U-joint axes, a 6-RUS desktop head, a 6-PUS positioner. Kept apart from
 #: :data:`PRESETS` (the ideal 6-UPS robots, whose robot files are committed in
 #: ``models/urdf``); :func:`preset` takes both.
@@ -164,7 +164,7 @@ LEG_PRESETS: dict[str, Callable[[], RobotDescription]] = {
     name: _general(name) for name in ("ups-offset", "rus", "pus")
 }
 #: Kinds of ``random-<kind>-<seed>``
-#: (:func:`~stewart_pin.description.general_presets.random_hexapod`).
+#: (:func:`~stewart_pin.description.leg_chain_presets.random_hexapod`).
 RANDOM_KINDS = ("ups", "ups-offset", "rus", "pus", "custom")
 #: Every preset name :func:`preset` takes, beside ``random-<seed>`` and
 #: ``random-<kind>-<seed>``.

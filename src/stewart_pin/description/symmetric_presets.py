@@ -1,6 +1,6 @@
 """The symmetric triangle-triangle 6-6 hexapods: ``simulator`` and ``desktop`` (ideal
 6-UPS), and the builders they share with the other presets (:mod:`.presets`, which
-re-exports them, and :mod:`.general_presets`, whose ``ups-offset`` is the desktop with
+re-exports them, and :mod:`.leg_chain_presets`, whose ``ups-offset`` is the desktop with
 offset U-joints).
 """
 

@@ -5,8 +5,8 @@
 the platform's Newton-Euler (eq. 24), the inverse model Gamma = Jp^T (F_p + F_leg) and
 the direct model with A_robot, h_robot (eq. 36-38); :mod:`.regressor` gives the regressor W
 with Gamma = W chi (6 x 190 for the ideal 6-UPS robot; 6 x 280 for general legs, whose
-joint terms are standard parameters too). :mod:`.general_legs` gives any three-joint leg's H_i with
-its joint terms (armature, friction, springs, dampers) to the same closure kernel.
+joint terms are standard parameters too). :mod:`.leg_chain_dynamics` gives any three-joint
+leg's H_i with its joint terms (armature, friction, springs, dampers) to the same closure kernel.
 :mod:`.payload` adds a payload moving on the platform (its reaction from Pinocchio's RNEA
 with the platform's motion as its base motion; the coupled mass matrix).
 

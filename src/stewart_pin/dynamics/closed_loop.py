@@ -6,7 +6,7 @@ The closure kernel (:func:`closure_inverse_dynamics`, :func:`closure_cartesian_d
 leg's Jacobian inverse ``J_i^-1`` (3x3, ``qdot_i = J_i^-1 v_Pi``), its ``L_i`` (O_p to P_i
 in F0), its own ``H_i`` or ``(A_i, h_i)`` (joint terms included) and drift
 ``Jdot_i qdot_i``, with ``Jp^-1`` and the platform's terms. The ideal 6-UPS path below and
-the general legs (:mod:`stewart_pin.dynamics.general_legs`) both call it.
+the general legs (:mod:`stewart_pin.dynamics.leg_chain_dynamics`) both call it.
 
 All functions take validated batches: poses (N, 4, 4), twists (N, 6), classical
 accelerations (N, 6), forces (N, 6); every 6-vector is ``[linear, angular]`` in F0, and

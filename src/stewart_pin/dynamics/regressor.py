@@ -45,7 +45,7 @@ known constant and not a parameter (:func:`actuator_ratios`; the rotor's own ine
 already in IA, reflected to the joint side).
 
 The general ``W`` is built as the inverse dynamic model of
-:mod:`stewart_pin.dynamics.general_legs` is: ``H_i = Y_i chi_i`` from
+:mod:`stewart_pin.dynamics.leg_chain_dynamics` is: ``H_i = Y_i chi_i`` from
 ``pin.computeJointTorqueRegressor`` on the six chains (each body's frame is its MDH link
 frame, so the only conversion is Pinocchio's parameter order to Khalil's), plus the joint
 term columns, projected by the closure ``Jp^T [I3; L_i^] J_i^-T``, and the platform's
@@ -64,11 +64,11 @@ from stewart_pin._checks import check_array
 from stewart_pin._so3 import cross
 from stewart_pin._typing import Accels, FloatArray, JointValues, Poses, Twists
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.dynamics.closed_loop import check_finite
-from stewart_pin.dynamics.general_legs import GeneralLegDynamics
+from stewart_pin.dynamics.leg_chain_dynamics import GeneralLegDynamics
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
 from stewart_pin.exceptions import JointDynamicsError
 from stewart_pin.formats.urdf import leg_joint

@@ -410,8 +410,11 @@ def mujoco_qpos(desc: RobotDescription, pose: Any) -> np.ndarray:
     """MuJoCo's ``qpos`` (25,) at a platform pose 0Tp (4x4): the 18 leg joints (leg 1
     first, ``q1i, q2i, q3i`` of the default U-joint branch, limits unchecked), then the
     platform's ``[p [m], quat (w, x, y, z)]``. General legs: each leg's branch."""
-    if is_general(desc):
-        return leg_chains_mujoco_qpos(desc, pose)
+    return _form(desc).qpos(desc, pose)
+
+
+def _ideal_ups_mujoco_qpos(desc: RobotDescription, pose: Any) -> np.ndarray:
+    """The ideal 6-UPS's ``qpos`` (:func:`mujoco_qpos`): its closed-form inverse geometry."""
     T = np.asarray(pose, dtype=float)
     q_legs = inverse_geometry(desc, T, check_limits=False)
     return np.concatenate([q_legs.ravel(), T[:3, 3], quaternion_wxyz(T[:3, :3])])
@@ -431,8 +434,11 @@ def mjcf_string(desc: RobotDescription, pinocchio_layout: bool = False) -> str:
     The robot name goes into the ``model`` attribute only, escaped by ElementTree (and
     refused by :class:`InputError` if XML cannot hold it); the comments are fixed text.
     """
-    if is_general(desc):
-        return leg_chains_mjcf_string(desc, pinocchio_layout)
+    return _form(desc).mjcf(desc, pinocchio_layout)
+
+
+def _ideal_ups_mjcf_string(desc: RobotDescription, pinocchio_layout: bool) -> str:
+    """The ideal 6-UPS's MJCF (:func:`mjcf_string`): the paper's joints and frames."""
     vs = VisualSizes.for_robot(desc)
     lim = joint_limits(desc)
 
@@ -674,3 +680,23 @@ def write_mjcf(desc: RobotDescription, path: str | Path, pinocchio_layout: bool 
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, mjcf_string(desc, pinocchio_layout))
     return path
+
+
+@dataclass(frozen=True)
+class _MjcfForm:
+    """How one kind of robot is written (each takes its description): the MJCF text (and
+    ``pinocchio_layout``), MuJoCo's ``qpos`` (25,) at a pose."""
+
+    mjcf: Callable[[Any, bool], str]
+    qpos: Callable[[Any, Any], np.ndarray]
+
+
+#: The ideal 6-UPS (today's files, byte for byte) and every robot carrying leg chains.
+_IDEAL_UPS = _MjcfForm(_ideal_ups_mjcf_string, _ideal_ups_mujoco_qpos)
+_LEG_CHAINS = _MjcfForm(leg_chains_mjcf_string, leg_chains_mujoco_qpos)
+
+
+def _form(desc: Any) -> _MjcfForm:
+    """The writers of ``desc``'s kind (:func:`~stewart_pin.formats.urdf.is_general`): the
+    one place the MJCF's choice is made (``mujoco_inertials`` only picks its defaults)."""
+    return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS

@@ -226,8 +226,11 @@ def urdf_string(desc: RobotDescription) -> str:
     The robot name goes into the ``name`` attribute only, escaped by ElementTree (and
     refused by :class:`InputError` if XML cannot hold it); the comments are fixed text.
     """
-    if is_general(desc):
-        return leg_chains_urdf_string(desc)
+    return _form(desc).urdf(desc)
+
+
+def _ideal_ups_urdf_string(desc: RobotDescription) -> str:
+    """The ideal 6-UPS's URDF (:func:`urdf_string`): the paper's joints and frames."""
     vs = VisualSizes.for_robot(desc)
     robot, _ = robot_with_base(desc.name, desc.base_points, vs)
 
@@ -291,8 +294,11 @@ def urdf_string(desc: RobotDescription) -> str:
 def closures_dict(desc: RobotDescription, urdf_name: str | None = None) -> dict[str, Any]:
     """The loop-closure sidecar as a dict (see the module docstring); for general legs
     (:func:`is_general`) with their joint terms."""
-    if is_general(desc):
-        return leg_chains_closures_dict(desc, urdf_name)
+    return _form(desc).closures(desc, urdf_name)
+
+
+def _ideal_ups_closures_dict(desc: RobotDescription, urdf_name: str | None) -> dict[str, Any]:
+    """The ideal 6-UPS's sidecar (:func:`closures_dict`): six points, the actuated slides."""
     return {
         "format": CLOSURE_FORMAT,
         "version": 1,
@@ -323,14 +329,17 @@ def home_configuration(desc: Any) -> dict[str, Any]:
     -> value [rad or m] at that pose, each leg's branch): the assembled configuration an
     importer reads back (``stewart_pin.importers``); URDF has no place for it."""
     T = np.asarray(desc.home_pose, dtype=float)
-    if is_general(desc):
-        q = leg_joint_values(desc, T)
-    else:
-        from stewart_pin.kinematics.geometry import inverse_geometry
-
-        q = np.asarray(inverse_geometry(desc, T, check_limits=False))
+    q = _form(desc).joint_values(desc, T)
     positions = {leg_joint(i + 1, j + 1): float(q[i, j]) for i in range(6) for j in range(3)}
     return {"home_pose": T.tolist(), "home_joint_positions": positions}
+
+
+def _ideal_ups_joint_values(desc: RobotDescription, pose: Any) -> np.ndarray:
+    """The ideal 6-UPS's leg joint values (6, 3) at ``pose`` (its closed-form inverse
+    geometry, limits unchecked)."""
+    from stewart_pin.kinematics.geometry import inverse_geometry
+
+    return np.asarray(inverse_geometry(desc, pose, check_limits=False))
 
 
 @dataclass(frozen=True)
@@ -775,3 +784,24 @@ def read_actuated_joints(path: str | Path) -> list[str]:
     if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
         raise FileFormatError(f"{path}: 'actuated_joints' must be a list of joint names")
     return names
+
+
+@dataclass(frozen=True)
+class _UrdfForm:
+    """How one kind of robot is written (each takes its description): the URDF text, the
+    sidecar dict (and the URDF's file name), the leg joint values (6, 3) at a pose."""
+
+    urdf: Callable[[Any], str]
+    closures: Callable[[Any, str | None], dict[str, Any]]
+    joint_values: Callable[[Any, Any], np.ndarray]
+
+
+#: The ideal 6-UPS (today's files, byte for byte) and every robot carrying leg chains.
+_IDEAL_UPS = _UrdfForm(_ideal_ups_urdf_string, _ideal_ups_closures_dict, _ideal_ups_joint_values)
+_LEG_CHAINS = _UrdfForm(leg_chains_urdf_string, leg_chains_closures_dict, leg_joint_values)
+
+
+def _form(desc: Any) -> _UrdfForm:
+    """The writers of ``desc``'s kind (:func:`is_general`): the one place the URDF's choice
+    is made."""
+    return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS

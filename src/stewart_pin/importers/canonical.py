@@ -47,13 +47,13 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin.description.general_hexapod import general_from_description
 from stewart_pin.description.leg_architecture import (
     PRISMATIC,
     Joint,
     LegArchitecture,
     mdh_transform,
 )
+from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.description.robot_description import RobotDescription
 from stewart_pin.exceptions import ArchitectureError
 

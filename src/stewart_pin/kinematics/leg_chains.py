@@ -39,8 +39,8 @@ import numpy as np
 
 from stewart_pin._checks import check_array, check_pose, check_poses, check_states, in_batch
 from stewart_pin._so3 import cross
-from stewart_pin.description.general_hexapod import GeneralHexapod
 from stewart_pin.description.leg_architecture import LegArchitecture, wrap_into_limits
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.exceptions import (
     ConvergenceError,
     LegJointLimitError,

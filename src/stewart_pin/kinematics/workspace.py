@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.exceptions import InputError, StewartPinError, WorkspaceError
 from stewart_pin.kinematics.geometry import admissible_poses, inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import (

@@ -23,12 +23,15 @@ other robot gets its chains built above. ``StewartRobot.tree``, ``.leg_models`` 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.general_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.inertia import pin_inertia_from_khalil
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
     build_leg_models,
@@ -150,26 +153,51 @@ def closed_loop_tree(desc: RobotDescription) -> TreeModel:
     free-flyer, six 3D loop closures at P_i): the ideal 6-UPS's from its URDF
     (:func:`~stewart_pin.models.pinocchio_models.build_tree`), every other robot's from
     its chains (:func:`build_general_tree`, ``model.armature`` set)."""
-    if desc.is_ideal_ups:
-        return build_tree(desc)
-    return build_general_tree(general_from_description(desc))
+    return _builders(desc).tree(desc)
 
 
 def leg_models(desc: RobotDescription) -> list[pin.Model]:
     """The six 3-dof leg models of any robot (model ``i`` has leg i+1's joints from the
     base, in order; general legs: ``model.armature`` set)."""
-    if desc.is_ideal_ups:
-        return build_leg_models(desc)
-    robot = general_from_description(desc)
-    return [build_leg_chain(robot, k) for k in range(6)]
+    return _builders(desc).leg_models(desc)
 
 
 def legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
     """The six legs of any robot on a fixed base (18 dof) and the (6, 3) velocity index
     of joint j of leg i."""
-    if desc.is_ideal_ups:
-        return build_legs_model(desc)
+    return _builders(desc).legs_model(desc)
+
+
+@dataclass(frozen=True)
+class _Builders:
+    """How one kind of robot's Pinocchio models are built (each takes its description)."""
+
+    tree: Callable[[RobotDescription], TreeModel]
+    leg_models: Callable[[RobotDescription], list[pin.Model]]
+    legs_model: Callable[[RobotDescription], tuple[pin.Model, np.ndarray]]
+
+
+def _chain_tree(desc: RobotDescription) -> TreeModel:
+    return build_general_tree(general_from_description(desc))
+
+
+def _chain_leg_models(desc: RobotDescription) -> list[pin.Model]:
+    robot = general_from_description(desc)
+    return [build_leg_chain(robot, k) for k in range(6)]
+
+
+def _chain_legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
     return build_leg_chains(general_from_description(desc))
+
+
+#: The ideal 6-UPS: the models parsed from its URDF; every other robot: its chains.
+_IDEAL_UPS = _Builders(build_tree, build_leg_models, build_legs_model)
+_LEG_CHAINS = _Builders(_chain_tree, _chain_leg_models, _chain_legs_model)
+
+
+def _builders(desc: RobotDescription) -> _Builders:
+    """The builders of ``desc``'s architecture: the one place the models' choice is made."""
+    return _IDEAL_UPS if desc.is_ideal_ups else _LEG_CHAINS
 
 
 __all__ = [

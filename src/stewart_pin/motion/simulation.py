@@ -68,7 +68,6 @@ from stewart_pin.formats.csv_tables import (
     write_csv,
 )
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
-from stewart_pin.kinematics.jacobians import inverse_jacobian_batch
 from stewart_pin.motion.control import check_backend
 from stewart_pin.protocols import RobotLike
 
@@ -289,9 +288,7 @@ class _Integrator:
 
     def det_signs(self, poses: np.ndarray) -> np.ndarray:
         """Signs of det Jp^-1 at poses (N, 4, 4)."""
-        if not self.robot.description.is_ideal_ups:  # general legs: through the facade
-            return np.sign(np.linalg.det(self.robot.inverse_jacobian(poses)))
-        return np.sign(np.linalg.det(inverse_jacobian_batch(self.robot.description, poses)))
+        return np.sign(np.linalg.det(self.robot.inverse_jacobian(poses)))
 
     def state(self, t: float, T: np.ndarray, V: np.ndarray, sign: float | None = None) -> _State:
         """Evaluate an accepted (or candidate) state: raises the dynamics' errors. ``sign``:
@@ -527,9 +524,7 @@ class _Run:
         V = np.array([s.V for s in self.rows])
         A = np.array([s.dy[6:] for s in self.rows])
         G = np.array([s.gamma for s in self.rows])
-        if not self.robot.description.is_ideal_ups:
-            return SimulationResult(t, P, V, A, G, self.robot.actuator_positions(P))
-        return SimulationResult(t, P, V, A, G, self.robot.leg_lengths(P))
+        return SimulationResult(t, P, V, A, G, self.robot.actuator_positions(P))
 
     def stop(self, message: str, t: float) -> SimulationError:
         """The error to stop with; the result ends with the last accepted state."""

@@ -17,7 +17,7 @@ Two routes to the same space:
 - :func:`grouped_parameters`: the paper's 88 on every geometry (minimal on a general one),
   the fixed layout of the generated code.
 - General legs (``ups``, ``ups-offset``, ``rus``, ``pus``): the analytic set of
-  :mod:`stewart_pin.parameters.general_base` (Khalil's rules per leg, the loop grouping at
+  :mod:`stewart_pin.parameters.leg_chain_base` (Khalil's rules per leg, the loop grouping at
   P_i, the joint terms); ``custom`` legs get the numerical set
   (:func:`base_parameters` says so with a :class:`BaseParameterWarning`).
 
@@ -51,7 +51,7 @@ from stewart_pin.exceptions import (
     IdentificationError,
     InputError,
 )
-from stewart_pin.parameters.general_base import general_grouping, uncovered_legs
+from stewart_pin.parameters.leg_chain_base import general_grouping, uncovered_legs
 from stewart_pin.protocols import RobotLike
 
 #: Default numerical rank tolerance, relative to the largest singular value of the stacked
@@ -284,7 +284,7 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     """The base parameters by grouping rules, decided per leg from the geometry.
 
     General legs (``ups``, ``ups-offset``, ``rus``, ``pus``): the rules of
-    :mod:`stewart_pin.parameters.general_base` (a
+    :mod:`stewart_pin.parameters.leg_chain_base` (a
     :class:`~stewart_pin.exceptions.BaseParameterWarning` names a rule decided within a
     hair of its tolerance); :class:`UnsupportedArchitectureError` for ``custom`` legs. The
     ideal 6-UPS robot: the paper's rules, as follows.

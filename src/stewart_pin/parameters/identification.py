@@ -104,7 +104,7 @@ def base_without(base: BaseParameters, zero: Any) -> BaseParameters:
     kinds = ("IA", "FV", "FC", "K", "OF")
     robot = base.robot
     passive: set[int] = set()
-    if robot is not None and not robot.description.is_ideal_ups:
+    if robot is not None:  # the joints' terms (none on the ideal 6-UPS: no joint terms)
         from stewart_pin.dynamics.regressor import parameter_groups
 
         for jp in parameter_groups(robot.description).joints:
@@ -935,13 +935,11 @@ def log_equations(
 def _actuated_coulomb(robot: RobotLike, base: BaseParameters) -> list[tuple[int, int]]:
     """``(base column, leg)`` of every base parameter that is an actuated joint's Coulomb
     friction alone (``K`` row with the single entry 1 at its FC): its column is
-    ``sign(qdot_a)`` on that actuator's row."""
-    if robot.description.is_ideal_ups:
-        return []
+    ``sign(qdot_a)`` on that actuator's row (none on the ideal 6-UPS: no joint terms)."""
     from stewart_pin.dynamics.regressor import parameter_groups
 
     K = np.asarray(base.K)
-    out = []
+    out: list[tuple[int, int]] = []
     for jp in parameter_groups(robot.description).joints:
         if not jp.actuated:
             continue

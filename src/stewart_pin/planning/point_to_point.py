@@ -60,7 +60,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_pose, check_scalar
 from stewart_pin._so3 import quaternions_xyzw_from_rotations, rotation_rows_from_quaternion_xyzw
 from stewart_pin.codegen.derivatives import symbolic_actuators_for, symbolic_models_for
-from stewart_pin.description.general_hexapod import general_from_description
+from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.exceptions import ConvergenceError, InputError, SingularityError
 from stewart_pin.motion.simulation import SimulationResult, simulate
 from stewart_pin.protocols import RobotLike

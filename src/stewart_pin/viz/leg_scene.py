@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.description.general_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.formats.urdf import VisualSizes, plate_visual
 from stewart_pin.kinematics.leg_chains import LegFrames, inverse_geometry_batch, leg_forward
 

@@ -18,7 +18,7 @@ and axes are translated by ``-target`` and the camera sits at ``eye - target``.
 
 Robots with general three-joint legs (a description with ``legs`` that are not all plain
 ``ups`` legs, e.g. ``rus``, ``pus``, ``ups-offset``, or a
-:class:`~stewart_pin.description.general_hexapod.GeneralHexapod` itself) are drawn by
+:class:`~stewart_pin.description.leg_chain_hexapod.GeneralHexapod` itself) are drawn by
 :class:`~stewart_pin.viz.leg_scene.LegScene` instead: cranks, rails and slides, universal
 joints, rods and the plates placed from the legs' joint frames at the inverse geometry's
 joint values (no URDF). The 6-UPS robots keep the URDF drawing above.

@@ -1,0 +1,376 @@
+"""The reference path of each architecture, chosen once when a robot is built.
+
+:class:`~stewart_pin.robot.StewartRobot` holds one of these (``robot._kind``, from
+:func:`reference_path`) and calls it for geometry, kinematics, sampling and the reference
+dynamics; no method of the facade asks which architecture it holds.
+
+- :class:`LegChainPath`: any robot, its legs as three-joint chains
+  (:mod:`stewart_pin.kinematics.leg_chains`,
+  :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics`, joint terms
+  included): the path of ``ups-offset``, ``rus``, ``pus``, custom and mixed robots.
+- :class:`IdealUpsPath`: the paper's ideal 6-UPS, overriding it with its closed forms
+  (eq. 13-19, :mod:`stewart_pin.kinematics.geometry`,
+  :mod:`stewart_pin.kinematics.jacobians`) and its Pinocchio leg models
+  (:class:`~stewart_pin.dynamics.leg_dynamics.LegDynamics`, the closure layer of
+  :mod:`stewart_pin.dynamics.closed_loop`).
+
+The paths hold no state (the models they use are cached on the robot, which each method
+takes as its first argument: a :class:`PathOwner`), so a robot keeps no reference cycle
+and pickles as before.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import numpy as np
+
+from stewart_pin._checks import check_poses, check_states
+from stewart_pin._typing import (
+    Accels,
+    ArrayLike,
+    FloatArray,
+    JointValues,
+    Pose,
+    Poses,
+    Twists,
+)
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.dynamics import closed_loop as closure
+from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
+from stewart_pin.dynamics.leg_chain_dynamics import (
+    GeneralCartesianDynamics,
+    GeneralDynamics,
+    GeneralInverseDynamics,
+)
+from stewart_pin.dynamics.leg_dynamics import LegDynamics
+from stewart_pin.exceptions import ArchitectureError, StewartPinError
+from stewart_pin.kinematics import geometry, leg_chains, workspace
+from stewart_pin.kinematics import jacobians as kinematics
+from stewart_pin.kinematics.forward_geometry import forward_geometry
+from stewart_pin.kinematics.jacobians import leg_state
+
+__all__ = ["IdealUpsPath", "LegChainPath", "PathOwner", "reference_path"]
+
+
+class PathOwner(Protocol):
+    """What a path needs from the robot holding it: its description, its singularity
+    threshold (read at each call: it may change) and the models it caches."""
+
+    description: RobotDescription
+    max_condition: float
+
+    @property
+    def general(self) -> GeneralHexapod: ...
+
+    @property
+    def general_dynamics(self) -> GeneralDynamics: ...
+
+    @property
+    def leg_dynamics(self) -> LegDynamics: ...
+
+    @property
+    def _motor_ratio(self) -> FloatArray: ...
+
+
+def quiet_overflow() -> np.errstate:
+    """No RuntimeWarning for overflow or invalid operations: the outputs are checked
+    (:func:`stewart_pin.dynamics.closed_loop.check_finite`), and a non-finite one raises
+    :class:`NumericalError` instead."""
+    return np.errstate(over="ignore", invalid="ignore")
+
+
+class LegChainPath:
+    """Every robot as six three-joint leg chains, joint terms included: the path of every
+    architecture but the ideal 6-UPS, which overrides it with its closed forms
+    (:class:`IdealUpsPath`). Arguments, shapes and units as the
+    :class:`~stewart_pin.robot.StewartRobot` methods of the same names; each method takes
+    the robot holding the path first."""
+
+    #: Whether this is the paper's ideal 6-UPS path.
+    is_ideal_ups: bool = False
+
+    def check_home(self, r: PathOwner) -> None:
+        """A general robot's home pose must be reachable, inside the joint limits and away
+        from both singularities (:class:`ArchitectureError` naming the cause)."""
+        T = r.description.home_pose[None]
+        try:
+            legs = leg_chains.leg_state(r.general, T, np.zeros((1, 6)), check_limits=True)
+            J_inv = leg_chains.inverse_jacobian_from_legs(r.general, legs.J_inv, legs.L)
+            leg_chains.check_parallel(r.general, J_inv, r.max_condition)
+        except StewartPinError as e:
+            raise ArchitectureError(
+                f"robot '{r.description.name}': the home pose is not a valid pose of its "
+                f"legs: {e}",
+                "home_pose",
+                type(e).__name__,
+            ) from e
+
+    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
+        return leg_chains.inverse_geometry(r.general, pose, check_limits)
+
+    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
+        return leg_chains.actuator_positions(r.general, pose, check_limits)
+
+    def forward_geometry(
+        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
+    ) -> Pose:
+        return leg_chains.forward_geometry(r.general, lengths, guess, **kwargs)
+
+    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        return leg_chains.inverse_jacobian(r.general, pose)
+
+    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        T, batched = check_poses(pose)
+        J_inv = leg_chains.inverse_jacobian_batch(r.general, T)
+        leg_chains.check_parallel(r.general, J_inv, r.max_condition)
+        J = np.asarray(np.linalg.inv(J_inv), dtype=np.float64)
+        return J if batched else J[0]
+
+    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
+        T, batched = check_poses(pose)
+        J_inv = leg_chains.inverse_jacobian_batch(r.general, T)
+        c = leg_chains.condition_number_batch(r.general, J_inv)
+        return c if batched else float(c[0])
+
+    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        T, batched = check_poses(pose)
+        J = leg_chains.leg_kinematics(r.general, T, np.zeros((T.shape[0], 6)), None).J
+        return J if batched else J[0]
+
+    def leg_kinematics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
+        ks = leg_chains.leg_kinematics(r.general, pose, twist, accel)
+        return ks.q, ks.qdot, None if accel is None else ks.qddot
+
+    def sample_poses(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> FloatArray:
+        return workspace.sample_general_poses(
+            r.description, r.general, n, rng, translation, rotation, r.max_condition
+        )
+
+    def sample_states(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> tuple[Poses, Twists, Accels]:
+        return workspace.sample_general_states(
+            r.description,
+            r.general,
+            n,
+            rng,
+            translation=translation,
+            rotation=rotation,
+            max_condition=r.max_condition,
+        )
+
+    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
+        return r.general_dynamics.legs
+
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma / r._motor_ratio
+
+    def inverse_dynamics(
+        self,
+        r: PathOwner,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: bool,
+        motor: bool,
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+        with quiet_overflow():
+            res = r.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
+        if details:
+            return res
+        out = check_finite(res.motor if motor else res.gamma, "inverse dynamics Gamma")
+        return out if check_poses(pose)[1] else out[0]
+
+    def direct_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
+    ) -> FloatArray:
+        with quiet_overflow():
+            return r.general_dynamics.direct_dynamics(pose, twist, gamma)
+
+    def cartesian_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> CartesianDynamics | GeneralCartesianDynamics:
+        with quiet_overflow():
+            return r.general_dynamics.cartesian_dynamics(pose, twist)
+
+    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
+        with quiet_overflow():
+            k, u = r.general_dynamics.energy(pose, twist)
+        if np.ndim(k) == 0:
+            return float(check_finite(np.array([k + u]), "energy")[0])
+        return check_finite(np.asarray(k) + np.asarray(u), "energy")
+
+    def dissipated_power(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> FloatArray | float:
+        with quiet_overflow():  # overflow: NumericalError below
+            power = np.asarray(r.general_dynamics.dissipated_power(pose, twist), dtype=float)
+        checked = check_finite(np.atleast_1d(power), "dissipated power")
+        return checked if power.ndim else float(checked[0])
+
+    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
+        from stewart_pin.dynamics.regressor import general_regressor_batch
+
+        with quiet_overflow():
+            return general_regressor_batch(
+                r.general, r.general_dynamics.legs, T, V, A, r.max_condition, True
+            )
+
+
+class IdealUpsPath(LegChainPath):
+    """The paper's ideal 6-UPS: its closed forms (eq. 13-19) and its Pinocchio leg models
+    in place of the chains' Newton steps and joint terms (it has none)."""
+
+    is_ideal_ups = True
+
+    def check_home(self, r: PathOwner) -> None:
+        """Nothing to check: the description's validation covers the stroke and U-joints."""
+
+    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
+        return geometry.inverse_geometry(r.description, pose, check_limits)
+
+    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
+        if check_limits:
+            q = geometry.inverse_geometry(r.description, pose, True)
+            return np.asarray(q[..., 2], dtype=np.float64)
+        return geometry.leg_lengths(r.description, pose)
+
+    def forward_geometry(
+        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
+    ) -> Pose:
+        return forward_geometry(r.description, lengths, guess, **kwargs)
+
+    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        return kinematics.inverse_jacobian(r.description, pose)
+
+    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        return kinematics.jacobian(r.description, pose, r.max_condition)
+
+    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
+        return kinematics.condition_number(r.description, pose)
+
+    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        q = self.inverse_geometry(r, pose, True)
+        J = kinematics.leg_jacobians(r.description, np.reshape(q, (-1, 6, 3)))
+        return J if q.ndim == 3 else J[0]
+
+    def leg_kinematics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
+        q, qd, qdd = kinematics.leg_kinematics(r.description, pose, twist, accel)
+        q, qd = np.reshape(q, (-1, 6, 3)), np.reshape(qd, (-1, 6, 3))
+        return q, qd, None if qdd is None else np.reshape(qdd, (-1, 6, 3))
+
+    def sample_poses(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> FloatArray:
+        return workspace.sample_poses(
+            r.description, n, rng, translation, rotation, r.max_condition
+        )
+
+    def sample_states(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> tuple[Poses, Twists, Accels]:
+        return workspace.sample_states(
+            r.description,
+            n,
+            rng,
+            translation=translation,
+            rotation=rotation,
+            max_condition=r.max_condition,
+        )
+
+    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
+        return LegDynamics(r.description)
+
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma  # no transmission on the ideal 6-UPS
+
+    def inverse_dynamics(
+        self,
+        r: PathOwner,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: bool,
+        motor: bool,
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        with quiet_overflow():
+            res = closure.inverse_dynamics(r.description, r.leg_dynamics, T, V, A, r.max_condition)
+        if details:
+            return res
+        return res.gamma if batched else res.gamma[0]
+
+    def direct_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
+    ) -> FloatArray:
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        with quiet_overflow():
+            accel, _ = closure.direct_dynamics(
+                r.description, r.leg_dynamics, T, V, G, r.max_condition
+            )
+        return accel if batched else accel[0]
+
+    def cartesian_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> CartesianDynamics:
+        _, T, V = check_states(pose, (twist, "twist"))
+        with quiet_overflow():
+            return closure.cartesian_dynamics(r.description, r.leg_dynamics, T, V, r.max_condition)
+
+    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
+        batched, T, V = check_states(pose, (twist, "twist"))
+        with quiet_overflow():
+            legs = leg_state(r.description, T, V, check_limits=False)
+            kin, pot = r.leg_dynamics.energy(legs.q, legs.qdot)
+            kin_p, pot_p = closure.platform_energy(r.description, T, V)
+            total = check_finite(kin + pot + kin_p + pot_p, "energy")
+        return total if batched else float(total[0])
+
+    def dissipated_power(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> FloatArray | float:
+        batched, T, _ = check_states(pose, (twist, "twist"))
+        return np.zeros(T.shape[0]) if batched else 0.0  # frictionless
+
+    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
+        from stewart_pin.dynamics.regressor import regressor_batch
+
+        with quiet_overflow():
+            return regressor_batch(r.description, r.leg_dynamics, T, V, A, r.max_condition)
+
+
+#: The two paths (stateless: one instance each).
+_IDEAL_UPS, _LEG_CHAINS = IdealUpsPath(), LegChainPath()
+
+
+def reference_path(description: RobotDescription) -> LegChainPath:
+    """The path of ``description``'s architecture: the one place the choice is made."""
+    return _IDEAL_UPS if description.is_ideal_ups else _LEG_CHAINS

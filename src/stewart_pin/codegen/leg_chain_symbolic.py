@@ -1,0 +1,1065 @@
+"""Symbolic closed-form models of robots with general three-joint legs (CasADi SX).
+
+The same models as :mod:`.symbolic` (the inverse, IDM, and the direct, DDM, dynamic
+models as straight-line CasADi ``SX`` code, with their guarded variants and stages) for any
+robot whose legs are :class:`~stewart_pin.description.leg_architecture.LegArchitecture`
+chains (``ups``, ``ups-offset``, ``rus``, ``pus``, ``custom``, mixed), every
+:class:`~stewart_pin.description.leg_architecture.JointDynamics` term included. Nothing is
+hand-derived per architecture except the inverse geometry: the leg dynamics are a generic
+Newton-Euler on the chain's modified-DH joint placements (Khalil's recursive algorithm in
+the link frames), and every number of the robot (placements, inertial parameters, joint
+terms, gravity) enters as a constant, so that the zeros, ones and products of constants
+of a particular robot fold away (``alpha = pi/2`` gives ``cos alpha = 0`` exactly: values
+within :data:`SNAP` of 0 or +-1 are snapped).
+
+Per leg i, in its frame 0i (``[R_i, B_i]`` in F0):
+
+- inverse geometry without a trigonometric call where a closed form exists (each revolute
+  joint carries ``cos`` and ``sin`` of ``theta_j + q_j``, ratios of square roots):
+  ``ups`` / ``ups-offset`` (the leg's line through the second U axis), ``rus`` (the crank
+  equation ``A cos + B sin = K``: ``cos phi = (A K + b B S) / R^2``, ``S = sqrt(R^2 - K^2)``),
+  ``pus`` (a quadratic along the rail), then the universal joint (the same identity);
+  ``custom`` legs run :data:`NEWTON_ITERATIONS` Newton steps from the leg's ``guess``
+  (the reference's iteration, unrolled: calls of one step function, never inlined, in
+  the compiled source) and report the final residual to the guard. The
+  joint value ``q_j`` itself (``atan2``) is computed only where a spring needs it, taken
+  into the joint's limits as :func:`~stewart_pin.description.leg_architecture.wrap_into_limits`
+  does;
+- ``J_i`` (columns ``z_j x (P_i - O_j)`` or ``z_j``) and its inverse by the adjugate;
+  ``qdot = J_i^-1 V_Pi``, the drift ``Jdot_i qdot_i`` (the reference's recursion),
+  ``qddot = J_i^-1 (A_Pi - drift)``;
+- Newton-Euler in the link frames with the base acceleration ``-g`` (gravity), nothing at
+  the tip, plus ``Ia qddot + (Fv + D) qdot + Fc sign(qdot) + K (q - q0)`` on each joint
+  (``sign`` zero within :data:`~stewart_pin.description.leg_architecture.COULOMB_DEAD_BAND`);
+- IDM: the actuated joint's effort goes straight to its actuator, the rest through
+  ``Jp^T`` (``Gamma = H_a + Jp^T (F_p + sum_i G_i^T J_i^-T H_i,passive)``, the static-pivot
+  LU of :mod:`.symbolic`);
+- DDM: ``A_xi = J_i^-T M_i J_i^-1`` (``M_i`` from unit joint accelerations, armature on
+  its diagonal), ``h`` from the same leg code at zero platform acceleration, the closure
+  by ``L D L^T`` (:mod:`.symbolic`).
+
+The guarded variants return ``aux``: ``Jp^-1``, the IDM's closure by-products or the DDM's
+pivots as in :mod:`.symbolic` (:class:`AuxLayout`), then the *slacks*: numbers that
+are positive when a state is safely inside every geometric condition of the reference
+(reach, serial singularity bound ``2 |det S| / ||S||_F^2`` of the scaled leg Jacobian,
+levers, joint limits with margins, the Newton residual). A state with a slack not
+positive is decided by the reference path (see :mod:`.compiled`).
+
+The parameters are the robot's numbers: the ``base_parameters`` input is empty (length 0)
+so that the functions have the signature of :class:`~stewart_pin.codegen.symbolic.SymbolicModels`
+(``idm(pose, twist, accel, base_parameters)``, ``ddm(pose, twist, gamma, base_parameters)``).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import casadi as cs
+import numpy as np
+
+from stewart_pin.codegen._sx_common import (
+    Mat,
+    ModelConstants,
+    Scalar,
+    Stages,
+    SymbolicModels,
+    Vec,
+    closure_stages,
+    column,
+    ddm_legs_closure,
+    ddm_platform,
+    idm_closure,
+    idm_platform,
+    idm_shared,
+    idm_shared_stage,
+    is_zero,
+    mat3,
+    model_functions,
+    pivot_order,
+    pose_from_input,
+    pose_size,
+    split,
+    stage_function,
+)
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND, LegArchitecture
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
+from stewart_pin.exceptions import InputError
+from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics.geometry import LEG_MIN_LENGTH_RATIO
+from stewart_pin.kinematics.leg_chains import LEG_SINGULARITY, LEG_TOLERANCE
+
+#: The general generator's version (in the cache manifest).
+GENERAL_GENERATOR_VERSION = "1"
+#: Constants within this (relative) distance of 0 or +-1 are snapped to it: cos(pi/2) =
+#: 6e-17 becomes an exact 0 (a few ulps only, far below the models' accuracy).
+SNAP = 4.0 * float(np.finfo(float).eps)
+#: Newton steps unrolled for a ``custom`` leg (from its ``guess``; the reference needs at
+#: most 9 on the random custom robots' sampled states; more: the guard flags the state).
+NEWTON_ITERATIONS = 12
+#: Relative margins of the guard (a flagged state is decided by the reference path).
+_MARGIN_SERIAL = 1e-6
+_MARGIN_LIMIT = 1e-9
+_MARGIN_REVOLUTE_LIMIT = 1e-9
+
+
+@dataclass(frozen=True)
+class AuxLayout:
+    """Where the guarded variants put their by-products (offsets in ``aux``, per state).
+
+    The defaults are the general models': ``jinv``: ``Jp^-1`` row-major (36), then for the
+    IDM ``idm_f`` (6: the wrench ``Jp^T`` maps), ``idm_hz`` (6: the actuated joints' own
+    efforts), ``growth``, ``det``, ``fro2`` (as :mod:`.symbolic`); for the DDM ``ddm_d``
+    (6: the ``L D L^T`` pivots). Then ``n_slack`` slacks from ``idm_slack`` /
+    ``ddm_slack``. (:data:`stewart_pin.codegen.compiled.UPS_AUX_LAYOUT` is the paper's
+    6-UPS models', whose leg checks read ``q3^2`` and ``rho^2`` instead of slacks.)"""
+
+    jinv: int = 0
+    idm_f: int = 36
+    idm_hz: int = 42
+    growth: int = 48
+    det: int = 49
+    fro2: int = 50
+    idm_slack: int = 51
+    ddm_d: int = 36
+    ddm_slack: int = 42
+    n_slack: int = 0
+
+    @property
+    def idm_size(self) -> int:
+        return self.idm_slack + self.n_slack
+
+    @property
+    def ddm_size(self) -> int:
+        return self.ddm_slack + self.n_slack
+
+
+# ---------------------------------------------------------------------------- arithmetic
+# Scalars are Python floats (constants of the robot) or 1x1 casadi.SX. These helpers fold
+# what they can in Python before building an SX node (CasADi would fold 0 * x, 1 * x, x + 0
+# too, but building the node first costs tens of microseconds each: a robot's models
+# generate several times faster this way; the expressions are the same).
+def _mul(a: Scalar, b: Scalar) -> Scalar:
+    if isinstance(a, (int, float)):
+        if a == 0.0:
+            return 0.0
+        if isinstance(b, (int, float)):
+            return float(a * b)
+        if a == 1.0:
+            return b
+        if a == -1.0:
+            return -b
+    elif isinstance(b, (int, float)):
+        if b == 0.0:
+            return 0.0
+        if b == 1.0:
+            return a
+        if b == -1.0:
+            return -a
+    return a * b
+
+
+def _plus(a: Scalar, b: Scalar) -> Scalar:
+    if isinstance(a, (int, float)):
+        if a == 0.0:
+            return b
+        if isinstance(b, (int, float)):
+            return float(a + b)
+    if isinstance(b, (int, float)) and b == 0.0:
+        return a
+    return a + b
+
+
+def _minus(a: Scalar, b: Scalar) -> Scalar:
+    if isinstance(b, (int, float)):
+        if b == 0.0:
+            return a
+        if isinstance(a, (int, float)):
+            return float(a - b)
+    if isinstance(a, (int, float)) and a == 0.0:
+        return -b
+    return a - b
+
+
+def _dot(a: Vec, b: Vec) -> Scalar:
+    return _plus(_plus(_mul(a[0], b[0]), _mul(a[1], b[1])), _mul(a[2], b[2]))
+
+
+def _cross(a: Vec, b: Vec) -> Vec:
+    return [
+        _minus(_mul(a[1], b[2]), _mul(a[2], b[1])),
+        _minus(_mul(a[2], b[0]), _mul(a[0], b[2])),
+        _minus(_mul(a[0], b[1]), _mul(a[1], b[0])),
+    ]
+
+
+def _add(a: Vec, b: Vec) -> Vec:
+    return [_plus(a[0], b[0]), _plus(a[1], b[1]), _plus(a[2], b[2])]
+
+
+def _sub(a: Vec, b: Vec) -> Vec:
+    return [_minus(a[0], b[0]), _minus(a[1], b[1]), _minus(a[2], b[2])]
+
+
+def _scale(a: Vec, s: Scalar) -> Vec:
+    return [_mul(a[0], s), _mul(a[1], s), _mul(a[2], s)]
+
+
+def _lin(*terms: tuple[Scalar, Scalar]) -> Scalar:
+    """``sum a * b`` over the pairs, folding constants."""
+    out: Scalar = 0.0
+    for a, b in terms:
+        out = _plus(out, _mul(a, b))
+    return out
+
+
+# ---------------------------------------------------------------------------- constants
+def _snap(x: float, scale: float = 1.0) -> float:
+    x = float(x)
+    if abs(x) <= SNAP * scale:
+        return 0.0
+    if abs(abs(x) - scale) <= SNAP * scale:
+        return math.copysign(scale, x)
+    return x + 0.0
+
+
+@dataclass(frozen=True)
+class _JointConst:
+    """One joint's numbers: placement, limits, joint terms, its link's inertia."""
+
+    revolute: bool
+    ca: float
+    sa: float
+    d: float
+    theta: float
+    ct: float
+    st: float
+    r: float
+    lower: float
+    upper: float
+    armature: float
+    viscous: float
+    coulomb: float
+    stiffness: float
+    rest: float
+    inertia: tuple[float, ...]  # XX XY XZ YY YZ ZZ MX MY MZ M, frame j about O_j
+
+
+@dataclass(frozen=True)
+class _LegConst:
+    """One leg's numbers (snapped)."""
+
+    index: int
+    name: str
+    R: tuple[tuple[float, ...], ...]  # R_i, frame 0i in F0
+    B: tuple[float, ...]
+    pL: tuple[float, ...]  # P_i in Fp
+    joints: tuple[_JointConst, ...]
+    tip: tuple[float, ...]
+    branch: int
+    guess: tuple[float, ...]
+    actuated: int  # 0-based
+    gravity: tuple[float, ...]  # g in frame 0i
+    radius: float  # the platform radius of the lever check
+    inline_newton: bool = True  # custom legs: Newton's steps inline, or calls of one step
+
+
+def leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> _LegConst:
+    leg: LegArchitecture = robot.legs[k]
+    size = max(robot.size, float(np.abs(robot.base_points).max()), 1e-300)
+    joints = []
+    for j, jt in enumerate(leg.joints):
+        dyn = jt.dynamics
+        m = robot.leg_inertia[k, j]
+        joints.append(
+            _JointConst(
+                revolute=jt.revolute,
+                ca=_snap(math.cos(jt.alpha)),
+                sa=_snap(math.sin(jt.alpha)),
+                d=_snap(jt.d, size),
+                theta=jt.theta,
+                ct=_snap(math.cos(jt.theta)),
+                st=_snap(math.sin(jt.theta)),
+                r=_snap(jt.r, size),
+                lower=jt.lower,
+                upper=jt.upper,
+                armature=dyn.total_armature,
+                viscous=dyn.viscous + dyn.damping,
+                coulomb=dyn.coulomb,
+                stiffness=dyn.stiffness,
+                rest=dyn.rest_position,
+                inertia=tuple(float(x) for x in m),
+            )
+        )
+    R = robot.leg_base_rotations[k]
+    g = robot.gravity
+    g0 = R.T @ g
+    # hypot, not the norm's sum of squares: |g| past ~1e154 overflowed that to inf, which
+    # snapped every component to 0 (a robot without gravity, silently)
+    gscale = max(math.hypot(*(float(x) for x in g)), 1e-300)
+    return _LegConst(
+        index=k,
+        name=leg.name,
+        R=tuple(tuple(_snap(x) for x in row) for row in R),
+        B=tuple(_snap(x, size) for x in robot.base_points[k]),
+        pL=tuple(_snap(x, size) for x in robot.platform_points[k]),
+        joints=tuple(joints),
+        tip=tuple(_snap(x, size) for x in leg.tip),
+        branch=leg.branch,
+        guess=tuple(float(x) for x in leg.guess),
+        actuated=leg.actuated - 1,
+        gravity=tuple(_snap(x, gscale) for x in g0),
+        radius=robot.size,
+        inline_newton=inline_newton,
+    )
+
+
+# ---------------------------------------------------------------------------- joints
+@dataclass
+class _JointState:
+    """A joint at a state: ``c``, ``s`` = cos, sin of ``theta + q`` (constants for a
+    prismatic joint), ``rr`` = ``r + q`` (prismatic) or ``r``, and ``q`` when known
+    directly (prismatic joints, Newton's iterate), else computed on demand."""
+
+    k: _JointConst
+    c: Scalar
+    s: Scalar
+    rr: Scalar
+    q: Scalar | None = None
+
+    def origin(self) -> Vec:
+        """The origin of this joint's frame in the previous frame."""
+        k = self.k
+        return [k.d, _mul(-k.sa, self.rr), _mul(k.ca, self.rr)]
+
+    def axis(self) -> Vec:
+        """This joint's axis z_j in the previous frame."""
+        return [0.0, -self.k.sa, self.k.ca]
+
+    def to_parent(self, u: Vec) -> Vec:
+        """``Rx(alpha) Rz(phi) u``: a vector of this joint's frame in the previous one."""
+        c, s, ca, sa = self.c, self.s, self.k.ca, self.k.sa
+        t0 = _minus(_mul(c, u[0]), _mul(s, u[1]))
+        t1 = _plus(_mul(s, u[0]), _mul(c, u[1]))
+        return [t0, _minus(_mul(ca, t1), _mul(sa, u[2])), _plus(_mul(sa, t1), _mul(ca, u[2]))]
+
+    def to_child(self, u: Vec) -> Vec:
+        """``Rz(phi)^T Rx(alpha)^T u``: a vector of the previous frame in this joint's."""
+        c, s, ca, sa = self.c, self.s, self.k.ca, self.k.sa
+        t1 = _plus(_mul(ca, u[1]), _mul(sa, u[2]))
+        t2 = _minus(_mul(ca, u[2]), _mul(sa, u[1]))
+        return [_plus(_mul(c, u[0]), _mul(s, t1)), _minus(_mul(c, t1), _mul(s, u[0])), t2]
+
+    def value(self) -> Scalar:
+        """The joint value the reference reports: for a revolute joint the closed form's
+        ``(-pi, pi]`` value (or Newton's), taken into the joint's limits modulo 2 pi."""
+        k = self.k
+        if not k.revolute:
+            assert self.q is not None
+            return self.q
+        raw = self.q
+        if raw is None:
+            raw = cs.atan2(self.s * k.ct - self.c * k.st, self.c * k.ct + self.s * k.st)
+        return _wrap_into_limits(raw, k.lower, k.upper)
+
+
+def _wrap_into_limits(q: Scalar, lower: float, upper: float) -> Scalar:
+    """:func:`~stewart_pin.description.leg_architecture.wrap_into_limits` for one revolute
+    joint value, symbolically (the limits are numbers)."""
+    if not (math.isfinite(lower) or math.isfinite(upper)):
+        return q
+    two_pi = 2.0 * math.pi
+
+    def mod(x: Scalar) -> Scalar:  # numpy's mod: the sign of the divisor
+        m = cs.fmod(x, two_pi)
+        return cs.if_else(m < 0, m + two_pi, m)
+
+    rep = lower + mod(q - lower) if math.isfinite(lower) else upper - mod(upper - q)
+    if math.isfinite(lower) and math.isfinite(upper):
+        below = rep - two_pi
+        rep = cs.if_else(cs.logic_and(rep > upper, lower - below < rep - upper), below, rep)
+    outside = q < lower if not math.isfinite(upper) else q > upper
+    if math.isfinite(lower) and math.isfinite(upper):
+        outside = cs.logic_or(q < lower, q > upper)
+    return cs.if_else(outside, rep, q)
+
+
+def _revolute(k: _JointConst, c: Scalar, s: Scalar, q: Scalar | None = None) -> _JointState:
+    return _JointState(k, c, s, k.r, q)
+
+
+def _prismatic(k: _JointConst, q: Scalar) -> _JointState:
+    return _JointState(k, k.ct, k.st, _plus(k.r, q), q)
+
+
+def _shift(c: Scalar, s: Scalar, ct: float, st: float) -> tuple[Scalar, Scalar]:
+    """cos, sin of ``a - t`` from those of ``a`` and ``t``."""
+    return _plus(_mul(c, ct), _mul(s, st)), _minus(_mul(s, ct), _mul(c, st))
+
+
+# ---------------------------------------------------------------------------- geometry
+@dataclass
+class _LegGeometry:
+    joints: list[_JointState]
+    P: Vec  # P_i in frame 0i
+    slacks: list[Scalar]
+
+
+def _pre_joint1(lc: _LegConst, P0: Vec) -> Vec:
+    """``(Rx(alpha1) Tx(d1))^-1 P``."""
+    j1 = lc.joints[0]
+    x, y, z = P0[0] - j1.d, P0[1], P0[2]
+    return [x, j1.ca * y + j1.sa * z, j1.ca * z - j1.sa * y]
+
+
+def _solve_u(lc: _LegConst, w: Vec, slacks: list[Scalar]) -> tuple[_JointState, _JointState]:
+    """The universal joint (joints 2, 3, intersecting axes) pointing ``tip`` at ``w``
+    (frame 1 rotated by ``Rx(alpha2)``; the reference's ``_solve_u``):
+    ``psi3 = atan2(b, a) - acos(k / hypot(a, b))``, ``psi2 = atan2(w_y, w_x) - atan2(v_y, v_x)``,
+    as cosines and sines."""
+    j2, j3 = lc.joints[1], lc.joints[2]
+    t = lc.tip
+    sa, ca = j3.sa, j3.ca
+    a, b = sa * t[1], sa * t[0]
+    kk = w[2] - ca * t[2]
+    rad2 = a * a + b * b
+    disc = rad2 - kk * kk
+    slacks.append(disc)  # |k| < hypot(a, b): the rod reaches
+    S = cs.sqrt(cs.fmax(disc, 0.0))
+    c3 = (a * kk + b * S) / rad2
+    s3 = (b * kk - a * S) / rad2
+    vx = c3 * t[0] - s3 * t[1]
+    vy = ca * (s3 * t[0] + c3 * t[1]) - sa * t[2]
+    inv = 1.0 / cs.sqrt((w[0] * w[0] + w[1] * w[1]) * (vx * vx + vy * vy))
+    c2 = (w[0] * vx + w[1] * vy) * inv
+    s2 = (w[1] * vx - w[0] * vy) * inv
+    return _revolute(j2, c2, s2), _revolute(j3, c3, s3)
+
+
+def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
+    """The closed-form inverse geometry of a named leg, or Newton's for a custom one."""
+    if lc.name == "custom":
+        return _newton(lc, P0)
+    j1 = lc.joints[0]
+    b = float(lc.branch)
+    slacks: list[Scalar] = []
+    p = _pre_joint1(lc, P0)
+    if lc.name in ("ups", "ups-offset"):
+        j2 = lc.joints[1]
+        pz = p[2] - j1.r
+        h2 = p[0] * p[0] + p[1] * p[1]
+        ih = 1.0 / cs.sqrt(h2)
+        c1, s1 = b * p[0] * ih, b * p[1] * ih
+        rho = b * h2 * ih - j2.d
+        q3 = cs.sqrt(rho * rho + pz * pz)
+        c2, s2 = -pz / q3, rho / q3
+        J1 = _revolute(j1, c1, s1)
+        J2 = _revolute(j2, c2, s2)  # theta2 = 0: the angle is q2 = atan2(rho, -p_z)
+        J3 = _prismatic(lc.joints[2], q3)
+        return _LegGeometry([J1, J2, J3], P0, slacks)
+    j2 = lc.joints[1]
+    cvec = [j2.d, -(j2.sa * j2.r), j2.ca * j2.r]  # the U-joint centre in frame 1
+    tip = lc.tip
+    ell2 = tip[0] * tip[0] + tip[1] * tip[1] + tip[2] * tip[2]
+    if lc.name == "rus":
+        px, py, pz = p[0], p[1], p[2] - j1.r
+        A = px * cvec[0] + py * cvec[1]
+        Bq = py * cvec[0] - px * cvec[1]
+        K = 0.5 * (px * px + py * py + pz * pz + _dot(cvec, cvec) - ell2) - pz * cvec[2]
+        R2 = A * A + Bq * Bq
+        disc = R2 - K * K
+        slacks.append(disc)  # |K| < R: the crank equation has a solution
+        S = cs.sqrt(cs.fmax(disc, 0.0))
+        c1 = (A * K + b * Bq * S) / R2
+        s1 = (Bq * K - b * A * S) / R2
+        J1 = _revolute(j1, c1, s1)
+        local = [c1 * px + s1 * py, c1 * py - s1 * px, pz]
+        e = _sub(local, cvec)
+    elif lc.name == "pus":
+        ct, st = j1.ct, j1.st
+        Rc = [ct * cvec[0] - st * cvec[1], st * cvec[0] + ct * cvec[1], cvec[2] + j1.r]
+        ev = _sub(p, Rc)
+        disc = ell2 - ev[0] * ev[0] - ev[1] * ev[1]
+        slacks.append(disc)  # the rod reaches from the rail
+        q1 = ev[2] - b * cs.sqrt(cs.fmax(disc, 0.0))
+        J1 = _prismatic(j1, q1)
+        rel = [ev[0], ev[1], ev[2] - q1]
+        e = [ct * rel[0] + st * rel[1], ct * rel[1] - st * rel[0], rel[2]]
+    else:  # pragma: no cover - the architecture names are checked by LegArchitecture
+        raise InputError(f"no closed-form inverse geometry for a '{lc.name}' leg")
+    ca2, sa2 = j2.ca, j2.sa
+    w = [e[0], ca2 * e[1] + sa2 * e[2], ca2 * e[2] - sa2 * e[1]]  # Rx(alpha2)^T e
+    J2, J3 = _solve_u(lc, w, slacks)
+    return _LegGeometry([J1, J2, J3], P0, slacks)
+
+
+def _joints_at(lc: _LegConst, q: Sequence[Scalar]) -> list[_JointState]:
+    out = []
+    for k, qj in zip(lc.joints, q, strict=True):
+        if k.revolute:
+            out.append(_revolute(k, cs.cos(k.theta + qj), cs.sin(k.theta + qj), qj))
+        else:
+            out.append(_prismatic(k, qj))
+    return out
+
+
+def _newton(lc: _LegConst, P0: Vec) -> _LegGeometry:
+    """:data:`NEWTON_ITERATIONS` steps of the reference's Newton method
+    (:func:`~stewart_pin.kinematics.leg_chains.solve_leg`) from the leg's ``guess``; the
+    slack ``tol^2 - |P - P(q)|^2`` flags a state that has not converged."""
+    q: list[Scalar] = list(lc.guess)
+    if lc.inline_newton:
+        for _ in range(NEWTON_ITERATIONS):
+            q = _newton_step(lc, q, P0)
+    else:  # calls of one step function: a C source NEWTON_ITERATIONS times shorter
+        step = _newton_step_function(lc)
+        P = column(P0)
+        for _ in range(NEWTON_ITERATIONS):
+            q = split(step(column(q), P))
+    joints = _joints_at(lc, q)
+    _, _, tip = _chain(joints, lc.tip)
+    err = _sub(P0, tip)
+    tol = LEG_TOLERANCE * (1.0 - 1e-6)
+    return _LegGeometry(joints, tip, [tol * tol - _dot(err, err)])
+
+
+def _newton_step(lc: _LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
+    """``q + J(q)^-1 (P - P(q))``."""
+    joints = _joints_at(lc, q)
+    z, O, tip = _chain(joints, lc.tip)
+    err = _sub(P0, tip)
+    cols = [_column_of(J, z[j], O[j], tip) for j, J in enumerate(joints)]
+    inv_rows, _ = _inverse3(cols)
+    return [_plus(q[j], _dot(inv_rows[j], err)) for j in range(3)]
+
+
+@functools.lru_cache(maxsize=64)
+def _newton_step_function(lc: _LegConst) -> cs.Function:
+    """One Newton step of leg ``lc`` as a function called (never inlined) by the models."""
+    q, P = cs.SX.sym("q", 3), cs.SX.sym("P", 3)
+    step = _newton_step(lc, split(q), split(P))
+    return cs.Function(
+        f"newton_leg{lc.index + 1}",
+        [q, P],
+        [column(step)],
+        ["q", "P"],
+        ["q_next"],
+        {"never_inline": True},
+    )
+
+
+# ---------------------------------------------------------------------------- kinematics
+def _chain(joints: Sequence[_JointState], tip: Sequence[float]) -> tuple[list, list, Vec]:
+    """Axes ``z_j`` and origins ``O_j`` of the three joint frames in frame 0i, and the tip
+    position by forward kinematics."""
+    z, O = [], []
+    origin: Vec = [0.0, 0.0, 0.0]
+    for j, J in enumerate(joints):
+        zj, pj = J.axis(), J.origin()
+        for m in reversed(range(j)):
+            zj, pj = joints[m].to_parent(zj), joints[m].to_parent(pj)
+        origin = _add(origin, pj)
+        z.append(zj)
+        O.append(origin)
+    t = list(tip)
+    for m in reversed(range(3)):
+        t = joints[m].to_parent(t)
+    return z, O, _add(O[2], t)
+
+
+def _column_of(J: _JointState, z: Vec, O: Vec, P: Vec) -> Vec:
+    return _cross(z, _sub(P, O)) if J.k.revolute else z
+
+
+def _inverse3(cols: Sequence[Vec]) -> tuple[list[Vec], Scalar]:
+    """Rows of the inverse of the matrix with columns ``cols`` (adjugate / det), and det."""
+    r0, r1, r2 = _cross(cols[1], cols[2]), _cross(cols[2], cols[0]), _cross(cols[0], cols[1])
+    det = _dot(cols[0], r0)
+    inv = 1.0 / det
+    return [_scale(r0, inv), _scale(r1, inv), _scale(r2, inv)], det
+
+
+def _matvec_rows(rows: Sequence[Vec], v: Vec) -> Vec:
+    return [_dot(r, v) for r in rows]
+
+
+def _rows_T_vec(rows: Sequence[Vec], v: Vec) -> Vec:
+    """``M^T v`` for M given by its rows."""
+    return [_lin((rows[0][i], v[0]), (rows[1][i], v[1]), (rows[2][i], v[2])) for i in range(3)]
+
+
+def _drift(joints: Sequence[_JointState], z: list, O: list, P: Vec, qd: Vec) -> Vec:
+    """``Jdot_i qdot_i`` in frame 0i (the reference's :func:`leg_drift`)."""
+    zero: Vec = [0.0, 0.0, 0.0]
+    w, wd, acc, prev = zero, zero, zero, zero
+    for j, J in enumerate(joints):
+        r = _sub(O[j], prev)
+        acc = _add(acc, _add(_cross(wd, r), _cross(w, _cross(w, r))))
+        if J.k.revolute:
+            wd = _add(wd, _scale(_cross(w, z[j]), qd[j]))
+            w = _add(w, _scale(z[j], qd[j]))
+        else:
+            acc = _add(acc, _scale(_cross(w, z[j]), 2.0 * qd[j]))
+        prev = O[j]
+    r = _sub(P, prev)
+    return _add(acc, _add(_cross(wd, r), _cross(w, _cross(w, r))))
+
+
+# ---------------------------------------------------------------------------- dynamics
+def _newton_euler(
+    joints: Sequence[_JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar], base_acc: Vec
+) -> list[Scalar]:
+    """Joint efforts of the chain (Khalil's recursive Newton-Euler in the link frames):
+    ``qd``, ``qdd`` the joint rates and accelerations, ``base_acc`` the acceleration of
+    frame 0i's origin in frame 0i (``-g`` for gravity); nothing acts at the tip."""
+    zero: Vec = [0.0, 0.0, 0.0]
+    w, wd, vd = zero, zero, list(base_acc)
+    forces = []
+    for j, J in enumerate(joints):
+        p = J.origin()
+        vd_par = _add(vd, _add(_cross(wd, p), _cross(w, _cross(w, p))))
+        vd, w_in, wd = J.to_child(vd_par), J.to_child(w), J.to_child(wd)
+        if J.k.revolute:
+            wd = [
+                _plus(wd[0], _mul(qd[j], w_in[1])),
+                _minus(wd[1], _mul(qd[j], w_in[0])),
+                _plus(wd[2], qdd[j]),
+            ]
+            w = [w_in[0], w_in[1], _plus(w_in[2], qd[j])]
+        else:
+            two = _mul(2.0, qd[j])
+            vd = [
+                _plus(vd[0], _mul(two, w_in[1])),
+                _minus(vd[1], _mul(two, w_in[0])),
+                _plus(vd[2], qdd[j]),
+            ]
+            w = w_in
+        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = J.k.inertia
+        MS: Vec = [MX, MY, MZ]
+        inertia = [[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]]
+        F = _add(_add(_scale(vd, M), _cross(wd, MS)), _cross(w, _cross(w, MS)))
+        Iw = [_dot(row, w) for row in inertia]
+        N = _add(_add([_dot(row, wd) for row in inertia], _cross(w, Iw)), _cross(MS, vd))
+        forces.append((F, N))
+    f, n = forces[2]
+    tau: list[Scalar] = [0.0, 0.0, 0.0]
+    tau[2] = n[2] if joints[2].k.revolute else f[2]
+    for j in (1, 0):
+        child = joints[j + 1]
+        fc, nc = child.to_parent(f), child.to_parent(n)
+        F, N = forces[j]
+        f = _add(F, fc)
+        n = _add(_add(N, nc), _cross(child.origin(), fc))
+        tau[j] = n[2] if joints[j].k.revolute else f[2]
+    return tau
+
+
+def _joint_terms(
+    joints: Sequence[_JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar]
+) -> list[Scalar]:
+    """``Ia qdd + (Fv + D) qd + Fc sign(qd) + K (q - q0)`` per joint (zero terms fold)."""
+    out: list[Scalar] = []
+    for j, J in enumerate(joints):
+        k = J.k
+        t: Scalar = 0.0
+        if k.armature:
+            t = _plus(t, _mul(k.armature, qdd[j]))
+        if k.viscous:
+            t = _plus(t, _mul(k.viscous, qd[j]))
+        if k.coulomb and not isinstance(qd[j], (int, float)):
+            sign = cs.if_else(cs.fabs(qd[j]) > COULOMB_DEAD_BAND, cs.sign(qd[j]), 0.0)
+            t = _plus(t, _mul(k.coulomb, sign))
+        if k.stiffness:
+            t = _plus(t, _mul(k.stiffness, _minus(J.value(), k.rest)))
+        out.append(t)
+    return out
+
+
+def _mass_matrix(joints: Sequence[_JointState]) -> list[list[Scalar]]:
+    """The chain's 3x3 joint-space inertia (armature on the diagonal), column m from the
+    efforts of a unit ``qdd_m`` without velocity or gravity."""
+    M: list[list[Scalar]] = [[0.0] * 3 for _ in range(3)]
+    zero = [0.0, 0.0, 0.0]
+    for m in range(3):
+        e = [1.0 if i == m else 0.0 for i in range(3)]
+        tau = _newton_euler(joints, zero, e, zero)
+        for i in range(m + 1):
+            M[i][m] = M[m][i] = tau[i]
+        M[m][m] = _plus(M[m][m], joints[m].k.armature)
+    return M
+
+
+# ---------------------------------------------------------------------------- one leg
+def _rotate(R: Sequence[Sequence[float]], u: Vec) -> Vec:
+    return [_lin((R[i][0], u[0]), (R[i][1], u[1]), (R[i][2], u[2])) for i in range(3)]
+
+
+def _rotate_T(R: Sequence[Sequence[float]], u: Vec) -> Vec:
+    return [_lin((R[0][i], u[0]), (R[1][i], u[1]), (R[2][i], u[2])) for i in range(3)]
+
+
+@dataclass
+class _LegKinematics:
+    geo: _LegGeometry
+    L: Vec  # O_p -> P_i in F0
+    inv_rows: list[Vec]  # J_i^-1 in frame 0i, by rows
+    z: list
+    O: list
+    qd: Vec
+    row: list[Scalar]  # row i of Jp^-1 (F0)
+    slacks: list[Scalar]
+
+
+def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinematics:
+    """Inverse geometry, ``J_i^-1``, the guard's slacks, ``qdot`` and the Jp^-1 row."""
+    L = _rotate(R, list(lc.pL))
+    P0 = _rotate_T(lc.R, [_plus(_minus(p[i], lc.B[i]), L[i]) for i in range(3)])
+    geo = _inverse_geometry(lc, P0)
+    joints = geo.joints
+    z, O, _ = _chain(joints, lc.tip)
+    P = geo.P
+    cols = [_column_of(J, z[j], O[j], P) for j, J in enumerate(joints)]
+    inv_rows, det = _inverse3(cols)
+    slacks = list(geo.slacks) + _serial_slacks(lc, joints, cols, O, P, det)
+    slacks += _limit_slacks(lc, joints)
+    V0 = _rotate_T(lc.R, _add(v, _cross(w, L)))
+    qd = _matvec_rows(inv_rows, V0)
+    m = _rotate(lc.R, inv_rows[lc.actuated])
+    return _LegKinematics(geo, L, inv_rows, z, O, qd, [*m, *_cross(L, m)], slacks)
+
+
+def _serial_slacks(
+    lc: _LegConst, joints: Sequence[_JointState], cols: list, O: list, P: Vec, det: Scalar
+) -> list[Scalar]:
+    """The reference's serial-singularity refusals as slacks: each revolute lever
+    ``l_j = |P_i - O_j|`` longer than ``LEG_MIN_LENGTH_RATIO`` of the platform radius, and
+    the lower bound ``|det S| / sqrt(c2) <= sigma_min(S)`` of the scaled leg Jacobian
+    ``S = J_i diag(1 / l)`` (``l_j = 1`` for a prismatic joint) above ``LEG_SINGULARITY``,
+    where ``c2 = sum_{i<j} |s_i x s_j|^2 >= (sigma_1 sigma_2)^2`` is the sum of the 2x2
+    principal minors of ``S^T S``; squared, with the denominators cleared:
+    ``det(J)^2 > tau^2 sum_k |c_i x c_j|^2 l_k^2`` (``(i, j, k)`` a cyclic order; the cross
+    products are the adjugate's rows)."""
+    out: list[Scalar] = []
+    lever2: list[Scalar] = []
+    for j, J in enumerate(joints):
+        if J.k.revolute:
+            r = _sub(P, O[j])
+            l2 = _dot(r, r)
+            lever2.append(l2)
+            out.append(l2 - (LEG_MIN_LENGTH_RATIO * lc.radius) ** 2 * (1.0 + _MARGIN_SERIAL))
+        else:
+            lever2.append(1.0)
+    minors: Scalar = 0.0
+    for k in range(3):
+        adj = _cross(cols[(k + 1) % 3], cols[(k + 2) % 3])
+        minors = _plus(minors, _mul(_dot(adj, adj), lever2[k]))
+    tau = LEG_SINGULARITY * (1.0 + _MARGIN_SERIAL)
+    out.append(det * det - tau * tau * minors)
+    return out
+
+
+def _limit_slacks(lc: _LegConst, joints: Sequence[_JointState]) -> list[Scalar]:
+    """Joint limits with margins: prismatic values against their limits, revolute angles
+    by ``cos(q - mid) > cos(half range)`` (the reference takes a revolute value modulo
+    2 pi into its limits: only a range shorter than 2 pi can refuse one)."""
+    out: list[Scalar] = []
+    for J in joints:
+        k = J.k
+        lo, hi = k.lower, k.upper
+        if not k.revolute:
+            assert J.q is not None
+            scale = max(lc.radius, *(abs(x) for x in (lo, hi) if math.isfinite(x)), 1e-300)
+            if math.isfinite(lo):
+                out.append(J.q - lo - _MARGIN_LIMIT * scale)
+            if math.isfinite(hi):
+                out.append(hi - J.q - _MARGIN_LIMIT * scale)
+        elif math.isfinite(lo) and math.isfinite(hi) and hi - lo < 2.0 * math.pi:
+            mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+            beta = k.theta + mid
+            cq, _ = _shift(J.c, J.s, math.cos(beta), math.sin(beta))
+            out.append(cq - math.cos(half) - _MARGIN_REVOLUTE_LIMIT)
+    return out
+
+
+def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Scalar], Vec]:
+    """The leg's joint efforts ``H_i`` (joint terms included) with the tip accelerating at
+    ``A_P`` (F0, classical); also ``qddot``."""
+    joints = kin.geo.joints
+    A0 = _rotate_T(lc.R, A_P)
+    drift = _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd)
+    qdd = _matvec_rows(kin.inv_rows, _sub(A0, drift))
+    g = lc.gravity
+    tau = _newton_euler(joints, kin.qd, qdd, [-g[0], -g[1], -g[2]])
+    terms = _joint_terms(joints, kin.qd, qdd)
+    return [tau[j] + terms[j] for j in range(3)], qdd
+
+
+def _idm_leg(
+    lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat
+) -> dict[str, list[Scalar]]:
+    kin = leg_kinematics(lc, p, R, v, w)
+    A_P = _add(vd, [_dot(K[i], kin.L) for i in range(3)])
+    H, _ = _leg_torques(lc, kin, A_P)
+    a = lc.actuated
+    Hp = [0.0 if j == a else H[j] for j in range(3)]
+    f = _rotate(lc.R, _rows_T_vec(kin.inv_rows, Hp))
+    return {
+        "row": kin.row,
+        "wrench": [*f, *_cross(kin.L, f)],
+        "Hz": [H[a]],
+        "slack": kin.slacks,
+    }
+
+
+_UPPER6 = [(i, j) for i in range(6) for j in range(i, 6)]
+
+
+def _leg_block(A0: Mat, L: Vec) -> list[Scalar]:
+    """The upper triangle (21) of ``G^T A_x G``, ``G = [I3, -L^]``."""
+    nL = [_mul(-1.0, x) for x in L]
+    Lh = [[0.0, nL[2], L[1]], [L[2], 0.0, nL[0]], [nL[1], L[0], 0.0]]
+    TR = [
+        [_mul(-1.0, _lin(*((A0[i][m], Lh[m][j]) for m in range(3)))) for j in range(3)]
+        for i in range(3)
+    ]
+    block: list[list[Scalar]] = [[0.0] * 6 for _ in range(6)]
+    for i in range(3):
+        for j in range(3):
+            block[i][j] = A0[i][j]
+            block[i][3 + j] = TR[i][j]
+    for i in range(3):
+        for j in range(i, 3):
+            block[3 + i][3 + j] = _lin(*((Lh[i][m], TR[m][j]) for m in range(3)))
+    return [block[i][j] for i, j in _UPPER6]
+
+
+def _ddm_leg(
+    lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, gamma_k: Scalar
+) -> dict[str, list[Scalar]]:
+    kin = leg_kinematics(lc, p, R, v, w)
+    joints = kin.geo.joints
+    # The leg's share of h_robot (general-legs.md): G^T (A_x (w x (w x L) - Jdot qdot) +
+    # J^-T h), h the nonlinear effects (gravity, velocity, joint terms) at zero qddot.
+    g = lc.gravity
+    zero3: Vec = [0.0, 0.0, 0.0]
+    h = _newton_euler(joints, kin.qd, zero3, [-g[0], -g[1], -g[2]])
+    terms = _joint_terms(joints, kin.qd, zero3)
+    h = [_plus(h[j], terms[j]) for j in range(3)]
+    drift = _rotate(lc.R, _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd))
+    c = _sub(_cross(w, _cross(w, kin.L)), drift)
+    Mq = _mass_matrix(joints)
+    # B = J_i^-1 R_i^T (J^-1 in F0); A_x = B^T M B.
+    Bm = [_rotate(lc.R, row) for row in kin.inv_rows]  # rows of B
+    MB = [[_lin(*((Mq[i][m], Bm[m][c]) for m in range(3))) for c in range(3)] for i in range(3)]
+    A0: Mat = [[0.0] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i, 3):
+            A0[i][j] = A0[j][i] = _lin(*((Bm[m][i], MB[m][j]) for m in range(3)))
+    a = lc.actuated
+    rhs = [(gamma_k if j == a else 0.0) - h[j] for j in range(3)]
+    f = _sub(_rotate(lc.R, _rows_T_vec(kin.inv_rows, rhs)), [_dot(row, c) for row in A0])
+    return {
+        "row": kin.row,
+        "block": _leg_block(A0, kin.L),
+        "wrench": [*f, *_cross(kin.L, f)],
+        "slack": kin.slacks,
+    }
+
+
+# ---------------------------------------------------------------------------- assembly
+def _stages(
+    legs: Sequence[_LegConst],
+    pose: str,
+    Pp: list[float],
+    gravity: np.ndarray,
+    pivots: Sequence[tuple[int, int]],
+) -> tuple[Stages, Stages]:
+    """The IDM and DDM split for parallel evaluation (fresh symbols at each interface; for
+    the operation counts): the shared prelude, six legs, the platform, the closure."""
+    npose = pose_size(pose)
+
+    def pose_of(ps: Sequence[Scalar]) -> tuple[Vec, Mat]:
+        return pose_from_input(column(ps), pose)
+
+    idm_closure_stage, ddm_closure_stage = closure_stages(pivots)
+    idm_stages = Stages(
+        shared=idm_shared_stage(gravity),
+        legs=tuple(
+            stage_function(
+                f"idm_leg{lc.index + 1}",
+                [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
+                lambda ps, t, a, Kf, lc=lc: _idm_leg(
+                    lc, *pose_of(ps), t[:3], t[3:], a[:3], mat3(Kf)
+                ),
+            )
+            for lc in legs
+        ),
+        platform=stage_function(
+            "idm_platform",
+            [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9), ("vdg", 3)],
+            lambda ps, t, a, Kf, vg: {
+                "F_p": idm_platform(pose_of(ps)[1], t[3:], a[3:], vg, mat3(Kf), Pp)
+            },
+        ),
+        closure=idm_closure_stage,
+    )
+    ddm_stages = Stages(
+        shared=None,
+        legs=tuple(
+            stage_function(
+                f"ddm_leg{lc.index + 1}",
+                [("pose", npose), ("twist", 6), ("gamma", 1)],
+                lambda ps, t, gk, lc=lc: _ddm_leg(lc, *pose_of(ps), t[:3], t[3:], gk[0]),
+            )
+            for lc in legs
+        ),
+        platform=stage_function(
+            "ddm_platform",
+            [("pose", npose), ("twist", 6)],
+            lambda ps, t: dict(
+                zip(("Ip", "hp"), ddm_platform(pose_of(ps)[1], t[3:], Pp, gravity), strict=True)
+            ),
+        ),
+        closure=ddm_closure_stage,
+    )
+    return idm_stages, ddm_stages
+
+
+def aux_layout(models: SymbolicModels) -> AuxLayout:
+    """The :class:`AuxLayout` of general-leg models (their number of slacks)."""
+    return AuxLayout(n_slack=models.idm_guarded.size1_out(1) - AuxLayout().idm_slack)
+
+
+def general_robot(desc: RobotDescription | GeneralHexapod) -> GeneralHexapod:
+    """The :class:`GeneralHexapod` of a description (or the robot itself)."""
+    return desc if isinstance(desc, GeneralHexapod) else general_from_description(desc)
+
+
+def build_general_models(
+    desc: RobotDescription | GeneralHexapod,
+    pose: str = "matrix",
+    prefix: str = "stewart_",
+    stages: bool = False,
+    inline_newton: bool = False,
+) -> tuple[SymbolicModels, AuxLayout]:
+    """The IDM and DDM of a robot with general legs (or an ideal 6-UPS robot taken as
+    ``ups`` legs), as :class:`SymbolicModels` (``parameters="numeric"``, an empty
+    ``base_parameters`` input), with the layout of their ``aux`` output. ``stages``: also
+    split them for the operation counts (:attr:`SymbolicModels.idm_stages`; ``None``
+    without: they take as long again to generate). ``inline_newton``: a custom leg's
+    Newton steps written out (for the operation counts) rather than called."""
+    robot = general_robot(desc)
+    legs = [leg_constants(robot, k, inline_newton) for k in range(6)]
+    Pp = [float(x) for x in robot.platform_inertia]
+    gravity = np.asarray(robot.gravity, dtype=float)
+    npose = pose_size(pose)
+    x_pose = cs.SX.sym("pose", npose)
+    x_twist = cs.SX.sym("twist", 6)
+    x_accel = cs.SX.sym("accel", 6)
+    x_gamma = cs.SX.sym("gamma", 6)
+    x_chi = cs.SX.sym("base_parameters", 0)
+    p, R = pose_from_input(x_pose, pose)
+    tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
+    v, w, vd, wd = tw[:3], tw[3:], ac[:3], ac[3:]
+    inv_l = 1.0 / robot.size
+
+    # ---- IDM
+    K, vdg = idm_shared(tw, ac, gravity)
+    ilegs = [_idm_leg(lc, p, R, v, w, vd, K) for lc in legs]
+    F_p = idm_platform(R, w, wd, vdg, K, Pp)
+    rows = [lg["row"] for lg in ilegs]
+    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
+    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    Hz = [lg["Hz"][0] for lg in ilegs]
+    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
+    fro2: Scalar = 0.0
+    for r in rows:
+        for j in range(3):
+            fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
+    det = det * inv_l**3
+    slacks = [s for lg in ilegs for s in lg["slack"]]
+    layout = AuxLayout(n_slack=len(slacks))
+    jinv = [x for r in rows for x in r]
+    idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
+
+    # ---- DDM
+    dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
+    Ip, hp = ddm_platform(R, w, Pp, gravity)
+    accel, D = ddm_legs_closure(dlegs, Ip, hp)
+    dslacks = [s for lg in dlegs for s in lg["slack"]]
+    assert len(dslacks) == layout.n_slack  # the same leg code: the same slacks
+    djinv = [x for lg in dlegs for x in lg["row"]]
+    inputs = {
+        "pose": x_pose,
+        "twist": x_twist,
+        "accel": x_accel,
+        "gamma": x_gamma,
+        "base_parameters": x_chi,
+    }
+    idm, ddm, idm_guarded, ddm_guarded = model_functions(
+        prefix, inputs, gamma, idm_aux, accel, [*djinv, *D, *dslacks]
+    )
+
+    idm_stages, ddm_stages = _stages(legs, pose, Pp, gravity, pivots) if stages else (None, None)
+    constants = ModelConstants(
+        base_points=np.array(robot.base_points),
+        platform_points=np.array(robot.platform_points),
+        leg_base_rotations=np.array(robot.leg_base_rotations),
+        gravity=gravity.copy(),
+        parameter_names=(),
+        parameter_values=np.zeros(0),
+    )
+    models = SymbolicModels(
+        idm,
+        ddm,
+        idm_guarded,
+        ddm_guarded,
+        idm_stages,
+        ddm_stages,
+        pose,
+        "numeric",
+        constants,
+        pivots,
+    )
+    return models, layout
+
+
+def actuator_function(desc: RobotDescription | GeneralHexapod) -> cs.Function:
+    """``actuators(pose, twist) -> (q_a, qdot_a)``: the six actuated joint values (6,)
+    [m or rad, as the reference reports them: a revolute one taken into its limits] and
+    their rates (6,) [m/s or rad/s] at a platform state (pose 0Tp row-major (16), twist
+    ``[v, w]`` in F0), from the generated models' leg code (the closed forms; a custom
+    leg's Newton steps called). An SX function: its derivatives are CasADi's."""
+    robot = general_robot(desc)
+    x_pose = cs.SX.sym("pose", pose_size("matrix"))
+    x_twist = cs.SX.sym("twist", 6)
+    p, R = pose_from_input(x_pose, "matrix")
+    tw = split(x_twist)
+    q_a, qd_a = [], []
+    for k in range(6):
+        lc = leg_constants(robot, k, inline_newton=False)
+        kin = leg_kinematics(lc, p, R, tw[:3], tw[3:])
+        q_a.append(kin.geo.joints[lc.actuated].value())
+        qd_a.append(kin.qd[lc.actuated])
+    return cs.Function(
+        "actuators",
+        [x_pose, x_twist],
+        [cs.vertcat(*q_a), cs.vertcat(*qd_a)],
+        ["pose", "twist"],
+        ["q_a", "qdot_a"],
+    )
+
+
+__all__ = [
+    "GENERAL_GENERATOR_VERSION",
+    "NEWTON_ITERATIONS",
+    "AuxLayout",
+    "actuator_function",
+    "aux_layout",
+    "build_general_models",
+    "general_robot",
+]
