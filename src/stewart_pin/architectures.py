@@ -145,6 +145,9 @@ class LegChainPath:
         ks = leg_chains.leg_kinematics(r.general, pose, twist, accel)
         return ks.q, ks.qdot, None if accel is None else ks.qddot
 
+    def admissible_poses(self, r: PathOwner, T: FloatArray, max_condition: float) -> np.ndarray:
+        return leg_chains.admissible_poses(r.general, T, max_condition)
+
     def sample_poses(
         self,
         r: PathOwner,
@@ -276,6 +279,14 @@ class IdealUpsPath(LegChainPath):
         q, qd, qdd = kinematics.leg_kinematics(r.description, pose, twist, accel)
         q, qd = np.reshape(q, (-1, 6, 3)), np.reshape(qd, (-1, 6, 3))
         return q, qd, None if qdd is None else np.reshape(qdd, (-1, 6, 3))
+
+    def admissible_poses(self, r: PathOwner, T: FloatArray, max_condition: float) -> np.ndarray:
+        ok = geometry.admissible_poses(r.description, T)
+        if np.any(ok):
+            with np.errstate(all="ignore"):
+                c = kinematics.condition_number_batch(r.description, T[ok])
+            ok[ok] = c <= max_condition
+        return ok
 
     def sample_poses(
         self,

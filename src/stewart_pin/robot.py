@@ -322,6 +322,33 @@ class StewartRobot:
         general legs: :func:`stewart_pin.kinematics.leg_chains.condition_number_batch`)."""
         return self._kind.condition_number(self, pose)
 
+    def admissible_poses(self, poses: ArrayLike, max_condition: float | None = None) -> np.ndarray:
+        """(N,) bool: which poses (N, 4, 4) (or one, (4, 4): N = 1) the robot can take,
+        decided for the whole batch at once without raising: every leg reaches, every joint
+        within its limits (strokes, actuated and passive ranges), no leg (serial)
+        singularity, and the singularity measure (:meth:`condition_number`) at most
+        ``max_condition`` (default :attr:`max_condition`). The decision of the checked calls
+        (:meth:`inverse_geometry` with limits, then the measure) on each state alone; a
+        state whose closed form meets a floating-point fault is decided alone."""
+        T, _ = check_poses(poses)
+        bound = (
+            self.max_condition
+            if max_condition is None
+            else check_scalar(max_condition, "max_condition", positive=True)
+        )
+        try:
+            with np.errstate(over="raise", divide="raise", invalid="raise"):
+                return self._kind.admissible_poses(self, T, bound)
+        except FloatingPointError:
+            out = np.zeros(T.shape[0], dtype=bool)
+            for i in range(T.shape[0]):
+                try:
+                    with np.errstate(over="raise", divide="raise", invalid="raise"):
+                        out[i] = bool(self._kind.admissible_poses(self, T[i : i + 1], bound)[0])
+                except FloatingPointError:
+                    out[i] = False
+            return out
+
     def leg_state(
         self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None = None
     ) -> leg_chains.LegKinematics:

@@ -6,10 +6,11 @@ or range, every passive joint inside its limits, no leg is at (or too near) a se
 singularity, and the singularity measure (:meth:`StewartRobot.condition_number`) is at
 most the bound (default the robot's ``max_condition``).
 
-The ideal 6-UPS is decided in closed form on the whole batch (the computations of
-:func:`stewart_pin.kinematics.geometry.inverse_geometry_batch`, without raising); general
-legs through the checked batch calls on chunks, a chunk that raises being split until the
-offending states are isolated (slower: workspaces of general legs want fewer states).
+The decision is the robot's (:meth:`StewartRobot.admissible_poses`, chosen by its
+architecture in :mod:`stewart_pin.architectures`): the ideal 6-UPS in closed form on the
+whole batch, general legs through
+:func:`stewart_pin.kinematics.leg_chains.admissible_poses`, both the decision of the
+checked calls on each state alone.
 """
 
 from __future__ import annotations
@@ -20,13 +21,11 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_poses, check_rotation, check_scalar
-from stewart_pin.exceptions import InputError, StewartPinError
-from stewart_pin.kinematics import geometry, jacobians, leg_chains
+from stewart_pin.exceptions import InputError
+from stewart_pin.kinematics import leg_chains
 
 #: States per chunk of the closed-form mask (bounds the temporary arrays: ~100 MB).
 CHUNK = 100_000
-#: Below this size a chunk of general-leg states that raises is checked state by state.
-_SPLIT_FLOOR = 16
 
 
 def condition_bound(robot: Any, max_condition: float | None) -> float:
@@ -68,10 +67,7 @@ def mask(
     out = np.zeros(T.shape[0], dtype=bool)
     for start in range(0, T.shape[0], CHUNK):
         chunk = T[start : start + CHUNK]
-        if robot.is_ideal_ups:
-            ok = _ups_mask(robot.description, chunk, bound)
-        else:
-            ok = _general_mask(robot, chunk, bound)
+        ok = robot.admissible_poses(chunk, bound)  # the robot's architecture decides
         if min_leg_distance is not None and np.any(ok):
             ok[ok] = _leg_distance(robot, chunk[ok]) >= min_leg_distance
         out[start : start + CHUNK] = ok
@@ -143,77 +139,6 @@ def leg_distance(robot: Any, poses: Any) -> np.ndarray:
     6-3 platform) are at distance 0. General legs must reach the poses
     (:class:`~stewart_pin.exceptions.LegReachError` otherwise)."""
     return _leg_distance(robot, check_poses(poses)[0])
-
-
-def _ups_mask(desc: Any, T: np.ndarray, bound: float) -> np.ndarray:
-    """The ideal 6-UPS: stroke, U-joint limits, leg singularities, then the measure."""
-    # B_i P_i = R P_i + p - B_i (N, 6, 3), as geometry.leg_vectors, by matmul (faster)
-    d = np.swapaxes(T[:, :3, :3] @ desc.platform_points.T, 1, 2)
-    d += T[:, None, :3, 3] - desc.base_points
-    q3 = np.sqrt(np.einsum("nki,nki->nk", d, d))
-    lo, hi = desc.ideal_stroke("the 6-UPS feasibility mask")
-    ok = np.all((q3 >= lo) & (q3 <= hi), axis=1)
-    min_length = geometry.LEG_MIN_LENGTH_RATIO * geometry.characteristic_length(desc)
-    ok &= np.all(q3 >= min_length, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # u_k = R1_k^T d_k / q3_k, as rows: d_k^T R1_k
-        u = (d[:, :, None, :] @ desc.leg_base_rotations[None])[:, :, 0, :] / q3[..., None]
-    sin_q2 = np.hypot(u[..., 0], u[..., 1])
-    ok &= np.all(sin_q2 >= geometry.LEG_SINGULARITY_SIN, axis=1)
-    if desc.u_joint_limits is not None:
-        lim = desc.u_joint_limits
-        q1 = np.arctan2(u[..., 1], u[..., 0])
-        q2 = np.arctan2(sin_q2, -u[..., 2])
-        for j, q in enumerate((q1, q2)):
-            ok &= np.all((q >= lim[:, j, 0]) & (q <= lim[:, j, 1]), axis=1)
-    if np.any(ok):
-        c = jacobians.condition_number_batch(desc, T[ok])
-        ok[ok] = c <= bound
-    return ok
-
-
-def _general_ok(robot: Any, T: np.ndarray, bound: float) -> bool:
-    """Whether every state of ``T`` passes the checked calls of the general legs."""
-    try:
-        leg_chains.inverse_geometry_batch(robot.general, T, check_limits=True)
-        J_inv = leg_chains.inverse_jacobian_batch(robot.general, T)
-        leg_chains.check_parallel(robot.general, J_inv, bound)
-    except StewartPinError:
-        return False
-    return True
-
-
-def _general_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
-    """General legs: the batch decided at once by
-    :func:`~stewart_pin.kinematics.leg_chains.admissible_poses` (the decision of the checked
-    calls, state by state); where a closed form meets a floating-point fault, checked calls
-    on halves of the batch until each chunk passes or is a single state."""
-    n = T.shape[0]
-    if n == 0:
-        return np.zeros(0, dtype=bool)
-    try:
-        return leg_chains.admissible_poses(robot.general, T, bound)
-    except FloatingPointError:
-        return _split_mask(robot, T, bound)
-
-
-def _split_mask(robot: Any, T: np.ndarray, bound: float) -> np.ndarray:
-    """Checked calls on halves of the batch until each chunk passes or is a single state
-    (states far from the limits cost one batched call per chunk)."""
-    n = T.shape[0]
-    if n == 0:
-        return np.zeros(0, dtype=bool)
-    with np.errstate(all="ignore"):
-        if _general_ok(robot, T, bound):
-            return np.ones(n, dtype=bool)
-    if n == 1:
-        return np.zeros(1, dtype=bool)
-    if n <= _SPLIT_FLOOR:
-        return np.array([_general_ok(robot, T[i : i + 1], bound) for i in range(n)])
-    half = n // 2
-    return np.concatenate(
-        [_split_mask(robot, T[:half], bound), _split_mask(robot, T[half:], bound)]
-    )
 
 
 def check_rotations(orientations: Any) -> np.ndarray:
