@@ -60,3 +60,32 @@ def test_a_pickled_robot_chooses_its_path_again(name):
     T = robot.home_pose
     assert (old.actuator_positions(T) == robot.actuator_positions(T)).all()
     assert (copy.inverse_jacobian(T) == robot.inverse_jacobian(T)).all()
+
+
+@pytest.mark.parametrize("name", ["simulator", "ups-offset", "rus", "pus", "random-custom-0"])
+def test_admissible_poses_is_the_decision_of_the_checked_calls(name):
+    """``robot.admissible_poses`` (the whole batch at once, no exception) against the
+    raising calls state by state: the inverse geometry with limits, then the measure."""
+    import numpy as np
+
+    from stewart_pin.exceptions import StewartPinError
+
+    robot = StewartRobot.from_preset(name)
+    rng = np.random.default_rng(7)
+    T = robot.sample_poses(40, rng)
+    wide = np.tile(robot.home_pose, (60, 1, 1))  # mostly outside the limits
+    wide[:, :3, 3] += rng.uniform(-1.0, 1.0, (60, 3)) * robot.description.size
+    T = np.concatenate([T, wide])
+    bound = 0.5 * robot.max_condition
+
+    def checked(pose):
+        try:
+            robot.inverse_geometry(pose, check_limits=True)
+            return bool(robot.condition_number(pose) <= bound)
+        except StewartPinError:
+            return False
+
+    expected = np.array([checked(p) for p in T])
+    assert 0 < expected.sum() < len(T)  # both kinds of pose are met
+    assert np.array_equal(robot.admissible_poses(T, bound), expected)
+    assert robot.admissible_poses(T[0]).shape == (1,)
