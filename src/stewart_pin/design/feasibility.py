@@ -104,13 +104,8 @@ def segment_distance(p1: Any, q1: Any, p2: Any, q2: Any) -> np.ndarray:
 
 
 def _polylines(robot: Any, T: np.ndarray) -> np.ndarray:
-    """Each leg as a polyline in F0, (N, 6, M, 3): B_i, P_i for the ideal 6-UPS; the three
-    joint frames' origins and P_i for general legs (poses inside the legs' reach)."""
-    if robot.is_ideal_ups:
-        desc = robot.description
-        P = np.swapaxes(T[:, :3, :3] @ desc.platform_points.T, 1, 2) + T[:, None, :3, 3]
-        B = np.broadcast_to(desc.base_points, P.shape)
-        return np.stack([B, P], axis=2)
+    """Each leg as a polyline in F0, (N, 6, M, 3): its joint frames' origins and P_i (the
+    legs as chains, every architecture; poses inside the legs' reach)."""
     q = leg_chains.inverse_geometry_batch(robot.general, T, check_limits=False)
     frames = leg_chains.leg_forward(robot.general, q)
     return np.concatenate([frames.origins, frames.P[:, :, None]], axis=2)

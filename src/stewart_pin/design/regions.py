@@ -30,16 +30,12 @@ def measure(robot: Any, poses: np.ndarray) -> np.ndarray:
     """The singularity measure (N,) at poses (N, 4, 4), ``inf`` where it cannot be
     computed (a general leg that cannot reach, or at a serial singularity)."""
     T = np.asarray(poses, dtype=float).reshape(-1, 4, 4)
-    if robot.is_ideal_ups:
-        from stewart_pin.kinematics.jacobians import condition_number_batch
-
-        with np.errstate(all="ignore"):
-            c = condition_number_batch(robot.description, T)
-        return np.where(np.isfinite(c), c, np.inf)
-    return _general_measure(robot, T)
+    return _measure(robot, T)
 
 
-def _general_measure(robot: Any, T: np.ndarray) -> np.ndarray:
+def _measure(robot: Any, T: np.ndarray) -> np.ndarray:
+    """:func:`measure` by the robot's own batched call, the batch halved where it raises
+    until the offending states are isolated (``inf``)."""
     try:
         with np.errstate(all="ignore"):
             c = np.asarray(robot.condition_number(T), dtype=float).reshape(-1)
@@ -48,7 +44,7 @@ def _general_measure(robot: Any, T: np.ndarray) -> np.ndarray:
         if T.shape[0] == 1:
             return np.array([np.inf])
     half = T.shape[0] // 2
-    return np.concatenate([_general_measure(robot, T[:half]), _general_measure(robot, T[half:])])
+    return np.concatenate([_measure(robot, T[:half]), _measure(robot, T[half:])])
 
 
 @dataclass(frozen=True)
