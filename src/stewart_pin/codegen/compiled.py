@@ -152,6 +152,11 @@ CFLAGS = (
     "-shared",
     "-fvisibility=hidden",
 )
+#: The flags of a library built for its first use in seconds rather than for speed: no
+#: optimisation (the register allocation of -O1/-O2 grows faster than linearly with the
+#: size of CasADi's one straight-line function: on the exact derivatives, about 2.7 s at
+#: -O0 against 17 s at -O1 and 45-50 s at -O2; the calls take about 2x longer).
+QUICK_CFLAGS = ("-O0", *CFLAGS[1:])
 #: Libraries linked (after the source).
 LDLIBS = ("-lm",)
 #: Environment variable: the longest a compilation may take [s] (default
@@ -250,12 +255,12 @@ def compile_timeout() -> float:
     return value
 
 
-def cache_key(source: str, compiler: str) -> str:
+def cache_key(source: str, compiler: str, cflags: tuple[str, ...] = CFLAGS) -> str:
     """The name of a library's cache folder: the SHA-256 (first 32 hex digits) of the C
     ``source`` (:func:`c_source`) or of what it is made from (:func:`library_identity`),
-    the compiler (:func:`compiler_identity`) and the flags."""
+    the compiler (:func:`compiler_identity`) and the flags (``cflags``, :data:`LDLIBS`)."""
     h = hashlib.sha256()
-    for part in (source, compiler_identity(compiler), " ".join(CFLAGS), " ".join(LDLIBS)):
+    for part in (source, compiler_identity(compiler), " ".join(cflags), " ".join(LDLIBS)):
         data = part.encode()
         h.update(len(data).to_bytes(8, "little"))
         h.update(data)
@@ -492,10 +497,15 @@ def _write_private(folder: Path, name: str, data: bytes, mode: int) -> Path:
 
 
 def _build(
-    folder: Path, source: str, compiler: str, key: str, announce: str | None = None
+    folder: Path,
+    source: str,
+    compiler: str,
+    key: str,
+    announce: str | None = None,
+    cflags: tuple[str, ...] = CFLAGS,
 ) -> None:
-    """Compile ``source`` into ``folder`` (temporary files, then renamed into place);
-    ``announce``: what is compiled, for the progress lines (:func:`_compile`)."""
+    """Compile ``source`` into ``folder`` with ``cflags`` (temporary files, then renamed
+    into place); ``announce``: what is compiled, for the progress lines (:func:`_compile`)."""
     temps: list[Path] = []
     try:
         tmp_c = _write_private(folder, _SOURCE_NAME, source.encode(), 0o644)
@@ -505,7 +515,7 @@ def _build(
         tmp_so = Path(name)
         temps.append(tmp_so)
         # -x c: the temporary name does not end in .c.
-        cmd = [compiler, *CFLAGS, "-o", str(tmp_so), "-x", "c", str(tmp_c), *LDLIBS]
+        cmd = [compiler, *cflags, "-o", str(tmp_so), "-x", "c", str(tmp_c), *LDLIBS]
         code, output = _compile(cmd, announce)
         if code != 0 or not tmp_so.is_file() or tmp_so.stat().st_size == 0:
             first = output.strip().splitlines()
@@ -520,7 +530,7 @@ def _build(
             "sha256": digest,
             "size": size,
             "compiler": compiler_identity(compiler).splitlines()[0],
-            "cflags": list(CFLAGS),
+            "cflags": list(cflags),
             "casadi": cs.__version__,  # type: ignore[attr-defined]  # missing from its stubs
             "generator": GENERATOR_VERSION,
             "general_generator": GENERAL_GENERATOR_VERSION,
@@ -589,11 +599,15 @@ def _kill(proc: subprocess.Popen[str]) -> None:
         proc.communicate(timeout=10)
 
 
-def build_seconds(source: str) -> float:
-    """About how long the system compiler takes on ``source`` [s] (measured on this
-    project's 2-core machine with gcc -O2: 1 s for the 6-UPS models, 1.3 s for 6-RUS,
-    3.4 s for a random 6-RUS with every joint term, 10 s for custom legs)."""
+def build_seconds(source: str, cflags: tuple[str, ...] = CFLAGS) -> float:
+    """About how long the system compiler takes on ``source`` with ``cflags`` [s]
+    (measured on this project's 2-core machine with gcc -O2: 1 s for the 6-UPS models,
+    1.3 s for 6-RUS, 3.4 s for a random 6-RUS with every joint term, 10 s for custom legs;
+    with :data:`QUICK_CFLAGS`, linear: 2.5-2.8 s for the 1.2-1.5 MB of the exact
+    derivatives)."""
     n = len(source)
+    if "-O0" in cflags:
+        return 2e-6 * n
     return 8e-6 * n + (n / 3.5e5) ** 2
 
 
@@ -613,7 +627,7 @@ def build_library(
     have been written by someone else, and :class:`CompilationError` when no compiler is
     found or the compilation fails. See the module docstring for the cache's rules.
     """
-    what = f"the dynamic models of robot '{_printable(desc)}'" if announce else None
+    what = f"the dynamic models of robot '{printable_name(desc)}'" if announce else None
     return build_source_library(
         lambda: c_source(desc), cache_dir, compiler, load, what, library_identity(desc, "models")
     )
@@ -626,6 +640,7 @@ def build_source_library(
     load: Any = None,
     announce: str | None = None,
     identity: str | None = None,
+    cflags: tuple[str, ...] = CFLAGS,
 ) -> tuple[Path, bool]:
     """:func:`build_library` for any generated C source (``source_of()``): the same cache
     folder, key, integrity rules, lock and build (the exact derivatives of
@@ -633,13 +648,14 @@ def build_source_library(
     with about how long it takes (only when it compiles), or None. ``identity``: what the
     source is made from (:func:`library_identity`), keyed instead of the source, which is
     then generated only to be compiled; None: the source is generated (once a compiler is
-    found) and keyed."""
+    found) and keyed. ``cflags``: the compiler flags (part of the key; :data:`CFLAGS`, or
+    :data:`QUICK_CFLAGS` for a library wanted in seconds)."""
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")
     root = Path(cache_dir) if cache_dir is not None else cache_root()
     source = source_of() if identity is None else None
-    key = cache_key(source if source is not None else identity or "", compiler)
+    key = cache_key(source if source is not None else identity or "", compiler, cflags)
     folder = root / key
     try:
         _private_dir(root, follow=True)
@@ -663,7 +679,7 @@ def build_source_library(
                 if source is None:
                     source = source_of()
                 if announce:
-                    seconds = max(1, round(build_seconds(source)))
+                    seconds = max(1, round(build_seconds(source, cflags)))
                     print(
                         f"stewart-pin: compiling {announce} (first use of this geometry, "
                         f"about {seconds} s, stopped at {compile_timeout():g} s; cached in "
@@ -671,7 +687,7 @@ def build_source_library(
                         file=sys.stderr,
                         flush=True,
                     )
-                _build(folder, source, compiler, key, announce)
+                _build(folder, source, compiler, key, announce, cflags)
             if load is not None:
                 try:
                     load(folder / _LIB_NAME)
@@ -697,7 +713,7 @@ def _cache_not_writable(e: OSError, root: Path, folder: Path) -> bool:
     return path in (root, folder) or path in root.parents
 
 
-def _printable(desc: Any) -> str:
+def printable_name(desc: Any) -> str:
     """The robot's name for a message: printable characters only, at most 60."""
     name = "".join(ch for ch in str(getattr(desc, "name", "")) if ch.isprintable())
     return name[:57] + "..." if len(name) > 60 else name
