@@ -242,6 +242,31 @@ static int sp_ddm_after(const double* T, const double* tw, const double* gam, co
   return f;
 }
 
+/* SP_WIDTH states at a time (from state s, as long as SP_WIDTH remain) through VFN, the
+   vector copy of the generated code (codegen/_simd.py), then AFTER's guards per state. */
+#define SP_VEC_LOOP(VFN, AFTER, X, OUT, NAUX)                                           \
+  {                                                                                      \
+    const double* av[SP_WIDTH][4];                                                       \
+    double* rv[SP_WIDTH][2];                                                             \
+    const double* const* argv[SP_WIDTH];                                                 \
+    double* const* resv[SP_WIDTH];                                                       \
+    double auxv[SP_WIDTH][NAUX];                                                         \
+    int l;                                                                               \
+    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
+    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
+      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);                  \
+        av[l][2] = X + 6 * (s + l); av[l][3] = chi; rv[l][0] = OUT + 6 * (s + l);        \
+      }                                                                                  \
+      VFN(argv, resv);                                                                   \
+      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        f = AFTER(av[l][0], av[l][1], av[l][2], rv[l][0], auxv[l], max_cond);           \
+        flags[s + l] = f;                                                                \
+        any |= f;                                                                        \
+      }                                                                                  \
+    }                                                                                    \
+  }
+
 /* Inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), chi (88) -> gamma
    (n x 6), flags (n). Returns the OR of the flags. With SP_VEC_IDM, SP_WIDTH states at a
    time through the vector copy of the generated code (codegen/_simd.py), the rest one
@@ -257,27 +282,7 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
   int any = 0, f;
   long long s = 0;
 #ifdef SP_VEC_IDM
-  {
-    const double* av[SP_WIDTH][4];
-    double* rv[SP_WIDTH][2];
-    const double* const* argv[SP_WIDTH];
-    double* const* resv[SP_WIDTH];
-    double auxv[SP_WIDTH][SP_IDM_NAUX];
-    int l;
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; }
-    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {
-      for (l = 0; l < SP_WIDTH; ++l) {
-        av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);
-        av[l][2] = accel + 6 * (s + l); av[l][3] = chi; rv[l][0] = gamma + 6 * (s + l);
-      }
-      sp_idm_vec(argv, resv);
-      for (l = 0; l < SP_WIDTH; ++l) {
-        f = sp_idm_after(av[l][0], av[l][1], av[l][2], rv[l][0], auxv[l], max_cond);
-        flags[s + l] = f;
-        any |= f;
-      }
-    }
-  }
+  SP_VEC_LOOP(sp_idm_vec, sp_idm_after, accel, gamma, SP_IDM_NAUX)
 #endif
   for (; s < n; ++s) {
     arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
@@ -302,27 +307,7 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   int any = 0, f;
   long long s = 0;
 #ifdef SP_VEC_DDM
-  {
-    const double* av[SP_WIDTH][4];
-    double* rv[SP_WIDTH][2];
-    const double* const* argv[SP_WIDTH];
-    double* const* resv[SP_WIDTH];
-    double auxv[SP_WIDTH][SP_DDM_NAUX];
-    int l;
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; }
-    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {
-      for (l = 0; l < SP_WIDTH; ++l) {
-        av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);
-        av[l][2] = gam + 6 * (s + l); av[l][3] = chi; rv[l][0] = accel + 6 * (s + l);
-      }
-      sp_ddm_vec(argv, resv);
-      for (l = 0; l < SP_WIDTH; ++l) {
-        f = sp_ddm_after(av[l][0], av[l][1], av[l][2], rv[l][0], auxv[l], max_cond);
-        flags[s + l] = f;
-        any |= f;
-      }
-    }
-  }
+  SP_VEC_LOOP(sp_ddm_vec, sp_ddm_after, gam, accel, SP_DDM_NAUX)
 #endif
   for (; s < n; ++s) {
     arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;
