@@ -32,7 +32,6 @@ from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
 from stewart_pin.apps.bench import constraint_dynamics_call, machine, median_us
 from stewart_pin.codegen import CompiledDynamics, compiled_backend
-from stewart_pin.kinematics.workspace import sample_states
 
 
 def raw_call(
@@ -60,7 +59,7 @@ def raw_call(
 def run(preset: str, repeats: int) -> dict[str, object]:
     robot = StewartRobot.from_preset(preset)
     big = 100_000
-    poses, twists, accels = sample_states(robot.description, 2000, 0)
+    poses, twists, accels = robot.sample_states(2000, 0)  # any architecture
     idx = np.arange(big) % poses.shape[0]
     P, V, A = (np.ascontiguousarray(a[idx]) for a in (poses, twists, accels))
     backend = compiled_backend(robot)

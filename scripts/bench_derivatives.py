@@ -20,28 +20,72 @@ Median wall-clock time [us] per state, all in one run, on one preset (default
   ``os.cpu_count()``) and with one thread.
 
 Ratios are given to ``pin.constraintDynamics`` and to the raw Pinocchio derivatives call.
-The first run compiles the derivative library (about 20 s; cached afterwards).
+The first run compiles the derivative library (a few seconds; cached afterwards).
+
+``--first-use`` (issue 24, item 3) times instead, per preset (default: every preset of
+:data:`FIRST_USE_PRESETS`), the first call of ``robot.inverse_dynamics_derivatives`` in a
+new process with a fresh, empty cache folder (the value library compiled and cached
+beforehand in that folder, by another process, as a user who has already used the robot
+would have it): the wall-clock time of the call from the robot's construction (import
+excluded), and its share spent compiling. The stderr line announcing the build is shown.
 
 Usage: ``python scripts/bench_derivatives.py [--preset simulator] [--repeats 1000]
-[--batch 10000] [--json out.json]``.
+[--batch 10000] [--json out.json]`` or ``python scripts/bench_derivatives.py --first-use
+[--preset rus] [--json out.json]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
-from stewart_pin.apps.bench import constraint_dynamics_call, machine, median_us
+from stewart_pin.apps.bench import constraint_dynamics_call, machine, machine_line, median_us
 from stewart_pin.check.dynamics_derivatives import (
     constrained_direct_dynamics_derivatives,
     tree_derivatives_call,
 )
 from stewart_pin.codegen.derivatives import CompiledDerivatives, derivatives_backend
+
+#: The presets timed by ``--first-use``: every named preset (the three ideal 6-UPS share
+#: one generator, so ``paper`` stands for ``desktop`` too) and every leg preset.
+FIRST_USE_PRESETS = ("simulator", "desktop", "paper", "ups-offset", "rus", "pus")
+#: What runs in the new process: a value call first (its library cached by an earlier
+#: process, as it stands after any use of the robot), then the timed first derivatives
+#: call (``sys.argv[2]``: "time"; else only the value call, to fill the cache).
+_FIRST_USE = """
+import sys, time
+from stewart_pin import StewartRobot
+from stewart_pin.codegen import compiled
+robot = StewartRobot.from_preset(sys.argv[1])
+P, V, A = robot.sample_states(1, 0)
+robot.inverse_dynamics(P[0], V[0], A[0], backend="compiled")
+if sys.argv[2] != "time":
+    sys.exit(0)
+calls = []
+original = compiled._compile
+def timed(*args, **kwargs):
+    t = time.perf_counter()
+    try:
+        return original(*args, **kwargs)
+    finally:
+        calls.append(time.perf_counter() - t)
+compiled._compile = timed
+t = time.perf_counter()
+robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
+total = time.perf_counter() - t
+t = time.perf_counter()
+robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
+print(total, sum(calls), time.perf_counter() - t)
+"""
 
 PIN_VALUE = "pin.constraintDynamics (raw call)"
 PIN_DERIVATIVES = "pin.constraintDynamics + computeConstraintDynamicsDerivatives (raw calls)"
@@ -98,13 +142,68 @@ def run(preset: str, repeats: int, batch: int) -> dict[str, object]:
     }
 
 
+def first_use(preset: str) -> dict[str, object]:
+    """The first derivatives call of ``preset`` in a new process with an empty cache:
+    seconds in all, compiling, and for the second call; the load average just before."""
+    with tempfile.TemporaryDirectory(prefix="stewart-pin-first-use-") as cache:
+        env = {**os.environ, "STEWART_PIN_CACHE": cache}
+        for step in ("values", "time"):
+            load = os.getloadavg()[0]
+            run = subprocess.run(
+                [sys.executable, "-c", _FIRST_USE, preset, step],
+                capture_output=True,
+                text=True,
+                env=env,
+                check=False,
+            )
+            if run.returncode != 0:
+                break
+    if run.returncode != 0:
+        raise SystemExit(f"{preset}: {run.stderr.strip().splitlines()[-1:]}")
+    total, compiling, second = (float(x) for x in run.stdout.split())
+    announced = [ln for ln in run.stderr.splitlines() if "exact derivatives" in ln]
+    return {
+        "preset": preset,
+        "first_call_s": total,
+        "compiling_s": compiling,
+        "second_call_us": 1e6 * second,
+        "announced": announced[0] if announced else "",
+        "load_average_1min": load,
+    }
+
+
+def main_first_use(presets: list[str], out: Path | None) -> None:
+    print(f"first derivatives call, fresh cache, new process; {machine_line(machine())}")
+    print(
+        f"{'preset':12s} {'first call [s]':>15s} {'compiling [s]':>14s} "
+        f"{'2nd call [us]':>14s} {'load':>6s}"
+    )
+    results = []
+    for preset in presets:
+        r = first_use(preset)
+        results.append(r)
+        print(
+            f"{preset:12s} {r['first_call_s']:15.2f} {r['compiling_s']:14.2f} "
+            f"{r['second_call_us']:14.1f} {r['load_average_1min']:6.2f}",
+            flush=True,
+        )
+        print(f"  stderr: {r['announced']}", flush=True)
+    if out:
+        write_text_atomic(out, json.dumps({"machine": machine(), "first_use": results}, indent=2))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="simulator")
+    parser.add_argument("--preset", default=None, help="default: simulator (--first-use: all)")
+    parser.add_argument("--first-use", action="store_true", help="time the first call")
     parser.add_argument("--repeats", type=int, default=1000)
     parser.add_argument("--batch", type=int, default=10_000)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
+    if args.first_use:
+        main_first_use([args.preset] if args.preset else list(FIRST_USE_PRESETS), args.json)
+        return
+    args.preset = args.preset or "simulator"
     result = run(args.preset, args.repeats, args.batch)
     print(
         f"preset {args.preset}, derivatives {result['kind']}, {result['threads']} threads, "

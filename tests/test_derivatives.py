@@ -19,7 +19,11 @@ accurate to about 1e-9 here, the Pinocchio comparison to about 1e-13.
 from __future__ import annotations
 
 import json
+import os
+import re
 import shutil
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -458,3 +462,45 @@ def test_derivatives_take_base_values_checked():
         backend.inverse_dynamics_derivatives(P, V, A, base_values=chi[:10])
     with pytest.raises(InputError, match="base_values"):
         backend.direct_dynamics_derivatives(P[0], V[0], ref.gamma[0], base_values=np.nan * chi)
+
+
+def test_first_build_is_announced_and_a_second_process_reuses_it(tmp_path, capsys):
+    """The first use compiles the derivative library (quick flags) and says so in one line
+    on stderr with its expected duration; a new process finds it in the cache (nothing
+    compiled, nothing announced) and gives the same derivatives."""
+    robot = get_robot("simulator")
+    root = tmp_path / "cache"
+    built = CompiledDerivatives(robot, cache_dir=root)
+    err = capsys.readouterr().err
+    assert built.kind == "compiled" and built.compiled_now
+    lines = [ln for ln in err.splitlines() if "the exact derivatives of robot" in ln]
+    assert len(lines) == 1 and lines[0].startswith("stewart-pin: compiling")
+    assert re.search(r"about \d+ s", lines[0])
+    meta = json.loads((built.library.parent / "manifest.json").read_text())
+    assert meta["cflags"] == list(compiled_module.QUICK_CFLAGS)
+    P, V, A = robot.sample_states(2, 40)
+    ref = built.inverse_dynamics_derivatives(P, V, A)
+    program = (
+        "import sys, numpy as np\n"
+        "from stewart_pin import StewartRobot\n"
+        "from stewart_pin.codegen.derivatives import CompiledDerivatives\n"
+        "robot = StewartRobot.from_preset('simulator')\n"
+        "d = CompiledDerivatives(robot, cache_dir=sys.argv[1])\n"
+        "P, V, A = robot.sample_states(2, 40)\n"
+        "np.save(sys.argv[2], d.inverse_dynamics_derivatives(P, V, A).pose)\n"
+        "print(d.kind, d.compiled_now, d.library)\n"
+    )
+    out = tmp_path / "pose.npy"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    run = subprocess.run(
+        [sys.executable, "-c", program, str(root), str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["compiled", "False", str(built.library)], run.stderr
+    assert "compiling" not in run.stderr
+    np.testing.assert_array_equal(np.load(out), ref.pose)

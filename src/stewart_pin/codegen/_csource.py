@@ -25,6 +25,11 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
 - ``NOT_PD`` (DDM): a pivot of ``A_robot = L D L^T`` is not positive;
 - ``NONFINITE``: a non-finite result.
 
+Where the generated function is plain straight-line code (every model so far), the batch
+loop runs two states at a time through its vector copy (:mod:`._simd`; ``SP_VEC_IDM`` /
+``SP_VEC_DDM`` defined), then the guards state by state (``sp_idm_after`` /
+``sp_ddm_after``); an odd last state takes the scalar function.
+
 ``sp_idm_one`` / ``sp_ddm_one`` run one state packed in one read-only input block (the
 single-state call from Python passes the bytes of its three arrays, no numpy buffer
 addresses to take). The batch loops keep no state between calls, so
@@ -208,8 +213,64 @@ TEMPLATE = (
 #define SP_IDM_SLACK %(idm_slack)d
 #define SP_DDM_SLACK %(ddm_slack)d
 
+/* The guards of one inverse-dynamics state after the generated code ran (g: its Gamma,
+   aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */
+static int sp_idm_after(const double* T, const double* tw, const double* acc, double* g,
+                        const double* aux, double max_cond) {
+  double y[6];
+  int k, f = sp_check_inputs(T, tw, acc);
+  f |= sp_check_legs(aux, SP_IDM_SLACK);
+  if (!(aux[%(growth)d] <= sp_growth_limit)) {
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
+    for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
+  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
+    /* the static LU's determinant bound passed half the threshold: the tighter one */
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  }
+  if (!sp_finite6(g)) f |= SP_NONFINITE;
+  return f;
+}
+
+/* The guards of one direct-dynamics state after the generated code ran. */
+static int sp_ddm_after(const double* T, const double* tw, const double* gam, const double* a,
+                        const double* aux, double max_cond) {
+  int k, f = sp_check_inputs(T, tw, gam);
+  f |= sp_check_legs(aux, SP_DDM_SLACK);
+  f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
+  if (!sp_finite6(a)) f |= SP_NONFINITE;
+  return f;
+}
+
+/* SP_WIDTH states at a time (from state s, as long as SP_WIDTH remain) through VFN, the
+   vector copy of the generated code (codegen/_simd.py), then AFTER's guards per state. */
+#define SP_VEC_LOOP(VFN, AFTER, X, OUT, NAUX)                                           \
+  {                                                                                      \
+    const double* av[SP_WIDTH][4];                                                       \
+    double* rv[SP_WIDTH][2];                                                             \
+    const double* const* argv[SP_WIDTH];                                                 \
+    double* const* resv[SP_WIDTH];                                                       \
+    double auxv[SP_WIDTH][NAUX];                                                         \
+    int l;                                                                               \
+    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
+    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
+      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);                  \
+        av[l][2] = X + 6 * (s + l); av[l][3] = chi; rv[l][0] = OUT + 6 * (s + l);        \
+      }                                                                                  \
+      VFN(argv, resv);                                                                   \
+      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        f = AFTER(av[l][0], av[l][1], av[l][2], rv[l][0], auxv[l], max_cond);           \
+        flags[s + l] = f;                                                                \
+        any |= f;                                                                        \
+      }                                                                                  \
+    }                                                                                    \
+  }
+
 /* Inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), chi (88) -> gamma
-   (n x 6), flags (n). Returns the OR of the flags. */
+   (n x 6), flags (n). Returns the OR of the flags. With SP_VEC_IDM, SP_WIDTH states at a
+   time through the vector copy of the generated code (codegen/_simd.py), the rest one
+   by one. */
 SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
                            const double* accel, const double* chi, double max_cond,
                            double* gamma, int* flags) {
@@ -217,25 +278,17 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
   casadi_real* res[%(idm_sz_res)d + 1];
   casadi_int iw[%(idm_sz_iw)d + 1];
   casadi_real w[%(idm_sz_w)d + 1];
-  double aux[SP_IDM_NAUX], y[6];
-  int any = 0, k;
-  long long s;
-  for (s = 0; s < n; ++s) {
-    const double* T = pose + 16 * s;
-    double* g = gamma + 6 * s;
-    int f = sp_check_inputs(T, twist + 6 * s, accel + 6 * s);
-    arg[0] = T; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
-    res[0] = g; res[1] = aux;
+  double aux[SP_IDM_NAUX];
+  int any = 0, f;
+  long long s = 0;
+#ifdef SP_VEC_IDM
+  SP_VEC_LOOP(sp_idm_vec, sp_idm_after, accel, gamma, SP_IDM_NAUX)
+#endif
+  for (; s < n; ++s) {
+    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
+    res[0] = gamma + 6 * s; res[1] = aux;
     %(idm)s(arg, res, iw, w, 0);
-    f |= sp_check_legs(aux, SP_IDM_SLACK);
-    if (!(aux[%(growth)d] <= sp_growth_limit)) {
-      f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
-      for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
-    } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
-      /* the static LU's determinant bound passed half the threshold: the tighter one */
-      f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-    }
-    if (!sp_finite6(g)) f |= SP_NONFINITE;
+    f = sp_idm_after(arg[0], arg[1], arg[2], res[0], aux, max_cond);
     flags[s] = f;
     any |= f;
   }
@@ -251,19 +304,16 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   casadi_int iw[%(ddm_sz_iw)d + 1];
   casadi_real w[%(ddm_sz_w)d + 1];
   double aux[SP_DDM_NAUX];
-  int any = 0, k;
-  long long s;
-  for (s = 0; s < n; ++s) {
-    const double* T = pose + 16 * s;
-    double* a = accel + 6 * s;
-    int f = sp_check_inputs(T, twist + 6 * s, gam + 6 * s);
-    arg[0] = T; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;
-    res[0] = a; res[1] = aux;
+  int any = 0, f;
+  long long s = 0;
+#ifdef SP_VEC_DDM
+  SP_VEC_LOOP(sp_ddm_vec, sp_ddm_after, gam, accel, SP_DDM_NAUX)
+#endif
+  for (; s < n; ++s) {
+    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;
+    res[0] = accel + 6 * s; res[1] = aux;
     %(ddm)s(arg, res, iw, w, 0);
-    f |= sp_check_legs(aux, SP_DDM_SLACK);
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-    for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
-    if (!sp_finite6(a)) f |= SP_NONFINITE;
+    f = sp_ddm_after(arg[0], arg[1], arg[2], res[0], aux, max_cond);
     flags[s] = f;
     any |= f;
   }

@@ -30,9 +30,13 @@ Which robots have such models is decided in one place, :func:`symbolic_models_fo
 Compiled. :class:`CompiledDerivatives` compiles the two Jacobian functions into one shared
 library per robot through :func:`.compiled.build_source_library` (the cache, its key, its
 integrity rules, lock and build of :mod:`.compiled`), with a batch loop in C that flags
-non-finite results, and runs batches on :attr:`CompiledDerivatives.threads` threads
-(the process-wide pool of :mod:`.compiled`). Without a C compiler it evaluates the same
-functions in CasADi's virtual machine, with one warning.
+non-finite results. It is compiled without optimisation (:data:`.compiled.QUICK_CFLAGS`):
+the first use takes seconds (about 1.5 s to differentiate and generate, 2.5-3.5 s to
+compile, announced on stderr) instead of 20-50 s at -O2, for calls about 2x slower
+(``scripts/bench_derivatives.py --first-use`` measures both). It runs batches on
+:attr:`CompiledDerivatives.threads` threads (the process-wide pool of :mod:`.compiled`).
+Without a C compiler it evaluates the same functions in CasADi's virtual machine, with one
+warning.
 
 Guards. Each call first evaluates the value (``.gamma`` / ``.accel``) with the compiled
 value model of the robot (:func:`~.compiled.compiled_backend`), which raises exactly what
@@ -58,9 +62,11 @@ import numpy as np
 from stewart_pin._checks import check_states
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
+    QUICK_CFLAGS,
     CompiledDynamics,
     build_source_library,
     compiled_backend,
+    printable_name,
     split_batch,
 )
 from stewart_pin.codegen.leg_chain_symbolic import actuator_function
@@ -423,7 +429,9 @@ class CompiledDerivatives:
                     cache_dir,
                     compiler if isinstance(compiler, str) else None,
                     self._load,
-                    identity=library_identity(robot.description, "derivatives"),
+                    f"the exact derivatives of robot '{printable_name(self._desc)}'",
+                    library_identity(robot.description, "derivatives"),
+                    QUICK_CFLAGS,
                 )
                 self.kind = "compiled"
             except UnsafeCacheError:
