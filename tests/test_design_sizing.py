@@ -186,3 +186,17 @@ def test_exact_gradient_matches_differences_and_worst_case(compile_cache):
     dense = box.sample(robot, 5000, rng=99)
     g_dense = np.asarray(robot.inverse_dynamics(*box.states(robot, dense)))[:, 1]
     assert abs(worst[0].effort) >= np.abs(g_dense).max()
+
+
+def test_bad_sample_counts_and_directions_are_named_errors():
+    """``StateBox.sample(n=-1)`` returned one state; NaN directions failed inside scipy."""
+    robot = get_robot("desktop")
+    box = design.StateBox(translation=0.01, rotation=0.05)
+    for n in (-1, 1.5, True):
+        with pytest.raises(InputError, match="n"):
+            box.sample(robot, n)
+    for dirs in ([[np.nan, 0.0, 0.0]], [[np.inf, 1.0, 0.0]], "x", [[0.0, 0.0, 0.0]]):
+        with pytest.raises(InputError, match="directions"):
+            design.dynamic_capability(robot, 100.0, directions=dirs)
+        with pytest.raises(InputError, match="directions"):
+            design.wrench_capability(robot, 100.0, directions=dirs)

@@ -117,3 +117,14 @@ def test_any_failure_is_a_row():
     ] * 2
     bad = design.sweep([{"no_such_key": 1.0}], SETTINGS, scheduler="serial", progress=False)
     assert bad.rows[0]["error"].startswith("TypeError:")
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [("samples", -5), ("resolution", 0), ("seed", 1.5), ("accel", math.nan), ("backend", "x")],
+)
+def test_bad_sweep_settings_are_refused_once(field, value):
+    """A bad setting was caught per geometry and written into every row (the sweep
+    returned normally): now one named error when the settings are made."""
+    with pytest.raises(InputError, match=field):
+        design.SweepSettings(**{field: value})

@@ -398,3 +398,10 @@ def test_singular_code_where_the_reference_refuses(tmp_path: Path) -> None:
     assert np.all(bound[~np.array(refused)] > limit)
     assert [c == (-3, -3) for c in codes] == refused
     assert all(c in ((0, 0), (-3, -3)) for c in codes)
+
+
+@pytest.mark.parametrize("seed", ["x", -1, 1.5, True])
+def test_a_bad_seed_is_an_export_error(tmp_path, seed):
+    """``int(seed)`` gave a ValueError for "x" and cut 1.5 to 1 silently."""
+    with pytest.raises(ExportError, match="seed"):
+        StewartRobot.from_preset("desktop").export_c(tmp_path / "out", prefix="hexa", seed=seed)

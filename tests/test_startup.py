@@ -216,6 +216,10 @@ print(backend.kind, backend.compiled_now, backend.library.parent.name, gamma.tol
 """
 
 
+@pytest.mark.skipif(
+    __import__("stewart_pin.codegen.compiled", fromlist=["find_compiler"]).find_compiler() is None,
+    reason="no C compiler on this machine",
+)
 @pytest.mark.parametrize("name", ["simulator", "rus"])
 def test_new_process_reuses_the_library_without_generating(tmp_path, name):
     env = {"STEWART_PIN_CACHE": str(tmp_path / "cache"), "STEWART_PIN_BACKEND": "auto"}

@@ -488,9 +488,11 @@ def export_c(
     prefix = check_prefix(prefix)
     if not isinstance(samples, int) or isinstance(samples, bool) or not 1 <= samples <= 1000:
         raise ExportError(f"samples must be an integer in [1, 1000], got {samples!r}")
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise ExportError(f"seed must be an integer >= 0, got {seed!r}")
     check_folder(folder, prefix)  # before the work
     header, source, numbers = c_library(robot, prefix, derivatives)
-    values = reference_values(robot, samples, int(seed), derivatives)
+    values = reference_values(robot, samples, seed, derivatives)
     out = check_folder(folder, prefix)
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -32,9 +32,10 @@ def condition_bound(robot: Any, max_condition: float | None) -> float:
     """The singularity measure bound: ``max_condition`` checked (a number >= 1), or the
     robot's ``max_condition`` when None."""
     value = robot.max_condition if max_condition is None else max_condition
-    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 1.0):
+    bound = check_scalar(value, "max_condition", positive=True)
+    if bound < 1.0:
         raise InputError(f"max_condition must be a number >= 1, got {value!r}")
-    return float(value)
+    return bound
 
 
 def check_distance(value: float | None) -> float | None:

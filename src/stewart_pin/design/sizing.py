@@ -137,6 +137,7 @@ class StateBox:
     ) -> np.ndarray:
         """``n`` normalised points (n, 18) drawn uniformly in the box whose poses are
         feasible (redrawn up to 100 n times, then :class:`EmptyWorkspaceError`)."""
+        n = int(check_scalar(n, "n", integer=True, nonnegative=True))
         gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         kept: list[np.ndarray] = []
         count = 0
@@ -346,9 +347,14 @@ def _effort_limits(robot: Any, effort_limits: Any, what: str) -> np.ndarray:
 
 def _unit_directions(directions: Any) -> np.ndarray:
     """``directions`` (K, 3) (default :data:`AXES`) as unit vectors, checked."""
-    D = AXES if directions is None else np.asarray(directions, dtype=float)
-    if D.ndim != 2 or D.shape[1] != 3 or np.any(np.linalg.norm(D, axis=1) == 0):
-        raise InputError(f"directions must be non-zero (K, 3) vectors, got shape {D.shape}")
+    try:
+        D = AXES if directions is None else np.asarray(directions, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"directions must be (K, 3) numbers, got {directions!r}") from None
+    if D.ndim != 2 or D.shape[1] != 3 or not np.all(np.isfinite(D)):
+        raise InputError(f"directions must be a finite (K, 3) array, got shape {D.shape}")
+    if np.any(np.linalg.norm(D, axis=1) == 0):
+        raise InputError("directions must be non-zero")
     return D / np.linalg.norm(D, axis=1)[:, None]
 
 

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from stewart_pin._checks import check_scalar
+from stewart_pin._extras import require
 from stewart_pin._io import atomic_open
 from stewart_pin.exceptions import InputError, SchedulerError
 
@@ -59,6 +61,18 @@ class SweepSettings:
     accel: float = 2.0
     angular_accel: float = 5.0
     backend: str = "auto"
+
+    def __post_init__(self) -> None:
+        for name in ("resolution", "samples"):
+            check_scalar(getattr(self, name), f"SweepSettings.{name}", positive=True, integer=True)
+        check_scalar(self.seed, "SweepSettings.seed", nonnegative=True, integer=True)
+        for name in ("translation", "rotation", "speed", "angular_speed", "accel"):
+            check_scalar(getattr(self, name), f"SweepSettings.{name}", nonnegative=True)
+        check_scalar(self.angular_accel, "SweepSettings.angular_accel", nonnegative=True)
+        if self.backend not in ("auto", "compiled", "pinocchio"):
+            raise InputError(
+                f"SweepSettings.backend must be auto, compiled or pinocchio, got {self.backend!r}"
+            )
 
 
 def grid(**axes: Sequence[Any]) -> list[dict[str, Any]]:
@@ -205,21 +219,18 @@ def _cell(v: Any) -> Any:
     return repr(v) if isinstance(v, float) else v
 
 
+def _require_dask() -> None:
+    """dask.distributed, or :class:`MissingDependencyError` with the install hint."""
+    require('geometry sweeps on Dask (or scheduler="serial")', "design", "dask.distributed")
+
+
 def _client(scheduler: str | None, workers: int, processes: bool, timeout: float) -> Any:
     """A ``dask.distributed.Client``: on a new ``LocalCluster`` (``scheduler`` None) or
     on the scheduler at that address (:class:`SchedulerError` when it cannot be
     reached)."""
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError as e:
-        from stewart_pin.exceptions import MissingDependencyError
+    _require_dask()
+    from dask.distributed import Client, LocalCluster
 
-        raise MissingDependencyError(
-            'geometry sweeps on Dask need dask.distributed: pip install "stewart-pin[design]" '
-            '(or scheduler="serial")',
-            "dask",
-            "design",
-        ) from e
     if scheduler is None:
         cluster = LocalCluster(
             n_workers=workers,
@@ -290,6 +301,7 @@ def sweep(
                 rows[k] = evaluate_geometry(g, s, metrics)
                 bar.update(1)
         else:
+            _require_dask()
             from dask.distributed import as_completed
 
             own = client is None
