@@ -405,3 +405,13 @@ def test_a_bad_seed_is_an_export_error(tmp_path, seed):
     """``int(seed)`` gave a ValueError for "x" and cut 1.5 to 1 silently."""
     with pytest.raises(ExportError, match="seed"):
         StewartRobot.from_preset("desktop").export_c(tmp_path / "out", prefix="hexa", seed=seed)
+
+
+def test_the_c_forward_geometry_stops_as_the_python_one():
+    """The exported Newton's tolerance and step budget are the Python path's (the C
+    and the reference forward geometry stop at the same residual)."""
+    from stewart_pin.codegen import c_export
+    from stewart_pin.kinematics import leg_chains
+
+    assert c_export.FORWARD_TOLERANCE == leg_chains.FORWARD_TOLERANCE
+    assert c_export.FORWARD_MAX_ITERATIONS == leg_chains.FORWARD_MAX_ITERATIONS

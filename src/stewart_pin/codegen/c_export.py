@@ -42,6 +42,7 @@ import numpy as np
 
 from stewart_pin._checks import ROTATION_TOLERANCE
 from stewart_pin._io import write_text_atomic
+from stewart_pin._so3 import so3_exp
 from stewart_pin.codegen import _cexport, _cexport_programs, _csource
 from stewart_pin.codegen._sx_common import function, vcross
 from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
@@ -61,7 +62,6 @@ from stewart_pin.codegen.symbolic import (
     pose_from_input,
 )
 from stewart_pin.exceptions import ExportError, StewartPinError
-from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
 from stewart_pin.protocols import RobotLike
 
@@ -325,8 +325,6 @@ def c_library(
     numbers["derivatives_decl"] = (
         Template(_cexport.DERIVATIVES_DECL).substitute(numbers) if derivatives else ""
     )
-    assert FORWARD_TOLERANCE == leg_chains.FORWARD_TOLERANCE
-    assert FORWARD_MAX_ITERATIONS == leg_chains.FORWARD_MAX_ITERATIONS
     header = Template(_cexport.HEADER).substitute(numbers)
     source = (
         Template(_cexport.SOURCE_HEAD).substitute(numbers)
@@ -343,11 +341,7 @@ def c_library(
 def _perturbed(T: np.ndarray, rng: np.random.Generator, offset: float) -> np.ndarray:
     """``T`` moved by up to ``offset`` [m] and turned by up to ``offset`` [rad]."""
     out = T.copy()
-    w = rng.uniform(-offset, offset, 3)
-    th = float(np.linalg.norm(w))
-    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    E = np.eye(3) + math.sin(th) / th * K + (1.0 - math.cos(th)) / th**2 * (K @ K)
-    out[:3, :3] = E @ T[:3, :3]
+    out[:3, :3] = so3_exp(rng.uniform(-offset, offset, (1, 3)))[0] @ T[:3, :3]
     out[:3, 3] += rng.uniform(-offset, offset, 3)
     return out
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_scalar, check_states
+from stewart_pin._extras import require
 from stewart_pin._io import atomic_open
 from stewart_pin.design.feasibility import feasible
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
@@ -571,16 +572,8 @@ def _html(
     """The standalone page of :func:`write_report` (every cell escaped)."""
     from html import escape
 
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as e:
-        from stewart_pin.exceptions import MissingDependencyError
-
-        raise MissingDependencyError(
-            'the HTML report\'s plots need matplotlib: pip install "stewart-pin[viz]"',
-            "matplotlib",
-            "viz",
-        ) from e
+    (figure,) = require("the HTML report's plots", "viz", "matplotlib.figure")
+    Figure = figure.Figure
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'>",
         "<title>stewart-pin actuator sizing</title></head><body>",

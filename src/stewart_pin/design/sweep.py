@@ -194,8 +194,7 @@ class SweepResult:
     ) -> Any:
         """Every geometry and the Pareto front (:meth:`pareto`) in a Matplotlib figure,
         saved to ``path`` when given; returns the figure (needs the viz extra)."""
-        import matplotlib
-
+        (matplotlib,) = require("the Pareto plot", "viz", "matplotlib")
         if path is not None:
             matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_scalar
+from stewart_pin._extras import require
 from stewart_pin.design.feasibility import check_distance, check_rotations, condition_bound, mask
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
 
@@ -115,7 +116,7 @@ class Workspace:
     def plot_slice(self, axis: int = 2, value: float | None = None, ax: Any = None) -> Any:
         """The slice of :meth:`slice` as an image on a Matplotlib axes (created when
         ``ax`` is None); returns the axes (needs ``pip install "stewart-pin[viz]"``)."""
-        import matplotlib.pyplot as plt
+        (plt,) = require("the workspace slice plot", "viz", "matplotlib.pyplot")
 
         mask, extent = self.slice(axis, value)
         if ax is None:
