@@ -69,8 +69,8 @@ def bench_sweep(
     client.close()
     cluster.close()
     with tempfile.TemporaryDirectory() as folder:
-        a = serial.to_csv(Path(folder) / "a.csv").read_text()
-        b = parallel.to_csv(Path(folder) / "b.csv").read_text()
+        a = serial.write_csv(Path(folder) / "a.csv").read_text()
+        b = parallel.write_csv(Path(folder) / "b.csv").read_text()
     speedup = t_serial / t_par
     failed = sum(1 for r in serial.rows if r["error"])
     print(

@@ -305,7 +305,16 @@ def _direct_writes(tree: ast.AST) -> list[int]:
         for child in ast.iter_child_nodes(node):
             visit(child, handles)
 
-    visit(tree, frozenset())
+    memory = frozenset(  # names bound to in-memory buffers (io.BytesIO(), io.StringIO())
+        target.id
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Assign)
+        and isinstance(node.value, ast.Call)
+        and ast.unparse(node.value.func).split(".")[-1] in ("BytesIO", "StringIO")
+        for target in node.targets
+        if isinstance(target, ast.Name)
+    )
+    visit(tree, memory)
     return found
 
 
@@ -334,6 +343,8 @@ def test_the_source_scan_finds_direct_writes():
         "json.dump({}, Path('h').open('w'))\n"
         "result.save('i.npz')\n"  # a method of the package (itself checked)
         "webbrowser.open('http://x', new=2)\n"
+        "buf = io.BytesIO()\n"
+        "fig.savefig(buf, format='png')\n"  # in memory
     )
     assert _direct_writes(ast.parse(text)) == [2, 3, 6, 7, 9, 10, 10]
 

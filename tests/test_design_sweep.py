@@ -25,8 +25,8 @@ def serial():
 
 def test_parallel_table_equals_the_serial_one(serial, tmp_path):
     parallel = design.sweep(GEOMETRIES, SETTINGS, workers=2, processes=False, progress=False)
-    a = serial.to_csv(tmp_path / "serial.csv").read_text()
-    b = parallel.to_csv(tmp_path / "parallel.csv").read_text()
+    a = serial.write_csv(tmp_path / "serial.csv").read_text()
+    b = parallel.write_csv(tmp_path / "parallel.csv").read_text()
     assert a == b
     assert a.splitlines()[0] == (
         "base_radius,home_height,platform_radius,stroke,volume,volume_error,peak_effort,"

@@ -198,7 +198,7 @@ def _sweep(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         timeout=args.timeout,
     )
-    result.to_csv(out)
+    result.write_csv(out)
     failed = sum(1 for r in result.rows if r["error"])
     print(f"swept {len(result.rows)} geometries ({failed} failed); wrote {out}")
     if plot is not None:

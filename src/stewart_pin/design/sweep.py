@@ -161,7 +161,7 @@ class SweepResult:
             raise InputError(f"no column {name!r}; the columns are {self.columns}")
         return np.array([float(r[name]) for r in self.rows])
 
-    def to_csv(self, path: str | Path) -> Path:
+    def write_csv(self, path: str | Path) -> Path:
         """Write the table as CSV (floats with every digit, atomically); returns the path."""
         import csv
 
