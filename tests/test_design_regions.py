@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 from conftest import get_robot
 
-from stewart_pin import SingularityError, design
+from stewart_pin import InputError, SingularityError, design
 
 
 def _ball(rng, n, radius):
@@ -53,3 +53,17 @@ def test_singularity_map_and_errors():
     assert m[4, 4] == pytest.approx(robot.condition_number(robot.home_pose))
     with pytest.raises(SingularityError, match="centre"):
         design.singularity_free_region(robot, max_condition=1.5)
+
+
+def test_an_unbounded_region_claims_only_what_was_probed():
+    """No crossing within ``reach``: the sphere is the searched one and the cube the one
+    inscribed in it (its corners were probed), not a cube of half-side ``reach``."""
+    robot = get_robot("desktop")
+    reg = design.singularity_free_region(robot, reach=1e-4, directions=6, steps=4)
+    assert not reg.bounded
+    assert reg.radius == pytest.approx(1e-4)
+    assert reg.half_side * np.sqrt(3.0) == pytest.approx(1e-4)
+    with pytest.raises(InputError, match="steps"):
+        design.singularity_free_region(robot, reach=1e-4, steps=0)
+    with pytest.raises(InputError, match="tol"):
+        design.singularity_free_region(robot, reach=1e-4, tol=-1.0)

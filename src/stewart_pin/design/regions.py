@@ -144,6 +144,8 @@ def singularity_free_region(
     reach = check_scalar(reach, "reach", positive=True, unit="m")
     if isinstance(directions, bool) or not isinstance(directions, int) or directions < 6:
         raise InputError(f"directions must be an integer >= 6, got {directions!r}")
+    steps = int(check_scalar(steps, "steps", positive=True, integer=True))
+    tol = check_scalar(tol, "tol", positive=True, unit="m")
     T = np.tile(np.eye(4), (len(Rs), 1, 1))
     T[:, :3, :3], T[:, :3, 3] = Rs, center
     c0 = measure(robot, T)
@@ -161,7 +163,11 @@ def singularity_free_region(
     finite = np.isfinite(per)
     pts = center + np.where(finite, per, 0.0)[..., None] * d[None]  # (K, D, 3)
     if not finite.any():
-        return SingularityFreeRegion(center, reach, reach, center, Rs[0], bound, False)
+        # no crossing within the searched sphere: the cube inscribed in it (its corners
+        # at ``reach``, the largest distance probed)
+        return SingularityFreeRegion(
+            center, reach, reach / np.sqrt(3.0), center, Rs[0], bound, False
+        )
     k, j = (int(i) for i in np.unravel_index(int(np.argmin(per)), per.shape))
     half_side = float(np.min(np.abs(pts[finite] - center).max(axis=-1)))
 
