@@ -554,7 +554,7 @@ def test_the_energy_figure_of_a_driven_motion_is_the_work_energy_balance(
     ((_, residual),) = line_data(bottom)
     assert np.abs(change).max() > 0.04 and np.abs(work).max() > 0.04  # a driven motion
     assert np.abs(residual).max() < rtol * np.abs(work).max()
-    assert top.get_title().startswith("Work-energy balance: max |E - E(0) + losses - work| = ")
+    assert top.get_title().startswith("Work-energy balance: max |E - E(0) + losses - work|\n= ")
 
 
 def test_actuator_work_of_constant_forces_is_force_times_displacement():

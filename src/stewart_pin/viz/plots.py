@@ -196,7 +196,9 @@ def plot_energy_balance(t: Any, energy: Any, work: Any, dissipated: Any = None) 
     worst = float(np.max(np.abs(residual))) if len(residual) else 0.0
     scale = float(np.max(np.abs(work))) if len(work) else 0.0
     relative = f" ({worst / scale:.2g} of the work)" if scale > 0 else ""
-    ax.set_title(f"Work-energy balance: max |E - E(0) + losses - work| = {worst:.3g} J{relative}")
+    ax.set_title(  # two lines: one is wider than the figure
+        f"Work-energy balance: max |E - E(0) + losses - work|\n= {worst:.3g} J{relative}"
+    )
     return fig
 
 
