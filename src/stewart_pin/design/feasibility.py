@@ -137,6 +137,20 @@ def leg_distance(robot: Any, poses: Any) -> np.ndarray:
     return _leg_distance(robot, check_poses(poses)[0])
 
 
+def check_directions(directions: Any) -> np.ndarray:
+    """``directions`` (K, 3) as unit vectors: finite, non-zero, else :class:`InputError`."""
+    try:
+        D = np.asarray(directions, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"directions must be (K, 3) numbers, got {directions!r}") from None
+    if D.ndim != 2 or D.shape[1] != 3 or not np.all(np.isfinite(D)):
+        raise InputError(f"directions must be a finite (K, 3) array, got shape {D.shape}")
+    norms = np.linalg.norm(D, axis=1)
+    if np.any(norms == 0):
+        raise InputError("directions must be non-zero")
+    return D / norms[:, None]
+
+
 def check_rotations(orientations: Any) -> np.ndarray:
     """Rotation matrices (K, 3, 3), each checked; a single (3, 3) gives K = 1."""
     try:

@@ -34,7 +34,7 @@ import numpy as np
 from stewart_pin._checks import check_scalar, check_states
 from stewart_pin._extras import require
 from stewart_pin._io import atomic_open
-from stewart_pin.design.feasibility import feasible
+from stewart_pin.design.feasibility import check_directions, feasible
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
 
 #: Relative step of the central differences of :func:`worst_case` (of each half-width).
@@ -346,19 +346,6 @@ def _effort_limits(robot: Any, effort_limits: Any, what: str) -> np.ndarray:
     return lim
 
 
-def _unit_directions(directions: Any) -> np.ndarray:
-    """``directions`` (K, 3) (default :data:`AXES`) as unit vectors, checked."""
-    try:
-        D = AXES if directions is None else np.asarray(directions, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"directions must be (K, 3) numbers, got {directions!r}") from None
-    if D.ndim != 2 or D.shape[1] != 3 or not np.all(np.isfinite(D)):
-        raise InputError(f"directions must be a finite (K, 3) array, got shape {D.shape}")
-    if np.any(np.linalg.norm(D, axis=1) == 0):
-        raise InputError("directions must be non-zero")
-    return D / np.linalg.norm(D, axis=1)[:, None]
-
-
 def _holds(g0: np.ndarray, lim: np.ndarray) -> None:
     """Refuse a state whose efforts ``g0`` at zero acceleration pass the limits."""
     if np.any(np.abs(g0) > lim):
@@ -398,7 +385,7 @@ def dynamic_capability(
     lim = _effort_limits(robot, effort_limits, "dynamic_capability")
     T = robot.home_pose if pose is None else np.asarray(pose, dtype=float)
     V = np.zeros(6) if twist is None else np.asarray(twist, dtype=float).reshape(6)
-    D = _unit_directions(directions)
+    D = check_directions(AXES if directions is None else directions)
     accels = np.vstack([np.zeros(6), np.eye(6)])
     g = np.asarray(
         robot.inverse_dynamics(np.tile(T, (7, 1, 1)), np.tile(V, (7, 1)), accels, backend=backend)
@@ -486,7 +473,7 @@ def wrench_capability(
         raise InputError(f"kind must be 'force' or 'moment', got {kind!r}")
     lim = _effort_limits(robot, effort_limits, "wrench_capability")
     T = robot.home_pose if pose is None else np.asarray(pose, dtype=float)
-    D = _unit_directions(directions)
+    D = check_directions(AXES if directions is None else directions)
     g0 = np.asarray(robot.inverse_dynamics(T, np.zeros(6), np.zeros(6), backend=backend))
     _holds(g0, lim)
     K = np.linalg.solve(np.asarray(robot.inverse_jacobian(T)).T, np.eye(6))  # J_inv^-T

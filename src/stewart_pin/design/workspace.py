@@ -23,7 +23,13 @@ import numpy as np
 
 from stewart_pin._checks import check_scalar
 from stewart_pin._extras import require
-from stewart_pin.design.feasibility import check_distance, check_rotations, condition_bound, mask
+from stewart_pin.design.feasibility import (
+    check_directions,
+    check_distance,
+    check_rotations,
+    condition_bound,
+    mask,
+)
 from stewart_pin.exceptions import EmptyWorkspaceError, InputError
 
 #: Cells along the longest side of the box (default).
@@ -102,13 +108,7 @@ class Workspace:
         infeasible one of a march at a quarter cell, refined by bisection to ``tol``
         (default 1e-9 of the box's diagonal). A ray that leaves the box feasible ends at
         the box's face."""
-        d = _DIRECTIONS if directions is None else np.asarray(directions, dtype=float)
-        if d.ndim != 2 or d.shape[1] != 3 or not np.all(np.isfinite(d)):
-            raise InputError(f"directions must be a finite (K, 3) array, got shape {d.shape}")
-        norms = np.linalg.norm(d, axis=1)
-        if np.any(norms == 0):
-            raise InputError("directions must be non-zero")
-        d = d / norms[:, None]
+        d = check_directions(_DIRECTIONS if directions is None else directions)
         size = float(np.linalg.norm(self.upper - self.lower))
         tol = 1e-9 * size if tol is None else check_scalar(tol, "tol", positive=True)
         return _ray_boundary(self._test, self.start, d, self.lower, self.upper, tol)
