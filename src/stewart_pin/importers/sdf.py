@@ -196,6 +196,8 @@ class _Reader:
         if degrees_text not in ("true", "false", "1", "0"):
             raise self.error(p, f"<pose> of {owner}: degrees={shown(degrees_text)}")
         degrees = degrees_text in ("true", "1")
+        if not (p.text or "").strip():  # <pose relative_to="f"/>: at f
+            return np.eye(4), relative_to
         v = self.numbers(p, (7,) if quat == "quat_xyzw" else (6,), f"<pose> of {owner}")
         T = np.eye(4)
         T[:3, 3] = v[:3]
@@ -741,7 +743,7 @@ def _tree_joints(
     for n, tag in enumerate(tags):
         found = _children(j.el, tag)
         R = poses[j.name][:3, :3]
-        xyz = np.array([0.0, 0.0, 1.0] if n == 0 else [0.0, 1.0, 0.0])
+        xyz = np.array([0.0, 0.0, 1.0])  # SDFormat's default, <axis2> too
         limit: Any = None
         dynamics: Any = None
         if found:
