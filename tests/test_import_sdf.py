@@ -379,3 +379,56 @@ def test_cli_imports_sdf_and_takes_it_as_model(tmp_path, capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         StewartRobot.from_sdf(path, name="gz")
+
+
+# --- 5. SDF details ------------------------------------------------------------------------------
+
+
+def test_frames_as_joint_ends_a_lone_model_and_several_models(tmp_path):
+    """A ball joint's child written as a ``<frame>`` on the platform (SDFormat 1.8+), the
+    model alone in the file (SDFormat's default gravity, -9.8 z), and a world with a second
+    model without joints: the same robot."""
+    d = _u_cross_massless("simulator", 0)
+    text = gazebo_sdf(d, "1.9", seed=4)
+    plain = import_sdf(write(tmp_path, text, "a.sdf")).description
+    framed = text.replace(
+        '<link name="platform">',
+        '<frame name="top" attached_to="platform"/><link name="platform">',
+    ).replace("<child>platform</child>", "<child>top</child>")
+    assert framed.count("<child>top</child>") == 6
+    assert differences(import_sdf(write(tmp_path, framed, "b.sdf")).description, plain) == []
+    start, end = text.index("<model "), text.index("</model>") + len("</model>")
+    lone = f'<sdf version="1.9">{text[start:end]}</sdf>'
+    desc = import_sdf(write(tmp_path, lone, "c.sdf")).description
+    np.testing.assert_array_equal(desc.gravity, [0.0, 0.0, -9.8])
+    assert differences(desc, plain) == ["/gravity: 0.01"]
+    crowded = text.replace(
+        "<include><uri>model://ground_plane</uri></include>",
+        '<model name="table"><static>true</static>' + _LINK.format(n="top") + "</model>",
+    )
+    result = import_sdf(write(tmp_path, crowded, "d.sdf"))
+    assert "the world's other models ignored: 'table'" in str(result.report)
+    assert differences(result.description, plain) == []
+
+
+def test_pose_forms_are_the_same_rotation(tmp_path):
+    """``x y z roll pitch yaw`` (fixed axes: ``Rz Ry Rx``), in degrees, and ``quat_xyzw``."""
+    from scipy.spatial.transform import Rotation
+
+    from stewart_pin.importers.sdf import read_sdf
+
+    R = Rotation.from_euler("xyz", [0.3, -0.7, 1.9])
+    x, y, z, w = (float(c) for c in R.as_quat())
+    rpy = " ".join(repr(float(a)) for a in R.as_euler("xyz"))
+    deg = " ".join(repr(float(a)) for a in R.as_euler("xyz", degrees=True))
+    poses = [
+        f"<pose>1 2 3 {rpy}</pose>",
+        f'<pose degrees="true">1 2 3 {deg}</pose>',
+        f'<pose rotation_format="quat_xyzw">1 2 3 {x!r} {y!r} {z!r} {w!r}</pose>',
+    ]
+    for pose in poses:
+        body = _LINK.format(n="a").replace("<inertial>", pose + "<inertial>")
+        model = read_sdf(write(tmp_path, _model(body), "p.sdf")).model
+        T = model.bodies[1].pose
+        np.testing.assert_allclose(T[:3, :3], R.as_matrix(), atol=1e-14)
+        np.testing.assert_allclose(T[:3, 3], [1, 2, 3], atol=0)

@@ -281,7 +281,7 @@ def _find_model(root: Any, reader: _Reader, notes: list[str]) -> tuple[Any, np.n
         raise reader.error(world, "the <world> holds no <model>", ModelImportError)
     chosen = models
     if len(models) > 1:
-        chosen = [m for m in models if any(m.iter("joint"))]
+        chosen = [m for m in models if next(m.iter("joint"), None) is not None]
         if len(chosen) != 1:
             names = [str(m.get("name", "")) for m in (chosen or models)]
             raise reader.error(
