@@ -177,6 +177,13 @@ def test_gravity_false_links_ball_dynamics_and_a_loose_base_are_reported(tmp_pat
     loose = import_sdf(write(tmp_path, gazebo_sdf(d, seed=3, base="none"), "c.sdf"))
     assert "the base link 'base' is neither <static> nor jointed to the world" in str(loose.report)
     assert differences(loose.description, plain.description) == []
+    # the platform written first (the canonical link): still the base is the base
+    first = gazebo_sdf(d, seed=3, base="none")
+    base_link = first[first.index('<link name="base">') : first.index("</link>") + 7]
+    first = first.replace(base_link, "").replace("</model>", base_link + "</model>")
+    moved = import_sdf(write(tmp_path, first, "e.sdf"))
+    assert "the base link 'base' is neither" in str(moved.report)
+    assert differences(moved.description, plain.description) == []
     static = import_sdf(write(tmp_path, gazebo_sdf(d, seed=3, base="static"), "d.sdf"))
     assert "neither <static>" not in str(static.report)
     assert differences(static.description, plain.description) == []

@@ -505,7 +505,9 @@ def read_sdf(path: str | Path) -> SdfRead:
     roots = [str(el.get("name")) for el in links if str(el.get("name")) not in tree_joint]
     base: str | None = None
     if not to_world and roots:
-        base = canonical if canonical in roots else roots[0]
+        # the canonical link, unless it is the child of joints (a platform closing loops)
+        alone = [r for r in roots if r not in by_child] or roots
+        base = canonical if canonical in alone else alone[0]
         if not static:
             notes.append(
                 f"the base link {shown(base)} is neither <static> nor jointed to the world: "
