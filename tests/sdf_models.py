@@ -4,8 +4,8 @@
 - :func:`gazebo_sdf`: a robot of the project (its description) as a Gazebo model: the
   base fixed to ``world``, each leg's two intersecting hinges written as one
   ``universal`` joint (the cross between them massless), the other joint a ``revolute``
-  or ``prismatic`` one, the leg's last link the child... no: the **platform the child of
-  six ``ball`` joints** (how SDF closes loops); every link frame at an odd place, joint
+  or ``prismatic`` one, and the **platform the child of six ``ball`` joints** (how SDF
+  closes loops), one per leg's last link; every link frame at an odd place, joint
   frames turned about their axis, the file's poses the home configuration (every joint at
   zero there: joint zeros are not the description's), SDFormat 1.4 (poses in the model
   frame, axes in the model frame) or 1.9 (poses ``relative_to`` links and ``<frame>``

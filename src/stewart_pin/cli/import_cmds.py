@@ -42,7 +42,7 @@ def _import(args: argparse.Namespace) -> int:
         then = " and ".join(names[f] for f in formats)
         raise InputError(
             f"{option} only applies to {then} files, and {args.model} is "
-            f"{'an' if kind == 'mjcf' else 'a'} {names[kind]} model (by its suffix): leave it out"
+            f"{'a' if kind == 'urdf' else 'an'} {names[kind]} model (by its suffix): leave it out"
         )
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
