@@ -117,12 +117,16 @@ def test_import_errors_are_one_line_exit_2(tmp_path, capsys):
 
 
 def test_import_options_of_the_other_format_are_refused(cad_file, tmp_path, capsys):
-    """``--keyframe`` is MJCF's, ``--closures`` / ``--closure-pairs`` / ``--actuated`` are
-    URDF's: given for the other kind of file they would be ignored silently."""
-    for extra in (["--actuated", *[f"leg{k}_j1" for k in range(1, 7)]], ["--closures", "x.json"]):
+    """``--keyframe`` is MJCF's, ``--closures`` / ``--closure-pairs`` are URDF's,
+    ``--actuated`` URDF's and SDF's: given for another kind of file they would be ignored
+    silently."""
+    for extra, formats in (
+        (["--actuated", *[f"leg{k}_j1" for k in range(1, 7)]], "URDF and SDF"),
+        (["--closures", "x.json"], "URDF"),
+    ):
         assert main(["import", str(cad_file), *extra]) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and f"{extra[0]} only applies to URDF files" in err
+        assert err.count("\n") == 1 and f"{extra[0]} only applies to {formats} files" in err
     urdf = tmp_path / "r.urdf"
     urdf.write_text(cad_urdf(pus_preset(), seed=2))
     assert main(["import", str(urdf), "--keyframe", "home"]) == 2

@@ -192,6 +192,17 @@ class StewartRobot:
 
         return cls(import_urdf(path, closures, actuated, armature, **options).description)
 
+    @classmethod
+    def from_sdf(cls, path: str | Path, actuated: Any = None, **options: Any) -> StewartRobot:
+        """From a Gazebo SDF file (SDFormat 1.4 to 1.11: one ``<model>``, or a ``<world>``
+        holding it); SDF has no actuators: each leg's one revolute or prismatic joint by
+        default, else ``actuated=[...]`` in leg order
+        (:func:`stewart_pin.importers.import_sdf`, ``docs/importing.md``). F0 is the
+        file's world, Fp the platform link's frame."""
+        from stewart_pin.importers import import_sdf
+
+        return cls(import_sdf(path, actuated, **options).description)
+
     def to_dict(self) -> dict[str, Any]:
         """The description's dictionary form."""
         return self.description.to_dict()

@@ -161,8 +161,9 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--description", help="a robot description file (.toml or .json)")
     g.add_argument(
         "--model",
-        help="a robot model file to import: MJCF (.xml) or URDF (.urdf, its loop closures "
-        "from the sidecar or closing_<k>_1/_2 frames); see `stewart-pin import`",
+        help="a robot model file to import: MJCF (.xml), URDF (.urdf, its loop closures "
+        "from the sidecar or closing_<k>_1/_2 frames) or Gazebo SDF (.sdf); see "
+        "`stewart-pin import`",
     )
 
 

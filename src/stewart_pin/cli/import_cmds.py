@@ -1,17 +1,16 @@
-"""``import``: a robot from its MJCF or URDF, printed and written as a description."""
+"""``import``: a robot from its MJCF, URDF or SDF, printed and written as a description."""
 
 from __future__ import annotations
 
 import argparse
 import warnings
-from pathlib import Path
 
 from stewart_pin.cli._common import check_output, positive_finite_float, report_stream, written
 from stewart_pin.exceptions import InputError
 
 
 def _import(args: argparse.Namespace) -> int:
-    from stewart_pin.importers import import_mjcf, import_urdf
+    from stewart_pin.importers import import_mjcf, import_sdf, import_urdf, model_format
     from stewart_pin.robot import StewartRobot
 
     out = (
@@ -26,27 +25,30 @@ def _import(args: argparse.Namespace) -> int:
         "closure_tolerance": args.closure_tolerance,
         "rod_spin": args.rod_spin,
     }
-    urdf = Path(args.model).suffix.lower() == ".urdf"
-    other = (
-        [("--keyframe", args.keyframe)]
-        if urdf
-        else [
-            ("--closures", args.closures),
-            ("--closure-pairs", args.closure_pairs),
-            ("--actuated", args.actuated),
-        ]
-    )
-    ignored = [option for option, value in other if value is not None]
+    kind = model_format(args.model)  # one line for a format not read
+    ignored = [
+        (option, formats)
+        for option, value, formats in (
+            ("--keyframe", args.keyframe, ("mjcf",)),
+            ("--closures", args.closures, ("urdf",)),
+            ("--closure-pairs", args.closure_pairs, ("urdf",)),
+            ("--actuated", args.actuated, ("urdf", "sdf")),
+        )
+        if value is not None and kind not in formats
+    ]
     if ignored:
-        kind, then = ("a URDF", "MJCF") if urdf else ("an MJCF", "URDF")
-        verb = "applies" if len(ignored) == 1 else "apply"
+        names = {"urdf": "URDF", "mjcf": "MJCF", "sdf": "SDF"}
+        option, formats = ignored[0]
+        then = " and ".join(names[f] for f in formats)
         raise InputError(
-            f"{', '.join(ignored)} only {verb} to {then} files, and {args.model} is {kind} "
-            "model (by its suffix): leave them out"
+            f"{option} only applies to {then} files, and {args.model} is "
+            f"{'a' if kind == 'urdf' else 'an'} {names[kind]} model (by its suffix): leave it out"
         )
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        if urdf:
+        if kind == "sdf":
+            result = import_sdf(args.model, args.actuated, **options)  # type: ignore[arg-type]
+        elif kind == "urdf":
             closures = args.closures
             if args.closure_pairs:
                 closures = [tuple(pair.split("=", 1)) for pair in args.closure_pairs]
@@ -71,13 +73,13 @@ def _import(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "import",
-        help="import a robot from its MJCF or URDF: print what was recognised, write it",
-        description="Reads MODEL (MJCF .xml through MuJoCo, or URDF .urdf with its loop "
-        "closures), recognises the base, the platform and six legs, prints the legs, joints, "
-        "actuated joints, lumped bodies, loop residuals and joint terms, and with -o writes "
-        "the robot description (docs/importing.md).",
+        help="import a robot from its MJCF, URDF or SDF: print what was recognised, write it",
+        description="Reads MODEL (MJCF .xml through MuJoCo, URDF .urdf with its loop "
+        "closures, or Gazebo SDF .sdf / .world), recognises the base, the platform and six "
+        "legs, prints the legs, joints, actuated joints, lumped bodies, loop residuals and "
+        "joint terms, and with -o writes the robot description (docs/importing.md).",
     )
-    p.add_argument("model", help="the model file: MJCF (.xml) or URDF (.urdf)")
+    p.add_argument("model", help="the model file: MJCF (.xml), URDF (.urdf) or SDF (.sdf)")
     p.add_argument(
         "-o",
         "--output",
@@ -96,7 +98,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="LINK1=LINK2",
         help="URDF: loop closures as pairs of links or frames whose origins coincide",
     )
-    p.add_argument("--actuated", nargs=6, metavar="JOINT", help="URDF: actuated joints, leg order")
+    p.add_argument(
+        "--actuated",
+        nargs=6,
+        metavar="JOINT",
+        help="URDF, SDF: actuated joints, leg order (SDF default: each leg's one revolute or "
+        "prismatic joint, in file order)",
+    )
     p.add_argument(
         "--closure-tolerance",
         type=positive_finite_float,

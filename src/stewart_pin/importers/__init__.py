@@ -1,9 +1,11 @@
-"""Model files in: a hexapod from its MJCF or URDF, as a
+"""Model files in: a hexapod from its MJCF, URDF or SDF, as a
 :class:`~stewart_pin.description.RobotDescription` (``docs/importing.md``).
 
-- :func:`import_mjcf`, :func:`import_urdf`, :func:`import_model` (by the file's suffix):
-  the description and an :class:`~.topology.ImportReport` of what was recognised, lumped,
-  corrected and ignored. ``StewartRobot.from_mjcf`` / ``from_urdf`` wrap them.
+- :func:`import_mjcf`, :func:`import_urdf`, :func:`import_sdf`, :func:`import_model` (by
+  the file's suffix; :func:`model_format` names the format, or refuses a file in a format
+  not read in one line saying how to convert it): the description and an
+  :class:`~.topology.ImportReport` of what was recognised, lumped, corrected and
+  ignored. ``StewartRobot.from_mjcf`` / ``from_urdf`` / ``from_sdf`` wrap them.
 - :mod:`.tree`: the neutral kinematic tree both readers produce; :mod:`.topology`: the
   recognition of the base, the platform and six legs in it; :mod:`.build`: the
   description built from them and the import report.
@@ -11,10 +13,11 @@
   and :func:`~.canonical.canonical_description` (any description in that form).
 - :mod:`.mjcf` (through MuJoCo) and :mod:`.urdf` (through yourdfpy; loop closures from the
   project's sidecar, onshape-to-robot's ``closing_<k>_1`` / ``closing_<k>_2`` frames or
-  pairs of names).
+  pairs of names); :mod:`.sdf` (Gazebo's SDFormat 1.4 to 1.11, the project's own strict
+  reader).
 
-MuJoCo and yourdfpy are optional (``pip install "stewart-pin[import]"``), imported when a
-file is read.
+MuJoCo, yourdfpy and lxml are optional (``pip install "stewart-pin[import]"``), imported
+when a file is read.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from stewart_pin._checks import check_scalar
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import FileFormatError, InputError
 from stewart_pin.importers.build import (
     CLOSURE_TOLERANCE,
     SPIN_TOLERANCE,
@@ -43,7 +46,9 @@ __all__ = [
     "canonical_description",
     "import_mjcf",
     "import_model",
+    "import_sdf",
     "import_urdf",
+    "model_format",
 ]
 
 
@@ -73,6 +78,10 @@ def import_mjcf(
     """
     from stewart_pin.importers.mjcf import read_mjcf
 
+    if isinstance(source, Path) or (
+        isinstance(source, str) and not source.lstrip().startswith("<")
+    ):
+        model_format(source, "mjcf")
     if keyframe is not None and (
         isinstance(keyframe, bool) or not isinstance(keyframe, (str, int))
     ):
@@ -124,12 +133,8 @@ def import_urdf(
     closure_tolerance, spin_tolerance = _check_options(
         platform, name, closure_tolerance, spin_tolerance
     )
-    if actuated is not None and (
-        isinstance(actuated, str)
-        or not isinstance(actuated, Sequence)
-        or not all(isinstance(joint, str) for joint in actuated)
-    ):
-        raise InputError(f"actuated must be a list of joint names in leg order, got {actuated!r}")
+    _check_actuated(actuated)
+    model_format(path, "urdf")
     if armature is not None:
         if not isinstance(armature, Mapping) or not all(isinstance(k, str) for k in armature):
             raise InputError(
@@ -154,6 +159,59 @@ def import_urdf(
     )
 
 
+def import_sdf(
+    path: str | Path,
+    actuated: Sequence[str] | None = None,
+    *,
+    platform: str | None = None,
+    name: str | None = None,
+    closure_tolerance: float = CLOSURE_TOLERANCE,
+    spin_tolerance: float = SPIN_TOLERANCE,
+    rod_spin: str = "error",
+) -> ImportResult:
+    """A hexapod from a Gazebo SDF file (SDFormat 1.4 to 1.11; ``docs/importing.md``).
+
+    Args:
+        path: the ``.sdf`` (or ``.world``) file: one ``<model>``, or a ``<world>`` with it.
+        actuated: the actuated joints in leg order. SDF has no actuators: by default each
+            leg's one revolute or prismatic joint (a universal joint's hinges are passive),
+            legs in the order of those joints in the file; a leg with several needs this.
+        platform, name, closure_tolerance, spin_tolerance, rod_spin: as
+            :func:`import_mjcf`.
+    """
+    from stewart_pin.importers.sdf import default_actuated, read_sdf
+
+    closure_tolerance, spin_tolerance = _check_options(
+        platform, name, closure_tolerance, spin_tolerance
+    )
+    _check_actuated(actuated)
+    model_format(path, "sdf")
+    read = read_sdf(path)
+    rec = recognise(read.model, platform)
+    if actuated is None:
+        legs = [[e.joint.name for e in leg.edges if not e.spherical] for leg in rec.legs]
+        actuated = default_actuated(read, legs)
+    return build(
+        read.model,
+        rec,
+        actuated=actuated,
+        name=name,
+        closure_tolerance=closure_tolerance,
+        spin_tolerance=spin_tolerance,
+        rod_spin=rod_spin,
+    )
+
+
+def _check_actuated(actuated: Any) -> None:
+    """:class:`InputError` unless ``actuated`` is None or a list of joint names."""
+    if actuated is not None and (
+        isinstance(actuated, str)
+        or not isinstance(actuated, Sequence)
+        or not all(isinstance(joint, str) for joint in actuated)
+    ):
+        raise InputError(f"actuated must be a list of joint names in leg order, got {actuated!r}")
+
+
 def _check_options(
     platform: Any, name: Any, closure_tolerance: Any, spin_tolerance: Any
 ) -> tuple[float, float]:
@@ -168,9 +226,73 @@ def _check_options(
     )
 
 
+#: The suffixes of the formats read (lower case).
+READ_SUFFIXES = {".urdf": "urdf", ".xml": "mjcf", ".mjcf": "mjcf", ".sdf": "sdf", ".world": "sdf"}
+_USD = (
+    "a USD stage (have the robot written as a URDF or an MJCF, e.g. by Isaac Sim's URDF "
+    "exporter, then import that)"
+)
+_MESH = "a mesh, geometry only (no joints, no masses): give the model file that uses it"
+#: Formats not read, by suffix: what the file is, and how to make it one that is.
+NOT_READ = {
+    ".xacro": "a xacro template (expand it to a URDF first with xacrodoc, `pip install xacrodoc`: "
+    "`xacrodoc FILE.urdf.xacro -o robot.urdf`; then import the .urdf)",
+    ".erb": "an ERB template (Gazebo's Ruby templates: render it first, `erb FILE.sdf.erb > "
+    "robot.sdf`, then import the .sdf)",
+    ".wbt": "a Webots world (have Webots write the robot as a URDF: Export URDF in the "
+    "robot's context menu, or wb_robot_get_urdf(); its loops then go in the sidecar, "
+    "docs/closures.md)",
+    ".proto": "a Webots PROTO (put it in a world and have Webots write the robot as a URDF)",
+    ".slx": "a Simulink / Simscape Multibody model (Simscape writes no URDF: describe the "
+    "robot as a URDF, an MJCF or an SDF, e.g. from the CAD it came from)",
+    ".ssc": "a Simscape language file (describe the robot as a URDF, an MJCF or an SDF)",
+    ".usd": _USD,
+    ".usda": _USD,
+    ".usdc": _USD,
+    ".usdz": _USD,
+    ".dae": _MESH,
+    ".stl": _MESH,
+    ".obj": _MESH,
+}
+_READ = "URDF (.urdf), MJCF (.xml, .mjcf) and SDF (.sdf, .world)"
+_NAMES = {"urdf": "a URDF", "mjcf": "an MJCF model", "sdf": "an SDF file"}
+
+
+def model_format(path: str | Path, expected: str | None = None) -> str:
+    """The format of a model file by its suffix: ``"urdf"``, ``"mjcf"`` (``.xml``,
+    ``.mjcf``) or ``"sdf"`` (``.sdf``, ``.world``).
+
+    :class:`FileFormatError` in one line for a format not read (naming it and how to
+    convert or expand it: :data:`NOT_READ`), and without ``expected`` (the format chosen
+    by its suffix) for an unknown suffix. With ``expected`` (the importer the caller chose)
+    any other suffix is taken as that format, except one of another format read
+    (``.urdf``, ``.sdf``, ``.world``; ``.xml`` may be any of them), refused naming the
+    right importer."""
+    suffix = Path(path).suffix.lower()
+    if suffix in NOT_READ:
+        raise FileFormatError(f"{path} is {NOT_READ[suffix]}; stewart-pin reads {_READ}")
+    kind = READ_SUFFIXES.get(suffix)
+    if expected is not None:
+        if kind is not None and kind != expected and suffix != ".xml":
+            raise FileFormatError(
+                f"{path} is {_NAMES[kind]} (by its suffix): read it with from_{kind} / "
+                f"import_{kind}, not from_{expected}"
+            )
+        return expected
+    if kind is None:
+        raise FileFormatError(
+            f"{path}: the suffix {suffix or '(none)'!r} is no model format stewart-pin reads: "
+            f"it reads {_READ} (rename the file if it is one of them)"
+        )
+    return kind
+
+
 def import_model(path: str | Path, **options: Any) -> ImportResult:
-    """:func:`import_urdf` for a ``.urdf`` file, :func:`import_mjcf` for any other (MJCF:
-    ``.xml``, ``.mjcf``)."""
-    if Path(path).suffix.lower() == ".urdf":
+    """:func:`import_urdf`, :func:`import_mjcf` or :func:`import_sdf` by the file's suffix
+    (:func:`model_format`)."""
+    kind = model_format(path)
+    if kind == "urdf":
         return import_urdf(path, **options)
+    if kind == "sdf":
+        return import_sdf(path, **options)
     return import_mjcf(path, **options)
