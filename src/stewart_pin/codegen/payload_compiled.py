@@ -33,7 +33,7 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin._checks import ROTATION_TOLERANCE, check_states
-from stewart_pin.codegen import _csource
+from stewart_pin.codegen import _csource, _simd
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
@@ -103,47 +103,27 @@ static int sp_finite_n(const double* x, int n) {
   return 1;
 }
 
-#define SP_LOOP_BEGIN(SZ_ARG, SZ_RES, SZ_IW, SZ_W, NAUX)                                \
-  const casadi_real* arg[SZ_ARG + 1];                                                    \
-  casadi_real* res[SZ_RES + 1];                                                          \
-  casadi_int iw[SZ_IW + 1];                                                              \
-  casadi_real w[SZ_W + 1];                                                               \
-  double aux[NAUX];                                                                      \
-  int any = 0, f;                                                                        \
-  long long s;                                                                           \
-  for (s = 0; s < n; ++s) {                                                              \
-    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = x + 6 * s;                  \
-    arg[3] = q + SP_NQ * s; arg[4] = qd + SP_NV * s; arg[5] = y + SP_NV * s;             \
-    res[0] = out + SP_NOUT * s; res[1] = aux;
-
-/* Coupled inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), q (n x nq),
-   qd, qdd (n x nv) -> [Gamma, tau] (n x (6 + nv)), flags (n); the OR of the flags. */
-SP_EXPORT int sp_pidm_batch(long long n, const double* pose, const double* twist,
-                            const double* x, const double* q, const double* qd,
-                            const double* y, double max_cond, double* out, int* flags) {
+/* The inverse model's guards of one state after the generated code ran (o: [Gamma, tau],
+   aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */
+static int sp_pidm_after(const double** arg, double* o, const double* aux,
+                         double max_cond) {
   double z[6];
-  int k;
-  SP_LOOP_BEGIN(%(idm_sz_arg)d, %(idm_sz_res)d, %(idm_sz_iw)d, %(idm_sz_w)d, %(idm_naux)d)
-    %(idm)s(arg, res, iw, w, 0);
-    f = sp_check_inputs(arg[0], arg[1], arg[2]) | sp_arm_inputs(arg[3], arg[4], arg[5]);
-    f |= sp_check_legs(aux, %(idm_slack)d);
-    if (!(aux[%(growth)d] <= sp_growth_limit)) {
-      f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, z) | SP_REPIVOTED;
-      for (k = 0; k < 6; ++k) res[0][k] = aux[%(idm_hz)d + k] + z[k];
-    } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
-      f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-    }
-    if (!sp_finite_n(res[0], SP_NOUT)) f |= SP_NONFINITE;
-    flags[s] = f;
-    any |= f;
+  int k, f = sp_check_inputs(arg[0], arg[1], arg[2]) | sp_arm_inputs(arg[3], arg[4], arg[5]);
+  f |= sp_check_legs(aux, %(idm_slack)d);
+  if (!(aux[%(growth)d] <= sp_growth_limit)) {
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, z) | SP_REPIVOTED;
+    for (k = 0; k < 6; ++k) o[k] = aux[%(idm_hz)d + k] + z[k];
+  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
   }
-  return any;
+  if (!sp_finite_n(o, SP_NOUT)) f |= SP_NONFINITE;
+  return f;
 }
 
 /* The direct models' guards: inputs, legs, the singularity measure, every pivot of the
    L D L^T (the first six at ddm_d, then npiv - 6 at ddm_size), finite results. */
-static int sp_pddm_after(const double** arg, const double* o, const double* aux,
-                         int npiv, double max_cond) {
+static int sp_direct_after(const double** arg, const double* o, const double* aux,
+                           int npiv, double max_cond) {
   int k, f = sp_check_inputs(arg[0], arg[1], arg[2]) | sp_arm_inputs(arg[3], arg[4], arg[5]);
   f |= sp_check_legs(aux, %(ddm_slack)d);
   f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
@@ -153,31 +133,81 @@ static int sp_pddm_after(const double** arg, const double* o, const double* aux,
   return f;
 }
 
-/* Torque-driven direct dynamics: pose, twist, gamma, q, qd, tau -> [A, qdd], flags. */
-SP_EXPORT int sp_pddm_batch(long long n, const double* pose, const double* twist,
-                            const double* x, const double* q, const double* qd,
-                            const double* y, double max_cond, double* out, int* flags) {
-  SP_LOOP_BEGIN(%(ddm_sz_arg)d, %(ddm_sz_res)d, %(ddm_sz_iw)d, %(ddm_sz_w)d, %(ddm_naux)d)
-    %(ddm)s(arg, res, iw, w, 0);
-    f = sp_pddm_after(arg, res[0], aux, 6 + SP_NV, max_cond);
-    flags[s] = f;
-    any |= f;
-  }
-  return any;
+static int sp_pddm_after(const double** arg, double* o, const double* aux,
+                         double max_cond) {
+  return sp_direct_after(arg, o, aux, 6 + SP_NV, max_cond);
 }
 
-/* Prescribed direct dynamics: pose, twist, gamma, q, qd, qdd -> [A, tau], flags. */
-SP_EXPORT int sp_ppdm_batch(long long n, const double* pose, const double* twist,
-                            const double* x, const double* q, const double* qd,
-                            const double* y, double max_cond, double* out, int* flags) {
-  SP_LOOP_BEGIN(%(pddm_sz_arg)d, %(pddm_sz_res)d, %(pddm_sz_iw)d, %(pddm_sz_w)d, %(pddm_naux)d)
-    %(pddm)s(arg, res, iw, w, 0);
-    f = sp_pddm_after(arg, res[0], aux, 6, max_cond);
-    flags[s] = f;
-    any |= f;
-  }
-  return any;
+static int sp_ppdm_after(const double** arg, double* o, const double* aux,
+                         double max_cond) {
+  return sp_direct_after(arg, o, aux, 6, max_cond);
 }
+
+/* The arguments of state s: pose, twist, accel or gamma, q, qd, qdd or tau. */
+#define SP_ARGS(A, S)                                                                    \
+  A[0] = pose + 16 * (S); A[1] = twist + 6 * (S); A[2] = x + 6 * (S);                   \
+  A[3] = q + SP_NQ * (S); A[4] = qd + SP_NV * (S); A[5] = y + SP_NV * (S);
+
+/* SP_WIDTH states at a time through VFN (the vector copy of the generated code,
+   codegen/_simd.py), then AFTER's guards per state. */
+#define SP_VEC_LOOP(VFN, AFTER, NAUX)                                                    \
+  {                                                                                      \
+    const double* av[SP_WIDTH][6];                                                       \
+    double* rv[SP_WIDTH][2];                                                             \
+    const double* const* argv[SP_WIDTH];                                                 \
+    double* const* resv[SP_WIDTH];                                                       \
+    double auxv[SP_WIDTH][NAUX];                                                         \
+    int l;                                                                               \
+    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
+    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
+      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        SP_ARGS(av[l], s + l)                                                            \
+        rv[l][0] = out + SP_NOUT * (s + l);                                              \
+      }                                                                                  \
+      VFN(argv, resv);                                                                   \
+      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        f = AFTER(av[l], rv[l][0], auxv[l], max_cond);                                   \
+        flags[s + l] = f;                                                                \
+        any |= f;                                                                        \
+      }                                                                                  \
+    }                                                                                    \
+  }
+
+/* A batch loop: n states (pose n x 16; twist, x n x 6; q n x nq; qd, y n x nv) -> out
+   (n x (6 + nv)), flags (n); returns the OR of the flags. */
+#define SP_BATCH(NAME, FN, VEC, VFN, AFTER, SZ_ARG, SZ_RES, SZ_IW, SZ_W, NAUX)            \
+  SP_EXPORT int NAME(long long n, const double* pose, const double* twist,                 \
+                     const double* x, const double* q, const double* qd, const double* y,  \
+                     double max_cond, double* out, int* flags) {                           \
+    const casadi_real* arg[SZ_ARG + 1];                                                    \
+    casadi_real* res[SZ_RES + 1];                                                          \
+    casadi_int iw[SZ_IW + 1];                                                              \
+    casadi_real w[SZ_W + 1];                                                               \
+    double aux[NAUX];                                                                      \
+    int any = 0, f;                                                                        \
+    long long s = 0;                                                                       \
+    if (VEC) SP_VEC_LOOP(VFN, AFTER, NAUX)                                                 \
+    for (; s < n; ++s) {                                                                   \
+      SP_ARGS(arg, s)                                                                      \
+      res[0] = out + SP_NOUT * s; res[1] = aux;                                            \
+      FN(arg, res, iw, w, 0);                                                              \
+      f = AFTER(arg, res[0], aux, max_cond);                                               \
+      flags[s] = f;                                                                        \
+      any |= f;                                                                            \
+    }                                                                                      \
+    return any;                                                                            \
+  }
+
+%(vec_stubs)s
+/* Coupled inverse dynamics: pose, twist, accel, q, qd, qdd -> [Gamma, tau]. */
+SP_BATCH(sp_pidm_batch, %(idm)s, SP_VEC_IDM, sp_pidm_vec, sp_pidm_after, %(idm_sz_arg)d,
+         %(idm_sz_res)d, %(idm_sz_iw)d, %(idm_sz_w)d, %(idm_naux)d)
+/* Torque-driven direct dynamics: pose, twist, gamma, q, qd, tau -> [A, qdd]. */
+SP_BATCH(sp_pddm_batch, %(ddm)s, SP_VEC_DDM, sp_pddm_vec, sp_pddm_after, %(ddm_sz_arg)d,
+         %(ddm_sz_res)d, %(ddm_sz_iw)d, %(ddm_sz_w)d, %(ddm_naux)d)
+/* Prescribed direct dynamics: pose, twist, gamma, q, qd, qdd -> [A, tau]. */
+SP_BATCH(sp_ppdm_batch, %(pddm)s, SP_VEC_PDM, sp_ppdm_vec, sp_ppdm_after, %(pddm_sz_arg)d,
+         %(pddm_sz_res)d, %(pddm_sz_iw)d, %(pddm_sz_w)d, %(pddm_naux)d)
 
 /* One state packed in one read-only block (pose 16, twist 6, accel or gamma 6, q, qd,
    the third joint vector): [.., ..] (6 + nv) to out; the state's flag. */
@@ -211,9 +241,12 @@ def _sizes(prefix: str, f: cs.Function) -> dict[str, int]:
     return {f"{prefix}_sz_{k}": int(getattr(f, f"sz_{k}")()) for k in ("arg", "res", "iw", "w")}
 
 
-def payload_c_source(desc: Any, payload: Any, models: PayloadModels | None = None) -> str:
+def payload_c_source(
+    desc: Any, payload: Any, models: PayloadModels | None = None, vector: bool = True
+) -> str:
     """The C source of the coupled models of ``desc`` carrying ``payload``: CasADi's
-    generated functions and :data:`TEMPLATE` (only numbers enter it)."""
+    generated functions, their copies two states at a time (:mod:`._simd`, unless
+    ``vector`` is false) and :data:`TEMPLATE` (only numbers enter it)."""
     m = payload_models(desc, payload, UPS_AUX_LAYOUT) if models is None else models
     cg = cs.CodeGenerator(
         "stewart_payload.c",
@@ -222,7 +255,25 @@ def payload_c_source(desc: Any, payload: Any, models: PayloadModels | None = Non
     for f in (m.idm, m.ddm, m.pddm):
         cg.add(f)
     lay = m.layout
+    code = cg.dump()
+    names = {
+        m.idm.name(): "sp_pidm_vec",
+        m.ddm.name(): "sp_pddm_vec",
+        m.pddm.name(): "sp_ppdm_vec",
+    }
+    vec, written = _simd.vector_source(code, names) if vector else ("", set())
+    flags = {"sp_pidm_vec": "SP_VEC_IDM", "sp_pddm_vec": "SP_VEC_DDM", "sp_ppdm_vec": "SP_VEC_PDM"}
+    # a model without its vector copy: its flag 0 and a stub the dead branch names
+    stubs = "".join(
+        f"#define {flag} 1\n"
+        if v in written
+        else f"#define {flag} 0\n#define {v}(a, r) ((void)(a), (void)(r))\n"
+        for v, flag in flags.items()
+    )
+    if not written:
+        stubs = "#define SP_WIDTH 1\n" + stubs
     wrapper = TEMPLATE % {
+        "vec_stubs": stubs,
         "check_legs": leg_checks_source(desc, lay),
         "rotation_tol": ROTATION_TOLERANCE * (1.0 - 1e-3),
         "growth_limit": GROWTH_LIMIT,
@@ -250,7 +301,9 @@ def payload_c_source(desc: Any, payload: Any, models: PayloadModels | None = Non
         **_sizes("ddm", m.ddm),
         **_sizes("pddm", m.pddm),
     }
-    return f"/* Generated by stewart-pin (codegen/payload_compiled.py). */\n{cg.dump()}\n{wrapper}"
+    return (
+        f"/* Generated by stewart-pin (codegen/payload_compiled.py). */\n{code}\n{vec}\n{wrapper}"
+    )
 
 
 class CompiledPayloadDynamics:
