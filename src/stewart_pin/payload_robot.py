@@ -327,6 +327,9 @@ class PayloadRobot:
         """The compiled coupled models serving a call, or ``None`` for the reference path
         (:func:`stewart_pin.codegen.payload_compiled.payload_backend`); an unknown backend,
         or ``details=True`` with ``"compiled"``, raises :class:`InputError`."""
+        memo = self.__dict__.get(_BACKENDS_ATTR)
+        if memo is not None and not details and backend in memo:  # the hot path
+            return memo[backend]
         if backend not in BACKENDS:
             raise InputError(f"unknown backend '{backend}': choose one of {BACKENDS}")
         if backend == "pinocchio" or (details and backend == "auto"):
@@ -336,9 +339,6 @@ class PayloadRobot:
                 "details=True needs backend='pinocchio' (the compiled models return the "
                 "efforts and torques)"
             )
-        memo = self.__dict__.get(_BACKENDS_ATTR)
-        if memo is not None and backend in memo:  # the hot path: one look-up
-            return memo[backend]
         from stewart_pin.codegen.payload_compiled import payload_backend
 
         return payload_backend(self, backend)

@@ -70,6 +70,7 @@ __all__ = ["TEMPLATE", "CompiledPayloadDynamics", "payload_backend", "payload_c_
 
 _REPIVOTED = FLAG_NAMES["REPIVOTED"]
 _F64 = np.dtype(np.float64)
+_POSE, _SIX = (4, 4), (6,)
 #: Largest ``| |(cos, sin)| - 1 |`` of an unbounded revolute joint's pair the guard lets
 #: through (just under the reference's 1e-9, :meth:`Payload.check_configurations`).
 UNIT_TOLERANCE = 1e-9 * (1.0 - 1e-3)
@@ -347,6 +348,7 @@ class CompiledPayloadDynamics:
         self._desc = desc
         payload = robot.payload
         self.nq, self.nv = payload.nq, payload.nv
+        self._shape_q, self._shape_v = (self.nq,), (self.nv,)
         arm_joints(payload)  # refuses a joint it cannot generate, before anything else
         self._limits = bool(desc.is_ideal_ups and desc.u_joint_limits is not None)
         identity = library_identity(
@@ -419,12 +421,6 @@ class CompiledPayloadDynamics:
         return PayloadAcceleration(out[..., :6], out[..., 6:], given)
 
     # ------------------------------------------------------------------ internals
-    def _c_max_cond(self) -> ctypes.c_double:
-        max_cond = self.robot.max_condition
-        if max_cond != self._max_cond[0]:
-            self._max_cond = (max_cond, ctypes.c_double(max_cond))
-        return self._max_cond[1]
-
     def _run(
         self,
         which: str,
@@ -439,23 +435,40 @@ class CompiledPayloadDynamics:
     ) -> tuple[np.ndarray, bool, np.ndarray]:
         """``(out (6 + nv) or (N, 6 + nv), batched, y)`` of the model ``which``, ``y`` the
         third joint vector checked (the input itself when it is a native array)."""
-        nq, nv = self.nq, self.nv
         args = (pose, twist, x, q, qd, y)
-        try:
-            native = all(a.dtype is _F64 for a in args)
+        try:  # one state as native float64 arrays: the hot path, no generic checks
+            native = (
+                pose.dtype is _F64
+                and twist.dtype is _F64
+                and x.dtype is _F64
+                and q.dtype is _F64
+                and qd.dtype is _F64
+                and y.dtype is _F64
+                and pose.shape == _POSE
+                and twist.shape == _SIX
+                and x.shape == _SIX
+                and q.shape == self._shape_q
+                and qd.shape == self._shape_v
+                and y.shape == self._shape_v
+            )
         except AttributeError:
             native = False
-        if native and all(isinstance(a, np.ndarray) for a in args):
-            shapes = tuple(a.shape for a in args)
-            if shapes == ((4, 4), (6,), (6,), (nq,), (nv,), (nv,)):
-                block = b"".join(a.tobytes() for a in args)
-                c_max_cond = self._c_max_cond()
-                with self._lock:
-                    flag = self._one[which](block, c_max_cond, self._out_ptr)
-                    out = self._out.copy()
-                if flag & ~_REPIVOTED:
-                    self._resolve(which, np.array([flag]), args, out[None])
-                return out, False, y
+        if native:
+            block = (
+                pose.tobytes() + twist.tobytes() + x.tobytes()
+                + q.tobytes() + qd.tobytes() + y.tobytes()
+            )  # fmt: skip
+            max_cond = self.robot.max_condition
+            if max_cond != self._max_cond[0]:
+                self._max_cond = (max_cond, ctypes.c_double(max_cond))
+            c_max_cond = self._max_cond[1]
+            with self._lock:
+                flag = self._one[which](block, c_max_cond, self._out_ptr)
+                out = self._out.copy()
+            if flag & ~_REPIVOTED:
+                self._resolve(which, np.array([flag]), args, out[None])
+            return out, False, y
+        nq, nv = self.nq, self.nv
         batched, T, V, X = check_states(pose, (twist, "twist"), (x, x_name))
         Q, Qd, Y = self.robot._joints(len(T), batched, q, (qd, "payload qd"), (y, y_name))
         n = T.shape[0]
