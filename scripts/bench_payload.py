@@ -18,6 +18,7 @@ Usage: ``python scripts/bench_payload.py [--preset simulator] [--payload ur5]
 from __future__ import annotations
 
 import argparse
+import os
 from functools import partial
 
 import numpy as np
@@ -109,9 +110,10 @@ def main() -> None:
         lambda: arm.direct_dynamics(Pb, Vb, gb, qb, qdb, tau=taub, backend="compiled"), creps, nb
     )
     ref = rows["pin.constraintDynamics, whole tree with the payload (raw call)"]
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     print(
         f"{arm.name}: medians [us per state]; ratio to the whole tree's constraintDynamics "
-        f"(compiled batches on {fast.threads} threads)"
+        f"(compiled batches on {fast.threads} threads; load average {load})"
     )
     for name, us in rows.items():
         print(f"  {name:<72} {us:10.3f}  {us / ref:8.4f}")
