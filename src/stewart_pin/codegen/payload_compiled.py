@@ -23,7 +23,6 @@ state index). So the results and errors are the reference path's.
 from __future__ import annotations
 
 import ctypes
-import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -37,11 +36,10 @@ from stewart_pin.codegen import _csource, _simd
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
-    AUTO_CHOICES,
-    BACKEND_ENV,
     THREAD_MIN_STATES,
     UPS_AUX_LAYOUT,
     _warn_reference,
+    auto_env,
     build_source_library,
     default_threads,
     find_compiler,
@@ -577,13 +575,7 @@ def payload_backend(robot: Any, backend: str) -> CompiledPayloadDynamics | None:
 
 
 def _auto_choice(robot: Any, memo: dict[str, Any]) -> CompiledPayloadDynamics | None:
-    env = (os.environ.get(BACKEND_ENV) or "auto").strip().lower()
-    if env not in AUTO_CHOICES:
-        raise InputError(
-            f"${BACKEND_ENV} must be one of {AUTO_CHOICES} (what backend='auto' does), got "
-            f"{env!r}; unset it for the default 'auto'"
-        )
-    if env == "pinocchio":
+    if auto_env() == "pinocchio":
         return None
     if memo.get("compiled") is not None:
         return memo["compiled"]

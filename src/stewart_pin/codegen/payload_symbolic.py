@@ -63,7 +63,18 @@ from stewart_pin.codegen._sx_common import (
     pose_from_input,
     split,
 )
-from stewart_pin.codegen.leg_chain_symbolic import AuxLayout, aux_layout, build_general_models
+from stewart_pin.codegen.leg_chain_symbolic import (
+    AuxLayout,
+    _mul,
+    aux_layout,
+    build_general_models,
+)
+from stewart_pin.codegen.leg_chain_symbolic import (
+    _minus as _sub,  # the folding arithmetic of the general-leg generator
+)
+from stewart_pin.codegen.leg_chain_symbolic import (
+    _plus as _add,
+)
 from stewart_pin.codegen.symbolic import generate_models
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import PayloadError
@@ -230,33 +241,6 @@ def payload_identity(payload: Payload, gravity: Sequence[float]) -> str:
 
 
 # ---------------------------------------------------------------------------- algebra
-def _mul(a: Scalar, b: Scalar) -> Scalar:
-    """``a * b``, folded in Python where a factor is a plain 0 or 1 (no SX node)."""
-    if isinstance(a, float):
-        if a == 0.0:
-            return 0.0
-        if a == 1.0:
-            return b
-        if a == -1.0:
-            return -b
-    if isinstance(b, float):
-        if b == 0.0:
-            return 0.0
-        if b == 1.0:
-            return a
-        if b == -1.0:
-            return -a
-    return a * b
-
-
-def _add(a: Scalar, b: Scalar) -> Scalar:
-    if isinstance(a, float) and a == 0.0:
-        return b
-    if isinstance(b, float) and b == 0.0:
-        return a
-    return a + b
-
-
 def _dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
     s: Scalar = 0.0
     for x, y in zip(a, b, strict=True):
@@ -270,14 +254,6 @@ def _mv(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> Vec:
 
 def _mtv(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> Vec:
     return [_dot([M[0][j], M[1][j], M[2][j]], v) for j in range(3)]
-
-
-def _sub(a: Scalar, b: Scalar) -> Scalar:
-    if _zero(b):
-        return a
-    if _zero(a):
-        return -b
-    return a - b
 
 
 def _cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> Vec:
