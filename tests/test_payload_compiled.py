@@ -27,6 +27,7 @@ from conftest import needs_example_robot_data, use_compile_cache
 
 from stewart_pin import (
     InputError,
+    JointLimitError,
     LegReachError,
     PayloadError,
     StewartRobot,
@@ -276,6 +277,28 @@ def test_a_flagged_state_is_computed_by_the_reference_path():
                 assert relative_error(got, want) < TOL
     finally:
         robot.robot.max_condition = fast
+
+
+def test_u_joint_limits_are_checked_on_every_state():
+    """The guard does not know the U-joint angles: a 6-UPS robot with limits runs the
+    reference inverse geometry on every call, and raises its JointLimitError."""
+    hexapod = StewartRobot.from_preset("simulator")
+    P, V, A = hexapod.sample_states(6, 3)
+    angles = hexapod.inverse_geometry(P)[..., :2]
+    lo, hi = angles.min(axis=0), angles.max(axis=0)
+    limits = np.stack([lo + 1e-3, hi + 0.1], -1)  # state argmin of each angle: beyond
+    narrow = StewartRobot(hexapod.description.replace(u_joint_limits=limits))
+    model = pin.Model()
+    j = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "hinge")
+    model.appendBodyToJoint(j, pin.Inertia(1.0, np.array([0.1, 0.0, 0.0]), np.eye(3) * 0.01),
+                            pin.SE3.Identity())  # fmt: skip
+    robot = narrow.with_payload(model)
+    q, qd = np.zeros((6, 1)), np.ones((6, 1))
+    bad = int(np.argmin(angles[:, 0, 0]))
+    for args in ((P, V, A, q, qd, qd), (P[bad], V[bad], A[bad], q[bad], qd[bad], qd[bad])):
+        ref = _error(lambda args=args: robot.inverse_dynamics(*args, backend="pinocchio"))
+        assert ref is not None and ref[0] is JointLimitError
+        assert _error(lambda args=args: robot.inverse_dynamics(*args, backend="compiled")) == ref
 
 
 def test_backends_auto_compiled_and_reference(monkeypatch):

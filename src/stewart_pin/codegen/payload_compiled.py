@@ -463,7 +463,7 @@ class CompiledPayloadDynamics:
             with self._lock:
                 flag = self._one[which](block, c_max_cond, self._out_ptr)
                 out = self._out.copy()
-            if flag & ~_REPIVOTED:
+            if flag & ~_REPIVOTED or self._limits:
                 self._resolve(which, np.array([flag]), args, out[None])
             return out, False, y
         nq, nv = self.nq, self.nv
