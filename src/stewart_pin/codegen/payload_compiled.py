@@ -38,6 +38,7 @@ from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
     THREAD_MIN_STATES,
     UPS_AUX_LAYOUT,
+    _positive_threads,
     _warn_reference,
     auto_env,
     build_source_library,
@@ -341,7 +342,7 @@ class CompiledPayloadDynamics:
         announce: bool = False,
     ) -> None:
         self.robot = robot
-        self.threads = default_threads() if threads is None else int(threads)
+        self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.robot.description
         self._desc = desc
         payload = robot.payload
