@@ -37,7 +37,6 @@ from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
     THREAD_MIN_STATES,
-    UPS_AUX_LAYOUT,
     _positive_threads,
     _warn_reference,
     auto_env,
@@ -45,6 +44,7 @@ from stewart_pin.codegen.compiled import (
     default_threads,
     find_compiler,
     leg_checks_source,
+    model_layout,
     printable_name,
     singularity_length,
     split_batch,
@@ -247,7 +247,7 @@ def payload_c_source(
     """The C source of the coupled models of ``desc`` carrying ``payload``: CasADi's
     generated functions, their copies two states at a time (:mod:`._simd`, unless
     ``vector`` is false) and :data:`TEMPLATE` (only numbers enter it)."""
-    m = payload_models(desc, payload, UPS_AUX_LAYOUT) if models is None else models
+    m = payload_models(desc, payload, model_layout(desc)) if models is None else models
     cg = cs.CodeGenerator(
         "stewart_payload.c",
         {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
@@ -349,7 +349,8 @@ class CompiledPayloadDynamics:
         self.nq, self.nv = payload.nq, payload.nv
         self._shape_q, self._shape_v = (self.nq,), (self.nv,)
         arm_joints(payload)  # refuses a joint it cannot generate, before anything else
-        self._limits = bool(desc.is_ideal_ups and desc.u_joint_limits is not None)
+        # U-joint limits (the 6-UPS legs'; general legs hold theirs, in the slacks)
+        self._limits = desc.u_joint_limits is not None
         identity = library_identity(
             desc, "payload models\n" + payload_identity(payload, desc.gravity)
         )

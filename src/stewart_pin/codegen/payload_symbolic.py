@@ -47,6 +47,7 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as cs
 import numpy as np
@@ -66,7 +67,6 @@ from stewart_pin.codegen._sx_common import (
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
     _mul,
-    aux_layout,
     build_general_models,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
@@ -552,31 +552,28 @@ class PayloadModels:
     unit_pairs: tuple[int, ...]
 
 
-def _hexapod(desc: RobotDescription, ups_layout: AuxLayout) -> tuple[object, AuxLayout, list]:
-    """The hexapod's generated models (with their DDM stages), the layout of their aux
-    and the numbers of the base-parameter input (6-UPS; empty for general legs)."""
-    if desc.is_ideal_ups:
-        models = generate_models(desc)
-        return models, ups_layout, [float(x) for x in models.constants.parameter_values]
-    models, layout = build_general_models(desc, stages=True)
-    assert layout == aux_layout(models)
-    return models, layout, []
+def _hexapod(desc: RobotDescription) -> tuple[Any, list[float]]:
+    """The hexapod's generated models with their DDM stages (the generic leg-chain models
+    are generated again with them) and the numbers of their base-parameter input (the
+    6-UPS closed forms'; none for the others)."""
+    models = generate_models(desc)
+    if models.ddm_stages is None:
+        models = build_general_models(desc, stages=True)[0]
+    return models, [float(x) for x in models.constants.parameter_values]
 
 
-def payload_models(
-    desc: RobotDescription, payload: Payload, ups_layout: AuxLayout
-) -> PayloadModels:
+def payload_models(desc: RobotDescription, payload: Payload, layout: AuxLayout) -> PayloadModels:
     """The coupled IDM, torque-driven DDM and prescribed DDM of the hexapod ``desc``
-    carrying ``payload`` (the hexapod's gravity), every number baked in;
-    ``ups_layout``: the aux layout of the 6-UPS models
-    (:data:`stewart_pin.codegen.compiled.UPS_AUX_LAYOUT`).
+    carrying ``payload`` (the hexapod's gravity), every number baked in; ``layout``: the
+    aux layout of the hexapod's models (:func:`stewart_pin.codegen.compiled.model_layout`),
+    which their ``aux`` outputs keep.
 
     Raises:
         PayloadError: a payload joint the generator does not take (:func:`arm_joints`).
     """
     joints, base = arm_joints(payload)
     gravity = [float(x) for x in desc.gravity]
-    models, layout, chi_values = _hexapod(desc, ups_layout)
+    models, chi_values = _hexapod(desc)
     chi = cs.SX(chi_values) if chi_values else cs.SX(0, 1)
     nq, nv = payload.nq, payload.nv
     x_pose, x_twist = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6)
@@ -588,14 +585,14 @@ def payload_models(
     links = _links(joints, q)
 
     # ---- IDM: the hexapod's closure with W added to the wrench Jp^T maps
-    _, aux = models.idm_guarded(x_pose, x_twist, x_accel, chi)  # type: ignore[attr-defined]
+    _, aux = models.idm_guarded(x_pose, x_twist, x_accel, chi)
     aux = split(aux)
     W, tau = arm_rnea(joints, base, gravity, R, tw, split(x_accel), q, qd, split(x_qdd), links)
     jinv = aux[layout.jinv : layout.jinv + 36]
     rows = [jinv[6 * i : 6 * i + 6] for i in range(6)]
     F = [aux[layout.idm_f + k] + W[k] for k in range(6)]
     Hz = aux[layout.idm_hz : layout.idm_hz + 6]
-    gamma = idm_closure(rows, [], Hz, F, models.pivots)[0]  # type: ignore[attr-defined]
+    gamma = idm_closure(rows, [], Hz, F, models.pivots)[0]
     idm_aux = [*aux[: layout.idm_f], *F, *aux[layout.idm_f + 6 :]]
     arm_in = [("q", x_q), ("qd", x_qd)]
     idm = function(
@@ -605,15 +602,15 @@ def payload_models(
     )
 
     # ---- the hexapod's A_robot and Jp^-T Gamma - h_robot, from its DDM stages
-    stages = models.ddm_stages  # type: ignore[attr-defined]
+    stages = models.ddm_stages
     legs = []
     for k, leg in enumerate(stages.legs):
         args = {"pose": x_pose, "twist": x_twist, "gamma": x_gamma[k]}
-        if chi_values:
+        if "base_parameters" in leg.name_in():
             args["base_parameters"] = chi
         legs.append({name: split(v) for name, v in leg.call(args).items()})
     plat_args = {"pose": x_pose, "twist": x_twist}
-    if chi_values:
+    if "base_parameters" in stages.platform.name_in():
         plat_args["base_parameters"] = chi
     plat = {name: split(v) for name, v in stages.platform.call(plat_args).items()}
     A_up = list(plat["Ip"])
@@ -625,12 +622,11 @@ def payload_models(
     for m, (i, j) in enumerate(UPPER6):
         A_r[i][j] = A_r[j][i] = A_up[m]
     djinv = [x for lg in legs for x in lg["row"]]
-    if desc.is_ideal_ups:
-        pre = [*[lg["q3sq"][0] for lg in legs], *[lg["rho2"][0] for lg in legs], *djinv]
-        post: list[Scalar] = []
-    else:
-        pre = djinv
-        post = [s for lg in legs for s in lg["slack"]]
+    # the hexapod DDM's aux around its pivots: the 6-UPS leg lengths and distances to
+    # the U-joint axes (q3^2, rho^2) then Jp^-1, or Jp^-1 and the general legs' slacks
+    lengths = [lg[key][0] for key in ("q3sq", "rho2") if key in legs[0] for lg in legs]
+    pre = [*lengths, *djinv]
+    post: list[Scalar] = [s for lg in legs for s in lg.get("slack", ())]
     assert len(pre) == layout.ddm_d and len(post) == layout.n_slack
 
     Kff, Kfj, Mjj = arm_crba(joints, base, R, q, links)
