@@ -304,14 +304,16 @@ def test_u_joint_limits_are_checked_on_every_state():
 def test_backends_auto_compiled_and_reference(monkeypatch):
     robot = carrier("rus+three")
     P, V, A, q, qd, qdd = robot.sample_states(2, 5)
-    with pytest.raises(InputError, match="unknown backend"):
-        robot.inverse_dynamics(P, V, A, q, qd, qdd, backend="fast")
+    for bad in ("fast", ["compiled"]):
+        with pytest.raises(InputError, match="unknown backend"):
+            robot.inverse_dynamics(P, V, A, q, qd, qdd, backend=bad)
     with pytest.raises(InputError, match="details=True"):
         robot.inverse_dynamics(P, V, A, q, qd, qdd, details=True, backend="compiled")
     # the suite runs "auto" as the reference path ($STEWART_PIN_BACKEND=pinocchio)
     fresh = PayloadRobot(robot.robot, robot.payload)
     fresh.inverse_dynamics(P, V, A, q, qd, qdd)
     assert fresh.__dict__[payload_compiled.PAYLOAD_ATTR] == {"auto": None}
+    robot.inverse_dynamics(P, V, A, q, qd, qdd, backend="compiled")  # built, or found
     monkeypatch.setenv("STEWART_PIN_BACKEND", "auto")
     fresh = PayloadRobot(robot.robot, robot.payload)
     out = fresh.inverse_dynamics(P, V, A, q, qd, qdd)

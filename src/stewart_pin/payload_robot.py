@@ -328,7 +328,7 @@ class PayloadRobot:
         (:func:`stewart_pin.codegen.payload_compiled.payload_backend`); an unknown backend,
         or ``details=True`` with ``"compiled"``, raises :class:`InputError`."""
         memo = self.__dict__.get(_BACKENDS_ATTR)
-        if memo is not None and not details and backend in memo:  # the hot path
+        if memo is not None and not details and type(backend) is str and backend in memo:
             return memo[backend]
         if backend not in BACKENDS:
             raise InputError(f"unknown backend '{backend}': choose one of {BACKENDS}")
