@@ -16,8 +16,13 @@ The payload is a fixed-base Pinocchio model (:mod:`stewart_pin.models.payload`: 
 Conventions as :class:`~stewart_pin.robot.StewartRobot` (pose 0Tp, twist ``[v, w]`` and
 classical acceleration in F0, one state or a batch with a leading N axis), plus the
 payload's Pinocchio configuration ``q`` (nq,), rates, accelerations and torques (nv,).
-Both leg paths (ideal 6-UPS and general legs) work; the hexapod's share of the inverse
-model may use the compiled backend (6-UPS).
+Both leg paths (ideal 6-UPS and general legs) work. ``backend="auto"`` (the default of
+the models) runs the coupled models compiled to C
+(:mod:`stewart_pin.codegen.payload_compiled`: the hexapod's closed form and the payload's
+Newton-Euler generated together, built on first use and cached) where a C compiler is
+available, as :class:`~stewart_pin.robot.StewartRobot` does; ``backend="pinocchio"`` the
+reference path (Pinocchio's RNEA and CRBA on the payload), ``"compiled"`` the compiled
+models always.
 """
 
 from __future__ import annotations
@@ -79,6 +84,13 @@ def default_placement(description: RobotDescription) -> FloatArray:
     return T
 
 
+#: The backends of the coupled models (as :data:`stewart_pin.robot.BACKENDS`).
+BACKENDS = ("pinocchio", "compiled", "auto")
+#: Where a PayloadRobot keeps its compiled backends
+#: (:data:`stewart_pin.codegen.payload_compiled.PAYLOAD_ATTR`).
+_BACKENDS_ATTR = "_stewart_pin_payload_backends"
+
+
 def _quiet() -> np.errstate:
     return np.errstate(over="ignore", invalid="ignore")
 
@@ -109,6 +121,12 @@ class PayloadRobot:
         if placement is None and not isinstance(payload, Payload):
             placement = default_placement(robot.description)
         self.payload: Payload = load_payload(payload, placement)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without its compiled backends (loaded libraries; found again in the
+        cache on first use) nor the Pinocchio data of its reference path."""
+        skip = (_BACKENDS_ATTR, "dynamics")
+        return {k: v for k, v in self.__dict__.items() if k not in skip}
 
     def __repr__(self) -> str:
         return f"PayloadRobot('{self.robot.name}', {self.payload!r})"
@@ -200,7 +218,7 @@ class PayloadRobot:
         qd: ArrayLike,
         qdd: ArrayLike,
         details: bool = False,
-        backend: str = "pinocchio",
+        backend: str = "auto",
     ) -> PayloadEfforts | PayloadInverseDynamics:
         """The hexapod's actuator efforts and the payload's joint torques realising the
         platform's motion and the payload's joint motion.
@@ -212,15 +230,24 @@ class PayloadRobot:
                 accelerations (nv,) or (N, nv).
             details: return the :class:`~stewart_pin.dynamics.payload.PayloadInverseDynamics`
                 (batches) with the payload's wrench and each share of Gamma.
-            backend: the hexapod's share (:meth:`StewartRobot.inverse_dynamics`).
+            backend: ``"auto"`` (default: the compiled coupled models where a C compiler is
+                available, else the reference path; ``details=True`` takes the reference
+                path), ``"pinocchio"`` (the reference: Pinocchio's RNEA on the payload, the
+                hexapod's own reference model) or ``"compiled"`` (the coupled models
+                compiled to C, :mod:`stewart_pin.codegen.payload_compiled`; same results
+                and errors).
 
         Returns:
             ``PayloadEfforts(gamma, tau)``: gamma (6,) or (N, 6) [N or N m], tau (nv,) or
             (N, nv) [N m or N].
         """
+        fast = self._fast_backend(backend, details)
+        if fast is not None:
+            return fast.inverse_dynamics(pose, twist, accel, q, qd, qdd)
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         Q, Qd, Qdd = self._joints(len(T), batched, q, (qd, "payload qd"), (qdd, "payload qdd"))
-        gamma_hex = np.asarray(self.robot.inverse_dynamics(T, V, A, backend=backend))
+        hexapod = "pinocchio" if backend == "pinocchio" else "auto"
+        gamma_hex = np.asarray(self.robot.inverse_dynamics(T, V, A, backend=hexapod))
         with _quiet():
             W, tau = self.dynamics.inverse(T, V, A, Q, Qd, Qdd)
             J_inv = np.asarray(self.robot.inverse_jacobian(T)).reshape(-1, 6, 6)
@@ -244,6 +271,7 @@ class PayloadRobot:
         qdd: ArrayLike = None,
         *,
         tau: ArrayLike = None,
+        backend: str = "auto",
     ) -> PayloadAcceleration:
         """The platform's classical acceleration under the actuator efforts ``gamma``,
         with the payload's joints either following ``qdd`` (prescribed motion) or driven
@@ -254,6 +282,8 @@ class PayloadRobot:
             q, qd: the payload's configuration and joint rates.
             qdd: prescribed joint accelerations (nv,) or (N, nv); or
             tau: the payload's joint torques (nv,) or (N, nv).
+            backend: ``"auto"`` (default), ``"pinocchio"`` or ``"compiled"``, as in
+                :meth:`inverse_dynamics`.
 
         Returns:
             ``PayloadAcceleration(accel, qdd, tau)``: the platform's acceleration (6,) or
@@ -270,6 +300,9 @@ class PayloadRobot:
                 "give the payload's joint accelerations qdd (prescribed motion) or its joint "
                 "torques tau (keyword), exactly one"
             )
+        fast = self._fast_backend(backend)
+        if fast is not None:
+            return fast.direct_dynamics(pose, twist, gamma, q, qd, qdd, tau)
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
         given = (qdd, "payload qdd") if tau is None else (tau, "payload tau")
         Q, Qd, X = self._joints(len(T), batched, q, (qd, "payload qd"), given)
@@ -289,6 +322,26 @@ class PayloadRobot:
         if batched:
             return out
         return PayloadAcceleration(out.accel[0], out.qdd[0], out.tau[0])
+
+    def _fast_backend(self, backend: str, details: bool = False) -> Any:
+        """The compiled coupled models serving a call, or ``None`` for the reference path
+        (:func:`stewart_pin.codegen.payload_compiled.payload_backend`); an unknown backend,
+        or ``details=True`` with ``"compiled"``, raises :class:`InputError`."""
+        memo = self.__dict__.get(_BACKENDS_ATTR)
+        if memo is not None and not details and type(backend) is str and backend in memo:
+            return memo[backend]
+        if backend not in BACKENDS:
+            raise InputError(f"unknown backend '{backend}': choose one of {BACKENDS}")
+        if backend == "pinocchio" or (details and backend == "auto"):
+            return None
+        if details:
+            raise InputError(
+                "details=True needs backend='pinocchio' (the compiled models return the "
+                "efforts and torques)"
+            )
+        from stewart_pin.codegen.payload_compiled import payload_backend
+
+        return payload_backend(self, backend)
 
     def mass_matrix(self, pose: ArrayLike, twist: ArrayLike, q: ArrayLike) -> FloatArray:
         """The coupled mass matrix of platform and payload, (6 + nv, 6 + nv) or

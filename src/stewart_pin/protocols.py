@@ -140,7 +140,7 @@ class PayloadRobotLike(Protocol):
         qd: ArrayLike,
         qdd: ArrayLike,
         details: bool = False,
-        backend: str = "pinocchio",
+        backend: str = "auto",
     ) -> Any:
         """``PayloadEfforts(gamma, tau)``: actuator efforts and the payload's torques."""
         ...
@@ -155,6 +155,7 @@ class PayloadRobotLike(Protocol):
         qdd: ArrayLike = None,
         *,
         tau: ArrayLike = None,
+        backend: str = "auto",
     ) -> Any:
         """``PayloadAcceleration(accel, qdd, tau)``, prescribed ``qdd`` or given ``tau``."""
         ...

@@ -1328,14 +1328,20 @@ def auto_backend(robot: RobotLike) -> CompiledDynamics | None:
     return choice
 
 
-def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
+def auto_env() -> str:
+    """``$STEWART_PIN_BACKEND`` (:data:`BACKEND_ENV`), one of :data:`AUTO_CHOICES`
+    (default ``"auto"``); anything else raises :class:`InputError`."""
     env = (os.environ.get(BACKEND_ENV) or "auto").strip().lower()
     if env not in AUTO_CHOICES:
         raise InputError(
             f"${BACKEND_ENV} must be one of {AUTO_CHOICES} (what backend='auto' does), got "
             f"{env!r}; unset it for the default 'auto'"
         )
-    if env == "pinocchio":
+    return env
+
+
+def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
+    if auto_env() == "pinocchio":
         return None
     existing = _memo(robot, COMPILED_ATTR)
     if existing is not None and existing._desc is robot.description:
