@@ -19,6 +19,7 @@ from stewart_pin.cli._common import (
     positive_int,
 )
 from stewart_pin.cli._common import robot_from_args as _robot
+from stewart_pin.exceptions import UnsupportedArchitectureError
 
 
 def _cmd_base_params(args: argparse.Namespace) -> int:
@@ -49,9 +50,8 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     print(f"\nnumerical rank: {rank}")
     from stewart_pin.parameters.base import essential_parameters, paper_essential_parameters
 
-    base = None if desc.is_ideal_ups else bp  # 6-UPS: the paper's analytic set, as before
     ess = essential_parameters(
-        robot, args.threshold, n_states=args.states, seed=args.seed, base=base
+        robot, args.threshold, n_states=args.states, seed=args.seed, base=bp
     )
     print(
         f"\n{n} standard -> {len(bp)} base -> {len(ess)} essential parameters (those left when "
@@ -60,8 +60,11 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     )
     for name, value in zip(ess.names, ess.values, strict=True):
         print(f"{name:>16s} {value:14.6g}")
-    if desc.is_ideal_ups:
+    try:  # the paper's set is made of its 88 grouped parameters (R-R-P legs only)
         paper = paper_essential_parameters(robot, n_states=args.states, seed=args.seed)
+    except UnsupportedArchitectureError:
+        paper = None
+    if paper is not None:
         print(
             f"the paper's Table III set ({len(paper)} parameters: 7 per leg + 10) predicts "
             f"the forces of this robot to {paper.relative_error:.3g} relative"
