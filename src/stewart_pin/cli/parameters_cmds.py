@@ -30,7 +30,7 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
     desc = robot.description
     method = args.method
-    if method == "analytic" and desc.legs is not None and uncovered_legs(desc):
+    if method == "analytic" and uncovered_legs(desc):
         print(
             f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "
             "analytic grouping rules do not cover: showing the numerical base parameters"
@@ -40,7 +40,7 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     n = len(bp.standard_names)
     print(f"robot '{robot.name}': {len(bp)} {method} base parameters of {n} standard")
     print(bp.table())
-    if desc.legs is not None:
+    if len(bp.joint_terms):
         print(
             f"\njoint terms: {len(bp.joint_terms)} base parameters are joint terms of their "
             "own (IA armature [kg m^2 or kg], FV viscous friction, FC Coulomb friction, "
@@ -106,7 +106,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         )
     lines: list[str] = []
     desc = robot.description
-    if desc.legs is not None and uncovered_legs(desc):  # custom legs: no analytic rules
+    if uncovered_legs(desc):  # custom legs: no analytic rules
         base = base_parameters(robot, "numerical")
         lines.append(
             f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "

@@ -567,7 +567,7 @@ def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -
     if method not in ("analytic", "numerical"):
         raise InputError(f"unknown method '{method}': 'analytic' or 'numerical'")
     desc = robot.description
-    if method == "analytic" and desc.legs is not None and uncovered_legs(desc):
+    if method == "analytic" and uncovered_legs(desc):
         warnings.warn(
             f"the analytic base parameters cover the legs ups, ups-offset, rus and pus; "
             f"robot '{desc.name}' has custom legs {uncovered_legs(desc)}: using the "
