@@ -89,3 +89,119 @@ def test_admissible_poses_is_the_decision_of_the_checked_calls(name):
     assert 0 < expected.sum() < len(T)  # both kinds of pose are met
     assert np.array_equal(robot.admissible_poses(T, bound), expected)
     assert robot.admissible_poses(T[0]).shape == (1,)
+
+
+# ---------------------------------------------------------------------------- issue 19, item 2
+#: The modules (or folders) that may read the architecture flags: the paths, codegen's
+#: one table, the description (which defines ``is_ideal_ups``), the independent check
+#: (its own trees, sharing nothing with what it checks) and a deprecated alias module.
+ALLOWED_FILES = (
+    "architectures.py",
+    "codegen/_architecture.py",
+    "formats/general_urdf.py",
+    "description/",
+    "check/",
+)
+#: Functions that may read them anywhere: a property exposing the flag
+#: (``StewartRobot.is_ideal_ups``, ``formats.urdf.is_general``) and the model files' one
+#: choice of form per writer (``_form`` in formats/urdf.py, mjcf.py, xacro.py).
+ALLOWED_FUNCTIONS = {"is_ideal_ups", "is_general", "_form"}
+FLAGS = {"is_ideal_ups", "is_general"}
+
+
+def flag_reads(source: str) -> list[tuple[int, str]]:
+    """``(line, text)`` of each read of an architecture flag in ``source`` outside the
+    allowed functions: an attribute ``x.is_ideal_ups``, a name ``is_general(...)``, or the
+    flag's name as a string (``getattr(desc, "is_ideal_ups")``); imports do not count."""
+    found: list[tuple[int, str]] = []
+
+    def visit(node: ast.AST, allowed: bool) -> None:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            allowed = allowed or node.name in ALLOWED_FUNCTIONS
+        if not allowed and (
+            (isinstance(node, ast.Attribute) and node.attr in FLAGS)
+            or (isinstance(node, ast.Name) and node.id in FLAGS)
+            or (isinstance(node, ast.Constant) and node.value in FLAGS)
+        ):
+            found.append((node.lineno, ast.unparse(node)))
+        for child in ast.iter_child_nodes(node):
+            visit(child, allowed)
+
+    visit(ast.parse(source), False)
+    return found
+
+
+def test_flag_reads_finds_every_kind_of_read():
+    """The scan itself, on a source whose reads are known."""
+    source = (
+        "def f(desc, robot):\n"
+        "    a = desc.is_ideal_ups\n"
+        "    b = is_general(desc)\n"
+        "    c = getattr(desc, 'is_ideal_ups', None)\n"
+        "    return a, b, c\n"
+        "def _form(desc):\n"
+        "    return is_general(desc)\n"
+        "class R:\n"
+        "    @property\n"
+        "    def is_ideal_ups(self):\n"
+        "        return self._kind.is_ideal_ups\n"
+    )
+    assert [line for line, _ in flag_reads(source)] == [2, 3, 4]
+
+
+def test_no_module_above_the_architecture_layer_asks_which_architecture_it_holds():
+    """Only the allowed modules read ``is_ideal_ups`` / ``is_general`` (issue 19: what
+    makes an architecture special lives in one place per architecture, chosen there)."""
+    root = Path(stewart_pin.__file__).parent
+    reads = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
+        if rel.startswith(ALLOWED_FILES):
+            continue
+        reads += [f"{rel}:{line}: {text}" for line, text in flag_reads(path.read_text())]
+    assert reads == []
+
+
+def test_limit_margin_of_the_ideal_6ups_is_its_stroke_margin():
+    """``robot.limit_margin`` on the ideal 6-UPS (the simulator's event location): the
+    smallest distance of a leg length |B_i P_i| (by hand) to the stroke ends, over the
+    stroke's longest length, and the leg it names."""
+    import numpy as np
+    from helpers import leg_lengths_by_hand
+
+    robot = StewartRobot.from_preset("simulator")
+    lo, hi = robot.description.stroke
+    for T in robot.sample_poses(5, 3):
+        lengths = leg_lengths_by_hand(robot.description, T)
+        per_leg = np.minimum(lengths - lo, hi - lengths)
+        margin, what = robot.limit_margin(T)
+        assert margin == pytest.approx(per_leg.min() / hi, rel=1e-12, abs=1e-15)
+        assert what.startswith(f"leg {int(np.argmin(per_leg)) + 1} length ")
+
+
+def test_the_pinocchio_models_are_chosen_by_the_path():
+    """``robot.tree`` / ``leg_models`` / ``legs_model`` (the paths' builders) are the
+    24-dof tree with six 3D closures, six 3-dof legs and an 18-dof model for both paths;
+    the former names in ``models.leg_chains`` warn and give the same models."""
+    import warnings
+
+    import numpy as np
+
+    import stewart_pin.architectures as arch
+    from stewart_pin.models import leg_chains
+
+    for name in ("simulator", "rus"):
+        robot = StewartRobot.from_preset(name)
+        tree = robot.tree
+        assert (tree.model.nq, tree.model.nv, len(tree.constraints)) == (25, 24, 6)
+        assert [m.nv for m in robot.leg_models] == [3] * 6
+        model, index = robot.legs_model
+        assert model.nv == 18 and np.array_equal(np.sort(index.ravel()), np.arange(18))
+        with pytest.warns(DeprecationWarning, match="stewart_pin.architectures.closed_loop_tree"):
+            old = leg_chains.closed_loop_tree(robot.description)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            new = arch.closed_loop_tree(robot.description)
+        assert (
+            [n for n in old.model.names] == [n for n in new.model.names] == list(tree.model.names)
+        )

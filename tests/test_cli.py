@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 from helpers import leg_lengths_by_hand
 
-from stewart_pin import preset
+from stewart_pin import StewartRobot, preset
 from stewart_pin.cli import build_parser, main
 from stewart_pin.models.pinocchio_models import load_tree
 
@@ -55,6 +55,21 @@ def test_ik_prints_six_legs(capsys):
     expected = leg_lengths_by_hand(desc, desc.home_pose)
     np.testing.assert_allclose(rows[:, 3], expected, rtol=0, atol=1e-6)  # printed to 6 places
     assert "Jp^-1" in out
+
+
+def test_ik_prints_one_table_for_every_architecture(capsys):
+    """``ik`` on a 6-RUS (issue 19: one table for every robot, the actuated joint named in
+    the header): the printed actuated column (the cranks, q1) taken back through the
+    forward geometry gives the pose printed (a round trip, to the 6 printed places)."""
+    assert main(["ik", "--preset", "rus"]) == 0
+    out = capsys.readouterr().out
+    assert "rus legs" in out and "actuated: q1" in out
+    rows = leg_rows(out)
+    assert rows.shape == (6, 4)
+    robot = StewartRobot.from_preset("rus")
+    T = robot.forward_geometry(rows[:, 1])
+    np.testing.assert_allclose(T, robot.home_pose, rtol=0, atol=1e-4)
+    np.testing.assert_allclose(robot.inverse_geometry(T)[:, 1:], rows[:, 2:], atol=1e-4)
 
 
 def test_ik_with_a_pose_offset(capsys):

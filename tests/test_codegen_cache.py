@@ -28,6 +28,7 @@ from helpers import rel_error
 import stewart_pin
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics, UnsafeCacheError
+from stewart_pin.codegen import _architecture as codegen_architecture
 from stewart_pin.codegen import _identity as identity
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.compiled import build_library, c_source
@@ -98,7 +99,7 @@ def test_cache_key_is_what_shapes_the_source(cache, monkeypatch):
     assert (again, built) == (lib, False)
     monkeypatch.undo()
     monkeypatch.setenv(compiled_module.CACHE_ENV, str(cache))
-    monkeypatch.setattr(compiled_module, "LEG_SINGULARITY_SIN", 0.5)
+    monkeypatch.setattr(codegen_architecture, "LEG_SINGULARITY_SIN", 0.5)  # the 6-UPS guard's
     version = identity.generator_version()
     monkeypatch.setattr(identity, "_GENERATOR_VERSION", [version + " edited"])
     other, built = build_library(desc)

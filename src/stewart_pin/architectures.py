@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Any, Protocol
 
 import numpy as np
+import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
 from stewart_pin._typing import (
@@ -36,7 +37,7 @@ from stewart_pin._typing import (
     Twists,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.dynamics import closed_loop as closure
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import (
@@ -45,13 +46,32 @@ from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralInverseDynamics,
 )
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
-from stewart_pin.exceptions import ArchitectureError, StewartPinError
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    JointLimitError,
+    StewartPinError,
+)
 from stewart_pin.kinematics import geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import leg_state
+from stewart_pin.models.leg_chains import build_general_tree, build_leg_chain, build_leg_chains
+from stewart_pin.models.pinocchio_models import (
+    TreeModel,
+    build_leg_models,
+    build_legs_model,
+    build_tree,
+)
 
-__all__ = ["IdealUpsPath", "LegChainPath", "PathOwner", "reference_path"]
+__all__ = [
+    "IdealUpsPath",
+    "LegChainPath",
+    "PathOwner",
+    "closed_loop_tree",
+    "leg_models",
+    "legs_model",
+    "reference_path",
+]
 
 
 class PathOwner(Protocol):
@@ -90,6 +110,49 @@ class LegChainPath:
 
     #: Whether this is the paper's ideal 6-UPS path.
     is_ideal_ups: bool = False
+    #: The numerical rank tolerance of the stacked regressor (relative to its largest
+    #: singular value, columns made dimensionless; see
+    #: :func:`stewart_pin.parameters.base.numerical_base_parameters`): the joint terms and
+    #: small passive links (the 2 g cross of a servo's universal joint) act down to about
+    #: 1e-8 of the largest singular value (the kept ones measure 1e-8 to 1e-5 on the random
+    #: robots and the presets), while round-off stays below 1e-15; 1e-11 sits between.
+    rank_tolerance: float = 1e-11
+
+    def closed_loop_tree(self, desc: RobotDescription) -> TreeModel:
+        """The 24-dof closed-loop tree: the six chains (``model.armature`` set), the
+        platform as a free-flyer, six 3D loop closures at the ``P_i``."""
+        return build_general_tree(general_from_description(desc))
+
+    def leg_models(self, desc: RobotDescription) -> list[pin.Model]:
+        """The six 3-dof chains (``model.armature`` set)."""
+        robot = general_from_description(desc)
+        return [build_leg_chain(robot, k) for k in range(6)]
+
+    def legs_model(self, desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
+        """The six chains on a fixed base (18 dof) and the (6, 3) velocity index."""
+        return build_leg_chains(general_from_description(desc))
+
+    def limit_margin(
+        self, r: PathOwner, pose: ArrayLike, error: BaseException | None
+    ) -> tuple[float, str]:
+        """The smallest distance of a joint to its limits at one pose, unit-free (revolute
+        joints in rad, prismatic ones divided by ``RobotDescription.stroke_mid``; negative
+        outside), and the sentence naming it (``error``, the limit error met, unused)."""
+        T = check_poses(pose)[0][0]
+        q = leg_chains.inverse_geometry(r.general, T, check_limits=False)
+        limits = np.array([leg.limits for leg in r.general.legs])  # (6, 3, 2)
+        revolute = np.array([[j.revolute for j in leg.joints] for leg in r.general.legs])
+        scale = np.where(revolute, 1.0, r.description.stroke_mid)
+        with np.errstate(invalid="ignore"):
+            lo, hi = (q - limits[..., 0]) / scale, (limits[..., 1] - q) / scale
+        m = np.minimum(lo, hi)
+        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
+        end = "lower" if lo[k, j] <= hi[k, j] else "upper"
+        unit = "rad" if revolute[k, j] else "m"
+        return float(m[k, j]), (
+            f"leg {k + 1} joint {j + 1} = {q[k, j]:.9g} {unit} reached its {end} limit "
+            f"[{limits[k, j, 0]:.9g}, {limits[k, j, 1]:.9g}] {unit}"
+        )
 
     def check_home(self, r: PathOwner) -> None:
         """A general robot's home pose must be reachable, inside the joint limits and away
@@ -241,6 +304,44 @@ class IdealUpsPath(LegChainPath):
     in place of the chains' Newton steps and joint terms (it has none)."""
 
     is_ideal_ups = True
+    #: The paper's 88 grouped parameters and its rigid bodies: nothing acts below 1e-8.
+    rank_tolerance = 1e-8
+
+    def closed_loop_tree(self, desc: RobotDescription) -> TreeModel:
+        """The tree parsed from its URDF (the paper's joint names and frames)."""
+        return build_tree(desc)
+
+    def leg_models(self, desc: RobotDescription) -> list[pin.Model]:
+        return build_leg_models(desc)
+
+    def legs_model(self, desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
+        return build_legs_model(desc)
+
+    def limit_margin(
+        self, r: PathOwner, pose: ArrayLike, error: BaseException | None
+    ) -> tuple[float, str]:
+        """The stroke ends (leg lengths over the longest length of the stroke) or, for a
+        :class:`JointLimitError` on a robot with U-joint limits, the U-joint angles [rad]."""
+        desc = r.description
+        T = check_poses(pose)[0][0]
+        q = geometry.inverse_geometry_batch(desc, T[None], check_limits=False)[0]
+        lim = desc.u_joint_limits
+        if isinstance(error, JointLimitError) and lim is not None:
+            m = np.minimum(q[:, :2] - lim[:, :, 0], lim[:, :, 1] - q[:, :2])
+            k, j = np.unravel_index(int(np.argmin(m)), m.shape)
+            end = "lower" if q[k, j] - lim[k, j, 0] <= lim[k, j, 1] - q[k, j] else "upper"
+            return float(m[k, j]), (
+                f"leg {k + 1} U-joint angle q{j + 1}{k + 1} = {q[k, j]:.9g} rad reached its "
+                f"{end} limit [{lim[k, j, 0]:.9g}, {lim[k, j, 1]:.9g}] rad"
+            )
+        lo, hi = (float(x) for x in desc.ideal_stroke("the stroke ends"))
+        m_length = np.minimum(q[:, 2] - lo, hi - q[:, 2])
+        i = int(np.argmin(m_length))
+        end = "lower" if q[i, 2] - lo <= hi - q[i, 2] else "upper"
+        return float(m_length[i]) / hi, (
+            f"leg {i + 1} length {q[i, 2]:.9g} m reached the {end} end of its stroke "
+            f"[{lo:.9g}, {hi:.9g}] m"
+        )
 
     def check_home(self, r: PathOwner) -> None:
         """Nothing to check: the description's validation covers the stroke and U-joints."""
@@ -385,3 +486,24 @@ _IDEAL_UPS, _LEG_CHAINS = IdealUpsPath(), LegChainPath()
 def reference_path(description: RobotDescription) -> LegChainPath:
     """The path of ``description``'s architecture: the one place the choice is made."""
     return _IDEAL_UPS if description.is_ideal_ups else _LEG_CHAINS
+
+
+def closed_loop_tree(desc: RobotDescription) -> TreeModel:
+    """The 24-dof closed-loop tree of any robot (six leg chains, the platform as a
+    free-flyer, six 3D loop closures at P_i): the ideal 6-UPS's from its URDF
+    (:func:`~stewart_pin.models.pinocchio_models.build_tree`), every other robot's from
+    its chains (:func:`~stewart_pin.models.leg_chains.build_general_tree`,
+    ``model.armature`` set). ``StewartRobot.tree`` is this, cached."""
+    return reference_path(desc).closed_loop_tree(desc)
+
+
+def leg_models(desc: RobotDescription) -> list[pin.Model]:
+    """The six 3-dof leg models of any robot (model ``i`` has leg i+1's joints from the
+    base, in order; general legs: ``model.armature`` set)."""
+    return reference_path(desc).leg_models(desc)
+
+
+def legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
+    """The six legs of any robot on a fixed base (18 dof) and the (6, 3) velocity index
+    of joint j of leg i."""
+    return reference_path(desc).legs_model(desc)

@@ -61,8 +61,10 @@ class RobotLike(Protocol):
         """``Jp^-1`` (6, 6) or (N, 6, 6)."""
         ...
 
-    def limit_margin(self, pose: ArrayLike) -> tuple[float, str]:
-        """General legs: the smallest (unit-free) distance of a joint to its limits."""
+    def limit_margin(
+        self, pose: ArrayLike, error: BaseException | None = None
+    ) -> tuple[float, str]:
+        """The smallest (unit-free) distance of a joint to its limits, and which."""
         ...
 
     def jacobian(self, pose: ArrayLike) -> FloatArray:

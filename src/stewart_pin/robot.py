@@ -254,19 +254,19 @@ class StewartRobot:
     def tree(self) -> TreeModel:
         """The 24-dof closed-loop Pinocchio tree of the robot: six leg chains, the
         platform as a free-flyer, six 3D loop-closure constraints at the ``P_i``
-        (:func:`stewart_pin.models.leg_chains.closed_loop_tree`: the ideal 6-UPS's from its
+        (:func:`stewart_pin.architectures.closed_loop_tree`: the ideal 6-UPS's from its
         URDF, every other robot's from its chains with ``model.armature`` set)."""
-        return models.closed_loop_tree(self.description)
+        return self._kind.closed_loop_tree(self.description)
 
     @cached_property
     def leg_models(self) -> list[pin.Model]:
         """The six 3-dof leg models (joints from the base in order)."""
-        return models.leg_models(self.description)
+        return self._kind.leg_models(self.description)
 
     @cached_property
     def legs_model(self) -> tuple[pin.Model, IntArray]:
         """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index."""
-        return models.legs_model(self.description)
+        return self._kind.legs_model(self.description)
 
     # ------------------------------------------------------------------ geometry
     def inverse_geometry(self, pose: ArrayLike, check_limits: bool = True) -> JointValues:
@@ -296,26 +296,16 @@ class StewartRobot:
         :func:`stewart_pin.kinematics.leg_chains.forward_geometry`."""
         return self._kind.forward_geometry(self, lengths, guess, **kwargs)
 
-    def limit_margin(self, pose: ArrayLike) -> tuple[float, str]:
-        """The smallest distance of a joint of a general robot to its limits at one pose,
-        and the sentence naming it: revolute joints in rad, prismatic ones divided by
-        :attr:`RobotDescription.stroke_mid` (unit-free); negative outside. The simulator
-        locates a limit with it."""
-        T = check_poses(pose)[0][0]
-        q = leg_chains.inverse_geometry(self.general, T, check_limits=False)
-        limits = np.array([leg.limits for leg in self.general.legs])  # (6, 3, 2)
-        revolute = np.array([[j.revolute for j in leg.joints] for leg in self.general.legs])
-        scale = np.where(revolute, 1.0, self.description.stroke_mid)
-        with np.errstate(invalid="ignore"):
-            lo, hi = (q - limits[..., 0]) / scale, (limits[..., 1] - q) / scale
-        m = np.minimum(lo, hi)
-        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
-        end = "lower" if lo[k, j] <= hi[k, j] else "upper"
-        unit = "rad" if revolute[k, j] else "m"
-        return float(m[k, j]), (
-            f"leg {k + 1} joint {j + 1} = {q[k, j]:.9g} {unit} reached its {end} limit "
-            f"[{limits[k, j, 0]:.9g}, {limits[k, j, 1]:.9g}] {unit}"
-        )
+    def limit_margin(
+        self, pose: ArrayLike, error: BaseException | None = None
+    ) -> tuple[float, str]:
+        """The smallest distance of a joint to its limits at one pose, unit-free, and the
+        sentence naming it; negative outside. General legs: revolute joints in rad,
+        prismatic ones divided by :attr:`RobotDescription.stroke_mid`; the ideal 6-UPS:
+        the leg lengths to the stroke ends over the stroke's longest length or, when
+        ``error`` is a :class:`~stewart_pin.exceptions.JointLimitError` and the robot has
+        U-joint limits, the U-joint angles [rad]. The simulator locates a limit with it."""
+        return self._kind.limit_margin(self, pose, error)
 
     # ------------------------------------------------------------------ kinematics
     def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:

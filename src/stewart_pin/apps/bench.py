@@ -51,11 +51,11 @@ from stewart_pin._io import write_text_atomic
 from stewart_pin.apps.bench_args import ARCHITECTURES, add_arguments
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
+    constraint_dynamics_call,
     reference_actuator_efforts,
     tree_solver,
     tree_state,
 )
-from stewart_pin.check.leg_chain_tree import GeneralTreeSolver
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
 
@@ -69,29 +69,6 @@ def median_us(fn: Callable[[], object], repeats: int, per: int = 1) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return statistics.median(times) / per * 1e6
-
-
-def constraint_dynamics_call(
-    robot: StewartRobot, pose: np.ndarray, twist: np.ndarray, gamma: np.ndarray
-) -> Callable[[], object]:
-    """One raw ``pin.constraintDynamics`` call on the robot's closed-loop tree at a platform
-    state (pose (4, 4), twist (6,), actuator forces (6,) [N]): the yardstick every row is
-    divided by. Leg rates from the loop constraints (:func:`tree_state`); general legs: the
-    24-dof tree of :func:`stewart_pin.models.leg_chains.build_general_tree`
-    (``model.armature`` set, the joint terms in ``tau``)."""
-    if not robot.is_ideal_ups:
-        general = GeneralTreeSolver(robot.general)
-        q, v, _ = general.state(pose, twist, robot.inverse_geometry(pose, check_limits=False))
-        tau = -general.joint_torques(q, v)
-        tau[general.v_act] += gamma
-        args = (general.model, general.data, q, v, tau, general.cmodels, general.cdatas)
-        return partial(pin.constraintDynamics, *args, general.settings)
-    solver = tree_solver(robot)
-    q, v = tree_state(robot, pose, twist)
-    tau = np.zeros(solver.nv)
-    tau[solver.v_act] = gamma
-    args = (solver.model, solver.data, q, v, tau, solver.cmodels, solver.cdatas)
-    return partial(pin.constraintDynamics, *args, solver.settings)
 
 
 def machine() -> dict[str, object]:

@@ -75,8 +75,7 @@ def run_demo(
     say = print
 
     desc = robot.description
-    legs = f"stroke {desc.stroke} m" if desc.is_ideal_ups else f"{desc.architecture} legs"
-    say(f"== robot '{robot.name}': {legs}, platform {desc.platform_inertia[9]:g} kg")
+    say(f"== robot '{robot.name}': {desc.legs_summary}, platform {desc.platform_inertia[9]:g} kg")
     backend = "auto"  # the compiled models where a C compiler is available (every robot)
     for path in write_robot_files(robot.description, out):
         files[path.name] = path

@@ -36,9 +36,10 @@ checked (the physics is defined outside them); leg singularities raise
 from __future__ import annotations
 
 import weakref
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -71,6 +72,7 @@ __all__ = [
     "ValidationReport",
     "constrained_forward_dynamics",
     "constrained_inverse_dynamics",
+    "constraint_dynamics_call",
     "constraint_jacobian",
     "energy",
     "relative_error",
@@ -315,6 +317,30 @@ def tree_state(robot: RobotLike, pose: Any, twist: Any) -> tuple[np.ndarray, np.
         with _at_state(n):
             qs[n], vs[n] = _state(s, robot.description, T[n], V[n])[:2]
     return _unbatch(qs, batched), _unbatch(vs, batched)
+
+
+def constraint_dynamics_call(
+    robot: RobotLike, pose: np.ndarray, twist: np.ndarray, gamma: np.ndarray
+) -> Callable[[], object]:
+    """One raw ``pin.constraintDynamics`` call on the robot's closed-loop tree at a platform
+    state (pose (4, 4), twist (6,), actuator efforts (6,) [N or N m]), ready to time: the
+    yardstick ``stewart-pin bench`` divides every row by. Leg rates from the loop
+    constraints (:func:`tree_state`); general legs: the 24-dof tree of
+    :func:`stewart_pin.models.leg_chains.build_general_tree` (``model.armature`` set, the
+    joint terms in ``tau``; a solver of its own, not the cached reference's)."""
+    if not robot.description.is_ideal_ups:  # general legs: their tree with joint terms
+        general = GeneralTreeSolver(general_from_description(robot.description))
+        q, v, _ = general.state(pose, twist, robot.inverse_geometry(pose, check_limits=False))
+        tau = -general.joint_torques(q, v)
+        tau[general.v_act] += gamma
+        args = (general.model, general.data, q, v, tau, general.cmodels, general.cdatas)
+        return partial(pin.constraintDynamics, *args, general.settings)
+    solver = tree_solver(robot)
+    q, v = tree_state(robot, pose, twist)
+    tau = np.zeros(solver.nv)
+    tau[solver.v_act] = gamma
+    args = (solver.model, solver.data, q, v, tau, solver.cmodels, solver.cdatas)
+    return partial(pin.constraintDynamics, *args, solver.settings)
 
 
 def constraint_jacobian(robot: RobotLike, q: Any) -> np.ndarray:

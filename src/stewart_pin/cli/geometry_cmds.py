@@ -35,20 +35,17 @@ def _ik(args: argparse.Namespace) -> int:
     q = robot.inverse_geometry(T)
     np.set_printoptions(precision=6, suppress=True)
     print(f"pose 0Tp:\n{T}")
-    if robot.is_ideal_ups:
-        print("leg   q1 [rad]     q2 [rad]     q3 [m]")
-        for i, row in enumerate(q, 1):
-            print(f"{i:3d} {row[0]:12.6f} {row[1]:12.6f} {row[2]:12.6f}")
-        print(f"Jp^-1 (rows [a_i, L_i x a_i]), cond = {robot.condition_number(T):.4g}:")
-    else:
-        print(f"{robot.architecture} legs; joint values [rad revolute, m prismatic], * actuated")
-        print("leg   q1           q2           q3")
-        for i, (row, leg) in enumerate(zip(q, robot.general.legs, strict=True), 1):
-            cells = [
-                f"{v:12.6f}{'*' if j + 1 == leg.actuated else ' '}" for j, v in enumerate(row)
-            ]
-            print(f"{i:3d} {''.join(cells)}")
-        print(f"Jp^-1 (rows e_ai^T J_i^-1 G_i), cond = {robot.condition_number(T):.4g}:")
+    legs = robot.description.leg_architectures
+    actuated = {leg.actuated for leg in legs}
+    shared = f"q{actuated.pop()}" if len(actuated) == 1 else "last column"
+    print(
+        f"{robot.architecture} legs; joint values [rad revolute, m prismatic]; actuated: {shared}"
+    )
+    print("leg   q1           q2           q3")
+    for i, (row, leg) in enumerate(zip(q, legs, strict=True), 1):
+        mark = "" if shared.startswith("q") else f"   q{leg.actuated}"
+        print(f"{i:3d} {row[0]:12.6f} {row[1]:12.6f} {row[2]:12.6f}{mark}")
+    print(f"Jp^-1 (rows e_ai^T J_i^-1 G_i), cond = {robot.condition_number(T):.4g}:")
     print(robot.inverse_jacobian(T))
     return 0
 

@@ -149,7 +149,7 @@ def _simulate(args: argparse.Namespace) -> int:
             f"tracking error: max {1e3 * pos.max():.4g} mm, {np.degrees(rot.max()):.4g} deg"
         )
     desc = robot.description
-    what = "leg lengths" if robot.is_ideal_ups else "actuated joint positions"
+    what = desc.actuator_position_name
     lines.append(
         f"peak |Gamma| {np.abs(result.gammas).max():.5g} {desc.effort_unit}; {what} "
         f"[{result.lengths.min():.5g}, {result.lengths.max():.5g}] {desc.position_unit}"

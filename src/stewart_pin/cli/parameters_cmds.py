@@ -19,6 +19,7 @@ from stewart_pin.cli._common import (
     positive_int,
 )
 from stewart_pin.cli._common import robot_from_args as _robot
+from stewart_pin.exceptions import UnsupportedArchitectureError
 
 
 def _cmd_base_params(args: argparse.Namespace) -> int:
@@ -29,7 +30,7 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
     desc = robot.description
     method = args.method
-    if method == "analytic" and desc.legs is not None and uncovered_legs(desc):
+    if method == "analytic" and uncovered_legs(desc):
         print(
             f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "
             "analytic grouping rules do not cover: showing the numerical base parameters"
@@ -39,7 +40,7 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     n = len(bp.standard_names)
     print(f"robot '{robot.name}': {len(bp)} {method} base parameters of {n} standard")
     print(bp.table())
-    if desc.legs is not None:
+    if len(bp.joint_terms):
         print(
             f"\njoint terms: {len(bp.joint_terms)} base parameters are joint terms of their "
             "own (IA armature [kg m^2 or kg], FV viscous friction, FC Coulomb friction, "
@@ -49,9 +50,8 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     print(f"\nnumerical rank: {rank}")
     from stewart_pin.parameters.base import essential_parameters, paper_essential_parameters
 
-    base = None if desc.is_ideal_ups else bp  # 6-UPS: the paper's analytic set, as before
     ess = essential_parameters(
-        robot, args.threshold, n_states=args.states, seed=args.seed, base=base
+        robot, args.threshold, n_states=args.states, seed=args.seed, base=bp
     )
     print(
         f"\n{n} standard -> {len(bp)} base -> {len(ess)} essential parameters (those left when "
@@ -60,8 +60,11 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     )
     for name, value in zip(ess.names, ess.values, strict=True):
         print(f"{name:>16s} {value:14.6g}")
-    if desc.is_ideal_ups:
+    try:  # the paper's set is made of its 88 grouped parameters (R-R-P legs only)
         paper = paper_essential_parameters(robot, n_states=args.states, seed=args.seed)
+    except UnsupportedArchitectureError:
+        paper = None
+    if paper is not None:
         print(
             f"the paper's Table III set ({len(paper)} parameters: 7 per leg + 10) predicts "
             f"the forces of this robot to {paper.relative_error:.3g} relative"
@@ -103,7 +106,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         )
     lines: list[str] = []
     desc = robot.description
-    if desc.legs is not None and uncovered_legs(desc):  # custom legs: no analytic rules
+    if uncovered_legs(desc):  # custom legs: no analytic rules
         base = base_parameters(robot, "numerical")
         lines.append(
             f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "

@@ -1,6 +1,7 @@
 """Symbolic generation, operation counts and compiled backends (paper section VII).
 
-- :func:`generate_models` (:mod:`.symbolic`): the IDM and DDM of a robot as straight-line
+- :func:`generate_models` (chosen per architecture in :mod:`._architecture`, the one place
+  codegen asks which robot it holds): the IDM and DDM of a robot as straight-line
   CasADi SX functions, the geometry baked in, the 88 base parameters an input; for a robot
   with general legs, the generic models of :mod:`.leg_chain_symbolic` (every number baked
   in, any leg architecture and joint term).
@@ -28,6 +29,7 @@ from stewart_pin._lazy import lazy_names
 from stewart_pin.exceptions import CompilationError, UnsafeCacheError  # their old home
 
 if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
+    from stewart_pin.codegen._architecture import generate_models
     from stewart_pin.codegen.c_export import export_c
     from stewart_pin.codegen.compiled import (
         CompiledDynamics,
@@ -47,7 +49,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported o
         cost_table,
         count_operations,
     )
-    from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
+    from stewart_pin.codegen.symbolic import SymbolicModels
 
 __getattr__, __dir__ = lazy_names(
     __name__,
@@ -66,7 +68,7 @@ __getattr__, __dir__ = lazy_names(
         "cost_table": "stewart_pin.codegen.opcount",
         "count_operations": "stewart_pin.codegen.opcount",
         "SymbolicModels": "stewart_pin.codegen.symbolic",
-        "generate_models": "stewart_pin.codegen.symbolic",
+        "generate_models": "stewart_pin.codegen._architecture",
     },
 )
 

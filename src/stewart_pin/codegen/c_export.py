@@ -44,23 +44,11 @@ from stewart_pin._checks import ROTATION_TOLERANCE
 from stewart_pin._io import write_text_atomic
 from stewart_pin._so3 import so3_exp
 from stewart_pin.codegen import _cexport, _cexport_programs, _csource
-from stewart_pin.codegen._sx_common import function, vcross
+from stewart_pin.codegen._architecture import codegen_kind, generate_models
+from stewart_pin.codegen._sx_common import function
 from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
 from stewart_pin.codegen.derivatives import symbolic_derivatives
-from stewart_pin.codegen.leg_chain_symbolic import (
-    general_robot,
-    leg_constants,
-    leg_kinematics,
-)
-from stewart_pin.codegen.symbolic import (
-    AUX_JINV,
-    AUX_Q3SQ,
-    AUX_RHO2,
-    generate_models,
-    leg_geometry,
-    model_constants,
-    pose_from_input,
-)
+from stewart_pin.codegen.symbolic import pose_from_input
 from stewart_pin.exceptions import ExportError, StewartPinError
 from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
 from stewart_pin.protocols import RobotLike
@@ -140,29 +128,7 @@ def geometry_function(desc: Any, name: str) -> tuple[cs.Function, int, int]:
     ``Jp^-1`` row-major and the leg checks' inputs (the 6-UPS: ``q3^2`` and ``rho^2``
     where its IDM has them; general legs: the slacks of the generated models). Returns
     the function and the offsets of ``Jp^-1`` and of the slacks in ``aux``."""
-    x_pose = cs.SX.sym("pose", 16)
-    p, R = pose_from_input(x_pose, "matrix")
-    if desc.is_ideal_ups:
-        c = model_constants(desc)
-        legs = [leg_geometry(c, k, p, R) for k in range(6)]
-        q = [cs.sqrt(g.q3sq) for g in legs]
-        rows = [[*g.a, *vcross(g.L, g.a)] for g in legs]
-        aux: list[Any] = [0.0] * AUX_JINV.stop
-        aux[AUX_Q3SQ] = [g.q3sq for g in legs]
-        aux[AUX_RHO2] = [g.rho2 for g in legs]
-        aux[AUX_JINV] = [x for r in rows for x in r]
-        return function(name, [("pose", x_pose)], [("q_act", q), ("aux", aux)]), AUX_JINV.start, 0
-    robot = general_robot(desc)
-    zero = [0.0, 0.0, 0.0]
-    q, jinv, slacks = [], [], []
-    for k in range(6):
-        lc = leg_constants(robot, k, inline_newton=False)
-        kin = leg_kinematics(lc, p, R, zero, zero)
-        q.append(kin.geo.joints[lc.actuated].value())
-        jinv += kin.row
-        slacks += kin.slacks
-    f = function(name, [("pose", x_pose)], [("q_act", q), ("aux", [*jinv, *slacks])])
-    return f, 0, 36
+    return codegen_kind(desc).geometry_function(desc, name)
 
 
 def newton_function(desc: Any, name: str) -> cs.Function:
@@ -177,32 +143,7 @@ def newton_function(desc: Any, name: str) -> cs.Function:
     x_target = cs.SX.sym("target", 12)
     t = [x_target[i] for i in range(12)]
     p, R = pose_from_input(x_pose, "matrix")
-    ys: list[Any] = []
-    xs: list[Any] = []
-    jinv: list[Any] = []
-    if desc.is_ideal_ups:
-        c = model_constants(desc)
-        for k in range(6):
-            g = leg_geometry(c, k, p, R)
-            ys.append(t[2 * k] - cs.sqrt(g.q3sq))
-            xs.append(1.0)
-            jinv += [*g.a, *vcross(g.L, g.a)]
-    else:
-        robot = general_robot(desc)
-        zero = [0.0, 0.0, 0.0]
-        for k in range(6):
-            lc = leg_constants(robot, k, inline_newton=False)
-            kin = leg_kinematics(lc, p, R, zero, zero)
-            J = kin.geo.joints[lc.actuated]
-            if J.k.revolute:  # cos, sin of q from those of theta + q
-                cq = J.c * J.k.ct + J.s * J.k.st
-                sq = J.s * J.k.ct - J.c * J.k.st
-                ys.append(t[2 * k + 1] * cq - t[2 * k] * sq)
-                xs.append(t[2 * k] * cq + t[2 * k + 1] * sq)
-            else:
-                ys.append(t[2 * k] - J.value())
-                xs.append(1.0)
-            jinv += kin.row
+    ys, xs, jinv = codegen_kind(desc).newton_rows(desc, p, R, t)
     return function(
         name, [("pose", x_pose), ("target", x_target)], [("yx", [*ys, *xs]), ("J_inv", jinv)]
     )
@@ -210,9 +151,7 @@ def newton_function(desc: Any, name: str) -> cs.Function:
 
 def actuated_revolute(desc: Any) -> list[int]:
     """1 for each leg whose actuated joint is revolute, else 0 (leg order)."""
-    if desc.is_ideal_ups:
-        return [0] * 6
-    return [int(leg.joints[leg.actuated - 1].revolute) for leg in general_robot(desc).legs]
+    return codegen_kind(desc).actuated_revolute(desc)
 
 
 def _version() -> str:
@@ -238,11 +177,7 @@ def c_library(
     """The header, the source and the numbers of the exported library of ``robot``
     (``derivatives``: with ``PREFIX_inverse_dynamics_derivatives``)."""
     desc = robot.description
-    if desc.is_ideal_ups and desc.u_joint_limits is not None:
-        raise ExportError(
-            "a 6-UPS robot with U-joint limits cannot export: its guard does not know the "
-            "U-joint angles (describe the legs as 'ups' legs to export with limits)"
-        )
+    codegen_kind(desc).check_exportable(desc)
     models = generate_models(desc, parameters="numeric")
     fi = models.idm_guarded
     fd = models.ddm_guarded
@@ -398,9 +333,7 @@ def reference_values(
     }
     if derivatives:
         f = symbolic_derivatives(generate_models(robot.description)).idm_flat
-        chi = np.zeros(f.size1_in(3))
-        if robot.description.is_ideal_ups:
-            chi = np.asarray(model_constants(robot.description).parameter_values, dtype=float)
+        chi = codegen_kind(robot.description).base_parameters(robot.description)[1]
         out["ref_didm"] = np.array(
             [
                 np.array(f(T.reshape(16), V, A, chi)).ravel()
@@ -445,7 +378,7 @@ def reference_tolerance(robot: Any) -> float:
     """The test program's relative tolerance: :data:`TOLERANCE`, or
     :data:`CUSTOM_TOLERANCE` for a robot with a ``custom`` leg."""
     desc = robot.description
-    if not desc.is_ideal_ups and any(leg.name == "custom" for leg in general_robot(desc).legs):
+    if codegen_kind(desc).has_custom_leg(desc):
         return CUSTOM_TOLERANCE
     return TOLERANCE
 

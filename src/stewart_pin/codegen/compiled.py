@@ -88,28 +88,22 @@ import numpy as np
 
 from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states, in_batch
 from stewart_pin.codegen import _csource, _simd
+from stewart_pin.codegen._architecture import UPS_AUX_LAYOUT as UPS_AUX_LAYOUT  # its old home
+from stewart_pin.codegen._architecture import codegen_kind, generate_models
 from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.leg_chain_symbolic import (
     GENERAL_GENERATOR_VERSION,
     AuxLayout,
-    aux_layout,
     general_robot,
 )
 from stewart_pin.codegen.symbolic import (
     AUX_DDM_D,
-    AUX_DDM_SIZE,
-    AUX_IDM_DET,
     AUX_IDM_F,
-    AUX_IDM_FRO2,
     AUX_IDM_GROWTH,
     AUX_IDM_HZ,
-    AUX_IDM_SIZE,
     AUX_JINV,
-    AUX_Q3SQ,
-    AUX_RHO2,
     GENERATOR_VERSION,
-    generate_models,
 )
 from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
@@ -123,9 +117,6 @@ from stewart_pin.exceptions import (
 )
 from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.geometry import (
-    LEG_MIN_LENGTH_RATIO,
-    LEG_SINGULARITY_SIN,
-    characteristic_length,
     inverse_geometry_batch,
 )
 from stewart_pin.kinematics.jacobians import (
@@ -133,7 +124,6 @@ from stewart_pin.kinematics.jacobians import (
     inverse_jacobian_batch,
     scaled_inverse_jacobian,
 )
-from stewart_pin.parameters.base import grouped_parameters
 from stewart_pin.protocols import RobotLike
 
 try:  # POSIX
@@ -176,20 +166,6 @@ VM_CHUNK = 4096
 _INPUT, _GEOMETRY, _COND = FLAG_NAMES["INPUT"], FLAG_NAMES["GEOMETRY"], FLAG_NAMES["COND"]
 _NOT_PD, _NONFINITE = FLAG_NAMES["NOT_PD"], FLAG_NAMES["NONFINITE"]
 _REPIVOTED = FLAG_NAMES["REPIVOTED"]
-#: The aux layout of the paper's 6-UPS models (:mod:`.symbolic`'s ``AUX_*``): their leg
-#: checks read ``q3^2`` and ``rho^2``, no slacks.
-UPS_AUX_LAYOUT = AuxLayout(
-    jinv=AUX_JINV.start,
-    idm_f=AUX_IDM_F.start,
-    idm_hz=AUX_IDM_HZ.start,
-    growth=AUX_IDM_GROWTH,
-    det=AUX_IDM_DET,
-    fro2=AUX_IDM_FRO2,
-    idm_slack=AUX_IDM_SIZE,
-    ddm_d=AUX_DDM_D.start,
-    ddm_slack=AUX_DDM_SIZE,
-    n_slack=0,
-)
 _LIB_NAME = "libstewart_models.so"
 _SOURCE_NAME = "stewart_models.c"
 _MANIFEST_NAME = "manifest.json"
@@ -270,18 +246,14 @@ def cache_key(source: str, compiler: str, cflags: tuple[str, ...] = CFLAGS) -> s
 def model_layout(desc: Any) -> AuxLayout:
     """Where the guarded models of ``desc`` put their by-products
     (:data:`UPS_AUX_LAYOUT` for the paper's 6-UPS robot)."""
-    if desc.is_ideal_ups:
-        return UPS_AUX_LAYOUT
-    return aux_layout(generate_models(desc))
+    return codegen_kind(desc).model_layout(desc)
 
 
 def singularity_length(desc: Any) -> float:
     """The length the parallel singularity measure divides ``Jp^-1``'s angular columns by:
     the characteristic length (6-UPS), the platform radius ``GeneralHexapod.size``
     (general legs), as the reference path does."""
-    if desc.is_ideal_ups:
-        return characteristic_length(desc)
-    return general_robot(desc).size
+    return codegen_kind(desc).singularity_length(desc)
 
 
 def leg_checks_source(desc: Any, layout: AuxLayout) -> str:
@@ -289,18 +261,7 @@ def leg_checks_source(desc: Any, layout: AuxLayout) -> str:
     singularities (:data:`._csource.CHECK_LEGS_UPS`, the thresholds of
     :mod:`stewart_pin.kinematics.geometry` with margins), or every slack of the general
     models positive (:data:`._csource.CHECK_LEGS_GENERAL`)."""
-    if not desc.is_ideal_ups:
-        return _csource.CHECK_LEGS_GENERAL % {"n_slack": layout.n_slack}
-    lo, hi = (float(x) for x in desc.stroke)
-    min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
-    return _csource.CHECK_LEGS_UPS % {
-        "lo2": lo * lo * (1.0 + 1e-9),
-        "hi2": hi * hi * (1.0 - 1e-9),
-        "min_length2": min_length**2 * (1.0 + 1e-6),
-        "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
-        "q3sq": AUX_Q3SQ.start,
-        "rho2": AUX_RHO2.start,
-    }
+    return codegen_kind(desc).leg_checks_source(desc, layout)
 
 
 def c_source(desc: Any) -> str:
@@ -854,18 +815,13 @@ class CompiledDynamics:
         self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.description
         self._desc = desc
-        self.general = not desc.is_ideal_ups
+        kind = codegen_kind(desc)
+        self.general = kind.generic_models
+        self.parameter_names, self.base_values = kind.base_parameters(desc)
+        self._limits = kind.limits_in_python(desc)
         if self.general:
-            self.parameter_names: tuple[str, ...] = ()
-            self.base_values = np.zeros(0)
-            self._limits = False  # in the guard (the slacks)
             self._hexapod = general_robot(desc)
             self._reference_models: Any = None
-        else:
-            bp = grouped_parameters(desc)
-            self.parameter_names = bp.names
-            self.base_values = np.ascontiguousarray(bp.values, dtype=np.float64)
-            self._limits = desc.u_joint_limits is not None
         self.base_values.flags.writeable = False
         self._length = singularity_length(desc)
         self.kind, self.reason = "vm", None

@@ -60,7 +60,9 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin._checks import check_states
+from stewart_pin.codegen._architecture import codegen_kind, generate_models
 from stewart_pin.codegen._identity import library_identity
+from stewart_pin.codegen._sx_common import SymbolicModels
 from stewart_pin.codegen.compiled import (
     QUICK_CFLAGS,
     CompiledDynamics,
@@ -69,8 +71,6 @@ from stewart_pin.codegen.compiled import (
     printable_name,
     split_batch,
 )
-from stewart_pin.codegen.leg_chain_symbolic import actuator_function
-from stewart_pin.codegen.symbolic import SymbolicModels, generate_models
 from stewart_pin.exceptions import (
     CompilationError,
     InputError,
@@ -242,30 +242,7 @@ def symbolic_actuators_for(robot: RobotLike) -> cs.Function:
     [m] and their rates ``a_i . (v + w x L_i)`` (eq. 13); every other robot takes the
     generated models' leg code
     (:func:`~stewart_pin.codegen.leg_chain_symbolic.actuator_function`)."""
-    desc = robot.description
-    if not desc.is_ideal_ups:
-        return actuator_function(desc)
-    x_pose = cs.SX.sym("pose", 16)
-    x_twist = cs.SX.sym("twist", 6)
-    p = cs.vertcat(x_pose[3], x_pose[7], x_pose[11])
-    R = cs.vertcat(
-        *[cs.horzcat(x_pose[4 * i], x_pose[4 * i + 1], x_pose[4 * i + 2]) for i in range(3)]
-    )
-    v, w = x_twist[0:3], x_twist[3:6]
-    lengths, rates = [], []
-    for i in range(6):
-        L = cs.mtimes(R, desc.platform_points[i])
-        d = p + L - desc.base_points[i]
-        length = cs.sqrt(cs.sumsqr(d))
-        lengths.append(length)
-        rates.append(cs.dot(d, v + cs.cross(w, L)) / length)
-    return cs.Function(
-        "actuators",
-        [x_pose, x_twist],
-        [cs.vertcat(*lengths), cs.vertcat(*rates)],
-        ["pose", "twist"],
-        ["q_a", "qdot_a"],
-    )
+    return codegen_kind(robot.description).actuator_function(robot.description)
 
 
 # ---------------------------------------------------------------------------- C source

@@ -49,12 +49,8 @@ from typing import Any
 
 import casadi as cs
 
-from stewart_pin.codegen.symbolic import (
-    Stages,
-    SymbolicModels,
-    description_key,
-    generate_models,
-)
+from stewart_pin.codegen._architecture import codegen_kind
+from stewart_pin.codegen.symbolic import Stages, description_key
 from stewart_pin.description import RobotDescription
 from stewart_pin.protocols import RobotLike
 
@@ -203,73 +199,41 @@ def cost_dict(robot: RobotLike | RobotDescription) -> dict[str, Any]:
     its name; ``"paper"`` Table IV.
     """
     desc = _robot_description(robot)
-    if not desc.is_ideal_ups:
-        return _general_cost_dict(desc)
-    models = {p: generate_models(desc, parameters=p) for p in ("base", "essential", "numeric")}
-    quat = generate_models(desc, pose="quaternion")
-    out: dict[str, Any] = {"robot": desc.name}
+    key = description_key(desc)
+    if key not in _COSTS:
+        _COSTS[key] = _count(desc)
+    return copy.deepcopy(_COSTS[key])
+
+
+#: :func:`cost_dict` per description, kept for the process (generating the general legs'
+#: staged models takes seconds).
+_COSTS: dict[str, dict[str, Any]] = {}
+
+
+def _count(desc: RobotDescription) -> dict[str, Any]:
+    """Count the models the robot's codegen strategy names
+    (:meth:`~._architecture.CodegenKind.cost_models`)."""
+    counted = codegen_kind(desc).cost_models(desc)
+    out: dict[str, Any] = {"robot": desc.name, **counted.extra}
     for model in ("IDM", "DDM"):
         attr = model.lower()
         entry: dict[str, Any] = {
-            p: count_operations(getattr(m, attr)).as_dict() for p, m in models.items()
+            p: count_operations(getattr(m, attr)).as_dict() for p, m in counted.models.items()
         }
-        entry["quaternion"] = count_operations(getattr(quat, attr)).as_dict()
-        stages = stage_counts(getattr(models["base"], f"{attr}_stages"))
-        entry["critical_path"] = stages.critical_path.as_dict()
-        entry["critical_path_7"] = stages.critical_path_7.as_dict()
-        essential = stage_counts(getattr(models["essential"], f"{attr}_stages"))
-        entry["critical_path_essential"] = essential.critical_path.as_dict()
-        entry["critical_path_7_essential"] = essential.critical_path_7.as_dict()
-        entry["stages"] = {
-            "shared": stages.shared.as_dict(),
-            "leg_max": _max(list(stages.legs)).as_dict(),
-            "platform": stages.platform.as_dict(),
-            "closure": stages.closure.as_dict(),
-        }
+        for suffix, variant in counted.staged.items():
+            stage_models = getattr(counted.models[variant], f"{attr}_stages")
+            assert stage_models is not None
+            stages = stage_counts(stage_models)
+            entry[f"critical_path{suffix}"] = stages.critical_path.as_dict()
+            entry[f"critical_path_7{suffix}"] = stages.critical_path_7.as_dict()
+            if suffix == "":
+                entry["stages"] = {
+                    "shared": stages.shared.as_dict(),
+                    "leg_max": _max(list(stages.legs)).as_dict(),
+                    "platform": stages.platform.as_dict(),
+                    "closure": stages.closure.as_dict(),
+                }
         out[model] = entry
-    out["paper"] = {
-        "table_iv": {k: list(v) for k, v in PAPER_TABLE_IV.items()},
-        "critical_path_7": {k: list(v) for k, v in PAPER_CRITICAL_PATH.items()},
-    }
-    return out
-
-
-_GENERAL_COSTS: dict[str, dict[str, Any]] = {}
-
-
-def _general_cost_dict(desc: RobotDescription) -> dict[str, Any]:
-    """:func:`cost_dict` of a robot with general legs: ``"numeric"`` (every value baked
-    in), ``"quaternion"``, ``"critical_path"`` / ``"critical_path_7"`` and ``"stages"``
-    (kept per description for the process: generating them takes seconds)."""
-    key = description_key(desc)
-    if key not in _GENERAL_COSTS:
-        _GENERAL_COSTS[key] = _count_general(desc)
-    return copy.deepcopy(_GENERAL_COSTS[key])
-
-
-def _count_general(desc: RobotDescription) -> dict[str, Any]:
-    from stewart_pin.codegen.leg_chain_symbolic import build_general_models
-
-    models: SymbolicModels = build_general_models(desc, stages=True, inline_newton=True)[0]
-    quat = build_general_models(desc, "quaternion", inline_newton=True)[0]
-    out: dict[str, Any] = {"robot": desc.name, "architecture": desc.architecture}
-    for model in ("IDM", "DDM"):
-        attr = model.lower()
-        stage_models = getattr(models, f"{attr}_stages")
-        assert stage_models is not None
-        stages = stage_counts(stage_models)
-        out[model] = {
-            "numeric": count_operations(getattr(models, attr)).as_dict(),
-            "quaternion": count_operations(getattr(quat, attr)).as_dict(),
-            "critical_path": stages.critical_path.as_dict(),
-            "critical_path_7": stages.critical_path_7.as_dict(),
-            "stages": {
-                "shared": stages.shared.as_dict(),
-                "leg_max": _max(list(stages.legs)).as_dict(),
-                "platform": stages.platform.as_dict(),
-                "closure": stages.closure.as_dict(),
-            },
-        }
     out["paper"] = {
         "table_iv": {k: list(v) for k, v in PAPER_TABLE_IV.items()},
         "critical_path_7": {k: list(v) for k, v in PAPER_CRITICAL_PATH.items()},

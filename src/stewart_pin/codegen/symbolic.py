@@ -53,10 +53,12 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
 
+from stewart_pin._lazy import lazy_names
 from stewart_pin.codegen._sx_common import (
     UPPER6,
     Mat,
@@ -510,49 +512,16 @@ def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> S
     )
 
 
-_CACHE: dict[tuple[str, str, str], SymbolicModels] = {}
-_CACHE_SIZE = 16
-
-
 def description_key(desc: RobotDescription) -> str:
     """A canonical text of a description (its dictionary form as sorted JSON)."""
     return json.dumps(desc.to_dict(), sort_keys=True)
 
 
-def generate_models(
-    desc: RobotDescription, pose: str = "matrix", parameters: str = "base"
-) -> SymbolicModels:
-    """Generate the symbolic IDM and DDM of a robot (cached per description).
-
-    A robot with general legs (``desc.legs`` set) gets the generic models of
-    :mod:`stewart_pin.codegen.leg_chain_symbolic`: every number of the robot baked in, an
-    empty ``base_parameters`` input (``parameters`` ``"base"`` or ``"numeric"``), no
-    stages.
-
-    Args:
-        desc: the robot description; its geometry is baked in as numbers.
-        pose: ``"matrix"`` (the pose input is 0Tp row-major, 16 numbers) or
-            ``"quaternion"`` (``[x, y, z, qx, qy, qz, qw]``).
-        parameters: ``"base"`` (the 88 base parameters are a symbolic input),
-            ``"essential"`` (the paper's 52 essential parameters symbolic, the other 36
-            zero, as in the paper's operation counts) or ``"numeric"`` (every value baked
-            in: zeros of a symmetric robot propagate too).
-    """
-    if not desc.is_ideal_ups:
-        if parameters not in ("base", "numeric"):
-            raise InputError(
-                f"robot '{desc.name}' has general legs: its models have every parameter value "
-                f"baked in (parameters 'base' or 'numeric'), got {parameters!r}"
-            )
-        parameters = "numeric"
-    key = (description_key(desc), pose, parameters)
-    if key not in _CACHE:
-        if len(_CACHE) >= _CACHE_SIZE:
-            _CACHE.pop(next(iter(_CACHE)))
-        if desc.is_ideal_ups:
-            _CACHE[key] = _build(desc, pose, parameters, "stewart_")
-        else:
-            from stewart_pin.codegen.leg_chain_symbolic import build_general_models
-
-            _CACHE[key] = build_general_models(desc, pose)[0]
-    return _CACHE[key]
+#: ``generate_models`` (the models of any robot, the choice of generator made once per
+#: architecture) lives in :mod:`._architecture`, above this generator and the leg chains';
+#: it stays importable from here.
+if TYPE_CHECKING:
+    from stewart_pin.codegen._architecture import generate_models as generate_models
+__getattr__, __dir__ = lazy_names(
+    __name__, {"generate_models": "stewart_pin.codegen._architecture"}
+)

@@ -474,6 +474,24 @@ class RobotDescription:
         return _shared_unit(tuple(leg.position_unit for leg in self.leg_architectures))
 
     @property
+    def actuator_position_name(self) -> str:
+        """What the actuated joints' positions are called in messages: ``"leg lengths"``
+        (the ideal 6-UPS), ``"actuated joint positions"`` (any other robot)."""
+        return "leg lengths" if self.is_ideal_ups else "actuated joint positions"
+
+    @property
+    def limits_name(self) -> str:
+        """What bounds the actuated joints, in messages: ``"stroke"`` (the ideal 6-UPS's
+        shared one), ``"joint limits"`` (each leg's own)."""
+        return "stroke" if self.is_ideal_ups else "joint limits"
+
+    @property
+    def legs_summary(self) -> str:
+        """The legs in a few words: ``"stroke [lo hi] m"`` (the ideal 6-UPS), else
+        ``"<architecture> legs"``."""
+        return f"stroke {self.stroke} m" if self.is_ideal_ups else f"{self.architecture} legs"
+
+    @property
     def architecture(self) -> str:
         """The legs' common architecture (``"ups"``, ``"ups-offset"``, ``"rus"``,
         ``"pus"``, ``"custom"``), or ``"mixed"``."""

@@ -260,11 +260,9 @@ def mujoco_inertials(
             :func:`~stewart_pin.formats.urdf.robot_size` for general legs, ``desc.size``
             for the 6-UPS.
     """
-    if is_general(desc):
-        if tips is None:
-            tips = np.array([np.asarray(lg.tip, dtype=float) for lg in desc.legs])
-        if size is None:
-            size = robot_size(desc)
+    default_tips, default_size = _form(desc).inertial_defaults(desc)
+    tips = default_tips if tips is None else tips
+    size = default_size if size is None else size
     leg = np.array(desc.leg_inertia, dtype=float)
     platform = np.array(desc.platform_inertia, dtype=float)
     P = np.asarray(desc.platform_points, dtype=float)
@@ -689,14 +687,28 @@ class _MjcfForm:
 
     mjcf: Callable[[Any, bool], str]
     qpos: Callable[[Any, Any], np.ndarray]
+    #: :func:`mujoco_inertials`'s defaults ``(tips, size)`` (``None``: its own).
+    inertial_defaults: Callable[[Any], tuple[np.ndarray | None, float | None]]
+
+
+def _no_inertial_defaults(desc: Any) -> tuple[np.ndarray | None, float | None]:
+    """The 6-UPS: the rods' point masses at the origin of frame 3i, ``desc.size``."""
+    return None, None
+
+
+def _leg_chains_inertial_defaults(desc: Any) -> tuple[np.ndarray | None, float | None]:
+    """Leg chains: each leg's ``tip``, :func:`~stewart_pin.formats.urdf.robot_size`."""
+    return np.array([np.asarray(lg.tip, dtype=float) for lg in desc.legs]), robot_size(desc)
 
 
 #: The ideal 6-UPS (today's files, byte for byte) and every robot carrying leg chains.
-_IDEAL_UPS = _MjcfForm(_ideal_ups_mjcf_string, _ideal_ups_mujoco_qpos)
-_LEG_CHAINS = _MjcfForm(leg_chains_mjcf_string, leg_chains_mujoco_qpos)
+_IDEAL_UPS = _MjcfForm(_ideal_ups_mjcf_string, _ideal_ups_mujoco_qpos, _no_inertial_defaults)
+_LEG_CHAINS = _MjcfForm(
+    leg_chains_mjcf_string, leg_chains_mujoco_qpos, _leg_chains_inertial_defaults
+)
 
 
 def _form(desc: Any) -> _MjcfForm:
     """The writers of ``desc``'s kind (:func:`~stewart_pin.formats.urdf.is_general`): the
-    one place the MJCF's choice is made (``mujoco_inertials`` only picks its defaults)."""
+    one place the MJCF's choice is made (``mujoco_inertials``' defaults included)."""
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS

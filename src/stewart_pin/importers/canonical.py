@@ -319,7 +319,7 @@ def canonical_description(desc: RobotDescription) -> RobotDescription:
     architecture names by structure (:func:`classify`), each leg's branch that of its home
     configuration, its ``guess`` kept. The paper's ideal 6-UPS robot (``legs`` is
     ``None``) is canonical: it is returned as it is. ``source`` is kept."""
-    if desc.is_ideal_ups:
+    if desc.legs is None:  # no leg chains to rewrite
         return desc
     from stewart_pin.kinematics.leg_chains import inverse_geometry
 

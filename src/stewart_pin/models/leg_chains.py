@@ -14,29 +14,25 @@ each joint's armature (rotor inertia reflected through its transmission): Pinocc
 - :func:`build_general_tree` : six legs and the platform as a free-flyer (24 dof) with
   six ``RigidConstraintModel`` CONTACT_3D (LOCAL): leg i's tip == P_i on the platform.
 
-:func:`closed_loop_tree`, :func:`leg_models` and :func:`legs_model` take any robot
-description and choose its models here, once: the paper's ideal 6-UPS keeps the models
-parsed from its URDF (:mod:`.pinocchio_models`: the paper's joint names and frames), every
-other robot gets its chains built above. ``StewartRobot.tree``, ``.leg_models`` and
-``.legs_model`` are these.
+Which models a robot gets is chosen once per architecture, by its path
+(:mod:`stewart_pin.architectures`: ``closed_loop_tree``, ``leg_models``, ``legs_model``):
+the paper's ideal 6-UPS keeps the models parsed from its URDF (:mod:`.pinocchio_models`:
+the paper's joint names and frames), every other robot gets its chains built here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+import importlib
+import warnings
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import pin_inertia_from_khalil
-from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
-    build_leg_models,
-    build_legs_model,
-    build_tree,
 )
 
 PLATFORM_JOINT = "platform_joint"
@@ -148,56 +144,24 @@ def build_general_tree(robot: GeneralHexapod) -> TreeModel:
     )
 
 
-def closed_loop_tree(desc: RobotDescription) -> TreeModel:
-    """The 24-dof closed-loop tree of any robot (six leg chains, the platform as a
-    free-flyer, six 3D loop closures at P_i): the ideal 6-UPS's from its URDF
-    (:func:`~stewart_pin.models.pinocchio_models.build_tree`), every other robot's from
-    its chains (:func:`build_general_tree`, ``model.armature`` set)."""
-    return _builders(desc).tree(desc)
+#: Where the models of any robot are chosen now (issue 19: once per architecture, in
+#: :mod:`stewart_pin.architectures`): the names this module held until then.
+_MOVED = ("closed_loop_tree", "leg_models", "legs_model")
 
 
-def leg_models(desc: RobotDescription) -> list[pin.Model]:
-    """The six 3-dof leg models of any robot (model ``i`` has leg i+1's joints from the
-    base, in order; general legs: ``model.armature`` set)."""
-    return _builders(desc).leg_models(desc)
-
-
-def legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
-    """The six legs of any robot on a fixed base (18 dof) and the (6, 3) velocity index
-    of joint j of leg i."""
-    return _builders(desc).legs_model(desc)
-
-
-@dataclass(frozen=True)
-class _Builders:
-    """How one kind of robot's Pinocchio models are built (each takes its description)."""
-
-    tree: Callable[[RobotDescription], TreeModel]
-    leg_models: Callable[[RobotDescription], list[pin.Model]]
-    legs_model: Callable[[RobotDescription], tuple[pin.Model, np.ndarray]]
-
-
-def _chain_tree(desc: RobotDescription) -> TreeModel:
-    return build_general_tree(general_from_description(desc))
-
-
-def _chain_leg_models(desc: RobotDescription) -> list[pin.Model]:
-    robot = general_from_description(desc)
-    return [build_leg_chain(robot, k) for k in range(6)]
-
-
-def _chain_legs_model(desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
-    return build_leg_chains(general_from_description(desc))
-
-
-#: The ideal 6-UPS: the models parsed from its URDF; every other robot: its chains.
-_IDEAL_UPS = _Builders(build_tree, build_leg_models, build_legs_model)
-_LEG_CHAINS = _Builders(_chain_tree, _chain_leg_models, _chain_legs_model)
-
-
-def _builders(desc: RobotDescription) -> _Builders:
-    """The builders of ``desc``'s architecture: the one place the models' choice is made."""
-    return _IDEAL_UPS if desc.is_ideal_ups else _LEG_CHAINS
+def __getattr__(name: str) -> Any:
+    """``closed_loop_tree``, ``leg_models`` and ``legs_model`` (deprecated here): the
+    functions of :mod:`stewart_pin.architectures`, after a ``DeprecationWarning`` naming
+    them (the architecture's path chooses the models)."""
+    if name not in _MOVED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"{__name__}.{name} is deprecated: use stewart_pin.architectures.{name} (each "
+        "architecture's path chooses its Pinocchio models)",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return getattr(importlib.import_module("stewart_pin.architectures"), name)
 
 
 __all__ = [
@@ -205,8 +169,5 @@ __all__ = [
     "build_general_tree",
     "build_leg_chain",
     "build_leg_chains",
-    "closed_loop_tree",
     "leg_joint_name",
-    "leg_models",
-    "legs_model",
 ]

@@ -48,7 +48,6 @@ from stewart_pin.exceptions import (
     ConvergenceError,
     FileFormatError,
     InputError,
-    JointLimitError,
     SimulationError,
     SimulationInterrupted,
     SingularityError,
@@ -67,7 +66,6 @@ from stewart_pin.formats.csv_tables import (
     states_from_table,
     write_csv,
 )
-from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.motion.control import check_backend
 from stewart_pin.protocols import RobotLike
 
@@ -92,8 +90,10 @@ MAX_STEPS = 10**8
 #: its error control asks for less (or for less than 16 eps * duration, the clock's
 #: resolution). Events are located down to this step.
 MIN_STEP = 1e-12
-#: A leg reaching its stroke end is located to this fraction of the longest stroke length
-#: (1e-6 * 2.8 m = 2.8 um for the simulator preset); a U-joint limit to this many radians.
+#: A joint limit is located to this unit-free margin (``robot.limit_margin``): a 6-UPS leg's
+#: stroke end to this fraction of the longest stroke length (1e-6 * 2.8 m = 2.8 um for the
+#: simulator preset), a U-joint or revolute joint limit to this many radians, a prismatic
+#: joint of general legs to this fraction of ``RobotDescription.stroke_mid``.
 LIMIT_TOLERANCE = 1e-6
 #: Slack when a ratio of times is rounded to an integer (t / period, period / dt,
 #: duration / dt): round-off in the division must not add or drop a sample.
@@ -490,9 +490,6 @@ class _Run:
         self.n_output = 0  # output_dt: the index of the next output time
         # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
         self.h_min = max(MIN_STEP, 16 * np.finfo(float).eps * duration)
-        stroke = robot.description.stroke
-        # general legs: robot.limit_margin is unit-free (prismatic joints over stroke_mid)
-        self.tol = LIMIT_TOLERANCE * (1.0 if stroke is None else float(stroke[1]))
         self.n_grid = max(1, int(np.ceil(duration / dt - _RATIO_SLACK))) if method == "rk4" else 0
 
     # ------------------------------------------------------------------ output
@@ -533,32 +530,6 @@ class _Run:
         return SimulationError(f"simulation stopped at t = {t:.9g} s: {message}", t, self.result())
 
     # ------------------------------------------------------------------ events
-    def _stroke_margin(self, q: np.ndarray) -> tuple[float, str]:
-        """The smallest distance [m] of a leg length to its stroke ends (leg values (6, 3))
-        and the sentence saying which."""
-        stroke = self.robot.description.stroke
-        assert stroke is not None  # called for the ideal 6-UPS only
-        lo, hi = stroke
-        m = np.minimum(q[:, 2] - lo, hi - q[:, 2])
-        k = int(np.argmin(m))
-        end = "lower" if q[k, 2] - lo <= hi - q[k, 2] else "upper"
-        return float(m[k]), (
-            f"leg {k + 1} length {q[k, 2]:.9g} m reached the {end} end of its stroke "
-            f"[{lo:.9g}, {hi:.9g}] m"
-        )
-
-    def _joint_margin(self, q: np.ndarray) -> tuple[float, str]:
-        """The smallest distance [rad] of a U-joint angle to its limits, and which."""
-        lim = self.robot.description.u_joint_limits
-        assert lim is not None  # called only for a robot with U-joint limits
-        m = np.minimum(q[:, :2] - lim[:, :, 0], lim[:, :, 1] - q[:, :2])
-        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
-        end = "lower" if q[k, j] - lim[k, j, 0] <= lim[k, j, 1] - q[k, j] else "upper"
-        return float(m[k, j]), (
-            f"leg {k + 1} U-joint angle q{j + 1}{k + 1} = {q[k, j]:.9g} rad reached its {end} "
-            f"limit [{lim[k, j, 0]:.9g}, {lim[k, j, 1]:.9g}] rad"
-        )
-
     def located(self, s: _State, failure: _Failure, h: float) -> SimulationError | None:
         """The error to stop with when the event after ``s`` is located (``None``: not yet).
 
@@ -566,21 +537,9 @@ class _Run:
         ``LIMIT_TOLERANCE`` times the longest stroke length (``LIMIT_TOLERANCE`` rad) of it;
         any event when the failing step is down to the shortest step."""
         e = failure.error
-        if isinstance(e, WorkspaceError) and not self.robot.description.is_ideal_ups:
-            margin, what = self.robot.limit_margin(s.T)
-            if margin <= LIMIT_TOLERANCE:
-                return self._stop(what, s.t, e)
-            if h <= self.h_min:
-                return self._stop(f"{e} (within the next {h:.2g} s)", s.t, e)
-            return None
         if isinstance(e, WorkspaceError):
-            desc = self.robot.description
-            q = inverse_geometry_batch(desc, s.T[None], check_limits=False)
-            if isinstance(e, JointLimitError) and desc.u_joint_limits is not None:
-                (margin, what), tol = self._joint_margin(q[0]), LIMIT_TOLERANCE
-            else:
-                (margin, what), tol = self._stroke_margin(q[0]), self.tol
-            if margin <= tol:
+            margin, what = self.robot.limit_margin(s.T, e)
+            if margin <= LIMIT_TOLERANCE:
                 return self._stop(what, s.t, e)
             if h <= self.h_min:  # not this limit (a controller's own check, say)
                 return self._stop(f"{e} (within the next {h:.2g} s)", s.t, e)

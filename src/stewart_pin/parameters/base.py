@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_scalar
+from stewart_pin.architectures import IdealUpsPath, LegChainPath, reference_path
 from stewart_pin.description import RobotDescription
 from stewart_pin.dynamics.regressor import (
     JOINT_TERMS_START,
@@ -55,13 +56,12 @@ from stewart_pin.parameters.leg_chain_base import general_grouping, uncovered_le
 from stewart_pin.protocols import RobotLike
 
 #: Default numerical rank tolerance, relative to the largest singular value of the stacked
-#: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`).
-RANK_TOLERANCE = 1e-8
-#: The same for general legs: their joint terms and small passive links (the 2 g cross of
-#: a servo's universal joint) act down to about 1e-8 of the largest singular value (the
-#: kept ones measure 1e-8 to 1e-5 on the random robots and the presets), while round-off
-#: stays below 1e-15; 1e-11 sits between the two.
-GENERAL_RANK_TOLERANCE = 1e-11
+#: regressor with its columns made dimensionless (see :func:`numerical_base_parameters`):
+#: each architecture's path holds its own (``rank_tolerance``), this the ideal 6-UPS's.
+RANK_TOLERANCE = IdealUpsPath.rank_tolerance
+#: The same for general legs (:attr:`stewart_pin.architectures.LegChainPath.rank_tolerance`,
+#: where the reason for 1e-11 is given).
+GENERAL_RANK_TOLERANCE = LegChainPath.rank_tolerance
 #: A numerical rank is flagged (:class:`BaseParameterWarning`) when a singular value lies
 #: within this factor of the tolerance on either side.
 RANK_MARGIN = 100.0
@@ -404,16 +404,12 @@ class RankReport:
 
 
 def stacked_regressor(robot: RobotLike, n_states: int = 60, seed: int = 0) -> np.ndarray:
-    """``W`` stacked over ``n_states`` random workspace states: (6 n_states, n)."""
-    from stewart_pin.kinematics.workspace import sample_states
-
+    """``W`` stacked over ``n_states`` random workspace states (``robot.sample_states``):
+    (6 n_states, n)."""
     n_states = int(check_scalar(n_states, "n_states", integer=True))
     if n_states < 1:
         raise InputError(f"n_states must be an integer >= 1, got {n_states}")
-    if robot.description.is_ideal_ups:
-        poses, twists, accels = sample_states(robot.description, n_states, seed)
-    else:
-        poses, twists, accels = robot.sample_states(n_states, seed)
+    poses, twists, accels = robot.sample_states(n_states, seed)
     W = robot.regressor(poses, twists, accels)
     return W.reshape(-1, W.shape[-1])
 
@@ -487,7 +483,7 @@ def numerical_base_parameters(
     """
     desc = robot.description
     if tolerance is None:
-        tolerance = RANK_TOLERANCE if desc.is_ideal_ups else GENERAL_RANK_TOLERANCE
+        tolerance = reference_path(desc).rank_tolerance
     real = isinstance(tolerance, (int, float, np.integer, np.floating))
     if isinstance(tolerance, bool) or not real or not 0.0 < float(tolerance) < 1.0:
         raise InputError(
@@ -571,7 +567,7 @@ def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -
     if method not in ("analytic", "numerical"):
         raise InputError(f"unknown method '{method}': 'analytic' or 'numerical'")
     desc = robot.description
-    if method == "analytic" and desc.legs is not None and uncovered_legs(desc):
+    if method == "analytic" and uncovered_legs(desc):
         warnings.warn(
             f"the analytic base parameters cover the legs ups, ups-offset, rus and pus; "
             f"robot '{desc.name}' has custom legs {uncovered_legs(desc)}: using the "

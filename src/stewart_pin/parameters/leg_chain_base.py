@@ -371,9 +371,10 @@ class GeneralGrouping:
 
 
 def uncovered_legs(desc: RobotDescription) -> list[int]:
-    """The legs (1..6) the analytic rules do not cover (``custom``)."""
-    assert desc.legs is not None
-    return [i + 1 for i, leg in enumerate(desc.legs) if leg.name not in COVERED]
+    """The legs (1..6) the analytic rules do not cover (``custom``; none on the ideal
+    6-UPS, which has the paper's rules)."""
+    legs = desc.legs or ()
+    return [i + 1 for i, leg in enumerate(legs) if leg.name not in COVERED]
 
 
 def general_grouping(

@@ -745,7 +745,7 @@ def _check_positions(log: ActuatorLog, robot: RobotLike) -> None:
     if found:
         k, i = min(found)
         unit = "rad" if revolute[i] else "m"
-        what = "stroke" if robot.description.is_ideal_ups else "joint limits"
+        what = robot.description.limits_name
         raise _sample_error(
             LogLimitError,
             log,

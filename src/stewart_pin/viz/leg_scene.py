@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin.description import RobotDescription
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.formats.urdf import VisualSizes, plate_visual
 from stewart_pin.kinematics.leg_chains import LegFrames, inverse_geometry_batch, leg_forward
@@ -76,10 +77,7 @@ def general_robot(robot: Any) -> GeneralHexapod | None:
     legs = getattr(desc, "legs", None)
     if legs is None:
         return None
-    ideal = getattr(desc, "is_ideal_ups", None)  # a RobotDescription says it itself
-    if ideal is True:
-        return None
-    if ideal is None and (
+    if not isinstance(desc, RobotDescription) and (  # a description's legs are its own
         hasattr(robot, "tree")
         and hasattr(robot, "urdf")
         and all(getattr(leg, "name", None) == "ups" for leg in legs)
