@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -28,6 +29,7 @@ from stewart_pin.description.leg_architecture import (
 )
 from stewart_pin.exceptions import (
     ModelImportError,
+    ModelImportWarning,
 )
 from stewart_pin.importers.canonical import (
     transform_inertia,
@@ -389,6 +391,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
                 tuple(link_names(best[0])) if best[0] is not None else (),
             )
         P = six[0]
+        _platform_body(model, links, P, connections, edges)
     if P == ground:
         raise ModelImportError(
             f"the platform {shown(platform or '')} is fixed to the base", (platform or "",)
@@ -558,6 +561,72 @@ def _weld_where_a_ball_should_be(
             )
 
 
+#: Two bodies of the platform's rigid group within this fraction of each other's mass
+#: could both be meant as the platform: a warning names them.
+PLATFORM_MASS_MARGIN = 0.1
+
+
+def _platform_body(
+    model: KinematicModel,
+    links: list[Link],
+    P: int,
+    connections: list[Connection],
+    edges: list[Edge],
+) -> None:
+    """Give the platform link ``P`` the frame of its heaviest body (the platform the
+    user means, not a joint part such as a rod end through which it hangs from a leg in
+    the tree), the points already found in its frame moved with it; a note and a
+    :class:`ModelImportWarning` when the two heaviest are within
+    :data:`PLATFORM_MASS_MARGIN` of each other's mass (``platform=`` chooses)."""
+    link = links[P]
+    bodies = [b for b in link.bodies if not model.bodies[b].virtual and b != 0]
+    if not bodies:
+        return
+    by_mass = sorted(bodies, key=lambda b: (-model.bodies[b].inertia[9], b))
+    heaviest = by_mass[0]
+    mass = float(model.bodies[heaviest].inertia[9])
+    if len(by_mass) > 1:
+        second = by_mass[1]
+        other = float(model.bodies[second].inertia[9])
+        if mass > 0.0 and other >= (1.0 - PLATFORM_MASS_MARGIN) * mass:
+            names = (model.body_label(heaviest), model.body_label(second))
+            message = (
+                f"the platform's rigid group has two bodies of similar mass, "
+                f"{shown(names[0])} ({mass:.4g} kg) and {shown(names[1])} ({other:.4g} kg): "
+                f"Fp is the frame of {shown(names[0])}, the heavier; poses are in that frame "
+                "(choose another with platform=... / --platform)"
+            )
+            model.notes.append(message)
+            warnings.warn(
+                ModelImportWarning(message, short=f"platform frame: {shown(names[0])}"),
+                stacklevel=4,
+            )
+    if heaviest == link.root:
+        return
+    new = _reroot(link, heaviest)
+    T = new.rel[link.root]  # the old link frame in the new one
+
+    def moved(p: np.ndarray) -> np.ndarray:
+        return T[:3, :3] @ p + T[:3, 3]
+
+    for cn in connections:
+        if cn.a == P:
+            cn.point_a = moved(cn.point_a)
+        if cn.b == P:
+            cn.point_b = moved(cn.point_b)
+    for e in edges:
+        if e.child == P:
+            e.centre_child = moved(e.centre_child)
+        if e.parent == P:
+            e.centre_parent = moved(e.centre_parent)
+    links[P] = new
+    model.notes.append(
+        f"platform frame Fp: body {shown(model.body_label(heaviest))}, the heaviest of the "
+        f"platform's rigid group ({mass:.4g} kg; not {shown(model.body_label(link.root))}, "
+        "through which it is jointed)"
+    )
+
+
 def _reroot(link: Link, root: int) -> Link:
     """The link with its frame moved to body ``root``'s (the platform asked for)."""
     T = np.linalg.inv(link.rel[root])
@@ -600,6 +669,7 @@ def _coplanar(hinges: Sequence[TreeJoint]) -> bool:
 __all__ = [
     "INTERSECTION_TOLERANCE",
     "MASSLESS",
+    "PLATFORM_MASS_MARGIN",
     "Connection",
     "Edge",
     "LegChain",
