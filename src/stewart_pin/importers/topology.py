@@ -30,6 +30,7 @@ from stewart_pin.description.leg_architecture import (
 from stewart_pin.exceptions import (
     ModelImportError,
     ModelImportWarning,
+    UnsupportedArchitectureError,
 )
 from stewart_pin.importers.canonical import (
     transform_inertia,
@@ -376,6 +377,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         six = [i for i, n in count.items() if n == 6]
         if len(six) != 1:
             best = max(count.items(), key=lambda kv: kv[1], default=(None, 0))
+            weld_closures_need_chain_legs(model)
             if best[0] is not None:
                 _weld_where_a_ball_should_be(model, links, link_of, edges, best[0])
             where = (
@@ -423,6 +425,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         into.setdefault(e.child, []).append(e)
     for e in into.get(P, []):
         if not e.spherical and e.joint.one_dof:
+            weld_closures_need_chain_legs(model)
             welds = [
                 c.name
                 for c in model.closures
@@ -533,6 +536,24 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
             tuple(joints),
         )
     return Recognition(links, link_of, ground, P, legs, scale, mass, dropped)
+
+
+def weld_closures_need_chain_legs(model: KinematicModel) -> None:
+    """The one place where a leg closed by a weld closure of a URDF sidecar (version 2)
+    is refused: when the legs cannot be read as three 1-dof joints and a spherical joint
+    (a weld that only lumps a rod end carrying a spherical joint into the platform is
+    read), :class:`UnsupportedArchitectureError` naming the weld closures. Legs of any
+    number of joints closed by a weld are chain legs (``docs/importing.md``)."""
+    welds = tuple(c.name for c in model.closures if c.kind == "weld")
+    if model.format == "urdf" and welds:
+        raise UnsupportedArchitectureError(
+            f"weld closure(s) {shown_list(welds)} close legs that are not three 1-dof joints "
+            "and a spherical joint: weld closures need chain legs (legs of any number of "
+            "joints closed by a weld), which this version does not model; close those legs "
+            "with point closures at their spherical joints",
+            "closures",
+            welds,
+        )
 
 
 def _weld_where_a_ball_should_be(
