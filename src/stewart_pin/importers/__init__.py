@@ -59,6 +59,7 @@ def import_mjcf(
     closure_tolerance: float = CLOSURE_TOLERANCE,
     spin_tolerance: float = SPIN_TOLERANCE,
     rod_spin: str = "error",
+    inertials: dict[str, Any] | None = None,
 ) -> ImportResult:
     """A hexapod from an MJCF model (``docs/importing.md``).
 
@@ -73,6 +74,9 @@ def import_mjcf(
             relative to the platform's size (past it :class:`LoopClosureError`).
         spin_tolerance, rod_spin: the largest asymmetry of an S-S rod about its axis, and
             ``"error"`` (:class:`RodSpinError`) or ``"warn"`` past it.
+        inertials: body name -> ``{"mass", "pos", "inertia"}`` for bodies whose inertia
+            MuJoCo computes from a mesh file that is missing
+            (:func:`~stewart_pin.importers.mjcf.load_model`).
     """
     from stewart_pin.importers.mjcf import read_mjcf
 
@@ -83,7 +87,7 @@ def import_mjcf(
     closure_tolerance, spin_tolerance = _check_options(
         platform, name, closure_tolerance, spin_tolerance
     )
-    model = read_mjcf(source, keyframe)
+    model = read_mjcf(source, keyframe, inertials)
     rec = recognise(model, platform)
     return build(
         model,
