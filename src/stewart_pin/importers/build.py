@@ -15,7 +15,7 @@ import math
 import re
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -130,6 +130,8 @@ class ImportReport:
     closure_tolerance: float
     ideal: bool
     architecture: str
+    approximations: list[str] = field(default_factory=list)
+    effects: list[str] = field(default_factory=list)
 
     @property
     def residuals(self) -> np.ndarray:
@@ -177,6 +179,8 @@ class ImportReport:
             if names:
                 lines.append(f"lumped into {where}: {shown_list(names)}")
         lines.extend(f"note: {n}" for n in self.notes)
+        lines.extend(f"approximation: {a}" for a in self.approximations)
+        lines.extend(f"effect: {e}" for e in self.effects)
         return "\n".join(lines)
 
 
@@ -186,6 +190,7 @@ class ImportResult:
 
     description: RobotDescription
     report: ImportReport
+    model: KinematicModel | None = None
 
 
 def robot_name(name: str) -> str:
@@ -394,6 +399,7 @@ def build(
     reports: list[LegReport] = []
     sources: list[LegSource] = []
     residual_points: list[tuple[np.ndarray, np.ndarray]] = []
+    snapped: list[float] = []  # the angles by which legs' axes were made parallel [rad]
     for k in order:
         leg = rec.legs[k]
         cn = leg.connection
@@ -596,6 +602,7 @@ def build(
         chain, dyns, q_ref, arch = form.chain, form.dyns, form.q_ref, form.arch
         signs, offsets = form.signs, form.offsets
         if chain.snapped > PARALLEL_NOTICE:
+            snapped.append(chain.snapped)
             warnings.warn(
                 f"leg through {shown_list(names)}: two joint axes {chain.snapped:.2g} rad from "
                 "parallel are made parallel (the file's rounding, as read; the robot turns "
@@ -742,6 +749,21 @@ def build(
             tuple(names_),
         ) from err
     architectures = {leg.name for leg in legs_out}
+    approximations = []
+    if rec.dropped:
+        approximations.append(f"{len(rec.dropped)} nearly massless bodies taken as massless")
+    if snapped:
+        approximations.append(
+            f"axes made parallel in {len(snapped)} leg(s) (turned by up to {max(snapped):.2g} rad)"
+        )
+    asymmetric = [rep.spin_asymmetry for rep in reports if rep.spin_asymmetry > spin_tolerance]
+    if asymmetric:
+        approximations.append(
+            f"the spin of {len(asymmetric)} asymmetric rod(s) removed (asymmetry up to "
+            f"{max(asymmetric):.2g})"
+        )
+    if np.any(residuals > EXACT_CLOSURE * size):
+        approximations.append(f"loops closed from a residual of {residuals.max():.2g} m")
     report = ImportReport(
         model.format,
         model.file,
@@ -755,8 +777,9 @@ def build(
         tol,
         ideal,
         architectures.pop() if len(architectures) == 1 else "mixed",
+        approximations,
     )
-    return ImportResult(desc, report)
+    return ImportResult(desc, report, model)
 
 
 @dataclass
