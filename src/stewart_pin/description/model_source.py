@@ -71,8 +71,8 @@ class LegSource:
             ``offsets``: the description's value at the file's zero). Default: the
             file's own values (1, 0).
         wraps: a revolute joint's file value is given in ``[wraps[j], wraps[j] + 2 pi)``
-            [rad] (the file's full-turn range, else the turn around its reference
-            value); unused for prismatic joints.
+            [rad] (from the lower end of the file's full-turn range, else from -pi);
+            unused for prismatic joints.
     """
 
     bodies: tuple[str, ...]

@@ -656,7 +656,7 @@ def build(
                 spherical,
                 tuple(float(x) for x in signs),
                 tuple(float(x) for x in offsets),
-                _wraps(file_joints, refs),
+                _wraps(file_joints),
             )
         )
         if not sources[-1].identity:
@@ -925,18 +925,19 @@ def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) ->
     return bool(np.abs(diff).max() <= 1e-9)
 
 
-def _wraps(joints: Sequence[TreeJoint | None], refs: Sequence[float | None]) -> tuple[float, ...]:
+def _wraps(joints: Sequence[TreeJoint | None]) -> tuple[float, ...]:
     """Where each revolute file joint's value is given (``LegSource.wraps``): from the
     lower end of a range of a full turn or more (such a range limits nothing: the angle
-    is taken modulo 2 pi into it), else from half a turn below its reference value."""
+    is taken modulo 2 pi into it), else from -pi."""
     out = []
-    for J, r in zip(joints, refs, strict=True):
-        if J is None or J.kind != REVOLUTE:
-            out.append(-math.pi)
-        elif math.isfinite(J.lower) and J.upper - J.lower >= 2.0 * math.pi * (1.0 - 1e-12):
-            out.append(float(J.lower))
-        else:
-            out.append(float(r if r is not None else 0.0) - math.pi)
+    for J in joints:
+        full = (
+            J is not None
+            and J.kind == REVOLUTE
+            and math.isfinite(J.lower)
+            and J.upper - J.lower >= 2.0 * math.pi * (1.0 - 1e-12)
+        )
+        out.append(float(J.lower) if full and J is not None else -math.pi)
     return tuple(out)
 
 
