@@ -25,6 +25,7 @@ import pinocchio as pin
 
 from stewart_pin.check.constrained_dynamics import reference_actuator_efforts
 from stewart_pin.description.leg_architecture import PRISMATIC, REVOLUTE
+from stewart_pin.exceptions import InputError
 from stewart_pin.importers.build import ImportResult
 from stewart_pin.importers.tree import BALL, FREE, KinematicModel
 from stewart_pin.protocols import RobotLike
@@ -187,7 +188,7 @@ def effect_on_efforts(result: ImportResult, robot: RobotLike) -> float:
     """The largest difference between the imported robot's efforts and the file's at
     home (module docstring), relative to the largest of the file's efforts."""
     if result.model is None:
-        raise ValueError("the import result carries no file tree (a compiled model?)")
+        raise InputError("the import result carries no file tree")
     desc = result.description
     source = desc.source
     assert source is not None

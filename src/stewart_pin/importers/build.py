@@ -903,7 +903,7 @@ def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) ->
     """Whether the leg is a named architecture whose closed-form inverse geometry gives
     the file's reference joint values (mod 2 pi) from its reference tip position; unless
     ``any_branch``, a U-P-S leg also on the branch +1 (the ideal 6-UPS form)."""
-    from stewart_pin.kinematics.leg_chains import _inverse_leg
+    from stewart_pin.kinematics.leg_chains import leg_inverse_geometry
 
     arch = form.arch
     if arch.name == "custom":
@@ -913,7 +913,7 @@ def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) ->
         return False
     leg = arch.replace(branch=branch)
     try:
-        q = _inverse_leg(leg, leg.tip_position(form.q_ref)[None], 0, None)[0]
+        q = leg_inverse_geometry(leg, leg.tip_position(form.q_ref))[0]
     except StewartPinError:
         return False
     diff = q - form.q_ref
