@@ -711,6 +711,7 @@ def build(
             fixed = [n for n in link_names(li) if n != model.body_label(links[li].root)]
             if fixed:
                 lumped.setdefault("leg links", []).extend(fixed)
+    gravity = _gravity(model, rec)
     notes = list(model.notes) + [f"dropped {x}" for x in rec.dropped]
 
     robot = robot_name(model.name) if name is None else check_robot_name(name)
@@ -733,7 +734,7 @@ def build(
             legs_out,
             leg_inertia,
             platform_inertia,
-            model.gravity,
+            gravity,
             T_home,
             source,
         )
@@ -923,6 +924,37 @@ def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) ->
         else:
             diff[j] /= scale
     return bool(np.abs(diff).max() <= 1e-9)
+
+
+def _gravity(model: KinematicModel, rec: Recognition) -> np.ndarray:
+    """The model's gravity with the bodies' gravity compensation (``TreeBody.gravcomp``):
+    the same fraction c on every moving body with mass is gravity scaled by 1 - c (exact:
+    every weight scaled; noted); :class:`ModelImportError` naming the bodies when they
+    differ (one gravity for every body)."""
+    fixed = set(rec.links[rec.ground].bodies)
+    moving = [
+        b
+        for b, body in enumerate(model.bodies)
+        if b not in fixed and body.inertia[9] > 0.0 and not body.virtual
+    ]
+    values = {model.bodies[b].gravcomp for b in moving}
+    if values <= {0.0}:
+        return model.gravity
+    if len(values) == 1:
+        c = values.pop()
+        model.notes.append(
+            f"gravity compensation ({c:g} of every moving body's weight): imported as gravity "
+            f"scaled by {1.0 - c:g}"
+        )
+        return (1.0 - c) * model.gravity
+    some = [model.bodies[b].name for b in moving if model.bodies[b].gravcomp != 0.0]
+    raise ModelImportError(
+        f"bodies {shown_list(some[:8])}{' ...' if len(some) > 8 else ''} have gravity "
+        "compensation (gravcomp, or no gravity) and other moving bodies do not (or less): "
+        "stewart-pin models one gravity for every body (exact when every moving body has "
+        "the same compensation); remove it or make it uniform",
+        tuple(some),
+    )
 
 
 def _wraps(joints: Sequence[TreeJoint | None]) -> tuple[float, ...]:

@@ -16,8 +16,10 @@ compiler's ``angle`` unit, ``inertiafromgeom`` (inertias computed from geoms and
 - equality constraints ``connect`` (site or body/anchor form) and ``weld`` (active at
   ``qpos0``); any other kind is refused;
 - actuators on joints (``motor``, ``position``, ``velocity``, ``general``...): the joint
-  and ``gear[0]`` (the joint's effort per actuator effort); one on a tendon, a site or a
-  body is refused;
+  and ``gear[0]`` (the joint's effort per actuator effort); one on a site or a body (a
+  disturbance input) is ignored with a note, one on a tendon is refused;
+- each body's ``gravcomp`` (taken by the build when the same on every moving body;
+  ``actuatorgravcomp`` refused);
 - ``<option gravity>``; the reference configuration: a keyframe (by name or index;
   default the one named ``home``, else ``qpos0``).
 
@@ -25,8 +27,9 @@ Geoms matter only through the inertias MuJoCo computes from them: the reader com
 with ``discardvisual`` (geoms with ``contype = conaffinity = 0`` and their meshes dropped
 before they are loaded, their inertia kept as an explicit one) and drops the mesh geoms
 of bodies whose inertia is explicit, so a visual mesh file missing beside the model does
-not stop the import. Contacts, tendons without springs, sensors and the like play no part
-in the rigid-body dynamics imported.
+not stop the import (a note names it); a body whose inertia MuJoCo would compute from a
+missing mesh takes it from ``inertials=`` (:func:`load_model`). Contacts, tendons without
+springs, sensors and the like play no part in the rigid-body dynamics imported.
 """
 
 from __future__ import annotations
@@ -244,36 +247,18 @@ def _missing_meshes(
     return notes
 
 
-def _gravity_compensation(mujoco: Any, m: Any, name: Any, notes: list[str]) -> float:
-    """The factor on gravity of per-body gravity compensation (``gravcomp``): exact when
-    every moving body with mass has the same ``gravcomp`` c (every weight scaled by 1 - c),
-    noted; :class:`ModelImportError` for anything else (weights removed from some bodies
-    only, or routed to actuators by ``actuatorgravcomp``)."""
-    moving = [b for b in range(1, m.nbody) if m.body_weldid[b] != 0 and m.body_mass[b] > 0.0]
-    values = {float(m.body_gravcomp[b]) for b in moving}
-    if values <= {0.0}:
-        return 1.0
+def _gravity_routed(m: Any, name: Any) -> None:
+    """:class:`ModelImportError` for gravity compensation routed to actuators
+    (``actuatorgravcomp``): the actuators' forces would then include it."""
     routed = [name("mjOBJ_JOINT", j) for j in range(m.njnt) if m.jnt_actgravcomp[j]]
-    if len(values) == 1 and not routed:
-        c = values.pop()
-        notes.append(
-            f"gravity compensation (gravcomp {c:g}) on every moving body: imported as "
-            f"gravity scaled by {1.0 - c:g}"
+    if routed and np.any(m.body_gravcomp != 0.0):
+        raise ModelImportError(
+            f"gravity compensation (gravcomp) is routed to the actuators of "
+            f"{', '.join(shown(j) for j in routed)} (actuatorgravcomp): the actuator forces "
+            "would include it; stewart-pin's efforts do not: remove actuatorgravcomp",
+            (),
+            tuple(routed),
         )
-        return 1.0 - c
-    some = [name("mjOBJ_BODY", b) for b in moving if m.body_gravcomp[b] != 0.0]
-    raise ModelImportError(
-        f"bodies {', '.join(shown(n) for n in some[:8])}{' ...' if len(some) > 8 else ''} "
-        "have gravity compensation (gravcomp) "
-        + (
-            f"routed to the actuators of {', '.join(shown(j) for j in routed)} (actuatorgravcomp)"
-            if routed
-            else "and other moving bodies do not (or less)"
-        )
-        + ": stewart-pin models one gravity for every body (per-body compensation is exact "
-        "only when every moving body has the same gravcomp); remove it or make it uniform",
-        tuple(some),
-    )
 
 
 @contextlib.contextmanager
@@ -483,7 +468,8 @@ def read_mjcf(
         for flag, what in _FLAGS_HONOURED.items()
         if flag in off
     )
-    gravity_scale = 1.0 if "gravity" in off else _gravity_compensation(mujoco, m, name, notes)
+    if "gravity" not in off:  # without gravity, gravcomp does nothing
+        _gravity_routed(m, name)
     for b in range(1, m.nbody):
         bname = name("mjOBJ_BODY", b)
         pose = _pose(xpos[b], xmat[b])
@@ -493,8 +479,9 @@ def read_mjcf(
         )
         parent = index[int(m.body_parentid[b])]
         jids = range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
+        gravcomp = 0.0 if "gravity" in off else float(m.body_gravcomp[b])
         if m.body_jntnum[b] == 0:
-            bodies.append(TreeBody(bname, parent, None, pose, inertia))
+            bodies.append(TreeBody(bname, parent, None, pose, inertia, gravcomp=gravcomp))
             index[b] = len(bodies) - 1
             continue
         for n, j in enumerate(jids):
@@ -539,7 +526,13 @@ def read_mjcf(
             last = n == m.body_jntnum[b] - 1
             bodies.append(
                 TreeBody(
-                    bname, parent, J, pose, inertia if last else np.zeros(10), virtual=not last
+                    bname,
+                    parent,
+                    J,
+                    pose,
+                    inertia if last else np.zeros(10),
+                    virtual=not last,
+                    gravcomp=gravcomp if last else 0.0,
                 )
             )
             parent = len(bodies) - 1
@@ -626,11 +619,7 @@ def read_mjcf(
         bodies=bodies,
         closures=closures,
         actuators=actuators,
-        gravity=(
-            np.zeros(3)
-            if "gravity" in off
-            else gravity_scale * np.array(m.opt.gravity, dtype=float)
-        ),
+        gravity=(np.zeros(3) if "gravity" in off else np.array(m.opt.gravity, dtype=float)),
         reference=reference,
         values=values,
         balls=balls,
