@@ -10,10 +10,14 @@ effect the report states.
 from __future__ import annotations
 
 import warnings
+import xml.etree.ElementTree as ET
 
 import numpy as np
+import pinocchio as pin
 import pytest
+from cad_models import LOOPS, cad_mjcf, cad_urdf
 from helpers import mujoco_kkt, rel_error
+from test_import_urdf import PinReference, pairs_of
 
 from stewart_pin import ModelImportWarning, StewartRobot
 from stewart_pin.check.import_effects import (
@@ -22,9 +26,10 @@ from stewart_pin.check.import_effects import (
     effect_on_efforts,
     import_effects,
 )
+from stewart_pin.description.leg_chain_presets import pus_preset, random_hexapod
 from stewart_pin.description.presets import preset
 from stewart_pin.formats.mjcf import mjcf_string
-from stewart_pin.importers import import_mjcf
+from stewart_pin.importers import import_mjcf, import_urdf
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -39,6 +44,45 @@ def _mujoco_at_reference(xml: str, actuated) -> np.ndarray:
     order = [m.actuator(f"leg{i}_motor").trnid[0] for i in range(1, 7)]
     by_joint = {m.joint(int(j)).name: out[:, k] for k, j in enumerate(order)}
     return np.array([by_joint[name] for name in actuated]).T
+
+
+@pytest.mark.parametrize("loops", LOOPS)
+def test_the_file_tree_of_cad_files_is_mujocos_physics(loops):
+    """FileTree on CAD-like MJCF files in every loop convention (odd frames, welds, balls,
+    hinges, the platform in the tree) equals MuJoCo's KKT at the file's reference
+    configuration (joint side: MuJoCo's actuator forces times their gears)."""
+    xml = cad_mjcf(pus_preset(), loops, seed=3)
+    result = import_mjcf(xml)
+    platform = result.description.source.platform
+    m = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(m)
+    key = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home")
+    data.qpos[:] = m.key_qpos[key] if key >= 0 else m.qpos0
+    names = [m.joint(int(m.actuator_trnid[u, 0])).name for u in range(m.nu)]
+    gears = m.actuator_gear[:, 0]
+    reference = np.array([mujoco_kkt(m, data, platform, A=A) for A in ACCELERATIONS]) * gears
+    got = FileTree(result.model).inverse_dynamics_at_rest(platform, names, ACCELERATIONS)
+    assert rel_error(got, reference) < 1e-10
+
+
+def test_the_file_tree_of_a_urdf_is_pinocchios_physics(tmp_path):
+    """FileTree on an onshape-style URDF (its bodies read breadth first) equals the KKT
+    on Pinocchio's own parse of the file at its zero configuration (motor side: joint
+    efforts over the transmissions' reductions). It used to add the joints breadth
+    first, which Pinocchio's CRBA does not take (a subtree's velocities must be
+    contiguous): 1 % off."""
+    path = tmp_path / "robot.urdf"
+    path.write_text(cad_urdf(random_hexapod("ups", 1), "floating", seed=1))
+    result = import_urdf(path)
+    root = ET.parse(path).getroot()
+    names = [t.find("joint").get("name") for t in root.findall("transmission")]
+    reductions = [float(t.find("actuator/mechanicalReduction").text)
+                  for t in root.findall("transmission")]  # fmt: skip
+    ref = PinReference(path, pairs_of(), {})
+    q0, v0 = pin.neutral(ref.model), np.zeros(ref.model.nv)
+    reference = np.array([ref.kkt(q0, v0, A=A) for A in ACCELERATIONS])
+    got = FileTree(result.model).inverse_dynamics_at_rest("platform", names, ACCELERATIONS)
+    assert rel_error(got / np.array(reductions), reference) < 1e-10
 
 
 @pytest.mark.parametrize("name", ["rus", "simulator", "pus"])

@@ -70,7 +70,17 @@ class FileTree:
         self.tree = tree
         self._joint_of: dict[str, int] = {}
         self._springs: list[tuple[int, float, float]] = []
+        children: dict[int, list[int]] = {}
         for b, body in enumerate(tree.bodies[1:], start=1):
+            children.setdefault(body.parent, []).append(b)
+        order: list[int] = []  # depth first: Pinocchio's algorithms need each subtree's
+        stack = list(reversed(children.get(0, [])))  # velocities contiguous
+        while stack:
+            b = stack.pop()
+            order.append(b)
+            stack.extend(reversed(children.get(b, [])))
+        for b in order:
+            body = tree.bodies[b]
             parent_joint, X_parent = where[body.parent]
             parent_pose = tree.bodies[body.parent].pose
             J = body.joint
