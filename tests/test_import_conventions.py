@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pinocchio as pin
@@ -206,3 +207,86 @@ def test_the_files_convention_survives_toml_and_json(tmp_path):
     bad["source"]["legs"][0]["signs"] = [1, 2, 1]
     with pytest.raises(DescriptionError, match="signs must list three"):
         RobotDescription.from_dict(bad)
+
+
+def test_a_urdf_with_turned_axes_is_the_ideal_6_ups(tmp_path):
+    """The desktop preset's URDF (the project's writer) with every slide and second U-joint
+    hinge turned round (``<axis xyz="0 0 -1"/>``, limits and home positions negated, in a
+    version-2 sidecar given as a dict): the ideal 6-UPS, its efforts along the file's
+    axes equal to the KKT on Pinocchio's own parse of the file (1e-10)."""
+    pytest.importorskip("yourdfpy")
+    from test_import_urdf import PinReference
+
+    from stewart_pin.formats.urdf import closures_dict, urdf_string
+
+    desc = preset("desktop")
+    root = ET.fromstring(urdf_string(desc))
+    flipped = {f"leg{i}_q{j}" for i in range(1, 7) for j in (2, 3)}
+    for joint in root.iter("joint"):
+        if joint.get("name") in flipped:
+            joint.find("axis").set("xyz", "0 0 -1")
+            limit = joint.find("limit")
+            lo, hi = float(limit.get("lower")), float(limit.get("upper"))
+            limit.set("lower", repr(-hi))
+            limit.set("upper", repr(-lo))
+    path = tmp_path / "flipped.urdf"
+    path.write_text(ET.tostring(root, encoding="unicode"))
+    sidecar = closures_dict(desc, path.name)
+    sidecar["version"] = 2
+    sidecar["home_joint_positions"] = {
+        k: -v if k in flipped else v for k, v in sidecar["home_joint_positions"].items()
+    }
+    robot = StewartRobot.from_urdf(path, closures=sidecar)
+    assert robot.is_ideal_ups
+    assert {src.signs[2] for src in robot.description.source.legs} == {-1.0}
+
+    class Reference(PinReference):
+        def __init__(self):
+            super().__init__(path, [], {})
+            self.pairs = []
+            for k, c in enumerate(sidecar["closures"]):
+                ids = []
+                for link, point in ((c["link1"], c["point1"]), (c["link2"], c["point2"])):
+                    parent = self.model.frames[self.model.getFrameId(link)]
+                    frame = pin.Frame(
+                        f"loop{k}_{link}",
+                        parent.parentJoint,
+                        self.model.getFrameId(link),
+                        parent.placement * pin.SE3(np.eye(3), np.array(point)),
+                        pin.FrameType.OP_FRAME,
+                    )
+                    ids.append(self.model.addFrame(frame))
+                self.pairs.append(tuple(ids))
+            self.data = self.model.createData()
+            self.S = np.zeros((6, self.model.nv))  # the slides, joint side, leg order
+            for i, name in enumerate(sidecar["actuated_joints"]):
+                self.S[i, self.model.joints[self.model.getJointId(name)].idx_v] = 1.0
+
+        def closed_state(self, T, V):  # PinReference's, stopping at 1e-13 (round-off
+            m, d = self.model, self.data  # here), from the legs' home assembly
+            q = pin.neutral(m)
+            for name, value in sidecar["home_joint_positions"].items():
+                q[m.joints[m.getJointId(name)].idx_q] = value
+            for _ in range(60):
+                J, Jp = self._rows(q)
+                M = d.oMf[self.platform]
+                r = np.r_[
+                    np.concatenate([d.oMf[a].translation - d.oMf[b].translation
+                                    for a, b in self.pairs]),
+                    M.translation - T[:3, 3],
+                    pin.log3(M.rotation @ T[:3, :3].T),
+                ]  # fmt: skip
+                if np.abs(r).max() < 1e-13:
+                    break
+                q = pin.integrate(m, q, -np.linalg.lstsq(np.r_[J, Jp], r, rcond=None)[0])
+            J, Jp = self._rows(q)
+            v = np.linalg.lstsq(np.r_[J, Jp], np.r_[np.zeros(len(J)), V], rcond=None)[0]
+            return q, v
+
+    ref = Reference()
+    actuated, _ = _actuated(robot)
+    for T, V, A in _states(robot, (0.005, 0.05), 3, seed=5):
+        q, v = ref.closed_state(T, V)
+        gamma_ref = ref.kkt(q, v, A=A)  # the sidecar's order: legs 1..6
+        gamma = robot.description.source.file_efforts(robot.inverse_dynamics(T, V, A), actuated)
+        assert rel_error(gamma, gamma_ref) < 1e-10, f"IDM {rel_error(gamma, gamma_ref):.2e}"
