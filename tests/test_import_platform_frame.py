@@ -174,3 +174,19 @@ def test_two_bodies_of_similar_mass_are_warned_about():
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelImportWarning)
         import_mjcf(hanging_platform(rod_end_mass=1000.0))  # 17 % lighter: no warning
+
+
+def test_a_floating_platform_keeps_the_body_with_the_free_joint():
+    """A free platform carrying a heavier body fixed to it (a payload): Fp stays the
+    body the file moves (its free joint), no warning."""
+    xml = mjcf_string(preset("simulator")).replace(
+        '<site name="platform_p1"',
+        '<body name="payload" pos="0 0 0.3"><inertial pos="0 0 0" mass="5000" '
+        'diaginertia="10 10 10" /></body>\n      <site name="platform_p1"',
+        1,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ModelImportWarning)
+        result = import_mjcf(xml)
+    assert result.report.platform == "platform"
+    assert "payload" in str(result.report)  # lumped into the platform

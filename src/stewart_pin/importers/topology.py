@@ -594,12 +594,16 @@ def _platform_body(
     connections: list[Connection],
     edges: list[Edge],
 ) -> None:
-    """Give the platform link ``P`` the frame of its heaviest body (the platform the
-    user means, not a joint part such as a rod end through which it hangs from a leg in
-    the tree), the points already found in its frame moved with it; a note and a
-    :class:`ModelImportWarning` when the two heaviest are within
-    :data:`PLATFORM_MASS_MARGIN` of each other's mass (``platform=`` chooses)."""
+    """Give the platform link ``P``, when it hangs in the tree (no free joint), the frame
+    of its heaviest body (the platform the user means, not a joint part such as a rod end
+    through which it hangs from a leg), the points already found in its frame moved with
+    it; a note and a :class:`ModelImportWarning` when the two heaviest are within
+    :data:`PLATFORM_MASS_MARGIN` of each other's mass (``platform=`` chooses). A floating
+    platform keeps the frame of the body with the free joint."""
     link = links[P]
+    root_joint = model.bodies[link.root].joint
+    if root_joint is not None and root_joint.kind == FREE:
+        return  # a floating platform: the body the file moves (its free joint) is Fp
     bodies = [b for b in link.bodies if not model.bodies[b].virtual and b != 0]
     if not bodies:
         return
