@@ -166,27 +166,12 @@ class WeldReference(PinReference):
              for a, b in self.welds]  # fmt: skip
         return np.vstack(J), pin.getFrameJacobian(m, d, self.platform, frame)
 
-    def closed_state(self, T, V):
-        m, d = self.model, self.data
-        q = pin.neutral(m)
-        for _ in range(80):
-            J, Jp = self._rows(q)
-            r = []
-            for a, b in self.welds:
-                Ma, Mb = d.oMf[a], d.oMf[b]
-                r += [Ma.translation - Mb.translation, pin.log3(Ma.rotation @ Mb.rotation.T)]
-            M = d.oMf[self.platform]
-            r = np.r_[
-                np.concatenate(r), M.translation - T[:3, 3], pin.log3(M.rotation @ T[:3, :3].T)
-            ]
-            if np.abs(r).max() < 1e-14:
-                break
-            q = pin.integrate(m, q, -np.linalg.lstsq(np.r_[J, Jp], r, rcond=None)[0])
-        else:
-            raise AssertionError(f"no closed state: {np.abs(r).max():.3g}")
-        J, Jp = self._rows(q)
-        v = np.linalg.lstsq(np.r_[J, Jp], np.r_[np.zeros(len(J)), V], rcond=None)[0]
-        return q, v
+    def _loop_residuals(self):
+        d, r = self.data, []
+        for a, b in self.welds:
+            Ma, Mb = d.oMf[a], d.oMf[b]
+            r += [Ma.translation - Mb.translation, pin.log3(Ma.rotation @ Mb.rotation.T)]
+        return np.concatenate(r)
 
     def _bias(self, q, v):
         m, d = self.model, self.data

@@ -25,13 +25,13 @@ import pinocchio as pin
 import pytest
 from convention_models import rezeroed
 from helpers import mujoco_closed_state, mujoco_kkt, rel_error
+from test_import_mjcf import states
 
 from stewart_pin import (
     DescriptionError,
     ModelImportWarning,
     RobotDescription,
     StewartRobot,
-    WorkspaceError,
 )
 from stewart_pin.description.presets import preset
 from stewart_pin.formats.mjcf import mjcf_string
@@ -69,24 +69,6 @@ def _edits(kind: str) -> dict:
     }
 
 
-def _states(robot: StewartRobot, ranges, n: int, seed: int):
-    tr, rot = ranges
-    rng = np.random.default_rng(seed)
-    out = []
-    while len(out) < n:
-        T = robot.home_pose
-        T[:3, 3] += rng.uniform(-tr, tr, 3)
-        T[:3, :3] = pin.exp3(rng.uniform(-rot, rot, 3)) @ T[:3, :3]
-        try:
-            robot.inverse_geometry(T)
-        except WorkspaceError:
-            continue
-        V = np.r_[rng.normal(size=3) * tr * 5, rng.normal(size=3) * rot * 5]
-        A = np.r_[rng.normal(size=3) * tr * 30, rng.normal(size=3) * rot * 30]
-        out.append((T, V, A))
-    return out
-
-
 def _actuated(robot: StewartRobot) -> tuple[list[int], np.ndarray]:
     legs = robot.general.legs
     actuated = [leg.actuated for leg in legs]
@@ -103,7 +85,7 @@ def check_against_mujoco(xml: str, robot: StewartRobot, ranges, n: int = 3) -> N
     source = robot.description.source
     actuated, revolute = _actuated(robot)
     rev3 = np.array([[j.revolute for j in leg.joints] for leg in robot.general.legs])
-    for T, V, A in _states(robot, ranges, n, seed=7):
+    for T, V, A in states(robot, ranges, n, seed=7):
         home = m.key_qpos[0] if m.nkey else m.qpos0  # the assembled state: a good start
         mujoco_closed_state(m, data, source.platform, T, V, guess=home)
         q_file = source.file_joint_values(robot.inverse_geometry(T, check_limits=False), rev3)
@@ -185,7 +167,7 @@ def test_a_full_turn_range_limits_nothing_and_angles_are_given_in_it():
     assert robot.description.architecture == "rus"
     actuated, revolute = _actuated(robot)
     source = robot.description.source
-    for T, _, _ in _states(robot, (0.003, 0.03), 6, seed=2):
+    for T, _, _ in states(robot, (0.003, 0.03), 6, seed=2):
         positions = source.file_actuator_positions(
             robot.actuator_positions(T, check_limits=True), actuated, revolute
         )
@@ -262,30 +244,15 @@ def test_a_urdf_with_turned_axes_is_the_ideal_6_ups(tmp_path):
             for i, name in enumerate(sidecar["actuated_joints"]):
                 self.S[i, self.model.joints[self.model.getJointId(name)].idx_v] = 1.0
 
-        def closed_state(self, T, V):  # PinReference's, stopping at 1e-13 (round-off
-            m, d = self.model, self.data  # here), from the legs' home assembly
-            q = pin.neutral(m)
+        def closed_state(self, T, V):  # from the legs' home assembly, to round-off here
+            q0 = pin.neutral(self.model)
             for name, value in sidecar["home_joint_positions"].items():
-                q[m.joints[m.getJointId(name)].idx_q] = value
-            for _ in range(60):
-                J, Jp = self._rows(q)
-                M = d.oMf[self.platform]
-                r = np.r_[
-                    np.concatenate([d.oMf[a].translation - d.oMf[b].translation
-                                    for a, b in self.pairs]),
-                    M.translation - T[:3, 3],
-                    pin.log3(M.rotation @ T[:3, :3].T),
-                ]  # fmt: skip
-                if np.abs(r).max() < 1e-13:
-                    break
-                q = pin.integrate(m, q, -np.linalg.lstsq(np.r_[J, Jp], r, rcond=None)[0])
-            J, Jp = self._rows(q)
-            v = np.linalg.lstsq(np.r_[J, Jp], np.r_[np.zeros(len(J)), V], rcond=None)[0]
-            return q, v
+                q0[self.model.joints[self.model.getJointId(name)].idx_q] = value
+            return super().closed_state(T, V, q0, tol=1e-13)
 
     ref = Reference()
     actuated, _ = _actuated(robot)
-    for T, V, A in _states(robot, (0.005, 0.05), 3, seed=5):
+    for T, V, A in states(robot, (0.005, 0.05), 3, seed=5):
         q, v = ref.closed_state(T, V)
         gamma_ref = ref.kkt(q, v, A=A)  # the sidecar's order: legs 1..6
         gamma = robot.description.source.file_efforts(robot.inverse_dynamics(T, V, A), actuated)
