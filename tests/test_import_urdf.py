@@ -78,18 +78,25 @@ class PinReference:
         ]
         return np.vstack(J), pin.getFrameJacobian(m, d, self.platform, frame)
 
-    def closed_state(self, T, V):
-        """q, v with the loops closed, the platform frame at T with twist V (F0)."""
+    def _loop_residuals(self):
+        """The loops' residuals at the placements last computed (``_rows``)."""
+        d = self.data
+        return np.concatenate([d.oMf[a].translation - d.oMf[b].translation for a, b in self.pairs])
+
+    def closed_state(self, T, V, q0=None, tol=1e-14):
+        """q, v with the loops closed, the platform frame at T with twist V (F0), by
+        Gauss-Newton from ``q0`` (default neutral) to residuals below ``tol``."""
         m, d = self.model, self.data
-        q = pin.neutral(m)
+        q = pin.neutral(m) if q0 is None else q0
         for _ in range(80):
             J, Jp = self._rows(q)
-            r = [d.oMf[a].translation - d.oMf[b].translation for a, b in self.pairs]
             M = d.oMf[self.platform]
             r = np.r_[
-                np.concatenate(r), M.translation - T[:3, 3], pin.log3(M.rotation @ T[:3, :3].T)
+                self._loop_residuals(),
+                M.translation - T[:3, 3],
+                pin.log3(M.rotation @ T[:3, :3].T),
             ]
-            if np.abs(r).max() < 1e-14:
+            if np.abs(r).max() < tol:
                 break
             q = pin.integrate(m, q, -np.linalg.lstsq(np.r_[J, Jp], r, rcond=None)[0])
         else:

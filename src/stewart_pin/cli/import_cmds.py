@@ -60,6 +60,10 @@ def _import(args: argparse.Namespace) -> int:
                 keyframe = int(text)
             result = import_mjcf(args.model, keyframe=keyframe, **options)  # type: ignore[arg-type]
         robot = StewartRobot(result.description)  # the home pose checked as for any robot
+        if result.report.approximations:  # their effect on the efforts, in the report
+            from stewart_pin.check.import_effects import import_effects
+
+            import_effects(result, robot)
     print(result.report, file=report)
     for w in caught:
         print(f"warning: {' '.join(str(w.message).split())}", file=report)

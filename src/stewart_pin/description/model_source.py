@@ -16,9 +16,12 @@ such a universal joint, the massless bodies of three hinges) has the name ``""``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from stewart_pin._safe import toml_quoted as toml_string
 from stewart_pin.exceptions import DescriptionError
@@ -62,32 +65,67 @@ class LegSource:
             of the actuated joint when given by argument).
         spherical: how the leg's spherical joint is written, e.g. ``"ball joint 'b3'"``,
             ``"connect 'loop3'"``, ``"hinges 'h1', 'h2', 'h3'"``.
+        signs, offsets: the file's joint convention (``docs/importing.md``): joint j's
+            value in the description is ``signs[j] q_file + offsets[j]`` [rad or m]
+            (``signs`` +1 or -1: the file's axis along or against the description's;
+            ``offsets``: the description's value at the file's zero). Default: the
+            file's own values (1, 0).
+        wraps: a revolute joint's file value is given in ``[wraps[j], wraps[j] + 2 pi)``
+            [rad] (from the lower end of the file's full-turn range, else from -pi);
+            unused for prismatic joints.
     """
 
     bodies: tuple[str, ...]
     joints: tuple[str, ...]
     actuator: str
     spherical: str
+    signs: tuple[float, ...] = (1.0, 1.0, 1.0)
+    offsets: tuple[float, ...] = (0.0, 0.0, 0.0)
+    wraps: tuple[float, ...] = (-math.pi, -math.pi, -math.pi)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "bodies", _names(self.bodies, "leg bodies", 3))
         object.__setattr__(self, "joints", _names(self.joints, "leg joints", 3))
         _name(self.actuator, "leg actuator")
         _name(self.spherical, "leg spherical joint")
+        for key in ("signs", "offsets", "wraps"):
+            value = getattr(self, key)
+            if isinstance(value, (str, dict)) or not isinstance(value, Sequence):
+                raise DescriptionError(f"model source: leg {key} must list three numbers")
+            ok = len(value) == 3 and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in value
+            )
+            if not ok or (key == "signs" and any(v not in (1, -1) for v in value)):
+                what = "+1 or -1" if key == "signs" else "finite numbers"
+                raise DescriptionError(
+                    f"model source: leg {key} must list three {what}, got {list(value)!r}"
+                )
+            object.__setattr__(self, key, tuple(float(v) for v in value))
+
+    @property
+    def identity(self) -> bool:
+        """The description's joint values are the file's (no sign, no offset)."""
+        return self.signs == (1.0, 1.0, 1.0) and self.offsets == (0.0, 0.0, 0.0)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "bodies": list(self.bodies),
             "joints": list(self.joints),
             "actuator": self.actuator,
             "spherical": self.spherical,
         }
+        if not self.identity or self.wraps != (-math.pi,) * 3:
+            out.update(signs=list(self.signs), offsets=list(self.offsets), wraps=list(self.wraps))
+        return out
 
 
 #: Keys of the ``source`` table.
 SOURCE_KEYS = ("format", "file", "model", "reference", "base", "platform", "lumped", "legs")
 #: Keys of a ``[[source.legs]]`` table.
 LEG_SOURCE_KEYS = ("bodies", "joints", "actuator", "spherical")
+#: Optional keys of a ``[[source.legs]]`` table (the file's joint convention).
+LEG_SOURCE_OPTIONAL = ("signs", "offsets", "wraps")
 
 
 @dataclass(frozen=True)
@@ -130,6 +168,45 @@ class ModelSource:
             ),
         )
 
+    def file_joint_values(self, q: Any, revolute: Any = None) -> np.ndarray:
+        """Joint values (..., 6, 3) of the description [rad or m] in the file's own
+        convention (:class:`LegSource` ``signs``, ``offsets``); ``revolute`` (6, 3) bool:
+        those joints' values taken into ``[wraps, wraps + 2 pi)``."""
+        q = np.asarray(q, dtype=float)
+        s = np.array([leg.signs for leg in self.legs])
+        o = np.array([leg.offsets for leg in self.legs])
+        out = s * (q - o)
+        if revolute is not None:
+            w = np.array([leg.wraps for leg in self.legs])
+            out = np.where(revolute, w + np.mod(out - w, 2.0 * math.pi), out)
+        return out
+
+    def file_efforts(self, gamma: Any, actuated: Any) -> np.ndarray:
+        """Actuated joints' efforts (..., 6) [N or N m] of the description along the
+        file's joint directions; ``actuated`` (6,): each leg's actuated joint (1..3)."""
+        s = np.array([leg.signs[int(a) - 1] for leg, a in zip(self.legs, actuated, strict=True)])
+        return s * np.asarray(gamma, dtype=float)
+
+    def file_actuator_positions(self, positions: Any, actuated: Any, revolute: Any) -> np.ndarray:
+        """Actuated joint values (..., 6) of the description in the file's convention;
+        ``actuated`` (6,) 1..3, ``revolute`` (6,) bool."""
+        pos = np.asarray(positions, dtype=float)
+        idx = [int(a) - 1 for a in actuated]
+        s = np.array([leg.signs[j] for leg, j in zip(self.legs, idx, strict=True)])
+        o = np.array([leg.offsets[j] for leg, j in zip(self.legs, idx, strict=True)])
+        w = np.array([leg.wraps[j] for leg, j in zip(self.legs, idx, strict=True)])
+        out = s * (pos - o)
+        return np.where(revolute, w + np.mod(out - w, 2.0 * math.pi), out)
+
+    def description_actuator_positions(self, positions: Any, actuated: Any) -> np.ndarray:
+        """The inverse of :meth:`file_actuator_positions` (file values -> description's,
+        e.g. for ``forward_geometry``)."""
+        pos = np.asarray(positions, dtype=float)
+        idx = [int(a) - 1 for a in actuated]
+        s = np.array([leg.signs[j] for leg, j in zip(self.legs, idx, strict=True)])
+        o = np.array([leg.offsets[j] for leg, j in zip(self.legs, idx, strict=True)])
+        return s * pos + o
+
     def to_dict(self) -> dict[str, Any]:
         """Plain values (JSON / TOML-ready)."""
         return {
@@ -152,22 +229,26 @@ class ModelSource:
 
 
 def leg_source_from_dict(value: Any) -> LegSource:
-    return LegSource(**_table(value, LEG_SOURCE_KEYS, "model source leg"))
+    return LegSource(**_table(value, LEG_SOURCE_KEYS, "model source leg", LEG_SOURCE_OPTIONAL))
 
 
-def _table(value: Any, keys: tuple[str, ...], what: str) -> dict[str, Any]:
-    """``value``'s entries of ``keys``, exactly those (else :class:`DescriptionError`)."""
+def _table(
+    value: Any, keys: tuple[str, ...], what: str, optional: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """``value``'s entries of ``keys`` (all) and ``optional`` (those given), no other
+    (else :class:`DescriptionError`)."""
     if not isinstance(value, dict):
         raise DescriptionError(
             f"{what} must be a table ({', '.join(keys)}), got {type(value).__name__}"
         )
     missing = [k for k in keys if k not in value]
-    unknown = [k for k in value if k not in keys]
+    unknown = [k for k in value if k not in keys + optional]
     if missing or unknown:
         raise DescriptionError(
             f"{what} keys: missing {missing}, unknown {unknown}; expected {list(keys)}"
+            + (f" and optionally {list(optional)}" if optional else "")
         )
-    return {k: value[k] for k in keys}
+    return {k: value[k] for k in keys + optional if k in value}
 
 
 def source_toml(source: dict[str, Any]) -> str:
@@ -176,6 +257,8 @@ def source_toml(source: dict[str, Any]) -> str:
     def value(x: Any) -> str:
         if isinstance(x, str):
             return toml_string(x)
+        if isinstance(x, float):
+            return repr(x)  # finite (LegSource)
         return "[" + ", ".join(value(v) for v in x) + "]"
 
     out = ["\n# where the robot was imported from (names as in the file: data only)\n[source]\n"]
@@ -188,6 +271,7 @@ def source_toml(source: dict[str, Any]) -> str:
 
 __all__ = [
     "LEG_SOURCE_KEYS",
+    "LEG_SOURCE_OPTIONAL",
     "MAX_NAME_LENGTH",
     "SOURCE_KEYS",
     "LegSource",

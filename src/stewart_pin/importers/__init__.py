@@ -26,8 +26,11 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from stewart_pin._checks import check_scalar
-from stewart_pin.exceptions import FileFormatError, InputError
+from stewart_pin._so3 import so3_log as _so3_log
+from stewart_pin.exceptions import FileFormatError, InputError, ModelImportError
 from stewart_pin.importers.build import (
     CLOSURE_TOLERANCE,
     SPIN_TOLERANCE,
@@ -61,6 +64,7 @@ def import_mjcf(
     closure_tolerance: float = CLOSURE_TOLERANCE,
     spin_tolerance: float = SPIN_TOLERANCE,
     rod_spin: str = "error",
+    inertials: dict[str, Any] | None = None,
 ) -> ImportResult:
     """A hexapod from an MJCF model (``docs/importing.md``).
 
@@ -75,6 +79,9 @@ def import_mjcf(
             relative to the platform's size (past it :class:`LoopClosureError`).
         spin_tolerance, rod_spin: the largest asymmetry of an S-S rod about its axis, and
             ``"error"`` (:class:`RodSpinError`) or ``"warn"`` past it.
+        inertials: body name -> ``{"mass", "pos", "inertia"}`` for bodies whose inertia
+            MuJoCo computes from a mesh file that is missing
+            (:func:`~stewart_pin.importers.mjcf.load_model`).
     """
     from stewart_pin.importers.mjcf import read_mjcf
 
@@ -89,7 +96,7 @@ def import_mjcf(
     closure_tolerance, spin_tolerance = _check_options(
         platform, name, closure_tolerance, spin_tolerance
     )
-    model = read_mjcf(source, keyframe)
+    model = read_mjcf(source, keyframe, inertials)
     rec = recognise(model, platform)
     return build(
         model,
@@ -144,8 +151,8 @@ def import_urdf(
         for joint, value in armature.items():  # named here, not as the sidecar's
             check_scalar(value, f"armature of joint '{joint}'", nonnegative=True)
     read = read_urdf(path, closures, armature)
-    rec = recognise(read.model, platform)
-    return build(
+    rec = recognise(read.model, platform if platform is not None else read.platform)
+    result = build(
         read.model,
         rec,
         actuated=actuated if actuated is not None else read.actuated,
@@ -157,6 +164,29 @@ def import_urdf(
         joint_terms=read.joint_terms,
         limits=read.limits,
     )
+    if read.home_pose is not None:  # the platform hangs in the tree: its pose a check
+        _check_home_pose(result, read.home_pose, closure_tolerance)
+    return result
+
+
+def _check_home_pose(result: ImportResult, home: np.ndarray, tolerance: float) -> None:
+    """The sidecar's ``home_pose`` of a platform that hangs in the tree against the pose
+    its home joint positions give: :class:`ModelImportError` past ``tolerance`` times the
+    platform's size (position) or ``tolerance`` rad."""
+    desc = result.description
+    T = desc.home_pose
+    size = float(
+        np.linalg.norm(desc.platform_points - desc.platform_points.mean(0), axis=1).mean()
+    )
+    dp = float(np.linalg.norm(T[:3, 3] - home[:3, 3]))
+    angle = float(np.linalg.norm(_so3_log((home[:3, :3].T @ T[:3, :3])[None])))
+    if dp > tolerance * size or angle > tolerance:
+        raise ModelImportError(
+            f"the sidecar's home_pose is {dp:.3g} m and {angle:.3g} rad from the pose of the "
+            f"platform {result.report.platform!r} at its home joint positions (the platform "
+            "hangs in the tree: home_joint_positions place it); give matching values",
+            (result.report.platform,),
+        )
 
 
 def import_sdf(

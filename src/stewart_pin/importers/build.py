@@ -15,7 +15,7 @@ import math
 import re
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -42,8 +42,10 @@ from stewart_pin.exceptions import (
     ModelImportWarning,
     RobotNameError,
     RodSpinError,
+    StewartPinError,
 )
 from stewart_pin.importers.canonical import (
+    SNAP,
     canonical_chain,
     classify,
     transform_inertia,
@@ -75,6 +77,24 @@ AXIS_TOLERANCE = 1e-9
 
 
 # ------------------------------------------------------------------------------ build
+@dataclass
+class _LegForm:
+    """One leg in the description's joint convention (``build``): the canonical chain of
+    the signed axes, the joints (theta / r shifted by the offsets), their dynamics, the
+    reference values, the architecture, ``signs`` / ``offsets`` (description value =
+    ``sign q_file + offset``), P_i in frame 3i and frames 1i..3i at the file's zero."""
+
+    chain: Any
+    joints: list[Joint]
+    dyns: list[JointDynamics]
+    q_ref: np.ndarray
+    arch: LegArchitecture
+    signs: np.ndarray
+    offsets: np.ndarray
+    tip: np.ndarray
+    frames: np.ndarray
+
+
 @dataclass
 class LegReport:
     """One leg as imported (names as in the file)."""
@@ -110,6 +130,8 @@ class ImportReport:
     closure_tolerance: float
     ideal: bool
     architecture: str
+    approximations: list[str] = field(default_factory=list)
+    effects: list[str] = field(default_factory=list)
 
     @property
     def residuals(self) -> np.ndarray:
@@ -157,6 +179,8 @@ class ImportReport:
             if names:
                 lines.append(f"lumped into {where}: {shown_list(names)}")
         lines.extend(f"note: {n}" for n in self.notes)
+        lines.extend(f"approximation: {a}" for a in self.approximations)
+        lines.extend(f"effect: {e}" for e in self.effects)
         return "\n".join(lines)
 
 
@@ -166,6 +190,7 @@ class ImportResult:
 
     description: RobotDescription
     report: ImportReport
+    model: KinematicModel | None = None
 
 
 def robot_name(name: str) -> str:
@@ -374,6 +399,7 @@ def build(
     reports: list[LegReport] = []
     sources: list[LegSource] = []
     residual_points: list[tuple[np.ndarray, np.ndarray]] = []
+    snapped: list[float] = []  # the angles by which legs' axes were made parallel [rad]
     for k in order:
         leg = rec.legs[k]
         cn = leg.connection
@@ -510,11 +536,73 @@ def build(
                 link_params = [np.zeros(10), removed[0], removed[1]]
                 refs = [None, None, model.values.get(e1.joint.name, 0.0)]
 
-        try:
-            chain = canonical_chain(kinds, anchors, axes, tip_zero, rec.scale, names)
-        except ArchitectureError as err:
-            raise ModelImportError(str(err), tuple(link_bodies), tuple(names)) from err
+        a_act = act_of_leg[k]
+        actuated_index = names.index(a_act.joint) + 1 if a_act.joint in names else 0
+        if actuated_index == 0:
+            raise ModelImportError(
+                f"actuator {shown(a_act.name)} drives {shown(a_act.joint)}, not one of the "
+                f"leg's joints {shown_list(names)}",
+                (),
+                (a_act.name,),
+            )
+
+        # the file's joint zeros and directions (docs/importing.md): the leg as the file
+        # writes it; if that is no named architecture, its joints re-zeroed (theta_j,
+        # r_j of joints 2, 3 zero) and a U-P-S slide pointed from the U joint to P_i; a
+        # U-P-S leg on the other U-joint branch gets its first hinge turned the other way
+        leg_in = _LegInput(
+            kinds,
+            anchors,
+            axes,
+            tip_zero,
+            names,
+            link_bodies,
+            file_joints,
+            refs,
+            actuated_index,
+            a_act.gear,
+            rec.scale,
+            armature,
+            joint_terms,
+            limits,
+            side_leg if leg.shape == "JJJ" else side_plat,
+        )
+        form = _leg_form(leg_in, np.ones(3), False)
+        if not _closed_form_fits(form, rec.scale):
+            candidates: list[tuple[np.ndarray, bool]] = []
+            if tuple(kinds) == (REVOLUTE, REVOLUTE, PRISMATIC):
+                trial = np.ones(3)
+                tip0 = form.chain.tip
+                if file_joints[2] is not None and refs[2] is not None and not tip0[:2].any():
+                    slide = form.chain.params[2, 3] + tip0[2] + float(refs[2])
+                    trial[2] = -1.0 if slide < 0.0 else 1.0
+                candidates.append((trial, True))
+                if file_joints[0] is not None:
+                    candidates.append((trial * np.array([-1.0, 1.0, 1.0]), True))
+            else:  # the universal joint's closed form takes one of its two assemblies
+                for flips in ((1.0, -1.0, 1.0), (1.0, 1.0, -1.0), (1.0, -1.0, -1.0)):
+                    candidates.append((np.array(flips), False))
+            fallback = None
+            for trial, rezero in candidates:
+                got = _leg_form(leg_in, trial, rezero)
+                if _closed_form_fits(got, rec.scale):
+                    form = got
+                    break
+                if fallback is None and _closed_form_fits(got, rec.scale, any_branch=True):
+                    fallback = got
+            else:
+                if fallback is not None:
+                    form = fallback
+                elif _closed_form_fits(form, rec.scale, any_branch=True):
+                    pass
+                elif form.arch.name != "custom":  # the file's leg, solved by Newton's method
+                    form.arch = LegArchitecture(
+                        tuple(form.joints), actuated_index, form.tip, 1, "custom", form.q_ref
+                    )
+        chain, dyns, q_ref, arch = form.chain, form.dyns, form.q_ref, form.arch
+        signs, offsets = form.signs, form.offsets
         if chain.snapped > PARALLEL_NOTICE:
+            snapped.append(chain.snapped)
             warnings.warn(
                 f"leg through {shown_list(names)}: two joint axes {chain.snapped:.2g} rad from "
                 "parallel are made parallel (the file's rounding, as read; the robot turns "
@@ -525,65 +613,11 @@ def build(
             model.notes.append(
                 f"axes of {shown_list(names)} made parallel (turned by {chain.snapped:.2g} rad)"
             )
-        joints: list[Joint] = []
-        dyns: list[JointDynamics] = []
-        a_act = act_of_leg[k]
-        actuated_index = names.index(a_act.joint) + 1 if a_act.joint in names else 0
-        if actuated_index == 0:
-            raise ModelImportError(
-                f"actuator {shown(a_act.name)} drives {shown(a_act.joint)}, not one of the "
-                f"leg's joints {shown_list(names)}",
-                (),
-                (a_act.name,),
-            )
-        for j in range(3):
-            J = file_joints[j]
-            lo, hi = (-math.inf, math.inf) if J is None else (J.lower, J.upper)
-            if J is not None and limits is not None and (lim := limits(J.name)) is not None:
-                lo, hi = lim
-            dyn = JointDynamics()
-            if J is not None:
-                full = joint_terms(J.name) if joint_terms is not None else None
-                if full is not None:
-                    dyn = full
-                else:
-                    gear = a_act.gear if j + 1 == actuated_index else 1.0
-                    extra = (armature or {}).get(J.name, 0.0)
-                    try:
-                        dyn = JointDynamics(
-                            armature=J.armature + float(extra),
-                            viscous=J.damping,
-                            coulomb=J.coulomb,
-                            stiffness=J.stiffness,
-                            rest_position=J.rest if J.stiffness else 0.0,
-                            gear_ratio=gear if gear != 1.0 else None,
-                        )
-                    except JointDynamicsError as err:
-                        raise ModelImportError(
-                            f"joint {shown(J.name)}: {err}", (), (J.name,)
-                        ) from err
-            dyns.append(dyn)
-            try:
-                alpha, d_j, theta, r_j = (float(v) for v in chain.params[j])
-                joints.append(Joint(kinds[j], alpha, d_j, theta, r_j, lo, hi, dyn))
-            except ArchitectureError as err:
-                raise ModelImportError(f"joint {shown(names[j])}: {err}", (), (names[j],)) from err
         # link inertias in the canonical frames
         for j in range(3):
             leg_inertia[len(reports), j] = transform_inertia(
-                link_params[j], np.linalg.inv(chain.frames[j])
+                link_params[j], np.linalg.inv(form.frames[j])
             )
-        # reference joint values (the U angles of an S-S leg solved from the rod)
-        q_ref = _reference_values(
-            joints,
-            actuated_index,
-            chain,
-            refs,
-            side_leg if leg.shape == "JJJ" else side_plat,
-            T_home,
-            p_in_P,
-        )
-        arch = classify(tuple(joints), actuated_index, chain.tip, q_ref)
         arch = arch.replace(branch=arch.branch_at(q_ref))
         legs_out.append(arch)
         base_rot[len(reports)] = chain.base[:3, :3]
@@ -620,8 +654,23 @@ def build(
                 (names[0], names[1], names[2]),
                 a_act.name,
                 spherical,
+                tuple(float(x) for x in signs),
+                tuple(float(x) for x in offsets),
+                _wraps(file_joints),
             )
         )
+        if not sources[-1].identity:
+            model.notes.append(
+                f"leg {len(sources)}: joint values read from the file's as "
+                + ", ".join(
+                    f"{shown(names[j])} = {'-' if signs[j] < 0 else ''}q_file"
+                    + (f" {'+-'[int(offsets[j] < 0)]} {abs(offsets[j]):.6g}" if offsets[j] else "")
+                    for j in range(3)
+                    if signs[j] < 0 or offsets[j]
+                )
+                + f" (named architecture {arch.name}; positions and efforts in the file's "
+                "convention: robot.description.source.file_joint_values / file_efforts)"
+            )
 
     # loop residuals at the reference configuration
     Pp = np.array(size_points)
@@ -662,6 +711,7 @@ def build(
             fixed = [n for n in link_names(li) if n != model.body_label(links[li].root)]
             if fixed:
                 lumped.setdefault("leg links", []).extend(fixed)
+    gravity = _gravity(model, rec)
     notes = list(model.notes) + [f"dropped {x}" for x in rec.dropped]
 
     robot = robot_name(model.name) if name is None else check_robot_name(name)
@@ -684,7 +734,7 @@ def build(
             legs_out,
             leg_inertia,
             platform_inertia,
-            model.gravity,
+            gravity,
             T_home,
             source,
         )
@@ -700,6 +750,21 @@ def build(
             tuple(names_),
         ) from err
     architectures = {leg.name for leg in legs_out}
+    approximations = []
+    if rec.dropped:
+        approximations.append(f"{len(rec.dropped)} nearly massless bodies taken as massless")
+    if snapped:
+        approximations.append(
+            f"axes made parallel in {len(snapped)} leg(s) (turned by up to {max(snapped):.2g} rad)"
+        )
+    asymmetric = [rep.spin_asymmetry for rep in reports if rep.spin_asymmetry > spin_tolerance]
+    if asymmetric:
+        approximations.append(
+            f"the spin of {len(asymmetric)} asymmetric rod(s) removed (asymmetry up to "
+            f"{max(asymmetric):.2g})"
+        )
+    if np.any(residuals > EXACT_CLOSURE * size):
+        approximations.append(f"loops closed from a residual of {residuals.max():.2g} m")
     report = ImportReport(
         model.format,
         model.file,
@@ -713,29 +778,220 @@ def build(
         tol,
         ideal,
         architectures.pop() if len(architectures) == 1 else "mixed",
+        approximations,
     )
-    return ImportResult(desc, report)
+    return ImportResult(desc, report, model)
+
+
+@dataclass
+class _LegInput:
+    """What :func:`_leg_form` needs of a leg read from the file: the joints' kinds, a
+    point and the axis of each line and P_i in F0 at the file's zero configuration, the
+    names, the file's joints (``None``: a joint that replaces a spherical joint), their
+    reference values, the actuated joint (1..3) and its gear, the robot's size [m], the
+    reader's extra armature / joint terms / limits, and the tip's reference position
+    (F0)."""
+
+    kinds: list[str]
+    anchors: list[np.ndarray]
+    axes: list[np.ndarray]
+    tip_zero: np.ndarray
+    names: list[str]
+    link_bodies: list[str]
+    file_joints: list[TreeJoint | None]
+    refs: list[float | None]
+    actuated: int
+    gear: float
+    scale: float
+    armature: dict[str, float] | None
+    joint_terms: Callable[[str], JointDynamics | None] | None
+    limits: Callable[[str], tuple[float, float] | None] | None
+    target: np.ndarray
+
+
+def _leg_form(leg: _LegInput, signs: np.ndarray, rezero: bool) -> _LegForm:
+    """The leg with the file's joint j read as ``signs[j] q_file + offset_j``: offsets 0
+    (the file's zeros), or with ``rezero`` those that zero theta_j / r_j of joints 2, 3
+    (a slide's zero moved to P_i when P_i is on its line)."""
+    kinds, names, file_joints, actuated_index = leg.kinds, leg.names, leg.file_joints, leg.actuated
+    try:
+        axes = [s * np.asarray(a) for s, a in zip(signs, leg.axes, strict=True)]
+        chain = canonical_chain(kinds, leg.anchors, axes, leg.tip_zero, leg.scale, names)
+    except ArchitectureError as err:
+        raise ModelImportError(str(err), tuple(leg.link_bodies), tuple(names)) from err
+    offsets = np.zeros(3)
+    tip = chain.tip.copy()
+    shift = 0.0  # frame 3i moved along a slide's line to P_i
+    if rezero:
+        for j in (1, 2):
+            if file_joints[j] is not None:
+                offsets[j] = chain.params[j, 2 if kinds[j] == REVOLUTE else 3]
+        if kinds[2] == PRISMATIC and file_joints[2] is not None and not tip[:2].any():
+            shift, tip[2] = tip[2], 0.0
+            offsets[2] += shift
+    joints_: list[Joint] = []
+    dyns_: list[JointDynamics] = []
+    for j in range(3):
+        J = file_joints[j]
+        s, o = float(signs[j]), float(offsets[j])
+        lo, hi = (-math.inf, math.inf) if J is None else (J.lower, J.upper)
+        if J is not None and leg.limits is not None and (lim := leg.limits(J.name)) is not None:
+            lo, hi = lim
+        lo, hi = sorted((s * lo + o, s * hi + o))
+        dyn = JointDynamics()
+        if J is not None:
+            full = leg.joint_terms(J.name) if leg.joint_terms is not None else None
+            if full is not None:
+                dyn = full
+            else:
+                gear = leg.gear if j + 1 == actuated_index else 1.0
+                extra = (leg.armature or {}).get(J.name, 0.0)
+                try:
+                    dyn = JointDynamics(
+                        armature=J.armature + float(extra),
+                        viscous=J.damping,
+                        coulomb=J.coulomb,
+                        stiffness=J.stiffness,
+                        rest_position=J.rest if J.stiffness else 0.0,
+                        gear_ratio=gear if gear != 1.0 else None,
+                    )
+                except JointDynamicsError as err:
+                    raise ModelImportError(f"joint {shown(J.name)}: {err}", (), (J.name,)) from err
+            if dyn.stiffness and (s, o) != (1.0, 0.0):
+                dyn = replace(dyn, rest_position=s * dyn.rest_position + o)
+        dyns_.append(dyn)
+        alpha, d_j, theta, r_j = (float(v) for v in chain.params[j])
+        if j > 0 and kinds[j] == REVOLUTE:
+            theta -= o
+        elif j > 0:
+            r_j += (shift if j == 2 else 0.0) - o
+        if j > 0 and abs(theta) <= SNAP:
+            theta = 0.0
+        if j > 0 and abs(r_j) <= SNAP * leg.scale:
+            r_j = 0.0
+        try:
+            joints_.append(Joint(kinds[j], alpha, d_j, theta, r_j, lo, hi, dyn))
+        except ArchitectureError as err:
+            raise ModelImportError(f"joint {shown(names[j])}: {err}", (), (names[j],)) from err
+    # the frames at the file's zero configuration (the links' inertias are given
+    # in them): the joints at their offsets; frame 0i (joint 1 at 0) is the chain's
+    frames = np.empty((3, 4, 4))
+    T = chain.base
+    for j in range(3):
+        T = T @ joints_[j].transform(offsets[j] if j > 0 else 0.0)
+        frames[j] = T
+    refs_ = [
+        None if r is None else s * r + o for r, s, o in zip(leg.refs, signs, offsets, strict=True)
+    ]
+    # reference joint values (the U angles of an S-S leg solved from the rod)
+    q_ref_ = _reference_values(
+        joints_,
+        actuated_index,
+        chain.base,
+        tip,
+        refs_,
+        leg.target,
+    )
+    arch_ = classify(tuple(joints_), actuated_index, tip, q_ref_)
+    if arch_.name in ("ups", "ups-offset") and q_ref_[2] + joints_[2].r <= 0.0:
+        # the closed form's slide is the distance from the U joint to P_i (> 0):
+        # a slide that points from P_i to the U joint is not that leg as it is
+        arch_ = LegArchitecture(tuple(joints_), actuated_index, tip, 1, "custom", q_ref_)
+    return _LegForm(chain, joints_, dyns_, q_ref_, arch_, signs, offsets, tip, frames)
+
+
+def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) -> bool:
+    """Whether the leg is a named architecture whose closed-form inverse geometry gives
+    the file's reference joint values (mod 2 pi) from its reference tip position; unless
+    ``any_branch``, a U-P-S leg also on the branch +1 (the ideal 6-UPS form)."""
+    from stewart_pin.kinematics.leg_chains import leg_inverse_geometry
+
+    arch = form.arch
+    if arch.name == "custom":
+        return False
+    branch = arch.branch_at(form.q_ref)
+    if arch.name in ("ups", "ups-offset") and branch < 0 and not any_branch:
+        return False
+    leg = arch.replace(branch=branch)
+    try:
+        q = leg_inverse_geometry(leg, leg.tip_position(form.q_ref))[0]
+    except StewartPinError:
+        return False
+    diff = q - form.q_ref
+    for j, joint in enumerate(leg.joints):
+        if joint.revolute:
+            diff[j] = math.remainder(float(diff[j]), 2.0 * math.pi)
+        else:
+            diff[j] /= scale
+    return bool(np.abs(diff).max() <= 1e-9)
+
+
+def _gravity(model: KinematicModel, rec: Recognition) -> np.ndarray:
+    """The model's gravity with the bodies' gravity compensation (``TreeBody.gravcomp``):
+    the same fraction c on every moving body with mass is gravity scaled by 1 - c (exact:
+    every weight scaled; noted); :class:`ModelImportError` naming the bodies when they
+    differ (one gravity for every body)."""
+    fixed = set(rec.links[rec.ground].bodies)
+    moving = [
+        b
+        for b, body in enumerate(model.bodies)
+        if b not in fixed and body.inertia[9] > 0.0 and not body.virtual
+    ]
+    values = {model.bodies[b].gravcomp for b in moving}
+    if values <= {0.0}:
+        return model.gravity
+    if len(values) == 1:
+        c = values.pop()
+        model.notes.append(
+            f"gravity compensation ({c:g} of every moving body's weight): imported as gravity "
+            f"scaled by {1.0 - c:g}"
+        )
+        return (1.0 - c) * model.gravity
+    some = [model.bodies[b].name for b in moving if model.bodies[b].gravcomp != 0.0]
+    raise ModelImportError(
+        f"bodies {shown_list(some[:8])}{' ...' if len(some) > 8 else ''} have gravity "
+        "compensation (gravcomp, or no gravity) and other moving bodies do not (or less): "
+        "stewart-pin models one gravity for every body (exact when every moving body has "
+        "the same compensation); remove it or make it uniform",
+        tuple(some),
+    )
+
+
+def _wraps(joints: Sequence[TreeJoint | None]) -> tuple[float, ...]:
+    """Where each revolute file joint's value is given (``LegSource.wraps``): from the
+    lower end of a range of a full turn or more (such a range limits nothing: the angle
+    is taken modulo 2 pi into it), else from -pi."""
+    out = []
+    for J in joints:
+        full = (
+            J is not None
+            and J.kind == REVOLUTE
+            and math.isfinite(J.lower)
+            and J.upper - J.lower >= 2.0 * math.pi * (1.0 - 1e-12)
+        )
+        out.append(float(J.lower) if full and J is not None else -math.pi)
+    return tuple(out)
 
 
 def _reference_values(
     joints: list[Joint],
     actuated: int,
-    chain: Any,
+    base: np.ndarray,
+    tip: np.ndarray,
     refs: list[float | None],
     target: np.ndarray,
-    T_home: np.ndarray,
-    p_in_P: np.ndarray,
 ) -> np.ndarray:
     """The leg's joint values at the reference configuration: the file's values, the
     unknown ones (an S-S leg's universal joint) solved by Gauss-Newton so that the tip
-    reaches ``target`` (F0) with the known ones fixed."""
+    reaches ``target`` (F0) with the known ones fixed (frame 0i at ``base``, P_i at
+    ``tip`` in frame 3i)."""
     q = np.array([0.0 if r is None else float(r) for r in refs])
     free = [j for j, r in enumerate(refs) if r is None]
     if not free:
         return q
-    leg = LegArchitecture(tuple(joints), actuated, chain.tip, 1, "custom")
+    leg = LegArchitecture(tuple(joints), actuated, tip, 1, "custom")
     for _ in range(50):
-        err = leg.tip_position(q, chain.base) - target
+        err = leg.tip_position(q, base) - target
         if np.linalg.norm(err) < 1e-15:
             break
         J = np.empty((3, len(free)))
@@ -743,7 +999,7 @@ def _reference_values(
         for c, j in enumerate(free):
             dq = q.copy()
             dq[j] += h
-            J[:, c] = (leg.tip_position(dq, chain.base) - leg.tip_position(q, chain.base)) / h
+            J[:, c] = (leg.tip_position(dq, base) - leg.tip_position(q, base)) / h
         step = np.linalg.lstsq(J, -err, rcond=None)[0]
         q[free] += step
         if np.linalg.norm(step) < 1e-14:
@@ -775,8 +1031,10 @@ def _description(
     if ideal:
         stroke = np.array([[leg.joints[2].lower, leg.joints[2].upper] for leg in legs])
         u = np.array([[[j.lower, j.upper] for j in leg.joints[:2]] for leg in legs])
+        # strokes equal to round-off (a file's joint zeros moved to each leg's home
+        # length): the first leg's
         ideal = (
-            bool(np.all(stroke == stroke[0]))
+            bool(np.all(np.abs(stroke - stroke[0]) <= 1e-12 * np.abs(stroke[0]).max()))
             and bool(np.all(np.isfinite(stroke)))
             and 0.0 < stroke[0, 0] < stroke[0, 1]
             and bool(np.all(np.isfinite(u)))

@@ -16,8 +16,10 @@ compiler's ``angle`` unit, ``inertiafromgeom`` (inertias computed from geoms and
 - equality constraints ``connect`` (site or body/anchor form) and ``weld`` (active at
   ``qpos0``); any other kind is refused;
 - actuators on joints (``motor``, ``position``, ``velocity``, ``general``...): the joint
-  and ``gear[0]`` (the joint's effort per actuator effort); one on a tendon, a site or a
-  body is refused;
+  and ``gear[0]`` (the joint's effort per actuator effort); one on a site or a body (a
+  disturbance input) is ignored with a note, one on a tendon is refused;
+- each body's ``gravcomp`` (taken by the build when the same on every moving body;
+  ``actuatorgravcomp`` refused);
 - ``<option gravity>``; the reference configuration: a keyframe (by name or index;
   default the one named ``home``, else ``qpos0``).
 
@@ -25,8 +27,9 @@ Geoms matter only through the inertias MuJoCo computes from them: the reader com
 with ``discardvisual`` (geoms with ``contype = conaffinity = 0`` and their meshes dropped
 before they are loaded, their inertia kept as an explicit one) and drops the mesh geoms
 of bodies whose inertia is explicit, so a visual mesh file missing beside the model does
-not stop the import. Contacts, tendons without springs, sensors and the like play no part
-in the rigid-body dynamics imported.
+not stop the import (a note names it); a body whose inertia MuJoCo would compute from a
+missing mesh takes it from ``inertials=`` (:func:`load_model`). Contacts, tendons without
+springs, sensors and the like play no part in the rigid-body dynamics imported.
 """
 
 from __future__ import annotations
@@ -86,8 +89,15 @@ def _pose(pos: Any, R: Any) -> np.ndarray:
     return T
 
 
-def load_model(source: Any) -> tuple[Any, str]:
-    """``(mujoco.MjModel, file name)`` of a path, an XML string or a compiled model.
+def load_model(source: Any, inertials: dict[str, Any] | None = None) -> tuple[Any, str, list[str]]:
+    """``(mujoco.MjModel, file name, notes)`` of a path, an XML string or a compiled model.
+
+    Mesh files missing beside the model: a visual mesh is dropped (a note names it); a
+    body whose inertia MuJoCo computes from a missing mesh needs its inertia given in
+    ``inertials`` (body name -> ``{"mass": m [kg], "pos": centre of mass (3,) in the
+    body frame [m], "inertia": [ixx, iyy, izz, ixy, ixz, iyz] about it in body axes
+    [kg m^2]}``): its geoms are then not used for its inertia (a note says so); else
+    :class:`ModelImportError` naming the files, the bodies and the option.
 
     A path (``str`` or ``os.PathLike`` naming an existing file, or a ``str`` not starting
     with ``<``) is read with its includes and assets relative to its folder; a string
@@ -100,7 +110,7 @@ def load_model(source: Any) -> tuple[Any, str]:
     """
     mujoco = _mujoco()
     if isinstance(source, mujoco.MjModel):
-        return source, ""
+        return source, "", []
     text: str | None = None
     path: Path | None = None
     if isinstance(source, str) and source.lstrip().startswith("<"):
@@ -125,7 +135,9 @@ def load_model(source: Any) -> tuple[Any, str]:
             )
         except Exception as e:  # MuJoCo raises ValueError with its own message
             raise FileFormatError(f"MuJoCo cannot read {where}: {e}") from e
+        absent = _absent_meshes(spec, path)
         _drop_visuals(mujoco, spec)
+        notes = _missing_meshes(mujoco, spec, absent, inertials or {}, where)
         try:
             model = spec.compile()
         except Exception as e:
@@ -135,7 +147,118 @@ def load_model(source: Any) -> tuple[Any, str]:
             f"MuJoCo warns about {where}: {said[0]} (stewart-pin does not import a model "
             "MuJoCo warns about: fix the file)"
         )
-    return model, "" if path is None else path.name
+    return model, "" if path is None else path.name, notes
+
+
+def _absent_meshes(spec: Any, path: Path | None) -> dict[str, str]:
+    """Mesh asset name -> its file, for the mesh files that are not where MuJoCo looks
+    (``meshdir``, relative to the model's folder; the working folder for XML text)."""
+    folder = path.parent if path is not None else Path()
+    meshdir = Path(spec.meshdir or "")
+    out = {}
+    for mesh in spec.meshes:
+        if not mesh.file:
+            continue
+        file = Path(mesh.file)
+        where = file if file.is_absolute() else folder / meshdir / file
+        if not where.is_file():
+            out[mesh.name] = mesh.file
+    return out
+
+
+#: Keys of an ``inertials=`` entry.
+INERTIAL_KEYS = ("mass", "pos", "inertia")
+
+
+def _missing_meshes(
+    mujoco: Any, spec: Any, absent: dict[str, str], inertials: dict[str, Any], where: str
+) -> list[str]:
+    """Deal with the mesh files missing (:func:`load_model`): the notes, or
+    :class:`ModelImportError`."""
+    from stewart_pin._checks import check_array, check_scalar
+    from stewart_pin.exceptions import InputError
+
+    if not isinstance(inertials, dict) or not all(isinstance(k, str) for k in inertials):
+        raise InputError(f"inertials must be a dict of body name to inertia, got {inertials!r}")
+    mesh = mujoco.mjtGeom.mjGEOM_MESH
+    affected: dict[str, list[str]] = {}
+    for body in spec.bodies:
+        for geom in body.geoms:
+            if geom.type == mesh and geom.meshname in absent:
+                affected.setdefault(body.name, []).append(absent[geom.meshname])
+    notes = []
+    used = {f for files in affected.values() for f in files}
+    visual = sorted(set(absent.values()) - used)
+    if visual:
+        notes.append(
+            f"mesh file(s) {', '.join(shown(f) for f in visual)} missing: visual only, not needed"
+        )
+    unknown = [b for b in inertials if b not in affected]
+    if unknown:
+        raise InputError(
+            f"inertials given for {', '.join(shown(b) for b in unknown)}: not a body whose "
+            f"inertia comes from a missing mesh file (those: "
+            f"{', '.join(shown(b) for b in affected) or 'none'})"
+        )
+    lacking = [b for b in affected if b not in inertials]
+    if lacking:
+        files = sorted({f for b in lacking for f in affected[b]})
+        raise ModelImportError(
+            f"mesh file(s) {', '.join(shown(f) for f in files)} missing beside {where}: MuJoCo "
+            f"computes the inertia of {', '.join(shown(b) for b in lacking)} from them; put "
+            "the files back, or give each body's inertia with inertials={body: {'mass': m, "
+            "'pos': [x, y, z], 'inertia': [ixx, iyy, izz, ixy, ixz, iyz]}} (centre of mass "
+            "and inertia about it, in the body frame; SI)",
+            tuple(lacking),
+        )
+    explicit_elsewhere = any(
+        body.explicitinertial and body.name not in affected for body in spec.bodies
+    )
+    for bname in affected:
+        entry = inertials[bname]
+        what = f"inertials[{bname!r}]"
+        if not isinstance(entry, dict) or sorted(entry) != sorted(INERTIAL_KEYS):
+            raise InputError(f"{what} must be a dict with exactly the keys {INERTIAL_KEYS}")
+        body = spec.body(bname)
+        for geom in list(body.geoms):
+            spec.delete(geom)  # the body's inertia is the one given
+        body.mass = check_scalar(entry["mass"], f"{what}['mass']", positive=True)
+        body.ipos = check_array(entry["pos"], (3,), f"{what}['pos']")
+        body.fullinertia = check_array(entry["inertia"], (6,), f"{what}['inertia']")
+        body.explicitinertial = True
+    if (
+        affected
+        and spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+    ):
+        if explicit_elsewhere:
+            raise ModelImportError(
+                'inertials= cannot be used with <compiler inertiafromgeom="true"> when other '
+                "bodies have an <inertial> (MuJoCo would then read theirs too)"
+            )
+        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_AUTO
+    for asset in list(spec.meshes):
+        if asset.name in absent:
+            spec.delete(asset)
+    notes.extend(
+        f"mesh file(s) {', '.join(shown(f) for f in sorted(set(files)))} missing: the inertia "
+        f"of body {shown(b)} given by inertials= ({inertials[b]['mass']!r} kg)"
+        for b, files in affected.items()
+    )
+    return notes
+
+
+def _gravity_routed(m: Any, name: Any) -> None:
+    """:class:`ModelImportError` for gravity compensation routed to actuators
+    (``actuatorgravcomp``): the actuators' forces would then include it."""
+    routed = [name("mjOBJ_JOINT", j) for j in range(m.njnt) if m.jnt_actgravcomp[j]]
+    if routed and np.any(m.body_gravcomp != 0.0):
+        raise ModelImportError(
+            f"gravity compensation (gravcomp) is routed to the actuators of "
+            f"{', '.join(shown(j) for j in routed)} (actuatorgravcomp): the actuator forces "
+            "would include it; stewart-pin's efforts do not: remove actuatorgravcomp",
+            (),
+            tuple(routed),
+        )
 
 
 @contextlib.contextmanager
@@ -280,16 +403,22 @@ def _drop_visuals(mujoco: Any, spec: Any) -> None:
             spec.delete(asset)
 
 
-def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
+def read_mjcf(
+    source: Any,
+    keyframe: str | int | None = None,
+    inertials: dict[str, Any] | None = None,
+) -> KinematicModel:
     """The neutral tree of an MJCF model (module docstring).
 
     Args:
         source: a path, an XML string or a ``mujoco.MjModel``.
         keyframe: the reference configuration: a keyframe's name or index; default the
             keyframe named ``home`` if there is one, else ``qpos0``.
+        inertials: body name -> its inertia (:func:`load_model`), for bodies whose
+            inertia MuJoCo would compute from a mesh file that is missing.
     """
     mujoco = _mujoco()
-    m, file_name = load_model(source)
+    m, file_name, load_notes = load_model(source, inertials)
     _check_finite_model(mujoco, m)
     off = _disabled(mujoco, m)
     data = mujoco.MjData(m)
@@ -332,20 +461,15 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
     values: dict[str, float] = {}
     balls: dict[str, np.ndarray] = {}
     frees: dict[str, np.ndarray] = {}
-    notes: list[str] = []
+    notes: list[str] = list(load_notes)
     seen: set[str] = set()
     notes.extend(
         f'<option><flag {flag}="disable"/>: imported {what}'
         for flag, what in _FLAGS_HONOURED.items()
         if flag in off
     )
-    gravcomp = [name("mjOBJ_BODY", b) for b in range(1, m.nbody) if m.body_gravcomp[b] != 0.0]
-    if gravcomp and "gravity" not in off:  # without gravity, gravcomp does nothing
-        raise ModelImportError(
-            f"bodies {', '.join(shown(n) for n in gravcomp)} have gravity compensation "
-            "(gravcomp): it changes the dynamics stewart-pin models; remove it",
-            tuple(gravcomp),
-        )
+    if "gravity" not in off:  # without gravity, gravcomp does nothing
+        _gravity_routed(m, name)
     for b in range(1, m.nbody):
         bname = name("mjOBJ_BODY", b)
         pose = _pose(xpos[b], xmat[b])
@@ -355,8 +479,9 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
         )
         parent = index[int(m.body_parentid[b])]
         jids = range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
+        gravcomp = 0.0 if "gravity" in off else float(m.body_gravcomp[b])
         if m.body_jntnum[b] == 0:
-            bodies.append(TreeBody(bname, parent, None, pose, inertia))
+            bodies.append(TreeBody(bname, parent, None, pose, inertia, gravcomp=gravcomp))
             index[b] = len(bodies) - 1
             continue
         for n, j in enumerate(jids):
@@ -401,7 +526,13 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
             last = n == m.body_jntnum[b] - 1
             bodies.append(
                 TreeBody(
-                    bname, parent, J, pose, inertia if last else np.zeros(10), virtual=not last
+                    bname,
+                    parent,
+                    J,
+                    pose,
+                    inertia if last else np.zeros(10),
+                    virtual=not last,
+                    gravcomp=gravcomp if last else 0.0,
                 )
             )
             parent = len(bodies) - 1
@@ -448,7 +579,17 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
     joint_trn = int(mujoco.mjtTrn.mjTRN_JOINT)
     for a in range(m.nu):
         aname = name("mjOBJ_ACTUATOR", a)
-        if int(m.actuator_trntype[a]) != joint_trn:
+        trn = int(m.actuator_trntype[a])
+        if trn in (int(mujoco.mjtTrn.mjTRN_SITE), int(mujoco.mjtTrn.mjTRN_BODY)):
+            target = name("mjOBJ_SITE" if trn == int(mujoco.mjtTrn.mjTRN_SITE) else "mjOBJ_BODY",
+                          int(m.actuator_trnid[a, 0]))  # fmt: skip
+            notes.append(
+                f"actuator {shown(aname)} drives the {mujoco.mjtTrn(trn).name[6:].lower()} "
+                f"{shown(target)}, not a joint (a disturbance input): ignored (the efforts "
+                "computed are those with it at zero)"
+            )
+            continue
+        if trn != joint_trn:
             raise ModelImportError(
                 f"actuator {shown(aname)} does not act on a joint (transmission "
                 f"{mujoco.mjtTrn(int(m.actuator_trntype[a])).name}): stewart-pin reads "
@@ -478,7 +619,7 @@ def read_mjcf(source: Any, keyframe: str | int | None = None) -> KinematicModel:
         bodies=bodies,
         closures=closures,
         actuators=actuators,
-        gravity=np.zeros(3) if "gravity" in off else np.array(m.opt.gravity, dtype=float),
+        gravity=(np.zeros(3) if "gravity" in off else np.array(m.opt.gravity, dtype=float)),
         reference=reference,
         values=values,
         balls=balls,

@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -28,6 +29,8 @@ from stewart_pin.description.leg_architecture import (
 )
 from stewart_pin.exceptions import (
     ModelImportError,
+    ModelImportWarning,
+    UnsupportedArchitectureError,
 )
 from stewart_pin.importers.canonical import (
     transform_inertia,
@@ -374,6 +377,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         six = [i for i, n in count.items() if n == 6]
         if len(six) != 1:
             best = max(count.items(), key=lambda kv: kv[1], default=(None, 0))
+            weld_closures_need_chain_legs(model)
             if best[0] is not None:
                 _weld_where_a_ball_should_be(model, links, link_of, edges, best[0])
             where = (
@@ -389,6 +393,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
                 tuple(link_names(best[0])) if best[0] is not None else (),
             )
         P = six[0]
+        _platform_body(model, links, P, connections, edges)
     if P == ground:
         raise ModelImportError(
             f"the platform {shown(platform or '')} is fixed to the base", (platform or "",)
@@ -420,6 +425,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         into.setdefault(e.child, []).append(e)
     for e in into.get(P, []):
         if not e.spherical and e.joint.one_dof:
+            weld_closures_need_chain_legs(model)
             welds = [
                 c.name
                 for c in model.closures
@@ -532,6 +538,24 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
     return Recognition(links, link_of, ground, P, legs, scale, mass, dropped)
 
 
+def weld_closures_need_chain_legs(model: KinematicModel) -> None:
+    """The one place where a leg closed by a weld closure of a URDF sidecar (version 2)
+    is refused: when the legs cannot be read as three 1-dof joints and a spherical joint
+    (a weld that only lumps a rod end carrying a spherical joint into the platform is
+    read), :class:`UnsupportedArchitectureError` naming the weld closures. Legs of any
+    number of joints closed by a weld are chain legs (``docs/importing.md``)."""
+    welds = tuple(c.name for c in model.closures if c.kind == "weld")
+    if model.format == "urdf" and welds:
+        raise UnsupportedArchitectureError(
+            f"weld closure(s) {shown_list(welds)} close legs that are not three 1-dof joints "
+            "and a spherical joint: weld closures need chain legs (legs of any number of "
+            "joints closed by a weld), which this version does not model; close those legs "
+            "with point closures at their spherical joints",
+            "closures",
+            welds,
+        )
+
+
 def _weld_where_a_ball_should_be(
     model: KinematicModel, links: list[Link], link_of: list[int], edges: list[Edge], P: int
 ) -> None:
@@ -556,6 +580,76 @@ def _weld_where_a_ball_should_be(
                 (model.body_label(body),),
                 (e.joint.name, *names),
             )
+
+
+#: Two bodies of the platform's rigid group within this fraction of each other's mass
+#: could both be meant as the platform: a warning names them.
+PLATFORM_MASS_MARGIN = 0.1
+
+
+def _platform_body(
+    model: KinematicModel,
+    links: list[Link],
+    P: int,
+    connections: list[Connection],
+    edges: list[Edge],
+) -> None:
+    """Give the platform link ``P``, when it hangs in the tree (no free joint), the frame
+    of its heaviest body (the platform the user means, not a joint part such as a rod end
+    through which it hangs from a leg), the points already found in its frame moved with
+    it; a note and a :class:`ModelImportWarning` when the two heaviest are within
+    :data:`PLATFORM_MASS_MARGIN` of each other's mass (``platform=`` chooses). A floating
+    platform keeps the frame of the body with the free joint."""
+    link = links[P]
+    root_joint = model.bodies[link.root].joint
+    if root_joint is not None and root_joint.kind == FREE:
+        return  # a floating platform: the body the file moves (its free joint) is Fp
+    bodies = [b for b in link.bodies if not model.bodies[b].virtual and b != 0]
+    if not bodies:
+        return
+    by_mass = sorted(bodies, key=lambda b: (-model.bodies[b].inertia[9], b))
+    heaviest = by_mass[0]
+    mass = float(model.bodies[heaviest].inertia[9])
+    if len(by_mass) > 1:
+        second = by_mass[1]
+        other = float(model.bodies[second].inertia[9])
+        if mass > 0.0 and other >= (1.0 - PLATFORM_MASS_MARGIN) * mass:
+            names = (model.body_label(heaviest), model.body_label(second))
+            message = (
+                f"the platform's rigid group has two bodies of similar mass, "
+                f"{shown(names[0])} ({mass:.4g} kg) and {shown(names[1])} ({other:.4g} kg): "
+                f"Fp is the frame of {shown(names[0])}, the heavier; poses are in that frame "
+                "(choose another with platform=... / --platform)"
+            )
+            model.notes.append(message)
+            warnings.warn(
+                ModelImportWarning(message, short=f"platform frame: {shown(names[0])}"),
+                stacklevel=4,
+            )
+    if heaviest == link.root:
+        return
+    new = _reroot(link, heaviest)
+    T = new.rel[link.root]  # the old link frame in the new one
+
+    def moved(p: np.ndarray) -> np.ndarray:
+        return T[:3, :3] @ p + T[:3, 3]
+
+    for cn in connections:
+        if cn.a == P:
+            cn.point_a = moved(cn.point_a)
+        if cn.b == P:
+            cn.point_b = moved(cn.point_b)
+    for e in edges:
+        if e.child == P:
+            e.centre_child = moved(e.centre_child)
+        if e.parent == P:
+            e.centre_parent = moved(e.centre_parent)
+    links[P] = new
+    model.notes.append(
+        f"platform frame Fp: body {shown(model.body_label(heaviest))}, the heaviest of the "
+        f"platform's rigid group ({mass:.4g} kg; not {shown(model.body_label(link.root))}, "
+        "through which it is jointed)"
+    )
 
 
 def _reroot(link: Link, root: int) -> Link:
@@ -600,6 +694,7 @@ def _coplanar(hinges: Sequence[TreeJoint]) -> bool:
 __all__ = [
     "INTERSECTION_TOLERANCE",
     "MASSLESS",
+    "PLATFORM_MASS_MARGIN",
     "Connection",
     "Edge",
     "LegChain",

@@ -101,6 +101,9 @@ class TreeBody:
         pose: (4, 4) the body's frame in F0 at the zero configuration.
         inertia: (10,) Khalil's parameters in the body frame about its origin.
         virtual: a massless body the reader inserted (not in the file).
+        gravcomp: the fraction of its weight compensated (MJCF ``gravcomp``; 1 for a
+            body without gravity, SDF ``<gravity>false</gravity>``); the import takes it
+            when every moving body has the same (gravity scaled), else refuses it.
     """
 
     name: str
@@ -109,6 +112,7 @@ class TreeBody:
     pose: np.ndarray
     inertia: np.ndarray = field(default_factory=lambda: np.zeros(10))
     virtual: bool = False
+    gravcomp: float = 0.0
 
 
 @dataclass

@@ -43,7 +43,12 @@ from stewart_pin.exceptions import (
     ModelImportError,
 )
 from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
-from stewart_pin.formats.urdf import JOINT_TERMS_KEY, non_finite_number, parse_closures
+from stewart_pin.formats.urdf import (
+    CLOSURE_FORMAT,
+    JOINT_TERMS_KEY,
+    non_finite_number,
+    parse_closures,
+)
 from stewart_pin.importers.tree import (
     FREE,
     KinematicModel,
@@ -68,6 +73,8 @@ class UrdfRead:
     limits: Callable[[str], tuple[float, float] | None]
     sidecar: Path | None = None
     terms: dict[str, JointDynamics] = field(default_factory=dict)
+    platform: str | None = None
+    home_pose: np.ndarray | None = None
 
 
 def _yourdfpy() -> Any:
@@ -242,6 +249,158 @@ def _limits(entry: Any, name: str, source: str) -> tuple[float, float] | None:
     return out[0], out[1]
 
 
+#: Keys of a version-2 sidecar (``docs/closures.md``); any other is refused.
+SIDECAR_KEYS = (
+    "format",
+    "version",
+    "urdf",
+    "description",
+    "closures",
+    "actuated_joints",
+    "gravity",
+    "platform",
+    "home_pose",
+    "home_joint_positions",
+    JOINT_TERMS_KEY,
+)
+#: Keys of a version-2 closure, by type.
+CLOSURE_KEYS = {
+    "point": ("name", "type", "link1", "point1", "link2", "point2"),
+    "weld": ("name", "type", "link1", "frame1", "link2", "frame2"),
+}
+
+
+@dataclass(frozen=True)
+class SidecarClosure:
+    """A closure of a version-2 sidecar: ``"point"`` (``point1`` in ``link1`` coincides
+    with ``point2`` in ``link2`` [m]) or ``"weld"`` (frame ``frame1`` of ``link1`` held on
+    frame ``frame2`` of ``link2``: each a 4x4 pose in its link's frame, or ``None`` for
+    the link's ``<inertial>`` frame, resolved by the reader)."""
+
+    name: str
+    kind: str
+    link1: str
+    link2: str
+    point1: np.ndarray
+    point2: np.ndarray
+    frame1: np.ndarray | None
+    frame2: np.ndarray | None
+
+
+def _rpy_matrix(rpy: np.ndarray) -> np.ndarray:
+    """URDF's ``rpy`` (fixed-axis roll, pitch, yaw) as a rotation matrix."""
+    r, p, y = (float(v) for v in rpy)
+
+    def rot(axis: int, a: float) -> np.ndarray:
+        c, s_ = math.cos(a), math.sin(a)
+        i, j = [(1, 2), (2, 0), (0, 1)][axis]
+        R = np.eye(3)
+        R[i, i], R[i, j], R[j, i], R[j, j] = c, -s_, s_, c
+        return R
+
+    return rot(2, y) @ rot(1, p) @ rot(0, r)
+
+
+def parse_sidecar_v2(data: dict[str, Any], source: str) -> list[SidecarClosure]:
+    """Validate a version-2 sidecar (``docs/closures.md``) strictly: every key known,
+    every value of its type, numbers finite; returns its closures.
+    :class:`FileFormatError` naming the key (and the closure) otherwise."""
+    unknown = [str(k) for k in data if k not in SIDECAR_KEYS]
+    if unknown:
+        raise FileFormatError(
+            f"{source}: unknown key(s) {', '.join(map(repr, unknown))} (a version-2 sidecar "
+            f"has {', '.join(SIDECAR_KEYS)})"
+        )
+    for key in ("urdf", "description", "platform"):
+        if key in data and not isinstance(data[key], str):
+            raise FileFormatError(f"{source}: '{key}' must be a string, got {data[key]!r:.60}")
+    items = data.get("closures")
+    if not isinstance(items, list) or not items:
+        raise FileFormatError(f"{source}: 'closures' must be a non-empty list")
+    out: list[SidecarClosure] = []
+    seen: set[str] = set()
+    for n, c in enumerate(items, start=1):
+        where = f"{source}: closure {n}"
+        if not isinstance(c, dict):
+            raise FileFormatError(f"{where} must be an object, got {c!r:.60}")
+        kind = c.get("type")
+        if kind not in CLOSURE_KEYS:
+            raise FileFormatError(f"{where}: 'type' must be 'point' or 'weld', got {kind!r:.60}")
+        name = c.get("name", f"closure{n}")
+        if not isinstance(name, str):
+            raise FileFormatError(f"{where}: 'name' must be a string, got {name!r:.60}")
+        where = f"{source}: closure {n} ({shown(name)})"
+        if name in seen:
+            raise FileFormatError(f"{where}: two closures have that name")
+        seen.add(name)
+        keys = CLOSURE_KEYS[kind]
+        unknown = [str(k) for k in c if k not in keys]
+        if unknown:
+            raise FileFormatError(
+                f"{where}: unknown key(s) {', '.join(map(repr, unknown))} (a {kind} closure "
+                f"has {', '.join(keys)})"
+            )
+        for key in ("link1", "link2"):
+            if not isinstance(c.get(key), str):
+                raise FileFormatError(
+                    f"{where}: '{key}' must be a link name (a string), got {c.get(key)!r:.60}"
+                )
+        points: list[np.ndarray] = []
+        frames: list[np.ndarray | None] = []
+        for key in ("point1", "point2") if kind == "point" else ():
+            if key not in c:
+                raise FileFormatError(f"{where}: '{key}' is missing (3 numbers [m])")
+            points.append(_vector(c[key], 3, f"{where}: '{key}'"))
+        for key in ("frame1", "frame2") if kind == "weld" else ():
+            frames.append(_frame(c.get(key, {}), f"{where}: '{key}'"))
+        out.append(
+            SidecarClosure(
+                name,
+                kind,
+                c["link1"],
+                c["link2"],
+                points[0] if points else np.zeros(3),
+                points[1] if points else np.zeros(3),
+                frames[0] if frames else np.eye(4),
+                frames[1] if frames else np.eye(4),
+            )
+        )
+    return out
+
+
+def _vector(value: Any, n: int, what: str) -> np.ndarray:
+    """``n`` finite numbers (a JSON list), else :class:`FileFormatError` naming ``what``."""
+    if (
+        not isinstance(value, list)
+        or len(value) != n
+        or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+    ):
+        raise FileFormatError(f"{what} must be {n} finite numbers, got {json.dumps(value)[:60]}")
+    return np.array(value, dtype=float)
+
+
+def _frame(value: Any, what: str) -> np.ndarray | None:
+    """A weld frame: ``{"xyz": [3], "rpy": [3]}`` (each optional, default zeros) as a 4x4
+    pose, or ``"inertial"`` (``None``: the link's ``<inertial>`` origin)."""
+    if value == "inertial":
+        return None
+    if not isinstance(value, dict):
+        raise FileFormatError(
+            f'{what} must be {{"xyz": [x, y, z], "rpy": [r, p, y]}} or "inertial", got '
+            f"{json.dumps(value)[:60]}"
+        )
+    unknown = [str(k) for k in value if k not in ("xyz", "rpy")]
+    if unknown:
+        raise FileFormatError(f"{what}: unknown key(s) {', '.join(map(repr, unknown))} (xyz, rpy)")
+    T = np.eye(4)
+    T[:3, 3] = _vector(value.get("xyz", [0, 0, 0]), 3, f"{what} 'xyz'")
+    T[:3, :3] = _rpy_matrix(_vector(value.get("rpy", [0, 0, 0]), 3, f"{what} 'rpy'"))
+    return T
+
+
 def read_urdf(
     path: str | Path, closures: Any = None, armature: dict[str, float] | None = None
 ) -> UrdfRead:
@@ -281,7 +440,10 @@ def read_urdf(
     sidecar: Path | None = None
     data: dict[str, Any] = {}
     pairs: list[tuple[str, str]] | None = None
-    if isinstance(closures, (str, Path)):
+    from_dict = isinstance(closures, dict)
+    if from_dict:  # the sidecar's content
+        data = closures
+    elif isinstance(closures, (str, Path)):
         sidecar = Path(closures)
     elif closures is None:
         candidate = path.with_name(path.name.removesuffix(".urdf") + ".closures.json")
@@ -357,7 +519,9 @@ def read_urdf(
 
     # closures
     tree_closures: list[TreeClosure] = []
-    source = str(sidecar) if sidecar is not None else str(path)
+    source = (
+        str(sidecar) if sidecar is not None else "the closures given" if from_dict else str(path)
+    )
 
     def body_of(link: str, what: str) -> int:
         if link not in index:
@@ -366,8 +530,23 @@ def read_urdf(
             )
         return index[link]
 
-    if sidecar is not None:
-        for c in parse_closures(data, str(sidecar)):
+    version = data.get("version") if (sidecar is not None or from_dict) else None
+    if (sidecar is not None or from_dict) and version == 2:
+        if data.get("format") != CLOSURE_FORMAT:
+            raise FileFormatError(f"{source}: not a '{CLOSURE_FORMAT}' document ('format')")
+        for sc in parse_sidecar_v2(data, source):
+            where = f"closure {shown(sc.name)}"
+            b1, b2 = body_of(sc.link1, where), body_of(sc.link2, where)
+            if sc.kind == "point":
+                tree_closures.append(TreeClosure(sc.name, "point", b1, b2, sc.point1, sc.point2))
+                continue
+            F1 = sc.frame1 if sc.frame1 is not None else _inertial_origin(links[sc.link1])
+            F2 = sc.frame2 if sc.frame2 is not None else _inertial_origin(links[sc.link2])
+            tree_closures.append(
+                TreeClosure(sc.name, "weld", b1, b2, T_1_2=F1 @ np.linalg.inv(F2))
+            )
+    elif sidecar is not None or from_dict:
+        for c in parse_closures(data, source):
             tree_closures.append(
                 TreeClosure(
                     c.name,
@@ -427,12 +606,22 @@ def read_urdf(
     # the reference configuration
     values: dict[str, float] = {}
     free: dict[str, np.ndarray] = {}
+    home_pose: np.ndarray | None = None
     reference = "the zero configuration"
     if "home_pose" in data:
         try:
             T = check_array(data["home_pose"], (4, 4), "home_pose")
         except InputError as e:
             raise FileFormatError(f"{source}: 'home_pose' must be a 4x4 pose: {e}") from e
+        if version == 2 and not (
+            np.abs(T[:3, :3].T @ T[:3, :3] - np.eye(3)).max() <= 1e-9
+            and np.linalg.det(T[:3, :3]) > 0.0
+            and np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0])
+        ):
+            raise FileFormatError(
+                f"{source}: 'home_pose' must be a rigid transform (a rotation, bottom row 0 0 0 1)"
+            )
+        home_pose = T
         for tree_body in bodies:
             if tree_body.joint is not None and tree_body.joint.kind == FREE:
                 free[tree_body.joint.name] = T
@@ -440,6 +629,15 @@ def read_urdf(
     positions = data.get("home_joint_positions", {})
     if not isinstance(positions, dict):
         raise FileFormatError(f"{source}: 'home_joint_positions' must be an object")
+    if version == 2:
+        strangers = [str(k) for k in positions if k not in {j.name for j in joints}]
+        if strangers:
+            raise FileFormatError(
+                f"{source}: 'home_joint_positions' names no joint "
+                f"{', '.join(shown(n) for n in strangers)} of {path.name}"
+            )
+        if positions:
+            reference = "the sidecar's home configuration"
     for key, value in positions.items():
         if (
             isinstance(value, bool)
@@ -495,7 +693,16 @@ def read_urdf(
         lambda n: limits.get(n),
         sidecar,
         terms,
+        data.get("platform") if version == 2 else None,
+        home_pose if not free else None,  # a floating platform is placed by it
     )
+
+
+def _inertial_origin(link: Any) -> np.ndarray:
+    """A link's ``<inertial><origin>`` (4x4 in its frame; identity when it has none)."""
+    inertial = getattr(link, "inertial", None)
+    origin = None if inertial is None else inertial.origin
+    return np.eye(4) if origin is None else np.asarray(origin, dtype=float)
 
 
 def closing_pairs(names: Sequence[str]) -> list[tuple[str, str]]:

@@ -346,6 +346,14 @@ def _inverse_leg(
     return q
 
 
+def leg_inverse_geometry(leg: LegArchitecture, P0i: Any) -> np.ndarray:
+    """One leg's joint values (N, 3) reaching the points ``P0i`` (N, 3) given in its frame
+    0i [m]: the named architecture's closed form on the leg's branch (Newton from its
+    ``guess`` for ``custom``); limits not checked. The importer checks with it that a
+    leg's closed form gives the file's configuration."""
+    return _inverse_leg(leg, np.atleast_2d(np.asarray(P0i, dtype=float)), 0, None)
+
+
 def _closed_form(
     leg: LegArchitecture,
     P0i: np.ndarray,
@@ -807,6 +815,7 @@ __all__ = [
     "inverse_jacobian_from_legs",
     "leg_drift",
     "leg_forward",
+    "leg_inverse_geometry",
     "leg_jacobians",
     "leg_kinematics",
     "leg_state",
