@@ -37,6 +37,7 @@ from stewart_pin._checks import (
     project_rotation,
 )
 from stewart_pin._io import write_text_atomic
+from stewart_pin.description.chain_leg import ChainLeg, check_chain_legs
 from stewart_pin.description.inertia import check_physical, khalil_from_inertial_table
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
 from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
@@ -142,6 +143,9 @@ class RobotDescription:
     legs: tuple[LegArchitecture, ...] | None = None
     # where an imported robot came from (file names of its bodies and joints), or None
     source: ModelSource | None = None
+    # six chain legs (any 1-dof joints, ball or weld closure, links' inertia in the legs;
+    # docs/legs.md "Chain legs and welds"), or None
+    chain_legs: tuple[ChainLeg, ...] | None = None
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
@@ -149,6 +153,8 @@ class RobotDescription:
             object.__setattr__(self, "source", ModelSource.from_value(self.source))
         if self.legs is not None:
             self._check_legs()
+        if self.chain_legs is not None:
+            self._check_chain_legs()
 
         def set_(key: str, value: np.ndarray) -> None:
             value = np.array(value, dtype=np.float64)
@@ -159,7 +165,7 @@ class RobotDescription:
             "base_points": (6, 3),
             "platform_points": (6, 3),
             "leg_base_rotations": (6, 3, 3),
-            **({} if self.legs is not None else {"stroke": (2,)}),
+            **({} if not self.is_ideal_ups else {"stroke": (2,)}),
             "leg_inertia": (6, 3, 10),
             "platform_inertia": (10,),
             "gravity": (3,),
@@ -216,6 +222,13 @@ class RobotDescription:
                     check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
             key = "platform_inertia"
             check_physical(self.platform_inertia, "platform")
+            key = "leg_inertia"
+            if self.chain_legs is not None and np.any(self.leg_inertia != 0.0):
+                raise InertiaError(
+                    f"robot description '{self.name}': with chain_legs the links' inertia "
+                    "is in each ChainLeg (inertia (n, 10)); leg_inertia must be zeros",
+                    "legs",
+                )
         except InertiaError as e:
             e.key = key  # type: ignore[attr-defined] # read() quotes the line of the key
             raise
@@ -237,6 +250,25 @@ class RobotDescription:
                 "home_pose",
                 f"robot description '{self.name}': a robot with legs needs an explicit "
                 "home_pose (a reachable pose: the workspace centre)",
+            )
+
+    def _check_chain_legs(self) -> None:
+        """Six chain legs, each giving the platform six freedoms
+        (:class:`~stewart_pin.exceptions.LegMobilityError`); no ``legs``, stroke or
+        U-joint limits beside them; an explicit home pose."""
+        object.__setattr__(self, "chain_legs", check_chain_legs(self.chain_legs))
+        for key in ("legs", "stroke", "u_joint_limits"):
+            if getattr(self, key) is not None:
+                raise _field_error(
+                    key,
+                    f"robot description '{self.name}': {key} must be left out when "
+                    "chain_legs are given (each leg's joints carry their limits)",
+                )
+        if self.home_pose is None:
+            raise _field_error(
+                "home_pose",
+                f"robot description '{self.name}': a robot with chain legs needs an "
+                "explicit home_pose (a reachable pose: the workspace centre)",
             )
 
     def _check_points(self) -> None:
@@ -301,7 +333,15 @@ class RobotDescription:
 
     # ------------------------------------------------------------------ dict and files
     def to_dict(self) -> dict[str, Any]:
-        """The description as plain Python lists (JSON/TOML-ready), with the public keys."""
+        """The description as plain Python lists (JSON/TOML-ready), with the public keys
+        (:class:`UnsupportedArchitectureError` for chain legs: no file form yet)."""
+        if self.chain_legs is not None:
+            raise UnsupportedArchitectureError(
+                f"robot '{self.name}' has chain legs, which have no file form yet (build "
+                "them in Python: stewart_pin.description.chain_leg_presets)",
+                "to_dict",
+                self.architecture,
+            )
         d: dict[str, Any] = {"name": self.name}
         for key in REQUIRED_KEYS:
             if getattr(self, key) is not None:
@@ -338,7 +378,7 @@ class RobotDescription:
 
     def replace(self, **changes: Any) -> RobotDescription:
         """A copy with some fields changed (validated again)."""
-        d = {k: getattr(self, k) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS)}
+        d = {k: getattr(self, k) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS, "chain_legs")}
         d.update(changes)
         return RobotDescription(**d)
 
@@ -439,14 +479,30 @@ class RobotDescription:
     def is_ideal_ups(self) -> bool:
         """Whether this is the paper's ideal 6-UPS robot (``legs`` is ``None``): the fast
         closed-form path, the compiled backend and the identification apply."""
-        return self.legs is None
+        return self.legs is None and self.chain_legs is None
+
+    @property
+    def has_chain_legs(self) -> bool:
+        """Whether the legs are :class:`~stewart_pin.description.chain_leg.ChainLeg`
+        (``chain_legs``): the chain-leg path, no closed form, no compiled model yet."""
+        return self.chain_legs is not None
 
     @property
     def leg_architectures(self) -> tuple[LegArchitecture, ...]:
         """The six legs: ``legs``, or for the ideal 6-UPS robot :func:`ups` legs with its
-        stroke and U-joint limits and no joint dynamics."""
+        stroke and U-joint limits and no joint dynamics;
+        :class:`UnsupportedArchitectureError` for chain legs (not three-joint ball legs:
+        the features built on those take ``chain_legs`` or refuse the robot)."""
         if self.legs is not None:
             return self.legs
+        if self.chain_legs is not None:
+            raise UnsupportedArchitectureError(
+                f"robot '{self.name}' has chain legs (any joints, ball or weld closures): "
+                "this feature takes three-joint ball legs only; the inverse and direct "
+                "models, kinematics, energy and simulation take chain legs",
+                "legs",
+                self.architecture,
+            )
         assert self.stroke is not None
         lim = self.u_joint_limits
         return tuple(
@@ -459,7 +515,12 @@ class RobotDescription:
         """The unit of each actuator's effort (6,), from its joint type: ``"N"`` for a
         prismatic actuated joint (6-UPS, PUS legs), ``"N m"`` for a revolute one (RUS
         cranks); joint side."""
-        return tuple(leg.effort_unit for leg in self.leg_architectures)
+        return tuple(leg.effort_unit for leg in self._legs_any)
+
+    @property
+    def _legs_any(self) -> tuple[LegArchitecture | ChainLeg, ...]:
+        """The six legs, three-joint or chain."""
+        return self.chain_legs if self.chain_legs is not None else self.leg_architectures
 
     @property
     def effort_unit(self) -> str:
@@ -471,12 +532,14 @@ class RobotDescription:
     def position_unit(self) -> str:
         """The unit of the actuated joints' positions for one label: ``"m"`` or ``"rad"``
         when the six legs share it, ``"m or rad"`` for legs that mix them."""
-        return _shared_unit(tuple(leg.position_unit for leg in self.leg_architectures))
+        return _shared_unit(tuple(leg.position_unit for leg in self._legs_any))
 
     @property
     def architecture(self) -> str:
         """The legs' common architecture (``"ups"``, ``"ups-offset"``, ``"rus"``,
-        ``"pus"``, ``"custom"``), or ``"mixed"``."""
+        ``"pus"``, ``"custom"``), or ``"mixed"``; ``"chain"`` for chain legs."""
+        if self.chain_legs is not None:
+            return "chain"
         if self.legs is None:
             return "ups"
         names = {leg.name for leg in self.legs}

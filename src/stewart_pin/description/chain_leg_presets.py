@@ -1,0 +1,163 @@
+"""Robots with chain legs (:class:`~stewart_pin.description.chain_leg.ChainLeg`) for tests
+and examples, every link massive and every joint with its terms (armature, viscous and
+Coulomb friction, spring, damper):
+
+- :func:`welded_ups`: a 6-UPS whose spherical joint is a spin hinge plus a U-joint whose
+  axes miss each other by ``offset`` (0.5 mm), welded to the platform: U(2) + P + spin +
+  U(2), six joints, weld closure.
+- :func:`mixed_chain_robot`: legs 1, 3, 5 three-joint U-P-S legs closed by a ball, legs 2,
+  4, 6 the six-joint welded legs above.
+
+The geometry is :func:`~stewart_pin.description.presets.random_robot`'s (asymmetric,
+tilted home pose). A welded leg's platform attachment (``P_i`` and its orientation in Fp)
+is its attachment frame at the home pose, the leg's joints at chosen home values: the
+robot closes exactly at its home pose.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from stewart_pin.description.chain_leg import ChainLeg
+from stewart_pin.description.inertia import random_physical_khalil
+from stewart_pin.description.leg_architecture import (
+    Joint,
+    JointDynamics,
+    prismatic,
+    revolute,
+    ups,
+)
+from stewart_pin.description.leg_chain_presets import random_joint_dynamics
+from stewart_pin.description.presets import random_robot
+from stewart_pin.description.robot_description import RobotDescription
+
+#: The miss distance of the upper U-joint's axes in :func:`welded_ups` [m].
+UPPER_U_OFFSET = 5e-4
+
+
+def _ups_angles(R0: np.ndarray, B: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``(q1, q2, q3)`` of a U-P-S leg (q2 in (0, pi)) reaching P from B."""
+    u = R0.T @ (P - B)
+    length = float(np.linalg.norm(u))
+    u = u / length
+    return np.array([math.atan2(u[1], u[0]), math.acos(-u[2]), length])
+
+
+def _leg_dynamics(
+    rng: np.random.Generator, kinds: str, joint_terms: bool
+) -> list[dict[str, JointDynamics]]:
+    if not joint_terms:
+        return [{} for _ in kinds]
+    return [
+        {"dynamics": random_joint_dynamics(rng, "revolute" if k == "R" else "prismatic")}
+        for k in kinds
+    ]
+
+
+def welded_joints(rng: np.random.Generator, offset: float, joint_terms: bool) -> tuple[Joint, ...]:
+    """U(2) + P + spin + U(2) with the upper U-joint's axes ``offset`` [m] apart."""
+    dyn = _leg_dynamics(rng, "RRPRRR", joint_terms)
+    return (
+        revolute(**dyn[0]),
+        revolute(alpha=math.pi / 2, **dyn[1]),
+        prismatic(alpha=math.pi / 2, lower=0.2, upper=2.0, **dyn[2]),
+        revolute(lower=0.0, upper=2.0 * math.pi, **dyn[3]),  # the spin: a full turn
+        revolute(alpha=math.pi / 2, **dyn[4]),
+        revolute(alpha=math.pi / 2, d=offset, **dyn[5]),
+    )
+
+
+def _links(rng: np.random.Generator, masses: list[float]) -> np.ndarray:
+    return np.array([random_physical_khalil(rng, m, 0.03, 0.02) for m in masses])
+
+
+def _welded_leg(
+    rng: np.random.Generator,
+    base: RobotDescription,
+    k: int,
+    offset: float,
+    joint_terms: bool,
+) -> tuple[ChainLeg, np.ndarray]:
+    """Leg k welded, and its platform attachment ``P_k`` in Fp."""
+    H = base.home_pose
+    P0 = H[:3, :3] @ base.platform_points[k] + H[:3, 3]
+    q_home = np.concatenate(
+        [_ups_angles(base.leg_base_rotations[k], base.base_points[k], P0), [0.3, 1.7, -0.4]]
+    )
+    joints = welded_joints(rng, offset, joint_terms)
+    tip = np.array([0.012, -0.008, 0.02])
+    tip_rotation = np.array(
+        [
+            [1.0, 0.0, 0.0],
+            [0.0, math.cos(0.3), -math.sin(0.3)],
+            [0.0, math.sin(0.3), math.cos(0.3)],
+        ]
+    )
+    masses = [0.05, 0.08, 1.2, 0.03, 0.015, 0.09]
+    leg = ChainLeg(joints, 3, "weld", _links(rng, masses), tip, tip_rotation, guess=q_home)
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = base.leg_base_rotations[k], base.base_points[k]
+    for joint, qj in zip(joints, q_home, strict=True):
+        T = T @ joint.transform(float(qj))
+    T = T @ leg.attachment()
+    P_local = H[:3, :3].T @ (T[:3, 3] - H[:3, 3])
+    R_local = H[:3, :3].T @ T[:3, :3]
+    return leg.replace(platform_rotation=R_local), P_local
+
+
+def _ball_leg(
+    rng: np.random.Generator, base: RobotDescription, k: int, joint_terms: bool
+) -> ChainLeg:
+    """A three-joint U-P-S leg with a ball, massive links and joint terms."""
+    dyn = _leg_dynamics(rng, "RRP", joint_terms)
+    leg = ups((0.2, 2.0), dynamics=[d.get("dynamics", JointDynamics()) for d in dyn])
+    H = base.home_pose
+    P0 = H[:3, :3] @ base.platform_points[k] + H[:3, 3]
+    chain = ChainLeg.from_architecture(leg, _links(rng, [0.4, 2.5, 1.5]))
+    return chain.replace(guess=_ups_angles(base.leg_base_rotations[k], base.base_points[k], P0))
+
+
+def _robot(
+    name: str, welded: tuple[int, ...], seed: int, offset: float, joint_terms: bool
+) -> RobotDescription:
+    base = random_robot(seed)
+    rng = np.random.default_rng(1000 + seed)
+    legs, points = [], base.platform_points.copy()
+    for k in range(6):
+        if k in welded:
+            leg, points[k] = _welded_leg(rng, base, k, offset, joint_terms)
+        else:
+            leg = _ball_leg(rng, base, k, joint_terms)
+        legs.append(leg)
+    return RobotDescription(
+        base_points=base.base_points,
+        platform_points=points,
+        leg_base_rotations=base.leg_base_rotations,
+        stroke=None,
+        leg_inertia=np.zeros((6, 3, 10)),
+        platform_inertia=base.platform_inertia,
+        gravity=base.gravity,
+        name=name,
+        home_pose=base.home_pose,
+        chain_legs=tuple(legs),
+    )
+
+
+def welded_ups(
+    seed: int = 0, offset: float = UPPER_U_OFFSET, joint_terms: bool = True
+) -> RobotDescription:
+    """Six welded six-joint legs (module docstring); ``offset`` [m] the upper U-joint's
+    axis miss distance."""
+    return _robot(f"welded-ups-{seed}", tuple(range(6)), seed, offset, joint_terms)
+
+
+def mixed_chain_robot(
+    seed: int = 0, offset: float = UPPER_U_OFFSET, joint_terms: bool = True
+) -> RobotDescription:
+    """Legs 1, 3, 5 U-P-S with a ball, legs 2, 4, 6 welded six-joint legs."""
+    return _robot(f"mixed-chain-{seed}", (1, 3, 5), seed, offset, joint_terms)
+
+
+__all__ = ["UPPER_U_OFFSET", "mixed_chain_robot", "welded_joints", "welded_ups"]

@@ -1,0 +1,300 @@
+"""Inverse and direct dynamics of robots with chain legs (any 1-dof joints, ball or weld
+closure; Khalil & Ibrahim 2007, ``docs/legs.md`` "Chain legs and welds").
+
+Each leg's joint-space dynamics come from Pinocchio on its own serial model (CRBA with the
+armature, ``model.armature``; nonlinear effects with gravity) plus the joint terms:
+
+    H_i = A_i qddot_i + h_i,   h_i = nle(q, qdot) + (Fv + D) qdot + Fc sign(qdot) + K (q - q0)
+
+(``sign`` with :data:`~stewart_pin.description.leg_architecture.COULOMB_DEAD_BAND`). With
+the leg kinematics of :mod:`stewart_pin.kinematics.chain_legs` (``J_i`` c x n, ``G_i``,
+``K_i = J_i^-1 G_i``, ``k_i = J_i^-1 (d_i - Jdot_i qdot_i)``, so ``qddot_i = K_i Vdot +
+k_i``):
+
+- IDM: ``Jp^-T Gamma = F_p + sum_i G_i^T J_i^-T H_i`` (the leg's wrench on the platform
+  at P_i: ball a force, weld a force and a moment), ``Jp^-1`` rows ``e_a^T K_i``;
+- DDM: ``(Ip + sum G_i^T J_i^-T A_i K_i) Vdot = Jp^-T Gamma - bias - sum G_i^T J_i^-T
+  (A_i k_i + h_i)``, solved by Cholesky (the matrix is symmetric positive definite:
+  ``G^T J^-T A J^-1 G``).
+
+Batches: poses (N, 4, 4), twists and classical accelerations (N, 6) in F0; efforts are
+the actuated joints', joint side [N or N m].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from stewart_pin._checks import check_poses, check_states
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.chain_leg import ChainLeg
+from stewart_pin.description.inertia import pin_inertia_from_khalil
+from stewart_pin.description.leg_architecture import coulomb_sign
+from stewart_pin.dynamics.closed_loop import (
+    check_finite,
+    closure_direct_dynamics,
+    platform_energy,
+    platform_terms,
+)
+from stewart_pin.kinematics import chain_legs as kin
+from stewart_pin.kinematics.jacobians import MAX_CONDITION
+
+
+def leg_model(desc: RobotDescription, k: int) -> pin.Model:
+    """Leg k's serial Pinocchio model: fixed base at frame 0k, joints RZ / PZ placed by
+    their MDH transforms, links' inertia, ``model.armature``, the robot's gravity."""
+    leg = kin.chain_legs_of(desc)[k]
+    model = pin.Model()
+    model.gravity = pin.Motion(np.asarray(desc.gravity, float), np.zeros(3))
+    parent = 0
+    for j, joint in enumerate(leg.joints):
+        placement = pin.SE3(joint.placement())
+        if j == 0:
+            placement = pin.SE3(kin.leg_base_pose(desc, k)) * placement
+        jm = pin.JointModelRZ() if joint.revolute else pin.JointModelPZ()
+        parent = model.addJoint(parent, jm, placement, f"leg{k + 1}_q{j + 1}")
+        model.appendBodyToJoint(
+            parent, pin_inertia_from_khalil(leg.inertia[j]), pin.SE3.Identity()
+        )
+    model.armature = leg.armature
+    return model
+
+
+@dataclass(frozen=True)
+class ChainJointTerms:
+    """One leg's joint terms (n,) each: viscous + damper, Coulomb, spring and its rest
+    position, transmission ratio."""
+
+    viscous: np.ndarray
+    coulomb: np.ndarray
+    stiffness: np.ndarray
+    rest: np.ndarray
+    ratio: np.ndarray
+
+    @classmethod
+    def of(cls, leg: ChainLeg) -> ChainJointTerms:
+        d = [j.dynamics for j in leg.joints]
+        return cls(
+            np.array([x.viscous + x.damping for x in d]),
+            np.array([x.coulomb for x in d]),
+            np.array([x.stiffness for x in d]),
+            np.array([x.rest_position for x in d]),
+            np.array([x.transmission_ratio for x in d]),
+        )
+
+    def efforts(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """(N, n) friction, damper and spring efforts [N m or N]."""
+        return (
+            self.viscous * qdot
+            + self.coulomb * coulomb_sign(qdot)
+            + self.stiffness * (q - self.rest)
+        )
+
+
+class ChainLegModels:
+    """The six legs' Pinocchio models and joint terms."""
+
+    def __init__(self, desc: RobotDescription) -> None:
+        self.desc = desc
+        self.legs = kin.chain_legs_of(desc)
+        self.models = [leg_model(desc, k) for k in range(6)]
+        self.datas = [m.createData() for m in self.models]
+        self.terms = [ChainJointTerms.of(leg) for leg in self.legs]
+
+    def mass_and_bias(
+        self, k: int, q: np.ndarray, qdot: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Leg k's ``A_k`` (N, n, n) (armature included) and ``h_k`` (N, n) (joint terms
+        included)."""
+        model, data = self.models[k], self.datas[k]
+        N, n = q.shape
+        M, h = np.empty((N, n, n)), np.empty((N, n))
+        for s in range(N):
+            m = pin.crba(model, data, q[s])
+            M[s] = np.triu(m) + np.triu(m, 1).T
+            h[s] = pin.nonLinearEffects(model, data, q[s], qdot[s])
+        return M, h + self.terms[k].efforts(q, qdot)
+
+    def energy(self, k: int, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Leg k's kinetic (armature included) and potential (gravity, springs) energy,
+        each (N,) [J]."""
+        model, data = self.models[k], self.datas[k]
+        M, _ = self.mass_and_bias(k, q, np.zeros_like(qdot))
+        kinetic = 0.5 * np.einsum("ni,nij,nj->n", qdot, M, qdot)
+        potential = np.array([pin.computePotentialEnergy(model, data, x) for x in q])
+        t = self.terms[k]
+        return kinetic, potential + 0.5 * ((q - t.rest) ** 2) @ t.stiffness
+
+
+@dataclass(frozen=True)
+class ChainInverseDynamics:
+    """The inverse model with its terms (batches).
+
+    Attributes:
+        gamma: (N, 6) actuated efforts, joint side [N or N m]. motor: (N, 6) ``gamma /
+        ratio``. H: six (N, n_i) each leg's joint efforts (joint terms included).
+        wrenches: (N, 6, 6) each leg's wrench on the platform about O_p in F0 ``[f, m]``
+        [N, N m] (``-G_i^T J_i^-T (H_i - e_a gamma_i)``). F_p: (N, 6) the platform's own
+        ``Ip Vdot + bias``. J_inv: (N, 6, 6) ``Jp^-1``. legs: the leg states.
+    """
+
+    gamma: np.ndarray
+    motor: np.ndarray
+    H: list[np.ndarray]
+    wrenches: np.ndarray
+    F_p: np.ndarray
+    J_inv: np.ndarray
+    legs: list[kin.ChainLegState]
+
+
+@dataclass(frozen=True)
+class ChainCartesianDynamics:
+    """``A_robot Vdot + h_robot = Jp^-T Gamma``: A_robot (N, 6, 6), h_robot (N, 6), J_inv
+    (N, 6, 6), legs (qddot zero)."""
+
+    A_robot: np.ndarray
+    h_robot: np.ndarray
+    J_inv: np.ndarray
+    legs: list[kin.ChainLegState]
+
+
+def _transpose_solve(J: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``J^-T x`` for batches J (N, m, m), x (N, m[, k])."""
+    vec = x.ndim == 2
+    out = np.linalg.solve(np.swapaxes(J, 1, 2), x[..., None] if vec else x)
+    return np.asarray(out[..., 0] if vec else out)
+
+
+class ChainDynamics:
+    """The dynamic models of a robot with chain legs, for one state or a batch.
+
+    Args:
+        desc: a description with ``chain_legs``. max_condition: the parallel singularity
+            threshold. check_limits: refuse states with a joint outside its limits.
+    """
+
+    def __init__(
+        self,
+        desc: RobotDescription,
+        max_condition: float = MAX_CONDITION,
+        check_limits: bool = False,
+    ) -> None:
+        self.desc = desc
+        self.max_condition = max_condition
+        self.check_limits = check_limits
+        self.legs = ChainLegModels(desc)
+        self.actuated = np.array([leg.actuated - 1 for leg in self.legs.legs])
+        self.ratio = np.array(
+            [t.ratio[a] for t, a in zip(self.legs.terms, self.actuated, strict=True)]
+        )
+
+    # ------------------------------------------------------------------ kinematics
+    def states(
+        self, T: np.ndarray, V: np.ndarray, A: np.ndarray | None
+    ) -> tuple[list[kin.ChainLegState], np.ndarray]:
+        legs = kin.leg_states(self.desc, T, V, A, self.check_limits)
+        J_inv = kin.inverse_jacobian(self.desc, legs)
+        kin.check_parallel(self.desc, J_inv, self.max_condition)
+        return legs, J_inv
+
+    # ------------------------------------------------------------------ batches
+    def inverse_batch(self, T: np.ndarray, V: np.ndarray, A: np.ndarray) -> ChainInverseDynamics:
+        legs, J_inv = self.states(T, V, A)
+        plat = platform_terms(self.desc, T, V)
+        F_p = np.einsum("nij,nj->ni", plat.inertia, A) + plat.bias
+        total = F_p.copy()
+        H_all, parts = [], []
+        for k, s in enumerate(legs):
+            M, h = self.legs.mass_and_bias(k, s.q, s.qdot)
+            H = np.einsum("nij,nj->ni", M, s.qddot) + h
+            w = np.einsum("nji,nj->ni", s.G, _transpose_solve(s.J, H))  # G^T J^-T H
+            total += w
+            H_all.append(H)
+            parts.append(w)
+        gamma = check_finite(_transpose_solve(J_inv, total), "inverse dynamics Gamma")
+        # each leg's wrench on the platform: -G^T J^-T (H - e_a gamma)
+        wrenches = -np.stack(parts, 1) + np.einsum("nki,nk->nki", J_inv, gamma)
+        return ChainInverseDynamics(gamma, gamma / self.ratio, H_all, wrenches, F_p, J_inv, legs)
+
+    def cartesian_batch(self, T: np.ndarray, V: np.ndarray) -> ChainCartesianDynamics:
+        legs, J_inv = self.states(T, V, None)
+        plat = platform_terms(self.desc, T, V)
+        A_robot, h_robot = plat.inertia.copy(), plat.bias.copy()
+        for k, s in enumerate(legs):
+            M, h = self.legs.mass_and_bias(k, s.q, s.qdot)
+            K = s.KG  # (N, n, 6)
+            kk = np.einsum("nij,nj->ni", s.J_inv, s.platform_drift - s.drift)
+            JG = np.swapaxes(K, 1, 2)  # G^T J^-T (N, 6, n)
+            A_robot += JG @ M @ K
+            h_robot += np.einsum("nij,nj->ni", JG, np.einsum("nij,nj->ni", M, kk) + h)
+        A_robot = 0.5 * (A_robot + np.swapaxes(A_robot, 1, 2))
+        return ChainCartesianDynamics(A_robot, h_robot, J_inv, legs)
+
+    # ------------------------------------------------------------------ the models
+    def inverse_dynamics(
+        self, pose: Any, twist: Any, accel: Any, details: bool = False, motor: bool = False
+    ) -> Any:
+        """Actuated efforts (6,) or (N, 6) [N or N m], joint side (``motor``: motor side);
+        ``details``: the :class:`ChainInverseDynamics`."""
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        r = self.inverse_batch(T, V, A)
+        if details:
+            return r
+        out = r.motor if motor else r.gamma
+        return out if batched else out[0]
+
+    def direct_dynamics(self, pose: Any, twist: Any, gamma: Any) -> np.ndarray:
+        """The platform's classical acceleration (6,) or (N, 6) under the actuated
+        joint-side efforts ``gamma``."""
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        cd = self.cartesian_batch(T, V)
+        out = closure_direct_dynamics(cd.A_robot, cd.h_robot, cd.J_inv, G)
+        return out if batched else out[0]
+
+    def cartesian_dynamics(self, pose: Any, twist: Any) -> ChainCartesianDynamics:
+        _, T, V = check_states(pose, (twist, "twist"))
+        return self.cartesian_batch(T, V)
+
+    def energy(self, pose: Any, twist: Any) -> tuple[Any, Any]:
+        """Kinetic (armature included) and potential (gravity, springs) energy [J] of the
+        robot: floats or (N,) arrays."""
+        batched, T, V = check_states(pose, (twist, "twist"))
+        legs = kin.leg_states(self.desc, T, V)
+        k, u = platform_energy(self.desc, T, V)
+        for i, s in enumerate(legs):
+            ki, ui = self.legs.energy(i, s.q, s.qdot)
+            k, u = k + ki, u + ui
+        return (k, u) if batched else (float(k[0]), float(u[0]))
+
+    def dissipated_power(self, pose: Any, twist: Any) -> Any:
+        """Power lost in friction and dampers [W]: float or (N,)."""
+        batched, T, V = check_states(pose, (twist, "twist"))
+        legs = kin.leg_states(self.desc, T, V)
+        p = sum(
+            (
+                t.viscous @ (s.qdot**2).T + t.coulomb @ np.abs(s.qdot).T
+                for t, s in zip(self.legs.terms, legs, strict=True)
+            ),
+            np.zeros(T.shape[0]),
+        )
+        return p if batched else float(p[0])
+
+    def gravity_compensation(self, pose: Any) -> np.ndarray:
+        T, batched = check_poses(pose)
+        zero = np.zeros((T.shape[0], 6))
+        g = self.inverse_batch(T, zero, zero).gamma
+        return g if batched else g[0]
+
+
+__all__ = [
+    "ChainCartesianDynamics",
+    "ChainDynamics",
+    "ChainInverseDynamics",
+    "ChainJointTerms",
+    "ChainLegModels",
+    "leg_model",
+]

@@ -1,0 +1,474 @@
+"""Kinematics of chain legs (:class:`~stewart_pin.description.chain_leg.ChainLeg`): any
+serial chain of n 1-dof joints closed by a ball (c = 3) or a weld (c = 6), ``n = c``
+(Khalil & Ibrahim 2007; ``docs/legs.md``, "Chain legs and welds").
+
+Conventions: pose 0Tp (N, 4, 4); twist ``V = [v, w]`` of O_p in F0 [m/s, rad/s];
+classical acceleration ``[dv/dt, dw/dt]`` in F0. Leg i's attachment on the platform is
+``P_i`` (``L_i = 0Rp P_i`` in F0 from O_p), with the orientation ``0Rp R_pi`` for a weld.
+Its Jacobian ``J_i`` (c, n) maps the joint rates to the attachment's velocity ``v_P`` (ball)
+or twist ``[v_P, w]`` (weld) in F0; ``G_i = [I3, -L_i^]`` (ball) or
+``[[I3, -L_i^], [0, I3]]`` (weld) maps the platform's twist to the same, so
+
+- ``qdot_i = J_i^-1 G_i V``;
+- ``qddot_i = J_i^-1 (G_i Vdot + d_i - Jdot_i qdot_i)``, ``d_i = w x (w x L_i)`` (ball;
+  ``[w x (w x L_i), 0]`` weld), ``Jdot_i qdot_i`` the attachment's classical acceleration
+  at zero joint acceleration;
+- the actuated joint's rate ``e_a^T J_i^-1 G_i V``: row i of ``Jp^-1``.
+
+Inverse geometry: a guarded Newton on the leg's chain (3D point residual, or 6D: point and
+rotation vector ``log(R_target R^T)`` in F0), continued from the leg's configuration at the
+home pose (found from its ``guess``) along the straight path from the home pose to the
+target (position linearly, orientation along the geodesic): the configuration reached is
+on the assembly branch of the home pose. Revolute joints are then taken modulo 2 pi into
+their limits (a full-turn range limits nothing). Per-leg loops, numpy over the batch.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+
+from stewart_pin._checks import in_batch
+from stewart_pin._so3 import cross, skew, so3_exp, so3_log
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.chain_leg import ChainLeg, full_turn
+from stewart_pin.description.leg_architecture import wrap_into_limits
+from stewart_pin.exceptions import (
+    LegJointLimitError,
+    LegMobilityError,
+    LegReachError,
+    SingularityError,
+)
+
+#: Newton's convergence: the attachment's position error under ``NEWTON_TOLERANCE``
+#: times the robot's size [m] and its orientation error under ``NEWTON_TOLERANCE`` [rad].
+NEWTON_TOLERANCE = 1e-13
+NEWTON_MAX_ITERATIONS = 40
+#: Largest Newton step: revolute joints [rad]; prismatic joints, times the size [m].
+MAX_STEP = 0.3
+#: Continuation from the home pose: sub-steps of at most this fraction of the size [m]
+#: and this angle [rad].
+CONTINUATION_TRANSLATION = 0.1
+CONTINUATION_ROTATION = 0.15
+#: Singular values of a leg's Jacobian under this fraction of its largest: rank-deficient.
+RANK_TOLERANCE = 1e-9
+
+
+def chain_legs_of(desc: RobotDescription) -> tuple[ChainLeg, ...]:
+    """The description's chain legs (it must have them)."""
+    assert desc.chain_legs is not None
+    return desc.chain_legs
+
+
+def robot_size(desc: RobotDescription) -> float:
+    """The length scale [m]: the mean platform-point distance to their centroid."""
+    P = desc.platform_points
+    r = float(np.linalg.norm(P - P.mean(0), axis=1).mean())
+    return r if r > 0 else desc.size
+
+
+# ---------------------------------------------------------------------------- one chain
+@dataclass(frozen=True)
+class ChainFrames:
+    """One leg's frames at a batch of joint values.
+
+    Attributes:
+        origins, axes: (N, n, 3) origin and z axis of each joint frame in F0.
+        tip: (N, 4, 4) the attachment frame in F0.
+    """
+
+    origins: np.ndarray
+    axes: np.ndarray
+    tip: np.ndarray
+
+
+def _mdh_batch(alpha: float, d: float, theta: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` (N, 4, 4) for arrays theta, r (N,)."""
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    ct, st = np.cos(theta), np.sin(theta)
+    T = np.zeros((theta.shape[0], 4, 4))
+    T[:, 0, 0], T[:, 0, 1], T[:, 0, 3] = ct, -st, d
+    T[:, 1, 0], T[:, 1, 1], T[:, 1, 2], T[:, 1, 3] = ca * st, ca * ct, -sa, -r * sa
+    T[:, 2, 0], T[:, 2, 1], T[:, 2, 2], T[:, 2, 3] = sa * st, sa * ct, ca, r * ca
+    T[:, 3, 3] = 1.0
+    return T
+
+
+def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
+    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n)."""
+    N, n = q.shape
+    T = np.broadcast_to(T0, (N, 4, 4))
+    origins, axes = np.empty((N, n, 3)), np.empty((N, n, 3))
+    for j, joint in enumerate(leg.joints):
+        theta = joint.theta + (q[:, j] if joint.revolute else 0.0)
+        r = joint.r + (0.0 if joint.revolute else q[:, j])
+        T = T @ _mdh_batch(
+            joint.alpha, joint.d, np.broadcast_to(theta, (N,)), np.broadcast_to(r, (N,))
+        )
+        origins[:, j], axes[:, j] = T[:, :3, 3], T[:, :3, 2]
+    return ChainFrames(origins, axes, T @ leg.attachment())
+
+
+def chain_jacobian(leg: ChainLeg, frames: ChainFrames) -> np.ndarray:
+    """``J_i`` (N, c, n): the attachment's velocity (ball) or twist ``[v_P, w]`` (weld) in
+    F0 per joint rate."""
+    P = frames.tip[:, None, :3, 3]
+    z = frames.axes
+    rev = leg.revolute
+    J = np.zeros((z.shape[0], 6, z.shape[1]))
+    J[:, :3] = np.swapaxes(np.where(rev[:, None], cross(z, P - frames.origins), z), 1, 2)
+    J[:, 3:] = np.swapaxes(np.where(rev[:, None], z, 0.0), 1, 2)
+    return J[:, : leg.constraints]
+
+
+def chain_drift(leg: ChainLeg, frames: ChainFrames, qdot: np.ndarray) -> np.ndarray:
+    """``Jdot_i qdot_i`` (N, c): the attachment's classical acceleration (ball: of its
+    point; weld: ``[a_P, dw/dt]``) in F0 at zero joint acceleration."""
+    z, o = frames.axes, frames.origins
+    P = frames.tip[:, :3, 3]
+    rev = leg.revolute
+    N, n = qdot.shape
+
+    def lin_col(k: int, point: np.ndarray) -> np.ndarray:
+        return cross(z[:, k], point - o[:, k]) if rev[k] else z[:, k]
+
+    v_P = sum((lin_col(k, P) * qdot[:, k, None] for k in range(n)), np.zeros((N, 3)))
+    out = np.zeros((N, 6))
+    w = np.zeros((N, 3))  # angular velocity of link j-1
+    for j in range(n):
+        wz = cross(w, z[:, j])
+        if rev[j]:
+            v_o = sum((lin_col(k, o[:, j]) * qdot[:, k, None] for k in range(j)), np.zeros((N, 3)))
+            lin = cross(wz, P - o[:, j]) + cross(z[:, j], v_P - v_o)
+            out[:, :3] += lin * qdot[:, j, None]
+            out[:, 3:] += wz * qdot[:, j, None]
+            w = w + z[:, j] * qdot[:, j, None]
+        else:
+            out[:, :3] += wz * qdot[:, j, None]
+    return out[:, : leg.constraints]
+
+
+def platform_map(leg: ChainLeg, L: np.ndarray) -> np.ndarray:
+    """``G_i`` (N, c, 6) from L_i (N, 3)."""
+    G = np.zeros((L.shape[0], 6, 6))
+    G[:, :3, :3] = np.eye(3)
+    G[:, :3, 3:] = -skew(L)
+    G[:, 3:, 3:] = np.eye(3)
+    return G[:, : leg.constraints]
+
+
+def attachment_targets(desc: RobotDescription, k: int, T: np.ndarray) -> np.ndarray:
+    """Leg k's platform attachment frame in F0 (N, 4, 4) at poses T (N, 4, 4)."""
+    leg = chain_legs_of(desc)[k]
+    A = np.eye(4)
+    A[:3, :3], A[:3, 3] = leg.platform_rotation, desc.platform_points[k]
+    return T @ A
+
+
+def _residual(leg: ChainLeg, tip: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(N, c): ``target - tip`` position, and for a weld ``log(R_target R_tip^T)``."""
+    e = target[:, :3, 3] - tip[:, :3, 3]
+    if leg.constraints == 3:
+        return e
+    rot = so3_log(target[:, :3, :3] @ np.swapaxes(tip[:, :3, :3], 1, 2))
+    return np.concatenate([e, rot], axis=1)
+
+
+def leg_base_pose(desc: RobotDescription, k: int) -> np.ndarray:
+    T0 = np.eye(4)
+    T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[k], desc.base_points[k]
+    return T0
+
+
+def newton(
+    desc: RobotDescription, k: int, target: np.ndarray, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Guarded Newton on leg k's chain toward ``target`` (N, 4, 4) from q (N, n); returns
+    ``(q, converged (N,) bool)``."""
+    leg = chain_legs_of(desc)[k]
+    T0 = leg_base_pose(desc, k)
+    size = robot_size(desc)
+    step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)
+    q = q.copy()
+    done = np.zeros(q.shape[0], bool)
+    for _ in range(NEWTON_MAX_ITERATIONS):
+        frames = chain_frames(leg, T0, q)
+        e = _residual(leg, frames.tip, target)
+        err = np.linalg.norm(e[:, :3], axis=1) / size
+        if leg.constraints == 6:
+            err = np.maximum(err, np.linalg.norm(e[:, 3:], axis=1))
+        done = err <= NEWTON_TOLERANCE
+        if np.all(done):
+            break
+        J = chain_jacobian(leg, frames)
+        with np.errstate(all="ignore"):
+            try:
+                dq = np.linalg.solve(J, e[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                dq = np.einsum("nij,nj->ni", np.linalg.pinv(J), e)
+        dq = np.where(np.isfinite(dq), dq, 0.0)
+        scale = np.max(np.abs(dq) / step_cap, axis=1)
+        dq = dq / np.maximum(scale, 1.0)[:, None]
+        q = np.where(done[:, None], q, q + dq)
+    return q, done
+
+
+_HOME: weakref.WeakKeyDictionary[RobotDescription, list[np.ndarray]] = weakref.WeakKeyDictionary()
+
+
+def home_configuration(desc: RobotDescription) -> list[np.ndarray]:
+    """Each leg's joint values (n,) at the home pose, Newton from its ``guess``
+    (:class:`LegReachError` when a leg does not reach it; cached per description)."""
+    if desc in _HOME:
+        return _HOME[desc]
+    out = []
+    T = desc.home_pose[None]
+    for k, leg in enumerate(chain_legs_of(desc)):
+        q, ok = newton(desc, k, attachment_targets(desc, k, T), leg.guess[None])
+        if not ok[0]:
+            raise LegReachError(
+                f"leg {k + 1}: Newton from the leg's guess {leg.guess.tolist()} does not "
+                "reach its platform attachment at the home pose: give a guess closer to "
+                "the home configuration",
+                k + 1,
+                float("nan"),
+            )
+        out.append(q[0])
+    _HOME[desc] = out
+    return out
+
+
+def check_mobility_at_home(desc: RobotDescription) -> None:
+    """Each leg's Jacobian at the home pose has full rank c
+    (:class:`LegMobilityError` naming the leg and the freedoms it lacks)."""
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), home_configuration(desc), strict=True)):
+        J = chain_jacobian(leg, chain_frames(leg, leg_base_pose(desc, k), q[None]))[0]
+        s = np.linalg.svd(J, compute_uv=False)
+        rank = int(np.sum(s > RANK_TOLERANCE * s[0])) if s[0] > 0 else 0
+        if rank < leg.constraints:
+            raise LegMobilityError(
+                f"leg {k + 1}: its {leg.n_joints} joints with its {leg.closure} closure "
+                f"move the attachment in {rank} directions only at the home pose (rank of "
+                f"J_{k + 1} {rank} < {leg.constraints}): the platform misses "
+                f"{leg.constraints - rank} freedom(s) there (parallel axes, a joint along "
+                "its own link...)",
+                k + 1,
+                missing=leg.constraints - rank,
+                rank=rank,
+            )
+
+
+def _interpolate(T_from: np.ndarray, T_to: np.ndarray, s: float) -> np.ndarray:
+    """Poses (N, 4, 4) a fraction s along the straight path from T_from (4, 4)."""
+    out = np.tile(np.eye(4), (T_to.shape[0], 1, 1))
+    out[:, :3, 3] = T_from[:3, 3] + s * (T_to[:, :3, 3] - T_from[:3, 3])
+    r = so3_log(T_to[:, :3, :3] @ T_from[:3, :3].T)
+    out[:, :3, :3] = so3_exp(s * r) @ T_from[:3, :3]
+    return out
+
+
+def check_limits_of(desc: RobotDescription, k: int, q: np.ndarray) -> np.ndarray:
+    """Leg k's joint values (N, n) with revolute ones taken modulo 2 pi into their limits
+    (full turns limit nothing); :class:`LegJointLimitError` when one is outside."""
+    leg = chain_legs_of(desc)[k]
+    lim = leg.limits
+    rev = leg.revolute
+    lower = np.where(rev & full_turn(lim[:, 0], lim[:, 1]), -np.inf, lim[:, 0])
+    upper = np.where(rev & full_turn(lim[:, 0], lim[:, 1]), np.inf, lim[:, 1])
+    q = wrap_into_limits(q, rev, lim[:, 0], lim[:, 1])
+    bad = (q < lower) | (q > upper)
+    if np.any(bad):
+        n, j = np.argwhere(bad)[0]
+        raise in_batch(
+            LegJointLimitError(
+                k + 1, int(j + 1), float(q[n, j]), float(lim[j, 0]), float(lim[j, 1])
+            ),
+            bad.any(axis=1),
+        )
+    return q
+
+
+def inverse_geometry(
+    desc: RobotDescription, T: np.ndarray, check_limits: bool
+) -> list[np.ndarray]:
+    """Each leg's joint values (N, n_i) at poses T (N, 4, 4), on the home pose's assembly
+    branch (module docstring); :class:`LegReachError` where Newton does not converge."""
+    H = desc.home_pose
+    size = robot_size(desc)
+    dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / size
+    da = np.linalg.norm(so3_log(T[:, :3, :3] @ H[:3, :3].T), axis=1)
+    steps = int(
+        max(
+            1,
+            math.ceil(
+                float(
+                    np.max(np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION))
+                )
+            ),
+        )
+    )
+    out = []
+    for k, q_home in enumerate(home_configuration(desc)):
+        q = np.broadcast_to(q_home, (T.shape[0], q_home.size)).copy()
+        ok = np.ones(T.shape[0], bool)
+        for s in range(1, steps + 1):
+            Ts = T if s == steps else _interpolate(H, T, s / steps)
+            q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q)
+        if not np.all(ok):
+            n = int(np.argmin(ok))
+            raise in_batch(
+                LegReachError(
+                    f"leg {k + 1} does not reach its platform attachment at pose {n} (Newton "
+                    "on the leg's chain from the home configuration did not converge): the "
+                    "pose is outside the leg's reach or past a leg singularity",
+                    k + 1,
+                    float("nan"),
+                ),
+                ~ok,
+            )
+        rev = chain_legs_of(desc)[k].revolute
+        q = np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+        if check_limits:
+            q = check_limits_of(desc, k, q)
+        else:
+            lim = chain_legs_of(desc)[k].limits
+            q = wrap_into_limits(q, rev, lim[:, 0], lim[:, 1])
+        out.append(q)
+    return out
+
+
+# ---------------------------------------------------------------------------- the legs' state
+@dataclass(frozen=True)
+class ChainLegState:
+    """One leg's state at a batch of platform states.
+
+    Attributes:
+        q, qdot, qddot: (N, n) joint values, rates, accelerations [rad or m, /s, /s^2]
+            (qddot zero without a platform acceleration).
+        J, J_inv: (N, c, n) and (N, n, c). G: (N, c, 6). L: (N, 3) O_p to P_i in F0.
+        drift: (N, c) ``Jdot_i qdot_i``. platform_drift: (N, c) ``d_i``.
+        frames: the leg's :class:`ChainFrames`.
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray
+    J: np.ndarray
+    J_inv: np.ndarray
+    G: np.ndarray
+    L: np.ndarray
+    drift: np.ndarray
+    platform_drift: np.ndarray
+    frames: ChainFrames
+
+    @property
+    def KG(self) -> np.ndarray:
+        """``J_i^-1 G_i`` (N, n, 6)."""
+        return self.J_inv @ self.G
+
+
+def _inv(J: np.ndarray, k: int) -> np.ndarray:
+    try:
+        J_inv = np.linalg.inv(J)
+    except np.linalg.LinAlgError:
+        J_inv = np.full(J.shape, np.nan)
+    bad = ~np.all(np.isfinite(J_inv), axis=(1, 2))
+    if np.any(bad):
+        raise in_batch(
+            SingularityError(
+                f"leg {k + 1}: its Jacobian J_{k + 1} is singular (a serial singularity of "
+                "the leg's chain)",
+                float("inf"),
+                None,
+                leg=k + 1,
+            ),
+            bad,
+        )
+    return J_inv
+
+
+def leg_states(
+    desc: RobotDescription,
+    T: np.ndarray,
+    V: np.ndarray,
+    A: np.ndarray | None = None,
+    check_limits: bool = False,
+) -> list[ChainLegState]:
+    """The six legs' :class:`ChainLegState` at poses T (N, 4, 4), twists V (N, 6) and
+    classical accelerations A (N, 6) (``None``: qddot zero)."""
+    q_all = inverse_geometry(desc, T, check_limits)
+    w = V[:, 3:]
+    out = []
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), q_all, strict=True)):
+        frames = chain_frames(leg, leg_base_pose(desc, k), q)
+        J = chain_jacobian(leg, frames)
+        J_inv = _inv(J, k)
+        L = T[:, :3, :3] @ desc.platform_points[k]
+        G = platform_map(leg, L)
+        qdot = np.einsum("nij,nj->ni", J_inv @ G, V)
+        drift = chain_drift(leg, frames, qdot)
+        d = np.zeros((T.shape[0], leg.constraints))
+        d[:, :3] = cross(w, cross(w, L))
+        if A is None:
+            qddot = np.zeros_like(qdot)
+        else:
+            rhs = np.einsum("nij,nj->ni", G, A) + d - drift
+            qddot = np.einsum("nij,nj->ni", J_inv, rhs)
+        out.append(ChainLegState(q, qdot, qddot, J, J_inv, G, L, drift, d, frames))
+    return out
+
+
+def inverse_jacobian(desc: RobotDescription, states: list[ChainLegState]) -> np.ndarray:
+    """``Jp^-1`` (N, 6, 6): row i is ``e_a^T J_i^-1 G_i``."""
+    legs = chain_legs_of(desc)
+    return np.stack([s.KG[:, leg.actuated - 1] for leg, s in zip(legs, states, strict=True)], 1)
+
+
+def condition_number(desc: RobotDescription, J_inv: np.ndarray) -> np.ndarray:
+    """Unit-free condition number of ``Jp^-1`` (N,): angular columns over the size."""
+    scaled = J_inv.copy()
+    scaled[..., 3:] /= robot_size(desc)
+    s = np.linalg.svd(scaled, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
+
+
+def check_parallel(desc: RobotDescription, J_inv: np.ndarray, max_condition: float) -> None:
+    """:class:`SingularityError` (``leg=None``) at a parallel singularity."""
+    cond = condition_number(desc, J_inv)
+    bad = ~(cond <= max_condition)
+    if np.any(bad):
+        n = int(np.argmax(bad))
+        raise in_batch(
+            SingularityError(
+                f"parallel singularity: the condition number of Jp^-1 {cond[n]:.3g} exceeds "
+                f"{max_condition:g}",
+                float(cond[n]),
+                max_condition,
+                leg=None,
+            ),
+            bad,
+        )
+
+
+__all__ = [
+    "NEWTON_TOLERANCE",
+    "ChainFrames",
+    "ChainLegState",
+    "attachment_targets",
+    "chain_drift",
+    "chain_frames",
+    "chain_jacobian",
+    "check_mobility_at_home",
+    "check_parallel",
+    "condition_number",
+    "home_configuration",
+    "inverse_geometry",
+    "inverse_jacobian",
+    "leg_states",
+    "newton",
+    "platform_map",
+]
