@@ -36,8 +36,14 @@ from stewart_pin._typing import (
     Twists,
 )
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.chain_leg import full_turn
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.dynamics import closed_loop as closure
+from stewart_pin.dynamics.chain_leg_dynamics import (
+    ChainCartesianDynamics,
+    ChainDynamics,
+    ChainInverseDynamics,
+)
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
@@ -45,13 +51,13 @@ from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralInverseDynamics,
 )
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
-from stewart_pin.exceptions import ArchitectureError, StewartPinError
-from stewart_pin.kinematics import geometry, leg_chains, workspace
+from stewart_pin.exceptions import ArchitectureError, StewartPinError, UnsupportedArchitectureError
+from stewart_pin.kinematics import chain_legs, geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import leg_state
 
-__all__ = ["IdealUpsPath", "LegChainPath", "PathOwner", "reference_path"]
+__all__ = ["ChainLegPath", "IdealUpsPath", "LegChainPath", "PathOwner", "reference_path"]
 
 
 class PathOwner(Protocol):
@@ -69,6 +75,9 @@ class PathOwner(Protocol):
 
     @property
     def leg_dynamics(self) -> LegDynamics: ...
+
+    @property
+    def chain_dynamics(self) -> ChainDynamics: ...
 
     @property
     def _motor_ratio(self) -> FloatArray: ...
@@ -109,6 +118,24 @@ class LegChainPath:
 
     def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
         return leg_chains.inverse_geometry(r.general, pose, check_limits)
+
+    def limit_margin(self, r: PathOwner, pose: ArrayLike) -> tuple[float, str]:
+        """:meth:`~stewart_pin.robot.StewartRobot.limit_margin` (one pose)."""
+        T = check_poses(pose)[0][0]
+        q = leg_chains.inverse_geometry(r.general, T, check_limits=False)
+        limits = np.array([leg.limits for leg in r.general.legs])  # (6, 3, 2)
+        revolute = np.array([[j.revolute for j in leg.joints] for leg in r.general.legs])
+        scale = np.where(revolute, 1.0, r.description.stroke_mid)
+        with np.errstate(invalid="ignore"):
+            lo, hi = (q - limits[..., 0]) / scale, (limits[..., 1] - q) / scale
+        m = np.minimum(lo, hi)
+        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
+        end = "lower" if lo[k, j] <= hi[k, j] else "upper"
+        unit = "rad" if revolute[k, j] else "m"
+        return float(m[k, j]), (
+            f"leg {k + 1} joint {j + 1} = {q[k, j]:.9g} {unit} reached its {end} limit "
+            f"[{limits[k, j, 0]:.9g}, {limits[k, j, 1]:.9g}] {unit}"
+        )
 
     def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
         return leg_chains.actuator_positions(r.general, pose, check_limits)
@@ -378,10 +405,222 @@ class IdealUpsPath(LegChainPath):
             return regressor_batch(r.description, r.leg_dynamics, T, V, A, r.max_condition)
 
 
-#: The two paths (stateless: one instance each).
-_IDEAL_UPS, _LEG_CHAINS = IdealUpsPath(), LegChainPath()
+class ChainLegPath(LegChainPath):
+    """Robots with chain legs (``description.chain_legs``: any 1-dof joints, ball or weld
+    closures; :mod:`stewart_pin.kinematics.chain_legs`,
+    :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`). Joint values of the
+    legs come as (N, 6, max n_i) arrays, zero past a leg's last joint. What is built on
+    three-joint legs (the regressor, the Pinocchio leg models of :class:`LegDynamics`)
+    raises :class:`UnsupportedArchitectureError`."""
+
+    def check_home(self, r: PathOwner) -> None:
+        """Each leg reaches its attachment at the home pose from its guess, inside its
+        limits, with a regular Jacobian of full rank (:class:`LegMobilityError` naming the
+        leg otherwise), away from parallel singularities."""
+        desc = r.description
+        try:
+            chain_legs.check_mobility_at_home(desc)
+            T = desc.home_pose[None]
+            states = chain_legs.leg_states(desc, T, np.zeros((1, 6)), check_limits=True)
+            chain_legs.check_parallel(
+                desc, chain_legs.inverse_jacobian(desc, states), r.max_condition
+            )
+        except ArchitectureError:
+            raise
+        except StewartPinError as e:
+            raise ArchitectureError(
+                f"robot '{desc.name}': the home pose is not a valid pose of its legs: {e}",
+                "home_pose",
+                type(e).__name__,
+            ) from e
+
+    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
+        T, batched = check_poses(pose)
+        q = chain_legs.padded(chain_legs.inverse_geometry(r.description, T, check_limits))
+        return q if batched else q[0]
+
+    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
+        T, batched = check_poses(pose)
+        qs = chain_legs.inverse_geometry(r.description, T, check_limits)
+        legs = r.description.chain_legs or ()
+        q = np.stack([x[:, leg.actuated - 1] for x, leg in zip(qs, legs, strict=True)], 1)
+        return q if batched else q[0]
+
+    def forward_geometry(
+        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
+    ) -> Pose:
+        return chain_legs.forward_geometry(r.description, lengths, guess, **kwargs)
+
+    def limit_margin(self, r: PathOwner, pose: ArrayLike) -> tuple[float, str]:
+        """The smallest distance of a joint to its limits (full turns excluded): revolute
+        in rad, prismatic over ``stroke_mid``; the sentence naming it."""
+        desc = r.description
+        T = check_poses(pose)[0][:1]
+        qs = chain_legs.inverse_geometry(desc, T, check_limits=False)
+        best: tuple[float, str] = (np.inf, "no joint has limits")
+        for k, (leg, q) in enumerate(zip(desc.chain_legs or (), qs, strict=True)):
+            lim = leg.limits
+            free = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
+            scale = np.where(leg.revolute, 1.0, desc.stroke_mid)
+            with np.errstate(invalid="ignore"):
+                lo, hi = (q[0] - lim[:, 0]) / scale, (lim[:, 1] - q[0]) / scale
+            m = np.where(free, np.inf, np.minimum(lo, hi))
+            j = int(np.argmin(m))
+            if m[j] < best[0]:
+                end = "lower" if lo[j] <= hi[j] else "upper"
+                unit = "rad" if leg.revolute[j] else "m"
+                best = (
+                    float(m[j]),
+                    f"leg {k + 1} joint {j + 1} = {q[0, j]:.9g} {unit} reached its {end} "
+                    f"limit [{lim[j, 0]:.9g}, {lim[j, 1]:.9g}] {unit}",
+                )
+        return best
+
+    def _J_inv(self, r: PathOwner, T: FloatArray) -> FloatArray:
+        states = chain_legs.leg_states(r.description, T, np.zeros((T.shape[0], 6)))
+        return chain_legs.inverse_jacobian(r.description, states)
+
+    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        T, batched = check_poses(pose)
+        J_inv = self._J_inv(r, T)
+        return J_inv if batched else J_inv[0]
+
+    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        T, batched = check_poses(pose)
+        J_inv = self._J_inv(r, T)
+        chain_legs.check_parallel(r.description, J_inv, r.max_condition)
+        J = np.asarray(np.linalg.inv(J_inv), dtype=np.float64)
+        return J if batched else J[0]
+
+    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
+        T, batched = check_poses(pose)
+        c = chain_legs.condition_number(r.description, self._J_inv(r, T))
+        return c if batched else float(c[0])
+
+    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        """(N, 6, 6, max n_i): ``J_i`` in its first c_i rows and n_i columns, zero
+        elsewhere."""
+        T, batched = check_poses(pose)
+        states = chain_legs.leg_states(r.description, T, np.zeros((T.shape[0], 6)))
+        width = max(s.J.shape[2] for s in states)
+        J = np.zeros((T.shape[0], 6, 6, width))
+        for k, s in enumerate(states):
+            J[:, k, : s.J.shape[1], : s.J.shape[2]] = s.J
+        return J if batched else J[0]
+
+    def leg_kinematics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
+        if accel is None:
+            _, T, V = check_states(pose, (twist, "twist"))
+            A = None
+        else:
+            _, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        states = chain_legs.leg_states(r.description, T, V, A, check_limits=True)
+        q = chain_legs.padded([s.q for s in states])
+        qd = chain_legs.padded([s.qdot for s in states])
+        qdd = None if A is None else chain_legs.padded([s.qddot for s in states])
+        return q, qd, qdd
+
+    def admissible_poses(self, r: PathOwner, T: FloatArray, max_condition: float) -> np.ndarray:
+        return chain_legs.admissible_poses(r.description, T, max_condition)
+
+    def sample_poses(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> FloatArray:
+        return workspace.sample_chain_poses(
+            r.description, n, rng, translation, rotation, r.max_condition
+        )
+
+    def sample_states(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> tuple[Poses, Twists, Accels]:
+        return workspace.sample_chain_states(
+            r.description,
+            n,
+            rng,
+            translation=translation,
+            rotation=rotation,
+            max_condition=r.max_condition,
+        )
+
+    def _unsupported(self, r: PathOwner, what: str) -> UnsupportedArchitectureError:
+        return UnsupportedArchitectureError(
+            f"{what} is built on three-joint legs: robot '{r.description.name}' has chain "
+            "legs (inverse and direct models, kinematics, energy and simulation take them)",
+            what,
+            r.description.architecture,
+        )
+
+    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
+        raise self._unsupported(r, "leg_dynamics (the three-joint leg models)")
+
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma / r.chain_dynamics.ratio
+
+    def inverse_dynamics(  # type: ignore[override]
+        self,
+        r: PathOwner,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        details: bool,
+        motor: bool,
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
+        with quiet_overflow():
+            res = r.chain_dynamics.inverse_dynamics(pose, twist, accel, details=True)
+        if details:
+            return res
+        out = check_finite(res.motor if motor else res.gamma, "inverse dynamics Gamma")
+        return out if check_poses(pose)[1] else out[0]
+
+    def direct_dynamics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
+    ) -> FloatArray:
+        with quiet_overflow():
+            return r.chain_dynamics.direct_dynamics(pose, twist, gamma)
+
+    def cartesian_dynamics(  # type: ignore[override]
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> ChainCartesianDynamics:
+        with quiet_overflow():
+            return r.chain_dynamics.cartesian_dynamics(pose, twist)
+
+    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
+        with quiet_overflow():
+            k, u = r.chain_dynamics.energy(pose, twist)
+        if np.ndim(k) == 0:
+            return float(check_finite(np.array([k + u]), "energy")[0])
+        return check_finite(np.asarray(k) + np.asarray(u), "energy")
+
+    def dissipated_power(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
+    ) -> FloatArray | float:
+        with quiet_overflow():
+            power = np.asarray(r.chain_dynamics.dissipated_power(pose, twist), dtype=float)
+        checked = check_finite(np.atleast_1d(power), "dissipated power")
+        return checked if power.ndim else float(checked[0])
+
+    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
+        raise self._unsupported(r, "the regressor")
+
+
+#: The three paths (stateless: one instance each).
+_IDEAL_UPS, _LEG_CHAINS, _CHAIN_LEGS = IdealUpsPath(), LegChainPath(), ChainLegPath()
 
 
 def reference_path(description: RobotDescription) -> LegChainPath:
     """The path of ``description``'s architecture: the one place the choice is made."""
+    if description.has_chain_legs:
+        return _CHAIN_LEGS
     return _IDEAL_UPS if description.is_ideal_ups else _LEG_CHAINS

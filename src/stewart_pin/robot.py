@@ -52,6 +52,7 @@ from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
+from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
@@ -139,6 +140,12 @@ class StewartRobot:
     def general_dynamics(self) -> GeneralDynamics:
         """The closure layer on general legs with joint dynamics (joint limits checked)."""
         return GeneralDynamics(self.general, self.max_condition, check_limits=True)
+
+    @cached_property
+    def chain_dynamics(self) -> ChainDynamics:
+        """The models of a robot with chain legs (``description.chain_legs``; joint limits
+        checked): its reference path's (:class:`~stewart_pin.architectures.ChainLegPath`)."""
+        return ChainDynamics(self.description, self.max_condition, check_limits=True)
 
     @cached_property
     def general_tree(self) -> TreeModel:
@@ -290,21 +297,7 @@ class StewartRobot:
         and the sentence naming it: revolute joints in rad, prismatic ones divided by
         :attr:`RobotDescription.stroke_mid` (unit-free); negative outside. The simulator
         locates a limit with it."""
-        T = check_poses(pose)[0][0]
-        q = leg_chains.inverse_geometry(self.general, T, check_limits=False)
-        limits = np.array([leg.limits for leg in self.general.legs])  # (6, 3, 2)
-        revolute = np.array([[j.revolute for j in leg.joints] for leg in self.general.legs])
-        scale = np.where(revolute, 1.0, self.description.stroke_mid)
-        with np.errstate(invalid="ignore"):
-            lo, hi = (q - limits[..., 0]) / scale, (limits[..., 1] - q) / scale
-        m = np.minimum(lo, hi)
-        k, j = np.unravel_index(int(np.argmin(m)), m.shape)
-        end = "lower" if lo[k, j] <= hi[k, j] else "upper"
-        unit = "rad" if revolute[k, j] else "m"
-        return float(m[k, j]), (
-            f"leg {k + 1} joint {j + 1} = {q[k, j]:.9g} {unit} reached its {end} limit "
-            f"[{limits[k, j, 0]:.9g}, {limits[k, j, 1]:.9g}] {unit}"
-        )
+        return self._kind.limit_margin(self, pose)
 
     # ------------------------------------------------------------------ kinematics
     def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:

@@ -70,7 +70,8 @@ class ChainLeg:
     tip: np.ndarray = field(default_factory=lambda: np.zeros(3))
     tip_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     platform_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
-    guess: np.ndarray | None = None
+    # None (zeros) is accepted at construction; __post_init__ stores an (n,) array
+    guess: np.ndarray = None  # type: ignore[assignment]
     name: str = CHAIN
 
     def __post_init__(self) -> None:
@@ -205,9 +206,9 @@ class ChainLeg:
     def from_architecture(cls, leg: LegArchitecture, inertia: Any) -> ChainLeg:
         """A three-joint ball :class:`LegArchitecture` (closed forms, today's model) as a
         chain leg with its three links' parameters ``inertia`` (3, 10): for robots that mix
-        such legs with welded ones."""
-        guess = leg.guess if leg.name == "custom" else None
-        return cls(leg.joints, leg.actuated, "ball", np.asarray(inertia), leg.tip, guess=guess)
+        such legs with welded ones. Its ``guess`` is the leg's (give the home configuration's
+        with :meth:`replace` when the leg is named: closed forms need none)."""
+        return cls(leg.joints, leg.actuated, "ball", np.asarray(inertia), leg.tip, guess=leg.guess)
 
 
 def check_chain_legs(value: Any) -> tuple[ChainLeg, ...]:

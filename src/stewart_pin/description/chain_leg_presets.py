@@ -45,27 +45,22 @@ def _ups_angles(R0: np.ndarray, B: np.ndarray, P: np.ndarray) -> np.ndarray:
     return np.array([math.atan2(u[1], u[0]), math.acos(-u[2]), length])
 
 
-def _leg_dynamics(
-    rng: np.random.Generator, kinds: str, joint_terms: bool
-) -> list[dict[str, JointDynamics]]:
+def _leg_dynamics(rng: np.random.Generator, kinds: str, joint_terms: bool) -> list[JointDynamics]:
     if not joint_terms:
-        return [{} for _ in kinds]
-    return [
-        {"dynamics": random_joint_dynamics(rng, "revolute" if k == "R" else "prismatic")}
-        for k in kinds
-    ]
+        return [JointDynamics() for _ in kinds]
+    return [random_joint_dynamics(rng, "revolute" if k == "R" else "prismatic") for k in kinds]
 
 
 def welded_joints(rng: np.random.Generator, offset: float, joint_terms: bool) -> tuple[Joint, ...]:
     """U(2) + P + spin + U(2) with the upper U-joint's axes ``offset`` [m] apart."""
     dyn = _leg_dynamics(rng, "RRPRRR", joint_terms)
     return (
-        revolute(**dyn[0]),
-        revolute(alpha=math.pi / 2, **dyn[1]),
-        prismatic(alpha=math.pi / 2, lower=0.2, upper=2.0, **dyn[2]),
-        revolute(lower=0.0, upper=2.0 * math.pi, **dyn[3]),  # the spin: a full turn
-        revolute(alpha=math.pi / 2, **dyn[4]),
-        revolute(alpha=math.pi / 2, d=offset, **dyn[5]),
+        revolute(dynamics=dyn[0]),
+        revolute(alpha=math.pi / 2, dynamics=dyn[1]),
+        prismatic(alpha=math.pi / 2, lower=0.2, upper=2.0, dynamics=dyn[2]),
+        revolute(lower=0.0, upper=2.0 * math.pi, dynamics=dyn[3]),  # the spin: a full turn
+        revolute(alpha=math.pi / 2, dynamics=dyn[4]),
+        revolute(alpha=math.pi / 2, d=offset, dynamics=dyn[5]),
     )
 
 
@@ -79,12 +74,15 @@ def _welded_leg(
     k: int,
     offset: float,
     joint_terms: bool,
+    spin: float,
+    wrist: float,
 ) -> tuple[ChainLeg, np.ndarray]:
-    """Leg k welded, and its platform attachment ``P_k`` in Fp."""
+    """Leg k welded, and its platform attachment ``P_k`` in Fp (spin, upper U-joint's
+    first angle and second angle at home: ``spin``, ``wrist``, -0.4 rad)."""
     H = base.home_pose
     P0 = H[:3, :3] @ base.platform_points[k] + H[:3, 3]
     q_home = np.concatenate(
-        [_ups_angles(base.leg_base_rotations[k], base.base_points[k], P0), [0.3, 1.7, -0.4]]
+        [_ups_angles(base.leg_base_rotations[k], base.base_points[k], P0), [spin, wrist, -0.4]]
     )
     joints = welded_joints(rng, offset, joint_terms)
     tip = np.array([0.012, -0.008, 0.02])
@@ -112,7 +110,7 @@ def _ball_leg(
 ) -> ChainLeg:
     """A three-joint U-P-S leg with a ball, massive links and joint terms."""
     dyn = _leg_dynamics(rng, "RRP", joint_terms)
-    leg = ups((0.2, 2.0), dynamics=[d.get("dynamics", JointDynamics()) for d in dyn])
+    leg = ups((0.2, 2.0), dynamics=dyn)
     H = base.home_pose
     P0 = H[:3, :3] @ base.platform_points[k] + H[:3, 3]
     chain = ChainLeg.from_architecture(leg, _links(rng, [0.4, 2.5, 1.5]))
@@ -120,14 +118,20 @@ def _ball_leg(
 
 
 def _robot(
-    name: str, welded: tuple[int, ...], seed: int, offset: float, joint_terms: bool
+    name: str,
+    welded: tuple[int, ...],
+    seed: int,
+    offset: float,
+    joint_terms: bool,
+    spin: float = 0.3,
+    wrist: float = 1.7,
 ) -> RobotDescription:
     base = random_robot(seed)
     rng = np.random.default_rng(1000 + seed)
     legs, points = [], base.platform_points.copy()
     for k in range(6):
         if k in welded:
-            leg, points[k] = _welded_leg(rng, base, k, offset, joint_terms)
+            leg, points[k] = _welded_leg(rng, base, k, offset, joint_terms, spin, wrist)
         else:
             leg = _ball_leg(rng, base, k, joint_terms)
         legs.append(leg)
@@ -146,11 +150,17 @@ def _robot(
 
 
 def welded_ups(
-    seed: int = 0, offset: float = UPPER_U_OFFSET, joint_terms: bool = True
+    seed: int = 0,
+    offset: float = UPPER_U_OFFSET,
+    joint_terms: bool = True,
+    spin: float = 0.3,
+    wrist: float = 1.7,
 ) -> RobotDescription:
     """Six welded six-joint legs (module docstring); ``offset`` [m] the upper U-joint's
-    axis miss distance."""
-    return _robot(f"welded-ups-{seed}", tuple(range(6)), seed, offset, joint_terms)
+    axis miss distance; ``spin`` and ``wrist`` [rad] the spin and the upper U-joint's
+    first angle at the home pose (``wrist = 0``: the spin and the U-joint's second axis
+    aligned, a singular leg)."""
+    return _robot(f"welded-ups-{seed}", tuple(range(6)), seed, offset, joint_terms, spin, wrist)
 
 
 def mixed_chain_robot(

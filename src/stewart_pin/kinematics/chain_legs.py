@@ -27,11 +27,13 @@ from __future__ import annotations
 
 import math
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import in_batch
+from stewart_pin._checks import check_array, check_pose, in_batch
 from stewart_pin._so3 import cross, skew, so3_exp, so3_log
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.chain_leg import ChainLeg, full_turn
@@ -42,6 +44,8 @@ from stewart_pin.exceptions import (
     LegReachError,
     SingularityError,
 )
+from stewart_pin.kinematics._se3_newton import newton_se3
+from stewart_pin.kinematics.leg_chains import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
 
 #: Newton's convergence: the attachment's position error under ``NEWTON_TOLERANCE``
 #: times the robot's size [m] and its orientation error under ``NEWTON_TOLERANCE`` [rad].
@@ -291,32 +295,42 @@ def check_limits_of(desc: RobotDescription, k: int, q: np.ndarray) -> np.ndarray
     return q
 
 
-def inverse_geometry(
-    desc: RobotDescription, T: np.ndarray, check_limits: bool
-) -> list[np.ndarray]:
-    """Each leg's joint values (N, n_i) at poses T (N, 4, 4), on the home pose's assembly
-    branch (module docstring); :class:`LegReachError` where Newton does not converge."""
+def _continuation_steps(desc: RobotDescription, T: np.ndarray) -> int:
     H = desc.home_pose
-    size = robot_size(desc)
-    dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / size
+    dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / robot_size(desc)
     da = np.linalg.norm(so3_log(T[:, :3, :3] @ H[:3, :3].T), axis=1)
-    steps = int(
-        max(
-            1,
-            math.ceil(
-                float(
-                    np.max(np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION))
-                )
-            ),
-        )
-    )
-    out = []
+    worst = float(np.max(np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION)))
+    return max(1, math.ceil(worst)) if math.isfinite(worst) else 1
+
+
+def solve_legs(desc: RobotDescription, T: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """Each leg's joint values (N, n_i) at poses T (N, 4, 4) by the continuation from the
+    home configuration, revolute ones in (-pi, pi], and ``reached`` (N, 6) bool."""
+    H = desc.home_pose
+    steps = _continuation_steps(desc, T)
+    out, reached = [], np.ones((T.shape[0], 6), bool)
     for k, q_home in enumerate(home_configuration(desc)):
         q = np.broadcast_to(q_home, (T.shape[0], q_home.size)).copy()
         ok = np.ones(T.shape[0], bool)
         for s in range(1, steps + 1):
             Ts = T if s == steps else _interpolate(H, T, s / steps)
             q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q)
+        rev = chain_legs_of(desc)[k].revolute
+        out.append(np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q))
+        reached[:, k] = ok
+    return out, reached
+
+
+def inverse_geometry(
+    desc: RobotDescription, T: np.ndarray, check_limits: bool
+) -> list[np.ndarray]:
+    """Each leg's joint values (N, n_i) at poses T (N, 4, 4), on the home pose's assembly
+    branch (module docstring); :class:`LegReachError` where Newton does not converge,
+    :class:`LegJointLimitError` (``check_limits``) outside a joint's limits."""
+    qs, reached = solve_legs(desc, T)
+    out = []
+    for k, q in enumerate(qs):
+        ok = reached[:, k]
         if not np.all(ok):
             n = int(np.argmin(ok))
             raise in_batch(
@@ -329,15 +343,78 @@ def inverse_geometry(
                 ),
                 ~ok,
             )
-        rev = chain_legs_of(desc)[k].revolute
-        q = np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
         if check_limits:
             q = check_limits_of(desc, k, q)
         else:
             lim = chain_legs_of(desc)[k].limits
-            q = wrap_into_limits(q, rev, lim[:, 0], lim[:, 1])
+            q = wrap_into_limits(q, chain_legs_of(desc)[k].revolute, lim[:, 0], lim[:, 1])
         out.append(q)
     return out
+
+
+def padded(qs: list[np.ndarray]) -> np.ndarray:
+    """Per-leg arrays (N, n_i) as one (N, 6, max n_i), zero past a leg's last joint."""
+    width = max(q.shape[1] for q in qs)
+    out = np.zeros((qs[0].shape[0], 6, width))
+    for k, q in enumerate(qs):
+        out[:, k, : q.shape[1]] = q
+    return out
+
+
+def admissible_poses(desc: RobotDescription, T: np.ndarray, max_condition: float) -> np.ndarray:
+    """(N,) bool: every leg reaches its attachment inside its joint limits, no leg
+    Jacobian is singular, and ``Jp^-1``'s condition number is within ``max_condition``."""
+    qs, reached = solve_legs(desc, T)
+    ok = np.asarray(reached.all(axis=1))
+    rows = np.zeros((T.shape[0], 6, 6))
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), qs, strict=True)):
+        lim = leg.limits
+        turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
+        qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
+        inside = turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1]))
+        ok &= inside.all(axis=1)
+        frames = chain_frames(leg, leg_base_pose(desc, k), q)
+        J = chain_jacobian(leg, frames)
+        with np.errstate(all="ignore"):
+            s = np.linalg.svd(J, compute_uv=False)
+            ok &= s[:, -1] > RANK_TOLERANCE * s[:, 0]
+            J_safe = np.where(ok[:, None, None], J, np.eye(leg.constraints, leg.n_joints))
+            G = platform_map(leg, T[:, :3, :3] @ desc.platform_points[k])
+            rows[:, k] = (np.linalg.inv(J_safe) @ G)[:, leg.actuated - 1]
+    if np.any(ok):
+        ok[ok] = condition_number(desc, rows[ok]) <= max_condition
+    return ok
+
+
+def forward_geometry(
+    desc: RobotDescription,
+    actuated: Any,
+    guess: Any = None,
+    tol: float = FORWARD_TOLERANCE,
+    max_iterations: int = FORWARD_MAX_ITERATIONS,
+) -> np.ndarray:
+    """The pose 0Tp (4, 4) whose actuated joint values are ``actuated`` (6,) [m or rad]:
+    Newton on SE(3) from ``guess`` (default the home pose), ``Jp^-1 dV = actuated -
+    q_a(T)``, ``p += dv``, ``R <- exp(dw) R``.
+
+    Raises:
+        ConvergenceError, SingularityError, LegReachError: as
+        :func:`stewart_pin.kinematics.leg_chains.forward_geometry`.
+    """
+    target = check_array(actuated, (6,), "actuated")
+    T = check_pose(desc.home_pose if guess is None else guess, "guess").copy()
+    legs = chain_legs_of(desc)
+    act = [leg.actuated - 1 for leg in legs]
+    revolute = np.array([leg.revolute[a] for leg, a in zip(legs, act, strict=True)])
+
+    def evaluate(T: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
+        states = leg_states(desc, T[None], np.zeros((1, 6)))
+        q_a = np.array([s.q[0, a] for s, a in zip(states, act, strict=True)])
+        error = target - q_a
+        error = np.where(revolute, np.mod(error + math.pi, 2 * math.pi) - math.pi, error)
+        return error, lambda: inverse_jacobian(desc, states)[0]
+
+    return newton_se3(T, evaluate, tol, max_iterations, "actuated joint error")
 
 
 # ---------------------------------------------------------------------------- the legs' state
@@ -458,6 +535,7 @@ __all__ = [
     "NEWTON_TOLERANCE",
     "ChainFrames",
     "ChainLegState",
+    "admissible_poses",
     "attachment_targets",
     "chain_drift",
     "chain_frames",
@@ -465,10 +543,13 @@ __all__ = [
     "check_mobility_at_home",
     "check_parallel",
     "condition_number",
+    "forward_geometry",
     "home_configuration",
     "inverse_geometry",
     "inverse_jacobian",
     "leg_states",
     "newton",
+    "padded",
     "platform_map",
+    "solve_legs",
 ]

@@ -1,0 +1,228 @@
+"""Chain legs (any 1-dof joints, ball or weld closure, every link massive, joint terms
+on) against independent references: Pinocchio's constrained tree with 3D and 6D loop
+constraints (exact KKT solves), central differences of the inverse geometry and of the
+energy, and the robot's mobility rules."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from stewart_pin import StewartRobot
+from stewart_pin._so3 import so3_exp
+from stewart_pin.architectures import ChainLegPath
+from stewart_pin.check.chain_legs_tree import ChainTreeSolver
+from stewart_pin.description.chain_leg import ChainLeg
+from stewart_pin.description.chain_leg_presets import (
+    UPPER_U_OFFSET,
+    mixed_chain_robot,
+    welded_joints,
+    welded_ups,
+)
+from stewart_pin.description.leg_architecture import prismatic, revolute
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    InertiaError,
+    LegMobilityError,
+    UnsupportedArchitectureError,
+)
+from stewart_pin.kinematics import chain_legs
+
+TOL = 1e-10  # relative agreement with the constrained tree
+
+
+@pytest.fixture(scope="module", params=["welded", "mixed"])
+def robot(request: pytest.FixtureRequest) -> StewartRobot:
+    desc = welded_ups(seed=1) if request.param == "welded" else mixed_chain_robot(seed=2)
+    return StewartRobot(desc)
+
+
+@pytest.fixture(scope="module")
+def states(robot: StewartRobot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return robot.sample_states(4, rng=7)
+
+
+def _q_legs(robot: StewartRobot, T: np.ndarray) -> list[np.ndarray]:
+    return chain_legs.inverse_geometry(robot.description, T[None], False)
+
+
+def test_the_robots_are_what_the_issue_asks(robot: StewartRobot) -> None:
+    legs = robot.description.chain_legs
+    assert legs is not None and isinstance(robot._kind, ChainLegPath)
+    welded = [leg for leg in legs if leg.closure == "weld"]
+    assert welded and all(leg.n_joints == 6 for leg in welded)
+    assert all(leg.n_joints == 3 for leg in legs if leg.closure == "ball")
+    for leg in legs:  # every link massive, every joint with its terms
+        assert np.all(leg.inertia[:, 9] > 0)
+        assert all(not j.dynamics.is_zero and j.dynamics.coulomb > 0 for j in leg.joints)
+    for leg in welded:  # the upper U-joint's axes miss each other by 0.5 mm
+        assert leg.joints[5].d == UPPER_U_OFFSET and leg.joints[5].alpha == math.pi / 2
+
+
+def test_leg_rates_and_accelerations_match_central_differences(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    T, V, A = (x[:2] for x in states)
+    q, qd, qdd = robot.leg_kinematics(T, V, A)
+    h = 1e-4
+
+    def pose_at(t: float) -> np.ndarray:
+        out = T.copy()
+        out[:, :3, 3] += V[:, :3] * t + 0.5 * A[:, :3] * t * t
+        out[:, :3, :3] = so3_exp(V[:, 3:] * t + 0.5 * A[:, 3:] * t * t) @ T[:, :3, :3]
+        return out
+
+    qp, qm = robot.inverse_geometry(pose_at(h)), robot.inverse_geometry(pose_at(-h))
+    fd = (qp - qm) / (2 * h)
+    fdd = (qp - 2 * q + qm) / h**2
+    assert np.allclose(fd, qd, atol=1e-7)
+    assert np.allclose(fdd, qdd, atol=1e-5)
+
+
+def test_inverse_dynamics_matches_the_constrained_tree(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    T, V, A = states
+    gamma = robot.inverse_dynamics(T, V, A)
+    tree = ChainTreeSolver(robot.description)
+    for n in range(T.shape[0]):
+        ref = tree.inverse_one(T[n], V[n], A[n], [q[0] for q in _q_legs(robot, T[n])])
+        assert np.abs(gamma[n] - ref).max() <= TOL * np.abs(ref).max()
+
+
+def test_direct_dynamics_matches_pinocchio_constraint_dynamics(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    T, V, _ = states
+    rng = np.random.default_rng(3)
+    tree = ChainTreeSolver(robot.description)
+    g0 = robot.inverse_dynamics(T, V, np.zeros_like(V))
+    gammas = g0 + rng.normal(size=g0.shape) * np.abs(g0).mean() * 0.2
+    acc = robot.direct_dynamics(T, V, gammas)
+    for n in range(T.shape[0]):
+        ref = tree.forward_one(T[n], V[n], gammas[n], [q[0] for q in _q_legs(robot, T[n])])
+        assert np.abs(acc[n] - ref).max() <= TOL * np.abs(ref).max()
+
+
+def test_direct_dynamics_inverts_the_inverse_dynamics(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    T, V, A = states
+    back = robot.direct_dynamics(T, V, robot.inverse_dynamics(T, V, A))
+    assert np.abs(back - A).max() <= TOL * np.abs(A).max()
+
+
+def test_energy_matches_the_tree_and_balances_the_power(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    T, V, A = (x[0] for x in states)
+    tree = ChainTreeSolver(robot.description)
+    k, u = tree.energy_one(T, V, [q[0] for q in _q_legs(robot, T)])
+    assert abs(robot.energy(T, V) - (k + u)) <= 1e-12 * (abs(k) + abs(u))
+    # dE/dt = Gamma . qdot_a - dissipated power, E by central differences along the motion
+    h = 1e-5
+
+    def energy_at(t: float) -> float:
+        Tt = T.copy()
+        Tt[:3, 3] += V[:3] * t + 0.5 * A[:3] * t * t
+        Tt[:3, :3] = pin.exp3(V[3:] * t + 0.5 * A[3:] * t * t) @ T[:3, :3]
+        return float(robot.energy(Tt, V + A * t))
+
+    dE = (energy_at(h) - energy_at(-h)) / (2 * h)
+    power = robot.inverse_dynamics(T, V, A) @ (robot.inverse_jacobian(T) @ V)
+    loss = robot.dissipated_power(T, V)
+    assert abs(dE - (power - loss)) <= 1e-6 * (abs(power) + abs(loss))
+
+
+def test_simulation_keeps_the_energy_balance() -> None:
+    from stewart_pin.motion.simulation import simulate
+
+    # without joint terms: the power is smooth (Coulomb's sign switches would make
+    # Simpson's rule first order); test_energy_matches... covers the joint terms
+    r = StewartRobot(welded_ups(seed=3, joint_terms=False))
+    g0 = r.inverse_dynamics(r.description.home_pose, np.zeros(6), np.zeros(6))
+    wave = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+    res = simulate(
+        r, 0.04, forces=lambda t, T, V: g0 + 20 * math.sin(40 * t) * wave, dt=0.001
+    )
+    E = r.energy(res.poses, res.twists)
+    p_in = np.einsum("ni,nij,nj->n", res.gammas, r.inverse_jacobian(res.poses), res.twists)
+    net = p_in - r.dissipated_power(res.poses, res.twists)
+    assert len(res.t) == 41 and np.allclose(np.diff(res.t), 0.001)
+    work = 0.001 / 3 * (net[0] + 4 * net[1:-1:2].sum() + 2 * net[2:-1:2].sum() + net[-1])
+    assert abs(E[-1] - E[0] - work) <= 1e-6 * np.abs(net).sum() * 0.001
+
+
+def test_forward_geometry_returns_the_pose(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    T = states[0][1]
+    found = robot.forward_geometry(robot.actuator_positions(T))
+    assert np.abs(found - T).max() <= 1e-10
+
+
+def test_a_full_turn_hinge_limits_nothing() -> None:
+    r = StewartRobot(welded_ups(seed=1, spin=-0.3))  # the spin's range is [0, 2 pi]
+    q = r.inverse_geometry(r.description.home_pose)
+    assert np.allclose(q[:, 3], 2 * math.pi - 0.3)
+
+
+def _with_leg(desc, k: int, leg: ChainLeg):  # type: ignore[no-untyped-def]
+    legs = list(desc.chain_legs)
+    legs[k] = leg
+    return desc.replace(chain_legs=tuple(legs))
+
+
+@pytest.mark.parametrize(
+    ("closure", "n", "words"),
+    [
+        ("weld", 5, "1 freedom(s) short"),
+        ("ball", 4, "idle freedom"),
+        ("ball", 5, "2 extra freedoms"),
+    ],
+)
+def test_a_leg_without_six_freedoms_is_refused(closure: str, n: int, words: str) -> None:
+    desc = welded_ups(seed=1, joint_terms=False)
+    joints = welded_joints(np.random.default_rng(0), UPPER_U_OFFSET, False)[:n]
+    leg = ChainLeg(joints, 3, closure, np.tile([0, 0, 0, 0, 0, 0, 0, 0, 0, 0.1], (n, 1)))
+    with pytest.raises(LegMobilityError, match=f"leg 3: .*{re.escape(words)}") as e:
+        _with_leg(desc, 2, leg)
+    assert e.value.leg == 3
+
+
+def test_a_leg_singular_at_home_is_refused() -> None:
+    with pytest.raises(LegMobilityError, match=r"leg 1: .*rank of J_1 5 < 6") as e:
+        StewartRobot(welded_ups(seed=1, offset=0.0, wrist=0.0))
+    assert e.value.missing == 1
+
+
+def test_description_rules() -> None:
+    desc = welded_ups(seed=1, joint_terms=False)
+    with pytest.raises(InertiaError, match="leg_inertia must be zeros"):
+        desc.replace(leg_inertia=np.full((6, 3, 10), 0.0) + np.eye(10)[9])
+    with pytest.raises(ArchitectureError, match="closure must be one of"):
+        ChainLeg((revolute(),) * 3, 1, "glue", np.zeros((3, 10)))
+    with pytest.raises(ArchitectureError, match=r"inertia"):
+        ChainLeg((revolute(), revolute(), prismatic()), 1, "ball", np.zeros((2, 10)))
+    with pytest.raises(UnsupportedArchitectureError, match="no file form"):
+        desc.to_dict()
+
+
+def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) -> None:
+    r = StewartRobot(welded_ups(seed=1, joint_terms=False))
+    for export in (r.urdf, r.mjcf):
+        with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
+            export()
+    for write in (r.write_urdf, r.write_mjcf):
+        with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
+            write(tmp_path / "robot.xml")
+    assert not list(tmp_path.iterdir())
+    with pytest.raises(UnsupportedArchitectureError, match="regressor"):
+        r.regressor(r.description.home_pose, np.zeros(6), np.zeros(6))
+    with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
+        r.inverse_dynamics(r.description.home_pose, np.zeros(6), np.zeros(6), backend="compiled")
