@@ -147,9 +147,7 @@ def test_simulation_keeps_the_energy_balance() -> None:
     r = StewartRobot(welded_ups(seed=3, joint_terms=False))
     g0 = r.inverse_dynamics(r.description.home_pose, np.zeros(6), np.zeros(6))
     wave = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
-    res = simulate(
-        r, 0.04, forces=lambda t, T, V: g0 + 20 * math.sin(40 * t) * wave, dt=0.001
-    )
+    res = simulate(r, 0.04, forces=lambda t, T, V: g0 + 20 * math.sin(40 * t) * wave, dt=0.001)
     E = r.energy(res.poses, res.twists)
     p_in = np.einsum("ni,nij,nj->n", res.gammas, r.inverse_jacobian(res.poses), res.twists)
     net = p_in - r.dissipated_power(res.poses, res.twists)
@@ -170,6 +168,15 @@ def test_a_full_turn_hinge_limits_nothing() -> None:
     r = StewartRobot(welded_ups(seed=1, spin=-0.3))  # the spin's range is [0, 2 pi]
     q = r.inverse_geometry(r.description.home_pose)
     assert np.allclose(q[:, 3], 2 * math.pi - 0.3)
+
+
+def test_the_limit_margin_skips_full_turn_hinges() -> None:
+    r = StewartRobot(welded_ups(seed=1, joint_terms=False))
+    margin, sentence = r.limit_margin(r.description.home_pose)
+    q = r.inverse_geometry(r.description.home_pose)
+    nearest = min(min(q[k, 2] - 0.2, 2.0 - q[k, 2]) for k in range(6))
+    assert margin == pytest.approx(nearest / r.description.stroke_mid, rel=1e-12)
+    assert "joint 3" in sentence  # the slide: the spin's full turn limits nothing
 
 
 def _with_leg(desc, k: int, leg: ChainLeg):  # type: ignore[no-untyped-def]
@@ -218,7 +225,7 @@ def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) 
     for export in (r.urdf, r.mjcf):
         with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
             export()
-    for write in (r.write_urdf, r.write_mjcf):
+    for write in (r.write_urdf, r.write_mjcf, r.write_xacro_args):
         with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
             write(tmp_path / "robot.xml")
     assert not list(tmp_path.iterdir())

@@ -103,6 +103,7 @@ from stewart_pin.formats.urdf import (
     leg_link,
     next_point,
     plate_visual,
+    refuse_chain_legs,
     robot_size,
     travel,
 )
@@ -699,4 +700,5 @@ _LEG_CHAINS = _MjcfForm(leg_chains_mjcf_string, leg_chains_mujoco_qpos)
 def _form(desc: Any) -> _MjcfForm:
     """The writers of ``desc``'s kind (:func:`~stewart_pin.formats.urdf.is_general`): the
     one place the MJCF's choice is made (``mujoco_inertials`` only picks its defaults)."""
+    refuse_chain_legs(desc)  # no writer for chain legs yet
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS

@@ -66,7 +66,7 @@ from stewart_pin._checks import check_array, decode_utf8
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import FileFormatError, InputError
+from stewart_pin.exceptions import FileFormatError, InputError, UnsupportedArchitectureError
 from stewart_pin.formats._xml import Visual, num, urdf_inertial, urdf_origin, urdf_visual
 
 BASE_LINK = "base_link"
@@ -803,5 +803,20 @@ _LEG_CHAINS = _UrdfForm(leg_chains_urdf_string, leg_chains_closures_dict, leg_jo
 
 def _form(desc: Any) -> _UrdfForm:
     """The writers of ``desc``'s kind (:func:`is_general`): the one place the URDF's choice
-    is made."""
+    is made. Chain legs (``desc.chain_legs``: any joints, ball or weld closures) have no
+    writer yet: :class:`UnsupportedArchitectureError`, before anything is written."""
+    refuse_chain_legs(desc)
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS
+
+
+def refuse_chain_legs(desc: Any) -> None:
+    """:class:`UnsupportedArchitectureError` for a robot with chain legs (the URDF, MJCF
+    and xacro writers' guard)."""
+    if getattr(desc, "chain_legs", None) is not None:
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has chain legs (any joints, ball or weld closures): the "
+            "URDF, MJCF and xacro writers take three-joint ball legs only for now (a weld "
+            "would need MJCF's <equality><weld> and the sidecar's 6D closures)",
+            "export",
+            "chain",
+        )
