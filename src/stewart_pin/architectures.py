@@ -8,6 +8,9 @@ dynamics; no method of the facade asks which architecture it holds.
   (:mod:`stewart_pin.kinematics.leg_chains`,
   :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics`, joint terms
   included): the path of ``ups-offset``, ``rus``, ``pus``, custom and mixed robots.
+- :class:`ChainLegPath`: robots with chain legs (``description.chain_legs``: any 1-dof
+  joints closed by a ball or a weld; :mod:`stewart_pin.kinematics.chain_legs`,
+  :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`).
 - :class:`IdealUpsPath`: the paper's ideal 6-UPS, overriding it with its closed forms
   (eq. 13-19, :mod:`stewart_pin.kinematics.geometry`,
   :mod:`stewart_pin.kinematics.jacobians`) and its Pinocchio leg models
