@@ -214,6 +214,10 @@ class LegChainPath:
     def motor_side(self, r: PathOwner, gamma: Any) -> Any:
         return gamma / r._motor_ratio
 
+    def _models(self, r: PathOwner) -> Any:
+        """The robot's dynamic models this path runs (:class:`GeneralDynamics`)."""
+        return r.general_dynamics
+
     def inverse_dynamics(
         self,
         r: PathOwner,
@@ -222,9 +226,9 @@ class LegChainPath:
         accel: ArrayLike,
         details: bool,
         motor: bool,
-    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         with quiet_overflow():
-            res = r.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
+            res = self._models(r).inverse_dynamics(pose, twist, accel, details=True)
         if details:
             return res
         out = check_finite(res.motor if motor else res.gamma, "inverse dynamics Gamma")
@@ -234,17 +238,17 @@ class LegChainPath:
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
     ) -> FloatArray:
         with quiet_overflow():
-            return r.general_dynamics.direct_dynamics(pose, twist, gamma)
+            return self._models(r).direct_dynamics(pose, twist, gamma)
 
     def cartesian_dynamics(
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> CartesianDynamics | GeneralCartesianDynamics:
+    ) -> CartesianDynamics | GeneralCartesianDynamics | ChainCartesianDynamics:
         with quiet_overflow():
-            return r.general_dynamics.cartesian_dynamics(pose, twist)
+            return self._models(r).cartesian_dynamics(pose, twist)
 
     def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
         with quiet_overflow():
-            k, u = r.general_dynamics.energy(pose, twist)
+            k, u = self._models(r).energy(pose, twist)
         if np.ndim(k) == 0:
             return float(check_finite(np.array([k + u]), "energy")[0])
         return check_finite(np.asarray(k) + np.asarray(u), "energy")
@@ -253,7 +257,7 @@ class LegChainPath:
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
     ) -> FloatArray | float:
         with quiet_overflow():  # overflow: NumericalError below
-            power = np.asarray(r.general_dynamics.dissipated_power(pose, twist), dtype=float)
+            power = np.asarray(self._models(r).dissipated_power(pose, twist), dtype=float)
         checked = check_finite(np.atleast_1d(power), "dissipated power")
         return checked if power.ndim else float(checked[0])
 
@@ -361,7 +365,7 @@ class IdealUpsPath(LegChainPath):
         accel: ArrayLike,
         details: bool,
         motor: bool,
-    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with quiet_overflow():
             res = closure.inverse_dynamics(r.description, r.leg_dynamics, T, V, A, r.max_condition)
@@ -571,48 +575,9 @@ class ChainLegPath(LegChainPath):
     def motor_side(self, r: PathOwner, gamma: Any) -> Any:
         return gamma / r.chain_dynamics.ratio
 
-    def inverse_dynamics(  # type: ignore[override]
-        self,
-        r: PathOwner,
-        pose: ArrayLike,
-        twist: ArrayLike,
-        accel: ArrayLike,
-        details: bool,
-        motor: bool,
-    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
-        with quiet_overflow():
-            res = r.chain_dynamics.inverse_dynamics(pose, twist, accel, details=True)
-        if details:
-            return res
-        out = check_finite(res.motor if motor else res.gamma, "inverse dynamics Gamma")
-        return out if check_poses(pose)[1] else out[0]
-
-    def direct_dynamics(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
-    ) -> FloatArray:
-        with quiet_overflow():
-            return r.chain_dynamics.direct_dynamics(pose, twist, gamma)
-
-    def cartesian_dynamics(  # type: ignore[override]
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> ChainCartesianDynamics:
-        with quiet_overflow():
-            return r.chain_dynamics.cartesian_dynamics(pose, twist)
-
-    def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
-        with quiet_overflow():
-            k, u = r.chain_dynamics.energy(pose, twist)
-        if np.ndim(k) == 0:
-            return float(check_finite(np.array([k + u]), "energy")[0])
-        return check_finite(np.asarray(k) + np.asarray(u), "energy")
-
-    def dissipated_power(
-        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> FloatArray | float:
-        with quiet_overflow():
-            power = np.asarray(r.chain_dynamics.dissipated_power(pose, twist), dtype=float)
-        checked = check_finite(np.atleast_1d(power), "dissipated power")
-        return checked if power.ndim else float(checked[0])
+    def _models(self, r: PathOwner) -> Any:
+        """:class:`ChainDynamics` (same calls as :class:`GeneralDynamics`)."""
+        return r.chain_dynamics
 
     def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
         raise self._unsupported(r, "the regressor")

@@ -52,7 +52,11 @@ from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
-from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
+from stewart_pin.dynamics.chain_leg_dynamics import (
+    ChainCartesianDynamics,
+    ChainDynamics,
+    ChainInverseDynamics,
+)
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
@@ -426,7 +430,7 @@ class StewartRobot:
         details: Literal[True],
         backend: str = "auto",
         motor: bool = False,
-    ) -> InverseDynamicsResult | GeneralInverseDynamics: ...
+    ) -> InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics: ...
 
     @overload
     def inverse_dynamics(
@@ -437,7 +441,7 @@ class StewartRobot:
         details: bool = False,
         backend: str = "auto",
         motor: bool = False,
-    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics: ...
+    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics: ...
 
     def inverse_dynamics(
         self,
@@ -447,7 +451,7 @@ class StewartRobot:
         details: bool = False,
         backend: str = "auto",
         motor: bool = False,
-    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics:
+    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
 
         Args:
@@ -541,7 +545,7 @@ class StewartRobot:
 
     def cartesian_dynamics(
         self, pose: ArrayLike, twist: ArrayLike
-    ) -> CartesianDynamics | GeneralCartesianDynamics:
+    ) -> CartesianDynamics | GeneralCartesianDynamics | ChainCartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
         :class:`NumericalError` when either is not finite. General legs: a
         :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralCartesianDynamics`."""

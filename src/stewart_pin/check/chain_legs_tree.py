@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin.check.leg_chain_tree import _solve
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import pin_inertia_from_khalil
 from stewart_pin.description.leg_architecture import coulomb_sign
@@ -222,18 +223,6 @@ class ChainTreeSolver:
         ql = q[self.q_legs]
         potential += 0.5 * float(self.stiffness @ (ql - self.rest) ** 2)
         return float(0.5 * v @ M @ v), float(potential)
-
-
-def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
-    try:
-        x = np.linalg.solve(A, b)
-    except np.linalg.LinAlgError as e:
-        raise SingularityError(
-            f"{what} is singular (a singular configuration)", np.inf, 0.0
-        ) from e
-    if not np.all(np.isfinite(x)):
-        raise SingularityError(f"{what} gave non-finite values", np.inf, 0.0)
-    return x
 
 
 __all__ = ["CLOSURE_TOLERANCE", "ChainTreeSolver"]

@@ -45,7 +45,12 @@ from stewart_pin.exceptions import (
     SingularityError,
 )
 from stewart_pin.kinematics._se3_newton import newton_se3
-from stewart_pin.kinematics.leg_chains import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
+from stewart_pin.kinematics.leg_chains import (
+    FORWARD_MAX_ITERATIONS,
+    FORWARD_TOLERANCE,
+    check_condition,
+    scaled_condition_number,
+)
 
 #: Newton's convergence: the attachment's position error under ``NEWTON_TOLERANCE``
 #: times the robot's size [m] and its orientation error under ``NEWTON_TOLERANCE`` [rad].
@@ -506,29 +511,12 @@ def inverse_jacobian(desc: RobotDescription, states: list[ChainLegState]) -> np.
 
 def condition_number(desc: RobotDescription, J_inv: np.ndarray) -> np.ndarray:
     """Unit-free condition number of ``Jp^-1`` (N,): angular columns over the size."""
-    scaled = J_inv.copy()
-    scaled[..., 3:] /= robot_size(desc)
-    s = np.linalg.svd(scaled, compute_uv=False)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
+    return scaled_condition_number(J_inv, robot_size(desc))
 
 
 def check_parallel(desc: RobotDescription, J_inv: np.ndarray, max_condition: float) -> None:
     """:class:`SingularityError` (``leg=None``) at a parallel singularity."""
-    cond = condition_number(desc, J_inv)
-    bad = ~(cond <= max_condition)
-    if np.any(bad):
-        n = int(np.argmax(bad))
-        raise in_batch(
-            SingularityError(
-                f"parallel singularity: the condition number of Jp^-1 {cond[n]:.3g} exceeds "
-                f"{max_condition:g}",
-                float(cond[n]),
-                max_condition,
-                leg=None,
-            ),
-            bad,
-        )
+    check_condition(condition_number(desc, J_inv), max_condition)
 
 
 __all__ = [
