@@ -810,13 +810,13 @@ def _form(desc: Any) -> _UrdfForm:
 
 
 def refuse_chain_legs(desc: Any) -> None:
-    """:class:`UnsupportedArchitectureError` for a robot with chain legs (the URDF, MJCF
-    and xacro writers' guard)."""
+    """:class:`UnsupportedArchitectureError` for a robot with chain legs (the URDF and
+    xacro writers' guard)."""
     if getattr(desc, "chain_legs", None) is not None:
         raise UnsupportedArchitectureError(
             f"robot '{desc.name}' has chain legs (any joints, ball or weld closures): the "
-            "URDF, MJCF and xacro writers take three-joint ball legs only for now (a weld "
-            "would need MJCF's <equality><weld> and the sidecar's 6D closures)",
+            "URDF and xacro writers take three-joint ball legs only for now (a weld would "
+            "need 6D closures in the sidecar); the MJCF writer takes chain legs",
             "export",
             "chain",
         )
