@@ -231,5 +231,10 @@ def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) 
     assert "<weld" in r.write_mjcf(tmp_path / "robot.xml").read_text()  # the MJCF is written
     with pytest.raises(UnsupportedArchitectureError, match="regressor"):
         r.regressor(r.description.home_pose, np.zeros(6), np.zeros(6))
+    H, zero = r.description.home_pose, np.zeros(6)
     with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
-        r.inverse_dynamics(r.description.home_pose, np.zeros(6), np.zeros(6), backend="compiled")
+        r.inverse_dynamics(H, zero, zero, backend="compiled")
+    with pytest.raises(UnsupportedArchitectureError, match="chain legs: the exact derivatives"):
+        r.inverse_dynamics_derivatives(H, zero, zero)
+    with pytest.raises(UnsupportedArchitectureError, match="three-joint ball legs only"):
+        r.tree  # noqa: B018
