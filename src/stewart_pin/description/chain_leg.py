@@ -59,8 +59,12 @@ class ChainLeg:
         platform_rotation: (3, 3) the platform-side attachment frame's orientation in Fp
             (weld; its origin is ``P_i``).
         guess: (n,) joint values [rad or m] near the home pose's: the start of the leg's
-            Newton at the home pose.
+            Newton at the home pose (for an idle joint: its value at home).
         name: :data:`CHAIN`.
+        idle_joint: for a leg with one joint more than its closure's constraints (an idle
+            freedom, e.g. an R-S-S rod's spin about its ball-to-ball line), the joint
+            (1..n, not the actuated one) whose value and rate are part of the robot's
+            state: the idle freedom's coordinate; ``None`` otherwise.
     """
 
     joints: tuple[Joint, ...]
@@ -73,6 +77,7 @@ class ChainLeg:
     # None (zeros) is accepted at construction; __post_init__ stores an (n,) array
     guess: np.ndarray = None  # type: ignore[assignment]
     name: str = CHAIN
+    idle_joint: int | None = None
 
     def __post_init__(self) -> None:
         joints = self.joints
@@ -104,6 +109,17 @@ class ChainLeg:
                 f"the actuated joint index must be 1..{n}, got {a!r}", "actuated", a
             )
         object.__setattr__(self, "actuated", int(a))
+        i = self.idle_joint
+        if i is not None:
+            if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 1 <= i <= n:
+                raise ArchitectureError(
+                    f"the idle joint index must be 1..{n} or None, got {i!r}", "idle_joint", i
+                )
+            if i == self.actuated:
+                raise ArchitectureError(
+                    f"the idle joint ({i}) cannot be the actuated joint", "idle_joint", i
+                )
+            object.__setattr__(self, "idle_joint", int(i))
         if self.name != CHAIN:
             raise ArchitectureError(
                 f"a chain leg's name is '{CHAIN}', got {self.name!r}", "name", self.name
@@ -133,9 +149,18 @@ class ChainLeg:
         """As many joints as constraints, else :class:`LegMobilityError` naming ``leg``
         (1-based) and the missing or extra freedoms (the robot checks it)."""
         n, c = len(self.joints), self.constraints
+        closure = f"a {self.closure} ({c} constraints)"
+        if n == c + 1 and self.idle_joint is not None:
+            return
+        if self.idle_joint is not None:
+            raise LegMobilityError(
+                f"leg {leg}: idle_joint = {self.idle_joint} names an idle freedom, but a chain "
+                f"of {n} joints closed by {closure} has none (an idle freedom needs {c + 1} "
+                "joints): leave idle_joint out",
+                leg,
+            )
         if n == c:
             return
-        closure = f"a {self.closure} ({c} constraints)"
         if n < c:
             raise LegMobilityError(
                 f"leg {leg}: a chain of {n} joints closed by {closure} leaves the platform "
@@ -146,8 +171,9 @@ class ChainLeg:
         if n == c + 1:
             raise LegMobilityError(
                 f"leg {leg}: a chain of {n} joints closed by {closure} has one idle freedom "
-                "(e.g. an R-S-S or S-P-S rod spinning about its ball-to-ball line): idle "
-                f"freedoms are not modelled yet; give the leg {c} joints",
+                "(e.g. an R-S-S or S-P-S rod spinning about its ball-to-ball line): name the "
+                "joint whose value and rate are its coordinate (idle_joint, part of the "
+                f"robot's state), or give the leg {c} joints",
                 leg,
                 extra=1,
             )
@@ -167,6 +193,11 @@ class ChainLeg:
     @property
     def n_joints(self) -> int:
         return len(self.joints)
+
+    @property
+    def has_idle(self) -> bool:
+        """Whether the leg has an idle freedom (``idle_joint``)."""
+        return self.idle_joint is not None
 
     @property
     def revolute(self) -> np.ndarray:

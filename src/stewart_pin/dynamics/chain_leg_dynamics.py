@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin._checks import check_poses, check_states
+from stewart_pin._checks import check_array, check_poses, check_states
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.chain_leg import ChainLeg
 from stewart_pin.description.inertia import pin_inertia_from_khalil
@@ -40,6 +40,7 @@ from stewart_pin.dynamics.closed_loop import (
     platform_energy,
     platform_terms,
 )
+from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics import chain_legs as kin
 from stewart_pin.kinematics.jacobians import MAX_CONDITION
 
@@ -140,6 +141,8 @@ class ChainInverseDynamics:
         wrenches: (N, 6, 6) each leg's wrench on the platform about O_p in F0 ``[f, m]``
         [N, N m] (``-G_i^T J_i^-T (H_i - e_a gamma_i)``). F_p: (N, 6) the platform's own
         ``Ip Vdot + bias``. J_inv: (N, 6, 6) ``Jp^-1``. legs: the leg states.
+        idle_accel: (N, 6) the idle joints' accelerations [rad/s^2 or m/s^2] (0 for a leg
+        without one).
     """
 
     gamma: np.ndarray
@@ -149,28 +152,42 @@ class ChainInverseDynamics:
     F_p: np.ndarray
     J_inv: np.ndarray
     legs: list[kin.ChainLegState]
+    idle_accel: np.ndarray
 
 
 @dataclass(frozen=True)
 class ChainCartesianDynamics:
     """``A_robot Vdot + h_robot = Jp^-T Gamma``: A_robot (N, 6, 6), h_robot (N, 6), J_inv
-    (N, 6, 6), legs (qddot zero)."""
+    (N, 6, 6), legs (qddot zero); idle legs: ``idle_gain`` (N, 6, 6) and ``idle_bias``
+    (N, 6) give the idle joints' accelerations ``idle_gain Vdot + idle_bias``."""
 
     A_robot: np.ndarray
     h_robot: np.ndarray
     J_inv: np.ndarray
     legs: list[kin.ChainLegState]
+    idle_gain: np.ndarray
+    idle_bias: np.ndarray
 
 
 def _transpose_solve(J: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``J^-T x`` for batches J (N, m, m), x (N, m[, k])."""
-    vec = x.ndim == 2
-    out = np.linalg.solve(np.swapaxes(J, 1, 2), x[..., None] if vec else x)
-    return np.asarray(out[..., 0] if vec else out)
+    """``J^-T x`` for batches J (N, m, m), x (N, m)."""
+    return np.asarray(np.linalg.solve(np.swapaxes(J, 1, 2), x[..., None])[..., 0])
+
+
+def _vec(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Batched ``x y``: (N, a, b) times (N, b)."""
+    return np.einsum("nij,nj->ni", x, y)
 
 
 class ChainDynamics:
     """The dynamic models of a robot with chain legs, for one state or a batch.
+
+    A leg with an idle joint (``ChainLeg.idle_joint``, e.g. an R-S-S rod's spin) adds that
+    joint's value and rate to the robot's state: give them as ``idle=(values, rates)``,
+    each (6,) or (N, 6) (entries of legs without one ignored), to every model below; the
+    inverse model returns the idle accelerations (``details=True``: ``idle_accel``), the
+    direct model too (:meth:`direct_dynamics_idle`). Such a robot's models refuse to run
+    without ``idle`` (:class:`InputError`): no silent assumption about the spin.
 
     Args:
         desc: a description with ``chain_legs``. max_condition: the parallel singularity
@@ -191,89 +208,169 @@ class ChainDynamics:
         self.ratio = np.array(
             [t.ratio[a] for t, a in zip(self.legs.terms, self.actuated, strict=True)]
         )
+        self.idle_legs = [k for k, leg in enumerate(self.legs.legs) if leg.idle_joint is not None]
+
+    def _idle(self, idle: Any, n: int) -> kin.IdleState | None:
+        """The idle state for a batch of n states (:class:`InputError` when required and
+        missing, or of the wrong shape)."""
+        if not self.idle_legs:
+            return None
+        if idle is None:
+            legs = ", ".join(
+                f"leg {k + 1} joint {self.legs.legs[k].idle_joint}" for k in self.idle_legs
+            )
+            raise InputError(
+                f"robot '{self.desc.name}' has idle freedoms ({legs}): their values and rates "
+                "are part of the robot's state; give idle=(values, rates), each (6,) or "
+                "(N, 6) [rad or m, /s], to robot.chain_dynamics' models"
+            )
+        if isinstance(idle, kin.IdleState):
+            return idle
+        try:
+            values, rates = idle
+        except (TypeError, ValueError) as e:
+            raise InputError("idle must be (values, rates), each (6,) or (N, 6)") from e
+        out = []
+        for name, x in (("idle values", values), ("idle rates", rates)):
+            a = np.asarray(x, dtype=float)
+            a = np.broadcast_to(a, (n, 6)) if a.shape == (6,) else check_array(a, (n, 6), name)
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"{name} must be finite")
+            out.append(np.array(a))
+        return kin.IdleState(out[0], out[1])
 
     # ------------------------------------------------------------------ kinematics
     def states(
-        self, T: np.ndarray, V: np.ndarray, A: np.ndarray | None
+        self,
+        T: np.ndarray,
+        V: np.ndarray,
+        A: np.ndarray | None,
+        idle: kin.IdleState | None = None,
     ) -> tuple[list[kin.ChainLegState], np.ndarray]:
-        legs = kin.leg_states(self.desc, T, V, A, self.check_limits)
+        legs = kin.leg_states(self.desc, T, V, A, self.check_limits, idle)
         J_inv = kin.inverse_jacobian(self.desc, legs)
         kin.check_parallel(self.desc, J_inv, self.max_condition)
         return legs, J_inv
 
     # ------------------------------------------------------------------ batches
-    def inverse_batch(self, T: np.ndarray, V: np.ndarray, A: np.ndarray) -> ChainInverseDynamics:
-        legs, J_inv = self.states(T, V, A)
+    def inverse_batch(
+        self, T: np.ndarray, V: np.ndarray, A: np.ndarray, idle: Any = None
+    ) -> ChainInverseDynamics:
+        legs, J_inv = self.states(T, V, A, self._idle(idle, T.shape[0]))
         plat = platform_terms(self.desc, T, V)
-        F_p = np.einsum("nij,nj->ni", plat.inertia, A) + plat.bias
+        F_p = _vec(plat.inertia, A) + plat.bias
         total = F_p.copy()
         H_all, parts = [], []
+        idle_accel = np.zeros((T.shape[0], 6))
         for k, s in enumerate(legs):
             M, h = self.legs.mass_and_bias(k, s.q, s.qdot)
-            H = np.einsum("nij,nj->ni", M, s.qddot) + h
-            w = np.einsum("nji,nj->ni", s.G, _transpose_solve(s.J, H))  # G^T J^-T H
+            qddot = s.qddot
+            if s.null is not None:  # the idle joint's acceleration: null^T H = 0
+                sigma = -np.einsum("ni,ni->n", s.null, _vec(M, qddot) + h) / np.einsum(
+                    "ni,nij,nj->n", s.null, M, s.null
+                )
+                qddot = qddot + s.null * sigma[:, None]
+                idle_accel[:, k] = sigma
+            H = _vec(M, qddot) + h
+            w = _vec(np.swapaxes(s.KG, 1, 2), H)  # G^T J^-T H
             total += w
             H_all.append(H)
             parts.append(w)
         gamma = check_finite(_transpose_solve(J_inv, total), "inverse dynamics Gamma")
         # each leg's wrench on the platform: -G^T J^-T (H - e_a gamma)
         wrenches = -np.stack(parts, 1) + np.einsum("nki,nk->nki", J_inv, gamma)
-        return ChainInverseDynamics(gamma, gamma / self.ratio, H_all, wrenches, F_p, J_inv, legs)
+        return ChainInverseDynamics(
+            gamma, gamma / self.ratio, H_all, wrenches, F_p, J_inv, legs, idle_accel
+        )
 
-    def cartesian_batch(self, T: np.ndarray, V: np.ndarray) -> ChainCartesianDynamics:
-        legs, J_inv = self.states(T, V, None)
+    def cartesian_batch(
+        self, T: np.ndarray, V: np.ndarray, idle: Any = None
+    ) -> ChainCartesianDynamics:
+        legs, J_inv = self.states(T, V, None, self._idle(idle, T.shape[0]))
         plat = platform_terms(self.desc, T, V)
         A_robot, h_robot = plat.inertia.copy(), plat.bias.copy()
+        N = T.shape[0]
+        idle_gain, idle_bias = np.zeros((N, 6, 6)), np.zeros((N, 6))
         for k, s in enumerate(legs):
             M, h = self.legs.mass_and_bias(k, s.q, s.qdot)
             K = s.KG  # (N, n, 6)
-            kk = np.einsum("nij,nj->ni", s.J_inv, s.platform_drift - s.drift)
-            JG = np.swapaxes(K, 1, 2)  # G^T J^-T (N, 6, n)
-            A_robot += JG @ M @ K
-            h_robot += np.einsum("nij,nj->ni", JG, np.einsum("nij,nj->ni", M, kk) + h)
+            kk = _vec(s.J_inv, s.platform_drift - s.drift)
+            if s.null is not None:
+                # the idle acceleration sigma = -(null^T M (K Vdot + k) + null^T h) / m
+                # eliminated: qddot = P (K Vdot + k) - null null^T h / m, P = I - null null^T M / m
+                Mn = _vec(M, s.null)  # (N, n)
+                m = np.einsum("ni,ni->n", s.null, Mn)
+                idle_gain[:, k] = -np.einsum("ni,nij->nj", Mn, K) / m[:, None]
+                nh = np.einsum("ni,ni->n", s.null, h)
+                idle_bias[:, k] = -(np.einsum("ni,ni->n", Mn, kk) + nh) / m
+                MP = M - np.einsum("ni,nj->nij", Mn, Mn) / m[:, None, None]
+                hP = h - Mn * (nh / m)[:, None]
+            else:
+                MP, hP = M, h
+            KT = np.swapaxes(K, 1, 2)  # G^T J^-T (N, 6, n)
+            A_robot += KT @ MP @ K
+            h_robot += _vec(KT, _vec(MP, kk) + hP)
         A_robot = 0.5 * (A_robot + np.swapaxes(A_robot, 1, 2))
-        return ChainCartesianDynamics(A_robot, h_robot, J_inv, legs)
+        return ChainCartesianDynamics(A_robot, h_robot, J_inv, legs, idle_gain, idle_bias)
 
     # ------------------------------------------------------------------ the models
     def inverse_dynamics(
-        self, pose: Any, twist: Any, accel: Any, details: bool = False, motor: bool = False
+        self,
+        pose: Any,
+        twist: Any,
+        accel: Any,
+        details: bool = False,
+        motor: bool = False,
+        idle: Any = None,
     ) -> Any:
         """Actuated efforts (6,) or (N, 6) [N or N m], joint side (``motor``: motor side);
-        ``details``: the :class:`ChainInverseDynamics`."""
+        ``details``: the :class:`ChainInverseDynamics`; ``idle``: the idle joints' state
+        (class docstring)."""
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        r = self.inverse_batch(T, V, A)
+        r = self.inverse_batch(T, V, A, idle)
         if details:
             return r
         out = r.motor if motor else r.gamma
         return out if batched else out[0]
 
-    def direct_dynamics(self, pose: Any, twist: Any, gamma: Any) -> np.ndarray:
-        """The platform's classical acceleration (6,) or (N, 6) under the actuated
-        joint-side efforts ``gamma``."""
+    def direct_dynamics_idle(
+        self, pose: Any, twist: Any, gamma: Any, idle: Any = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The platform's classical acceleration (6,) or (N, 6) and the idle joints'
+        accelerations (6,) or (N, 6) (0 for legs without one) under the actuated joint-side
+        efforts ``gamma``."""
         batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
-        cd = self.cartesian_batch(T, V)
+        cd = self.cartesian_batch(T, V, idle)
         out = closure_direct_dynamics(cd.A_robot, cd.h_robot, cd.J_inv, G)
-        return out if batched else out[0]
+        sigma = _vec(cd.idle_gain, out) + cd.idle_bias
+        return (out, sigma) if batched else (out[0], sigma[0])
 
-    def cartesian_dynamics(self, pose: Any, twist: Any) -> ChainCartesianDynamics:
+    def direct_dynamics(self, pose: Any, twist: Any, gamma: Any, idle: Any = None) -> np.ndarray:
+        """The platform's classical acceleration (6,) or (N, 6) under the actuated
+        joint-side efforts ``gamma`` (idle joints: :meth:`direct_dynamics_idle`)."""
+        return self.direct_dynamics_idle(pose, twist, gamma, idle)[0]
+
+    def cartesian_dynamics(
+        self, pose: Any, twist: Any, idle: Any = None
+    ) -> ChainCartesianDynamics:
         _, T, V = check_states(pose, (twist, "twist"))
-        return self.cartesian_batch(T, V)
+        return self.cartesian_batch(T, V, idle)
 
-    def energy(self, pose: Any, twist: Any) -> tuple[Any, Any]:
+    def energy(self, pose: Any, twist: Any, idle: Any = None) -> tuple[Any, Any]:
         """Kinetic (armature included) and potential (gravity, springs) energy [J] of the
         robot: floats or (N,) arrays."""
         batched, T, V = check_states(pose, (twist, "twist"))
-        legs = kin.leg_states(self.desc, T, V)
+        legs = kin.leg_states(self.desc, T, V, idle=self._idle(idle, T.shape[0]))
         k, u = platform_energy(self.desc, T, V)
         for i, s in enumerate(legs):
             ki, ui = self.legs.energy(i, s.q, s.qdot)
             k, u = k + ki, u + ui
         return (k, u) if batched else (float(k[0]), float(u[0]))
 
-    def dissipated_power(self, pose: Any, twist: Any) -> Any:
+    def dissipated_power(self, pose: Any, twist: Any, idle: Any = None) -> Any:
         """Power lost in friction and dampers [W]: float or (N,)."""
         batched, T, V = check_states(pose, (twist, "twist"))
-        legs = kin.leg_states(self.desc, T, V)
+        legs = kin.leg_states(self.desc, T, V, idle=self._idle(idle, T.shape[0]))
         p = sum(
             (
                 t.viscous @ (s.qdot**2).T + t.coulomb @ np.abs(s.qdot).T
@@ -283,10 +380,10 @@ class ChainDynamics:
         )
         return p if batched else float(p[0])
 
-    def gravity_compensation(self, pose: Any) -> np.ndarray:
+    def gravity_compensation(self, pose: Any, idle: Any = None) -> np.ndarray:
         T, batched = check_poses(pose)
         zero = np.zeros((T.shape[0], 6))
-        g = self.inverse_batch(T, zero, zero).gamma
+        g = self.inverse_batch(T, zero, zero, idle).gamma
         return g if batched else g[0]
 
 

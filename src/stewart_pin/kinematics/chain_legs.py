@@ -195,12 +195,13 @@ def leg_base_pose(desc: RobotDescription, k: int) -> np.ndarray:
 def newton(
     desc: RobotDescription, k: int, target: np.ndarray, q: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Guarded Newton on leg k's chain toward ``target`` (N, 4, 4) from q (N, n); returns
-    ``(q, converged (N,) bool)``."""
+    """Guarded Newton on leg k's chain toward ``target`` (N, 4, 4) from q (N, n), an idle
+    joint kept at its value; returns ``(q, converged (N,) bool)``."""
     leg = chain_legs_of(desc)[k]
     T0 = leg_base_pose(desc, k)
     size = robot_size(desc)
-    step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)
+    free = np.array([j + 1 != leg.idle_joint for j in range(leg.n_joints)])
+    step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)[free]
     q = q.copy()
     done = np.zeros(q.shape[0], bool)
     for _ in range(NEWTON_MAX_ITERATIONS):
@@ -212,7 +213,7 @@ def newton(
         done = err <= NEWTON_TOLERANCE
         if np.all(done):
             break
-        J = chain_jacobian(leg, frames)
+        J = chain_jacobian(leg, frames)[:, :, free]
         with np.errstate(all="ignore"):
             try:
                 dq = np.linalg.solve(J, e[..., None])[..., 0]
@@ -221,7 +222,9 @@ def newton(
         dq = np.where(np.isfinite(dq), dq, 0.0)
         scale = np.max(np.abs(dq) / step_cap, axis=1)
         dq = dq / np.maximum(scale, 1.0)[:, None]
-        q = np.where(done[:, None], q, q + dq)
+        step = np.zeros_like(q)
+        step[:, free] = dq
+        q = np.where(done[:, None], q, q + step)
     return q, done
 
 
@@ -251,8 +254,9 @@ def home_configuration(desc: RobotDescription) -> list[np.ndarray]:
 
 
 def check_mobility_at_home(desc: RobotDescription) -> None:
-    """Each leg's Jacobian at the home pose has full rank c
-    (:class:`LegMobilityError` naming the leg and the freedoms it lacks)."""
+    """Each leg's Jacobian at the home pose has full rank c; a leg's idle joint moves its
+    idle freedom, which leaves the actuated joint still (:class:`LegMobilityError` naming
+    the leg and the freedoms it lacks)."""
     for k, (leg, q) in enumerate(zip(chain_legs_of(desc), home_configuration(desc), strict=True)):
         J = chain_jacobian(leg, chain_frames(leg, leg_base_pose(desc, k), q[None]))[0]
         s = np.linalg.svd(J, compute_uv=False)
@@ -268,6 +272,30 @@ def check_mobility_at_home(desc: RobotDescription) -> None:
                 missing=leg.constraints - rank,
                 rank=rank,
             )
+        if leg.idle_joint is not None:
+            _check_idle(leg, leg.idle_joint, J, k)
+
+
+def _check_idle(leg: ChainLeg, idle: int, J: np.ndarray, k: int) -> None:
+    """The idle joint (1-based) parametrises the idle motion (``[J; e_idle^T]`` regular)
+    and that motion leaves the actuated joint still."""
+    n = leg.n_joints
+    Jsq = np.vstack([J, np.eye(n)[idle - 1]])
+    s = np.linalg.svd(Jsq, compute_uv=False)
+    if not s[-1] > RANK_TOLERANCE * s[0]:
+        raise LegMobilityError(
+            f"leg {k + 1}: joint {idle} (idle_joint) does not move the leg's idle "
+            "freedom at the home pose: name a joint that does (for an R-S-S rod, its spin)",
+            k + 1,
+        )
+    null = np.linalg.solve(Jsq, np.eye(n)[-1])
+    if abs(null[leg.actuated - 1]) > 1e-9 * np.abs(null).max():
+        raise LegMobilityError(
+            f"leg {k + 1}: the idle freedom moves the actuated joint {leg.actuated}: the "
+            "actuators would not hold the platform",
+            k + 1,
+            extra=1,
+        )
 
 
 def _interpolate(T_from: np.ndarray, T_to: np.ndarray, s: float) -> np.ndarray:
@@ -300,25 +328,47 @@ def check_limits_of(desc: RobotDescription, k: int, q: np.ndarray) -> np.ndarray
     return q
 
 
-def _continuation_steps(desc: RobotDescription, T: np.ndarray) -> int:
+def _continuation_steps(desc: RobotDescription, T: np.ndarray, idle_step: np.ndarray) -> int:
     H = desc.home_pose
     dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / robot_size(desc)
     da = np.linalg.norm(so3_log(T[:, :3, :3] @ H[:3, :3].T), axis=1)
+    da = np.maximum(da, idle_step)
     worst = float(np.max(np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION)))
     return max(1, math.ceil(worst)) if math.isfinite(worst) else 1
 
 
-def solve_legs(desc: RobotDescription, T: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+def idle_home(desc: RobotDescription) -> np.ndarray:
+    """(6,) the idle joints' values at the home pose (0 for a leg without one)."""
+    out = np.zeros(6)
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), home_configuration(desc), strict=True)):
+        if leg.idle_joint is not None:
+            out[k] = q[leg.idle_joint - 1]
+    return out
+
+
+def solve_legs(
+    desc: RobotDescription, T: np.ndarray, idle_q: np.ndarray | None = None
+) -> tuple[list[np.ndarray], np.ndarray]:
     """Each leg's joint values (N, n_i) at poses T (N, 4, 4) by the continuation from the
-    home configuration, revolute ones in (-pi, pi], and ``reached`` (N, 6) bool."""
+    home configuration, revolute ones in (-pi, pi], and ``reached`` (N, 6) bool; the idle
+    joints at ``idle_q`` (N, 6) (``None``: their home values), reached along the same
+    continuation."""
     H = desc.home_pose
-    steps = _continuation_steps(desc, T)
+    legs = chain_legs_of(desc)
+    start = idle_home(desc)
+    idle_q = np.broadcast_to(start, (T.shape[0], 6)) if idle_q is None else idle_q
+    has_idle = np.array([leg.idle_joint is not None for leg in legs])
+    change = np.abs(np.where(has_idle, idle_q - start, 0.0)).max(axis=1)
+    steps = _continuation_steps(desc, T, change)
     out, reached = [], np.ones((T.shape[0], 6), bool)
     for k, q_home in enumerate(home_configuration(desc)):
         q = np.broadcast_to(q_home, (T.shape[0], q_home.size)).copy()
         ok = np.ones(T.shape[0], bool)
+        idle = legs[k].idle_joint
         for s in range(1, steps + 1):
             Ts = T if s == steps else _interpolate(H, T, s / steps)
+            if idle is not None:
+                q[:, idle - 1] = start[k] + s / steps * (idle_q[:, k] - start[k])
             q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q)
         rev = chain_legs_of(desc)[k].revolute
         out.append(np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q))
@@ -327,12 +377,13 @@ def solve_legs(desc: RobotDescription, T: np.ndarray) -> tuple[list[np.ndarray],
 
 
 def inverse_geometry(
-    desc: RobotDescription, T: np.ndarray, check_limits: bool
+    desc: RobotDescription, T: np.ndarray, check_limits: bool, idle_q: np.ndarray | None = None
 ) -> list[np.ndarray]:
     """Each leg's joint values (N, n_i) at poses T (N, 4, 4), on the home pose's assembly
-    branch (module docstring); :class:`LegReachError` where Newton does not converge,
+    branch (module docstring), idle joints at ``idle_q`` (N, 6) (default their home
+    values); :class:`LegReachError` where Newton does not converge,
     :class:`LegJointLimitError` (``check_limits``) outside a joint's limits."""
-    qs, reached = solve_legs(desc, T)
+    qs, reached = solve_legs(desc, T, idle_q)
     out = []
     for k, q in enumerate(qs):
         ok = reached[:, k]
@@ -430,9 +481,13 @@ class ChainLegState:
     Attributes:
         q, qdot, qddot: (N, n) joint values, rates, accelerations [rad or m, /s, /s^2]
             (qddot zero without a platform acceleration).
-        J, J_inv: (N, c, n) and (N, n, c). G: (N, c, 6). L: (N, 3) O_p to P_i in F0.
+        J: (N, c, n). J_inv: (N, n, c) ``J_i^-1``; for a leg with an idle joint the
+            first c columns of ``[J_i; e_idle^T]^-1`` (the joint motion with the idle joint
+            still). G: (N, c, 6). L: (N, 3) O_p to P_i in F0.
         drift: (N, c) ``Jdot_i qdot_i``. platform_drift: (N, c) ``d_i``.
         frames: the leg's :class:`ChainFrames`.
+        null: (N, n) the idle motion per unit idle rate (last column of
+            ``[J_i; e_idle^T]^-1``: ``J_i null = 0``), or ``None`` without an idle joint.
     """
 
     q: np.ndarray
@@ -445,6 +500,7 @@ class ChainLegState:
     drift: np.ndarray
     platform_drift: np.ndarray
     frames: ChainFrames
+    null: np.ndarray | None = None
 
     @property
     def KG(self) -> np.ndarray:
@@ -472,25 +528,51 @@ def _inv(J: np.ndarray, k: int) -> np.ndarray:
     return J_inv
 
 
+@dataclass(frozen=True)
+class IdleState:
+    """The idle joints' state (one per leg; ignored for a leg without an idle joint).
+
+    Attributes:
+        q, qdot: (N, 6) values and rates [rad or m, /s]. qddot: (N, 6) accelerations, or
+        ``None`` (zero; the inverse model computes them).
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray | None = None
+
+
 def leg_states(
     desc: RobotDescription,
     T: np.ndarray,
     V: np.ndarray,
     A: np.ndarray | None = None,
     check_limits: bool = False,
+    idle: IdleState | None = None,
 ) -> list[ChainLegState]:
     """The six legs' :class:`ChainLegState` at poses T (N, 4, 4), twists V (N, 6) and
-    classical accelerations A (N, 6) (``None``: qddot zero)."""
-    q_all = inverse_geometry(desc, T, check_limits)
+    classical accelerations A (N, 6) (``None``: qddot zero); the idle joints' values,
+    rates and accelerations from ``idle`` (``None``: home values, at rest)."""
+    q_all = inverse_geometry(desc, T, check_limits, None if idle is None else idle.q)
     w = V[:, 3:]
     out = []
     for k, (leg, q) in enumerate(zip(chain_legs_of(desc), q_all, strict=True)):
         frames = chain_frames(leg, leg_base_pose(desc, k), q)
         J = chain_jacobian(leg, frames)
-        J_inv = _inv(J, k)
+        null = None
+        if leg.idle_joint is None:
+            J_inv = _inv(J, k)
+        else:
+            row = np.broadcast_to(
+                np.eye(leg.n_joints)[leg.idle_joint - 1], (T.shape[0], 1, leg.n_joints)
+            )
+            square = _inv(np.concatenate([J, row], axis=1), k)
+            J_inv, null = square[:, :, : leg.constraints], square[:, :, -1]
         L = T[:, :3, :3] @ desc.platform_points[k]
         G = platform_map(leg, L)
         qdot = np.einsum("nij,nj->ni", J_inv @ G, V)
+        if null is not None and idle is not None:
+            qdot = qdot + null * idle.qdot[:, k, None]
         drift = chain_drift(leg, frames, qdot)
         d = np.zeros((T.shape[0], leg.constraints))
         d[:, :3] = cross(w, cross(w, L))
@@ -499,7 +581,9 @@ def leg_states(
         else:
             rhs = np.einsum("nij,nj->ni", G, A) + d - drift
             qddot = np.einsum("nij,nj->ni", J_inv, rhs)
-        out.append(ChainLegState(q, qdot, qddot, J, J_inv, G, L, drift, d, frames))
+            if null is not None and idle is not None and idle.qddot is not None:
+                qddot = qddot + null * idle.qddot[:, k, None]
+        out.append(ChainLegState(q, qdot, qddot, J, J_inv, G, L, drift, d, frames, null))
     return out
 
 
@@ -523,6 +607,7 @@ __all__ = [
     "NEWTON_TOLERANCE",
     "ChainFrames",
     "ChainLegState",
+    "IdleState",
     "admissible_poses",
     "attachment_targets",
     "chain_drift",
@@ -533,6 +618,7 @@ __all__ = [
     "condition_number",
     "forward_geometry",
     "home_configuration",
+    "idle_home",
     "inverse_geometry",
     "inverse_jacobian",
     "leg_states",
