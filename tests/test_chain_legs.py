@@ -21,6 +21,7 @@ from stewart_pin.description.chain_leg import ChainLeg
 from stewart_pin.description.chain_leg_presets import (
     UPPER_U_OFFSET,
     mixed_chain_robot,
+    rss_robot,
     welded_joints,
     welded_ups,
 )
@@ -28,6 +29,7 @@ from stewart_pin.description.leg_architecture import prismatic, revolute
 from stewart_pin.exceptions import (
     ArchitectureError,
     InertiaError,
+    InputError,
     LegMobilityError,
     UnsupportedArchitectureError,
 )
@@ -238,3 +240,71 @@ def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) 
         r.inverse_dynamics_derivatives(H, zero, zero)
     with pytest.raises(UnsupportedArchitectureError, match="three-joint ball legs only"):
         r.tree  # noqa: B018
+
+
+# ---------------------------------------------------------------------------- idle spin
+@pytest.fixture(scope="module", params=[True, False], ids=["symmetric-rods", "asymmetric-rods"])
+def rss(request: pytest.FixtureRequest) -> StewartRobot:
+    return StewartRobot(rss_robot(symmetric=request.param))
+
+
+def _idle_state(n: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(11)
+    return rng.uniform(-1.0, 1.0, (n, 6)), rng.uniform(-5.0, 5.0, (n, 6))
+
+
+def test_rss_inverse_dynamics_and_spin_accelerations_match_the_tree(rss: StewartRobot) -> None:
+    T, V, A = rss.sample_states(3, rng=2)
+    spin, rate = _idle_state(3)
+    res = rss.chain_dynamics.inverse_dynamics(T, V, A, details=True, idle=(spin, rate))
+    qs = chain_legs.inverse_geometry(rss.description, T, False, spin)
+    tree = ChainTreeSolver(rss.description)
+    for n in range(3):
+        q = [x[n] for x in qs]
+        gamma, sigma = tree.inverse_idle_one(T[n], V[n], A[n], q, rate[n])
+        assert np.abs(res.gamma[n] - gamma).max() <= TOL * np.abs(gamma).max()
+        assert np.abs(res.idle_accel[n] - sigma).max() <= TOL * np.abs(sigma).max()
+        # the spin angle is the idle joint's value
+        assert np.allclose([x[3] for x in q], spin[n])
+
+
+def test_rss_direct_dynamics_returns_the_spin_accelerations_of_the_tree(
+    rss: StewartRobot,
+) -> None:
+    T, V, A = rss.sample_states(3, rng=3)
+    spin, rate = _idle_state(3)
+    gammas = rss.chain_dynamics.inverse_dynamics(T, V, A, idle=(spin, rate))
+    gammas = gammas * np.random.default_rng(0).uniform(0.5, 1.5, gammas.shape)
+    acc, sigma = rss.chain_dynamics.direct_dynamics_idle(T, V, gammas, idle=(spin, rate))
+    qs = chain_legs.inverse_geometry(rss.description, T, False, spin)
+    tree = ChainTreeSolver(rss.description)
+    for n in range(3):
+        ref, ref_sigma = tree.forward_idle_one(T[n], V[n], gammas[n], [x[n] for x in qs], rate[n])
+        assert np.abs(acc[n] - ref).max() <= TOL * np.abs(ref).max()
+        assert np.abs(sigma[n] - ref_sigma).max() <= TOL * np.abs(ref_sigma).max()
+
+
+def test_the_spin_state_is_required_not_assumed(rss: StewartRobot) -> None:
+    H, zero = rss.description.home_pose, np.zeros(6)
+    for model in (rss.inverse_dynamics, rss.direct_dynamics):
+        with pytest.raises(InputError, match=r"idle freedoms \(leg 1 joint 4"):
+            model(H, zero, zero)
+    with pytest.raises(InputError, match="idle freedoms"):
+        rss.energy(H, zero)
+    # the spin's rate matters: the rods' inertia couples it (gyroscopic terms)
+    g0 = rss.chain_dynamics.inverse_dynamics(H, zero, zero, idle=(zero, zero))
+    g1 = rss.chain_dynamics.inverse_dynamics(H, zero, zero, idle=(zero, np.full(6, 20.0)))
+    assert np.abs(g1 - g0).max() > 1e-6 * np.abs(g0).max()
+
+
+def test_an_idle_joint_must_move_the_idle_freedom() -> None:
+    desc = rss_robot()
+    legs = list(desc.chain_legs)
+    legs[1] = legs[1].replace(idle_joint=2)  # the U-joint's first axis: not the spin
+    with pytest.raises(LegMobilityError, match=r"leg 2: joint 2 \(idle_joint\) does not move"):
+        StewartRobot(desc.replace(chain_legs=tuple(legs)))
+    with pytest.raises(ArchitectureError, match="cannot be the actuated joint"):
+        legs[1].replace(idle_joint=1)
+    welded = welded_ups(seed=1, joint_terms=False).chain_legs[0]
+    with pytest.raises(LegMobilityError, match="has none"):
+        _with_leg(welded_ups(seed=1, joint_terms=False), 0, welded.replace(idle_joint=4))

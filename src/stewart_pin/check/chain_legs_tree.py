@@ -102,6 +102,14 @@ class ChainTreeSolver:
         self.q_legs = np.array([model.idx_qs[j] for j in flat])
         self.v_legs = np.array([model.idx_vs[j] for j in flat])
         self.v_act = np.array([model.idx_vs[j] for j in act])
+        #: the idle joints (a leg's ``idle_joint``): their velocity indices and legs
+        idle = [(k, leg.idle_joint) for k, leg in enumerate(legs) if leg.idle_joint is not None]
+        self.idle_legs = [k for k, _ in idle]
+        self.v_idle = np.array(
+            [model.idx_vs[self.leg_joints[k][j - 1]] for k, j in idle], dtype=np.int64
+        ).reshape(-1)
+        # rows picking the idle joints' velocities among the legs' (v_legs order)
+        self.E_idle = (self.v_idle[:, None] == self.v_legs[None, :]).astype(float)
         self.nv = model.nv
         dyn = [j.dynamics for leg in legs for j in leg.joints]
         self.viscous = np.array([d.viscous + d.damping for d in dyn])
@@ -157,11 +165,17 @@ class ChainTreeSolver:
                 out.append(R1.T @ (dw1 - dw2))
         return np.concatenate(out)
 
+    def _legs_solve(self, Jc: np.ndarray, rhs: np.ndarray, idle: np.ndarray) -> np.ndarray:
+        """The legs' velocities (or accelerations) from ``Jc_legs x = rhs`` and the idle
+        joints' values ``idle`` (one per idle leg)."""
+        A = np.vstack([Jc[:, self.v_legs], self.E_idle])
+        return _solve(A, np.concatenate([rhs, idle]), "Jc legs")
+
     def state(
-        self, T: np.ndarray, twist: np.ndarray, q_legs: Any
+        self, T: np.ndarray, twist: np.ndarray, q_legs: Any, idle_rates: Any = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Tree ``q``, ``v`` and ``Jc``; ``q_legs`` the legs' joint values (a list of (n_i,)
-        or one flat array)."""
+        or one flat array); ``idle_rates`` (6,) the idle joints' rates (legs with one)."""
         R = T[:3, :3]
         q = np.empty(self.model.nq)
         q[:7] = pin.SE3ToXYZQUAT(pin.SE3(R, T[:3, 3]))
@@ -176,32 +190,75 @@ class ChainTreeSolver:
         Jc = self.constraint_jacobian(q)
         v = np.zeros(self.nv)
         v[:6] = np.concatenate([R.T @ twist[:3], R.T @ twist[3:]])
-        v[self.v_legs] = _solve(Jc[:, self.v_legs], -Jc[:, :6] @ v[:6], "Jc legs")
+        v[self.v_legs] = self._legs_solve(Jc, -Jc[:, :6] @ v[:6], self._idle(idle_rates))
         return q, v, Jc
+
+    def _idle(self, values: Any) -> np.ndarray:
+        if not self.idle_legs:
+            return np.zeros(0)
+        if values is None:
+            raise InputError("this robot has idle joints: give their rates (6,)")
+        return np.asarray(values, dtype=float)[self.idle_legs]
 
     # ------------------------------------------------------------------ one state
     def inverse_one(
         self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: Any
     ) -> np.ndarray:
         """``Gamma`` (6,) by the exact KKT solve."""
-        q, v, Jc = self.state(T, twist, q_legs)
+        return self.inverse_idle_one(T, twist, accel, q_legs)[0]
+
+    def inverse_idle_one(
+        self,
+        T: np.ndarray,
+        twist: np.ndarray,
+        accel: np.ndarray,
+        q_legs: Any,
+        idle_rates: Any = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``Gamma`` (6,) and the idle joints' accelerations (6,) (0 for legs without one)
+        by the exact KKT solve; the idle accelerations are unknowns beside Gamma and the
+        loop forces: ``[S^T, Jc^T, -M N] [Gamma; lambda; sigma] = tau(a0)`` with the leg
+        accelerations ``a0 + N sigma``."""
+        q, v, Jc = self.state(T, twist, q_legs, idle_rates)
         R = T[:3, :3]
         a = np.zeros(self.nv)
         v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
         a[:6] = np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
         pin.forwardKinematics(self.model, self.data, q, v, a)
-        a[self.v_legs] = _solve(Jc[:, self.v_legs], -self.loop_accelerations(), "Jc legs")
+        n_idle = len(self.idle_legs)
+        a[self.v_legs] = self._legs_solve(Jc, -self.loop_accelerations(), np.zeros(n_idle))
         tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
+        N = np.zeros((self.nv, n_idle))
+        for i in range(n_idle):
+            N[self.v_legs, i] = self._legs_solve(Jc, np.zeros(Jc.shape[0]), np.eye(n_idle)[i])
+        M = pin.crba(self.model, self.data, q)
+        M = np.triu(M) + np.triu(M, 1).T
         K = np.zeros((self.nv, self.nv))
         K[self.v_act, np.arange(6)] = 1.0
-        K[:, 6:] = Jc.T
-        return _solve(K, tau, "[S^T, Jc^T]")[:6]
+        K[:, 6 : 6 + Jc.shape[0]] = Jc.T
+        K[:, 6 + Jc.shape[0] :] = -M @ N
+        x = _solve(K, tau, "[S^T, Jc^T, -M N]")
+        sigma = np.zeros(6)
+        sigma[self.idle_legs] = x[6 + Jc.shape[0] :]
+        return x[:6], sigma
 
     def forward_one(
         self, T: np.ndarray, twist: np.ndarray, gamma: np.ndarray, q_legs: Any
     ) -> np.ndarray:
         """The platform's classical acceleration (6,) from ``pin.constraintDynamics``."""
-        q, v, _ = self.state(T, twist, q_legs)
+        return self.forward_idle_one(T, twist, gamma, q_legs)[0]
+
+    def forward_idle_one(
+        self,
+        T: np.ndarray,
+        twist: np.ndarray,
+        gamma: np.ndarray,
+        q_legs: Any,
+        idle_rates: Any = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The platform's classical acceleration (6,) and the idle joints' accelerations
+        (6,) (0 for legs without one) from ``pin.constraintDynamics``."""
+        q, v, _ = self.state(T, twist, q_legs, idle_rates)
         tau = -self.joint_torques(q, v)
         tau[self.v_act] += gamma
         ddq = np.array(
@@ -213,10 +270,14 @@ class ChainTreeSolver:
             raise SingularityError("pin.constraintDynamics: non-finite accelerations")
         R = T[:3, :3]
         vl, wl = v[:3], v[3:6]
-        return np.concatenate([R @ (ddq[:3] + np.cross(wl, vl)), R @ ddq[3:6]])
+        sigma = np.zeros(6)
+        sigma[self.idle_legs] = ddq[self.v_idle]
+        return np.concatenate([R @ (ddq[:3] + np.cross(wl, vl)), R @ ddq[3:6]]), sigma
 
-    def energy_one(self, T: np.ndarray, twist: np.ndarray, q_legs: Any) -> tuple[float, float]:
-        q, v, _ = self.state(T, twist, q_legs)
+    def energy_one(
+        self, T: np.ndarray, twist: np.ndarray, q_legs: Any, idle_rates: Any = None
+    ) -> tuple[float, float]:
+        q, v, _ = self.state(T, twist, q_legs, idle_rates)
         M = pin.crba(self.model, self.data, q)
         M = np.triu(M) + np.triu(M, 1).T
         potential = pin.computePotentialEnergy(self.model, self.data, q)

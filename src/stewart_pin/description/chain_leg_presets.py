@@ -17,11 +17,12 @@ robot closes exactly at its home pose.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from stewart_pin.description.chain_leg import ChainLeg
-from stewart_pin.description.inertia import random_physical_khalil
+from stewart_pin.description.inertia import khalil_from_urdf_inertial, random_physical_khalil
 from stewart_pin.description.leg_architecture import (
     Joint,
     JointDynamics,
@@ -29,7 +30,7 @@ from stewart_pin.description.leg_architecture import (
     revolute,
     ups,
 )
-from stewart_pin.description.leg_chain_presets import random_joint_dynamics
+from stewart_pin.description.leg_chain_presets import random_joint_dynamics, rus_preset
 from stewart_pin.description.presets import random_robot
 from stewart_pin.description.robot_description import RobotDescription
 
@@ -149,6 +150,88 @@ def _robot(
     )
 
 
+def rss_robot(symmetric: bool = True, joint_terms: bool = True, seed: int = 0) -> RobotDescription:
+    """A 6-RSS: the ``rus`` preset's geometry (servo cranks, 10 cm rods) with each rod on a
+    spherical joint at the crank tip, modelled as a U-joint (joints 2, 3) plus the rod's
+    spin about its ball-to-ball line (joint 4, the leg's ``idle_joint``: the rod along z4
+    from the U-joint centre to the ball at ``tip = [0, 0, rod]``). Every link massive; the
+    rod ``symmetric`` about its line (a solid cylinder) or not (an off-axis centre of mass
+    and a full inertia tensor); ``joint_terms``: every joint's terms on (the spin's too).
+    """
+    base = rus_preset()
+    rng = np.random.default_rng(2000 + seed)
+    legs = []
+    for k, leg in enumerate(base.legs):
+        crank_joint, u1 = leg.joints[0], leg.joints[1]
+        rod = float(leg.tip[0])
+        dyn = _leg_dynamics(rng, "RRRR", joint_terms)
+        scaled = [  # a desktop robot's joints: 1/1000 of random_joint_dynamics' terms
+            JointDynamics(
+                armature=d.armature * 1e-3,
+                viscous=d.viscous * 1e-3,
+                coulomb=d.coulomb * 1e-3,
+                stiffness=d.stiffness * 1e-3,
+                rest_position=d.rest_position,
+                damping=d.damping * 1e-3,
+            )
+            for d in dyn
+        ]
+        joints = (
+            replace(crank_joint, dynamics=scaled[0]),
+            replace(u1, dynamics=scaled[1]),
+            revolute(alpha=math.pi / 2, theta=math.pi / 2, dynamics=scaled[2]),
+            revolute(alpha=math.pi / 2, dynamics=scaled[3]),  # the spin: z4 along the rod
+        )
+        if symmetric:
+            rod_link = _cylinder(0.008, 0.002, rod)
+        else:
+            c, s = math.cos(0.3), math.sin(0.3)  # principal axes tilted off the rod's line
+            R = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+            I_c = R @ np.diag([6e-6, 7e-6, 1.5e-6]) @ R.T
+            rod_link = khalil_from_urdf_inertial(0.008, np.array([0.003, -0.002, rod / 2]), I_c)
+        inertia = np.array(
+            [
+                base.leg_inertia[k, 0],
+                khalil_from_urdf_inertial(0.002, np.zeros(3), 3e-8 * np.eye(3)),
+                khalil_from_urdf_inertial(0.0015, np.array([0.001, 0.0, 0.0]), 2e-8 * np.eye(3)),
+                rod_link,
+            ]
+        )
+        q = leg.guess
+        legs.append(
+            ChainLeg(
+                joints,
+                1,
+                "ball",
+                inertia,
+                np.array([0.0, 0.0, rod]),
+                guess=np.array([q[0], q[1], q[2], 0.2 * (k - 2.5)]),
+                idle_joint=4,
+            )
+        )
+    return RobotDescription(
+        base_points=base.base_points,
+        platform_points=base.platform_points,
+        leg_base_rotations=base.leg_base_rotations,
+        stroke=None,
+        leg_inertia=np.zeros((6, 3, 10)),
+        platform_inertia=base.platform_inertia,
+        gravity=base.gravity,
+        name=f"rss-{'symmetric' if symmetric else 'asymmetric'}",
+        home_pose=base.home_pose,
+        chain_legs=tuple(legs),
+    )
+
+
+def _cylinder(mass: float, radius: float, length: float) -> np.ndarray:
+    """A solid cylinder along z from 0 to ``length`` [m]: symmetric about its axis."""
+    axial = 0.5 * mass * radius**2
+    transverse = mass * (3 * radius**2 + length**2) / 12.0
+    return khalil_from_urdf_inertial(
+        mass, np.array([0.0, 0.0, length / 2]), np.diag([transverse, transverse, axial])
+    )
+
+
 def welded_ups(
     seed: int = 0,
     offset: float = UPPER_U_OFFSET,
@@ -170,4 +253,4 @@ def mixed_chain_robot(
     return _robot(f"mixed-chain-{seed}", (1, 3, 5), seed, offset, joint_terms)
 
 
-__all__ = ["UPPER_U_OFFSET", "mixed_chain_robot", "welded_joints", "welded_ups"]
+__all__ = ["UPPER_U_OFFSET", "mixed_chain_robot", "rss_robot", "welded_joints", "welded_ups"]

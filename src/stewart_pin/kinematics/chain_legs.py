@@ -430,13 +430,14 @@ def admissible_poses(desc: RobotDescription, T: np.ndarray, max_condition: float
         inside = turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1]))
         ok &= inside.all(axis=1)
         frames = chain_frames(leg, leg_base_pose(desc, k), q)
-        J = chain_jacobian(leg, frames)
+        J = _square(leg, chain_jacobian(leg, frames))
         with np.errstate(all="ignore"):
             s = np.linalg.svd(J, compute_uv=False)
             ok &= s[:, -1] > RANK_TOLERANCE * s[:, 0]
-            J_safe = np.where(ok[:, None, None], J, np.eye(leg.constraints, leg.n_joints))
+            J_safe = np.where(ok[:, None, None], J, np.eye(leg.n_joints))
             G = platform_map(leg, T[:, :3, :3] @ desc.platform_points[k])
-            rows[:, k] = (np.linalg.inv(J_safe) @ G)[:, leg.actuated - 1]
+            J_inv = np.linalg.inv(J_safe)[:, :, : leg.constraints]
+            rows[:, k] = (J_inv @ G)[:, leg.actuated - 1]
     if np.any(ok):
         ok[ok] = condition_number(desc, rows[ok]) <= max_condition
     return ok
@@ -508,6 +509,15 @@ class ChainLegState:
         return self.J_inv @ self.G
 
 
+def _square(leg: ChainLeg, J: np.ndarray) -> np.ndarray:
+    """``J`` (N, c, n), with the row ``e_idle^T`` below for a leg with an idle joint:
+    (N, n, n)."""
+    if leg.idle_joint is None:
+        return J
+    row = np.broadcast_to(np.eye(leg.n_joints)[leg.idle_joint - 1], (J.shape[0], 1, J.shape[2]))
+    return np.concatenate([J, row], axis=1)
+
+
 def _inv(J: np.ndarray, k: int) -> np.ndarray:
     try:
         J_inv = np.linalg.inv(J)
@@ -559,15 +569,9 @@ def leg_states(
     for k, (leg, q) in enumerate(zip(chain_legs_of(desc), q_all, strict=True)):
         frames = chain_frames(leg, leg_base_pose(desc, k), q)
         J = chain_jacobian(leg, frames)
-        null = None
-        if leg.idle_joint is None:
-            J_inv = _inv(J, k)
-        else:
-            row = np.broadcast_to(
-                np.eye(leg.n_joints)[leg.idle_joint - 1], (T.shape[0], 1, leg.n_joints)
-            )
-            square = _inv(np.concatenate([J, row], axis=1), k)
-            J_inv, null = square[:, :, : leg.constraints], square[:, :, -1]
+        square = _inv(_square(leg, J), k)
+        J_inv = square[:, :, : leg.constraints]
+        null = None if leg.idle_joint is None else square[:, :, -1]
         L = T[:, :3, :3] @ desc.platform_points[k]
         G = platform_map(leg, L)
         qdot = np.einsum("nij,nj->ni", J_inv @ G, V)
