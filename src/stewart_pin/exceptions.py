@@ -126,8 +126,10 @@ class UnsupportedArchitectureError(ArchitectureError):
 class LegMobilityError(ArchitectureError):
     """A chain leg whose joints with its closure do not give the platform its six degrees
     of freedom: fewer joints than the closure's constraints (ball 3, weld 6), one more (an
-    idle freedom such as an R-S-S rod's spin, not modelled yet) or more, or a Jacobian
-    that is singular at the home pose (:mod:`stewart_pin.description.chain_leg`).
+    idle freedom such as an R-S-S rod's spin) without ``idle_joint`` naming its coordinate,
+    or more, a Jacobian that is singular at the home pose, or an idle joint that does not
+    move the idle freedom or whose motion moves the actuator
+    (:mod:`stewart_pin.description.chain_leg`).
 
     Attributes:
         leg: leg index (1-based). missing: freedoms the platform lacks. extra: freedoms too

@@ -20,8 +20,10 @@ Mobility: with its actuated joint free, a leg must give the platform its six deg
 freedom, so a leg has as many joints as its closure has constraints (``n = 3`` ball,
 ``n = 6`` weld) and its Jacobian is regular at the home pose (checked when the robot is
 built). Fewer joints leave the platform short of freedoms; one more is an idle freedom
-(the spin of an R-S-S rod about its ball-to-ball line: refused, not modelled yet); more
-are extra freedoms. Each is refused with :class:`~stewart_pin.exceptions.LegMobilityError`.
+(the spin of an R-S-S rod about its ball-to-ball line), accepted when ``idle_joint`` names
+the joint that is its coordinate (part of the robot's state:
+:class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`); more are extra
+freedoms. The others are refused with :class:`~stewart_pin.exceptions.LegMobilityError`.
 """
 
 from __future__ import annotations
