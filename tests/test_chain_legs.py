@@ -308,3 +308,29 @@ def test_an_idle_joint_must_move_the_idle_freedom() -> None:
     welded = welded_ups(seed=1, joint_terms=False).chain_legs[0]
     with pytest.raises(LegMobilityError, match="has none"):
         _with_leg(welded_ups(seed=1, joint_terms=False), 0, welded.replace(idle_joint=4))
+
+
+def test_simulating_the_spins_keeps_the_energy_balance() -> None:
+    from stewart_pin.motion.idle_simulation import simulate_idle
+
+    r = StewartRobot(rss_robot(symmetric=False, joint_terms=False))  # smooth power
+    dyn = r.chain_dynamics
+    H, zero = r.description.home_pose, np.zeros(6)
+    s0 = chain_legs.idle_home(r.description)
+    v0 = np.random.default_rng(0).uniform(-8.0, 8.0, 6)
+    g0 = dyn.inverse_dynamics(H, zero, zero, idle=(s0, zero))
+    wave = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0]) * 0.3 * np.abs(g0).max()
+    res = simulate_idle(
+        r, 0.02, idle=(s0, v0), forces=lambda t, T, V: g0 + math.sin(60 * t) * wave, dt=0.001
+    )
+    assert len(res.t) == 21 and np.abs(res.idle_v[-1] - v0).max() > 0.1  # the spins move
+    E = [
+        sum(dyn.energy(T, V, idle=(q, v)))
+        for T, V, q, v in zip(res.poses, res.twists, res.idle_q, res.idle_v, strict=True)
+    ]
+    _, J_inv = dyn.states(
+        res.poses, res.twists, None, chain_legs.IdleState(res.idle_q, res.idle_v)
+    )
+    p = np.einsum("ni,nij,nj->n", res.gammas, J_inv, res.twists)
+    work = 0.001 / 3 * (p[0] + 4 * p[1:-1:2].sum() + 2 * p[2:-1:2].sum() + p[-1])
+    assert abs(E[-1] - E[0] - work) <= 1e-6 * np.abs(p).sum() * 0.001
