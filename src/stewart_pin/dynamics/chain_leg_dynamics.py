@@ -222,7 +222,8 @@ class ChainDynamics:
             raise InputError(
                 f"robot '{self.desc.name}' has idle freedoms ({legs}): their values and rates "
                 "are part of the robot's state; give idle=(values, rates), each (6,) or "
-                "(N, 6) [rad or m, /s], to robot.chain_dynamics' models"
+                "(N, 6) [rad or m, /s], to robot.chain_dynamics' models (simulation: "
+                "stewart_pin.motion.idle_simulation.simulate_idle)"
             )
         if isinstance(idle, kin.IdleState):
             return idle
