@@ -294,7 +294,7 @@ def test_the_spin_state_is_required_not_assumed(rss: StewartRobot) -> None:
     from stewart_pin.exceptions import SimulationError
     from stewart_pin.motion.simulation import simulate
 
-    with pytest.raises(SimulationError, match="idle freedoms.*simulate_idle"):
+    with pytest.raises(SimulationError, match=r"idle freedoms.*simulate_idle"):
         simulate(rss, 0.01)
     # the spin's rate matters: the rods' inertia couples it (gyroscopic terms)
     g0 = rss.chain_dynamics.inverse_dynamics(H, zero, zero, idle=(zero, zero))
