@@ -231,8 +231,6 @@ def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) 
             write(tmp_path / "robot.urdf")
     assert not list(tmp_path.iterdir())
     assert "<weld" in r.write_mjcf(tmp_path / "robot.xml").read_text()  # the MJCF is written
-    with pytest.raises(UnsupportedArchitectureError, match="regressor"):
-        r.regressor(r.description.home_pose, np.zeros(6), np.zeros(6))
     H, zero = r.description.home_pose, np.zeros(6)
     with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
         r.inverse_dynamics(H, zero, zero, backend="compiled")
@@ -339,3 +337,51 @@ def test_simulating_the_spins_keeps_the_energy_balance() -> None:
     p = np.einsum("ni,nij,nj->n", res.gammas, J_inv, res.twists)
     work = 0.001 / 3 * (p[0] + 4 * p[1:-1:2].sum() + 2 * p[2:-1:2].sum() + p[-1])
     assert abs(E[-1] - E[0] - work) <= 1e-6 * np.abs(p).sum() * 0.001
+
+
+def test_the_regressor_matches_the_tree_and_gives_the_inverse_model(
+    robot: StewartRobot, states: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> None:
+    from stewart_pin.dynamics.chain_leg_dynamics import chain_parameters
+
+    T, V, A = (x[:2] for x in states)
+    W = robot.regressor(T, V, A)
+    chi, names = chain_parameters(robot.description)
+    assert W.shape == (2, 6, len(chi)) == (2, 6, len(names))
+    gamma = robot.inverse_dynamics(T, V, A)
+    assert np.abs(W @ chi - gamma).max() <= TOL * np.abs(gamma).max()
+    tree = ChainTreeSolver(robot.description)
+    for n in range(2):
+        ref = tree.regressor_one(T[n], V[n], A[n], [q[0] for q in _q_legs(robot, T[n])])
+        assert np.abs(W[n] - ref).max() <= TOL * np.abs(ref).max()
+
+
+def test_legs_with_idle_joints_have_no_regressor() -> None:
+    r = StewartRobot(rss_robot())
+    with pytest.raises(UnsupportedArchitectureError, match="not linear"):
+        r.regressor(r.description.home_pose, np.zeros(6), np.zeros(6))
+
+
+def test_numerical_base_parameters_predict_the_efforts() -> None:
+    import warnings
+
+    from stewart_pin.exceptions import BaseParameterWarning
+    from stewart_pin.parameters import base_parameters
+
+    r = StewartRobot(mixed_chain_robot(seed=2))
+    with pytest.warns(BaseParameterWarning, match="no rules for chain legs"):
+        bp = base_parameters(r)  # analytic asked: the numerical set, said so
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BaseParameterWarning)
+        assert bp.names == base_parameters(r, "numerical").names
+    assert (
+        0 < len(bp.names) < len(r.regressor(r.description.home_pose, np.zeros(6), np.zeros(6))[0])
+    )
+    T, V, A = r.sample_states(4, rng=9)
+    W = r.regressor(T, V, A).reshape(-1, bp.K.shape[1])
+    gamma = r.inverse_dynamics(T, V, A).ravel()
+    assert np.abs(bp.reduce(W) @ bp.values - gamma).max() <= TOL * np.abs(gamma).max()
+    with pytest.raises(UnsupportedArchitectureError, match="identification not yet"):
+        from stewart_pin.dynamics.regressor import parameter_groups
+
+        parameter_groups(r.description)

@@ -580,7 +580,9 @@ class ChainLegPath(LegChainPath):
         return r.chain_dynamics
 
     def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
-        raise self._unsupported(r, "the regressor")
+        """Columns: :func:`~stewart_pin.dynamics.chain_leg_dynamics.chain_parameters`."""
+        with quiet_overflow():
+            return check_finite(r.chain_dynamics.regressor_batch(T, V, A), "regressor")
 
 
 #: The three paths (stateless: one instance each).

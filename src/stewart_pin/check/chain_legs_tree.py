@@ -36,6 +36,9 @@ from stewart_pin.description.inertia import pin_inertia_from_khalil
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.exceptions import InputError, SingularityError
 
+#: Khalil's order ``XX XY XZ YY YZ ZZ MX MY MZ M`` -> Pinocchio's ``m mx my mz Ixx Ixy Iyy
+#: Ixz Iyz Izz`` (written out here so that the check shares no conversion table).
+_KHALIL_TO_PIN = np.array([9, 6, 7, 8, 0, 1, 3, 2, 4, 5])
 #: Largest loop-closure error [m, rad] accepted for the given leg joint positions.
 CLOSURE_TOLERANCE = 1e-9
 
@@ -241,6 +244,41 @@ class ChainTreeSolver:
         sigma = np.zeros(6)
         sigma[self.idle_legs] = x[6 + Jc.shape[0] :]
         return x[:6], sigma
+
+    def regressor_one(
+        self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: Any
+    ) -> np.ndarray:
+        """The regressor (6, n_p) of one state from the tree (robots without idle joints):
+        ``pin.computeJointTorqueRegressor`` for every body (Khalil's order, leg-major, then
+        the platform's 10) and the joint terms ``[qddot, qdot, sign(qdot), q, 1]`` of each
+        leg joint, each column mapped to the actuated efforts by the KKT solve
+        ``[S^T, Jc^T] [Gamma; lambda] = tau``."""
+        if self.idle_legs:
+            raise InputError("a robot with idle joints has no regressor")
+        q, v, Jc = self.state(T, twist, q_legs)
+        R = T[:3, :3]
+        a = np.zeros(self.nv)
+        v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
+        a[:6] = np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
+        pin.forwardKinematics(self.model, self.data, q, v, a)
+        a[self.v_legs] = self._legs_solve(Jc, -self.loop_accelerations(), np.zeros(0))
+        Y = pin.computeJointTorqueRegressor(self.model, self.data, q, v, a)
+        khalil = np.argsort(_KHALIL_TO_PIN)
+        flat = [jid for ids in self.leg_joints for jid in ids]
+        n_links = len(flat)
+        tau = np.zeros((self.nv, 10 * n_links + 10 + 5 * n_links))
+        for c, jid in enumerate(flat):
+            tau[:, 10 * c : 10 * c + 10] = Y[:, 10 * (jid - 1) + khalil]
+        tau[:, 10 * n_links : 10 * n_links + 10] = Y[:, khalil]  # the free-flyer: joint 1
+        ql, vl, al = q[self.q_legs], v[self.v_legs], a[self.v_legs]
+        base = 10 * n_links + 10
+        for c, (row, qc, vc, ac) in enumerate(zip(self.v_legs, ql, vl, al, strict=True)):
+            sign = float(coulomb_sign(np.array(vc)))
+            tau[row, base + 5 * c : base + 5 * c + 5] = [ac, vc, sign, qc, 1.0]
+        K = np.zeros((self.nv, self.nv))
+        K[self.v_act, np.arange(6)] = 1.0
+        K[:, 6:] = Jc.T
+        return np.asarray(_solve(K, tau, "[S^T, Jc^T]")[:6])
 
     def forward_one(
         self, T: np.ndarray, twist: np.ndarray, gamma: np.ndarray, q_legs: Any

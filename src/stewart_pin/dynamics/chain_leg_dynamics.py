@@ -24,6 +24,7 @@ the actuated joints', joint side [N or N m].
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -32,7 +33,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_array, check_poses, check_states
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.chain_leg import ChainLeg
-from stewart_pin.description.inertia import pin_inertia_from_khalil
+from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL, pin_inertia_from_khalil
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.dynamics.closed_loop import (
     check_finite,
@@ -40,9 +41,39 @@ from stewart_pin.dynamics.closed_loop import (
     platform_energy,
     platform_terms,
 )
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
 from stewart_pin.kinematics import chain_legs as kin
 from stewart_pin.kinematics.jacobians import MAX_CONDITION
+
+
+def chain_parameters(desc: RobotDescription) -> tuple[np.ndarray, tuple[str, ...]]:
+    """The standard parameters ``chi`` of a robot with chain legs and their names, in the
+    order of :meth:`ChainDynamics.regressor_batch`'s columns: each leg's links (Khalil's
+    ``XX XY XZ YY YZ ZZ MX MY MZ M``, link j of leg i named ``XX_i_j``...), the platform's
+    (``XX_P``...), each leg joint's ``IA FV FC K OF`` (armature, viscous + damper,
+    Coulomb, stiffness, ``-K q0``)."""
+    legs = kin.chain_legs_of(desc)
+    khalil = KHALIL_NAMES
+    values: list[float] = []
+    names: list[str] = []
+    for i, leg in enumerate(legs, start=1):
+        for j in range(leg.n_joints):
+            values += leg.inertia[j].tolist()
+            names += [f"{p}_{i}_{j + 1}" for p in khalil]
+    values += desc.platform_inertia.tolist()
+    names += [f"{p}_P" for p in khalil]
+    for i, leg in enumerate(legs, start=1):
+        for j, joint in enumerate(leg.joints, start=1):
+            d = joint.dynamics
+            values += [
+                d.total_armature,
+                d.viscous + d.damping,
+                d.coulomb,
+                d.stiffness,
+                -d.stiffness * d.rest_position,
+            ]
+            names += [f"{p}_{i}_{j}" for p in ("IA", "FV", "FC", "K", "OF")]
+    return np.array(values), tuple(names)
 
 
 def leg_model(desc: RobotDescription, k: int) -> pin.Model:
@@ -381,6 +412,62 @@ class ChainDynamics:
         )
         return p if batched else float(p[0])
 
+    def regressor_batch(self, T: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
+        """The regressor ``W`` (N, 6, n_p) with ``Gamma = W chi`` (:func:`chain_parameters`
+        gives ``chi`` and its names): per leg link its 10 parameters (Pinocchio's
+        ``computeJointTorqueRegressor`` on the leg's chain, Khalil's order), the
+        platform's 10 (``F_p`` is linear in them), per leg joint ``IA FV FC K OF``
+        (``[qddot, qdot, sign(qdot), q, 1]``); each leg's columns through ``K_i^T``, then
+        ``Jp^T``. Legs with an idle joint: :class:`UnsupportedArchitectureError` (their
+        spin acceleration, hence Gamma, is not linear in the parameters)."""
+        if self.idle_legs:
+            raise UnsupportedArchitectureError(
+                f"robot '{self.desc.name}' has idle joints: its efforts are not linear in "
+                "the inertial parameters (the spin accelerations depend on them), so it has "
+                "no regressor",
+                "regressor",
+                self.desc.architecture,
+            )
+        legs, J_inv = self.states(T, V, A)
+        N = T.shape[0]
+        khalil = PIN_TO_KHALIL
+        leg_cols, term_cols = [], []
+        for k, s in enumerate(legs):
+            model, data = self.legs.models[k], self.legs.datas[k]
+            n = s.q.shape[1]
+            Y = np.empty((N, n, 10 * n))
+            for m in range(N):
+                y = pin.computeJointTorqueRegressor(model, data, s.q[m], s.qdot[m], s.qddot[m])
+                Y[m] = np.concatenate([y[:, 10 * j + khalil] for j in range(n)], axis=1)
+            terms = np.zeros((N, n, 5 * n))
+            for j in range(n):
+                terms[:, j, 5 * j : 5 * j + 5] = np.stack(
+                    [
+                        s.qddot[:, j],
+                        s.qdot[:, j],
+                        coulomb_sign(s.qdot[:, j]),
+                        s.q[:, j],
+                        np.ones(N),
+                    ],
+                    axis=1,
+                )
+            KT = np.swapaxes(s.KG, 1, 2)  # (N, 6, n)
+            leg_cols.append(KT @ Y)
+            term_cols.append(KT @ terms)
+        platform = np.empty((N, 6, 10))
+        for j in range(10):
+            unit = SimpleNamespace(platform_inertia=np.eye(10)[j], gravity=self.desc.gravity)
+            plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
+            platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
+        columns = np.concatenate([*leg_cols, platform, *term_cols], axis=2)
+        return np.linalg.solve(np.swapaxes(J_inv, 1, 2), columns)
+
+    def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
+        """:meth:`regressor_batch` for one state (6, n_p) or a batch (N, 6, n_p)."""
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        W = self.regressor_batch(T, V, A)
+        return W if batched else W[0]
+
     def gravity_compensation(self, pose: Any, idle: Any = None) -> np.ndarray:
         T, batched = check_poses(pose)
         zero = np.zeros((T.shape[0], 6))
@@ -394,5 +481,6 @@ __all__ = [
     "ChainInverseDynamics",
     "ChainJointTerms",
     "ChainLegModels",
+    "chain_parameters",
     "leg_model",
 ]

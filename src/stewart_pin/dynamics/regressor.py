@@ -56,6 +56,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -67,10 +68,11 @@ from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.dynamics.chain_leg_dynamics import chain_parameters
 from stewart_pin.dynamics.closed_loop import check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import GeneralLegDynamics
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
-from stewart_pin.exceptions import JointDynamicsError
+from stewart_pin.exceptions import JointDynamicsError, UnsupportedArchitectureError
 from stewart_pin.formats.urdf import leg_joint
 from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.jacobians import check_condition, inverse_jacobian_batch, leg_state
@@ -102,11 +104,25 @@ GENERAL_STANDARD_NAMES: tuple[str, ...] = STANDARD_NAMES + tuple(
 )
 
 
+def _three_joint_legs(desc: RobotDescription, what: str) -> None:
+    """:class:`UnsupportedArchitectureError` for a robot with chain legs (``what`` is
+    built on the (6, 3) layout of three-joint legs)."""
+    if desc.chain_legs is not None:
+        raise UnsupportedArchitectureError(
+            f"{what} is built on three-joint legs: robot '{desc.name}' has chain legs "
+            "(their regressor and numerical base parameters work; identification not yet)",
+            what,
+            desc.architecture,
+        )
+
+
 def standard_parameter_names(desc: RobotDescription) -> tuple[str, ...]:
     """The names of ``desc``'s standard parameters, in the regressor's column order: the
     190 of :data:`STANDARD_NAMES` for the ideal 6-UPS robot, the 280 of
     :data:`GENERAL_STANDARD_NAMES` (the same 190, then ``IA FV FC K OF`` per joint) for
-    general legs (module docstring)."""
+    general legs (module docstring); chain legs: :func:`~.chain_leg_dynamics.chain_parameters`."""
+    if desc.chain_legs is not None:
+        return chain_parameters(desc)[1]
     return STANDARD_NAMES if desc.legs is None else GENERAL_STANDARD_NAMES
 
 
@@ -134,7 +150,9 @@ def joint_terms(dynamics: JointDynamics) -> FloatArray:
 def standard_parameters(desc: RobotDescription) -> FloatArray:
     """The standard parameters ``chi`` of a description, in the regressor's order: (190,)
     for the ideal 6-UPS robot, (280,) for general legs (with the joint terms of
-    :func:`joint_terms`)."""
+    :func:`joint_terms`); chain legs: :func:`~.chain_leg_dynamics.chain_parameters`."""
+    if desc.chain_legs is not None:
+        return chain_parameters(desc)[0]
     chi = np.concatenate([desc.leg_inertia.reshape(-1), desc.platform_inertia])
     if desc.legs is None:
         return chi
@@ -213,6 +231,7 @@ def with_standard_parameters(desc: RobotDescription, chi: FloatArray) -> RobotDe
     the description (:class:`~stewart_pin.exceptions.InertiaError`). So
     ``standard_parameters(with_standard_parameters(desc, chi)) == chi`` up to round-off.
     """
+    _three_joint_legs(desc, "with_standard_parameters")
     n = len(standard_parameter_names(desc))
     chi = check_array(chi, (n,), "standard parameters chi")
     changes: dict[str, object] = {
@@ -309,6 +328,7 @@ class ParameterGroups:
 
 def parameter_groups(desc: RobotDescription) -> ParameterGroups:
     """The bodies' and joints' parameter indices of ``desc``'s standard vector."""
+    _three_joint_legs(desc, "parameter_groups (identification)")
     bodies = [
         BodyParameters(f"leg {i + 1} link {j + 1}", slice(30 * i + 10 * j, 30 * i + 10 * j + 10))
         for i in range(6)
@@ -341,6 +361,11 @@ def actuator_ratios(desc: RobotDescription) -> FloatArray:
     """(6,) the actuated joints' transmission ratios (motor rate per joint rate; 1 without
     a transmission, and for the ideal 6-UPS robot): the motor-side regressor is
     ``W / ratio[:, None]`` (row i divided by actuator i's ratio)."""
+    if desc.chain_legs is not None:
+        legs_any: tuple[Any, ...] = desc.chain_legs
+        return np.array(
+            [leg.joints[leg.actuated - 1].dynamics.transmission_ratio for leg in legs_any]
+        )
     if desc.legs is None:
         return np.ones(6)
     return np.array(
