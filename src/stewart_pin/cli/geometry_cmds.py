@@ -42,10 +42,13 @@ def _ik(args: argparse.Namespace) -> int:
         print(f"Jp^-1 (rows [a_i, L_i x a_i]), cond = {robot.condition_number(T):.4g}:")
     else:
         print(f"{robot.architecture} legs; joint values [rad revolute, m prismatic], * actuated")
-        print("leg   q1           q2           q3")
-        for i, (row, leg) in enumerate(zip(q, robot.general.legs, strict=True), 1):
+        legs = robot.description.chain_legs or robot.general.legs
+        print("leg " + "".join(f"  q{j + 1:<11d}" for j in range(q.shape[1])).rstrip())
+        for i, (row, leg) in enumerate(zip(q, legs, strict=True), 1):
+            n = len(leg.joints)  # chain legs: fewer joints than the widest leg's are blank
             cells = [
-                f"{v:12.6f}{'*' if j + 1 == leg.actuated else ' '}" for j, v in enumerate(row)
+                f"{v:12.6f}{'*' if j + 1 == leg.actuated else ' '}" if j < n else " " * 13
+                for j, v in enumerate(row)
             ]
             print(f"{i:3d} {''.join(cells)}")
         print(f"Jp^-1 (rows e_ai^T J_i^-1 G_i), cond = {robot.condition_number(T):.4g}:")

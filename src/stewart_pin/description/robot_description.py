@@ -37,7 +37,8 @@ from stewart_pin._checks import (
     project_rotation,
 )
 from stewart_pin._io import write_text_atomic
-from stewart_pin.description.chain_leg import ChainLeg, check_chain_legs
+from stewart_pin.description.chain_leg import ChainLeg
+from stewart_pin.description.chain_leg_io import chain_leg_to_dict, chain_legs_from_value
 from stewart_pin.description.inertia import check_physical, khalil_from_inertial_table
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
 from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
@@ -74,6 +75,11 @@ OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs", "source")
 ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
 # (appended here, a line apart, so that other optional keys merge in above)
 OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignment]
+
+#: ``chain_legs``: six chain leg tables (:mod:`.chain_leg_io`; any 1-dof joints, ball or
+#: weld closures); with them ``stroke`` and ``u_joint_limits`` are left out, ``leg_inertia``
+#: may be (each leg carries its links') and ``home_pose`` is required.
+OPTIONAL_KEYS = (*OPTIONAL_KEYS, "chain_legs")  # type: ignore[assignment]
 
 #: URDF-style alternatives of the two inertia keys (``docs/description.md``): each body's
 #: mass, centre of mass and inertia about it in the body's own frame
@@ -256,7 +262,7 @@ class RobotDescription:
         """Six chain legs, each giving the platform six freedoms
         (:class:`~stewart_pin.exceptions.LegMobilityError`); no ``legs``, stroke or
         U-joint limits beside them; an explicit home pose."""
-        object.__setattr__(self, "chain_legs", check_chain_legs(self.chain_legs))
+        object.__setattr__(self, "chain_legs", chain_legs_from_value(self.chain_legs))
         for key in ("legs", "stroke", "u_joint_limits"):
             if getattr(self, key) is not None:
                 raise _field_error(
@@ -333,15 +339,7 @@ class RobotDescription:
 
     # ------------------------------------------------------------------ dict and files
     def to_dict(self) -> dict[str, Any]:
-        """The description as plain Python lists (JSON/TOML-ready), with the public keys
-        (:class:`UnsupportedArchitectureError` for chain legs: no file form yet)."""
-        if self.chain_legs is not None:
-            raise UnsupportedArchitectureError(
-                f"robot '{self.name}' has chain legs, which have no file form yet (build "
-                "them in Python: stewart_pin.description.chain_leg_presets)",
-                "to_dict",
-                self.architecture,
-            )
+        """The description as plain Python lists (JSON/TOML-ready), with the public keys."""
         d: dict[str, Any] = {"name": self.name}
         for key in REQUIRED_KEYS:
             if getattr(self, key) is not None:
@@ -351,6 +349,9 @@ class RobotDescription:
                 d[key] = getattr(self, key).tolist()
         if self.legs is not None:
             d["legs"] = [leg_to_dict(leg) for leg in self.legs]
+        if self.chain_legs is not None:
+            d.pop("leg_inertia")  # zeros: each chain leg carries its links'
+            d["chain_legs"] = [chain_leg_to_dict(leg) for leg in self.chain_legs]
         if self.source is not None:
             d["source"] = self.source.to_dict()
         return d
@@ -360,7 +361,13 @@ class RobotDescription:
         """Build from the dictionary form; raises :class:`DescriptionError` on bad keys."""
         if not isinstance(d, dict):
             raise DescriptionError(f"a robot description must be a dict, got {type(d).__name__}")
-        required = [k for k in REQUIRED_KEYS if not ("legs" in d and k == "stroke")]
+        chain = "chain_legs" in d
+        required = [
+            k
+            for k in REQUIRED_KEYS
+            if not (("legs" in d or chain) and k == "stroke")
+            and not (chain and k == "leg_inertia")
+        ]
         missing = [k for k in required if k not in d and INERTIAL_KEYS.get(k) not in d]
         known = REQUIRED_KEYS + OPTIONAL_KEYS + tuple(INERTIAL_KEYS.values())
         unknown = [k for k in d if k not in known]
@@ -374,11 +381,13 @@ class RobotDescription:
         d = _inertia_from_tables(d)
         kwargs = {k: d[k] for k in REQUIRED_KEYS + OPTIONAL_KEYS if k in d}
         kwargs.setdefault("stroke", None)
+        if chain:
+            kwargs.setdefault("leg_inertia", np.zeros((6, 3, 10)))
         return cls(**kwargs)
 
     def replace(self, **changes: Any) -> RobotDescription:
         """A copy with some fields changed (validated again)."""
-        d = {k: getattr(self, k) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS, "chain_legs")}
+        d = {k: getattr(self, k) for k in (*REQUIRED_KEYS, *OPTIONAL_KEYS)}
         d.update(changes)
         return RobotDescription(**d)
 
@@ -392,10 +401,14 @@ class RobotDescription:
             write_text_atomic(path, json.dumps(d, indent=2) + "\n")
         elif suffix == ".toml":
             legs = d.pop("legs", None)
+            chain = d.pop("chain_legs", None)
             source = d.pop("source", None)
-            text = (FILE_HEADER if legs is None else GENERAL_FILE_HEADER) + _toml(d)
+            header = FILE_HEADER if legs is None else GENERAL_FILE_HEADER
+            text = (CHAIN_FILE_HEADER if chain is not None else header) + _toml(d)
             if legs is not None:
                 text += LEGS_HEADER + legs_toml(legs)
+            if chain is not None:
+                text += CHAIN_LEGS_HEADER + legs_toml(chain, "chain_legs")
             if source is not None:
                 text += source_toml(source)
             write_text_atomic(path, text)
@@ -692,6 +705,24 @@ GENERAL_FILE_HEADER = """\
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose, the workspace
 #   centre. No stroke nor u_joint_limits: each joint's limits are in [[legs.joints]].
+"""
+
+#: The header of a robot with chain legs (no stroke, no leg_inertia: in the legs).
+CHAIN_FILE_HEADER = """\
+# stewart-pin robot description, chain legs (SI units: m, kg, kg m^2, m/s^2; rad).
+# base_points: B_i, origin of leg frame 0i, in F0 (6 x 3). platform_points: P_i in Fp
+#   (6 x 3), the ball centre or the weld's platform frame origin. leg_base_rotations:
+#   orientation in F0 of leg frame 0i (6 x 3 x 3), from which joint 1's MDH transform starts.
+# platform_inertia: Khalil's XX XY XZ YY YZ ZZ MX MY MZ M of the platform, in Fp about its
+#   origin. gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose.
+"""
+
+#: What precedes the ``[[chain_legs]]`` tables.
+CHAIN_LEGS_HEADER = """
+# chain_legs: six chain leg tables (docs/legs.md, "Chain legs and welds"). Per leg:
+#   actuated (1..n), closure ("ball" or "weld"), tip (in the last link's frame), inertia
+#   (n x 10, each link in its MDH frame), optional tip_rotation, platform_rotation (weld),
+#   guess, idle_joint, and n [[chain_legs.joints]] as [[legs.joints]].
 """
 
 LEGS_HEADER = """
