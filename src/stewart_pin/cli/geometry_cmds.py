@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +43,7 @@ def _ik(args: argparse.Namespace) -> int:
         print(f"Jp^-1 (rows [a_i, L_i x a_i]), cond = {robot.condition_number(T):.4g}:")
     else:
         print(f"{robot.architecture} legs; joint values [rad revolute, m prismatic], * actuated")
-        legs = robot.description.chain_legs or robot.general.legs
+        legs: tuple[Any, ...] = robot.description.chain_legs or robot.general.legs
         print("leg " + "".join(f"  q{j + 1:<11d}" for j in range(q.shape[1])).rstrip())
         for i, (row, leg) in enumerate(zip(q, legs, strict=True), 1):
             n = len(leg.joints)  # chain legs: fewer joints than the widest leg's are blank
