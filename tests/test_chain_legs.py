@@ -416,3 +416,11 @@ def test_the_command_line_reads_chain_legs(
     assert main(["urdf", "--description", str(path), "-o", str(tmp_path / "r.urdf")]) == 2
     assert "chain legs" in capsys.readouterr().err
     assert not (tmp_path / "r.urdf").exists()
+
+
+def test_validate_takes_chain_legs() -> None:
+    from stewart_pin.check.constrained_dynamics import validate
+
+    report = validate(StewartRobot(mixed_chain_robot(seed=5)), n_states=6, seed=1)
+    assert report.n_states == 6 and report.passed(1e-10, 1e-10)
+    assert max(report.idm_error, report.ddm_error, report.round_trip_error) <= 1e-10
