@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from stewart_pin import StewartRobot
-from stewart_pin.description.chain_leg_presets import mixed_chain_robot, welded_ups
+from stewart_pin.description.chain_leg_presets import mixed_chain_robot, rss_robot, welded_ups
 from stewart_pin.exceptions import UnsupportedArchitectureError
 
 mujoco = pytest.importorskip("mujoco", reason="MuJoCo is optional: pip install mujoco")
@@ -50,8 +50,12 @@ def loop_jacobian(m, data, robot: StewartRobot) -> tuple[np.ndarray, np.ndarray]
     return np.vstack(rows), np.concatenate(drift)
 
 
-def mujoco_kkt_inverse_dynamics(m, data, robot: StewartRobot, T, V, A) -> np.ndarray:  # type: ignore[no-untyped-def]
-    from stewart_pin.formats.mjcf import mujoco_qpos
+def mujoco_kkt_inverse_dynamics(m, data, robot: StewartRobot, T, V, A, idle=None):  # type: ignore[no-untyped-def]
+    """Gamma (6,) and the idle joints' accelerations (6,) by the KKT solve (module
+    docstring); ``idle``: the idle joints' (values, rates), each (6,), for such legs (the
+    leg accelerations are unknowns, the idle ones among them: the system stays square)."""
+    from stewart_pin.formats.mjcf import mujoco_qpos, quaternion_wxyz
+    from stewart_pin.kinematics import chain_legs
 
     legs = robot.description.chain_legs
     L = np.array(
@@ -63,12 +67,26 @@ def mujoco_kkt_inverse_dynamics(m, data, robot: StewartRobot, T, V, A) -> np.nda
     )
     ff = m.joint("platform_joint").dofadr[0]
     F = np.arange(ff, ff + 6)
-    data.qpos[:] = mujoco_qpos(robot.description, T)
+    idle_dofs = [
+        m.joint(f"leg{k}_q{leg.idle_joint}").dofadr[0]
+        for k, leg in enumerate(legs, 1)
+        if leg.idle_joint is not None
+    ]
+    E = (np.array(idle_dofs, dtype=int)[:, None] == L[None, :]).astype(float)
+    if idle is None:
+        data.qpos[:] = mujoco_qpos(robot.description, T)
+        rates = np.zeros(len(idle_dofs))
+    else:
+        qs = chain_legs.inverse_geometry(robot.description, T[None], False, idle[0][None])
+        data.qpos[:] = np.concatenate([*(q[0] for q in qs), T[:3, 3], quaternion_wxyz(T[:3, :3])])
+        rates = np.array([idle[1][k] for k, leg in enumerate(legs) if leg.idle_joint])
     data.qvel[:] = 0.0
     data.qvel[F] = np.r_[V[:3], T[:3, :3].T @ V[3:]]
     mujoco.mj_forward(m, data)
     Jc, _ = loop_jacobian(m, data, robot)
-    data.qvel[L] = np.linalg.solve(Jc[:, L], -Jc[:, F] @ data.qvel[F])
+    data.qvel[L] = np.linalg.solve(
+        np.vstack([Jc[:, L], E]), np.r_[-Jc[:, F] @ data.qvel[F], rates]
+    )
     mujoco.mj_forward(m, data)
     Jc, drift = loop_jacobian(m, data, robot)
     # MuJoCo's equality rows constrain the same motions as Jc
@@ -89,7 +107,10 @@ def mujoco_kkt_inverse_dynamics(m, data, robot: StewartRobot, T, V, A) -> np.nda
     K[:nv, :n_legs], K[:nv, n_legs : n_legs + 6], K[:nv, n_legs + 6 :] = M[:, L], -S.T, -Jc.T
     K[nv:, :n_legs] = Jc[:, L]
     rhs = np.r_[-M[:, F] @ a_F - data.qfrc_bias + data.qfrc_passive, -Jc[:, F] @ a_F - drift]
-    return np.linalg.solve(K, rhs)[n_legs : n_legs + 6]
+    x = np.linalg.solve(K, rhs)
+    sigma = np.zeros(6)
+    sigma[[k for k, leg in enumerate(legs) if leg.idle_joint is not None]] = E @ x[:n_legs]
+    return x[n_legs : n_legs + 6], sigma
 
 
 @pytest.mark.parametrize("build", [welded_ups, mixed_chain_robot])
@@ -109,8 +130,29 @@ def test_mujoco_kkt_inverse_dynamics(build) -> None:  # type: ignore[no-untyped-
     T, V, A = robot.sample_states(3, rng=5)
     expected = robot.inverse_dynamics(T, V, A)
     for n in range(3):
-        got = mujoco_kkt_inverse_dynamics(m, data, robot, T[n], V[n], A[n])
+        got, _ = mujoco_kkt_inverse_dynamics(m, data, robot, T[n], V[n], A[n])
         assert np.abs(got - expected[n]).max() <= 1e-9 * np.abs(expected[n]).max()
+
+
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_mujoco_kkt_with_spinning_rods(symmetric: bool) -> None:
+    """6-RSS: the rods' spins are MuJoCo hinges; the KKT solve gives Gamma and the spin
+    accelerations the chain-leg inverse model returns for the same spin state."""
+    robot = StewartRobot(without_coulomb(rss_robot(symmetric)))
+    m = mujoco.MjModel.from_xml_string(robot.mjcf())
+    data = mujoco.MjData(m)
+    assert m.nv == 6 + 6 * 4 and m.neq == 6
+    T, V, A = robot.sample_states(3, rng=6)
+    rng = np.random.default_rng(1)
+    spin, rate = rng.uniform(-1.0, 1.0, (3, 6)), rng.uniform(-5.0, 5.0, (3, 6))
+    res = robot.chain_dynamics.inverse_dynamics(T, V, A, details=True, idle=(spin, rate))
+    for n in range(3):
+        got, sigma = mujoco_kkt_inverse_dynamics(
+            m, data, robot, T[n], V[n], A[n], (spin[n], rate[n])
+        )
+        assert np.abs(got - res.gamma[n]).max() <= 1e-9 * np.abs(res.gamma[n]).max()
+        ref = res.idle_accel[n]
+        assert np.abs(sigma - ref).max() <= 1e-9 * np.abs(ref).max()
 
 
 def test_the_pinocchio_layout_is_refused() -> None:
