@@ -396,10 +396,6 @@ def test_numerical_base_parameters_predict_the_efforts() -> None:
     W = r.regressor(T, V, A).reshape(-1, bp.K.shape[1])
     gamma = r.inverse_dynamics(T, V, A).ravel()
     assert np.abs(bp.reduce(W) @ bp.values - gamma).max() <= TOL * np.abs(gamma).max()
-    with pytest.raises(UnsupportedArchitectureError, match="identification not yet"):
-        from stewart_pin.dynamics.regressor import parameter_groups
-
-        parameter_groups(r.description)
 
 
 def test_the_command_line_reads_chain_legs(
@@ -424,3 +420,39 @@ def test_validate_takes_chain_legs() -> None:
     report = validate(StewartRobot(mixed_chain_robot(seed=5)), n_states=6, seed=1)
     assert report.n_states == 6 and report.passed(1e-10, 1e-10)
     assert max(report.idm_error, report.ddm_error, report.round_trip_error) <= 1e-10
+
+
+def test_identification_recovers_the_base_parameters() -> None:
+    import warnings
+
+    from stewart_pin.dynamics.regressor import (
+        parameter_groups,
+        standard_parameters,
+        with_standard_parameters,
+    )
+    from stewart_pin.exceptions import BaseParameterWarning
+    from stewart_pin.parameters import base_parameters, identify
+    from stewart_pin.parameters.identification import Measurements
+
+    r = StewartRobot(mixed_chain_robot(seed=2))
+    desc = r.description
+    chi = standard_parameters(desc)
+    groups = parameter_groups(desc)
+    assert len(groups.bodies) == 3 * 3 + 3 * 6 + 1 and len(groups.joints) == 27
+    assert groups.joints[3].name == "leg 2 joint 1" and groups.joints[5].actuated
+    # a changed vector makes a changed robot, whose forces the regressor predicts
+    chi2 = chi.copy()
+    chi2[groups.joints[0].viscous] *= 3.0
+    chi2[groups.bodies[-1].index.stop - 1] *= 1.5  # the platform's mass
+    other = StewartRobot(with_standard_parameters(desc, chi2))
+    assert np.array_equal(standard_parameters(other.description), chi2)
+    T, V, A = r.sample_states(70, rng=4)
+    assert np.allclose(
+        r.regressor(T[:3], V[:3], A[:3]) @ chi2, other.inverse_dynamics(T[:3], V[:3], A[:3])
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BaseParameterWarning)
+        base = base_parameters(r, "numerical")
+    times = 0.01 * np.arange(70)
+    result = identify(r, Measurements(times, T, V, A, r.inverse_dynamics(T, V, A)), base, False)
+    assert np.abs(result.estimate - base.values).max() <= 1e-9 * np.abs(base.values).max()

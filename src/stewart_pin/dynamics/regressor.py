@@ -72,7 +72,7 @@ from stewart_pin.dynamics.chain_leg_dynamics import chain_parameters
 from stewart_pin.dynamics.closed_loop import check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import GeneralLegDynamics
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
-from stewart_pin.exceptions import JointDynamicsError, UnsupportedArchitectureError
+from stewart_pin.exceptions import JointDynamicsError
 from stewart_pin.formats.urdf import leg_joint
 from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.jacobians import check_condition, inverse_jacobian_batch, leg_state
@@ -104,16 +104,65 @@ GENERAL_STANDARD_NAMES: tuple[str, ...] = STANDARD_NAMES + tuple(
 )
 
 
-def _three_joint_legs(desc: RobotDescription, what: str) -> None:
-    """:class:`UnsupportedArchitectureError` for a robot with chain legs (``what`` is
-    built on the (6, 3) layout of three-joint legs)."""
-    if desc.chain_legs is not None:
-        raise UnsupportedArchitectureError(
-            f"{what} is built on three-joint legs: robot '{desc.name}' has chain legs "
-            "(their regressor and numerical base parameters work; identification not yet)",
-            what,
-            desc.architecture,
+def _chain_offsets(desc: RobotDescription) -> tuple[list[list[int]], int, list[list[int]]]:
+    """Where each chain leg link's 10 parameters start, the platform's, and where each
+    joint's ``IA`` is (:func:`~.chain_leg_dynamics.chain_parameters`' order)."""
+    legs = desc.chain_legs or ()
+    links, k = [], 0
+    for leg in legs:
+        links.append([k + 10 * j for j in range(leg.n_joints)])
+        k += 10 * leg.n_joints
+    platform, k = k, k + 10
+    joints = []
+    for leg in legs:
+        joints.append([k + N_JOINT_TERMS * j for j in range(leg.n_joints)])
+        k += N_JOINT_TERMS * leg.n_joints
+    return links, platform, joints
+
+
+def _chain_parameter_groups(desc: RobotDescription) -> ParameterGroups:
+    links, platform, terms = _chain_offsets(desc)
+    bodies = [
+        BodyParameters(f"leg {i + 1} link {j + 1}", slice(k, k + 10))
+        for i, row in enumerate(links)
+        for j, k in enumerate(row)
+    ]
+    bodies.append(BodyParameters("platform", slice(platform, platform + 10)))
+    joints = [
+        JointParameters(
+            f"leg {i + 1} joint {j + 1}",
+            i + 1,
+            j + 1,
+            joint.kind,
+            k,
+            k + 1,
+            k + 2,
+            k + 3,
+            k + 4,
+            leg.actuated == j + 1,
         )
+        for i, (leg, row) in enumerate(zip(desc.chain_legs or (), terms, strict=True))
+        for j, (joint, k) in enumerate(zip(leg.joints, row, strict=True))
+    ]
+    return ParameterGroups(tuple(bodies), tuple(joints), standard_parameter_names(desc))
+
+
+def _chain_with_standard_parameters(desc: RobotDescription, chi: FloatArray) -> RobotDescription:
+    links, platform, terms = _chain_offsets(desc)
+    legs = []
+    for i, (leg, rows, starts) in enumerate(zip(desc.chain_legs or (), links, terms, strict=True)):
+        joints = tuple(
+            replace(
+                joint,
+                dynamics=_joint_dynamics_from_terms(
+                    joint.dynamics, chi[k : k + N_JOINT_TERMS], f"leg {i + 1} joint {j + 1}"
+                ),
+            )
+            for j, (joint, k) in enumerate(zip(leg.joints, starts, strict=True))
+        )
+        inertia = np.array([chi[k : k + 10] for k in rows])
+        legs.append(leg.replace(joints=joints, inertia=inertia))
+    return desc.replace(chain_legs=tuple(legs), platform_inertia=chi[platform : platform + 10])
 
 
 def standard_parameter_names(desc: RobotDescription) -> tuple[str, ...]:
@@ -231,9 +280,10 @@ def with_standard_parameters(desc: RobotDescription, chi: FloatArray) -> RobotDe
     the description (:class:`~stewart_pin.exceptions.InertiaError`). So
     ``standard_parameters(with_standard_parameters(desc, chi)) == chi`` up to round-off.
     """
-    _three_joint_legs(desc, "with_standard_parameters")
     n = len(standard_parameter_names(desc))
     chi = check_array(chi, (n,), "standard parameters chi")
+    if desc.chain_legs is not None:
+        return _chain_with_standard_parameters(desc, chi)
     changes: dict[str, object] = {
         "leg_inertia": chi[:180].reshape(6, 3, 10),
         "platform_inertia": chi[180:190],
@@ -328,7 +378,8 @@ class ParameterGroups:
 
 def parameter_groups(desc: RobotDescription) -> ParameterGroups:
     """The bodies' and joints' parameter indices of ``desc``'s standard vector."""
-    _three_joint_legs(desc, "parameter_groups (identification)")
+    if desc.chain_legs is not None:
+        return _chain_parameter_groups(desc)
     bodies = [
         BodyParameters(f"leg {i + 1} link {j + 1}", slice(30 * i + 10 * j, 30 * i + 10 * j + 10))
         for i in range(6)
