@@ -240,10 +240,7 @@ def test_description_rules() -> None:
 def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) -> None:
     r = StewartRobot(welded_ups(seed=1, joint_terms=False))
     with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
-        r.urdf()
-    for write in (r.write_urdf, r.write_xacro_args):
-        with pytest.raises(UnsupportedArchitectureError, match="chain legs"):
-            write(tmp_path / "robot.urdf")
+        r.write_xacro_args(tmp_path / "robot.yaml")
     assert not list(tmp_path.iterdir())
     assert "<weld" in r.write_mjcf(tmp_path / "robot.xml").read_text()  # the MJCF is written
     H, zero = r.description.home_pose, np.zeros(6)
@@ -409,9 +406,10 @@ def test_the_command_line_reads_chain_legs(
     assert "chain legs" in out and "q6" in out
     q = StewartRobot.from_file(path).inverse_geometry(mixed_chain_robot(seed=2).home_pose)
     assert f"{q[1, 5]:12.6f}" in out  # a welded leg's sixth joint
-    assert main(["urdf", "--description", str(path), "-o", str(tmp_path / "r.urdf")]) == 2
-    assert "chain legs" in capsys.readouterr().err
-    assert not (tmp_path / "r.urdf").exists()
+    assert main(["urdf", "--description", str(path), "-o", str(tmp_path / "r.urdf")]) == 0
+    assert (tmp_path / "r.closures.json").exists()
+    assert main(["validate", "--description", str(path), "--states", "3"]) == 0
+    assert "PASSED" in capsys.readouterr().out
 
 
 def test_validate_takes_chain_legs() -> None:
@@ -456,3 +454,46 @@ def test_identification_recovers_the_base_parameters() -> None:
     times = 0.01 * np.arange(70)
     result = identify(r, Measurements(times, T, V, A, r.inverse_dynamics(T, V, A)), base, False)
     assert np.abs(result.estimate - base.values).max() <= 1e-9 * np.abs(base.values).max()
+
+
+def test_the_urdf_and_its_sidecar_are_the_checked_tree(tmp_path: Path) -> None:
+    import json
+
+    desc = mixed_chain_robot(seed=2)
+    urdf, sidecar = StewartRobot(desc).write_urdf(tmp_path / "chain.urdf")
+    model = pin.buildModelFromXML(urdf.read_text())
+    ref = ChainTreeSolver(desc).model
+    assert (model.nq, model.nv) == (ref.nq, ref.nv) == (7 + 27, 6 + 27)
+    for name in [n for n in ref.names[1:] if n != "platform"]:
+        k, j = name[1:].split("j")
+        mine, theirs = model.getJointId(f"leg{k}_q{j}"), ref.getJointId(name)
+        assert model.joints[mine].shortname() == ref.joints[theirs].shortname()
+        M1, M2 = model.jointPlacements[mine], ref.jointPlacements[theirs]
+        assert M1.isApprox(M2, 1e-12)
+        p1 = model.inertias[mine].toDynamicParameters()
+        assert np.allclose(p1, ref.inertias[theirs].toDynamicParameters(), rtol=1e-12, atol=1e-15)
+    data = json.loads(sidecar.read_text())
+    kinds = [c["type"] for c in data["closures"]]
+    assert kinds == ["point", "frame"] * 3
+    for leg, c, P in zip(
+        desc.chain_legs or (), data["closures"], desc.platform_points, strict=True
+    ):
+        if c["type"] == "frame":
+            assert np.allclose(pin.rpy.rpyToMatrix(np.array(c["frame1"]["rpy"])), leg.tip_rotation)
+            assert np.allclose(
+                pin.rpy.rpyToMatrix(np.array(c["frame2"]["rpy"])), leg.platform_rotation
+            )
+            assert np.allclose(c["frame2"]["xyz"], P)
+        else:
+            assert np.allclose(c["point2"], P)
+    terms = data["joint_terms"]
+    assert (
+        len(terms) == 27
+        and terms["leg2_q6"]["armature"] == desc.chain_legs[1].joints[5].dynamics.total_armature
+    )
+    # the importer and the Pinocchio loader read point closures only: a clear refusal
+    from stewart_pin.exceptions import FileFormatError
+    from stewart_pin.formats.urdf import read_sidecar
+
+    with pytest.raises(FileFormatError, match="type 'frame', not 'point'"):
+        read_sidecar(sidecar)
