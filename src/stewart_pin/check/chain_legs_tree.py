@@ -203,6 +203,26 @@ class ChainTreeSolver:
             raise InputError("this robot has idle joints: give their rates (6,)")
         return np.asarray(values, dtype=float)[self.idle_legs]
 
+    def _accelerations(
+        self,
+        T: np.ndarray,
+        twist: np.ndarray,
+        accel: np.ndarray,
+        q: np.ndarray,
+        v: np.ndarray,
+        Jc: np.ndarray,
+    ) -> np.ndarray:
+        """The tree's accelerations (nv,): the free-flyer's from the platform's classical
+        acceleration, the legs' from the loops (idle joints at zero acceleration)."""
+        R = T[:3, :3]
+        a = np.zeros(self.nv)
+        v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
+        a[:6] = np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
+        pin.forwardKinematics(self.model, self.data, q, v, a)
+        idle = np.zeros(len(self.idle_legs))
+        a[self.v_legs] = self._legs_solve(Jc, -self.loop_accelerations(), idle)
+        return a
+
     # ------------------------------------------------------------------ one state
     def inverse_one(
         self, T: np.ndarray, twist: np.ndarray, accel: np.ndarray, q_legs: Any
@@ -223,13 +243,8 @@ class ChainTreeSolver:
         loop forces: ``[S^T, Jc^T, -M N] [Gamma; lambda; sigma] = tau(a0)`` with the leg
         accelerations ``a0 + N sigma``."""
         q, v, Jc = self.state(T, twist, q_legs, idle_rates)
-        R = T[:3, :3]
-        a = np.zeros(self.nv)
-        v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
-        a[:6] = np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
-        pin.forwardKinematics(self.model, self.data, q, v, a)
         n_idle = len(self.idle_legs)
-        a[self.v_legs] = self._legs_solve(Jc, -self.loop_accelerations(), np.zeros(n_idle))
+        a = self._accelerations(T, twist, accel, q, v, Jc)
         tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
         N = np.zeros((self.nv, n_idle))
         for i in range(n_idle):
@@ -256,12 +271,7 @@ class ChainTreeSolver:
         if self.idle_legs:
             raise InputError("a robot with idle joints has no regressor")
         q, v, Jc = self.state(T, twist, q_legs)
-        R = T[:3, :3]
-        a = np.zeros(self.nv)
-        v_loc, w_loc = R.T @ twist[:3], R.T @ twist[3:]
-        a[:6] = np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
-        pin.forwardKinematics(self.model, self.data, q, v, a)
-        a[self.v_legs] = self._legs_solve(Jc, -self.loop_accelerations(), np.zeros(0))
+        a = self._accelerations(T, twist, accel, q, v, Jc)
         Y = pin.computeJointTorqueRegressor(self.model, self.data, q, v, a)
         khalil = np.argsort(_KHALIL_TO_PIN)
         flat = [jid for ids in self.leg_joints for jid in ids]

@@ -605,6 +605,31 @@ def limit_values(lower: float, upper: float) -> tuple[float, float]:
     )
 
 
+def _chain_joint(
+    robot: ET.Element, name: str, joint: Any, parent: str, child: str, T: np.ndarray
+) -> None:
+    """A leg joint: placed at ``T`` (4x4) in its parent link, about z, its limits, damping
+    (viscous + damper) and friction (Coulomb)."""
+    el = ET.SubElement(robot, "joint", name=name, type=str(joint.kind))
+    ET.SubElement(el, "parent", link=parent)
+    ET.SubElement(el, "child", link=child)
+    urdf_origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
+    ET.SubElement(el, "axis", xyz="0 0 1")
+    lo_w, hi_w = limit_values(joint.lower, joint.upper)
+    ET.SubElement(
+        el,
+        "limit",
+        lower=num(lo_w),
+        upper=num(hi_w),
+        effort=num(URDF_EFFORT),
+        velocity=num(URDF_VELOCITY),
+    )
+    dyn = joint.dynamics
+    ET.SubElement(
+        el, "dynamics", damping=num(dyn.viscous + dyn.damping), friction=num(dyn.coulomb)
+    )
+
+
 def leg_chains_urdf_string(desc: Any) -> str:
     """The URDF of the tree of a robot's legs' joint chains (see the module docstring):
     what :func:`urdf_string` writes for general legs (:func:`is_general`); it takes any
@@ -632,27 +657,7 @@ def leg_chains_urdf_string(desc: Any) -> str:
                 urdf_visual(link, visual)
         for j, joint in enumerate(leg.joints):
             T = joint_placement(desc, k, j)
-            el = ET.SubElement(robot, "joint", name=leg_joint(i, j + 1), type=str(joint.kind))
-            ET.SubElement(el, "parent", link=parents[j])
-            ET.SubElement(el, "child", link=leg_link(i, j + 1))
-            urdf_origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
-            ET.SubElement(el, "axis", xyz="0 0 1")
-            lo_w, hi_w = limit_values(joint.lower, joint.upper)
-            ET.SubElement(
-                el,
-                "limit",
-                lower=num(lo_w),
-                upper=num(hi_w),
-                effort=num(URDF_EFFORT),
-                velocity=num(URDF_VELOCITY),
-            )
-            dyn = joint.dynamics
-            ET.SubElement(
-                el,
-                "dynamics",
-                damping=num(dyn.viscous + dyn.damping),
-                friction=num(dyn.coulomb),
-            )
+            _chain_joint(robot, leg_joint(i, j + 1), joint, parents[j], leg_link(i, j + 1), T)
 
     add_platform(robot, desc.platform_inertia, np.asarray(desc.platform_points), vs.plate())
     ET.indent(robot)
@@ -819,24 +824,8 @@ def chain_legs_urdf_string(desc: Any) -> str:
                 T0 = np.eye(4)
                 T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[i - 1], desc.base_points[i - 1]
                 T = T0 @ T
-            el = ET.SubElement(robot, "joint", name=leg_joint(i, j), type=str(joint.kind))
-            ET.SubElement(el, "parent", link=BASE_LINK if j == 1 else leg_link(i, j - 1))
-            ET.SubElement(el, "child", link=leg_link(i, j))
-            urdf_origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
-            ET.SubElement(el, "axis", xyz="0 0 1")
-            lo_w, hi_w = limit_values(joint.lower, joint.upper)
-            ET.SubElement(
-                el,
-                "limit",
-                lower=num(lo_w),
-                upper=num(hi_w),
-                effort=num(URDF_EFFORT),
-                velocity=num(URDF_VELOCITY),
-            )
-            dyn = joint.dynamics
-            ET.SubElement(
-                el, "dynamics", damping=num(dyn.viscous + dyn.damping), friction=num(dyn.coulomb)
-            )
+            parent = BASE_LINK if j == 1 else leg_link(i, j - 1)
+            _chain_joint(robot, leg_joint(i, j), joint, parent, leg_link(i, j), T)
     add_platform(robot, desc.platform_inertia, np.asarray(desc.platform_points), vs)
     ET.indent(robot)
     return (
