@@ -288,10 +288,13 @@ def test_rss_direct_dynamics_returns_the_spin_accelerations_of_the_tree(
     acc, sigma = rss.chain_dynamics.direct_dynamics_idle(T, V, gammas, idle=(spin, rate))
     qs = chain_legs.inverse_geometry(rss.description, T, False, spin)
     tree = ChainTreeSolver(rss.description)
+    # 1e-9: this desktop robot's accelerations are ill-conditioned in its efforts (efforts
+    # of 0.1 N m balancing a 1 kg head on 3 cm cranks, cond(A_robot) ~ 400): a 1e-15
+    # relative change of Gamma moves Vdot by up to ~1e-10 (scripts/chain_legs_validation.py)
     for n in range(3):
         ref, ref_sigma = tree.forward_idle_one(T[n], V[n], gammas[n], [x[n] for x in qs], rate[n])
-        assert np.abs(acc[n] - ref).max() <= TOL * np.abs(ref).max()
-        assert np.abs(sigma[n] - ref_sigma).max() <= TOL * np.abs(ref_sigma).max()
+        assert np.abs(acc[n] - ref).max() <= 1e-9 * np.abs(ref).max()
+        assert np.abs(sigma[n] - ref_sigma).max() <= 1e-9 * np.abs(ref_sigma).max()
 
 
 def test_the_spin_state_is_required_not_assumed(rss: StewartRobot) -> None:

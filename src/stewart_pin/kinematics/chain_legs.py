@@ -60,8 +60,10 @@ NEWTON_MAX_ITERATIONS = 40
 MAX_STEP = 0.3
 #: Continuation from the home pose: sub-steps of at most this fraction of the size [m]
 #: and this angle [rad].
-CONTINUATION_TRANSLATION = 0.1
-CONTINUATION_ROTATION = 0.15
+CONTINUATION_TRANSLATION = 0.25
+CONTINUATION_ROTATION = 0.25
+#: Newton's tolerance at the continuation's intermediate poses.
+CONTINUATION_TOLERANCE = 1e-6
 #: Singular values of a leg's Jacobian under this fraction of its largest: rank-deficient.
 RANK_TOLERANCE = 1e-9
 
@@ -94,11 +96,11 @@ class ChainFrames:
     tip: np.ndarray
 
 
-def _mdh_batch(alpha: float, d: float, theta: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` (N, 4, 4) for arrays theta, r (N,)."""
+def _mdh_batch(alpha: float, d: float, theta: Any, r: Any, N: int) -> np.ndarray:
+    """``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` (N, 4, 4) for theta, r (N,) or scalars."""
     ca, sa = math.cos(alpha), math.sin(alpha)
     ct, st = np.cos(theta), np.sin(theta)
-    T = np.zeros((theta.shape[0], 4, 4))
+    T = np.zeros((N, 4, 4))
     T[:, 0, 0], T[:, 0, 1], T[:, 0, 3] = ct, -st, d
     T[:, 1, 0], T[:, 1, 1], T[:, 1, 2], T[:, 1, 3] = ca * st, ca * ct, -sa, -r * sa
     T[:, 2, 0], T[:, 2, 1], T[:, 2, 2], T[:, 2, 3] = sa * st, sa * ct, ca, r * ca
@@ -109,14 +111,12 @@ def _mdh_batch(alpha: float, d: float, theta: np.ndarray, r: np.ndarray) -> np.n
 def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
     """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n)."""
     N, n = q.shape
-    T = np.broadcast_to(T0, (N, 4, 4))
+    T: np.ndarray = T0  # (4, 4), then (N, 4, 4)
     origins, axes = np.empty((N, n, 3)), np.empty((N, n, 3))
     for j, joint in enumerate(leg.joints):
-        theta = joint.theta + (q[:, j] if joint.revolute else 0.0)
-        r = joint.r + (0.0 if joint.revolute else q[:, j])
-        T = T @ _mdh_batch(
-            joint.alpha, joint.d, np.broadcast_to(theta, (N,)), np.broadcast_to(r, (N,))
-        )
+        theta = joint.theta + q[:, j] if joint.revolute else joint.theta
+        r = joint.r if joint.revolute else joint.r + q[:, j]
+        T = T @ _mdh_batch(joint.alpha, joint.d, theta, r, N)
         origins[:, j], axes[:, j] = T[:, :3, 3], T[:, :3, 2]
     return ChainFrames(origins, axes, T @ leg.attachment())
 
@@ -193,10 +193,15 @@ def leg_base_pose(desc: RobotDescription, k: int) -> np.ndarray:
 
 
 def newton(
-    desc: RobotDescription, k: int, target: np.ndarray, q: np.ndarray
+    desc: RobotDescription,
+    k: int,
+    target: np.ndarray,
+    q: np.ndarray,
+    tol: float = NEWTON_TOLERANCE,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Guarded Newton on leg k's chain toward ``target`` (N, 4, 4) from q (N, n), an idle
-    joint kept at its value; returns ``(q, converged (N,) bool)``."""
+    joint kept at its value, to ``tol`` (relative position, rad); returns ``(q, converged
+    (N,) bool)``."""
     leg = chain_legs_of(desc)[k]
     T0 = leg_base_pose(desc, k)
     size = robot_size(desc)
@@ -210,7 +215,7 @@ def newton(
         err = np.linalg.norm(e[:, :3], axis=1) / size
         if leg.constraints == 6:
             err = np.maximum(err, np.linalg.norm(e[:, 3:], axis=1))
-        done = err <= NEWTON_TOLERANCE
+        done = err <= tol
         if np.all(done):
             break
         J = chain_jacobian(leg, frames)[:, :, free]
@@ -328,8 +333,11 @@ def check_limits_of(desc: RobotDescription, k: int, q: np.ndarray) -> np.ndarray
     return q
 
 
-def _continuation_steps(desc: RobotDescription, T: np.ndarray, idle_step: np.ndarray) -> int:
-    H = desc.home_pose
+def _continuation_steps(
+    desc: RobotDescription, H: np.ndarray, T: np.ndarray, idle_step: np.ndarray
+) -> int:
+    """Sub-steps of the continuation from pose H (4, 4) to the poses T (N, 4, 4), the idle
+    joints moving by ``idle_step`` (N,) [rad or m]."""
     dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / robot_size(desc)
     da = np.linalg.norm(so3_log(T[:, :3, :3] @ H[:3, :3].T), axis=1)
     da = np.maximum(da, idle_step)
@@ -350,30 +358,50 @@ def solve_legs(
     desc: RobotDescription, T: np.ndarray, idle_q: np.ndarray | None = None
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """Each leg's joint values (N, n_i) at poses T (N, 4, 4) by the continuation from the
-    home configuration, revolute ones in (-pi, pi], and ``reached`` (N, 6) bool; the idle
-    joints at ``idle_q`` (N, 6) (``None``: their home values), reached along the same
-    continuation."""
-    H = desc.home_pose
+    home configuration (or from the last configuration solved, :data:`_LAST`, when that
+    is fewer steps away: a trajectory's, a simulation's), revolute ones in (-pi, pi], and
+    ``reached`` (N, 6) bool; the idle joints at ``idle_q`` (N, 6) (``None``: their home
+    values), reached along the same continuation."""
     legs = chain_legs_of(desc)
-    start = idle_home(desc)
+    H, start, q_start = desc.home_pose, idle_home(desc), home_configuration(desc)
     idle_q = np.broadcast_to(start, (T.shape[0], 6)) if idle_q is None else idle_q
     has_idle = np.array([leg.idle_joint is not None for leg in legs])
-    change = np.abs(np.where(has_idle, idle_q - start, 0.0)).max(axis=1)
-    steps = _continuation_steps(desc, T, change)
+
+    def steps_from(H: np.ndarray, start: np.ndarray) -> int:
+        change = np.abs(np.where(has_idle, idle_q - start, 0.0)).max(axis=1)
+        return _continuation_steps(desc, H, T, change)
+
+    steps = steps_from(H, start)
+    last = _LAST.get(desc)
+    if last is not None and steps > 1:
+        steps_last = steps_from(last[0], last[1])
+        if steps_last < steps:
+            H, start, q_start, steps = last[0], last[1], last[2], steps_last
     out, reached = [], np.ones((T.shape[0], 6), bool)
-    for k, q_home in enumerate(home_configuration(desc)):
-        q = np.broadcast_to(q_home, (T.shape[0], q_home.size)).copy()
+    for k, q0 in enumerate(q_start):
+        q = np.broadcast_to(q0, (T.shape[0], q0.size)).copy()
         ok = np.ones(T.shape[0], bool)
         idle = legs[k].idle_joint
         for s in range(1, steps + 1):
             Ts = T if s == steps else _interpolate(H, T, s / steps)
             if idle is not None:
                 q[:, idle - 1] = start[k] + s / steps * (idle_q[:, k] - start[k])
-            q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q)
+            # the intermediate poses only guide the branch: a loose tolerance
+            tol = NEWTON_TOLERANCE if s == steps else CONTINUATION_TOLERANCE
+            q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q, tol)
         rev = chain_legs_of(desc)[k].revolute
         out.append(np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q))
         reached[:, k] = ok
+    if np.all(reached[-1]):
+        _LAST[desc] = (T[-1].copy(), np.array(idle_q[-1]), [q[-1].copy() for q in out])
     return out, reached
+
+
+#: The last state solved per description: ``(pose (4, 4), idle values (6,), the legs'
+#: joint values)``, a start for the next :func:`solve_legs` near it.
+_LAST: weakref.WeakKeyDictionary[
+    RobotDescription, tuple[np.ndarray, np.ndarray, list[np.ndarray]]
+] = weakref.WeakKeyDictionary()
 
 
 def inverse_geometry(
