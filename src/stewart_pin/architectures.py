@@ -8,6 +8,9 @@ dynamics; no method of the facade asks which architecture it holds.
   (:mod:`stewart_pin.kinematics.leg_chains`,
   :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralDynamics`, joint terms
   included): the path of ``ups-offset``, ``rus``, ``pus``, custom and mixed robots.
+- :class:`ChainLegPath`: robots with chain legs (``description.chain_legs``: any 1-dof
+  joints closed by a ball or a weld; :mod:`stewart_pin.kinematics.chain_legs`,
+  :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`).
 - :class:`IdealUpsPath`: the paper's ideal 6-UPS, overriding it with its closed forms
   (eq. 13-19, :mod:`stewart_pin.kinematics.geometry`,
   :mod:`stewart_pin.kinematics.jacobians`) and its Pinocchio leg models
@@ -37,8 +40,14 @@ from stewart_pin._typing import (
     Twists,
 )
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.chain_leg import full_turn
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.dynamics import closed_loop as closure
+from stewart_pin.dynamics.chain_leg_dynamics import (
+    ChainCartesianDynamics,
+    ChainDynamics,
+    ChainInverseDynamics,
+)
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
@@ -50,8 +59,9 @@ from stewart_pin.exceptions import (
     ArchitectureError,
     JointLimitError,
     StewartPinError,
+    UnsupportedArchitectureError,
 )
-from stewart_pin.kinematics import geometry, leg_chains, workspace
+from stewart_pin.kinematics import chain_legs, geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import leg_state
@@ -64,6 +74,7 @@ from stewart_pin.models.pinocchio_models import (
 )
 
 __all__ = [
+    "ChainLegPath",
     "IdealUpsPath",
     "LegChainPath",
     "PathOwner",
@@ -89,6 +100,9 @@ class PathOwner(Protocol):
 
     @property
     def leg_dynamics(self) -> LegDynamics: ...
+
+    @property
+    def chain_dynamics(self) -> ChainDynamics: ...
 
     @property
     def _motor_ratio(self) -> FloatArray: ...
@@ -247,6 +261,10 @@ class LegChainPath:
     def motor_side(self, r: PathOwner, gamma: Any) -> Any:
         return gamma / r._motor_ratio
 
+    def _models(self, r: PathOwner) -> Any:
+        """The robot's dynamic models this path runs (:class:`GeneralDynamics`)."""
+        return r.general_dynamics
+
     def inverse_dynamics(
         self,
         r: PathOwner,
@@ -255,9 +273,9 @@ class LegChainPath:
         accel: ArrayLike,
         details: bool,
         motor: bool,
-    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         with quiet_overflow():
-            res = r.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
+            res = self._models(r).inverse_dynamics(pose, twist, accel, details=True)
         if details:
             return res
         out = check_finite(res.motor if motor else res.gamma, "inverse dynamics Gamma")
@@ -267,17 +285,17 @@ class LegChainPath:
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
     ) -> FloatArray:
         with quiet_overflow():
-            return r.general_dynamics.direct_dynamics(pose, twist, gamma)
+            return self._models(r).direct_dynamics(pose, twist, gamma)
 
     def cartesian_dynamics(
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
-    ) -> CartesianDynamics | GeneralCartesianDynamics:
+    ) -> CartesianDynamics | GeneralCartesianDynamics | ChainCartesianDynamics:
         with quiet_overflow():
-            return r.general_dynamics.cartesian_dynamics(pose, twist)
+            return self._models(r).cartesian_dynamics(pose, twist)
 
     def energy(self, r: PathOwner, pose: ArrayLike, twist: ArrayLike) -> FloatArray | float:
         with quiet_overflow():
-            k, u = r.general_dynamics.energy(pose, twist)
+            k, u = self._models(r).energy(pose, twist)
         if np.ndim(k) == 0:
             return float(check_finite(np.array([k + u]), "energy")[0])
         return check_finite(np.asarray(k) + np.asarray(u), "energy")
@@ -286,7 +304,7 @@ class LegChainPath:
         self, r: PathOwner, pose: ArrayLike, twist: ArrayLike
     ) -> FloatArray | float:
         with quiet_overflow():  # overflow: NumericalError below
-            power = np.asarray(r.general_dynamics.dissipated_power(pose, twist), dtype=float)
+            power = np.asarray(self._models(r).dissipated_power(pose, twist), dtype=float)
         checked = check_finite(np.atleast_1d(power), "dissipated power")
         return checked if power.ndim else float(checked[0])
 
@@ -432,7 +450,7 @@ class IdealUpsPath(LegChainPath):
         accel: ArrayLike,
         details: bool,
         motor: bool,
-    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
+    ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with quiet_overflow():
             res = closure.inverse_dynamics(r.description, r.leg_dynamics, T, V, A, r.max_condition)
@@ -479,12 +497,189 @@ class IdealUpsPath(LegChainPath):
             return regressor_batch(r.description, r.leg_dynamics, T, V, A, r.max_condition)
 
 
-#: The two paths (stateless: one instance each).
-_IDEAL_UPS, _LEG_CHAINS = IdealUpsPath(), LegChainPath()
+class ChainLegPath(LegChainPath):
+    """Robots with chain legs (``description.chain_legs``: any 1-dof joints, ball or weld
+    closures; :mod:`stewart_pin.kinematics.chain_legs`,
+    :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`). Joint values of the
+    legs come as (N, 6, max n_i) arrays, zero past a leg's last joint. What is built on
+    three-joint legs (the regressor, the Pinocchio leg models of :class:`LegDynamics`)
+    raises :class:`UnsupportedArchitectureError`."""
+
+    def check_home(self, r: PathOwner) -> None:
+        """Each leg reaches its attachment at the home pose from its guess, inside its
+        limits, with a regular Jacobian of full rank (:class:`LegMobilityError` naming the
+        leg otherwise), away from parallel singularities."""
+        desc = r.description
+        try:
+            chain_legs.check_mobility_at_home(desc)
+            T = desc.home_pose[None]
+            states = chain_legs.leg_states(desc, T, np.zeros((1, 6)), check_limits=True)
+            chain_legs.check_parallel(
+                desc, chain_legs.inverse_jacobian(desc, states), r.max_condition
+            )
+        except ArchitectureError:
+            raise
+        except StewartPinError as e:
+            raise ArchitectureError(
+                f"robot '{desc.name}': the home pose is not a valid pose of its legs: {e}",
+                "home_pose",
+                type(e).__name__,
+            ) from e
+
+    def inverse_geometry(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> JointValues:
+        T, batched = check_poses(pose)
+        q = chain_legs.padded(chain_legs.inverse_geometry(r.description, T, check_limits))
+        return q if batched else q[0]
+
+    def actuator_positions(self, r: PathOwner, pose: ArrayLike, check_limits: bool) -> FloatArray:
+        T, batched = check_poses(pose)
+        qs = chain_legs.inverse_geometry(r.description, T, check_limits)
+        legs = r.description.chain_legs or ()
+        q = np.stack([x[:, leg.actuated - 1] for x, leg in zip(qs, legs, strict=True)], 1)
+        return q if batched else q[0]
+
+    def forward_geometry(
+        self, r: PathOwner, lengths: ArrayLike, guess: ArrayLike, **kwargs: Any
+    ) -> Pose:
+        return chain_legs.forward_geometry(r.description, lengths, guess, **kwargs)
+
+    def limit_margin(
+        self, r: PathOwner, pose: ArrayLike, error: BaseException | None
+    ) -> tuple[float, str]:
+        """The smallest distance of a joint to its limits (full turns excluded): revolute
+        in rad, prismatic over ``stroke_mid``; the sentence naming it."""
+        desc = r.description
+        T = check_poses(pose)[0][:1]
+        qs = chain_legs.inverse_geometry(desc, T, check_limits=False)
+        best: tuple[float, str] = (np.inf, "no joint has limits")
+        for k, (leg, q) in enumerate(zip(desc.chain_legs or (), qs, strict=True)):
+            lim = leg.limits
+            free = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
+            scale = np.where(leg.revolute, 1.0, desc.stroke_mid)
+            with np.errstate(invalid="ignore"):
+                lo, hi = (q[0] - lim[:, 0]) / scale, (lim[:, 1] - q[0]) / scale
+            m = np.where(free, np.inf, np.minimum(lo, hi))
+            j = int(np.argmin(m))
+            if m[j] < best[0]:
+                end = "lower" if lo[j] <= hi[j] else "upper"
+                unit = "rad" if leg.revolute[j] else "m"
+                best = (
+                    float(m[j]),
+                    f"leg {k + 1} joint {j + 1} = {q[0, j]:.9g} {unit} reached its {end} "
+                    f"limit [{lim[j, 0]:.9g}, {lim[j, 1]:.9g}] {unit}",
+                )
+        return best
+
+    def _J_inv(self, r: PathOwner, T: FloatArray) -> FloatArray:
+        states = chain_legs.leg_states(r.description, T, np.zeros((T.shape[0], 6)))
+        return chain_legs.inverse_jacobian(r.description, states)
+
+    def inverse_jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        T, batched = check_poses(pose)
+        J_inv = self._J_inv(r, T)
+        return J_inv if batched else J_inv[0]
+
+    def jacobian(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        T, batched = check_poses(pose)
+        J_inv = self._J_inv(r, T)
+        chain_legs.check_parallel(r.description, J_inv, r.max_condition)
+        J = np.asarray(np.linalg.inv(J_inv), dtype=np.float64)
+        return J if batched else J[0]
+
+    def condition_number(self, r: PathOwner, pose: ArrayLike) -> float | FloatArray:
+        T, batched = check_poses(pose)
+        c = chain_legs.condition_number(r.description, self._J_inv(r, T))
+        return c if batched else float(c[0])
+
+    def leg_jacobians(self, r: PathOwner, pose: ArrayLike) -> FloatArray:
+        """(N, 6, 6, max n_i): ``J_i`` in its first c_i rows and n_i columns, zero
+        elsewhere."""
+        T, batched = check_poses(pose)
+        states = chain_legs.leg_states(r.description, T, np.zeros((T.shape[0], 6)))
+        width = max(s.J.shape[2] for s in states)
+        J = np.zeros((T.shape[0], 6, 6, width))
+        for k, s in enumerate(states):
+            J[:, k, : s.J.shape[1], : s.J.shape[2]] = s.J
+        return J if batched else J[0]
+
+    def leg_kinematics(
+        self, r: PathOwner, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike | None
+    ) -> tuple[JointValues, JointValues, JointValues | None]:
+        if accel is None:
+            _, T, V = check_states(pose, (twist, "twist"))
+            A = None
+        else:
+            _, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        states = chain_legs.leg_states(r.description, T, V, A, check_limits=True)
+        q = chain_legs.padded([s.q for s in states])
+        qd = chain_legs.padded([s.qdot for s in states])
+        qdd = None if A is None else chain_legs.padded([s.qddot for s in states])
+        return q, qd, qdd
+
+    def admissible_poses(self, r: PathOwner, T: FloatArray, max_condition: float) -> np.ndarray:
+        return chain_legs.admissible_poses(r.description, T, max_condition)
+
+    def sample_poses(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> FloatArray:
+        return workspace.sample_chain_poses(
+            r.description, n, rng, translation, rotation, r.max_condition
+        )
+
+    def sample_states(
+        self,
+        r: PathOwner,
+        n: int,
+        rng: np.random.Generator | int | None,
+        translation: float | None,
+        rotation: float,
+    ) -> tuple[Poses, Twists, Accels]:
+        return workspace.sample_chain_states(
+            r.description,
+            n,
+            rng,
+            translation=translation,
+            rotation=rotation,
+            max_condition=r.max_condition,
+        )
+
+    def _unsupported(self, r: PathOwner, what: str) -> UnsupportedArchitectureError:
+        return UnsupportedArchitectureError(
+            f"{what} is built on three-joint legs: robot '{r.description.name}' has chain "
+            "legs (inverse and direct models, kinematics, energy and simulation take them)",
+            what,
+            r.description.architecture,
+        )
+
+    def leg_dynamics(self, r: PathOwner) -> LegDynamics:
+        raise self._unsupported(r, "leg_dynamics (the three-joint leg models)")
+
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma / r.chain_dynamics.ratio
+
+    def _models(self, r: PathOwner) -> Any:
+        """:class:`ChainDynamics` (same calls as :class:`GeneralDynamics`)."""
+        return r.chain_dynamics
+
+    def regressor(self, r: PathOwner, T: FloatArray, V: FloatArray, A: FloatArray) -> FloatArray:
+        """Columns: :func:`~stewart_pin.dynamics.chain_leg_dynamics.chain_parameters`."""
+        with quiet_overflow():
+            return check_finite(r.chain_dynamics.regressor_batch(T, V, A), "regressor")
+
+
+#: The three paths (stateless: one instance each).
+_IDEAL_UPS, _LEG_CHAINS, _CHAIN_LEGS = IdealUpsPath(), LegChainPath(), ChainLegPath()
 
 
 def reference_path(description: RobotDescription) -> LegChainPath:
     """The path of ``description``'s architecture: the one place the choice is made."""
+    if description.has_chain_legs:
+        return _CHAIN_LEGS
     return _IDEAL_UPS if description.is_ideal_ups else _LEG_CHAINS
 
 

@@ -14,7 +14,8 @@ expected, what was received and how to fix it::
     ├── DescriptionError (ValueError)        an inconsistent robot description
     │   ├── InertiaError                     inertial parameters no rigid body can have
     │   ├── ArchitectureError                a leg that is not three 1-dof joints as named
-    │   │   └── UnsupportedArchitectureError what one architecture's physics cannot have
+    │   │   ├── UnsupportedArchitectureError what one architecture's physics cannot have
+    │   │   └── LegMobilityError             a chain leg not giving the platform 6 dof
     │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file
@@ -120,6 +121,32 @@ class UnsupportedArchitectureError(ArchitectureError):
     Attributes:
         field: the feature. value: the robot's architecture (``"rus"``, ``"mixed"``...).
     """
+
+
+class LegMobilityError(ArchitectureError):
+    """A chain leg whose joints with its closure do not give the platform its six degrees
+    of freedom: fewer joints than the closure's constraints (ball 3, weld 6), one more (an
+    idle freedom such as an R-S-S rod's spin) without ``idle_joint`` naming its coordinate,
+    or more, a Jacobian that is singular at the home pose, or an idle joint that does not
+    move the idle freedom or whose motion moves the actuator
+    (:mod:`stewart_pin.description.chain_leg`).
+
+    Attributes:
+        leg: leg index (1-based). missing: freedoms the platform lacks. extra: freedoms too
+        many. rank: the rank of the leg's Jacobian at the home pose (``None`` if not
+        computed).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        leg: int,
+        missing: int = 0,
+        extra: int = 0,
+        rank: int | None = None,
+    ) -> None:
+        super().__init__(message, "chain_legs", leg)
+        self.leg, self.missing, self.extra, self.rank = leg, missing, extra, rank
 
 
 class JointDynamicsError(DescriptionError):

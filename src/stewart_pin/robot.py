@@ -52,6 +52,11 @@ from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
+from stewart_pin.dynamics.chain_leg_dynamics import (
+    ChainCartesianDynamics,
+    ChainDynamics,
+    ChainInverseDynamics,
+)
 from stewart_pin.dynamics.closed_loop import CartesianDynamics, InverseDynamicsResult, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import (
     GeneralCartesianDynamics,
@@ -139,6 +144,12 @@ class StewartRobot:
     def general_dynamics(self) -> GeneralDynamics:
         """The closure layer on general legs with joint dynamics (joint limits checked)."""
         return GeneralDynamics(self.general, self.max_condition, check_limits=True)
+
+    @cached_property
+    def chain_dynamics(self) -> ChainDynamics:
+        """The models of a robot with chain legs (``description.chain_legs``; joint limits
+        checked): its reference path's (:class:`~stewart_pin.architectures.ChainLegPath`)."""
+        return ChainDynamics(self.description, self.max_condition, check_limits=True)
 
     @cached_property
     def general_tree(self) -> TreeModel:
@@ -434,7 +445,7 @@ class StewartRobot:
         details: Literal[True],
         backend: str = "auto",
         motor: bool = False,
-    ) -> InverseDynamicsResult | GeneralInverseDynamics: ...
+    ) -> InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics: ...
 
     @overload
     def inverse_dynamics(
@@ -445,7 +456,7 @@ class StewartRobot:
         details: bool = False,
         backend: str = "auto",
         motor: bool = False,
-    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics: ...
+    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics: ...
 
     def inverse_dynamics(
         self,
@@ -455,7 +466,7 @@ class StewartRobot:
         details: bool = False,
         backend: str = "auto",
         motor: bool = False,
-    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics:
+    ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
 
         Args:
@@ -549,7 +560,7 @@ class StewartRobot:
 
     def cartesian_dynamics(
         self, pose: ArrayLike, twist: ArrayLike
-    ) -> CartesianDynamics | GeneralCartesianDynamics:
+    ) -> CartesianDynamics | GeneralCartesianDynamics | ChainCartesianDynamics:
         """``A_robot`` (N, 6, 6) and ``h_robot`` (N, 6) of eq. 36-37 (always batch arrays);
         :class:`NumericalError` when either is not finite. General legs: a
         :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralCartesianDynamics`."""

@@ -46,6 +46,7 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin._checks import check_states
+from stewart_pin.check.chain_legs_tree import ChainTreeSolver
 from stewart_pin.check.leg_chain_tree import (
     GeneralTreeSolver,
     reference_direct_dynamics,
@@ -612,6 +613,24 @@ def _general_reference(
     return gamma_ref, accel_ref
 
 
+def _chain_reference(
+    robot: RobotLike, poses: np.ndarray, twists: np.ndarray, accels: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The reference Gamma and Vdot of a robot with chain legs: Pinocchio's tree with its
+    3D (ball) and 6D (weld) loop constraints
+    (:class:`stewart_pin.check.chain_legs_tree.ChainTreeSolver`), fed the robot's own leg
+    joint positions (checked to close the loops), everything else the tree's own."""
+    legs = robot.description.chain_legs or ()
+    solver = ChainTreeSolver(robot.description)
+    q = np.asarray(robot.inverse_geometry(poses, check_limits=False), dtype=float)
+    gamma_ref, accel_ref = np.empty((len(poses), 6)), np.empty((len(poses), 6))
+    for n in range(len(poses)):
+        q_legs = [q[n, k, : len(leg.joints)] for k, leg in enumerate(legs)]
+        gamma_ref[n] = solver.inverse_one(poses[n], twists[n], accels[n], q_legs)
+        accel_ref[n] = solver.forward_one(poses[n], twists[n], gamma_ref[n], q_legs)
+    return gamma_ref, accel_ref
+
+
 def validate(
     robot: RobotLike,
     n_states: int = 200,
@@ -665,6 +684,8 @@ def validate(
     if robot.description.is_ideal_ups:
         gamma_ref, _ = constrained_inverse_dynamics(robot, poses, twists, accels)
         accel_ref = constrained_forward_dynamics(robot, poses, twists, gamma_ref)
+    elif robot.description.chain_legs is not None:
+        gamma_ref, accel_ref = _chain_reference(robot, poses, twists, accels)
     else:
         gamma_ref, accel_ref = _general_reference(robot, poses, twists, accels)
     gamma = np.asarray(robot.inverse_dynamics(poses, twists, accels), dtype=float)

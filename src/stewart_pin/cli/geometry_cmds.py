@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -35,16 +36,20 @@ def _ik(args: argparse.Namespace) -> int:
     q = robot.inverse_geometry(T)
     np.set_printoptions(precision=6, suppress=True)
     print(f"pose 0Tp:\n{T}")
-    legs = robot.description.leg_architectures
+    desc = robot.description
+    legs: tuple[Any, ...] = desc.chain_legs or desc.leg_architectures
     actuated = {leg.actuated for leg in legs}
-    shared = f"q{actuated.pop()}" if len(actuated) == 1 else "last column"
+    shared = f"q{actuated.pop()}" if len(actuated) == 1 else "* marks it"
     print(
         f"{robot.architecture} legs; joint values [rad revolute, m prismatic]; actuated: {shared}"
     )
-    print("leg   q1           q2           q3")
+    print("leg " + "".join(f"  q{j + 1:<11d}" for j in range(q.shape[1])).rstrip())
     for i, (row, leg) in enumerate(zip(q, legs, strict=True), 1):
-        mark = "" if shared.startswith("q") else f"   q{leg.actuated}"
-        print(f"{i:3d} {row[0]:12.6f} {row[1]:12.6f} {row[2]:12.6f}{mark}")
+        n = len(leg.joints)  # chain legs: fewer joints than the widest leg's are blank
+        mark = [" "] * n if shared.startswith("q") else [" "] * (leg.actuated - 1) + ["*"]
+        mark += [" "] * (n - len(mark))
+        cells = [f"{v:12.6f}{mark[j]}" if j < n else " " * 13 for j, v in enumerate(row)]
+        print(f"{i:3d} {''.join(cells)}".rstrip())
     print(f"Jp^-1 (rows e_ai^T J_i^-1 G_i), cond = {robot.condition_number(T):.4g}:")
     print(robot.inverse_jacobian(T))
     return 0

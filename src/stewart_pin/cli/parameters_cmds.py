@@ -30,6 +30,12 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
     desc = robot.description
     method = args.method
+    if method == "analytic" and desc.chain_legs is not None:
+        print(
+            f"note: robot '{robot.name}' has chain legs, which the analytic grouping rules "
+            "do not cover: showing the numerical base parameters"
+        )
+        method = "numerical"
     if method == "analytic" and uncovered_legs(desc):
         print(
             f"note: robot '{robot.name}' has custom legs {uncovered_legs(desc)}, which the "

@@ -114,6 +114,7 @@ from stewart_pin.exceptions import (
     SingularityError,
     StewartPinError,
     UnsafeCacheError,
+    UnsupportedArchitectureError,
 )
 from stewart_pin.kinematics import leg_chains
 from stewart_pin.kinematics.geometry import (
@@ -811,6 +812,13 @@ class CompiledDynamics:
         vm_fallback: bool = True,
         announce: bool = False,
     ) -> None:
+        if robot.description.has_chain_legs:
+            raise UnsupportedArchitectureError(
+                f"robot '{robot.description.name}' has chain legs: no compiled models for "
+                "them yet; use backend='pinocchio' (the reference path)",
+                "backend",
+                robot.description.architecture,
+            )
         self.robot = robot
         self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.description
@@ -1298,6 +1306,8 @@ def auto_env() -> str:
 
 def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
     if auto_env() == "pinocchio":
+        return None
+    if robot.description.has_chain_legs:  # no compiled models for chain legs yet
         return None
     existing = _memo(robot, COMPILED_ATTR)
     if existing is not None and existing._desc is robot.description:

@@ -76,6 +76,7 @@ from stewart_pin.exceptions import (
     InputError,
     NumericalError,
     UnsafeCacheError,
+    UnsupportedArchitectureError,
 )
 from stewart_pin.protocols import RobotLike
 
@@ -563,6 +564,14 @@ _BACKENDS_LOCK = threading.Lock()
 def derivatives_backend(robot: RobotLike) -> CompiledDerivatives:
     """The :class:`CompiledDerivatives` of ``robot``, built on first use and kept with it
     (a weak reference: the robot stays picklable)."""
+    if robot.description.has_chain_legs:
+        raise UnsupportedArchitectureError(
+            f"robot '{robot.description.name}' has chain legs: the exact derivatives come "
+            "from the compiled models, which do not take chain legs yet (central "
+            "differences of robot.inverse_dynamics / direct_dynamics work)",
+            "derivatives",
+            robot.description.architecture,
+        )
     with _BACKENDS_LOCK:
         backend = _BACKENDS.get(robot)
         if backend is None or backend._desc is not robot.description:

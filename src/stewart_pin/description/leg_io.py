@@ -33,21 +33,25 @@ JOINT_KEYS = ("kind", "alpha", "d", "theta", "r", "lower", "upper")
 DYNAMICS_KEYS = tuple(f.name for f in dataclasses.fields(JointDynamics))
 
 
+def joint_to_dict(j: Joint) -> dict[str, Any]:
+    """A joint as plain Python values: infinite limits, zero joint terms and absent
+    transmissions are left out (they are the defaults)."""
+    jd: dict[str, Any] = {"kind": j.kind, "alpha": j.alpha, "d": j.d, "theta": j.theta}
+    jd["r"] = j.r
+    for key in ("lower", "upper"):
+        if math.isfinite(getattr(j, key)):
+            jd[key] = getattr(j, key)
+    for key in DYNAMICS_KEYS:
+        value = getattr(j.dynamics, key)
+        if value is not None and value != 0.0:
+            jd[key] = value
+    return jd
+
+
 def leg_to_dict(leg: LegArchitecture) -> dict[str, Any]:
     """A leg as plain Python values: infinite limits, zero joint terms and absent
     transmissions are left out (they are the defaults)."""
-    joints = []
-    for j in leg.joints:
-        jd: dict[str, Any] = {"kind": j.kind, "alpha": j.alpha, "d": j.d, "theta": j.theta}
-        jd["r"] = j.r
-        for key in ("lower", "upper"):
-            if math.isfinite(getattr(j, key)):
-                jd[key] = getattr(j, key)
-        for key in DYNAMICS_KEYS:
-            value = getattr(j.dynamics, key)
-            if value is not None and value != 0.0:
-                jd[key] = value
-        joints.append(jd)
+    joints = [joint_to_dict(j) for j in leg.joints]
     d: dict[str, Any] = {
         "architecture": leg.name,
         "actuated": leg.actuated,
@@ -179,9 +183,10 @@ def legs_from_value(value: Any) -> tuple[LegArchitecture, ...]:
     )
 
 
-def legs_toml(legs: list[dict[str, Any]]) -> str:
+def legs_toml(legs: list[dict[str, Any]], key: str = "legs") -> str:
     """TOML arrays of tables ``[[legs]]`` / ``[[legs.joints]]`` for :func:`leg_to_dict`
-    values (floats as ``repr``: ``tomllib`` reads them back exactly)."""
+    values (floats as ``repr``: ``tomllib`` reads them back exactly); ``key`` names the
+    array (``chain_legs`` for :mod:`.chain_leg_io`)."""
 
     def value(x: Any) -> str:
         if isinstance(x, str):
@@ -196,10 +201,10 @@ def legs_toml(legs: list[dict[str, Any]]) -> str:
 
     out = []
     for i, leg in enumerate(legs):
-        out.append(f"\n# leg {i + 1}\n[[legs]]\n")
+        out.append(f"\n# leg {i + 1}\n[[{key}]]\n")
         out.extend(f"{k} = {value(v)}\n" for k, v in leg.items() if k != "joints")
         for joint in leg["joints"]:
-            out.append("[[legs.joints]]\n")
+            out.append(f"[[{key}.joints]]\n")
             out.extend(f"{k} = {value(v)}\n" for k, v in joint.items())
     return "".join(out)
 
@@ -209,6 +214,7 @@ __all__ = [
     "JOINT_KEYS",
     "LEG_KEYS",
     "joint_from_dict",
+    "joint_to_dict",
     "leg_from_dict",
     "leg_to_dict",
     "legs_from_value",

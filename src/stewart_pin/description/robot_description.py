@@ -37,6 +37,8 @@ from stewart_pin._checks import (
     project_rotation,
 )
 from stewart_pin._io import write_text_atomic
+from stewart_pin.description.chain_leg import ChainLeg
+from stewart_pin.description.chain_leg_io import chain_leg_to_dict, chain_legs_from_value
 from stewart_pin.description.inertia import check_physical, khalil_from_inertial_table
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
 from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
@@ -73,6 +75,11 @@ OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs", "source")
 ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
 # (appended here, a line apart, so that other optional keys merge in above)
 OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignment]
+
+#: ``chain_legs``: six chain leg tables (:mod:`.chain_leg_io`; any 1-dof joints, ball or
+#: weld closures); with them ``stroke`` and ``u_joint_limits`` are left out, ``leg_inertia``
+#: may be (each leg carries its links') and ``home_pose`` is required.
+OPTIONAL_KEYS = (*OPTIONAL_KEYS, "chain_legs")  # type: ignore[assignment]
 
 #: URDF-style alternatives of the two inertia keys (``docs/description.md``): each body's
 #: mass, centre of mass and inertia about it in the body's own frame
@@ -142,6 +149,9 @@ class RobotDescription:
     legs: tuple[LegArchitecture, ...] | None = None
     # where an imported robot came from (file names of its bodies and joints), or None
     source: ModelSource | None = None
+    # six chain legs (any 1-dof joints, ball or weld closure, links' inertia in the legs;
+    # docs/legs.md "Chain legs and welds"), or None
+    chain_legs: tuple[ChainLeg, ...] | None = None
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
@@ -149,6 +159,8 @@ class RobotDescription:
             object.__setattr__(self, "source", ModelSource.from_value(self.source))
         if self.legs is not None:
             self._check_legs()
+        if self.chain_legs is not None:
+            self._check_chain_legs()
 
         def set_(key: str, value: np.ndarray) -> None:
             value = np.array(value, dtype=np.float64)
@@ -159,7 +171,7 @@ class RobotDescription:
             "base_points": (6, 3),
             "platform_points": (6, 3),
             "leg_base_rotations": (6, 3, 3),
-            **({} if self.legs is not None else {"stroke": (2,)}),
+            **({} if not self.is_ideal_ups else {"stroke": (2,)}),
             "leg_inertia": (6, 3, 10),
             "platform_inertia": (10,),
             "gravity": (3,),
@@ -216,6 +228,13 @@ class RobotDescription:
                     check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
             key = "platform_inertia"
             check_physical(self.platform_inertia, "platform")
+            key = "leg_inertia"
+            if self.chain_legs is not None and np.any(self.leg_inertia != 0.0):
+                raise InertiaError(
+                    f"robot description '{self.name}': with chain_legs the links' inertia "
+                    "is in each ChainLeg (inertia (n, 10)); leg_inertia must be zeros",
+                    "legs",
+                )
         except InertiaError as e:
             e.key = key  # type: ignore[attr-defined] # read() quotes the line of the key
             raise
@@ -237,6 +256,25 @@ class RobotDescription:
                 "home_pose",
                 f"robot description '{self.name}': a robot with legs needs an explicit "
                 "home_pose (a reachable pose: the workspace centre)",
+            )
+
+    def _check_chain_legs(self) -> None:
+        """Six chain legs, each giving the platform six freedoms
+        (:class:`~stewart_pin.exceptions.LegMobilityError`); no ``legs``, stroke or
+        U-joint limits beside them; an explicit home pose."""
+        object.__setattr__(self, "chain_legs", chain_legs_from_value(self.chain_legs))
+        for key in ("legs", "stroke", "u_joint_limits"):
+            if getattr(self, key) is not None:
+                raise _field_error(
+                    key,
+                    f"robot description '{self.name}': {key} must be left out when "
+                    "chain_legs are given (each leg's joints carry their limits)",
+                )
+        if self.home_pose is None:
+            raise _field_error(
+                "home_pose",
+                f"robot description '{self.name}': a robot with chain legs needs an "
+                "explicit home_pose (a reachable pose: the workspace centre)",
             )
 
     def _check_points(self) -> None:
@@ -311,6 +349,9 @@ class RobotDescription:
                 d[key] = getattr(self, key).tolist()
         if self.legs is not None:
             d["legs"] = [leg_to_dict(leg) for leg in self.legs]
+        if self.chain_legs is not None:
+            d.pop("leg_inertia")  # zeros: each chain leg carries its links'
+            d["chain_legs"] = [chain_leg_to_dict(leg) for leg in self.chain_legs]
         if self.source is not None:
             d["source"] = self.source.to_dict()
         return d
@@ -320,7 +361,13 @@ class RobotDescription:
         """Build from the dictionary form; raises :class:`DescriptionError` on bad keys."""
         if not isinstance(d, dict):
             raise DescriptionError(f"a robot description must be a dict, got {type(d).__name__}")
-        required = [k for k in REQUIRED_KEYS if not ("legs" in d and k == "stroke")]
+        chain = "chain_legs" in d
+        required = [
+            k
+            for k in REQUIRED_KEYS
+            if not (("legs" in d or chain) and k == "stroke")
+            and not (chain and k == "leg_inertia")
+        ]
         missing = [k for k in required if k not in d and INERTIAL_KEYS.get(k) not in d]
         known = REQUIRED_KEYS + OPTIONAL_KEYS + tuple(INERTIAL_KEYS.values())
         unknown = [k for k in d if k not in known]
@@ -334,6 +381,8 @@ class RobotDescription:
         d = _inertia_from_tables(d)
         kwargs = {k: d[k] for k in REQUIRED_KEYS + OPTIONAL_KEYS if k in d}
         kwargs.setdefault("stroke", None)
+        if chain:
+            kwargs.setdefault("leg_inertia", np.zeros((6, 3, 10)))
         return cls(**kwargs)
 
     def replace(self, **changes: Any) -> RobotDescription:
@@ -352,10 +401,14 @@ class RobotDescription:
             write_text_atomic(path, json.dumps(d, indent=2) + "\n")
         elif suffix == ".toml":
             legs = d.pop("legs", None)
+            chain = d.pop("chain_legs", None)
             source = d.pop("source", None)
-            text = (FILE_HEADER if legs is None else GENERAL_FILE_HEADER) + _toml(d)
+            header = FILE_HEADER if legs is None else GENERAL_FILE_HEADER
+            text = (CHAIN_FILE_HEADER if chain is not None else header) + _toml(d)
             if legs is not None:
                 text += LEGS_HEADER + legs_toml(legs)
+            if chain is not None:
+                text += CHAIN_LEGS_HEADER + legs_toml(chain, "chain_legs")
             if source is not None:
                 text += source_toml(source)
             write_text_atomic(path, text)
@@ -439,14 +492,30 @@ class RobotDescription:
     def is_ideal_ups(self) -> bool:
         """Whether this is the paper's ideal 6-UPS robot (``legs`` is ``None``): the fast
         closed-form path, the compiled backend and the identification apply."""
-        return self.legs is None
+        return self.legs is None and self.chain_legs is None
+
+    @property
+    def has_chain_legs(self) -> bool:
+        """Whether the legs are :class:`~stewart_pin.description.chain_leg.ChainLeg`
+        (``chain_legs``): the chain-leg path, no closed form, no compiled model yet."""
+        return self.chain_legs is not None
 
     @property
     def leg_architectures(self) -> tuple[LegArchitecture, ...]:
         """The six legs: ``legs``, or for the ideal 6-UPS robot :func:`ups` legs with its
-        stroke and U-joint limits and no joint dynamics."""
+        stroke and U-joint limits and no joint dynamics;
+        :class:`UnsupportedArchitectureError` for chain legs (not three-joint ball legs:
+        the features built on those take ``chain_legs`` or refuse the robot)."""
         if self.legs is not None:
             return self.legs
+        if self.chain_legs is not None:
+            raise UnsupportedArchitectureError(
+                f"robot '{self.name}' has chain legs (any joints, ball or weld closures): "
+                "this feature takes three-joint ball legs only; the inverse and direct "
+                "models, kinematics, energy and simulation take chain legs",
+                "legs",
+                self.architecture,
+            )
         assert self.stroke is not None
         lim = self.u_joint_limits
         return tuple(
@@ -459,7 +528,12 @@ class RobotDescription:
         """The unit of each actuator's effort (6,), from its joint type: ``"N"`` for a
         prismatic actuated joint (6-UPS, PUS legs), ``"N m"`` for a revolute one (RUS
         cranks); joint side."""
-        return tuple(leg.effort_unit for leg in self.leg_architectures)
+        return tuple(leg.effort_unit for leg in self._legs_any)
+
+    @property
+    def _legs_any(self) -> tuple[LegArchitecture | ChainLeg, ...]:
+        """The six legs, three-joint or chain."""
+        return self.chain_legs if self.chain_legs is not None else self.leg_architectures
 
     @property
     def effort_unit(self) -> str:
@@ -471,7 +545,7 @@ class RobotDescription:
     def position_unit(self) -> str:
         """The unit of the actuated joints' positions for one label: ``"m"`` or ``"rad"``
         when the six legs share it, ``"m or rad"`` for legs that mix them."""
-        return _shared_unit(tuple(leg.position_unit for leg in self.leg_architectures))
+        return _shared_unit(tuple(leg.position_unit for leg in self._legs_any))
 
     @property
     def actuator_position_name(self) -> str:
@@ -494,7 +568,9 @@ class RobotDescription:
     @property
     def architecture(self) -> str:
         """The legs' common architecture (``"ups"``, ``"ups-offset"``, ``"rus"``,
-        ``"pus"``, ``"custom"``), or ``"mixed"``."""
+        ``"pus"``, ``"custom"``), or ``"mixed"``; ``"chain"`` for chain legs."""
+        if self.chain_legs is not None:
+            return "chain"
         if self.legs is None:
             return "ups"
         names = {leg.name for leg in self.legs}
@@ -647,6 +723,24 @@ GENERAL_FILE_HEADER = """\
 # platform_inertia: the same 10 parameters of the platform, in Fp about its origin.
 # gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose, the workspace
 #   centre. No stroke nor u_joint_limits: each joint's limits are in [[legs.joints]].
+"""
+
+#: The header of a robot with chain legs (no stroke, no leg_inertia: in the legs).
+CHAIN_FILE_HEADER = """\
+# stewart-pin robot description, chain legs (SI units: m, kg, kg m^2, m/s^2; rad).
+# base_points: B_i, origin of leg frame 0i, in F0 (6 x 3). platform_points: P_i in Fp
+#   (6 x 3), the ball centre or the weld's platform frame origin. leg_base_rotations:
+#   orientation in F0 of leg frame 0i (6 x 3 x 3), from which joint 1's MDH transform starts.
+# platform_inertia: Khalil's XX XY XZ YY YZ ZZ MX MY MZ M of the platform, in Fp about its
+#   origin. gravity: in F0. home_pose (required): 0Tp (4 x 4), a reachable pose.
+"""
+
+#: What precedes the ``[[chain_legs]]`` tables.
+CHAIN_LEGS_HEADER = """
+# chain_legs: six chain leg tables (docs/legs.md, "Chain legs and welds"). Per leg:
+#   actuated (1..n), closure ("ball" or "weld"), tip (in the last link's frame), inertia
+#   (n x 10, each link in its MDH frame), optional tip_rotation, platform_rotation (weld),
+#   guess, idle_joint, and n [[chain_legs.joints]] as [[legs.joints]].
 """
 
 LEGS_HEADER = """

@@ -56,6 +56,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -67,6 +68,7 @@ from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.dynamics.chain_leg_dynamics import chain_parameters
 from stewart_pin.dynamics.closed_loop import check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import GeneralLegDynamics
 from stewart_pin.dynamics.leg_dynamics import LegDynamics
@@ -102,11 +104,74 @@ GENERAL_STANDARD_NAMES: tuple[str, ...] = STANDARD_NAMES + tuple(
 )
 
 
+def _chain_offsets(desc: RobotDescription) -> tuple[list[list[int]], int, list[list[int]]]:
+    """Where each chain leg link's 10 parameters start, the platform's, and where each
+    joint's ``IA`` is (:func:`~.chain_leg_dynamics.chain_parameters`' order)."""
+    legs = desc.chain_legs or ()
+    links, k = [], 0
+    for leg in legs:
+        links.append([k + 10 * j for j in range(leg.n_joints)])
+        k += 10 * leg.n_joints
+    platform, k = k, k + 10
+    joints = []
+    for leg in legs:
+        joints.append([k + N_JOINT_TERMS * j for j in range(leg.n_joints)])
+        k += N_JOINT_TERMS * leg.n_joints
+    return links, platform, joints
+
+
+def _chain_parameter_groups(desc: RobotDescription) -> ParameterGroups:
+    links, platform, terms = _chain_offsets(desc)
+    bodies = [
+        BodyParameters(f"leg {i + 1} link {j + 1}", slice(k, k + 10))
+        for i, row in enumerate(links)
+        for j, k in enumerate(row)
+    ]
+    bodies.append(BodyParameters("platform", slice(platform, platform + 10)))
+    joints = [
+        JointParameters(
+            f"leg {i + 1} joint {j + 1}",
+            i + 1,
+            j + 1,
+            joint.kind,
+            k,
+            k + 1,
+            k + 2,
+            k + 3,
+            k + 4,
+            leg.actuated == j + 1,
+        )
+        for i, (leg, row) in enumerate(zip(desc.chain_legs or (), terms, strict=True))
+        for j, (joint, k) in enumerate(zip(leg.joints, row, strict=True))
+    ]
+    return ParameterGroups(tuple(bodies), tuple(joints), standard_parameter_names(desc))
+
+
+def _chain_with_standard_parameters(desc: RobotDescription, chi: FloatArray) -> RobotDescription:
+    links, platform, terms = _chain_offsets(desc)
+    legs = []
+    for i, (leg, rows, starts) in enumerate(zip(desc.chain_legs or (), links, terms, strict=True)):
+        joints = tuple(
+            replace(
+                joint,
+                dynamics=_joint_dynamics_from_terms(
+                    joint.dynamics, chi[k : k + N_JOINT_TERMS], f"leg {i + 1} joint {j + 1}"
+                ),
+            )
+            for j, (joint, k) in enumerate(zip(leg.joints, starts, strict=True))
+        )
+        inertia = np.array([chi[k : k + 10] for k in rows])
+        legs.append(leg.replace(joints=joints, inertia=inertia))
+    return desc.replace(chain_legs=tuple(legs), platform_inertia=chi[platform : platform + 10])
+
+
 def standard_parameter_names(desc: RobotDescription) -> tuple[str, ...]:
     """The names of ``desc``'s standard parameters, in the regressor's column order: the
     190 of :data:`STANDARD_NAMES` for the ideal 6-UPS robot, the 280 of
     :data:`GENERAL_STANDARD_NAMES` (the same 190, then ``IA FV FC K OF`` per joint) for
-    general legs (module docstring)."""
+    general legs (module docstring); chain legs: :func:`~.chain_leg_dynamics.chain_parameters`."""
+    if desc.chain_legs is not None:
+        return chain_parameters(desc)[1]
     return STANDARD_NAMES if desc.legs is None else GENERAL_STANDARD_NAMES
 
 
@@ -134,7 +199,9 @@ def joint_terms(dynamics: JointDynamics) -> FloatArray:
 def standard_parameters(desc: RobotDescription) -> FloatArray:
     """The standard parameters ``chi`` of a description, in the regressor's order: (190,)
     for the ideal 6-UPS robot, (280,) for general legs (with the joint terms of
-    :func:`joint_terms`)."""
+    :func:`joint_terms`); chain legs: :func:`~.chain_leg_dynamics.chain_parameters`."""
+    if desc.chain_legs is not None:
+        return chain_parameters(desc)[0]
     chi = np.concatenate([desc.leg_inertia.reshape(-1), desc.platform_inertia])
     if desc.legs is None:
         return chi
@@ -215,6 +282,8 @@ def with_standard_parameters(desc: RobotDescription, chi: FloatArray) -> RobotDe
     """
     n = len(standard_parameter_names(desc))
     chi = check_array(chi, (n,), "standard parameters chi")
+    if desc.chain_legs is not None:
+        return _chain_with_standard_parameters(desc, chi)
     changes: dict[str, object] = {
         "leg_inertia": chi[:180].reshape(6, 3, 10),
         "platform_inertia": chi[180:190],
@@ -309,6 +378,8 @@ class ParameterGroups:
 
 def parameter_groups(desc: RobotDescription) -> ParameterGroups:
     """The bodies' and joints' parameter indices of ``desc``'s standard vector."""
+    if desc.chain_legs is not None:
+        return _chain_parameter_groups(desc)
     bodies = [
         BodyParameters(f"leg {i + 1} link {j + 1}", slice(30 * i + 10 * j, 30 * i + 10 * j + 10))
         for i in range(6)
@@ -341,6 +412,11 @@ def actuator_ratios(desc: RobotDescription) -> FloatArray:
     """(6,) the actuated joints' transmission ratios (motor rate per joint rate; 1 without
     a transmission, and for the ideal 6-UPS robot): the motor-side regressor is
     ``W / ratio[:, None]`` (row i divided by actuator i's ratio)."""
+    if desc.chain_legs is not None:
+        legs_any: tuple[Any, ...] = desc.chain_legs
+        return np.array(
+            [leg.joints[leg.actuated - 1].dynamics.transmission_ratio for leg in legs_any]
+        )
     if desc.legs is None:
         return np.ones(6)
     return np.array(

@@ -87,7 +87,7 @@ from stewart_pin.description.inertia import (
     khalil_from_urdf_inertial,
     urdf_inertial_from_khalil,
 )
-from stewart_pin.exceptions import ApproximationWarning
+from stewart_pin.exceptions import ApproximationWarning, UnsupportedArchitectureError
 from stewart_pin.formats._xml import MJCF_RGBA, mjcf_body, mjcf_geom, mjcf_inertial, num, vec
 from stewart_pin.formats.urdf import (
     BASE_LINK,
@@ -106,12 +106,15 @@ from stewart_pin.formats.urdf import (
     robot_size,
     travel,
 )
+from stewart_pin.kinematics import chain_legs
 from stewart_pin.kinematics.geometry import inverse_geometry
 
 __all__ = [
     "LOOP_SOLIMP",
     "LOOP_SOLREF",
     "MujocoInertials",
+    "chain_legs_mjcf_string",
+    "chain_legs_mujoco_qpos",
     "leg_chains_mjcf_string",
     "leg_chains_mujoco_qpos",
     "leg_tip_site",
@@ -671,6 +674,94 @@ def leg_chains_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
     )
 
 
+def chain_legs_mujoco_qpos(desc: Any, pose: Any) -> np.ndarray:
+    """MuJoCo's ``qpos`` of :func:`chain_legs_mjcf_string` at a platform pose 0Tp: every
+    leg's joints (leg by leg, from the inverse geometry, limits unchecked), then ``[p [m],
+    quat (w, x, y, z)]``."""
+    T = np.asarray(pose, dtype=float)
+    qs = chain_legs.inverse_geometry(desc, T[None], check_limits=False)
+    return np.concatenate([*(q[0] for q in qs), T[:3, 3], quaternion_wxyz(T[:3, :3])])
+
+
+def chain_legs_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
+    """The MJCF of a robot with chain legs (``desc.chain_legs``): each leg's links as nested
+    bodies (body j at joint j's frame at q = 0, the hinge or slide about its z, the joint
+    terms as :func:`mjcf_string` writes them, link j's inertial), sites ``leg{i}_tip`` (the
+    ball centre or the attachment frame) and ``platform_p{i}`` (``P_i``, with the platform
+    attachment's orientation for a weld), the loops as ``<connect>`` (ball) or ``<weld>``
+    (weld: the two sites' frames coincide) equalities, a motor on each actuated joint and
+    the ``home`` keyframe. Only MuJoCo's layout (``pinocchio_layout`` refused)."""
+    if pinocchio_layout:
+        raise UnsupportedArchitectureError(
+            "the Pinocchio layout of the MJCF is not written for chain legs (Pinocchio's "
+            "MJCF parser reads no <weld>); write MuJoCo's layout",
+            "pinocchio_layout",
+            "chain",
+        )
+    legs = desc.chain_legs
+    root = ET.Element("mujoco", model=check_xml_text(desc.name, "robot name"))
+    ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
+    ET.SubElement(root, "option", gravity=vec(desc.gravity))
+    default = ET.SubElement(root, "default")
+    ET.SubElement(default, "geom", contype="0", conaffinity="0")
+    world = ET.SubElement(root, "worldbody")
+    base = mjcf_body(world, BASE_LINK)
+    ET.SubElement(base, "inertial", pos="0.0 0.0 0.0", mass="0.0", diaginertia="0.0 0.0 0.0")
+    radius = 0.02 * robot_size(desc)
+    for k, leg in enumerate(legs):
+        parent = base
+        for j, joint in enumerate(leg.joints):
+            X = joint.placement()
+            if j == 0:
+                T0 = np.eye(4)
+                T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[k], desc.base_points[k]
+                X = T0 @ X
+            body = mjcf_body(parent, leg_link(k + 1, j + 1), X[:3, 3], X[:3, :3])
+            _chain_joint(body, leg_joint(k + 1, j + 1), joint, np.eye(4))
+            mjcf_inertial(body, leg.inertia[j])
+            mjcf_geom(body, "sphere", "joint", (radius,))
+            parent = body
+        site = {"name": leg_tip_site(k + 1), "pos": vec(leg.tip)}
+        if leg.closure == "weld":
+            site["quat"] = vec(quaternion_wxyz(leg.tip_rotation))
+        ET.SubElement(parent, "site", site)
+    T = np.asarray(desc.home_pose, dtype=float)
+    platform = mjcf_body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
+    ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
+    mjcf_inertial(platform, desc.platform_inertia)
+    for k, leg in enumerate(legs):
+        site = {"name": platform_site(k + 1), "pos": vec(desc.platform_points[k])}
+        if leg.closure == "weld":
+            site["quat"] = vec(quaternion_wxyz(leg.platform_rotation))
+        ET.SubElement(platform, "site", site)
+    equality = ET.SubElement(root, "equality")
+    for k, leg in enumerate(legs):
+        ET.SubElement(
+            equality,
+            "weld" if leg.closure == "weld" else "connect",
+            name=f"loop{k + 1}",
+            site1=leg_tip_site(k + 1),
+            site2=platform_site(k + 1),
+            solref=vec(LOOP_SOLREF),
+            solimp=vec(LOOP_SOLIMP),
+        )
+    actuator = ET.SubElement(root, "actuator")
+    for k, leg in enumerate(legs):
+        ET.SubElement(
+            actuator, "motor", name=f"leg{k + 1}_motor", joint=leg_joint(k + 1, leg.actuated)
+        )
+    keyframe = ET.SubElement(root, "keyframe")
+    ET.SubElement(keyframe, "key", name="home", qpos=vec(chain_legs_mujoco_qpos(desc, T)))
+    ET.indent(root)
+    return (
+        "<!-- Generated by stewart-pin from the robot description; do not edit by hand. -->\n"
+        "<!-- Chain legs: ball loops as <connect>, welds as <weld> between the sites "
+        "leg<i>_tip and platform_p<i>. SI units, angles in rad. -->\n"
+        + ET.tostring(root, encoding="unicode")
+        + "\n"
+    )
+
+
 def write_mjcf(desc: RobotDescription, path: str | Path, pinocchio_layout: bool = False) -> Path:
     """Write :func:`mjcf_string` to ``path`` (atomically: a temporary file in the folder,
     then renamed); returns the path."""
@@ -706,9 +797,12 @@ _IDEAL_UPS = _MjcfForm(_ideal_ups_mjcf_string, _ideal_ups_mujoco_qpos, _no_inert
 _LEG_CHAINS = _MjcfForm(
     leg_chains_mjcf_string, leg_chains_mujoco_qpos, _leg_chains_inertial_defaults
 )
+_CHAIN_LEGS = _MjcfForm(chain_legs_mjcf_string, chain_legs_mujoco_qpos, _no_inertial_defaults)
 
 
 def _form(desc: Any) -> _MjcfForm:
     """The writers of ``desc``'s kind (:func:`~stewart_pin.formats.urdf.is_general`): the
     one place the MJCF's choice is made (``mujoco_inertials``' defaults included)."""
+    if getattr(desc, "chain_legs", None) is not None:
+        return _CHAIN_LEGS
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS

@@ -66,7 +66,7 @@ from stewart_pin._checks import check_array, decode_utf8
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import FileFormatError, InputError
+from stewart_pin.exceptions import FileFormatError, InputError, UnsupportedArchitectureError
 from stewart_pin.formats._xml import Visual, num, urdf_inertial, urdf_origin, urdf_visual
 
 BASE_LINK = "base_link"
@@ -605,6 +605,31 @@ def limit_values(lower: float, upper: float) -> tuple[float, float]:
     )
 
 
+def _chain_joint(
+    robot: ET.Element, name: str, joint: Any, parent: str, child: str, T: np.ndarray
+) -> None:
+    """A leg joint: placed at ``T`` (4x4) in its parent link, about z, its limits, damping
+    (viscous + damper) and friction (Coulomb)."""
+    el = ET.SubElement(robot, "joint", name=name, type=str(joint.kind))
+    ET.SubElement(el, "parent", link=parent)
+    ET.SubElement(el, "child", link=child)
+    urdf_origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
+    ET.SubElement(el, "axis", xyz="0 0 1")
+    lo_w, hi_w = limit_values(joint.lower, joint.upper)
+    ET.SubElement(
+        el,
+        "limit",
+        lower=num(lo_w),
+        upper=num(hi_w),
+        effort=num(URDF_EFFORT),
+        velocity=num(URDF_VELOCITY),
+    )
+    dyn = joint.dynamics
+    ET.SubElement(
+        el, "dynamics", damping=num(dyn.viscous + dyn.damping), friction=num(dyn.coulomb)
+    )
+
+
 def leg_chains_urdf_string(desc: Any) -> str:
     """The URDF of the tree of a robot's legs' joint chains (see the module docstring):
     what :func:`urdf_string` writes for general legs (:func:`is_general`); it takes any
@@ -632,27 +657,7 @@ def leg_chains_urdf_string(desc: Any) -> str:
                 urdf_visual(link, visual)
         for j, joint in enumerate(leg.joints):
             T = joint_placement(desc, k, j)
-            el = ET.SubElement(robot, "joint", name=leg_joint(i, j + 1), type=str(joint.kind))
-            ET.SubElement(el, "parent", link=parents[j])
-            ET.SubElement(el, "child", link=leg_link(i, j + 1))
-            urdf_origin(el, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
-            ET.SubElement(el, "axis", xyz="0 0 1")
-            lo_w, hi_w = limit_values(joint.lower, joint.upper)
-            ET.SubElement(
-                el,
-                "limit",
-                lower=num(lo_w),
-                upper=num(hi_w),
-                effort=num(URDF_EFFORT),
-                velocity=num(URDF_VELOCITY),
-            )
-            dyn = joint.dynamics
-            ET.SubElement(
-                el,
-                "dynamics",
-                damping=num(dyn.viscous + dyn.damping),
-                friction=num(dyn.coulomb),
-            )
+            _chain_joint(robot, leg_joint(i, j + 1), joint, parents[j], leg_link(i, j + 1), T)
 
     add_platform(robot, desc.platform_inertia, np.asarray(desc.platform_points), vs.plate())
     ET.indent(robot)
@@ -675,7 +680,8 @@ def joint_terms(desc: Any) -> dict[str, dict[str, Any]]:
     :class:`~stewart_pin.description.leg_architecture.JointDynamics`); ``armature`` is
     the joint-side total (rotor inertia reflected), the others as described."""
     out: dict[str, dict[str, Any]] = {}
-    for i, leg in enumerate(desc.legs, start=1):
+    legs = getattr(desc, "chain_legs", None) or desc.legs  # chain legs: n joints each
+    for i, leg in enumerate(legs, start=1):
         for j, joint in enumerate(leg.joints, start=1):
             d = joint.dynamics
             out[leg_joint(i, j)] = {
@@ -801,7 +807,118 @@ _IDEAL_UPS = _UrdfForm(_ideal_ups_urdf_string, _ideal_ups_closures_dict, _ideal_
 _LEG_CHAINS = _UrdfForm(leg_chains_urdf_string, leg_chains_closures_dict, leg_joint_values)
 
 
+def chain_legs_urdf_string(desc: Any) -> str:
+    """The URDF of the tree of a robot with chain legs (``desc.chain_legs``): links
+    ``leg<i>_link<j>`` (their inertials; no visuals but the plates), joints ``leg<i>_q<j>``
+    placed by their MDH transforms (revolute or prismatic about z, limits, damping and
+    friction), the platform on its floating joint; the loops and the joint terms URDF
+    cannot hold in the sidecar (:func:`chain_legs_closures_dict`)."""
+    vs = LegVisualSizes.for_robot(desc).plate()
+    robot, _ = robot_with_base(desc.name, np.asarray(desc.base_points), vs)
+    for i, leg in enumerate(desc.chain_legs, start=1):
+        for j, joint in enumerate(leg.joints, start=1):
+            link = ET.SubElement(robot, "link", name=leg_link(i, j))
+            urdf_inertial(link, np.asarray(leg.inertia[j - 1], dtype=float))
+            T = joint.placement()
+            if j == 1:
+                T0 = np.eye(4)
+                T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[i - 1], desc.base_points[i - 1]
+                T = T0 @ T
+            parent = BASE_LINK if j == 1 else leg_link(i, j - 1)
+            _chain_joint(robot, leg_joint(i, j), joint, parent, leg_link(i, j), T)
+    add_platform(robot, desc.platform_inertia, np.asarray(desc.platform_points), vs)
+    ET.indent(robot)
+    return (
+        '<?xml version="1.0"?>\n'
+        "<!-- Generated by stewart-pin from the robot description; do not edit by hand. -->\n"
+        "<!-- Chain legs. Loop closures (points for balls, frames for welds) and the joint "
+        "terms URDF cannot hold: the .closures.json file of the same name beside this "
+        "one. -->\n" + ET.tostring(robot, encoding="unicode") + "\n"
+    )
+
+
+def chain_legs_closures_dict(desc: Any, urdf_name: str | None = None) -> dict[str, Any]:
+    """The sidecar of :func:`chain_legs_urdf_string`: a ``"point"`` closure per ball leg
+    (``point1`` in the leg's last link, ``point2`` in the platform), a ``"frame"`` closure
+    per welded leg (``frame1`` / ``frame2``: ``xyz`` [m] and ``rpy`` [rad] of the two
+    frames that coincide, in the last link and in the platform), the actuated joints,
+    gravity, the joint terms and the home configuration."""
+    closures = []
+    for i, leg in enumerate(desc.chain_legs, start=1):
+        c: dict[str, Any] = {
+            "name": f"loop{i}",
+            "type": "point" if leg.closure == "ball" else "frame",
+        }
+        c["link1"], c["link2"] = leg_link(i, leg.n_joints), PLATFORM_LINK
+        P = np.asarray(desc.platform_points[i - 1], dtype=float)
+        if leg.closure == "ball":
+            c["point1"], c["point2"] = leg.tip.tolist(), P.tolist()
+        else:
+            for key, xyz, R in (
+                ("frame1", leg.tip, leg.tip_rotation),
+                ("frame2", P, leg.platform_rotation),
+            ):
+                c[key] = {"xyz": np.asarray(xyz).tolist(), "rpy": pin.rpy.matrixToRpy(R).tolist()}
+        closures.append(c)
+    legs = desc.chain_legs
+    return {
+        "format": CLOSURE_FORMAT,
+        "version": 1,
+        "urdf": urdf_name or f"{desc.name}.urdf",
+        "description": (
+            "Constraints closing the six loops: a point closure makes point1 in link1 "
+            "coincide with point2 in link2 (a ball); a frame closure makes frame1 in link1 "
+            "coincide with frame2 in link2 (a weld; xyz [m], rpy [rad] in each link's "
+            "frame). joint_terms: each leg joint's limits and dynamics, SI units."
+        ),
+        "closures": closures,
+        "actuated_joints": [leg_joint(i, leg.actuated) for i, leg in enumerate(legs, 1)],
+        "gravity": np.asarray(desc.gravity, dtype=float).tolist(),
+        "architectures": ["chain"] * 6,
+        JOINT_TERMS_KEY: joint_terms(desc),
+        **_chain_home_configuration(desc),
+    }
+
+
+def _chain_home_configuration(desc: Any) -> dict[str, Any]:
+    """:func:`home_configuration` for chain legs (n_i joints each)."""
+    from stewart_pin.kinematics import chain_legs
+
+    T = np.asarray(desc.home_pose, dtype=float)
+    qs = chain_legs.inverse_geometry(desc, T[None], check_limits=False)
+    positions = {
+        leg_joint(i + 1, j + 1): float(q[0, j])
+        for i, q in enumerate(qs)
+        for j in range(q.shape[1])
+    }
+    return {"home_pose": T.tolist(), "home_joint_positions": positions}
+
+
+def _chain_joint_values(desc: Any, pose: Any) -> np.ndarray:
+    from stewart_pin.kinematics import chain_legs
+
+    T = np.asarray(pose, dtype=float)
+    return chain_legs.padded(chain_legs.inverse_geometry(desc, T[None], False))[0]
+
+
+_CHAIN_LEGS = _UrdfForm(chain_legs_urdf_string, chain_legs_closures_dict, _chain_joint_values)
+
+
 def _form(desc: Any) -> _UrdfForm:
     """The writers of ``desc``'s kind (:func:`is_general`): the one place the URDF's choice
-    is made."""
+    is made (chain legs: ``desc.chain_legs``)."""
+    if getattr(desc, "chain_legs", None) is not None:
+        return _CHAIN_LEGS
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS
+
+
+def refuse_chain_legs(desc: Any) -> None:
+    """:class:`UnsupportedArchitectureError` for a robot with chain legs (the xacro
+    writer's guard)."""
+    if getattr(desc, "chain_legs", None) is not None:
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has chain legs (any joints, ball or weld closures): the "
+            "xacro arguments take three-joint ball legs only; write the URDF or the MJCF",
+            "export",
+            "chain",
+        )

@@ -64,6 +64,7 @@ from stewart_pin.formats.urdf import (
     limit_values,
     plate_disc,
     plate_visual,
+    refuse_chain_legs,
 )
 
 __all__ = ["general_xacro_args", "write_xacro_args", "xacro_args", "yaml_string"]
@@ -290,4 +291,5 @@ _LEG_CHAINS = _XacroForm(general_xacro_args, "stewart_general.urdf.xacro")
 def _form(desc: Any) -> _XacroForm:
     """The arguments of ``desc``'s kind (:func:`~stewart_pin.formats.urdf.is_general`): the
     one place the xacro's choice is made."""
+    refuse_chain_legs(desc)  # no writer for chain legs yet
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS

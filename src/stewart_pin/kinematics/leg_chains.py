@@ -732,8 +732,14 @@ def admissible_poses(
 
 def condition_number_batch(robot: GeneralHexapod, J_inv: np.ndarray) -> np.ndarray:
     """Unit-free condition number of ``Jp^-1`` (N,): angular columns over the size."""
+    return scaled_condition_number(J_inv, robot.size)
+
+
+def scaled_condition_number(J_inv: np.ndarray, size: float) -> np.ndarray:
+    """Condition number (N,) of ``Jp^-1`` (N, 6, 6) with its angular columns divided by
+    the length ``size`` [m]."""
     scaled = J_inv.copy()
-    scaled[..., 3:] /= robot.size
+    scaled[..., 3:] /= size
     s = np.linalg.svd(scaled, compute_uv=False)
     with np.errstate(divide="ignore"):
         return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
@@ -743,7 +749,12 @@ def check_parallel(
     robot: GeneralHexapod, J_inv: np.ndarray, max_condition: float = MAX_CONDITION
 ) -> None:
     """:class:`SingularityError` (``leg=None``) at a parallel singularity."""
-    cond = condition_number_batch(robot, J_inv)
+    check_condition(condition_number_batch(robot, J_inv), max_condition)
+
+
+def check_condition(cond: np.ndarray, max_condition: float) -> None:
+    """:class:`SingularityError` (``leg=None``) where the condition numbers ``cond`` (N,)
+    pass ``max_condition``."""
     bad = ~(cond <= max_condition)
     if np.any(bad):
         n = int(np.argmax(bad))  # the first failing state
@@ -803,6 +814,7 @@ __all__ = [
     "LegKinematics",
     "actuator_positions",
     "admissible_poses",
+    "check_condition",
     "check_joint_limits",
     "check_parallel",
     "check_serial",
@@ -819,6 +831,7 @@ __all__ = [
     "leg_jacobians",
     "leg_kinematics",
     "leg_state",
+    "scaled_condition_number",
     "serial_admissible",
     "serial_measure",
     "solve_leg",

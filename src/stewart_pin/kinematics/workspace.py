@@ -12,6 +12,7 @@ import pinocchio as pin
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.exceptions import InputError, StewartPinError, WorkspaceError
+from stewart_pin.kinematics import chain_legs
 from stewart_pin.kinematics.geometry import admissible_poses, inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import (
     MAX_CONDITION,
@@ -231,4 +232,41 @@ def sample_general_states(
     """:func:`sample_states` for general legs (:func:`sample_general_poses`)."""
     rng = _rng(rng)
     poses = sample_general_poses(desc, robot, n, rng, **pose_kwargs)
+    return poses, *_motion(desc, n, rng, speed, angular_speed)
+
+
+def sample_chain_poses(
+    desc: RobotDescription,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    translation: float | None = None,
+    rotation: float = 0.25,
+    max_condition: float = MAX_CONDITION,
+    max_draws: int = 100,
+) -> np.ndarray:
+    """:func:`sample_poses` for a robot with chain legs (``desc.chain_legs``): draws whose
+    legs do not reach, leave a joint's limits, meet a leg singularity or pass
+    ``max_condition`` are redrawn (:func:`stewart_pin.kinematics.chain_legs.admissible_poses`)."""
+
+    def accept(T: np.ndarray) -> None:
+        states = chain_legs.leg_states(desc, T, np.zeros((1, 6)), check_limits=True)
+        chain_legs.check_parallel(desc, chain_legs.inverse_jacobian(desc, states), max_condition)
+
+    def admissible(T: np.ndarray) -> np.ndarray:
+        return chain_legs.admissible_poses(desc, T, max_condition)
+
+    return _draw_poses(desc, n, rng, translation, rotation, max_draws, accept, admissible)
+
+
+def sample_chain_states(
+    desc: RobotDescription,
+    n: int,
+    rng: np.random.Generator | int | None = None,
+    speed: float | None = None,
+    angular_speed: float = 1.0,
+    **pose_kwargs: Any,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`sample_states` for chain legs (:func:`sample_chain_poses`)."""
+    rng = _rng(rng)
+    poses = sample_chain_poses(desc, n, rng, **pose_kwargs)
     return poses, *_motion(desc, n, rng, speed, angular_speed)

@@ -51,6 +51,7 @@ from stewart_pin.exceptions import (
     BaseParameterWarning,
     IdentificationError,
     InputError,
+    UnsupportedArchitectureError,
 )
 from stewart_pin.parameters.leg_chain_base import general_grouping, uncovered_legs
 from stewart_pin.protocols import RobotLike
@@ -325,6 +326,13 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     a :class:`~stewart_pin.exceptions.BaseParameterWarning` names the legs: the numerical
     rank may or may not count them, and identification will not resolve them.
     """
+    if desc.chain_legs is not None:
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has chain legs: no grouping rules foresee an arbitrary "
+            "chain; base_parameters(robot, 'numerical') gives the numerical base set",
+            "analytic_base_parameters",
+            desc.architecture,
+        )
     if desc.legs is not None:
         return _general_analytic(desc)
     lateral, total = gravity_ratios(desc)
@@ -441,9 +449,23 @@ def dimensionless_scales(desc: RobotDescription) -> tuple[np.ndarray, np.ndarray
     """
     L = float(desc.size)
     columns = L ** _LENGTH_POWERS.astype(float)
+    T = math.sqrt(L / STANDARD_GRAVITY)
+    if desc.chain_legs is not None:
+        chain = desc.chain_legs
+        n_links = sum(leg.n_joints for leg in chain) + 1  # the links and the platform
+        body = L ** np.tile(_LENGTH_POWERS[:10], n_links).astype(float)
+        terms = [
+            L**a * T**b
+            for leg in chain
+            for joint in leg.joints
+            for a, b in _JOINT_POWERS[joint.revolute]
+        ]
+        rows = np.array(
+            [1.0 / L if leg.joints[leg.actuated - 1].revolute else 1.0 for leg in chain]
+        )
+        return np.concatenate([body, terms]), rows
     if desc.legs is None:
         return columns, np.ones(6)
-    T = math.sqrt(L / STANDARD_GRAVITY)
     joints = [
         L**a * T**b
         for leg in desc.legs
@@ -567,6 +589,15 @@ def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -
     if method not in ("analytic", "numerical"):
         raise InputError(f"unknown method '{method}': 'analytic' or 'numerical'")
     desc = robot.description
+    if method == "analytic" and desc.chain_legs is not None:
+        warnings.warn(
+            f"the analytic base parameters have no rules for chain legs: robot "
+            f"'{desc.name}' gets the numerical base parameters (QR of the stacked "
+            "regressor) instead",
+            BaseParameterWarning,
+            stacklevel=2,
+        )
+        method = "numerical"
     if method == "analytic" and uncovered_legs(desc):
         warnings.warn(
             f"the analytic base parameters cover the legs ups, ups-offset, rus and pus; "

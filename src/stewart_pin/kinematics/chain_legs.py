@@ -1,0 +1,661 @@
+"""Kinematics of chain legs (:class:`~stewart_pin.description.chain_leg.ChainLeg`): any
+serial chain of n 1-dof joints closed by a ball (c = 3) or a weld (c = 6), ``n = c``
+(Khalil & Ibrahim 2007; ``docs/legs.md``, "Chain legs and welds").
+
+Conventions: pose 0Tp (N, 4, 4); twist ``V = [v, w]`` of O_p in F0 [m/s, rad/s];
+classical acceleration ``[dv/dt, dw/dt]`` in F0. Leg i's attachment on the platform is
+``P_i`` (``L_i = 0Rp P_i`` in F0 from O_p), with the orientation ``0Rp R_pi`` for a weld.
+Its Jacobian ``J_i`` (c, n) maps the joint rates to the attachment's velocity ``v_P`` (ball)
+or twist ``[v_P, w]`` (weld) in F0; ``G_i = [I3, -L_i^]`` (ball) or
+``[[I3, -L_i^], [0, I3]]`` (weld) maps the platform's twist to the same, so
+
+- ``qdot_i = J_i^-1 G_i V``;
+- ``qddot_i = J_i^-1 (G_i Vdot + d_i - Jdot_i qdot_i)``, ``d_i = w x (w x L_i)`` (ball;
+  ``[w x (w x L_i), 0]`` weld), ``Jdot_i qdot_i`` the attachment's classical acceleration
+  at zero joint acceleration;
+- the actuated joint's rate ``e_a^T J_i^-1 G_i V``: row i of ``Jp^-1``.
+
+Inverse geometry: a guarded Newton on the leg's chain (3D point residual, or 6D: point and
+rotation vector ``log(R_target R^T)`` in F0), continued from the leg's configuration at the
+home pose (found from its ``guess``) along the straight path from the home pose to the
+target (position linearly, orientation along the geodesic): the configuration reached is
+on the assembly branch of the home pose. Revolute joints are then taken modulo 2 pi into
+their limits (a full-turn range limits nothing). Per-leg loops, numpy over the batch.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from stewart_pin._checks import check_array, check_pose, in_batch
+from stewart_pin._so3 import cross, skew, so3_exp, so3_log
+from stewart_pin.description import RobotDescription
+from stewart_pin.description.chain_leg import ChainLeg, full_turn
+from stewart_pin.description.leg_architecture import wrap_into_limits
+from stewart_pin.exceptions import (
+    LegJointLimitError,
+    LegMobilityError,
+    LegReachError,
+    SingularityError,
+)
+from stewart_pin.kinematics._se3_newton import newton_se3
+from stewart_pin.kinematics.leg_chains import (
+    FORWARD_MAX_ITERATIONS,
+    FORWARD_TOLERANCE,
+    check_condition,
+    scaled_condition_number,
+)
+
+#: Newton's convergence: the attachment's position error under ``NEWTON_TOLERANCE``
+#: times the robot's size [m] and its orientation error under ``NEWTON_TOLERANCE`` [rad].
+NEWTON_TOLERANCE = 1e-13
+NEWTON_MAX_ITERATIONS = 40
+#: Largest Newton step: revolute joints [rad]; prismatic joints, times the size [m].
+MAX_STEP = 0.3
+#: Continuation from the home pose: sub-steps of at most this fraction of the size [m]
+#: and this angle [rad].
+CONTINUATION_TRANSLATION = 0.25
+CONTINUATION_ROTATION = 0.25
+#: Newton's tolerance at the continuation's intermediate poses.
+CONTINUATION_TOLERANCE = 1e-6
+#: Singular values of a leg's Jacobian under this fraction of its largest: rank-deficient.
+RANK_TOLERANCE = 1e-9
+
+
+def chain_legs_of(desc: RobotDescription) -> tuple[ChainLeg, ...]:
+    """The description's chain legs (it must have them)."""
+    assert desc.chain_legs is not None
+    return desc.chain_legs
+
+
+def robot_size(desc: RobotDescription) -> float:
+    """The length scale [m]: the mean platform-point distance to their centroid."""
+    P = desc.platform_points
+    r = float(np.linalg.norm(P - P.mean(0), axis=1).mean())
+    return r if r > 0 else desc.size
+
+
+# ---------------------------------------------------------------------------- one chain
+@dataclass(frozen=True)
+class ChainFrames:
+    """One leg's frames at a batch of joint values.
+
+    Attributes:
+        origins, axes: (N, n, 3) origin and z axis of each joint frame in F0.
+        tip: (N, 4, 4) the attachment frame in F0.
+    """
+
+    origins: np.ndarray
+    axes: np.ndarray
+    tip: np.ndarray
+
+
+def _mdh_batch(alpha: float, d: float, theta: Any, r: Any, N: int) -> np.ndarray:
+    """``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` (N, 4, 4) for theta, r (N,) or scalars."""
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    ct, st = np.cos(theta), np.sin(theta)
+    T = np.zeros((N, 4, 4))
+    T[:, 0, 0], T[:, 0, 1], T[:, 0, 3] = ct, -st, d
+    T[:, 1, 0], T[:, 1, 1], T[:, 1, 2], T[:, 1, 3] = ca * st, ca * ct, -sa, -r * sa
+    T[:, 2, 0], T[:, 2, 1], T[:, 2, 2], T[:, 2, 3] = sa * st, sa * ct, ca, r * ca
+    T[:, 3, 3] = 1.0
+    return T
+
+
+def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
+    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n)."""
+    N, n = q.shape
+    T: np.ndarray = T0  # (4, 4), then (N, 4, 4)
+    origins, axes = np.empty((N, n, 3)), np.empty((N, n, 3))
+    for j, joint in enumerate(leg.joints):
+        theta = joint.theta + q[:, j] if joint.revolute else joint.theta
+        r = joint.r if joint.revolute else joint.r + q[:, j]
+        T = T @ _mdh_batch(joint.alpha, joint.d, theta, r, N)
+        origins[:, j], axes[:, j] = T[:, :3, 3], T[:, :3, 2]
+    return ChainFrames(origins, axes, T @ leg.attachment())
+
+
+def chain_jacobian(leg: ChainLeg, frames: ChainFrames) -> np.ndarray:
+    """``J_i`` (N, c, n): the attachment's velocity (ball) or twist ``[v_P, w]`` (weld) in
+    F0 per joint rate."""
+    P = frames.tip[:, None, :3, 3]
+    z = frames.axes
+    rev = leg.revolute
+    J = np.zeros((z.shape[0], 6, z.shape[1]))
+    J[:, :3] = np.swapaxes(np.where(rev[:, None], cross(z, P - frames.origins), z), 1, 2)
+    J[:, 3:] = np.swapaxes(np.where(rev[:, None], z, 0.0), 1, 2)
+    return J[:, : leg.constraints]
+
+
+def chain_drift(leg: ChainLeg, frames: ChainFrames, qdot: np.ndarray) -> np.ndarray:
+    """``Jdot_i qdot_i`` (N, c): the attachment's classical acceleration (ball: of its
+    point; weld: ``[a_P, dw/dt]``) in F0 at zero joint acceleration."""
+    z, o = frames.axes, frames.origins
+    P = frames.tip[:, :3, 3]
+    rev = leg.revolute
+    N, n = qdot.shape
+
+    def lin_col(k: int, point: np.ndarray) -> np.ndarray:
+        return cross(z[:, k], point - o[:, k]) if rev[k] else z[:, k]
+
+    v_P = sum((lin_col(k, P) * qdot[:, k, None] for k in range(n)), np.zeros((N, 3)))
+    out = np.zeros((N, 6))
+    w = np.zeros((N, 3))  # angular velocity of link j-1
+    for j in range(n):
+        wz = cross(w, z[:, j])
+        if rev[j]:
+            v_o = sum((lin_col(k, o[:, j]) * qdot[:, k, None] for k in range(j)), np.zeros((N, 3)))
+            lin = cross(wz, P - o[:, j]) + cross(z[:, j], v_P - v_o)
+            out[:, :3] += lin * qdot[:, j, None]
+            out[:, 3:] += wz * qdot[:, j, None]
+            w = w + z[:, j] * qdot[:, j, None]
+        else:
+            out[:, :3] += wz * qdot[:, j, None]
+    return out[:, : leg.constraints]
+
+
+def platform_map(leg: ChainLeg, L: np.ndarray) -> np.ndarray:
+    """``G_i`` (N, c, 6) from L_i (N, 3)."""
+    G = np.zeros((L.shape[0], 6, 6))
+    G[:, :3, :3] = np.eye(3)
+    G[:, :3, 3:] = -skew(L)
+    G[:, 3:, 3:] = np.eye(3)
+    return G[:, : leg.constraints]
+
+
+def attachment_targets(desc: RobotDescription, k: int, T: np.ndarray) -> np.ndarray:
+    """Leg k's platform attachment frame in F0 (N, 4, 4) at poses T (N, 4, 4)."""
+    leg = chain_legs_of(desc)[k]
+    A = np.eye(4)
+    A[:3, :3], A[:3, 3] = leg.platform_rotation, desc.platform_points[k]
+    return T @ A
+
+
+def _residual(leg: ChainLeg, tip: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(N, c): ``target - tip`` position, and for a weld ``log(R_target R_tip^T)``."""
+    e = target[:, :3, 3] - tip[:, :3, 3]
+    if leg.constraints == 3:
+        return e
+    rot = so3_log(target[:, :3, :3] @ np.swapaxes(tip[:, :3, :3], 1, 2))
+    return np.concatenate([e, rot], axis=1)
+
+
+def leg_base_pose(desc: RobotDescription, k: int) -> np.ndarray:
+    T0 = np.eye(4)
+    T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[k], desc.base_points[k]
+    return T0
+
+
+def newton(
+    desc: RobotDescription,
+    k: int,
+    target: np.ndarray,
+    q: np.ndarray,
+    tol: float = NEWTON_TOLERANCE,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Guarded Newton on leg k's chain toward ``target`` (N, 4, 4) from q (N, n), an idle
+    joint kept at its value, to ``tol`` (relative position, rad); returns ``(q, converged
+    (N,) bool)``."""
+    leg = chain_legs_of(desc)[k]
+    T0 = leg_base_pose(desc, k)
+    size = robot_size(desc)
+    free = np.array([j + 1 != leg.idle_joint for j in range(leg.n_joints)])
+    step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)[free]
+    q = q.copy()
+    done = np.zeros(q.shape[0], bool)
+    for _ in range(NEWTON_MAX_ITERATIONS):
+        frames = chain_frames(leg, T0, q)
+        e = _residual(leg, frames.tip, target)
+        err = np.linalg.norm(e[:, :3], axis=1) / size
+        if leg.constraints == 6:
+            err = np.maximum(err, np.linalg.norm(e[:, 3:], axis=1))
+        done = err <= tol
+        if np.all(done):
+            break
+        J = chain_jacobian(leg, frames)[:, :, free]
+        with np.errstate(all="ignore"):
+            try:
+                dq = np.linalg.solve(J, e[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                dq = np.einsum("nij,nj->ni", np.linalg.pinv(J), e)
+        dq = np.where(np.isfinite(dq), dq, 0.0)
+        scale = np.max(np.abs(dq) / step_cap, axis=1)
+        dq = dq / np.maximum(scale, 1.0)[:, None]
+        step = np.zeros_like(q)
+        step[:, free] = dq
+        q = np.where(done[:, None], q, q + step)
+    return q, done
+
+
+_HOME: weakref.WeakKeyDictionary[RobotDescription, list[np.ndarray]] = weakref.WeakKeyDictionary()
+
+
+def home_configuration(desc: RobotDescription) -> list[np.ndarray]:
+    """Each leg's joint values (n,) at the home pose, Newton from its ``guess``
+    (:class:`LegReachError` when a leg does not reach it; cached per description)."""
+    if desc in _HOME:
+        return _HOME[desc]
+    out = []
+    T = desc.home_pose[None]
+    for k, leg in enumerate(chain_legs_of(desc)):
+        q, ok = newton(desc, k, attachment_targets(desc, k, T), leg.guess[None])
+        if not ok[0]:
+            raise LegReachError(
+                f"leg {k + 1}: Newton from the leg's guess {leg.guess.tolist()} does not "
+                "reach its platform attachment at the home pose: give a guess closer to "
+                "the home configuration",
+                k + 1,
+                float("nan"),
+            )
+        out.append(q[0])
+    _HOME[desc] = out
+    return out
+
+
+def check_mobility_at_home(desc: RobotDescription) -> None:
+    """Each leg's Jacobian at the home pose has full rank c; a leg's idle joint moves its
+    idle freedom, which leaves the actuated joint still (:class:`LegMobilityError` naming
+    the leg and the freedoms it lacks)."""
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), home_configuration(desc), strict=True)):
+        J = chain_jacobian(leg, chain_frames(leg, leg_base_pose(desc, k), q[None]))[0]
+        s = np.linalg.svd(J, compute_uv=False)
+        rank = int(np.sum(s > RANK_TOLERANCE * s[0])) if s[0] > 0 else 0
+        if rank < leg.constraints:
+            raise LegMobilityError(
+                f"leg {k + 1}: its {leg.n_joints} joints with its {leg.closure} closure "
+                f"move the attachment in {rank} directions only at the home pose (rank of "
+                f"J_{k + 1} {rank} < {leg.constraints}): the platform misses "
+                f"{leg.constraints - rank} freedom(s) there (parallel axes, a joint along "
+                "its own link...)",
+                k + 1,
+                missing=leg.constraints - rank,
+                rank=rank,
+            )
+        if leg.idle_joint is not None:
+            _check_idle(leg, leg.idle_joint, J, k)
+
+
+def _check_idle(leg: ChainLeg, idle: int, J: np.ndarray, k: int) -> None:
+    """The idle joint (1-based) parametrises the idle motion (``[J; e_idle^T]`` regular)
+    and that motion leaves the actuated joint still."""
+    n = leg.n_joints
+    Jsq = np.vstack([J, np.eye(n)[idle - 1]])
+    s = np.linalg.svd(Jsq, compute_uv=False)
+    if not s[-1] > RANK_TOLERANCE * s[0]:
+        raise LegMobilityError(
+            f"leg {k + 1}: joint {idle} (idle_joint) does not move the leg's idle "
+            "freedom at the home pose: name a joint that does (for an R-S-S rod, its spin)",
+            k + 1,
+        )
+    null = np.linalg.solve(Jsq, np.eye(n)[-1])
+    if abs(null[leg.actuated - 1]) > 1e-9 * np.abs(null).max():
+        raise LegMobilityError(
+            f"leg {k + 1}: the idle freedom moves the actuated joint {leg.actuated}: the "
+            "actuators would not hold the platform",
+            k + 1,
+            extra=1,
+        )
+
+
+def _interpolate(T_from: np.ndarray, T_to: np.ndarray, s: float) -> np.ndarray:
+    """Poses (N, 4, 4) a fraction s along the straight path from T_from (4, 4)."""
+    out = np.tile(np.eye(4), (T_to.shape[0], 1, 1))
+    out[:, :3, 3] = T_from[:3, 3] + s * (T_to[:, :3, 3] - T_from[:3, 3])
+    r = so3_log(T_to[:, :3, :3] @ T_from[:3, :3].T)
+    out[:, :3, :3] = so3_exp(s * r) @ T_from[:3, :3]
+    return out
+
+
+def check_limits_of(desc: RobotDescription, k: int, q: np.ndarray) -> np.ndarray:
+    """Leg k's joint values (N, n) with revolute ones taken modulo 2 pi into their limits
+    (full turns limit nothing); :class:`LegJointLimitError` when one is outside."""
+    leg = chain_legs_of(desc)[k]
+    lim = leg.limits
+    rev = leg.revolute
+    lower = np.where(rev & full_turn(lim[:, 0], lim[:, 1]), -np.inf, lim[:, 0])
+    upper = np.where(rev & full_turn(lim[:, 0], lim[:, 1]), np.inf, lim[:, 1])
+    q = wrap_into_limits(q, rev, lim[:, 0], lim[:, 1])
+    bad = (q < lower) | (q > upper)
+    if np.any(bad):
+        n, j = np.argwhere(bad)[0]
+        raise in_batch(
+            LegJointLimitError(
+                k + 1, int(j + 1), float(q[n, j]), float(lim[j, 0]), float(lim[j, 1])
+            ),
+            bad.any(axis=1),
+        )
+    return q
+
+
+def _continuation_steps(
+    desc: RobotDescription, H: np.ndarray, T: np.ndarray, idle_step: np.ndarray
+) -> int:
+    """Sub-steps of the continuation from pose H (4, 4) to the poses T (N, 4, 4), the idle
+    joints moving by ``idle_step`` (N,) [rad or m]."""
+    dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / robot_size(desc)
+    da = np.linalg.norm(so3_log(T[:, :3, :3] @ H[:3, :3].T), axis=1)
+    da = np.maximum(da, idle_step)
+    worst = float(np.max(np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION)))
+    return max(1, math.ceil(worst)) if math.isfinite(worst) else 1
+
+
+def idle_home(desc: RobotDescription) -> np.ndarray:
+    """(6,) the idle joints' values at the home pose (0 for a leg without one)."""
+    out = np.zeros(6)
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), home_configuration(desc), strict=True)):
+        if leg.idle_joint is not None:
+            out[k] = q[leg.idle_joint - 1]
+    return out
+
+
+def solve_legs(
+    desc: RobotDescription, T: np.ndarray, idle_q: np.ndarray | None = None
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """Each leg's joint values (N, n_i) at poses T (N, 4, 4) by the continuation from the
+    home configuration (or from the last configuration solved, :data:`_LAST`, when that
+    is fewer steps away: a trajectory's, a simulation's), revolute ones in (-pi, pi], and
+    ``reached`` (N, 6) bool; the idle joints at ``idle_q`` (N, 6) (``None``: their home
+    values), reached along the same continuation."""
+    legs = chain_legs_of(desc)
+    H, start, q_start = desc.home_pose, idle_home(desc), home_configuration(desc)
+    idle_q = np.broadcast_to(start, (T.shape[0], 6)) if idle_q is None else idle_q
+    has_idle = np.array([leg.idle_joint is not None for leg in legs])
+
+    def steps_from(H: np.ndarray, start: np.ndarray) -> int:
+        change = np.abs(np.where(has_idle, idle_q - start, 0.0)).max(axis=1)
+        return _continuation_steps(desc, H, T, change)
+
+    steps = steps_from(H, start)
+    last = _LAST.get(desc)
+    if last is not None and steps > 1:
+        steps_last = steps_from(last[0], last[1])
+        if steps_last < steps:
+            H, start, q_start, steps = last[0], last[1], last[2], steps_last
+    out, reached = [], np.ones((T.shape[0], 6), bool)
+    for k, q0 in enumerate(q_start):
+        q = np.broadcast_to(q0, (T.shape[0], q0.size)).copy()
+        ok = np.ones(T.shape[0], bool)
+        idle = legs[k].idle_joint
+        for s in range(1, steps + 1):
+            Ts = T if s == steps else _interpolate(H, T, s / steps)
+            if idle is not None:
+                q[:, idle - 1] = start[k] + s / steps * (idle_q[:, k] - start[k])
+            # the intermediate poses only guide the branch: a loose tolerance
+            tol = NEWTON_TOLERANCE if s == steps else CONTINUATION_TOLERANCE
+            q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q, tol)
+        rev = chain_legs_of(desc)[k].revolute
+        out.append(np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q))
+        reached[:, k] = ok
+    if np.all(reached[-1]):
+        _LAST[desc] = (T[-1].copy(), np.array(idle_q[-1]), [q[-1].copy() for q in out])
+    return out, reached
+
+
+#: The last state solved per description: ``(pose (4, 4), idle values (6,), the legs'
+#: joint values)``, a start for the next :func:`solve_legs` near it.
+_LAST: weakref.WeakKeyDictionary[
+    RobotDescription, tuple[np.ndarray, np.ndarray, list[np.ndarray]]
+] = weakref.WeakKeyDictionary()
+
+
+def inverse_geometry(
+    desc: RobotDescription, T: np.ndarray, check_limits: bool, idle_q: np.ndarray | None = None
+) -> list[np.ndarray]:
+    """Each leg's joint values (N, n_i) at poses T (N, 4, 4), on the home pose's assembly
+    branch (module docstring), idle joints at ``idle_q`` (N, 6) (default their home
+    values); :class:`LegReachError` where Newton does not converge,
+    :class:`LegJointLimitError` (``check_limits``) outside a joint's limits."""
+    qs, reached = solve_legs(desc, T, idle_q)
+    out = []
+    for k, q in enumerate(qs):
+        ok = reached[:, k]
+        if not np.all(ok):
+            n = int(np.argmin(ok))
+            raise in_batch(
+                LegReachError(
+                    f"leg {k + 1} does not reach its platform attachment at pose {n} (Newton "
+                    "on the leg's chain from the home configuration did not converge): the "
+                    "pose is outside the leg's reach or past a leg singularity",
+                    k + 1,
+                    float("nan"),
+                ),
+                ~ok,
+            )
+        if check_limits:
+            q = check_limits_of(desc, k, q)
+        else:
+            lim = chain_legs_of(desc)[k].limits
+            q = wrap_into_limits(q, chain_legs_of(desc)[k].revolute, lim[:, 0], lim[:, 1])
+        out.append(q)
+    return out
+
+
+def padded(qs: list[np.ndarray]) -> np.ndarray:
+    """Per-leg arrays (N, n_i) as one (N, 6, max n_i), zero past a leg's last joint."""
+    width = max(q.shape[1] for q in qs)
+    out = np.zeros((qs[0].shape[0], 6, width))
+    for k, q in enumerate(qs):
+        out[:, k, : q.shape[1]] = q
+    return out
+
+
+def admissible_poses(desc: RobotDescription, T: np.ndarray, max_condition: float) -> np.ndarray:
+    """(N,) bool: every leg reaches its attachment inside its joint limits, no leg
+    Jacobian is singular, and ``Jp^-1``'s condition number is within ``max_condition``."""
+    qs, reached = solve_legs(desc, T)
+    ok = np.asarray(reached.all(axis=1))
+    rows = np.zeros((T.shape[0], 6, 6))
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), qs, strict=True)):
+        lim = leg.limits
+        turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
+        qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
+        inside = turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1]))
+        ok &= inside.all(axis=1)
+        frames = chain_frames(leg, leg_base_pose(desc, k), q)
+        J = _square(leg, chain_jacobian(leg, frames))
+        with np.errstate(all="ignore"):
+            s = np.linalg.svd(J, compute_uv=False)
+            ok &= s[:, -1] > RANK_TOLERANCE * s[:, 0]
+            J_safe = np.where(ok[:, None, None], J, np.eye(leg.n_joints))
+            G = platform_map(leg, T[:, :3, :3] @ desc.platform_points[k])
+            J_inv = np.linalg.inv(J_safe)[:, :, : leg.constraints]
+            rows[:, k] = (J_inv @ G)[:, leg.actuated - 1]
+    if np.any(ok):
+        ok[ok] = condition_number(desc, rows[ok]) <= max_condition
+    return ok
+
+
+def forward_geometry(
+    desc: RobotDescription,
+    actuated: Any,
+    guess: Any = None,
+    tol: float = FORWARD_TOLERANCE,
+    max_iterations: int = FORWARD_MAX_ITERATIONS,
+) -> np.ndarray:
+    """The pose 0Tp (4, 4) whose actuated joint values are ``actuated`` (6,) [m or rad]:
+    Newton on SE(3) from ``guess`` (default the home pose), ``Jp^-1 dV = actuated -
+    q_a(T)``, ``p += dv``, ``R <- exp(dw) R``.
+
+    Raises:
+        ConvergenceError, SingularityError, LegReachError: as
+        :func:`stewart_pin.kinematics.leg_chains.forward_geometry`.
+    """
+    target = check_array(actuated, (6,), "actuated")
+    T = check_pose(desc.home_pose if guess is None else guess, "guess").copy()
+    legs = chain_legs_of(desc)
+    act = [leg.actuated - 1 for leg in legs]
+    revolute = np.array([leg.revolute[a] for leg, a in zip(legs, act, strict=True)])
+
+    def evaluate(T: np.ndarray) -> tuple[np.ndarray, Callable[[], np.ndarray]]:
+        states = leg_states(desc, T[None], np.zeros((1, 6)))
+        q_a = np.array([s.q[0, a] for s, a in zip(states, act, strict=True)])
+        error = target - q_a
+        error = np.where(revolute, np.mod(error + math.pi, 2 * math.pi) - math.pi, error)
+        return error, lambda: inverse_jacobian(desc, states)[0]
+
+    return newton_se3(T, evaluate, tol, max_iterations, "actuated joint error")
+
+
+# ---------------------------------------------------------------------------- the legs' state
+@dataclass(frozen=True)
+class ChainLegState:
+    """One leg's state at a batch of platform states.
+
+    Attributes:
+        q, qdot, qddot: (N, n) joint values, rates, accelerations [rad or m, /s, /s^2]
+            (qddot zero without a platform acceleration).
+        J: (N, c, n). J_inv: (N, n, c) ``J_i^-1``; for a leg with an idle joint the
+            first c columns of ``[J_i; e_idle^T]^-1`` (the joint motion with the idle joint
+            still). G: (N, c, 6). L: (N, 3) O_p to P_i in F0.
+        drift: (N, c) ``Jdot_i qdot_i``. platform_drift: (N, c) ``d_i``.
+        frames: the leg's :class:`ChainFrames`.
+        null: (N, n) the idle motion per unit idle rate (last column of
+            ``[J_i; e_idle^T]^-1``: ``J_i null = 0``), or ``None`` without an idle joint.
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray
+    J: np.ndarray
+    J_inv: np.ndarray
+    G: np.ndarray
+    L: np.ndarray
+    drift: np.ndarray
+    platform_drift: np.ndarray
+    frames: ChainFrames
+    null: np.ndarray | None = None
+
+    @property
+    def KG(self) -> np.ndarray:
+        """``J_i^-1 G_i`` (N, n, 6)."""
+        return self.J_inv @ self.G
+
+
+def _square(leg: ChainLeg, J: np.ndarray) -> np.ndarray:
+    """``J`` (N, c, n), with the row ``e_idle^T`` below for a leg with an idle joint:
+    (N, n, n)."""
+    if leg.idle_joint is None:
+        return J
+    row = np.broadcast_to(np.eye(leg.n_joints)[leg.idle_joint - 1], (J.shape[0], 1, J.shape[2]))
+    return np.concatenate([J, row], axis=1)
+
+
+def _inv(J: np.ndarray, k: int) -> np.ndarray:
+    try:
+        J_inv = np.linalg.inv(J)
+    except np.linalg.LinAlgError:
+        J_inv = np.full(J.shape, np.nan)
+    bad = ~np.all(np.isfinite(J_inv), axis=(1, 2))
+    if np.any(bad):
+        raise in_batch(
+            SingularityError(
+                f"leg {k + 1}: its Jacobian J_{k + 1} is singular (a serial singularity of "
+                "the leg's chain)",
+                float("inf"),
+                None,
+                leg=k + 1,
+            ),
+            bad,
+        )
+    return J_inv
+
+
+@dataclass(frozen=True)
+class IdleState:
+    """The idle joints' state (one per leg; ignored for a leg without an idle joint).
+
+    Attributes:
+        q, qdot: (N, 6) values and rates [rad or m, /s]. qddot: (N, 6) accelerations, or
+        ``None`` (zero; the inverse model computes them).
+    """
+
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray | None = None
+
+
+def leg_states(
+    desc: RobotDescription,
+    T: np.ndarray,
+    V: np.ndarray,
+    A: np.ndarray | None = None,
+    check_limits: bool = False,
+    idle: IdleState | None = None,
+) -> list[ChainLegState]:
+    """The six legs' :class:`ChainLegState` at poses T (N, 4, 4), twists V (N, 6) and
+    classical accelerations A (N, 6) (``None``: qddot zero); the idle joints' values,
+    rates and accelerations from ``idle`` (``None``: home values, at rest)."""
+    q_all = inverse_geometry(desc, T, check_limits, None if idle is None else idle.q)
+    w = V[:, 3:]
+    out = []
+    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), q_all, strict=True)):
+        frames = chain_frames(leg, leg_base_pose(desc, k), q)
+        J = chain_jacobian(leg, frames)
+        square = _inv(_square(leg, J), k)
+        J_inv = square[:, :, : leg.constraints]
+        null = None if leg.idle_joint is None else square[:, :, -1]
+        L = T[:, :3, :3] @ desc.platform_points[k]
+        G = platform_map(leg, L)
+        qdot = np.einsum("nij,nj->ni", J_inv @ G, V)
+        if null is not None and idle is not None:
+            qdot = qdot + null * idle.qdot[:, k, None]
+        drift = chain_drift(leg, frames, qdot)
+        d = np.zeros((T.shape[0], leg.constraints))
+        d[:, :3] = cross(w, cross(w, L))
+        if A is None:
+            qddot = np.zeros_like(qdot)
+        else:
+            rhs = np.einsum("nij,nj->ni", G, A) + d - drift
+            qddot = np.einsum("nij,nj->ni", J_inv, rhs)
+            if null is not None and idle is not None and idle.qddot is not None:
+                qddot = qddot + null * idle.qddot[:, k, None]
+        out.append(ChainLegState(q, qdot, qddot, J, J_inv, G, L, drift, d, frames, null))
+    return out
+
+
+def inverse_jacobian(desc: RobotDescription, states: list[ChainLegState]) -> np.ndarray:
+    """``Jp^-1`` (N, 6, 6): row i is ``e_a^T J_i^-1 G_i``."""
+    legs = chain_legs_of(desc)
+    return np.stack([s.KG[:, leg.actuated - 1] for leg, s in zip(legs, states, strict=True)], 1)
+
+
+def condition_number(desc: RobotDescription, J_inv: np.ndarray) -> np.ndarray:
+    """Unit-free condition number of ``Jp^-1`` (N,): angular columns over the size."""
+    return scaled_condition_number(J_inv, robot_size(desc))
+
+
+def check_parallel(desc: RobotDescription, J_inv: np.ndarray, max_condition: float) -> None:
+    """:class:`SingularityError` (``leg=None``) at a parallel singularity."""
+    check_condition(condition_number(desc, J_inv), max_condition)
+
+
+__all__ = [
+    "NEWTON_TOLERANCE",
+    "ChainFrames",
+    "ChainLegState",
+    "IdleState",
+    "admissible_poses",
+    "attachment_targets",
+    "chain_drift",
+    "chain_frames",
+    "chain_jacobian",
+    "check_mobility_at_home",
+    "check_parallel",
+    "condition_number",
+    "forward_geometry",
+    "home_configuration",
+    "idle_home",
+    "inverse_geometry",
+    "inverse_jacobian",
+    "leg_states",
+    "newton",
+    "padded",
+    "platform_map",
+    "solve_legs",
+]
