@@ -152,9 +152,9 @@ class RobotDescription:
     # where an imported robot came from (file names of its bodies and joints), or None
     source: ModelSource | None = None
     # per-body gravity compensation (GRAVCOMP_KEYS): the platform's factor, and (6, 3) the
-    # links' (None: zeros; stored as the (6, 3) array)
+    # links' (None, or six lists, accepted at construction; stored as the (6, 3) array)
     platform_gravcomp: float = 0.0
-    leg_gravcomp: np.ndarray | None = None
+    leg_gravcomp: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
@@ -275,8 +275,7 @@ class RobotDescription:
     def has_gravcomp(self) -> bool:
         """Whether some body's weight is compensated (a non-zero ``platform_gravcomp`` or
         ``leg_gravcomp``)."""
-        lg = self.leg_gravcomp
-        return self.platform_gravcomp != 0.0 or (lg is not None and bool(np.any(lg)))
+        return self.platform_gravcomp != 0.0 or bool(np.any(self.leg_gravcomp))
 
     def _check_legs(self) -> None:
         """Six legs (parsed from tables when needed); no shared stroke or U-joint limits
@@ -372,7 +371,6 @@ class RobotDescription:
             d["source"] = self.source.to_dict()
         if self.has_gravcomp:  # left out when every body has its full weight
             d["platform_gravcomp"] = self.platform_gravcomp
-            assert self.leg_gravcomp is not None
             d["leg_gravcomp"] = self.leg_gravcomp.tolist()
         return d
 
