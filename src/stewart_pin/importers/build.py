@@ -728,9 +728,9 @@ def build(
         platform_gravcomp = _link_gravcomp(model, links, P)
         if platform_gravcomp or np.any(leg_gravcomp):
             model.notes.append(
-                "gravity compensation of some bodies (gravcomp, or no gravity): "
+                "gravity compensation of some bodies (gravcomp, or no gravity); "
                 + ", ".join(
-                    f"{name} {c:g}"
+                    f"{name}: {c:g}"
                     for name, c in [
                         ("the platform", platform_gravcomp),
                         *(
@@ -741,7 +741,8 @@ def build(
                     ]
                     if c
                 )
-                + " of their weights removed (platform_gravcomp, leg_gravcomp)"
+                + " (the fractions of their weights removed: platform_gravcomp, "
+                "leg_gravcomp)"
             )
     notes = list(model.notes) + [f"dropped {x}" for x in rec.dropped]
 
