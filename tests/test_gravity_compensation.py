@@ -27,9 +27,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from cad_models import cad_urdf
-from helpers import mujoco_closed_state, mujoco_kkt, rel_error
+from helpers import rel_error
 from sdf_models import closed_urdf, urdf_to_sdf
 from test_import_mjcf import differences
+from test_import_side_features import _check
 from test_import_urdf import RANGES, SOURCES, PinReference, pairs_of
 
 from stewart_pin import (
@@ -243,25 +244,6 @@ def _mjcf_with_gravcomp() -> str:
     return xml
 
 
-def _check_mujoco(xml: str, robot: StewartRobot, backend: str, n: int = 3) -> None:
-    mujoco = pytest.importorskip("mujoco")
-    m = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(m)
-    rng = np.random.default_rng(1)
-    for _ in range(n):
-        T = robot.home_pose
-        T[:3, 3] += rng.uniform(-0.003, 0.003, 3)
-        T[:3, :3] = pin.exp3(rng.uniform(-0.02, 0.02, 3)) @ T[:3, :3]
-        V, A = rng.normal(size=6) * 0.1, rng.normal(size=6)
-        mujoco_closed_state(m, data, "platform", T, V, guess=m.key_qpos[0])
-        gamma_mj = mujoco_kkt(m, data, "platform", A=A)
-        gamma = robot.inverse_dynamics(T, V, A, backend=backend)
-        assert rel_error(gamma, gamma_mj) < TOL, f"IDM {rel_error(gamma, gamma_mj):.2e}"
-        A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
-        A_got = robot.direct_dynamics(T, V, gamma_mj, backend=backend)
-        assert rel_error(A_got, A_mj) < TOL, f"DDM {rel_error(A_got, A_mj):.2e}"
-
-
 @pytest.mark.parametrize("backend", ["pinocchio", "compiled"])
 def test_mjcf_gravcomp_on_some_bodies_matches_mujoco(backend):
     pytest.importorskip("mujoco")
@@ -276,7 +258,7 @@ def test_mjcf_gravcomp_on_some_bodies_matches_mujoco(backend):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModelImportWarning)
         robot = StewartRobot(desc)
-    _check_mujoco(xml, robot, backend)
+    _check(xml, robot, backend=backend, ddm=True)
 
 
 def test_mjcf_writer_writes_gravcomp_and_reads_it_back():
@@ -286,7 +268,7 @@ def test_mjcf_writer_writes_gravcomp_and_reads_it_back():
     desc = import_mjcf(_mjcf_with_gravcomp()).description
     written = mjcf_string(desc)
     assert 'gravcomp="0.7"' in written and 'gravcomp="0.3"' in written
-    _check_mujoco(written, StewartRobot(desc), "pinocchio", n=2)
+    _check(written, StewartRobot(desc), n=2, backend="pinocchio", ddm=True)
     back = import_mjcf(written).description
     assert differences(back, desc) == []
 

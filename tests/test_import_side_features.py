@@ -35,8 +35,12 @@ def _import(xml, **options) -> StewartRobot:
         return StewartRobot.from_mjcf(xml, **options)
 
 
-def _check(reference_xml: str, robot: StewartRobot, n: int = 3) -> None:
-    """The robot's IDM against the KKT solve on MuJoCo's model of ``reference_xml``."""
+def _check(
+    reference_xml: str, robot: StewartRobot, n: int = 3, backend: str | None = None, ddm=False
+) -> None:
+    """The robot's IDM (``ddm``: and DDM) against the KKT solve on MuJoCo's model of
+    ``reference_xml``, on ``backend`` (default: the robot's)."""
+    kw = {} if backend is None else {"backend": backend}
     m = mujoco.MjModel.from_xml_string(reference_xml)
     data = mujoco.MjData(m)
     rng = np.random.default_rng(1)
@@ -47,8 +51,12 @@ def _check(reference_xml: str, robot: StewartRobot, n: int = 3) -> None:
         V, A = rng.normal(size=6) * 0.1, rng.normal(size=6)
         mujoco_closed_state(m, data, "platform", T, V, guess=m.key_qpos[0])
         gamma_mj = mujoco_kkt(m, data, "platform", A=A)
-        gamma = robot.inverse_dynamics(T, V, A)
+        gamma = robot.inverse_dynamics(T, V, A, **kw)
         assert rel_error(gamma, gamma_mj) < 1e-10, f"IDM {rel_error(gamma, gamma_mj):.2e}"
+        if ddm:
+            A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
+            A_got = robot.direct_dynamics(T, V, gamma_mj, **kw)
+            assert rel_error(A_got, A_mj) < 1e-10, f"DDM {rel_error(A_got, A_mj):.2e}"
 
 
 def test_actuators_on_sites_and_bodies_are_ignored_with_a_line():
