@@ -100,6 +100,9 @@ def test_description_field_validated_and_round_trips(tmp_path):
         with pytest.raises(GravityCompensationError, match=message) as info:
             d.replace(**change)
         assert info.value.body in ("platform", "leg_gravcomp", "leg 6 link 2")
+    # the resolved view the dynamics read checks them too
+    with pytest.raises(GravityCompensationError, match="leg 1 link 1 must be in"):
+        general_from_description(c).replace(leg_gravcomp=np.full((6, 3), -1.0))
     # in a file: the key's line quoted
     text = c.write(tmp_path / "c.toml").read_text()
     broken = text.replace("platform_gravcomp = 0.4", "platform_gravcomp = 4.0")

@@ -22,7 +22,12 @@ from stewart_pin._checks import check_array, project_rotation
 from stewart_pin.description.inertia import check_physical
 from stewart_pin.description.leg_architecture import LegArchitecture
 from stewart_pin.description.robot_description import RobotDescription
-from stewart_pin.exceptions import ArchitectureError, DescriptionError, InputError
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    DescriptionError,
+    GravityCompensationError,
+    InputError,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,6 +97,21 @@ class GeneralHexapod:
             for j in range(3):
                 check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
         check_physical(self.platform_inertia, "platform")
+        for body, c in [
+            ("platform", self.platform_gravcomp),
+            *(
+                (f"leg {i + 1} link {j + 1}", self.leg_gravcomp[i, j])
+                for i in range(6)
+                for j in range(3)
+            ),
+        ]:
+            if not 0.0 <= c <= 1.0:  # NaN too
+                raise GravityCompensationError(
+                    f"general hexapod '{self.name}': gravity compensation of the {body} must be "
+                    f"in [0, 1] (the fraction of its weight removed), got {c!r}",
+                    body,
+                    c,
+                )
 
     # ------------------------------------------------------------------ derived data
     @property
