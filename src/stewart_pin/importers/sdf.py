@@ -95,7 +95,8 @@ class SdfRead:
         model: the neutral tree.
         one_dof: the file's 1-dof joints (revolute, continuous, prismatic; not the hinges
             of a universal joint) by name, with their order in the file.
-        gravity_off: the links with ``<gravity>false</gravity>``.
+        gravity_off: the links with ``<gravity>false</gravity>`` (their bodies' ``gravcomp``
+            set to 1: their weights removed).
     """
 
     model: KinematicModel
