@@ -164,6 +164,8 @@ def test_gazebo_style_sdf_matches_the_urdf_round_trip(name, cross, kind, version
 
 
 def test_gravity_false_links_ball_dynamics_and_a_loose_base_are_reported(tmp_path):
+    """(``<gravity>false</gravity>`` links against a reference:
+    tests/test_gravity_compensation.py.)"""
     d = _u_cross_massless("simulator", 0)
     plain = import_sdf(write(tmp_path, gazebo_sdf(d, seed=3), "a.sdf"))
     text = gazebo_sdf(d, seed=3, gravity_off=("platform", "leg2_link3"), ball_dynamics=True)
@@ -173,6 +175,12 @@ def test_gravity_false_links_ball_dynamics_and_a_loose_base_are_reported(tmp_pat
         "<gravity>false</gravity>: 'platform', 'leg2_link3'" in report
     )
     assert "the <dynamics> of ball joint 'leg1_ball' ignored (Gazebo applies none" in report
+    assert result.description.platform_gravcomp == 1.0
+    assert result.description.leg_gravcomp[1].tolist() == [0.0, 0.0, 1.0]
+    no_gravcomp = result.description.replace(platform_gravcomp=0.0, leg_gravcomp=None)
+    assert differences(no_gravcomp, plain.description) == []
+    text = gazebo_sdf(d, seed=3, ball_dynamics=True)
+    result = import_sdf(write(tmp_path, text, "b2.sdf"))
     assert differences(result.description, plain.description) == []
     loose = import_sdf(write(tmp_path, gazebo_sdf(d, seed=3, base="none"), "c.sdf"))
     assert "the base link 'base' is neither <static> nor jointed to the world" in str(loose.report)

@@ -3,7 +3,7 @@
 - an actuator on a site or a body (a disturbance input): ignored, a report line; the
   efforts those of the file with it at zero;
 - gravity compensation (``gravcomp``) the same on every moving body: gravity scaled;
-  on some bodies only, or routed to actuators: refused, the bodies named;
+  routed to actuators: refused (on some bodies only: tests/test_gravity_compensation.py);
 - mesh files missing: visual ones named in a line; a body whose inertia MuJoCo computes
   from a missing mesh takes its inertia from ``inertials=``.
 
@@ -35,8 +35,12 @@ def _import(xml, **options) -> StewartRobot:
         return StewartRobot.from_mjcf(xml, **options)
 
 
-def _check(reference_xml: str, robot: StewartRobot, n: int = 3) -> None:
-    """The robot's IDM against the KKT solve on MuJoCo's model of ``reference_xml``."""
+def _check(
+    reference_xml: str, robot: StewartRobot, n: int = 3, backend: str | None = None, ddm=False
+) -> None:
+    """The robot's IDM (``ddm``: and DDM) against the KKT solve on MuJoCo's model of
+    ``reference_xml``, on ``backend`` (default: the robot's)."""
+    kw = {} if backend is None else {"backend": backend}
     m = mujoco.MjModel.from_xml_string(reference_xml)
     data = mujoco.MjData(m)
     rng = np.random.default_rng(1)
@@ -47,8 +51,12 @@ def _check(reference_xml: str, robot: StewartRobot, n: int = 3) -> None:
         V, A = rng.normal(size=6) * 0.1, rng.normal(size=6)
         mujoco_closed_state(m, data, "platform", T, V, guess=m.key_qpos[0])
         gamma_mj = mujoco_kkt(m, data, "platform", A=A)
-        gamma = robot.inverse_dynamics(T, V, A)
+        gamma = robot.inverse_dynamics(T, V, A, **kw)
         assert rel_error(gamma, gamma_mj) < 1e-10, f"IDM {rel_error(gamma, gamma_mj):.2e}"
+        if ddm:
+            A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
+            A_got = robot.direct_dynamics(T, V, gamma_mj, **kw)
+            assert rel_error(A_got, A_mj) < 1e-10, f"DDM {rel_error(A_got, A_mj):.2e}"
 
 
 def test_actuators_on_sites_and_bodies_are_ignored_with_a_line():
@@ -81,11 +89,9 @@ def test_uniform_gravity_compensation_scales_gravity(c):
     _check(comp, robot)
 
 
-def test_gravity_compensation_on_some_bodies_is_refused():
+def test_gravity_compensation_routed_to_actuators_is_refused():
+    """(On some bodies only it is modelled: tests/test_gravity_compensation.py.)"""
     xml = mjcf_string(preset("rus"))
-    one = xml.replace('<body name="platform"', '<body name="platform" gravcomp="1"')
-    with pytest.raises(ModelImportError, match="'platform' have gravity compensation"):
-        import_mjcf(one)
     all_ = re.sub(r'<body name="(leg\d_link\d|platform)"', r'<body name="\1" gravcomp="1"', xml)
     routed = all_.replace('name="leg1_q1"', 'name="leg1_q1" actuatorgravcomp="true"')
     with pytest.raises(ModelImportError, match="routed to the actuators of 'leg1_q1'"):

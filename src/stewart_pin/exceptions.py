@@ -17,6 +17,7 @@ expected, what was received and how to fix it::
     │   │   ├── UnsupportedArchitectureError what one architecture's physics cannot have
     │   │   └── LegMobilityError             a chain leg not giving the platform 6 dof
     │   ├── JointDynamicsError               non-physical joint terms (negative friction...)
+    │   ├── GravityCompensationError         a gravity compensation outside [0, 1]
     │   └── RobotNameError                   a name outside the safe set
     ├── FileFormatError (ValueError)         a malformed file
     │   ├── ModelImportError                 a model file that is not a six-legged platform
@@ -161,6 +162,22 @@ class JointDynamicsError(DescriptionError):
     def __init__(self, message: str, field: str = "", value: object = None) -> None:
         super().__init__(message)
         self.field, self.value = field, value
+
+
+class GravityCompensationError(DescriptionError):
+    """A per-body gravity compensation (the fraction of a body's weight removed,
+    ``platform_gravcomp``, ``leg_gravcomp``) that is not a finite number in [0, 1], or a
+    ``leg_gravcomp`` that is not one list per leg with one factor per link.
+
+    Attributes:
+        body: the body (``"platform"``, ``"leg 2 link 3"``) or the key when the shape is
+            wrong.
+        value: the offending value, as received.
+    """
+
+    def __init__(self, message: str, body: str = "", value: object = None) -> None:
+        super().__init__(message)
+        self.body, self.value = body, value
 
 
 class RobotNameError(DescriptionError):

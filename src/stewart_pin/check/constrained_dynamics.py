@@ -27,6 +27,12 @@ velocity is the local body twist ``[R^T v, R^T w]`` and its acceleration the tim
 derivative of that local twist, ``[R^T vdot - (R^T w) x (R^T v), R^T wdot]``; the
 conversions live here and nowhere else.
 
+Robots with general legs (any robot that is not the ideal 6-UPS form, among them every
+robot with a per-body gravity compensation) go to
+:class:`~stewart_pin.check.leg_chain_tree.GeneralTreeSolver`: their tree with the joint
+terms, and the compensating forces ``-c_b m_b g`` at the bodies' centres of mass as
+external forces.
+
 Every function takes one state or a batch with a leading N axis (a Python loop over the
 states: this is a reference, not a fast path). Stroke and U-joint limits are *not*
 checked (the physics is defined outside them); leg singularities raise
@@ -333,6 +339,8 @@ def constraint_dynamics_call(
         general = GeneralTreeSolver(general_from_description(robot.description))
         q, v, _ = general.state(pose, twist, robot.inverse_geometry(pose, check_limits=False))
         tau = -general.joint_torques(q, v)
+        if general.compensated:  # the bodies' gravity compensation, as joint torques
+            tau += general.compensation_torques(q)
         tau[general.v_act] += gamma
         args = (general.model, general.data, q, v, tau, general.cmodels, general.cdatas)
         return partial(pin.constraintDynamics, *args, general.settings)

@@ -18,7 +18,13 @@ they are checked here, by Pinocchio's forward kinematics, to close the six loops
 - regressor: ``pin.computeJointTorqueRegressor`` on the tree and the joint-term columns,
   each column mapped to the actuated efforts by the same KKT solve;
 - energy: ``pin.computeKineticEnergy`` (checked against ``1/2 v^T M v`` with the
-  armature), ``pin.computePotentialEnergy`` and the springs.
+  armature), ``pin.computePotentialEnergy`` and the springs;
+- per-body gravity compensation (``leg_gravcomp``, ``platform_gravcomp``: the fraction
+  ``c_b`` of body b's weight removed): external forces ``f_b = -c_b m_b g`` at each body's
+  centre of mass on the tree (this module's own code, from the tree's inertias): ``fext``
+  of ``pin.rnea`` in the inverse model, ``J^T fext`` added to the torques of
+  ``pin.constraintDynamics`` in the direct one, their potential ``c_b m_b g . c_b`` added to
+  the energy; the regressor refuses such a robot.
 
 Conventions as :mod:`stewart_pin.check.constrained_dynamics`: pose 0Tp (N, 4, 4), twist
 ``[v, w]`` of O_p in F0, classical acceleration in F0; ``Gamma`` (N, 6) the actuated
@@ -71,8 +77,36 @@ class GeneralTreeSolver:
         self.coulomb = np.array([[d.coulomb for d in row] for row in dyn]).ravel()
         self.stiffness = np.array([[d.stiffness for d in row] for row in dyn]).ravel()
         self.rest = np.array([[d.rest_position for d in row] for row in dyn]).ravel()
+        # (joint id, compensation) of each body whose weight is partly compensated
+        compensated = [(self.tree.platform_joint, float(robot.platform_gravcomp))] + [
+            (self.model.getJointId(leg_joint_name(i + 1, j + 1)), float(robot.leg_gravcomp[i, j]))
+            for i in range(6)
+            for j in range(3)
+        ]
+        self.compensated = [(jid, c) for jid, c in compensated if c != 0.0]
 
     # ------------------------------------------------------------------ pieces
+    def compensation_forces(self) -> list[pin.Force]:
+        """The forces ``-c_b m_b g`` at the bodies' centres of mass (F0), each as a
+        ``pin.Force`` in its joint's frame (``fext`` of ``pin.rnea``; one per joint), at the
+        placements in ``data`` (after ``pin.forwardKinematics``)."""
+        g = np.array(self.model.gravity.linear)
+        fext = [pin.Force.Zero() for _ in range(self.model.njoints)]
+        for jid, c in self.compensated:
+            body = self.model.inertias[jid]
+            f = self.data.oMi[jid].rotation.T @ (-c * body.mass * g)
+            fext[jid] = pin.Force(f, np.cross(body.lever, f))
+        return fext
+
+    def compensation_torques(self, q: np.ndarray) -> np.ndarray:
+        """``J^T fext`` (nv,): the compensating forces as joint torques (the difference of
+        ``pin.rnea`` at rest without and with them)."""
+        zero = np.zeros(self.nv)
+        pin.forwardKinematics(self.model, self.data, q)
+        fext = self.compensation_forces()
+        without = pin.rnea(self.model, self.data, q, zero, zero)
+        return np.asarray(without - pin.rnea(self.model, self.data, q, zero, zero, fext))
+
     def joint_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Friction, spring and damper torques on the tree's joints (nv,)."""
         ql, vl = q[self.q_legs], v[self.v_legs]
@@ -159,7 +193,12 @@ class GeneralTreeSolver:
         [N] (the loop multipliers, which act on the leg side in the contact frame c1:
         their opposite, rotated to F0) and the tree's accelerations (nv,)."""
         q, v, a, K = self.motion(T, twist, accel, q_legs)
-        tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
+        if self.compensated:
+            fext = self.compensation_forces()
+            tau = pin.rnea(self.model, self.data, q, v, a, fext)
+        else:
+            tau = pin.rnea(self.model, self.data, q, v, a)
+        tau = tau + self.joint_torques(q, v)
         x = _solve(K, tau, "[S^T, Jc^T]")
         lam = x[6:].reshape(-1, 3)
         rotations = np.array([cd.oMc1.rotation for cd in self.cdatas])
@@ -176,6 +215,11 @@ class GeneralTreeSolver:
         Columns: leg i link j (10, Khalil's order, in its frame about its origin; leg-major),
         the platform's 10 (in Fp about O_p), then per leg joint ``IA FV FC K OF``.
         """
+        if self.compensated:
+            raise InputError(
+                "the tree's regressor has no per-body gravity compensation (its gravity "
+                "columns would need each body's weight scaled): not for such a robot"
+            )
         q, v, a, K = self.motion(T, twist, accel, q_legs)
         Y = pin.computeJointTorqueRegressor(self.model, self.data, q, v, a)
         tau = np.zeros((self.nv, 280))
@@ -197,6 +241,8 @@ class GeneralTreeSolver:
     ) -> np.ndarray:
         q, v, _ = self.state(T, twist, q_legs)
         tau = -self.joint_torques(q, v)
+        if self.compensated:
+            tau += self.compensation_torques(q)
         tau[self.v_act] += gamma
         ddq = np.array(
             pin.constraintDynamics(
@@ -221,6 +267,11 @@ class GeneralTreeSolver:
         if not abs(kinetic - kinetic_m) <= 1e-9 * max(abs(kinetic_m), 1e-300):
             kinetic = kinetic_m  # computeKineticEnergy without the armature: use M's
         potential = pin.computePotentialEnergy(self.model, self.data, q)
+        g = np.array(self.model.gravity.linear)
+        for jid, c in self.compensated:  # the compensating forces' potential, +c m g.com
+            body = self.model.inertias[jid]
+            com = self.data.oMi[jid].act(body.lever)
+            potential += c * body.mass * float(g @ com)
         ql = q[self.q_legs]
         potential += 0.5 * float(self.stiffness @ (ql - self.rest) ** 2)
         return float(kinetic), float(potential)

@@ -29,7 +29,9 @@ Per leg i, in its frame 0i (``[R_i, B_i]`` in F0):
   ``qdot = J_i^-1 V_Pi``, the drift ``Jdot_i qdot_i`` (the reference's recursion),
   ``qddot = J_i^-1 (A_Pi - drift)``;
 - Newton-Euler in the link frames with the base acceleration ``-g`` (gravity), nothing at
-  the tip, plus ``Ia qddot + (Fv + D) qdot + Fc sign(qdot) + K (q - q0)`` on each joint
+  the tip (a link with a gravity compensation ``c``, ``leg_gravcomp``: ``c M g`` and
+  ``c MS x g`` added to its terms, its weight ``(1 - c) m g``; the platform's gravity
+  ``(1 - c_p) g``), plus ``Ia qddot + (Fv + D) qdot + Fc sign(qdot) + K (q - q0)`` on each joint
   (``sign`` zero within :data:`~stewart_pin.description.leg_architecture.COULOMB_DEAD_BAND`);
 - IDM: the actuated joint's effort goes straight to its actuator, the rest through
   ``Jp^T`` (``Gamma = H_a + Jp^T (F_p + sum_i G_i^T J_i^-T H_i,passive)``, the static-pivot
@@ -246,6 +248,7 @@ class _JointConst:
     stiffness: float
     rest: float
     inertia: tuple[float, ...]  # XX XY XZ YY YZ ZZ MX MY MZ M, frame j about O_j
+    gravcomp: float = 0.0  # the fraction of the link's weight removed
 
 
 @dataclass(frozen=True)
@@ -292,6 +295,7 @@ def leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> 
                 stiffness=dyn.stiffness,
                 rest=dyn.rest_position,
                 inertia=tuple(float(x) for x in m),
+                gravcomp=float(robot.leg_gravcomp[k, j]),
             )
         )
     R = robot.leg_base_rotations[k]
@@ -610,18 +614,30 @@ def _drift(joints: Sequence[_JointState], z: list, O: list, P: Vec, qd: Vec) -> 
 
 # ---------------------------------------------------------------------------- dynamics
 def _newton_euler(
-    joints: Sequence[_JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar], base_acc: Vec
+    joints: Sequence[_JointState],
+    qd: Sequence[Scalar],
+    qdd: Sequence[Scalar],
+    base_acc: Vec,
+    gravity: Vec | None = None,
 ) -> list[Scalar]:
     """Joint efforts of the chain (Khalil's recursive Newton-Euler in the link frames):
     ``qd``, ``qdd`` the joint rates and accelerations, ``base_acc`` the acceleration of
-    frame 0i's origin in frame 0i (``-g`` for gravity); nothing acts at the tip."""
+    frame 0i's origin in frame 0i (``-g`` for gravity); nothing acts at the tip.
+    ``gravity``: ``g`` in frame 0i when ``base_acc`` holds it and some link has a gravity
+    compensation ``c`` (its weight ``(1 - c) m g``): the force ``-c m g`` at its centre of
+    mass, i.e. ``c M g`` and ``c MS x g`` (in its frame) added to its Newton-Euler terms."""
     zero: Vec = [0.0, 0.0, 0.0]
     w, wd, vd = zero, zero, list(base_acc)
+    g: Vec | None = None
+    if gravity is not None and any(J.k.gravcomp for J in joints):
+        g = list(gravity)
     forces = []
     for j, J in enumerate(joints):
         p = J.origin()
         vd_par = _add(vd, _add(_cross(wd, p), _cross(w, _cross(w, p))))
         vd, w_in, wd = J.to_child(vd_par), J.to_child(w), J.to_child(wd)
+        if g is not None:
+            g = J.to_child(g)
         if J.k.revolute:
             wd = [
                 _plus(wd[0], _mul(qd[j], w_in[1])),
@@ -643,6 +659,10 @@ def _newton_euler(
         F = _add(_add(_scale(vd, M), _cross(wd, MS)), _cross(w, _cross(w, MS)))
         Iw = [_dot(row, w) for row in inertia]
         N = _add(_add([_dot(row, wd) for row in inertia], _cross(w, Iw)), _cross(MS, vd))
+        c = J.k.gravcomp
+        if g is not None and c:
+            F = _add(F, _scale(g, c * M))
+            N = _add(N, _cross([c * x for x in MS], g))
         forces.append((F, N))
     f, n = forces[2]
     tau: list[Scalar] = [0.0, 0.0, 0.0]
@@ -792,7 +812,7 @@ def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Sca
     drift = _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd)
     qdd = _matvec_rows(kin.inv_rows, _sub(A0, drift))
     g = lc.gravity
-    tau = _newton_euler(joints, kin.qd, qdd, [-g[0], -g[1], -g[2]])
+    tau = _newton_euler(joints, kin.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
     terms = _joint_terms(joints, kin.qd, qdd)
     return [tau[j] + terms[j] for j in range(3)], qdd
 
@@ -845,7 +865,7 @@ def _ddm_leg(
     # J^-T h), h the nonlinear effects (gravity, velocity, joint terms) at zero qddot.
     g = lc.gravity
     zero3: Vec = [0.0, 0.0, 0.0]
-    h = _newton_euler(joints, kin.qd, zero3, [-g[0], -g[1], -g[2]])
+    h = _newton_euler(joints, kin.qd, zero3, [-g[0], -g[1], -g[2]], list(g))
     terms = _joint_terms(joints, kin.qd, zero3)
     h = [_plus(h[j], terms[j]) for j in range(3)]
     drift = _rotate(lc.R, _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd))
@@ -955,6 +975,8 @@ def build_general_models(
     legs = [leg_constants(robot, k, inline_newton) for k in range(6)]
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
+    # the platform's weight less its gravity compensation (the legs' in leg_constants)
+    g_platform = (1.0 - robot.platform_gravcomp) * gravity
     npose = pose_size(pose)
     x_pose = cs.SX.sym("pose", npose)
     x_twist = cs.SX.sym("twist", 6)
@@ -967,7 +989,7 @@ def build_general_models(
     inv_l = 1.0 / robot.size
 
     # ---- IDM
-    K, vdg = idm_shared(tw, ac, gravity)
+    K, vdg = idm_shared(tw, ac, g_platform)
     ilegs = [_idm_leg(lc, p, R, v, w, vd, K) for lc in legs]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
     rows = [lg["row"] for lg in ilegs]
@@ -988,7 +1010,7 @@ def build_general_models(
 
     # ---- DDM
     dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
-    Ip, hp = ddm_platform(R, w, Pp, gravity)
+    Ip, hp = ddm_platform(R, w, Pp, g_platform)
     accel, D = ddm_legs_closure(dlegs, Ip, hp)
     dslacks = [s for lg in dlegs for s in lg["slack"]]
     assert len(dslacks) == layout.n_slack  # the same leg code: the same slacks
@@ -1004,7 +1026,9 @@ def build_general_models(
         prefix, inputs, gamma, idm_aux, accel, [*djinv, *D, *dslacks]
     )
 
-    idm_stages, ddm_stages = _stages(legs, pose, Pp, gravity, pivots) if stages else (None, None)
+    idm_stages, ddm_stages = (
+        _stages(legs, pose, Pp, g_platform, pivots) if stages else (None, None)
+    )
     constants = ModelConstants(
         base_points=np.array(robot.base_points),
         platform_points=np.array(robot.platform_points),

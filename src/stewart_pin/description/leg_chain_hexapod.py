@@ -13,7 +13,7 @@ reachable home pose. :func:`general_from_description` turns any
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -22,7 +22,12 @@ from stewart_pin._checks import check_array, project_rotation
 from stewart_pin.description.inertia import check_physical
 from stewart_pin.description.leg_architecture import LegArchitecture
 from stewart_pin.description.robot_description import RobotDescription
-from stewart_pin.exceptions import ArchitectureError, DescriptionError, InputError
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    DescriptionError,
+    GravityCompensationError,
+    InputError,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,6 +44,9 @@ class GeneralHexapod:
         gravity: (3,) in F0 [m/s^2].
         home_pose: (4, 4) 0Tp, a reachable pose (forward geometry's default guess).
         name: the robot's name.
+        leg_gravcomp: (6, 3) the fraction of each link's weight removed (per-body gravity
+            compensation, in [0, 1]: that link's weight is ``(1 - c) m g``).
+        platform_gravcomp: the same for the platform.
     """
 
     base_points: np.ndarray
@@ -50,8 +58,11 @@ class GeneralHexapod:
     gravity: np.ndarray
     home_pose: np.ndarray
     name: str = "general"
+    leg_gravcomp: np.ndarray = field(default_factory=lambda: np.zeros((6, 3)))
+    platform_gravcomp: float = 0.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "platform_gravcomp", float(self.platform_gravcomp))
         shapes = {
             "base_points": (6, 3),
             "leg_base_rotations": (6, 3, 3),
@@ -60,6 +71,7 @@ class GeneralHexapod:
             "platform_inertia": (10,),
             "gravity": (3,),
             "home_pose": (4, 4),
+            "leg_gravcomp": (6, 3),
         }
         for key, shape in shapes.items():
             try:
@@ -85,8 +97,28 @@ class GeneralHexapod:
             for j in range(3):
                 check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
         check_physical(self.platform_inertia, "platform")
+        for body, c in [
+            ("platform", self.platform_gravcomp),
+            *(
+                (f"leg {i + 1} link {j + 1}", self.leg_gravcomp[i, j])
+                for i in range(6)
+                for j in range(3)
+            ),
+        ]:
+            if not 0.0 <= c <= 1.0:  # NaN too
+                raise GravityCompensationError(
+                    f"general hexapod '{self.name}': gravity compensation of the {body} must be "
+                    f"in [0, 1] (the fraction of its weight removed), got {c!r}",
+                    body,
+                    c,
+                )
 
     # ------------------------------------------------------------------ derived data
+    @property
+    def has_gravcomp(self) -> bool:
+        """Whether some body's weight is compensated."""
+        return self.platform_gravcomp != 0.0 or bool(np.any(self.leg_gravcomp))
+
     @property
     def actuated(self) -> np.ndarray:
         """The actuated joint of each leg, 0-based, shape (6,)."""
@@ -128,6 +160,8 @@ class GeneralHexapod:
             name=self.name,
             home_pose=self.home_pose,
             legs=self.legs,
+            platform_gravcomp=self.platform_gravcomp,
+            leg_gravcomp=self.leg_gravcomp,
         )
 
     def with_joint_dynamics(self, dynamics: Any) -> GeneralHexapod:
@@ -150,6 +184,8 @@ def general_from_description(desc: RobotDescription) -> GeneralHexapod:
         gravity=desc.gravity,
         home_pose=desc.home_pose,
         name=desc.name,
+        leg_gravcomp=desc.leg_gravcomp,
+        platform_gravcomp=desc.platform_gravcomp,
     )
 
 

@@ -20,6 +20,7 @@ Legs are numbered 1..6 in messages (as in the paper) and 0..5 as array indices.
 from __future__ import annotations
 
 import json
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -46,6 +47,7 @@ from stewart_pin.description.model_source import ModelSource, source_toml
 from stewart_pin.exceptions import (
     DescriptionError,
     FileFormatError,
+    GravityCompensationError,
     InertiaError,
     InputError,
     RobotNameError,
@@ -75,6 +77,13 @@ OPTIONAL_KEYS = ("name", "u_joint_limits", "home_pose", "legs", "source")
 ACTUATOR_LIMIT_KEYS = ("effort_limits", "velocity_limits", "acceleration_limits")
 # (appended here, a line apart, so that other optional keys merge in above)
 OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignment]
+#: Optional per-body gravity compensation, the fraction ``c`` of a body's weight removed
+#: (MJCF ``gravcomp``; 1 for an SDF link with ``<gravity>false</gravity>``): each body's
+#: weight is ``(1 - c) m g`` at its centre of mass. ``platform_gravcomp`` one number,
+#: ``leg_gravcomp`` one list per leg with one factor per link (links 1, 2, 3); each finite
+#: in [0, 1], 0 when left out (and left out of the files when every factor is 0).
+GRAVCOMP_KEYS = ("platform_gravcomp", "leg_gravcomp")
+OPTIONAL_KEYS = (*OPTIONAL_KEYS, *GRAVCOMP_KEYS)  # type: ignore[assignment]
 
 #: ``chain_legs``: six chain leg tables (:mod:`.chain_leg_io`; any 1-dof joints, ball or
 #: weld closures); with them ``stroke`` and ``u_joint_limits`` are left out, ``leg_inertia``
@@ -152,9 +161,14 @@ class RobotDescription:
     # six chain legs (any 1-dof joints, ball or weld closure, links' inertia in the legs;
     # docs/legs.md "Chain legs and welds"), or None
     chain_legs: tuple[ChainLeg, ...] | None = None
+    # per-body gravity compensation (GRAVCOMP_KEYS): the platform's factor, and (6, 3) the
+    # links' (None, or six lists, accepted at construction; stored as the (6, 3) array)
+    platform_gravcomp: float = 0.0
+    leg_gravcomp: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         check_robot_name(self.name)
+        self._check_gravcomp()
         if self.source is not None:
             object.__setattr__(self, "source", ModelSource.from_value(self.source))
         if self.legs is not None:
@@ -238,8 +252,58 @@ class RobotDescription:
         except InertiaError as e:
             e.key = key  # type: ignore[attr-defined] # read() quotes the line of the key
             raise
+        if self.has_gravcomp and self.chain_legs is not None:
+            raise _gravcomp_error(
+                "platform" if self.platform_gravcomp != 0.0 else "leg_gravcomp",
+                f"robot description '{self.name}': per-body gravity compensation is not "
+                "modelled for chain legs (their dynamics and check take every body's full "
+                "weight): remove platform_gravcomp / leg_gravcomp or describe three-joint legs",
+                self.platform_gravcomp if self.platform_gravcomp != 0.0 else "leg_gravcomp",
+            )
+        if self.has_gravcomp and self.legs is None:
+            # the ideal 6-UPS form has one gravity for every body: a robot whose bodies'
+            # weights are compensated differently takes the same legs as general legs
+            object.__setattr__(self, "legs", self.leg_architectures)
+            object.__setattr__(self, "stroke", None)
+            object.__setattr__(self, "u_joint_limits", None)
 
     # ------------------------------------------------------------------ validation
+    def _check_gravcomp(self) -> None:
+        """``platform_gravcomp`` a finite number in [0, 1]; ``leg_gravcomp`` ``None`` or
+        six lists (one per leg) of one such number per link, stored as (6, 3)."""
+        c = _gravcomp_factor(self.platform_gravcomp, "platform")
+        object.__setattr__(self, "platform_gravcomp", c)
+        n_links = 3  # every leg of this description is a chain of three links
+        value = self.leg_gravcomp
+        out = np.zeros((6, n_links))
+        if value is not None:
+            rows = value.tolist() if isinstance(value, np.ndarray) else value
+            if not isinstance(rows, (list, tuple)) or len(rows) != 6:
+                raise _gravcomp_error(
+                    "leg_gravcomp",
+                    f"leg_gravcomp must be six lists (one per leg) of {n_links} factors (one "
+                    f"per link), got {_short(value)}",
+                    value,
+                )
+            for i, row in enumerate(rows):
+                if not isinstance(row, (list, tuple)) or len(row) != n_links:
+                    raise _gravcomp_error(
+                        "leg_gravcomp",
+                        f"leg_gravcomp of leg {i + 1} must be {n_links} factors (one per link, "
+                        f"links 1..{n_links}), got {_short(row)}",
+                        row,
+                    )
+                for j, x in enumerate(row):
+                    out[i, j] = _gravcomp_factor(x, f"leg {i + 1} link {j + 1}")
+        out.flags.writeable = False
+        object.__setattr__(self, "leg_gravcomp", out)
+
+    @property
+    def has_gravcomp(self) -> bool:
+        """Whether some body's weight is compensated (a non-zero ``platform_gravcomp`` or
+        ``leg_gravcomp``)."""
+        return self.platform_gravcomp != 0.0 or bool(np.any(self.leg_gravcomp))
+
     def _check_legs(self) -> None:
         """Six legs (parsed from tables when needed); no shared stroke or U-joint limits
         beside them; an explicit home pose."""
@@ -354,6 +418,9 @@ class RobotDescription:
             d["chain_legs"] = [chain_leg_to_dict(leg) for leg in self.chain_legs]
         if self.source is not None:
             d["source"] = self.source.to_dict()
+        if self.has_gravcomp:  # left out when every body has its full weight
+            d["platform_gravcomp"] = self.platform_gravcomp
+            d["leg_gravcomp"] = self.leg_gravcomp.tolist()
         return d
 
     @classmethod
@@ -677,6 +744,40 @@ def _actuator_limits(value: Any, key: str) -> np.ndarray:
     return limits
 
 
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _gravcomp_error(body: str, message: str, value: Any) -> GravityCompensationError:
+    """A :class:`GravityCompensationError` about ``body`` (``read`` quotes the line of
+    its key)."""
+    error = GravityCompensationError(message, body, value)
+    error.key = "platform_gravcomp" if body == "platform" else "leg_gravcomp"  # type: ignore[attr-defined]
+    return error
+
+
+def _gravcomp_factor(value: Any, body: str) -> float:
+    """A body's gravity compensation: a finite number in [0, 1] (the fraction of its
+    weight removed), else :class:`GravityCompensationError` naming the body."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise _gravcomp_error(
+            body,
+            f"gravity compensation of the {body} must be a number in [0, 1] (the fraction of "
+            f"its weight removed), got {_short(value)}",
+            value,
+        )
+    c = float(value)
+    if not (math.isfinite(c) and 0.0 <= c <= 1.0):
+        raise _gravcomp_error(
+            body,
+            f"gravity compensation of the {body} must be in [0, 1] (the fraction of its "
+            f"weight removed: 0 none, 1 all), got {c!r}",
+            value,
+        )
+    return c + 0.0  # -0.0 as 0.0
+
+
 def _field_error(key: str, message: str) -> DescriptionError:
     """A :class:`DescriptionError` about description key ``key`` (``read`` quotes its line)."""
     error = DescriptionError(message)
@@ -759,6 +860,8 @@ def _toml(d: dict[str, Any]) -> str:
     def value(x: Any, indent: int) -> str:
         if isinstance(x, str):
             return json.dumps(x)  # a JSON string is a valid TOML basic string
+        if isinstance(x, float):
+            return repr(x)
         if not isinstance(x[0], list):
             return "[" + ", ".join(repr(float(v)) for v in x) + "]"
         pad = " " * (indent + 4)

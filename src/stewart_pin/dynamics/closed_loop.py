@@ -95,8 +95,15 @@ def _platform_constants(desc: RobotDescription) -> tuple[FloatArray, FloatArray]
     return consts
 
 
+def platform_gravity(desc: RobotDescription) -> FloatArray:
+    """The gravity (3,) in F0 [m/s^2] acting on the platform: ``(1 - c) g`` with ``c`` its
+    gravity compensation (``platform_gravcomp``, the fraction of its weight removed)."""
+    return (1.0 - desc.platform_gravcomp) * np.asarray(desc.gravity)
+
+
 def platform_terms(desc: RobotDescription, poses: Poses, twists: Twists) -> PlatformTerms:
-    """Rotate the platform's parameters into F0 and form ``Ip`` and its bias (eq. 24-29)."""
+    """Rotate the platform's parameters into F0 and form ``Ip`` and its bias (eq. 24-29),
+    gravity as :func:`platform_gravity` (its weight less its compensation)."""
     R = poses[:, :3, :3]
     p = desc.platform_inertia
     mass = p[9]
@@ -109,7 +116,7 @@ def platform_terms(desc: RobotDescription, poses: Poses, twists: Twists) -> Plat
     Ip[:, :3, 3:] = -S
     Ip[:, 3:, :3] = S
     Ip[:, 3:, 3:] = I0
-    w, g = twists[:, 3:], desc.gravity
+    w, g = twists[:, 3:], platform_gravity(desc)
     bias = np.empty((R.shape[0], 6))
     bias[:, :3] = cross(w, cross(w, MS)) - mass * g
     bias[:, 3:] = cross(w, np.einsum("nij,nj->ni", I0, w)) - cross(MS, g)
@@ -120,7 +127,8 @@ def platform_energy(
     desc: RobotDescription, poses: Poses, twists: Twists
 ) -> tuple[FloatArray, FloatArray]:
     """Kinetic and potential energy of the platform, each (N,) [J]:
-    ``1/2 (M v.v + w.I w) + v.(w x MS)`` and ``-g.(M p + MS)`` (zero at F0's origin)."""
+    ``1/2 (M v.v + w.I w) + v.(w x MS)`` and ``-g.(M p + MS)`` (zero at F0's origin; ``g``
+    as :func:`platform_gravity`)."""
     p = desc.platform_inertia
     R, pos = poses[:, :3, :3], poses[:, :3, 3]
     MS = R @ p[6:9]
@@ -128,7 +136,8 @@ def platform_energy(
     v, w = twists[:, :3], twists[:, 3:]
     kinetic = 0.5 * (p[9] * np.einsum("ni,ni->n", v, v) + np.einsum("ni,nij,nj->n", w, I0, w))
     kinetic += np.einsum("ni,ni->n", v, cross(w, MS))
-    potential = -(p[9] * pos @ desc.gravity + MS @ desc.gravity)
+    g = platform_gravity(desc)
+    potential = -(p[9] * pos @ g + MS @ g)
     return kinetic, potential
 
 

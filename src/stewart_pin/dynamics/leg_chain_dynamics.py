@@ -6,7 +6,13 @@ Each leg's own dynamics come from Pinocchio on the 18-dof model of the six chain
 (:func:`stewart_pin.models.leg_chains.build_leg_chains`), with the joint terms:
 
     H_i = A_i qddot_i + h_i,   A_i = CRBA (with the armature, ``model.armature``),
-    h_i = nonlinear effects + (Fv + D) qdot + Fc sign(qdot) + K (q - q0),
+    h_i = nonlinear effects + (Fv + D) qdot + Fc sign(qdot) + K (q - q0) - g_c(q_i),
+
+``g_c`` the joint efforts of the links' gravity compensation (``leg_gravcomp``: link b's
+weight is ``(1 - c_b) m_b g``, the force ``-c_b m_b g`` at its centre of mass removed):
+Pinocchio's generalized gravity of the same chains with each link's mass and first moments
+scaled by ``c_b`` (gravity is linear in them); the platform's weight is scaled likewise
+(:func:`~stewart_pin.dynamics.closed_loop.platform_gravity`).
 
 ``sign(0) = 0``: at zero joint velocity the Coulomb term is zero (no stiction), in the
 inverse and in the direct model (the direct model is explicit in the velocity); rates
@@ -31,6 +37,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
@@ -50,7 +57,7 @@ from stewart_pin.kinematics.leg_chains import (
     inverse_jacobian_from_legs,
     leg_state,
 )
-from stewart_pin.models.leg_chains import build_leg_chains
+from stewart_pin.models.leg_chains import build_leg_chains, leg_joint_name
 
 
 # ---------------------------------------------------------------------------- joint terms
@@ -108,23 +115,63 @@ class GeneralLegDynamics(LegDynamics):
         self.robot = robot
         self._attach(*build_leg_chains(robot))
         self.terms = JointTermArrays.of(robot)
+        self.compensated = _compensated_model(self.model, robot)
+        self._compensated_data = (
+            None if self.compensated is None else self.compensated.createData()
+        )
+
+    def compensation_efforts(self, q: np.ndarray) -> np.ndarray:
+        """``g_c`` (N, 6, 3) [N m or N]: the joint efforts of the links' gravity
+        compensation (module docstring), zeros when no link has one."""
+        if self.compensated is None:
+            return np.zeros(q.shape)
+        m, d = self.compensated, self._compensated_data
+        out = np.empty(q.shape)
+        for n in range(q.shape[0]):
+            out[n] = self._unpack(pin.computeGeneralizedGravity(m, d, self.pack(q[n])))
+        return out
 
     def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
-        """``H_i`` (N, 6, 3) [N m or N]: RNEA (armature included) plus the joint terms."""
-        return super().inverse_dynamics(q, qdot, qddot) + self.terms.efforts(q, qdot)
+        """``H_i`` (N, 6, 3) [N m or N]: RNEA (armature included) plus the joint terms,
+        less the gravity compensation."""
+        H = super().inverse_dynamics(q, qdot, qddot) + self.terms.efforts(q, qdot)
+        return H - self.compensation_efforts(q) if self.compensated is not None else H
 
     def mass_and_bias(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(A_i (N, 6, 3, 3), h_i (N, 6, 3))``: CRBA with the armature, and the nonlinear
-        effects plus the joint terms."""
+        effects plus the joint terms, less the gravity compensation."""
         A, h = super().mass_and_bias(q, qdot)
-        return A, h + self.terms.efforts(q, qdot)
+        h = h + self.terms.efforts(q, qdot)
+        return A, h - self.compensation_efforts(q) if self.compensated is not None else h
 
     def energy(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Kinetic (armature included: Pinocchio >= 4.1 counts ``model.armature``) and
-        potential (gravity and springs) energy of the six legs, each (N,) [J]; gravity's
-        potential is zero at the origin of F0."""
+        potential (gravity less its compensation, and springs) energy of the six legs, each
+        (N,) [J]; gravity's potential is zero at the origin of F0."""
         kinetic, potential = super().energy(q, qdot)
-        return kinetic, potential + self.terms.spring_energy(q)
+        potential = potential + self.terms.spring_energy(q)
+        if self.compensated is not None:
+            m, d = self.compensated, self._compensated_data
+            for n in range(q.shape[0]):
+                potential[n] -= pin.computePotentialEnergy(m, d, self.pack(q[n]))
+        return kinetic, potential
+
+
+def _compensated_model(model: pin.Model, robot: GeneralHexapod) -> pin.Model | None:
+    """A copy of the six chains ``model`` whose link b has its mass and first moments
+    scaled by its gravity compensation ``c_b`` (``robot.leg_gravcomp``): its generalized
+    gravity is the joint efforts of the forces ``c_b m_b g`` at the centres of mass, and
+    its potential energy theirs. ``None`` when no link has a compensation."""
+    if not np.any(robot.leg_gravcomp):
+        return None
+    out = pin.Model(model)
+    for k in range(6):
+        for j in range(3):
+            jid = out.getJointId(leg_joint_name(k + 1, j + 1))
+            c = float(robot.leg_gravcomp[k, j])
+            I = out.inertias[jid]
+            out.inertias[jid] = pin.Inertia(c * I.mass, I.lever, c * I.inertia)
+    return out
 
 
 # ---------------------------------------------------------------------------- closure layer

@@ -443,19 +443,33 @@ def _chain_columns(model: pin.Model, name: Callable[[int, int], str]) -> np.ndar
 
 
 def _regressors(
-    legs: LegDynamics, cols: np.ndarray, q: JointValues, qd: JointValues, qdd: JointValues
+    legs: LegDynamics,
+    cols: np.ndarray,
+    q: JointValues,
+    qd: JointValues,
+    qdd: JointValues,
+    gravcomp: FloatArray | None = None,
 ) -> FloatArray:
     """``Y_i`` (N, 6, 3, 30) with ``H_i = Y_i chi_i`` (links 1..3, Khalil order), columns
-    ``cols`` (6, 3, 10) of the model's joint-torque regressor."""
+    ``cols`` (6, 3, 10) of the model's joint-torque regressor. ``gravcomp`` (6, 3): each
+    link's gravity compensation ``c``, its columns' gravity part (the regressor at rest)
+    scaled by ``1 - c`` (its weight ``(1 - c) m g``; the efforts stay linear in the same
+    parameters)."""
     cols = cols.reshape(6, 30)
     rows = legs.blocks  # (6, 3) velocity index of each leg joint
     out = np.empty((*q.shape, 30))
     m, d = legs.model, legs.data
+    scale = None
+    if gravcomp is not None and np.any(gravcomp):
+        scale = np.repeat(np.asarray(gravcomp, dtype=float), 10, axis=1)[:, None, :]
+        zero = np.zeros(m.nv)
     for n in range(q.shape[0]):
-        Y = pin.computeJointTorqueRegressor(
-            m, d, legs.pack(q[n]), legs.pack(qd[n]), legs.pack(qdd[n])
-        )
+        qn = legs.pack(q[n])
+        Y = pin.computeJointTorqueRegressor(m, d, qn, legs.pack(qd[n]), legs.pack(qdd[n]))
         out[n] = Y[rows[:, :, None], cols[:, None, :]]
+        if scale is not None:
+            Yg = pin.computeJointTorqueRegressor(m, d, qn, zero, zero)
+            out[n] -= scale * Yg[rows[:, :, None], cols[:, None, :]]
     return out
 
 
@@ -469,14 +483,16 @@ def leg_regressors(
 def platform_regressor(
     desc: RobotDescription | GeneralHexapod, poses: Poses, twists: Twists, accels: Accels
 ) -> FloatArray:
-    """``Y_p`` with ``F_p = Y_p chi_p`` (eq. 24): shape (N, 6, 10), wrench in F0 about O_p."""
+    """``Y_p`` with ``F_p = Y_p chi_p`` (eq. 24): shape (N, 6, 10), wrench in F0 about O_p
+    (gravity less the platform's compensation, ``(1 - c_p) g``)."""
     out = np.empty((poses.shape[0], 6, 10))
+    g = (1.0 - desc.platform_gravcomp) * np.asarray(desc.gravity)
     for n in range(poses.shape[0]):
         R = poses[n, :3, :3]
         w_b = R.T @ twists[n, 3:]
         v_b = R.T @ twists[n, :3]
         # Body spatial acceleration (Featherstone) with gravity as a fictitious acceleration.
-        a_lin = R.T @ (accels[n, :3] - desc.gravity) - np.cross(w_b, v_b)
+        a_lin = R.T @ (accels[n, :3] - g) - np.cross(w_b, v_b)
         Y = pin.bodyRegressor(pin.Motion(v_b, w_b), pin.Motion(a_lin, R.T @ accels[n, 3:]))
         out[n, :3] = R @ Y[:3, PIN_TO_KHALIL]
         out[n, 3:] = R @ Y[3:, PIN_TO_KHALIL]
@@ -551,14 +567,15 @@ def general_regressor_batch(
 
     ``W = Jp^T [[I3; L_i^] J_i^-T [Y_i, Y_joint,i] ..., Y_p]`` with ``Y_i`` from
     ``pin.computeJointTorqueRegressor`` on the six chains (``legs_dyn.model``; it leaves
-    out ``model.armature``, which is the IA columns here) and ``Y_joint,i`` of
+    out ``model.armature``, which is the IA columns here; a link's gravity part scaled by
+    ``1 - c`` for its gravity compensation ``c``) and ``Y_joint,i`` of
     :func:`joint_term_columns`.
     """
     legs = leg_chains.leg_state(robot, poses, twists, accels, check_limits)
     J_inv = leg_chains.inverse_jacobian_from_legs(robot, legs.J_inv, legs.L)
     leg_chains.check_parallel(robot, J_inv, max_condition)
     cols = _chain_columns(legs_dyn.model, leg_joint_name)
-    Y = _regressors(legs_dyn, cols, legs.q, legs.qdot, legs.qddot)  # (N, 6, 3, 30)
+    Y = _regressors(legs_dyn, cols, legs.q, legs.qdot, legs.qddot, robot.leg_gravcomp)
     Yj = joint_term_columns(legs.q, legs.qdot, legs.qddot)  # (N, 6, 3, 15)
     wrench = _project(J_inv, legs.J_inv, legs.L, np.concatenate([Y, Yj], axis=-1))
     N = poses.shape[0]

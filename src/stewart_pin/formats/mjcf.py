@@ -12,6 +12,9 @@ cannot hold:
   six loops as ``<equality><connect site1="leg{i}_tip" site2="platform_p{i}"/>``.
 - ``<option gravity>``, a ``<motor>`` on each prismatic joint (``leg{i}_motor``, force [N]),
   and a keyframe ``home``: the inverse geometry of the home pose.
+- ``gravcomp`` on the bodies whose weight is partly removed (the description's
+  ``platform_gravcomp``, ``leg_gravcomp``; MuJoCo applies it as a passive force; Pinocchio's
+  parser ignores it).
 
 MuJoCo's ``qpos`` is the 18 leg joints (leg 1 first, ``q1i, q2i, q3i``) then the platform
 ``[p, quat (w, x, y, z)]`` in F0; its free-joint velocity is ``[v in F0, w in Fp]``. MuJoCo's
@@ -271,6 +274,11 @@ def mujoco_inertials(
     P = np.asarray(desc.platform_points, dtype=float)
     rod_tips = np.zeros((6, 3)) if tips is None else np.asarray(tips, dtype=float)
     exact: list[str] = []
+    # a point mass moved between a rod and the platform takes the gravity compensation of
+    # the body it goes to: not exact when theirs differ
+    gc_platform = float(getattr(desc, "platform_gravcomp", 0.0))
+    gc_rods = np.asarray(getattr(desc, "leg_gravcomp", np.zeros((6, 3))), dtype=float)[:, 2]
+    moved: list[str] = []
 
     has_body = np.ones((6, 3), dtype=bool)
     has_body[:, :2] = leg[:, :2, 9] != 0.0
@@ -288,6 +296,12 @@ def mujoco_inertials(
                 leg[k, 2] = _point_mass(leg[k, 2], rod_tips[k], mu)
             legs = ", ".join(str(k + 1) for k in np.nonzero(light)[0])
             exact.append(f"the rods of legs {legs} carry {mu:.6g} kg at P_i from the platform")
+            moved += [
+                f"rod {k + 1}: {mu:.6g} kg from the platform, its gravity compensation "
+                f"{gc_platform:g} -> {gc_rods[k]:g}"
+                for k in np.nonzero(light)[0]
+                if gc_rods[k] != gc_platform
+            ]
     m_total = platform[9] + leg[has_body, 9].sum()
     min_mass = max(_FLOOR * m_total, _MJ_MIN_MASS)
     if platform[9] < min_mass:
@@ -299,14 +313,19 @@ def mujoco_inertials(
                 q = np.r_[P[k], 1.0]
                 J += mu * np.outer(q, q)
                 exact.append(f"the platform carries {mu:.6g} kg at P_{k + 1} from rod {k + 1}")
+                if gc_rods[k] != gc_platform:
+                    moved.append(
+                        f"platform: {mu:.6g} kg from rod {k + 1}, its gravity compensation "
+                        f"{gc_rods[k]:g} -> {gc_platform:g}"
+                    )
         platform = _khalil_from_pseudo(J)
 
     scale = float(desc.size if size is None else size)
     min_inertia = max(_FLOOR * m_total * scale**2, _MJ_MIN_INERTIA)
     # MuJoCo's absolute bounds above a millionth of the robot's own scale (a tiny robot).
     too_small = min_inertia > _DOUBTFUL * m_total * scale**2 or min_mass > _DOUBTFUL * m_total
-    approximate: list[str] = []
-    doubtful: list[str] = []
+    approximate: list[str] = list(moved)
+    doubtful: list[str] = list(moved)
     bodies = [
         (f"leg {k + 1} link {j + 1}", leg[k, j])
         for k, j in zip(*np.nonzero(has_body), strict=True)
@@ -517,6 +536,7 @@ def closed_loop_mjcf(
         platform = mjcf_body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
     ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
     mjcf_inertial(platform, platform_inertia)
+    gravcomp(platform, getattr(desc, "platform_gravcomp", 0.0))
     points = np.asarray(desc.platform_points, dtype=float)
     plate_geom(platform, points, plate_sizes, 1.0, "platform")
     for i in range(1, 7):
@@ -590,6 +610,13 @@ def _chain(transforms: list[np.ndarray]) -> np.ndarray:
     return T
 
 
+def gravcomp(body: ET.Element, c: float) -> None:
+    """MuJoCo's ``gravcomp`` of ``body``: the fraction ``c`` of its weight removed (the
+    description's ``platform_gravcomp`` / ``leg_gravcomp``; written only when not 0)."""
+    if c:
+        body.set("gravcomp", repr(float(c)))
+
+
 def _chain_leg(
     base: ET.Element,
     desc: Any,
@@ -616,6 +643,7 @@ def _chain_leg(
             X = np.linalg.inv(_chain(after))
             _chain_joint(body, leg_joint(i, n + 1), leg.joints[n], X)
         mjcf_inertial(body, inertia[j])
+        gravcomp(body, desc.leg_gravcomp[k, j])
         # visuals of this link (those of merged massless links are not drawn)
         _fromto(
             body,

@@ -46,7 +46,8 @@ Their sidecar (``docs/closures.md``) names the six closures ``leg{i}_link3`` at 
 ``platform`` at ``P_i``, the actuated joints in leg order, gravity, and under
 ``"joint_terms"`` every leg joint's terms, those URDF cannot hold (armature, stiffness,
 rest position, transmission, true limits) with the others (:func:`parse_joint_terms`,
-:func:`read_joint_terms`).
+:func:`read_joint_terms`); and under ``"gravcomp"`` (only when some body has one) each
+link's gravity compensation, which URDF cannot hold either (:func:`gravcomp_entry`).
 """
 
 from __future__ import annotations
@@ -731,7 +732,26 @@ def leg_chains_closures_dict(desc: Any, urdf_name: str | None = None) -> dict[st
         "architectures": [str(leg.name) for leg in desc.legs],
         JOINT_TERMS_KEY: joint_terms(desc),
         **home_configuration(desc),
+        **gravcomp_entry(desc),
     }
+
+
+#: Key of the per-body gravity compensation in the sidecar (URDF has no such field).
+GRAVCOMP_KEY = "gravcomp"
+
+
+def gravcomp_entry(desc: Any) -> dict[str, dict[str, float]]:
+    """The sidecar's ``gravcomp``: link name -> the fraction of its weight removed, for
+    the links (``platform``, ``leg{i}_link{j}``) whose factor is not 0; ``{}`` (no key)
+    when no body has one, so that such files are unchanged."""
+    platform = float(getattr(desc, "platform_gravcomp", 0.0))
+    legs = np.asarray(getattr(desc, "leg_gravcomp", np.zeros((6, 3))), dtype=float)
+    out = {PLATFORM_LINK: platform} if platform else {}
+    for i, row in enumerate(legs, start=1):
+        for j, c in enumerate(row, start=1):
+            if c:
+                out[leg_link(i, j)] = float(c)
+    return {GRAVCOMP_KEY: out} if out else {}
 
 
 _TERM_KEYS = ("armature", "viscous", "damping", "coulomb", "stiffness", "rest_position")

@@ -6,7 +6,10 @@ equivalent universal-joint leg, its spin about its axis removed (exact when the 
 inertia is symmetric about that axis: :data:`SPIN_TOLERANCE`); each link's inertia is
 re-expressed in its frame; the actuated joints (in the actuators' order) and the joint
 terms are read; the loops are checked at the reference configuration
-(:data:`CLOSURE_TOLERANCE`); the description takes the ideal 6-UPS form when it fits.
+(:data:`CLOSURE_TOLERANCE`); the description takes the ideal 6-UPS form when it fits. Gravity
+compensation (``TreeBody.gravcomp``): the same on every moving body is gravity scaled;
+else each link's (the one its bodies share) goes to the description's
+``platform_gravcomp`` and ``leg_gravcomp`` (general legs).
 """
 
 from __future__ import annotations
@@ -50,7 +53,7 @@ from stewart_pin.importers.canonical import (
     classify,
     transform_inertia,
 )
-from stewart_pin.importers.topology import Recognition
+from stewart_pin.importers.topology import Link, Recognition
 from stewart_pin.importers.tree import (
     BALL,
     KinematicModel,
@@ -393,6 +396,7 @@ def build(
     size_points = []
     legs_out: list[LegArchitecture] = []
     leg_inertia = np.zeros((6, 3, 10))
+    leg_gravcomp = np.zeros((6, 3))
     base_rot = np.zeros((6, 3, 3))
     base_pts = np.zeros((6, 3))
     plat_pts = np.zeros((6, 3))
@@ -423,9 +427,11 @@ def build(
         link_params: list[np.ndarray] = []  # in F0 at zero configuration (T = identity)
         refs: list[float | None] = []
         file_joints: list[TreeJoint | None] = []
+        link_ids: list[int | None] = []  # the link of each joint (None: a massless one)
         spin_I = asym = 0.0
         if leg.shape == "JJJ":
             for e in leg.edges:
+                link_ids.append(e.child)
                 kinds.append(e.joint.kind)
                 anchors.append(e.joint.anchor)
                 axes.append(e.joint.axis)
@@ -504,6 +510,7 @@ def build(
                 base_name = s1.joint.name if not s1.hinges else s1.hinges[0].name
                 names = [e1.joint.name, f"{base_name} (U axis 1)", f"{base_name} (U axis 2)"]
                 file_joints = [e1.joint, None, None]
+                link_ids = [e1.child, None, s1.child]
                 link_bodies = [
                     ", ".join(link_names(e1.child)),
                     "",
@@ -528,6 +535,7 @@ def build(
                 base_name = s1.joint.name if not s1.hinges else s1.hinges[0].name
                 names = [f"{base_name} (U axis 1)", f"{base_name} (U axis 2)", e1.joint.name]
                 file_joints = [None, None, e1.joint]
+                link_ids = [None, s1.child, e1.child]
                 link_bodies = [
                     "",
                     ", ".join(link_names(s1.child)),
@@ -613,8 +621,9 @@ def build(
             model.notes.append(
                 f"axes of {shown_list(names)} made parallel (turned by {chain.snapped:.2g} rad)"
             )
-        # link inertias in the canonical frames
+        # link inertias in the canonical frames, their gravity compensation
         for j in range(3):
+            leg_gravcomp[len(reports), j] = _link_gravcomp(model, links, link_ids[j])
             leg_inertia[len(reports), j] = transform_inertia(
                 link_params[j], np.linalg.inv(form.frames[j])
             )
@@ -711,7 +720,30 @@ def build(
             fixed = [n for n in link_names(li) if n != model.body_label(links[li].root)]
             if fixed:
                 lumped.setdefault("leg links", []).extend(fixed)
-    gravity = _gravity(model, rec)
+    gravity, uniform = _gravity(model, rec)
+    platform_gravcomp = 0.0
+    if uniform:
+        leg_gravcomp[:] = 0.0
+    else:
+        platform_gravcomp = _link_gravcomp(model, links, P)
+        if platform_gravcomp or np.any(leg_gravcomp):
+            model.notes.append(
+                "gravity compensation of some bodies (gravcomp, or no gravity); "
+                + ", ".join(
+                    f"{name}: {c:g}"
+                    for name, c in [
+                        ("the platform", platform_gravcomp),
+                        *(
+                            (f"leg {i + 1} link {j + 1}", leg_gravcomp[i, j])
+                            for i in range(6)
+                            for j in range(3)
+                        ),
+                    ]
+                    if c
+                )
+                + " (the fractions of their weights removed: platform_gravcomp, "
+                "leg_gravcomp)"
+            )
     notes = list(model.notes) + [f"dropped {x}" for x in rec.dropped]
 
     robot = robot_name(model.name) if name is None else check_robot_name(name)
@@ -737,6 +769,8 @@ def build(
             gravity,
             T_home,
             source,
+            platform_gravcomp,
+            leg_gravcomp,
         )
     except DescriptionError as err:
         where = getattr(err, "body", "")
@@ -926,11 +960,12 @@ def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) ->
     return bool(np.abs(diff).max() <= 1e-9)
 
 
-def _gravity(model: KinematicModel, rec: Recognition) -> np.ndarray:
-    """The model's gravity with the bodies' gravity compensation (``TreeBody.gravcomp``):
-    the same fraction c on every moving body with mass is gravity scaled by 1 - c (exact:
-    every weight scaled; noted); :class:`ModelImportError` naming the bodies when they
-    differ (one gravity for every body)."""
+def _gravity(model: KinematicModel, rec: Recognition) -> tuple[np.ndarray, bool]:
+    """The model's gravity with the bodies' gravity compensation (``TreeBody.gravcomp``),
+    and whether it is uniform: the same fraction c on every moving body with mass is
+    gravity scaled by 1 - c (exact: every weight scaled; noted; the robot keeps its
+    closed forms); else the model's gravity, the compensation per body
+    (:func:`_link_gravcomp`: the description's ``platform_gravcomp``, ``leg_gravcomp``)."""
     fixed = set(rec.links[rec.ground].bodies)
     moving = [
         b
@@ -939,22 +974,41 @@ def _gravity(model: KinematicModel, rec: Recognition) -> np.ndarray:
     ]
     values = {model.bodies[b].gravcomp for b in moving}
     if values <= {0.0}:
-        return model.gravity
+        return model.gravity, True
     if len(values) == 1:
         c = values.pop()
         model.notes.append(
             f"gravity compensation ({c:g} of every moving body's weight): imported as gravity "
             f"scaled by {1.0 - c:g}"
         )
-        return (1.0 - c) * model.gravity
-    some = [model.bodies[b].name for b in moving if model.bodies[b].gravcomp != 0.0]
-    raise ModelImportError(
-        f"bodies {shown_list(some[:8])}{' ...' if len(some) > 8 else ''} have gravity "
-        "compensation (gravcomp, or no gravity) and other moving bodies do not (or less): "
-        "stewart-pin models one gravity for every body (exact when every moving body has "
-        "the same compensation); remove it or make it uniform",
-        tuple(some),
-    )
+        return (1.0 - c) * model.gravity, True
+    return model.gravity, False
+
+
+def _link_gravcomp(model: KinematicModel, links: Sequence[Link], li: int | None) -> float:
+    """The gravity compensation of link ``li`` (``None``: a massless link, 0): the one its
+    bodies with mass share; :class:`ModelImportError` naming them when they differ (one
+    factor per link is exact only when its bodies share it: the compensated weights of
+    bodies compensated differently do not act at the link's centre of mass)."""
+    if li is None:
+        return 0.0
+    massive = [
+        b
+        for b in links[li].bodies
+        if model.bodies[b].inertia[9] > 0.0 and not model.bodies[b].virtual
+    ]
+    values = {model.bodies[b].gravcomp for b in massive}
+    if len(values) > 1:
+        names = [model.bodies[b].name for b in massive]
+        raise ModelImportError(
+            f"bodies {shown_list(names[:8])}{' ...' if len(names) > 8 else ''} are fixed "
+            "together into one link but have different gravity compensations ("
+            + ", ".join(f"{model.bodies[b].gravcomp:g}" for b in massive[:8])
+            + "): stewart-pin gives each link one factor (exact when its bodies share it); "
+            "give them the same gravcomp",
+            tuple(names),
+        )
+    return values.pop() if values else 0.0
 
 
 def _wraps(joints: Sequence[TreeJoint | None]) -> tuple[float, ...]:
@@ -1019,10 +1073,14 @@ def _description(
     gravity: np.ndarray,
     home: np.ndarray,
     source: ModelSource,
+    platform_gravcomp: float = 0.0,
+    leg_gravcomp: np.ndarray | None = None,
 ) -> tuple[RobotDescription, bool]:
     """The description: the paper's ideal 6-UPS form when every leg is an ideal ``ups``
-    leg on its +1 branch with one stroke and finite U-joint limits; general legs else."""
-    ideal = all(
+    leg on its +1 branch with one stroke and finite U-joint limits and no body has its own
+    gravity compensation; general legs else."""
+    compensated = platform_gravcomp != 0.0 or (leg_gravcomp is not None and np.any(leg_gravcomp))
+    ideal = not compensated and all(
         leg.name == "ups"
         and leg.branch == 1
         and all(j.dynamics == JointDynamics() for j in leg.joints)
@@ -1068,6 +1126,8 @@ def _description(
         home_pose=home,
         legs=tuple(legs),
         source=source,
+        platform_gravcomp=platform_gravcomp,
+        leg_gravcomp=leg_gravcomp,  # type: ignore[arg-type] # None: zeros
     )
     return desc, False
 

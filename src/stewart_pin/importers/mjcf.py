@@ -18,7 +18,8 @@ compiler's ``angle`` unit, ``inertiafromgeom`` (inertias computed from geoms and
 - actuators on joints (``motor``, ``position``, ``velocity``, ``general``...): the joint
   and ``gear[0]`` (the joint's effort per actuator effort); one on a site or a body (a
   disturbance input) is ignored with a note, one on a tendon is refused;
-- each body's ``gravcomp`` (taken by the build when the same on every moving body;
+- each body's ``gravcomp`` (the same on every moving body: gravity scaled; else each
+  link's own, the description's ``platform_gravcomp`` / ``leg_gravcomp``;
   ``actuatorgravcomp`` refused);
 - ``<option gravity>``; the reference configuration: a keyframe (by name or index;
   default the one named ``home``, else ``qpos0``).

@@ -10,7 +10,8 @@ bindings come with Gazebo's Debian packages only), so the file is read here, wit
   the robot, reported); the model's ``<pose>`` places it in the world, F0;
 - ``<link>``: ``<pose>`` (``relative_to`` a link, joint or ``<frame>`` from 1.7; the model
   frame before), ``<inertial>`` (``<mass>``, ``<pose>`` and ``<inertia>`` ``ixx``..``izz``
-  about the centre of mass in the inertial frame), ``<gravity>`` (false: reported);
+  about the centre of mass in the inertial frame), ``<gravity>`` (false: the link's
+  weight removed, its gravity compensation 1);
 - ``<frame>`` (``attached_to``, ``<pose relative_to>``): for poses, and as a joint's parent
   or child (the link it is attached to);
 - ``<joint>`` ``revolute``, ``continuous``, ``prismatic``, ``universal`` (two hinges, the
@@ -94,7 +95,8 @@ class SdfRead:
         model: the neutral tree.
         one_dof: the file's 1-dof joints (revolute, continuous, prismatic; not the hinges
             of a universal joint) by name, with their order in the file.
-        gravity_off: the links with ``<gravity>false</gravity>``.
+        gravity_off: the links with ``<gravity>false</gravity>`` (their bodies' ``gravcomp``
+            set to 1: their weights removed).
     """
 
     model: KinematicModel
@@ -551,14 +553,23 @@ def read_sdf(path: str | Path) -> SdfRead:
                     ModelImportError,
                 )
             params = np.zeros(10)
+        gravcomp = 1.0 if name in gravity_off else 0.0  # <gravity>false</gravity>
         for k, J in enumerate(tree_joints):
             last = k == len(tree_joints) - 1
             bodies.append(
-                TreeBody(name, up, J, T, params if last else np.zeros(10), virtual=not last)
+                TreeBody(
+                    name,
+                    up,
+                    J,
+                    T,
+                    params if last else np.zeros(10),
+                    virtual=not last,
+                    gravcomp=gravcomp if last else 0.0,
+                )
             )
             up = len(bodies) - 1
         if not tree_joints:
-            bodies.append(TreeBody(name, up, None, T, params))
+            bodies.append(TreeBody(name, up, None, T, params, gravcomp=gravcomp))
         index[name] = len(bodies) - 1
         if tj is not None and tj.kind in ("revolute", "continuous", "prismatic"):
             one_dof[tj.name] = tj.order
@@ -591,8 +602,8 @@ def read_sdf(path: str | Path) -> SdfRead:
             _ball_terms(j, reader, notes)
     if gravity_off:
         notes.append(
-            f"links with <gravity>false</gravity>: {shown_list(gravity_off)}: their weights are "
-            "NOT removed (per-link gravity is not modelled by this import yet)"
+            f"links with <gravity>false</gravity>: {shown_list(gravity_off)}: their weights "
+            "removed (gravity compensation 1)"
         )
     tree = KinematicModel(
         name=model_name,

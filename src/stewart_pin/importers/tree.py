@@ -102,8 +102,8 @@ class TreeBody:
         inertia: (10,) Khalil's parameters in the body frame about its origin.
         virtual: a massless body the reader inserted (not in the file).
         gravcomp: the fraction of its weight compensated (MJCF ``gravcomp``; 1 for a
-            body without gravity, SDF ``<gravity>false</gravity>``); the import takes it
-            when every moving body has the same (gravity scaled), else refuses it.
+            body without gravity, SDF ``<gravity>false</gravity>``); the import scales
+            gravity when every moving body has the same, else gives each link its own.
     """
 
     name: str

@@ -45,6 +45,7 @@ from stewart_pin.exceptions import (
 from stewart_pin.formats._urdf_checks import check_urdf_numbers, urdf_cycle
 from stewart_pin.formats.urdf import (
     CLOSURE_FORMAT,
+    GRAVCOMP_KEY,
     JOINT_TERMS_KEY,
     non_finite_number,
     parse_closures,
@@ -262,6 +263,7 @@ SIDECAR_KEYS = (
     "home_pose",
     "home_joint_positions",
     JOINT_TERMS_KEY,
+    GRAVCOMP_KEY,
 )
 #: Keys of a version-2 closure, by type.
 CLOSURE_KEYS = {
@@ -603,6 +605,9 @@ def read_urdf(
         except InputError as e:
             raise FileFormatError(f"{source}: 'gravity' must be 3 finite numbers: {e}") from e
 
+    # per-body gravity compensation (URDF has none: the sidecar's "gravcomp")
+    _sidecar_gravcomp(data, bodies, source, path.name)
+
     # the reference configuration
     values: dict[str, float] = {}
     free: dict[str, np.ndarray] = {}
@@ -696,6 +701,37 @@ def read_urdf(
         data.get("platform") if version == 2 else None,
         home_pose if not free else None,  # a floating platform is placed by it
     )
+
+
+def _sidecar_gravcomp(
+    data: dict[str, Any], bodies: list[TreeBody], source: str, urdf: str
+) -> None:
+    """Set ``TreeBody.gravcomp`` from the sidecar's ``gravcomp`` (link name -> the
+    fraction of its weight removed, a number in [0, 1]); :class:`FileFormatError` for a
+    bad value, :class:`ModelImportError` for a link the URDF does not have."""
+    entry = data.get(GRAVCOMP_KEY)
+    if entry is None:
+        return
+    if not isinstance(entry, dict):
+        raise FileFormatError(f"{source}: '{GRAVCOMP_KEY}' must be an object (link -> factor)")
+    by_name = {b.name: b for b in bodies[1:] if not b.virtual}
+    for name, c in entry.items():
+        if (
+            isinstance(c, bool)
+            or not isinstance(c, (int, float))
+            or not (math.isfinite(c) and 0.0 <= c <= 1.0)
+        ):
+            raise FileFormatError(
+                f"{source}: gravity compensation of {shown(str(name))} must be a number in "
+                f"[0, 1] (the fraction of its weight removed), got {c!r:.60}"
+            )
+        if str(name) not in by_name:
+            raise ModelImportError(
+                f"{source}: gravity compensation for {shown(str(name))}: no such moving link "
+                f"in {urdf} (check the names)",
+                (str(name),),
+            )
+        by_name[str(name)].gravcomp = float(c)
 
 
 def _inertial_origin(link: Any) -> np.ndarray:
