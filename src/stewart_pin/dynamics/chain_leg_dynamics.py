@@ -456,7 +456,9 @@ class ChainDynamics:
             term_cols.append(KT @ terms)
         platform = np.empty((N, 6, 10))
         for j in range(10):
-            unit = SimpleNamespace(platform_inertia=np.eye(10)[j], gravity=self.desc.gravity)
+            unit = SimpleNamespace(
+                platform_inertia=np.eye(10)[j], gravity=self.desc.gravity, platform_gravcomp=0.0
+            )
             plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
             platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
         columns = np.concatenate([*leg_cols, platform, *term_cols], axis=2)
