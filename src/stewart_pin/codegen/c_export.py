@@ -49,6 +49,7 @@ from stewart_pin.codegen._sx_common import function
 from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
 from stewart_pin.codegen.derivatives import symbolic_derivatives
 from stewart_pin.codegen.symbolic import pose_from_input
+from stewart_pin.description.actuator_convention import ActuatorConvention
 from stewart_pin.exceptions import ExportError, StewartPinError
 from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
 from stewart_pin.protocols import RobotLike
@@ -272,6 +273,28 @@ def c_library(
     return header, source, numbers
 
 
+def convention_readme(convention: ActuatorConvention | None) -> str:
+    """The README's paragraph on an imported robot's actuator convention (numbers only:
+    no name from the file), ``""`` for none or the identity."""
+    if convention is None or convention.identity:
+        return ""
+    rows = "\n".join(
+        f"| {i + 1} | {convention.signs[i]:+.0f} | {convention.offsets[i]!r} | "
+        + (f"{convention.wraps[i]!r}" if convention.revolute[i] else "-")
+        + " |"
+        for i in range(6)
+    )
+    return (
+        "\nThese functions speak the robot description's actuator convention (the named\n"
+        "architecture's). The model file the robot was imported from zeroes and points some\n"
+        "actuated joints otherwise; its values are `q_file = s (q_act - o)` (a revolute\n"
+        "joint's taken into `[wrap, wrap + 2 pi)`), `q_act = s q_file + o`,\n"
+        "`gamma_file = s gamma`, `q_file_dot = s q_act_dot`:\n\n"
+        "| actuator | s | o [m or rad] | wrap [rad] |\n| --- | --- | --- | --- |\n"
+        f"{rows}\n"
+    )
+
+
 # ---------------------------------------------------------------------------- references
 def _perturbed(T: np.ndarray, rng: np.random.Generator, offset: float) -> np.ndarray:
     """``T`` moved by up to ``offset`` [m] and turned by up to ``offset`` [rad]."""
@@ -390,6 +413,7 @@ def export_c(
     samples: int = SAMPLES,
     seed: int = 0,
     derivatives: bool = False,
+    convention: ActuatorConvention | None = None,
 ) -> list[Path]:
     """Write the standalone C99 library of ``robot``'s models into ``folder``.
 
@@ -404,6 +428,9 @@ def export_c(
         derivatives: also export ``PREFIX_inverse_dynamics_derivatives`` (Gamma and its
             Jacobians in the pose chart, the twist and the acceleration; a longer source:
             several seconds more to compile).
+        convention: an imported robot's actuator convention (its file's joint signs and
+            zeros): the C speaks the description's (``robot``'s, whose reference values
+            are embedded) and the README gives the mapping to the file's; ``None``: none.
 
     Returns:
         The paths written (:func:`file_names`).
@@ -419,6 +446,7 @@ def export_c(
         raise ExportError(f"seed must be an integer >= 0, got {seed!r}")
     check_folder(folder, prefix)  # before the work
     header, source, numbers = c_library(robot, prefix, derivatives)
+    numbers["convention_readme"] = convention_readme(convention)
     values = reference_values(robot, samples, seed, derivatives)
     out = check_folder(folder, prefix)
     try:
