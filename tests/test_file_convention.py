@@ -224,3 +224,118 @@ def test_identity_and_bad_convention():
         StewartRobot(robot.description, convention="mujoco")
     with pytest.raises(InputError, match="convention must be one of"):
         ActuatorConvention.of(robot.description, "")
+
+
+@pytest.fixture(scope="module")
+def ups() -> FileCase:
+    return FileCase("ups")
+
+
+def test_the_planner_gives_the_files_efforts_positions_and_rates(ups):
+    """An optimal motion on the imported 6-UPS: at its nodes, the efforts are MuJoCo's KKT
+    forces of the nodes' accelerations, the positions and rates MuJoCo's ``qpos`` and
+    ``qvel``, within the bounds it reports."""
+    from stewart_pin.planning.point_to_point import optimal_point_to_point
+
+    robot = ups.robot
+    goal = robot.home_pose
+    goal[:3, 3] += [0.02, -0.01, 0.03]
+    motion = optimal_point_to_point(robot, robot.home_pose, goal, 0.5, intervals=6)
+    lo, hi = motion.actuator_bounds.T
+    assert np.all((motion.leg_lengths >= lo - 1e-9) & (motion.leg_lengths <= hi + 1e-9))
+    assert np.all(motion.leg_lengths < 0)  # the file's inverted slides
+    for k in (1, 4):
+        ups.at(motion.poses[k], motion.twists[k])
+        assert rel_error(motion.gammas[k], ups.kkt(A=motion.accels[k])) < 1e-8
+        assert np.abs(motion.leg_lengths[k] - ups.data.qpos[ups.qadr]).max() < 1e-9
+        assert rel_error(motion.actuator_speeds[k], ups.data.qvel[ups.dadr]) < 1e-8
+
+
+def test_identification_from_a_log_in_the_files_convention(ups):
+    """A log of the file's actuator positions and efforts (MuJoCo's, checked at its first
+    sample): its decimated equations on the imported robot hold the true base parameters
+    (to 1e-6 of the efforts), and it identifies; read in the description's convention,
+    the same log is outside the strokes."""
+    from stewart_pin import LogLimitError
+    from stewart_pin.motion.trajectories import FourierTrajectory
+    from stewart_pin.parameters.base import base_parameters
+    from stewart_pin.parameters.identification import identify_log, log_equations
+    from stewart_pin.parameters.logs import ActuatorLog
+    from stewart_pin.parameters.state_estimation import design_filters
+
+    robot = ups.robot
+    desc = robot.description_convention()
+    rng = np.random.default_rng(3)
+    amp = np.array([0.05 * robot.description.size] * 3 + [0.05] * 3)[:, None]
+    motion = FourierTrajectory(
+        robot.home_pose, 0.5, np.zeros(6), rng.uniform(-1, 1, (6, 4)) * amp / 4,
+        rng.uniform(-1, 1, (6, 4)) * amp / 4,
+    )  # fmt: skip
+    t = np.arange(1200) / 200.0
+    s = motion.sample(t)
+    # the file's values by the importer's record of its joints (description.source)
+    source = robot.description.source
+    positions = source.file_actuator_positions(
+        desc.actuator_positions(s.poses), [3] * 6, [False] * 6
+    )
+    efforts = source.file_efforts(desc.inverse_dynamics(s.poses, s.twists, s.accels), [3] * 6)
+    ups.at(s.poses[0], s.twists[0])
+    assert np.abs(positions[0] - ups.data.qpos[ups.qadr]).max() < 1e-9
+    assert rel_error(efforts[0], ups.kkt(A=s.accels[0])) < 1e-10
+    log = ActuatorLog(t, positions, efforts)
+    base = base_parameters(robot)
+    design = design_filters(log)
+    r = np.concatenate(
+        [g - W @ base.values for _, W, g, _ in log_equations(robot, log, base, design)]
+    )  # the decimated equations hold the true parameters (filters and differences only)
+    assert np.sqrt(np.mean(r**2)) <= 1e-6 * np.sqrt(np.mean(efforts**2))
+    result = identify_log(robot, log, base).result
+    assert result.n_samples > 0 and np.all(np.isfinite(result.estimate))
+    with pytest.raises(LogLimitError, match="outside"):
+        identify_log(desc, log, base)
+
+
+def test_the_command_line_with_a_model_speaks_the_file(ups, tmp_path, capsys):
+    """``--model``: ``ik`` prints the file's joint values (MuJoCo's ``qpos`` at home),
+    ``idm`` writes the file's efforts (MuJoCo's KKT), ``validate`` passes."""
+    from stewart_pin.cli import main
+    from stewart_pin.formats.csv_tables import STATE_COLUMNS, read_csv, state_table, write_csv
+
+    path = tmp_path / "hexapod.xml"
+    path.write_text(ups.xml)
+    assert main(["ik", "--model", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert "the model file's zeros and directions" in text
+    rows = [line.split() for line in text.splitlines() if line[:3].strip() in list("123456")]
+    got = np.array([[float(x) for x in row[1:4]] for row in rows[:6]])
+    home = ups.m.key_qpos[0]
+    src = ups.robot.description.source
+    qpos = np.array([[home[ups.m.joint(n).qposadr[0]] for n in leg.joints] for leg in src.legs])
+    np.testing.assert_allclose(got, qpos, atol=2e-6)  # printed to 6 decimals
+
+    T, V, A = ups.states[0]
+    states = write_csv(tmp_path / "s.csv", STATE_COLUMNS, state_table(np.zeros(1), T[None],
+                       V[None], A[None]))  # fmt: skip
+    out = tmp_path / "forces.csv"
+    assert main(["idm", "--model", str(path), "--trajectory", str(states), "-o", str(out)]) == 0
+    gamma = read_csv(out, ("t", *(f"gamma{i}" for i in range(1, 7))))[0, 1:]
+    ups.at(T, V)
+    assert rel_error(gamma, ups.kkt(A=A)) < 1e-10
+    capsys.readouterr()
+    assert main(["validate", "--model", str(path), "--states", "4"]) == 0
+    assert "PASSED" in capsys.readouterr().out
+
+
+def test_c_export_speaks_the_description_and_gives_the_mapping(ups, tmp_path):
+    """The exported C is the description's (its embedded reference values are the
+    description convention's: the same files as exporting that robot); its README gives
+    each actuator's sign and offset."""
+    robot = ups.robot
+    a = {p.name: p.read_text() for p in robot.export_c(tmp_path / "a", "hexa", samples=2)}
+    desc = robot.description_convention()
+    b = {p.name: p.read_text() for p in desc.export_c(tmp_path / "b", "hexa", samples=2)}
+    assert a["hexa_reference.h"] == b["hexa_reference.h"]
+    conv = robot.actuator_convention
+    for i in range(6):
+        row = f"| {i + 1} | -1 | {float(conv.offsets[i])!r} | - |"
+        assert row in a["README.md"] and row not in b["README.md"]

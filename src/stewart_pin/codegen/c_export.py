@@ -279,8 +279,8 @@ def convention_readme(convention: ActuatorConvention | None) -> str:
     if convention is None or convention.identity:
         return ""
     rows = "\n".join(
-        f"| {i + 1} | {convention.signs[i]:+.0f} | {convention.offsets[i]!r} | "
-        + (f"{convention.wraps[i]!r}" if convention.revolute[i] else "-")
+        f"| {i + 1} | {convention.signs[i]:+.0f} | {float(convention.offsets[i])!r} | "
+        + (f"{float(convention.wraps[i])!r}" if convention.revolute[i] else "-")
         + " |"
         for i in range(6)
     )
