@@ -339,3 +339,17 @@ def test_c_export_speaks_the_description_and_gives_the_mapping(ups, tmp_path):
     for i in range(6):
         row = f"| {i + 1} | -1 | {float(conv.offsets[i])!r} | - |"
         assert row in a["README.md"] and row not in b["README.md"]
+
+
+def test_bad_efforts_and_positions_of_an_imported_robot_are_named(ups):
+    """The conversion checks what it converts, with the models' own errors."""
+    robot = ups.robot
+    T, V, _ = ups.states[0]
+    for bad, match in (([1.0] * 5, "gamma"), ([True] + [1.0] * 5, "boolean"),
+                       ([1j] + [1.0] * 5, "gamma")):  # fmt: skip
+        with pytest.raises(InputError, match=match):
+            robot.direct_dynamics(T, V, bad)
+    with pytest.raises(InputError, match="gamma must be a batch"):
+        robot.direct_dynamics(T[None], V[None], np.zeros(6))
+    with pytest.raises(InputError, match="lengths"):
+        robot.forward_geometry([2.0] * 5)

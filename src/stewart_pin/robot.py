@@ -160,15 +160,13 @@ class StewartRobot:
                         for leg in legs], dtype=float)  # fmt: skip
         return lim if self._actuators is None else self._actuators.limits_from_description(lim)
 
-    def _efforts_in(self, gamma: ArrayLike) -> Any:
-        """Efforts given in the robot's convention -> the description's (given as they
-        are when they are not numbers of the right shape: the model's check names it)."""
-        if self._actuators is None:
-            return gamma
-        try:
-            return self._actuators.efforts_to_description(gamma)
-        except (TypeError, ValueError):
-            return gamma
+    def _efforts_in(self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike) -> tuple[Any, ...]:
+        """A state with efforts in the robot's convention -> checked, with the efforts in
+        the description's (the models' own check on the arrays: the same errors)."""
+        assert self._actuators is not None
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        G = self._actuators.efforts_to_description(G)
+        return (T, V, G) if batched else (T[0], V[0], G[0])
 
     def _compiled_backend(self) -> Any:
         """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept on the robot by
@@ -607,7 +605,8 @@ class StewartRobot:
             fast = _AUTO_BACKEND[0](self)  # the hot path: one look-up
         else:
             fast = self._fast_backend(backend)
-        gamma = self._efforts_in(gamma)
+        if self._actuators is not None:
+            pose, twist, gamma = self._efforts_in(pose, twist, gamma)
         if fast is not None:
             return fast.direct_dynamics(pose, twist, gamma)
         return self._kind.direct_dynamics(self, pose, twist, gamma)
@@ -646,9 +645,11 @@ class StewartRobot:
         :meth:`inverse_dynamics_derivatives`. Arguments and errors as
         :meth:`direct_dynamics` (``gamma`` and ``.gamma`` in the robot's
         :attr:`actuator_convention`)."""
-        d = _derivatives(self).direct_dynamics_derivatives(pose, twist, self._efforts_in(gamma))
         a = self._actuators
-        return d if a is None else replace(d, gamma=a.columns(d.gamma))
+        if a is None:
+            return _derivatives(self).direct_dynamics_derivatives(pose, twist, gamma)
+        d = _derivatives(self).direct_dynamics_derivatives(*self._efforts_in(pose, twist, gamma))
+        return replace(d, gamma=a.columns(d.gamma))
 
     def cartesian_dynamics(
         self, pose: ArrayLike, twist: ArrayLike
