@@ -5,7 +5,9 @@ Conventions (see ``docs/conventions.md``): a pose is 0Tp as a 4x4 matrix (``pin.
 accepted); a twist is ``[v, w]`` (6,) of the origin of Fp in F0 [m/s, rad/s]; an
 acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma_3i`` [N] is
 positive when it extends leg i. Every method takes one state or a batch with a leading
-N axis, and returns the same.
+N axis, and returns the same. A robot imported from a model file speaks that file's joint
+convention for its actuators (positions, rates, efforts: :attr:`StewartRobot.actuator_convention`,
+one conversion at the boundary; ``convention="description"`` for the named architecture's).
 
 Two reference paths, chosen once when the robot is built
 (:func:`stewart_pin.architectures.reference_path`; the facade's methods call the path and
