@@ -750,22 +750,13 @@ class StewartRobot:
             ExportError: a prefix that is not a C identifier, an output folder that exists
                 with other files, a robot that cannot export.
 
-        The exported C speaks the description's actuator convention (the named
-        architecture's, as :meth:`description_convention`); an imported robot's mapping
-        to its file's (:attr:`actuator_convention`) is written in the export's
-        ``README.md``.
+        The exported C speaks the robot's :attr:`actuator_convention` (an imported
+        robot's: its file's; the mapping to the named architecture's is in the export's
+        ``README.md``).
         """
         from stewart_pin.codegen.c_export import export_c
 
-        return export_c(
-            self.description_convention(),
-            folder,
-            prefix,
-            samples=samples,
-            seed=seed,
-            derivatives=derivatives,
-            convention=self._actuators,
-        )
+        return export_c(self, folder, prefix, samples=samples, seed=seed, derivatives=derivatives)
 
     # ------------------------------------------------------------------ payload
     def with_payload(self, payload: Any, placement: Any = None) -> PayloadRobot:
