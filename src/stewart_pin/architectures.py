@@ -14,11 +14,6 @@ dynamics; no method of the facade asks which architecture it holds.
   (:class:`~stewart_pin.dynamics.leg_dynamics.LegDynamics`, the closure layer of
   :mod:`stewart_pin.dynamics.closed_loop`).
 
-The paths speak the description's convention (the named architecture's joint values,
-joint-side efforts); the facade converts the actuators' values to the robot's at its
-boundary, in one place (:class:`~stewart_pin.description.actuator_convention.ActuatorConvention`:
-a file's joint signs and zeros, the motor side's transmission ratios).
-
 The paths hold no state (the models they use are cached on the robot, which each method
 takes as its first argument: a :class:`PathOwner`), so a robot keeps no reference cycle
 and pickles as before.
@@ -94,6 +89,9 @@ class PathOwner(Protocol):
 
     @property
     def leg_dynamics(self) -> LegDynamics: ...
+
+    @property
+    def _motor_ratio(self) -> FloatArray: ...
 
 
 def quiet_overflow() -> np.errstate:
@@ -246,6 +244,9 @@ class LegChainPath:
     def leg_dynamics(self, r: PathOwner) -> LegDynamics:
         return r.general_dynamics.legs
 
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma / r._motor_ratio
+
     def inverse_dynamics(
         self,
         r: PathOwner,
@@ -253,12 +254,13 @@ class LegChainPath:
         twist: ArrayLike,
         accel: ArrayLike,
         details: bool,
+        motor: bool,
     ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
         with quiet_overflow():
             res = r.general_dynamics.inverse_dynamics(pose, twist, accel, details=True)
         if details:
             return res
-        out = check_finite(res.gamma, "inverse dynamics Gamma")
+        out = check_finite(res.motor if motor else res.gamma, "inverse dynamics Gamma")
         return out if check_poses(pose)[1] else out[0]
 
     def direct_dynamics(
@@ -419,6 +421,9 @@ class IdealUpsPath(LegChainPath):
     def leg_dynamics(self, r: PathOwner) -> LegDynamics:
         return LegDynamics(r.description)
 
+    def motor_side(self, r: PathOwner, gamma: Any) -> Any:
+        return gamma  # no transmission on the ideal 6-UPS
+
     def inverse_dynamics(
         self,
         r: PathOwner,
@@ -426,6 +431,7 @@ class IdealUpsPath(LegChainPath):
         twist: ArrayLike,
         accel: ArrayLike,
         details: bool,
+        motor: bool,
     ) -> FloatArray | InverseDynamicsResult | GeneralInverseDynamics:
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         with quiet_overflow():

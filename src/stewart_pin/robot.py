@@ -575,12 +575,21 @@ class StewartRobot:
         if fast is not None:
             out = fast.inverse_dynamics(pose, twist, accel)
         else:
-            out = self._kind.inverse_dynamics(self, pose, twist, accel, details)
+            out = self._kind.inverse_dynamics(self, pose, twist, accel, details, False)
             if details:
                 return out
         if self._actuators is None and not motor:
             return out
-        return self._convention.efforts_from_description(out, motor)  # the one conversion
+        return self._efforts_out(out, motor)
+
+    def _efforts_out(self, gamma: Any, motor: bool) -> Any:
+        """The one conversion of the description's joint-side efforts to the robot's
+        boundary: the motor side (``Gamma / ratio``, the path's :meth:`motor_side`) and
+        the actuator convention's signs (:attr:`actuator_convention`)."""
+        if motor:
+            gamma = self._kind.motor_side(self, gamma)
+        a = self._actuators
+        return gamma if a is None else a.efforts_from_description(gamma)
 
     def direct_dynamics(
         self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "auto"
@@ -705,6 +714,13 @@ class StewartRobot:
         if _compiled(backend, details):
             return self._compiled_backend()
         return None  # pragma: no cover - _compiled raised
+
+    @cached_property
+    def _motor_ratio(self) -> FloatArray:
+        """The actuated joints' transmission ratios (6,) (``Gamma / ratio`` is the motor
+        side)."""
+        legs = self.general.legs
+        return np.array([leg.joints[leg.actuated - 1].dynamics.transmission_ratio for leg in legs])
 
     def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
         """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, n) or (N, 6, n).

@@ -11,14 +11,15 @@ file's zero,
 - position: ``q_file = s_i (q_description - o_i)`` (a revolute joint's taken into
   ``[wrap_i, wrap_i + 2 pi)``), and back ``q_description = s_i q_file + o_i``;
 - rate, acceleration, effort: ``x_file = s_i x_description`` (the power
-  ``Gamma . qdot`` is the same in both);
-- motor side: the effort divided by the transmission ratio (> 0) as well.
+  ``Gamma . qdot`` is the same in both; the motor side, ``Gamma / ratio`` with a ratio
+  > 0, takes the same sign).
 
 This one object converts every actuator quantity of
 :class:`~stewart_pin.robot.StewartRobot` (positions, limits, rates, Jacobians' rows,
-efforts in and out, regressor rows, derivatives); a description without a source, or a
-source that keeps the file's values (signs +1, offsets 0, no wrap), is the identity and
-converts nothing.
+efforts in and out, regressor rows, derivatives), at the facade's boundary where the
+motor side is applied; a description without a source, or a source that keeps the
+file's values (signs +1, offsets 0, no wrap), is the identity and converts nothing, as
+does a robot whose legs are not three-joint legs.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin.description.robot_description import RobotDescription
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import InputError, StewartPinError
 
 #: The conventions a robot can speak: its source file's, or its description's.
 CONVENTIONS = ("file", "description")
@@ -49,8 +50,6 @@ class ActuatorConvention:
         wraps: (6,) a revolute actuator's file value is given in ``[wrap, wrap + 2 pi)``
             [rad] (unused for a prismatic one).
         revolute: (6,) bool, the revolute actuators.
-        ratios: (6,) the actuated joints' transmission ratios (``Gamma / ratio`` is the
-            motor side; 1 without a transmission).
         file: the source file's name (``""`` without one).
     """
 
@@ -59,7 +58,6 @@ class ActuatorConvention:
     offsets: np.ndarray
     wraps: np.ndarray
     revolute: np.ndarray
-    ratios: np.ndarray
     file: str = ""
 
     @classmethod
@@ -72,22 +70,22 @@ class ActuatorConvention:
                 "actuator positions and efforts in the imported file's joint convention, "
                 "'description' in the named architecture's"
             )
-        legs = description.leg_architectures
+        signs, offsets, wraps = np.ones(6), np.zeros(6), np.full(6, -math.pi)
+        try:
+            legs = description.leg_architectures
+        except StewartPinError:  # legs that are not three-joint legs: their own values
+            return cls(convention, signs, offsets, wraps, np.zeros(6, dtype=bool))
         index = [leg.actuated - 1 for leg in legs]
         revolute = np.array([leg.joints[j].revolute for leg, j in zip(legs, index, strict=True)])
-        ratios = np.array(
-            [leg.joints[j].dynamics.transmission_ratio for leg, j in zip(legs, index, strict=True)]
-        )
-        signs, offsets, wraps = np.ones(6), np.zeros(6), np.full(6, -math.pi)
         source = description.source
         if convention == "file" and source is not None:
             for i, (leg, j) in enumerate(zip(source.legs, index, strict=True)):
                 signs[i], offsets[i], wraps[i] = leg.signs[j], leg.offsets[j], leg.wraps[j]
         file = source.file if source is not None and convention == "file" else ""
-        return cls(convention, signs, offsets, wraps, revolute, ratios, file)
+        return cls(convention, signs, offsets, wraps, revolute, file)
 
     def __post_init__(self) -> None:
-        for key in ("signs", "offsets", "wraps", "revolute", "ratios"):
+        for key in ("signs", "offsets", "wraps", "revolute"):
             value = np.array(getattr(self, key))
             value.setflags(write=False)
             object.__setattr__(self, key, value)
@@ -127,11 +125,9 @@ class ActuatorConvention:
         [m/s or rad/s, m/s^2 or rad/s^2] (and back: the same map)."""
         return self.signs * np.asarray(qdot, dtype=float)
 
-    def efforts_from_description(self, gamma: Any, motor: bool = False) -> np.ndarray:
-        """Efforts (..., 6) of the description (joint side) -> the robot's; ``motor``:
-        divided by the transmission ratios (the motor side) [N or N m]."""
-        out = self.signs * np.asarray(gamma, dtype=float)
-        return out / self.ratios if motor else out
+    def efforts_from_description(self, gamma: Any) -> np.ndarray:
+        """Efforts (..., 6) of the description -> the robot's [N or N m]."""
+        return self.signs * np.asarray(gamma, dtype=float)
 
     def efforts_to_description(self, gamma: Any) -> np.ndarray:
         """Efforts (..., 6) of the robot (joint side) -> the description's [N or N m]."""
