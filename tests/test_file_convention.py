@@ -307,7 +307,7 @@ def test_the_command_line_with_a_model_speaks_the_file(ups, tmp_path, capsys):
     path.write_text(ups.xml)
     assert main(["ik", "--model", str(path)]) == 0
     text = capsys.readouterr().out
-    assert "the model file's zeros and directions" in text
+    assert "the model file's convention (its zeros and directions)" in text
     rows = [line.split() for line in text.splitlines() if line[:3].strip() in list("123456")]
     got = np.array([[float(x) for x in row[1:4]] for row in rows[:6]])
     home = ups.m.key_qpos[0]

@@ -33,21 +33,19 @@ def _ik(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     T = pose_from_args(args.pose, robot)
     q = robot.inverse_geometry(T)
+    source = robot.description.source
+    if source is not None and not robot.actuator_convention.identity:
+        # an imported robot speaks its file's joint convention (robot.actuator_convention)
+        three = robot.description.leg_architectures
+        q = source.file_joint_values(q, [[j.revolute for j in leg.joints] for leg in three])
+        print("joint values in the model file's convention (its zeros and directions)")
     np.set_printoptions(precision=6, suppress=True)
     print(f"pose 0Tp:\n{T}")
     legs = robot.description.leg_architectures
-    source = robot.description.source
-    whose = ""
-    if source is not None and not robot.actuator_convention.identity:
-        # an imported robot speaks its file's joint convention (robot.actuator_convention)
-        revolute = np.array([[j.revolute for j in leg.joints] for leg in legs])
-        q = source.file_joint_values(q, revolute)
-        whose = " (the model file's zeros and directions)"
     actuated = {leg.actuated for leg in legs}
     shared = f"q{actuated.pop()}" if len(actuated) == 1 else "last column"
     print(
-        f"{robot.architecture} legs; joint values{whose} [rad revolute, m prismatic]; "
-        f"actuated: {shared}"
+        f"{robot.architecture} legs; joint values [rad revolute, m prismatic]; actuated: {shared}"
     )
     print("leg   q1           q2           q3")
     for i, (row, leg) in enumerate(zip(q, legs, strict=True), 1):
