@@ -187,7 +187,8 @@ def test_computed_torque_commands_the_files_efforts(case):
     assert rel_error(ctc(0.0, T, V), case.kkt(A=A)) < 1e-10
 
 
-def test_derivatives_are_mujocos_exact_differences(case, monkeypatch):
+@pytest.mark.parametrize("name", ["ups", "ups-offset"])  # signed (RUS: the wrap only)
+def test_derivatives_are_mujocos_exact_differences(name, monkeypatch):
     """``dGamma/dVdot`` and ``dVdot/dGamma`` in the file's convention: the IDM is affine in
     the acceleration and the DDM in the efforts, so MuJoCo's KKT differences are exact
     (CasADi's virtual machine: nothing compiled)."""
@@ -196,6 +197,7 @@ def test_derivatives_are_mujocos_exact_differences(case, monkeypatch):
     import stewart_pin.robot as robot_module
     from stewart_pin.codegen.derivatives import CompiledDerivatives
 
+    case = FileCase(name)
     robot = case.robot
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
