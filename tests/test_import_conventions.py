@@ -96,14 +96,14 @@ def check_against_mujoco(xml: str, robot: StewartRobot, ranges, n: int = 3) -> N
                     got - q_file[i, j]
                 )  # fmt: skip
                 assert abs(diff) < 1e-9, (name, got, q_file[i, j])
-        positions = source.file_actuator_positions(robot.actuator_positions(T), actuated, revolute)
+        positions = robot.actuator_positions(T)  # the file's convention
         qpos = np.array([data.qpos[m.joint(leg.joints[a - 1]).qposadr[0]]
                          for leg, a in zip(source.legs, actuated, strict=True)])  # fmt: skip
         wrapped = np.where(revolute, np.remainder(positions - qpos + math.pi, 2 * math.pi)
                            - math.pi, positions - qpos)  # fmt: skip
         assert np.abs(wrapped).max() < 1e-9
         gamma_mj = mujoco_kkt(m, data, source.platform, A=A)
-        gamma = source.file_efforts(robot.inverse_dynamics(T, V, A, motor=True), actuated)
+        gamma = robot.inverse_dynamics(T, V, A, motor=True)  # along the file's axes
         assert rel_error(gamma, gamma_mj) < 1e-10, f"IDM {rel_error(gamma, gamma_mj):.2e}"
 
 
@@ -165,12 +165,9 @@ def test_a_full_turn_range_limits_nothing_and_angles_are_given_in_it():
     assert 'range="0 6.28' in xml
     robot = _import(xml)
     assert robot.description.architecture == "rus"
-    actuated, revolute = _actuated(robot)
     source = robot.description.source
     for T, _, _ in states(robot, (0.003, 0.03), 6, seed=2):
-        positions = source.file_actuator_positions(
-            robot.actuator_positions(T, check_limits=True), actuated, revolute
-        )
+        positions = robot.actuator_positions(T, check_limits=True)  # the file's convention
         assert np.all((positions >= 0.0) & (positions < 2 * math.pi))
     assert {src.wraps[0] for src in source.legs} == {0.0}
     check_against_mujoco(xml, robot, (0.003, 0.03))
@@ -251,9 +248,8 @@ def test_a_urdf_with_turned_axes_is_the_ideal_6_ups(tmp_path):
             return super().closed_state(T, V, q0, tol=1e-13)
 
     ref = Reference()
-    actuated, _ = _actuated(robot)
     for T, V, A in states(robot, (0.005, 0.05), 3, seed=5):
         q, v = ref.closed_state(T, V)
         gamma_ref = ref.kkt(q, v, A=A)  # the sidecar's order: legs 1..6
-        gamma = robot.description.source.file_efforts(robot.inverse_dynamics(T, V, A), actuated)
+        gamma = robot.inverse_dynamics(T, V, A)  # along the file's axes
         assert rel_error(gamma, gamma_ref) < 1e-10, f"IDM {rel_error(gamma, gamma_ref):.2e}"

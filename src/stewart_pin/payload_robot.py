@@ -117,7 +117,10 @@ class PayloadRobot:
     def __init__(self, robot: StewartRobot, payload: Any, placement: Any = None) -> None:
         if not hasattr(robot, "inverse_dynamics") or not hasattr(robot, "description"):
             raise InputTypeError(f"PayloadRobot takes a StewartRobot, got {type(robot).__name__}")
-        self.robot = robot
+        # the coupled models are the description's: the hexapod speaks its description's
+        # actuator convention here (an imported one's file convention is not carried over)
+        own = getattr(robot, "description_convention", None)
+        self.robot = own() if callable(own) else robot
         if placement is None and not isinstance(payload, Payload):
             placement = default_placement(robot.description)
         self.payload: Payload = load_payload(payload, placement)

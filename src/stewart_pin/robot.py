@@ -5,7 +5,9 @@ Conventions (see ``docs/conventions.md``): a pose is 0Tp as a 4x4 matrix (``pin.
 accepted); a twist is ``[v, w]`` (6,) of the origin of Fp in F0 [m/s, rad/s]; an
 acceleration is classical ``[dv/dt, dw/dt]`` in F0 [m/s^2, rad/s^2]; ``Gamma_3i`` [N] is
 positive when it extends leg i. Every method takes one state or a batch with a leading
-N axis, and returns the same.
+N axis, and returns the same. A robot imported from a model file speaks that file's joint
+convention for its actuators (positions, rates, efforts: :attr:`StewartRobot.actuator_convention`,
+one conversion at the boundary; ``convention="description"`` for the named architecture's).
 
 Two reference paths, chosen once when the robot is built
 (:func:`stewart_pin.architectures.reference_path`; the facade's methods call the path and
@@ -29,6 +31,7 @@ for one call).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, overload
@@ -36,7 +39,7 @@ from typing import TYPE_CHECKING, Any, Literal, overload
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin._checks import check_poses, check_scalar, check_states
+from stewart_pin._checks import check_array, check_poses, check_scalar, check_states
 from stewart_pin._typing import (
     Accels,
     ArrayLike,
@@ -50,6 +53,7 @@ from stewart_pin._typing import (
 )
 from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.actuator_convention import ActuatorConvention
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.description.presets import preset
 from stewart_pin.dynamics.chain_leg_dynamics import (
@@ -88,9 +92,20 @@ class StewartRobot:
         description: the validated robot description.
         max_condition: the singularity measure (cond(Jp^-1), its angular columns divided by
             the platform radius) past which a pose counts as singular.
+        convention: the actuators' convention at the robot's boundary: ``"file"`` (the
+            default: a robot imported from a model file reports and takes actuator
+            positions, rates and efforts in that file's joint convention, sign and zero,
+            ``description.source``; a description without a source has no other) or
+            ``"description"`` (the named architecture's); see :attr:`actuator_convention`
+            and ``docs/conventions.md``.
     """
 
-    def __init__(self, description: RobotDescription, max_condition: float = MAX_CONDITION):
+    def __init__(
+        self,
+        description: RobotDescription,
+        max_condition: float = MAX_CONDITION,
+        convention: str = "file",
+    ):
         if not isinstance(description, RobotDescription):
             raise InputTypeError(
                 f"StewartRobot takes a RobotDescription, got {type(description).__name__}; "
@@ -98,6 +113,7 @@ class StewartRobot:
             )
         self.description = description
         self.max_condition = check_scalar(max_condition, "max_condition", positive=True)
+        self._set_convention(ActuatorConvention.of(description, convention))
         #: The reference path of the robot's architecture (chosen here, once).
         self._kind = reference_path(description)
         self._kind.check_home(self)
@@ -113,6 +129,51 @@ class StewartRobot:
         one written before the paths existed loads too)."""
         self.__dict__.update(state)
         self._kind = reference_path(self.description)
+        if "_convention" not in state:  # pickled before the actuator conventions
+            self._set_convention(ActuatorConvention.of(self.description))
+
+    # ------------------------------------------------------------------ actuator convention
+    def _set_convention(self, convention: ActuatorConvention) -> None:
+        #: The one conversion layer of the actuators' values at the boundary
+        #: (``_actuators`` is ``None`` for the identity: nothing converted on the hot path).
+        self._convention = convention
+        self._actuators = None if convention.identity else convention
+
+    @property
+    def actuator_convention(self) -> ActuatorConvention:
+        """The mapping between the robot's actuator values and its description's
+        (:class:`~stewart_pin.description.actuator_convention.ActuatorConvention`: per
+        actuator the sign, the offset [m or rad], the wrap of a revolute one; ``str()``
+        prints it): ``q_robot = s (q_description - o)``, ``Gamma_robot = s
+        Gamma_description``. The identity for a robot not imported, or built with
+        ``convention="description"``."""
+        return self._convention
+
+    def description_convention(self) -> StewartRobot:
+        """This robot speaking its description's (the named architecture's) actuator
+        convention: a new :class:`StewartRobot` on the same description with
+        ``convention="description"`` (itself when the two agree: not imported, or
+        already the description's)."""
+        if self._actuators is None:
+            return self
+        return StewartRobot(self.description, self.max_condition, convention="description")
+
+    @property
+    def actuator_limits(self) -> FloatArray:
+        """Each actuated joint's limits ``[lower, upper]`` (6, 2) [m or rad] in the
+        robot's convention (:attr:`actuator_convention`; infinite: none)."""
+        legs = self.description.leg_architectures
+        lim = np.array([[leg.joints[leg.actuated - 1].lower, leg.joints[leg.actuated - 1].upper]
+                        for leg in legs], dtype=float)  # fmt: skip
+        return lim if self._actuators is None else self._actuators.limits_from_description(lim)
+
+    def _efforts_in(self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike) -> tuple[Any, ...]:
+        """A state with efforts in the robot's convention -> checked, with the efforts in
+        the description's (the models' own check on the arrays: the same errors)."""
+        assert self._actuators is not None
+        batched, T, V, G = check_states(pose, (twist, "twist"), (gamma, "gamma"))
+        G = self._actuators.efforts_to_description(G)
+        return (T, V, G) if batched else (T[0], V[0], G[0])
 
     def _compiled_backend(self) -> Any:
         """The robot's :class:`~stewart_pin.codegen.CompiledDynamics` (kept on the robot by
@@ -178,13 +239,14 @@ class StewartRobot:
         return cls(preset(name), **kwargs)
 
     @classmethod
-    def from_mjcf(cls, source: Any, **options: Any) -> StewartRobot:
+    def from_mjcf(cls, source: Any, convention: str = "file", **options: Any) -> StewartRobot:
         """From an MJCF model: a path, the XML text or a ``mujoco.MjModel``, read through
         MuJoCo (options and conventions: :func:`stewart_pin.importers.import_mjcf`,
-        ``docs/importing.md``). F0 is the model's world, Fp the platform body's frame."""
+        ``docs/importing.md``). F0 is the model's world, Fp the platform body's frame.
+        ``convention``: the actuators' (see :class:`StewartRobot`; default the file's)."""
         from stewart_pin.importers import import_mjcf
 
-        return cls(import_mjcf(source, **options).description)
+        return cls(import_mjcf(source, **options).description, convention=convention)
 
     @classmethod
     def from_urdf(
@@ -193,26 +255,32 @@ class StewartRobot:
         closures: Any = None,
         actuated: Any = None,
         armature: dict[str, float] | None = None,
+        convention: str = "file",
         **options: Any,
     ) -> StewartRobot:
         """From a URDF and its loop closures (a sidecar, ``closing_<k>_1`` /
         ``closing_<k>_2`` frames, or pairs of names), the actuated joints (default the
         sidecar's or the ``<transmission>`` elements) and the armatures URDF cannot hold
-        (:func:`stewart_pin.importers.import_urdf`, ``docs/importing.md``)."""
+        (:func:`stewart_pin.importers.import_urdf`, ``docs/importing.md``);
+        ``convention``: the actuators' (see :class:`StewartRobot`; default the file's)."""
         from stewart_pin.importers import import_urdf
 
-        return cls(import_urdf(path, closures, actuated, armature, **options).description)
+        desc = import_urdf(path, closures, actuated, armature, **options).description
+        return cls(desc, convention=convention)
 
     @classmethod
-    def from_sdf(cls, path: str | Path, actuated: Any = None, **options: Any) -> StewartRobot:
+    def from_sdf(
+        cls, path: str | Path, actuated: Any = None, convention: str = "file", **options: Any
+    ) -> StewartRobot:
         """From a Gazebo SDF file (SDFormat 1.4 to 1.11: one ``<model>``, or a ``<world>``
         holding it); SDF has no actuators: each leg's one revolute or prismatic joint by
         default, else ``actuated=[...]`` in leg order
         (:func:`stewart_pin.importers.import_sdf`, ``docs/importing.md``). F0 is the
-        file's world, Fp the platform link's frame."""
+        file's world, Fp the platform link's frame. ``convention``: the actuators' (see
+        :class:`StewartRobot`; default the file's)."""
         from stewart_pin.importers import import_sdf
 
-        return cls(import_sdf(path, actuated, **options).description)
+        return cls(import_sdf(path, actuated, **options).description, convention=convention)
 
     def to_dict(self) -> dict[str, Any]:
         """The description's dictionary form."""
@@ -296,15 +364,22 @@ class StewartRobot:
         """The six actuated joint values, (6,) or (N, 6): leg lengths [m] for UPS (for the
         ideal 6-UPS exactly :meth:`leg_lengths`), crank angles [rad] for RUS, slide
         positions [m] for PUS. ``check_limits``: :class:`~stewart_pin.exceptions.WorkspaceError`
-        outside a joint's limits (default off, as :meth:`leg_lengths`)."""
-        return self._kind.actuator_positions(self, pose, check_limits)
+        outside a joint's limits (default off, as :meth:`leg_lengths`). In the robot's
+        :attr:`actuator_convention` (an imported robot: the file's joint values)."""
+        q = self._kind.actuator_positions(self, pose, check_limits)
+        return q if self._actuators is None else self._actuators.positions_from_description(q)
 
     def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None, **kwargs: Any) -> Pose:
         """The pose 0Tp (4x4) with actuated joint values ``lengths`` (6,) (leg lengths [m]
         for 6-UPS; :meth:`actuator_positions` in general), by Newton-Raphson from ``guess``,
         default the home pose; see
         :func:`stewart_pin.kinematics.forward_geometry.forward_geometry` and
-        :func:`stewart_pin.kinematics.leg_chains.forward_geometry`."""
+        :func:`stewart_pin.kinematics.leg_chains.forward_geometry`. ``lengths`` in the
+        robot's :attr:`actuator_convention`."""
+        if self._actuators is not None:
+            lengths = self._actuators.positions_to_description(
+                check_array(lengths, (6,), "lengths")
+            )
         return self._kind.forward_geometry(self, lengths, guess, **kwargs)
 
     def limit_margin(
@@ -321,12 +396,16 @@ class StewartRobot:
     # ------------------------------------------------------------------ kinematics
     def inverse_jacobian(self, pose: ArrayLike) -> FloatArray:
         """``Jp^-1`` (6, 6): ``qdot_a = Jp^-1 [v, w]`` (eq. 13; general legs: rows
-        ``e_ai^T J_i^-1 G_i``)."""
-        return self._kind.inverse_jacobian(self, pose)
+        ``e_ai^T J_i^-1 G_i``); ``qdot_a`` in the robot's :attr:`actuator_convention`."""
+        J_inv = self._kind.inverse_jacobian(self, pose)
+        return J_inv if self._actuators is None else self._actuators.rows(J_inv)
 
     def jacobian(self, pose: ArrayLike) -> FloatArray:
-        """``Jp`` (6, 6); raises :class:`SingularityError` past ``max_condition``."""
-        return self._kind.jacobian(self, pose)
+        """``Jp`` (6, 6) (``[v, w] = Jp qdot_a``, ``qdot_a`` in the robot's
+        :attr:`actuator_convention`); raises :class:`SingularityError` past
+        ``max_condition``."""
+        J = self._kind.jacobian(self, pose)
+        return J if self._actuators is None else self._actuators.columns(J)
 
     def condition_number(self, pose: ArrayLike) -> float | FloatArray:
         """The singularity measure: cond(Jp^-1), its angular columns divided by the platform
@@ -488,10 +567,13 @@ class StewartRobot:
 
         Returns:
             Gamma (6,) or (N, 6); positive extends the leg. General legs: the actuated
-            joints' efforts, joint side [N or N m]; ``details=True`` gives the
+            joints' efforts, joint side [N or N m]. In the robot's
+            :attr:`actuator_convention` (an imported robot: along the file's joint axes).
+            ``details=True`` gives the
             :class:`~stewart_pin.dynamics.leg_chain_dynamics.GeneralInverseDynamics` (its
             ``joint_efforts`` (N, 6, 3): Gamma on the actuated joints, 0 on the passive
-            ones; ``H`` each leg's own joint efforts, joint terms included).
+            ones; ``H`` each leg's own joint efforts, joint terms included), in the
+            description's convention as every leg joint value.
 
         Raises:
             NumericalError: finite inputs whose Gamma overflows (every backend).
@@ -503,8 +585,22 @@ class StewartRobot:
             fast = self._fast_backend(backend, details)
         if fast is not None:
             out = fast.inverse_dynamics(pose, twist, accel)
-            return self._kind.motor_side(self, out) if motor else out
-        return self._kind.inverse_dynamics(self, pose, twist, accel, details, motor)
+        else:
+            out = self._kind.inverse_dynamics(self, pose, twist, accel, details, False)
+            if details:
+                return out
+        if self._actuators is None and not motor:
+            return out
+        return self._efforts_out(out, motor)
+
+    def _efforts_out(self, gamma: Any, motor: bool) -> Any:
+        """The one conversion of the description's joint-side efforts to the robot's
+        boundary: the motor side (``Gamma / ratio``, the path's :meth:`motor_side`) and
+        the actuator convention's signs (:attr:`actuator_convention`)."""
+        if motor:
+            gamma = self._kind.motor_side(self, gamma)
+        a = self._actuators
+        return gamma if a is None else a.efforts_from_description(gamma)
 
     def direct_dynamics(
         self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "auto"
@@ -521,6 +617,7 @@ class StewartRobot:
 
         General legs: ``gamma`` are the actuated joints' joint-side efforts [N or N m];
         Coulomb friction is ``Fc sign(qdot)``, zero at zero joint velocity (no stiction).
+        ``gamma`` in the robot's :attr:`actuator_convention`.
 
         Raises:
             NumericalError: finite inputs whose acceleration overflows (every backend).
@@ -530,6 +627,8 @@ class StewartRobot:
             fast = _AUTO_BACKEND[0](self)  # the hot path: one look-up
         else:
             fast = self._fast_backend(backend)
+        if self._actuators is not None:
+            pose, twist, gamma = self._efforts_in(pose, twist, gamma)
         if fast is not None:
             return fast.direct_dynamics(pose, twist, gamma)
         return self._kind.direct_dynamics(self, pose, twist, gamma)
@@ -546,8 +645,19 @@ class StewartRobot:
         ``R <- exp(dtheta^) R``), so that along a motion
         ``dGamma/dt = D.pose @ [v, w] + D.twist @ Vdot + D.accel @ dVdot/dt`` (Vdot the
         classical acceleration). Arguments and errors as :meth:`inverse_dynamics`
-        (general legs included: their Gamma is the actuated joints' efforts)."""
-        return _derivatives(self).inverse_dynamics_derivatives(pose, twist, accel)
+        (general legs included: their Gamma is the actuated joints' efforts), Gamma in the
+        robot's :attr:`actuator_convention`."""
+        d = _derivatives(self).inverse_dynamics_derivatives(pose, twist, accel)
+        a = self._actuators
+        if a is None:
+            return d
+        return replace(
+            d,
+            gamma=a.efforts_from_description(d.gamma),
+            pose=a.rows(d.pose),
+            twist=a.rows(d.twist),
+            accel=a.rows(d.accel),
+        )
 
     def direct_dynamics_derivatives(
         self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
@@ -555,8 +665,13 @@ class StewartRobot:
         """The classical acceleration ``.accel`` and its exact Jacobians ``.pose``,
         ``.twist``, ``.gamma`` (6, 6) (or (N, 6, 6)); the pose chart as in
         :meth:`inverse_dynamics_derivatives`. Arguments and errors as
-        :meth:`direct_dynamics`."""
-        return _derivatives(self).direct_dynamics_derivatives(pose, twist, gamma)
+        :meth:`direct_dynamics` (``gamma`` and ``.gamma`` in the robot's
+        :attr:`actuator_convention`)."""
+        a = self._actuators
+        if a is None:
+            return _derivatives(self).direct_dynamics_derivatives(pose, twist, gamma)
+        d = _derivatives(self).direct_dynamics_derivatives(*self._efforts_in(pose, twist, gamma))
+        return replace(d, gamma=a.columns(d.gamma))
 
     def cartesian_dynamics(
         self, pose: ArrayLike, twist: ArrayLike
@@ -625,10 +740,13 @@ class StewartRobot:
         (n = 190 for the ideal 6-UPS robot); general legs add each joint's five terms
         ``IA FV FC K OF`` (n = 280; joint-side efforts, joint limits checked as in
         :meth:`inverse_dynamics`). Names in
-        :func:`stewart_pin.dynamics.regressor.standard_parameter_names`.
+        :func:`stewart_pin.dynamics.regressor.standard_parameter_names`. Rows in the
+        robot's :attr:`actuator_convention` (``W chi`` is :meth:`inverse_dynamics`).
         """
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
         W = self._kind.regressor(self, T, V, A)
+        if self._actuators is not None:
+            W = self._actuators.rows(W)
         return W if batched else W[0]
 
     # ------------------------------------------------------------------ C export
@@ -658,6 +776,10 @@ class StewartRobot:
         Raises:
             ExportError: a prefix that is not a C identifier, an output folder that exists
                 with other files, a robot that cannot export.
+
+        The exported C speaks the robot's :attr:`actuator_convention` (an imported
+        robot's: its file's; the mapping to the named architecture's is in the export's
+        ``README.md``).
         """
         from stewart_pin.codegen.c_export import export_c
 

@@ -61,6 +61,7 @@ from stewart_pin.check.leg_chain_tree import (
 )
 from stewart_pin.check.tolerances import DDM_TOLERANCE, IDM_TOLERANCE
 from stewart_pin.description import RobotDescription
+from stewart_pin.description.actuator_convention import actuator_convention_of
 from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.exceptions import (
     InputError,
@@ -696,6 +697,9 @@ def validate(
         gamma_ref, accel_ref = _chain_reference(robot, poses, twists, accels)
     else:
         gamma_ref, accel_ref = _general_reference(robot, poses, twists, accels)
+    # the references are the description's efforts: in the robot's actuator convention
+    # (an imported robot's file's) through the description's record of it
+    gamma_ref = actuator_convention_of(robot).efforts_from_description(gamma_ref)
     gamma = np.asarray(robot.inverse_dynamics(poses, twists, accels), dtype=float)
     accel = np.asarray(robot.direct_dynamics(poses, twists, gamma_ref), dtype=float)
     round_trip = np.asarray(robot.direct_dynamics(poses, twists, gamma), dtype=float)

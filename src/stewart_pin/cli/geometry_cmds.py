@@ -34,6 +34,12 @@ def _ik(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     T = pose_from_args(args.pose, robot)
     q = robot.inverse_geometry(T)
+    source = robot.description.source
+    if source is not None and not robot.actuator_convention.identity:
+        # an imported robot speaks its file's joint convention (robot.actuator_convention)
+        three = robot.description.leg_architectures
+        q = source.file_joint_values(q, [[j.revolute for j in leg.joints] for leg in three])
+        print("joint values in the model file's convention (its zeros and directions)")
     np.set_printoptions(precision=6, suppress=True)
     print(f"pose 0Tp:\n{T}")
     desc = robot.description

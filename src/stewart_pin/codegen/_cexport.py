@@ -134,6 +134,27 @@ static const double sp_max_cond = ${max_condition};
 static const double sp_zero6[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
 /* 1 where the actuated joint is revolute (its forward-geometry error is wrapped) */
 static const int sp_revolute[6] = {${revolute}};
+/* The actuators' convention (the robot's, stewart-pin's robot.actuator_convention; the
+   identity 1, 0, no wrap unless the robot was imported from a model file that zeroes or
+   points its actuated joints otherwise): q_act = s (q - o), taken into [w, w + 2 pi)
+   where sp_wrap_on; q_act_dot and gamma = s times the model's, J_inv's rows likewise. */
+static const double sp_sign[6] = {${signs}};
+static const double sp_offset[6] = {${offsets}};
+static const double sp_wrap[6] = {${wraps}};
+static const int sp_wrap_on[6] = {${wrap_on}};
+
+/* The model's actuated joint values q (6) in the actuators' convention, in place. */
+static void sp_positions_out(double* q) {
+  int k;
+  for (k = 0; k < 6; ++k) {
+    q[k] = sp_sign[k] * (q[k] - sp_offset[k]);
+    if (sp_wrap_on[k]) {
+      double d = fmod(q[k] - sp_wrap[k], 6.283185307179586);
+      if (d < 0.0) d += 6.283185307179586;
+      q[k] = sp_wrap[k] + d;
+    }
+  }
+}
 
 /* The 2-norm condition number of S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l) within max_cond:
    the eigenvalues of S^T S by cyclic Jacobi rotations (after the cheaper bounds flagged
@@ -218,6 +239,7 @@ static int sp_geometry(const double* T, double* q, double* work) {
 int ${P}_inverse_geometry(const double pose[16], double q_act[6], double* work) {
   int f = sp_pose_ok(pose);
   if (!f) f = sp_geometry(pose, q_act, work);
+  if (!f) sp_positions_out(q_act);
   return sp_finish(f, q_act, 6);
 }
 
@@ -225,7 +247,7 @@ int ${P}_inverse_jacobian(const double pose[16], double J_inv[36], double* work)
   double q[6];
   int f = sp_pose_ok(pose), k;
   if (!f) f = sp_geometry(pose, q, work);
-  if (!f) for (k = 0; k < 36; ++k) J_inv[k] = work[SP_GEO_JINV + k];
+  if (!f) for (k = 0; k < 36; ++k) J_inv[k] = sp_sign[k / 6] * work[SP_GEO_JINV + k];
   return sp_finish(f, J_inv, 36);
 }
 
@@ -305,8 +327,9 @@ int ${P}_forward_geometry(const double q_act[6], const double pose_guess[16],
   if (f) return sp_finish(f, pose, 16);
   for (k = 0; k < 16; ++k) T[k] = pose_guess[k];
   for (k = 0; k < 6; ++k) {
-    target[2 * k] = sp_revolute[k] ? cos(q_act[k]) : q_act[k];
-    target[2 * k + 1] = sp_revolute[k] ? sin(q_act[k]) : 0.0;
+    double qm = sp_sign[k] * q_act[k] + sp_offset[k]; /* the model's value */
+    target[2 * k] = sp_revolute[k] ? cos(qm) : qm;
+    target[2 * k + 1] = sp_revolute[k] ? sin(qm) : 0.0;
   }
   arg[0] = T;
   arg[1] = target;
@@ -361,6 +384,7 @@ int ${P}_inverse_dynamics(const double pose[16], const double twist[6],
     f |= sp_check_cond(aux + SP_JINV, sp_max_cond, 0, 0);
   }
   if ((f & SP_COND) && sp_cond_within(aux + SP_JINV, sp_max_cond)) f &= ~SP_COND;
+  for (k = 0; k < 6; ++k) gamma[k] *= sp_sign[k];
   if (!sp_finite6(gamma)) f |= SP_NONFINITE;
   return sp_finish(f, gamma, 6);
 }
@@ -370,11 +394,13 @@ int ${P}_direct_dynamics(const double pose[16], const double twist[6],
   const casadi_real* arg[SP_NARG];
   casadi_real* res[SP_NRES];
   double* aux = work;
+  double g[6];
   int f = sp_check_inputs(pose, twist, gamma), k;
   if (f) return sp_finish(f, accel, 6);
+  for (k = 0; k < 6; ++k) g[k] = sp_sign[k] * gamma[k]; /* the model's */
   arg[0] = pose;
   arg[1] = twist;
-  arg[2] = gamma;
+  arg[2] = g;
   arg[3] = 0;
   res[0] = accel;
   res[1] = aux;
@@ -420,9 +446,9 @@ int ${P}_inverse_dynamics_derivatives(const double pose[16], const double twist[
     for (k = 0; k < 108; ++k) if (!isfinite(work[k])) f = ${PU}_ERR_NUMERICAL;
   }
   for (k = 0; k < 36; ++k) {
-    d_pose[k] = f ? NAN : work[k];
-    d_twist[k] = f ? NAN : work[36 + k];
-    d_accel[k] = f ? NAN : work[72 + k];
+    d_pose[k] = f ? NAN : sp_sign[k / 6] * work[k];
+    d_twist[k] = f ? NAN : sp_sign[k / 6] * work[36 + k];
+    d_accel[k] = f ? NAN : sp_sign[k / 6] * work[72 + k];
   }
   if (f) for (k = 0; k < 6; ++k) gamma[k] = NAN;
   return f;

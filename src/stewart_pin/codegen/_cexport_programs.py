@@ -433,7 +433,7 @@ velocity of the platform origin O_p and the angular velocity, both in F0 [m/s, r
 `accel`: classical `[dv/dt, dw/dt]` in F0 [m/s^2, rad/s^2]. `q_act`, `gamma`: actuator
 order (leg 1 to 6): actuated joint values [m or rad] and efforts on the joint side [N or
 N m]. `J_inv`: Jp^-1 row-major, `q_act_dot = J_inv twist`.
-
+${convention_readme}
 ```c
 int ${P}_inverse_geometry(const double pose[16], double q_act[6], double *work);
 int ${P}_forward_geometry(const double q_act[6], const double pose_guess[16],

@@ -49,6 +49,10 @@ from stewart_pin.codegen._sx_common import function
 from stewart_pin.codegen.compiled import leg_checks_source, model_layout, singularity_length
 from stewart_pin.codegen.derivatives import symbolic_derivatives
 from stewart_pin.codegen.symbolic import pose_from_input
+from stewart_pin.description.actuator_convention import (
+    ActuatorConvention,
+    actuator_convention_of,
+)
 from stewart_pin.exceptions import ExportError, StewartPinError
 from stewart_pin.kinematics.forward_geometry import FORWARD_MAX_ITERATIONS, FORWARD_TOLERANCE
 from stewart_pin.protocols import RobotLike
@@ -248,6 +252,7 @@ def c_library(
         "fro2": layout.fro2,
         "ddm_d": layout.ddm_d,
         "revolute": ", ".join(str(r) for r in revolute),
+        **_convention_numbers(robot),
         **_cexport.ERROR_CODES,
     }
     numbers["derivatives_readme"] = (
@@ -270,6 +275,42 @@ def c_library(
         + (Template(_cexport.DERIVATIVES).substitute(numbers) if derivatives else "")
     )
     return header, source, numbers
+
+
+def _convention_numbers(robot: RobotLike) -> dict[str, str]:
+    """The C arrays of the robot's actuator convention (``sp_sign``, ``sp_offset``,
+    ``sp_wrap``, ``sp_wrap_on``; the identity 1, 0, no wrap) and the README's paragraph."""
+    conv = actuator_convention_of(robot)
+    wrap_on = conv.revolute & (not conv.identity)
+    return {
+        "signs": ", ".join(_number(x) for x in conv.signs),
+        "offsets": ", ".join(_number(x) for x in conv.offsets),
+        "wraps": ", ".join(_number(x) for x in conv.wraps),
+        "wrap_on": ", ".join(str(int(w)) for w in wrap_on),
+        "convention_readme": convention_readme(conv),
+    }
+
+
+def convention_readme(convention: ActuatorConvention) -> str:
+    """The README's paragraph on an imported robot's actuator convention (numbers only:
+    no name from the file), ``""`` for the identity."""
+    if convention.identity:
+        return ""
+    rows = "\n".join(
+        f"| {i + 1} | {convention.signs[i]:+.0f} | {float(convention.offsets[i])!r} | "
+        + (f"{float(convention.wraps[i])!r}" if convention.revolute[i] else "-")
+        + " |"
+        for i in range(6)
+    )
+    return (
+        "\nThe robot was imported from a model file whose actuated joints are zeroed or\n"
+        "pointed otherwise than its named architecture's: these functions speak the\n"
+        "file's joint convention (as the Python robot does), `q_act` its joint values\n"
+        "(a revolute one in `[wrap, wrap + 2 pi)`), `gamma` along its axes. The\n"
+        "architecture's own values are `q = s q_act + o`, `gamma_model = s gamma`:\n\n"
+        "| actuator | s | o [m or rad] | wrap [rad] |\n| --- | --- | --- | --- |\n"
+        f"{rows}\n"
+    )
 
 
 # ---------------------------------------------------------------------------- references
@@ -334,12 +375,14 @@ def reference_values(
     if derivatives:
         f = symbolic_derivatives(generate_models(robot.description)).idm_flat
         chi = codegen_kind(robot.description).base_parameters(robot.description)[1]
-        out["ref_didm"] = np.array(
+        didm = np.array(
             [
                 np.array(f(T.reshape(16), V, A, chi)).ravel()
                 for T, V, A in zip(poses, twists, accels, strict=True)
             ]
-        )
+        )  # the description's: each block's rows in the robot's actuator convention
+        signs = actuator_convention_of(robot).signs
+        out["ref_didm"] = (didm.reshape(n, 3, 6, 6) * signs[:, None]).reshape(n, 108)
     return out
 
 

@@ -677,8 +677,9 @@ def build(
                     for j in range(3)
                     if signs[j] < 0 or offsets[j]
                 )
-                + f" (named architecture {arch.name}; positions and efforts in the file's "
-                "convention: robot.description.source.file_joint_values / file_efforts)"
+                + f" (named architecture {arch.name}; the robot's actuator positions and "
+                "efforts are in the file's convention: robot.actuator_convention; every "
+                "joint's: robot.description.source.file_joint_values)"
             )
 
     # loop residuals at the reference configuration

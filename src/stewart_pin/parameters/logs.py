@@ -71,6 +71,7 @@ import numpy as np
 
 from stewart_pin._checks import check_array, freeze_fields
 from stewart_pin._io import atomic_open
+from stewart_pin.description.actuator_convention import actuator_convention_of
 from stewart_pin.exceptions import (
     LogError,
     LogGapError,
@@ -618,13 +619,15 @@ def write_log(path: str | Path, log: ActuatorLog) -> Path:
 
 
 def _limits_of(robot: RobotLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(lower, upper, revolute)`` (6,) each of the six actuated joints."""
+    """``(lower, upper, revolute)`` (6,) each of the six actuated joints, in the robot's
+    actuator convention (a log holds the robot's values: an imported robot's file's)."""
     desc = robot.description
     lower, upper, revolute = np.empty(6), np.empty(6), np.zeros(6, dtype=bool)
     for i, leg in enumerate(desc.leg_architectures):
         joint = leg.joints[leg.actuated - 1]
         lower[i], upper[i], revolute[i] = joint.lower, joint.upper, joint.revolute
-    return lower, upper, revolute
+    lim = actuator_convention_of(robot).limits_from_description(np.c_[lower, upper])
+    return lim[:, 0], lim[:, 1], revolute
 
 
 def check_log(

@@ -70,6 +70,7 @@ import numpy as np
 import scipy.signal
 
 from stewart_pin._so3 import so3_exp
+from stewart_pin.description.actuator_convention import actuator_convention_of
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.exceptions import (
     InputError,
@@ -572,7 +573,8 @@ def platform_states(
     V = np.linalg.solve(J_inv, qdot[..., None])[..., 0]
     _, _, qdd0 = robot.leg_kinematics(poses, V, np.zeros_like(V))
     assert qdd0 is not None
-    b = qdd0[:, np.arange(6), a]
+    # the legs' joint values are the description's: b in the robot's actuator convention
+    b = actuator_convention_of(robot).rates_from_description(qdd0[:, np.arange(6), a])
     A = np.linalg.solve(J_inv, (qddot - b)[..., None])[..., 0]
     return V, A
 

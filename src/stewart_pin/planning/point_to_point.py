@@ -60,6 +60,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_pose, check_scalar
 from stewart_pin._so3 import quaternions_xyzw_from_rotations, rotation_rows_from_quaternion_xyzw
 from stewart_pin.codegen.derivatives import symbolic_actuators_for, symbolic_models_for
+from stewart_pin.description.actuator_convention import actuator_convention_of
 from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.exceptions import ConvergenceError, InputError, SingularityError
 from stewart_pin.motion.simulation import SimulationResult, simulate
@@ -83,6 +84,8 @@ class OptimalMotion:
         accels: (K+1, 6) classical accelerations in F0 at the nodes (the direct model
             under the force held from that node; the last under the last interval's).
         gammas: (K, 6) the actuator efforts [N or N m], held over ``[t_k, t_k+1)``.
+            Efforts, positions, rates and bounds in the robot's actuator convention
+            (``robot.actuator_convention``: an imported robot's file's).
         leg_lengths: (K+1, 6) the actuated joint values (leg lengths [m] of a UPS robot;
             :attr:`actuator_positions` is the same array); actuator_speeds: (K+1, 6) their
             rates [m/s or rad/s].
@@ -305,6 +308,7 @@ def _initial_guess(
     twists = np.concatenate([sd[:, None] * dp, sd[:, None] * theta], axis=1)
     accels = np.concatenate([sdd[:, None] * dp, sdd[:, None] * theta], axis=1)
     gammas = np.asarray(robot.inverse_dynamics(poses, twists, accels), dtype=float)
+    gammas = actuator_convention_of(robot).efforts_to_description(gammas)  # the NLP's
     X = np.array([_state(T, V) for T, V in zip(poses, twists, strict=True)])
     return X, 0.5 * (gammas[:-1] + gammas[1:])
 
@@ -394,6 +398,8 @@ def optimal_point_to_point(
         raise InputError(f"hessian must be 'limited-memory' or 'exact', got {hessian!r}")
     tol = check_scalar(tol, "tol", positive=True)
     effort, speed = _limits(max_effort, "max_effort"), _limits(max_speed, "max_speed")
+    # the NLP in the description's actuator convention, its outputs in the robot's
+    conv = actuator_convention_of(robot)
     bounds = _actuator_bounds(robot, margin)
     step, legs, accel = _functions(robot, duration / intervals, substeps)
     for T, name in ((T0, "start_pose"), (T1, "goal_pose")):
@@ -402,10 +408,12 @@ def optimal_point_to_point(
         out = np.flatnonzero((at_rest < bounds[:, 0]) | (at_rest > bounds[:, 1]))
         if len(out):
             k = int(out[0])
+            at_rest = conv.positions_from_description(at_rest)
+            shown = conv.limits_from_description(bounds)
             raise InputError(
                 f"{name} has leg lengths (actuated joint values) outside the limits less the "
                 f"margin: leg {k + 1} at {at_rest[k]:.6g}, allowed "
-                f"[{bounds[k, 0]:.6g}, {bounds[k, 1]:.6g}] (m or rad): move it inside or give "
+                f"[{shown[k, 0]:.6g}, {shown[k, 1]:.6g}] (m or rad): move it inside or give "
                 "a smaller margin"
             )
     K = intervals
@@ -491,12 +499,12 @@ def optimal_point_to_point(
         poses=poses,
         twists=Xs[:, 7:13].copy(),
         accels=accels,
-        gammas=Us,
-        leg_lengths=lens,
-        actuator_speeds=speeds,
+        gammas=conv.efforts_from_description(Us),
+        leg_lengths=conv.positions_from_description(lens),
+        actuator_speeds=conv.rates_from_description(speeds),
         max_effort=effort,
         max_speed=speed,
-        actuator_bounds=bounds,
+        actuator_bounds=conv.limits_from_description(bounds),
         cost=float(sol["f"]),
         status=status,
         iterations=iterations,
