@@ -957,6 +957,13 @@ class CompiledDynamics:
         for pose, twist, gamma in chunks:
             yield self._run("ddm", pose, twist, gamma, "gamma", base_values)
 
+    def simulation_stepper(self, robot: RobotLike, backend: str, *args: Any) -> Any:
+        """The compiled loop of one :func:`~stewart_pin.motion.simulation.simulate` run
+        (:func:`.simulator.compiled_stepper`), or why it cannot run it."""
+        from stewart_pin.codegen.simulator import compiled_stepper
+
+        return compiled_stepper(robot, backend, *args)
+
     # ------------------------------------------------------------------ internals
     def checked_base_values(self, base_values: Any) -> np.ndarray:
         """The base parameters a call uses: the robot's (``None``) or ``base_values``
