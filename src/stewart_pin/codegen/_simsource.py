@@ -153,12 +153,11 @@ static int sp_log3(const double* Rin, double* theta, double* w) {
   return 1;
 }
 
-/* dxi/dt = Jlog3(exp3(xi))^T w, as simulation.py computes it through Pinocchio
-   (so3_left_jacobian_inverse). Returns 0 near pi. */
-static int sp_dxi(const double* xi, const double* w, double* out) {
-  double E[9], th, l[3], st, ct, s1, prec = sp_prec3(), alpha, d, J[9];
+/* dxi/dt = Jlog3(exp3(xi))^T w (E = exp3(xi)), as simulation.py computes it through
+   Pinocchio (so3_left_jacobian_inverse). Returns 0 near pi. */
+static int sp_dxi(const double* E, const double* w, double* out) {
+  double th, l[3], st, ct, s1, prec = sp_prec3(), alpha, d, J[9];
   int i, j;
-  sp_exp3(xi, E);
   if (!sp_log3(E, &th, l)) return 0;
   st = sin(th); ct = cos(th);
   s1 = st / (1.0 - ct);
@@ -175,11 +174,9 @@ static int sp_dxi(const double* xi, const double* w, double* out) {
 }
 
 /* The pose of chart point y around the rotation R0 (row-major 4x4 in T0):
-   R = exp3(y[3:6]) R0, p = y[0:3]. */
-static void sp_chart_pose(const double* T0, const double* y, double* T) {
-  double E[9];
+   R = exp3(y[3:6]) R0 (E: that exp3), p = y[0:3]. */
+static void sp_chart_pose(const double* T0, const double* y, const double* E, double* T) {
   int i, j;
-  sp_exp3(y + 3, E);
   for (i = 0; i < 3; ++i) {
     for (j = 0; j < 3; ++j)
       T[4 * i + j] = E[3 * i] * T0[j] + E[3 * i + 1] * T0[4 + j] + E[3 * i + 2] * T0[8 + j];
@@ -288,12 +285,25 @@ static int sp_forces(const sp_sim* sim, double t, const double* T, const double*
 static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* y, long long k,
                    long long r, double* held_k, double* held_g, double* aux, double* T,
                    double* dy, double* g, double* sign) {
-  int ok;
-  sp_chart_pose(T0, y, T);
+  double E[9];
+  int ok, zero = y[3] == 0.0 && y[4] == 0.0 && y[5] == 0.0;
+  /* At xi = 0 (a state, not a stage) exp3 is I and Jlog3 is I, exactly (Pinocchio's
+     formulas at theta = eps): the pose is T0's rotation and dxi/dt is w, no rounding. */
+  if (zero) {
+    memcpy(T, T0, 16 * sizeof(double));
+    T[3] = y[0]; T[7] = y[1]; T[11] = y[2];
+  } else {
+    sp_exp3(y + 3, E);
+    sp_chart_pose(T0, y, E, T);
+  }
   ok = sp_forces(sim, t, T, y + 6, k, r, held_k, held_g, g);
   if (ok != 1) return ok;
   if (sim->ddm(T, y + 6, g, sim->chi, sim->max_cond, dy + 6, aux) != 0) return 0;
-  if (!sp_dxi(y + 3, y + 9, dy + 3)) return 0;
+  if (zero) {
+    dy[3] = y[9]; dy[4] = y[10]; dy[5] = y[11];
+  } else if (!sp_dxi(E, y + 9, dy + 3)) {
+    return 0;
+  }
   dy[0] = y[6]; dy[1] = y[7]; dy[2] = y[8];
   *sign = sp_det_sign(aux + sim->jinv);
   return 1;
@@ -403,7 +413,8 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i)
       y1[i] = y0[i] + h / 6 * (((k1[i] + 2 * k2[i]) + 2 * k3[i]) + k4[i]);
-    sp_chart_pose(T0, y1, T1);
+    sp_exp3(y1 + 3, T2);  /* T2 free again: the exp3 of the step's end */
+    sp_chart_pose(T0, y1, T2, T1);
     ok = sp_end_state(sim, st, target, T1, y1 + 6, aux);
     if (ok == 0) return SP_BAIL;
     if (ok == 2) return SP_NEED_FORCE;

@@ -112,6 +112,9 @@ def simulator_library() -> Any:
             lib = loaded[0]
             lib.sp_sim_run.argtypes = [_P, _P, ctypes.c_longlong]
             lib.sp_sim_run.restype = ctypes.c_int
+            raw = lib["sp_sim_run"]  # another function object: called without conversions
+            raw.restype = ctypes.c_int
+            lib.sp_sim_run_raw = raw
             lib.sp_sim_many.argtypes = [
                 ctypes.c_longlong,
                 _P,
@@ -284,6 +287,8 @@ class Stepper:
         )
         self.sim = sim
         self._args = (ctypes.byref(sim), ctypes.c_void_p(self.st.ctypes.data))
+        self._n_stop = (n_grid, ctypes.c_longlong(n_grid))
+        self._run = self.lib.sp_sim_run_raw  # no argument types: prepared arguments
         self.n = -1  # the grid index of the loaded state (-1: none)
 
     def load(
@@ -322,7 +327,9 @@ class Stepper:
     def run(self, n_stop: int) -> int:
         """Grid steps up to ``n_stop``: the status (:data:`._simsource.DONE`, ``BAIL`` or
         ``NEED_FORCE``)."""
-        status = int(self.lib.sp_sim_run(*self._args, n_stop))
+        if n_stop != self._n_stop[0]:
+            self._n_stop = (n_stop, ctypes.c_longlong(n_stop))
+        status: int = self._run(*self._args, self._n_stop[1])
         self.n = int(self.st[S.ST_N])
         return status
 

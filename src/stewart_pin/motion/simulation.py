@@ -44,6 +44,7 @@ positive, no step below :data:`MIN_STEP`, at most :data:`MAX_STEPS` steps.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -118,6 +119,7 @@ INTEGRATORS = ("auto", "compiled", "python")
 #: Status of a compiled stepper's run (:mod:`stewart_pin.codegen._simsource`): done, the
 #: next step for the Python loop, the end state's forces from Python.
 _FAST_DONE, _FAST_BAIL, _FAST_FORCE = 0, 1, 2
+_F64 = np.dtype(np.float64)
 
 # Dormand-Prince 5(4) tableau.
 _DP_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1])
@@ -273,7 +275,7 @@ class _Integrator:
 
     def period_index(self, t: float) -> int:
         """Index of the control period holding ``t`` (0 without a control period)."""
-        return 0 if self.period is None else int(np.floor(t / self.period + _RATIO_SLACK))
+        return 0 if self.period is None else math.floor(t / self.period + _RATIO_SLACK)
 
     def gamma(self, t: float, T: np.ndarray, V: np.ndarray, k: int) -> np.ndarray:
         """Forces at stage time ``t``; with a control period, the value sampled at the
@@ -286,7 +288,10 @@ class _Integrator:
             raise  # a controller's own workspace check at a trial stage: shrink the step
         except Exception as e:
             raise _CallbackError("forces(t, pose, twist)", t, e) from e
-        g = check_array(g, (6,), "forces(t, pose, twist)")
+        if type(g) is np.ndarray and g.shape == (6,) and g.dtype == _F64 and np.isfinite(g).all():
+            g = g.copy()  # what check_array returns for it, without its other checks' cost
+        else:
+            g = check_array(g, (6,), "forces(t, pose, twist)")
         if self.period is not None:
             self.held = (k, g)
         return g
