@@ -43,6 +43,7 @@ from stewart_pin.codegen.compiled import (
     model_layout,
     split_batch,
 )
+from stewart_pin.codegen.symbolic import AUX_Q3SQ
 from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
@@ -95,6 +96,8 @@ class _Sim(ctypes.Structure):
         ("V_out", _P),
         ("A_out", _P),
         ("G_out", _P),
+        ("q3sq", ctypes.c_longlong),
+        ("L_out", _P),
     ]
 
 
@@ -265,6 +268,10 @@ class Stepper:
         self.t = np.empty(CHUNK_ROWS)
         self.P = np.empty((CHUNK_ROWS, 4, 4))
         self.V, self.A, self.G = (np.empty((CHUNK_ROWS, 6)) for _ in range(3))
+        # The 6-UPS leg lengths from the direct model's q3^2 (general legs: computed by
+        # robot.actuator_positions afterwards, as the Python loop does).
+        ups = robot.description.is_ideal_ups
+        self.L = np.empty((CHUNK_ROWS, 6)) if ups else None
         self.st = np.zeros(S.ST_SIZE)
         self._keep = (models, forces)
         sim = _Sim(
@@ -283,6 +290,8 @@ class Stepper:
             V_out=self.V.ctypes.data,
             A_out=self.A.ctypes.data,
             G_out=self.G.ctypes.data,
+            q3sq=AUX_Q3SQ.start if ups else -1,
+            L_out=self.L.ctypes.data if self.L is not None else None,
             **forces.fields,
         )
         self.sim = sim
@@ -333,11 +342,14 @@ class Stepper:
         self.n = int(self.st[S.ST_N])
         return status
 
-    def rows(self) -> tuple[np.ndarray, ...]:
-        """The rows written since the last call (copies), the buffers then emptied."""
+    def rows(self) -> tuple[np.ndarray | None, ...]:
+        """The rows written since the last call (copies; times, poses, twists,
+        accelerations, forces, and the 6-UPS leg lengths or None), the buffers then
+        emptied."""
         m = int(self.st[S.ST_ROW])
         self.st[S.ST_ROW] = 0.0
-        return tuple(a[:m].copy() for a in (self.t, self.P, self.V, self.A, self.G))
+        out = tuple(a[:m].copy() for a in (self.t, self.P, self.V, self.A, self.G))
+        return (*out, None if self.L is None else self.L[:m].copy())
 
     def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The last accepted state: ``(t, T, V, dy, gamma)`` (copies)."""

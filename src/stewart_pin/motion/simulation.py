@@ -582,13 +582,15 @@ def grid_times(dt: float, duration: float, n_grid: int) -> np.ndarray:
 @dataclass(frozen=True)
 class _Block:
     """Accepted states of the compiled loop: times (m,) [s], poses (m, 4, 4), twists,
-    accelerations and forces (m, 6); ``t`` the last time."""
+    accelerations, forces and the actuated joint positions (m, 6) (None: computed with the
+    result); ``t`` the last time."""
 
     times: np.ndarray
     poses: np.ndarray
     twists: np.ndarray
     accels: np.ndarray
     gammas: np.ndarray
+    lengths: np.ndarray | None = None
 
     @property
     def t(self) -> float:
@@ -655,7 +657,7 @@ class _Run:
         if not self.rows:
             empty = np.zeros((0, 6))
             return SimulationResult(np.zeros(0), np.zeros((0, 4, 4)), empty, empty, empty, empty)
-        parts: list[tuple[np.ndarray, ...]] = []
+        parts: list[_Block] = []
         states: list[_State] = []
         for row in [*self.rows, None]:
             if isinstance(row, _State):
@@ -663,7 +665,7 @@ class _Run:
                 continue
             if states:
                 parts.append(
-                    (
+                    _Block(
                         np.array([s.t for s in states]),
                         np.array([s.T for s in states]),
                         np.array([s.V for s in states]),
@@ -673,9 +675,21 @@ class _Run:
                 )
                 states = []
             if row is not None:
-                parts.append((row.times, row.poses, row.twists, row.accels, row.gammas))
-        t, P, V, A, G = (np.concatenate([p[i] for p in parts]) for i in range(5))
-        return SimulationResult(t, P, V, A, G, self.robot.actuator_positions(P))
+                parts.append(row)
+        t, P, V, A, G = (
+            np.concatenate([getattr(p, k) for p in parts])
+            for k in ("times", "poses", "twists", "accels", "gammas")
+        )
+        if all(p.lengths is None for p in parts):
+            L = self.robot.actuator_positions(P)
+        else:  # the compiled loop's 6-UPS leg lengths, the rest computed here
+            L = np.concatenate(
+                [
+                    self.robot.actuator_positions(p.poses) if p.lengths is None else p.lengths
+                    for p in parts
+                ]
+            )
+        return SimulationResult(t, P, V, A, G, L)
 
     def stop(self, message: str, t: float) -> SimulationError:
         """The error to stop with; the result ends with the last accepted state."""
@@ -922,11 +936,11 @@ class _Run:
     def absorb(self, s: _State) -> _State:
         """Keep the rows the compiled loop wrote; its last state (``s`` if none)."""
         fast = self.fast
-        times, P, V, A, G = fast.rows()
+        times, P, V, A, G, L = fast.rows()
         if times.size == 0:
             self.fast_state = s
             return s
-        self.rows.append(_Block(times, P, V, A, G))
+        self.rows.append(_Block(times, P, V, A, G, L))
         t, T, Vl, dy, g = fast.state()
         s = _State(t, T, Vl, dy, g, s.sign)
         self.integ.held = fast.held()
