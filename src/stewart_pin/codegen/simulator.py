@@ -1,18 +1,19 @@
-"""The compiled simulator: :func:`~stewart_pin.motion.simulation.simulate`'s fixed-step RK4
-run in C around a robot's compiled direct model (:mod:`._simsource`).
+"""The compiled simulator: :func:`~stewart_pin.motion.simulation.simulate`'s integrators
+(fixed-step RK4 and the adaptive Dormand-Prince 5(4)) run in C around a robot's compiled
+direct model (:mod:`._simsource`).
 
 :func:`compiled_stepper` gives :func:`~stewart_pin.motion.simulation.simulate` a
 :class:`Stepper` when the robot's direct model is compiled and the run's options are ones
-the C loop reproduces (else the reason it cannot): method ``"rk4"``, no ``output_dt``, no
-``dynamics``, a robot without the 6-UPS U-joint limits (the reference inverse geometry
-checks them), and forces that are
+the C loop reproduces (else the reason it cannot): no ``output_dt``, no ``dynamics``, a
+robot without the 6-UPS U-joint limits (the reference inverse geometry checks them), and
+forces that are
 
 - ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
   or interpolated table), computed in C;
 - a :class:`~stewart_pin.motion.control.ComputedTorqueController` whose model's inverse
   model is compiled too: its reference sampled once, before the run, at the times the
-  Python loop would ask for it (every stage time, or every control period's start), the
-  law in C;
+  Python loop asks for it (rk4: every stage time, or every control period's start; the
+  adaptive method: every period's start, so it needs a ``control_period``), the law in C;
 - any other function with a ``control_period``: called from Python once per period (the C
   loop stops at the period's end state and goes on with the forces it returns).
 
@@ -98,6 +99,10 @@ class _Sim(ctypes.Structure):
         ("G_out", _P),
         ("q3sq", ctypes.c_longlong),
         ("L_out", _P),
+        ("adaptive", ctypes.c_longlong),
+        ("rtol", ctypes.c_double),
+        ("atol", ctypes.c_double),
+        ("h_min", ctypes.c_double),
     ]
 
 
@@ -150,7 +155,13 @@ class _Forces:
     """The force arrays of one run, kept alive with the ``_Sim`` pointing at them."""
 
     def __init__(
-        self, forces: Any, period: float | None, dt: float, duration: float, n_grid: int
+        self,
+        forces: Any,
+        period: float | None,
+        dt: float,
+        duration: float,
+        n_grid: int,
+        adaptive: bool = False,
     ) -> None:
         self.keep: list[Any] = []
         self.fields: dict[str, Any] = {}
@@ -169,7 +180,13 @@ class _Forces:
                     tab_g=self._arr(forces.values),
                 )
         elif isinstance(forces, ComputedTorqueController):
-            self._controller(forces, period, dt, duration, n_grid)
+            if adaptive and period is None:
+                self.reason = (
+                    "the computed-torque controller without control_period on the adaptive "
+                    "method (its stage times are not known before the run)"
+                )
+            else:
+                self._controller(forces, period, dt, duration, n_grid, adaptive)
         elif period is not None:
             self._set(kind=S.KIND_EXTERNAL)
         else:
@@ -193,6 +210,7 @@ class _Forces:
         dt: float,
         duration: float,
         n_grid: int,
+        adaptive: bool = False,
     ) -> None:
         model = _compiled(c.model, c.backend)
         if isinstance(model, str):
@@ -200,6 +218,9 @@ class _Forces:
             return
         self.keep.append(model)
         grid = grid_times(dt, duration, n_grid)
+        if adaptive:  # the periods' starts (k + 1) * period, where the steps end
+            assert period is not None
+            grid = np.arange(int(np.floor(duration / period + 1e-9)) + 1) * float(period)
         if period is None:  # every stage time: t_n, t_n + h/2 (k2, k3), t_n+1 (k4, end)
             times = np.empty(2 * n_grid + 1)
             times[0::2] = grid
@@ -261,6 +282,7 @@ class Stepper:
         duration: float,
         period: float | None,
         n_grid: int,
+        adaptive: tuple[float, float, float] | None = None,
     ) -> None:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
@@ -292,6 +314,10 @@ class Stepper:
             G_out=self.G.ctypes.data,
             q3sq=AUX_Q3SQ.start if ups else -1,
             L_out=self.L.ctypes.data if self.L is not None else None,
+            adaptive=int(adaptive is not None),
+            rtol=adaptive[0] if adaptive else 0.0,
+            atol=adaptive[1] if adaptive else 0.0,
+            h_min=adaptive[2] if adaptive else 0.0,
             **forces.fields,
         )
         self.sim = sim
@@ -310,9 +336,10 @@ class Stepper:
         sign: float,
         held: tuple[int, np.ndarray] | None,
         n: int,
+        h: float = 0.0,
     ) -> None:
         """Start from an accepted state at grid index ``n`` (``held``: the forces held
-        over the current control period)."""
+        over the current control period; ``h``: the adaptive method's next trial step)."""
         st = self.st
         st[:] = 0.0
         st[S.ST_T] = t
@@ -323,6 +350,7 @@ class Stepper:
         st[S.ST_SIGN] = sign
         self.hold(held)
         st[S.ST_N] = n
+        st[S.ST_H] = h
         self.n = n
 
     def hold(self, held: tuple[int, np.ndarray] | None) -> None:
@@ -362,6 +390,10 @@ class Stepper:
             st[S.ST_GAMMA : S.ST_GAMMA + 6].copy(),
         )
 
+    def step(self) -> float:
+        """The adaptive method's next trial step [s]."""
+        return float(self.st[S.ST_H])
+
     def held(self) -> tuple[int, np.ndarray] | None:
         k = self.st[S.ST_HELD_K]
         return None if k < 0 else (int(k), self.st[S.ST_HELD_G : S.ST_HELD_G + 6].copy())
@@ -390,11 +422,12 @@ def compiled_stepper(
     output_dt: float | None,
     dynamics: Any,
     n_grid: int,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    h_min: float = 1e-12,
 ) -> Stepper | str:
     """A :class:`Stepper` for this run of :func:`simulate`, or the reason the compiled
     loop cannot run it (module docstring)."""
-    if method != "rk4":
-        return "method='adaptive' (the compiled loop is the fixed-step rk4)"
     if output_dt is not None:
         return "output_dt (its steps cut at the output times)"
     if dynamics is not None:
@@ -402,14 +435,16 @@ def compiled_stepper(
     models = _compiled(robot, backend)
     if isinstance(models, str):
         return models
-    data = _Forces(forces, control_period, dt, duration, n_grid)
+    adaptive = method == "adaptive"
+    data = _Forces(forces, control_period, dt, duration, n_grid, adaptive)
     if data.reason is not None:
         return data.reason
     try:
         simulator_library()
     except CompilationError as e:
         return f"the simulator's library: {str(e).splitlines()[0] if str(e) else e}"
-    return Stepper(robot, models, data, dt, duration, control_period, n_grid)
+    tolerances = (rtol, atol, h_min) if adaptive else None
+    return Stepper(robot, models, data, dt, duration, control_period, n_grid, tolerances)
 
 
 def simulate_batch(
@@ -501,7 +536,7 @@ def simulate_batch(
         for j, run in enumerate(active):
             before = run.fast.n
             assert run.resume is not None
-            state = run.absorb(run.resume[0])
+            state, _ = run.absorb(run.resume[0])
             if status[j] == S.DONE and state.t < run.duration and run.fast.n > before:
                 going.append(run)
             elif state.t < run.duration:  # an event ahead: the Python loop's next step

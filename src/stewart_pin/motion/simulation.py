@@ -29,14 +29,17 @@ named error (``__cause__``). Whatever the forces function or the progress callba
 raises stops the run the same way.
 
 The compiled loop (``integrator="auto"``, the default, or ``"compiled"``): when the
-robot's direct model is compiled and the run is ``rk4`` without ``output_dt`` or
-``dynamics``, the grid steps run in C (:mod:`stewart_pin.codegen.simulator`), with this
-module's arithmetic (the same trajectory to round-off, 1e-10 and less), forces as data (a
-``ForceTable``, a constant, the :class:`~stewart_pin.motion.control.ComputedTorqueController`
-on a compiled model) or a Python function called once per ``control_period``. Any step
-that meets an event or a state the compiled guard flags is taken by the Python loop, so
-events stop the run as above; ``progress`` is called after each chunk of C steps (up to
-4096) instead of after each step.
+robot's direct model is compiled and the run has no ``output_dt`` or ``dynamics``, the
+steps run in C (:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic,
+forces as data (a ``ForceTable``, a constant, the
+:class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model; on the
+adaptive method with a ``control_period``) or a Python function called once per
+``control_period``. rk4: the same trajectory to round-off (1e-10 and less); adaptive: the
+same accepted steps, their times within about 1e-9 of a step where the error control
+alone sets them (a few ulps in a stage move the error estimate, a difference of two
+solutions). Any step that meets an event or a state the compiled guard flags is taken by
+the Python loop, so events stop the run as above; ``progress`` is called after each
+chunk of C steps (up to 4096) instead of after each step.
 
 Bounds (checked before the run): durations, steps, tolerances and periods finite and
 positive, no step below :data:`MIN_STEP`, at most :data:`MAX_STEPS` steps.
@@ -120,6 +123,8 @@ INTEGRATORS = ("auto", "compiled", "python")
 #: next step for the Python loop, the end state's forces from Python.
 _FAST_DONE, _FAST_BAIL, _FAST_FORCE = 0, 1, 2
 _F64 = np.dtype(np.float64)
+#: The most rows one call of the compiled loop writes (its buffers').
+_FAST_ROWS = 4096
 
 # Dormand-Prince 5(4) tableau.
 _DP_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1])
@@ -363,9 +368,12 @@ class _Integrator:
                 K.append(dy)
                 stages.append(T)
             y1 = y  # FSAL: the last stage is the fifth-order solution
-            Ks = np.array(K)
             scale = atol + rtol * np.maximum(np.abs(y0), np.abs(y1))
-            err = float(np.sqrt(np.mean((h * (_DP_E @ Ks) / scale) ** 2)))
+            # The difference of the two solutions summed stage by stage, in order (not a
+            # BLAS product, whose order depends on the machine's kernel): the compiled
+            # loop (codegen/_simsource.py) sums it the same way.
+            diff = sum(e * k for e, k in zip(_DP_E, K, strict=True))
+            err = float(np.sqrt(np.mean((h * diff / scale) ** 2)))
             if not err <= 1.0:
                 return None, err
             poses, last = np.array(stages), (K[-1], g)
@@ -551,6 +559,9 @@ def prepare_run(
             output_dt,
             dynamics,
             run.n_grid,
+            rtol,
+            atol,
+            run.h_min,
         )
         if isinstance(got, str):
             if integrator == "compiled":
@@ -827,14 +838,18 @@ class _Run:
             if (
                 self.fast is not None
                 and t_bad is None
-                and n >= self.fast_from
-                and h_cur == self.dt
-                and s.t == self._grid(n)
+                and steps < MAX_STEPS - _FAST_ROWS
+                and (
+                    (rk4 and n >= self.fast_from and h_cur == self.dt and s.t == self._grid(n))
+                    or (not rk4 and steps >= self.fast_from)
+                )
             ):
-                n_before = n
-                s, n, bailed = self.fast_steps(s, n)
-                if bailed or n == n_before:
-                    self.fast_from = n + 1  # the Python loop takes the next grid step
+                s, n, h_next, taken, bailed = self.fast_steps(s, n, h_cur)
+                steps += taken
+                if not rk4:
+                    h_cur = h_next
+                if bailed or taken == 0:  # the Python loop takes the next (grid) step
+                    self.fast_from = n + 1 if rk4 else steps + 1
                 continue
             if rk4:
                 target = self._grid(n + 1)
@@ -899,12 +914,13 @@ class _Run:
                 h_cur = min(2 * h_cur, self.dt)
 
     # ------------------------------------------------------------------ compiled loop
-    def fast_steps(self, s: _State, n: int) -> tuple[_State, int, bool]:
-        """Grid steps of the compiled loop from ``s`` (grid index ``n``) until its buffer
-        is full, the end, or a step it leaves to the Python loop: ``(state, n, bailed)``."""
+    def fast_steps(self, s: _State, n: int, h: float) -> tuple[_State, int, float, int, bool]:
+        """Steps of the compiled loop from ``s`` (rk4: grid index ``n``; adaptive: next
+        trial step ``h`` [s]) until its buffer is full, the end, or a step it leaves to
+        the Python loop: ``(state, n, next trial step, accepted steps, bailed)``."""
         fast, integ = self.fast, self.integ
-        if self.fast_state is not s:
-            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n)
+        if self.fast_state is not s or fast.step() != h:
+            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n, h)
         try:
             while True:
                 status = fast.run(self.n_grid)
@@ -925,28 +941,29 @@ class _Run:
                     raise
                 fast.hold(integ.held)
         finally:
-            s = self.absorb(s)
-        if status == _FAST_DONE and self.progress is not None:
+            s, taken = self.absorb(s)
+        if taken and self.progress is not None:
             try:
                 self.progress(s.t)
             except Exception as e:
                 raise _CallbackError("progress(t)", s.t, e) from e
-        return s, fast.n, status == _FAST_BAIL
+        return s, fast.n, fast.step(), taken, status == _FAST_BAIL
 
-    def absorb(self, s: _State) -> _State:
-        """Keep the rows the compiled loop wrote; its last state (``s`` if none)."""
+    def absorb(self, s: _State) -> tuple[_State, int]:
+        """Keep the rows the compiled loop wrote: its last state (``s`` if none) and how
+        many."""
         fast = self.fast
         times, P, V, A, G, L = fast.rows()
         if times.size == 0:
             self.fast_state = s
-            return s
+            return s, 0
         self.rows.append(_Block(times, P, V, A, G, L))
         t, T, Vl, dy, g = fast.state()
         s = _State(t, T, Vl, dy, g, s.sign)
         self.integ.held = fast.held()
         self.last = self.fast_state = s
         self.resume = (s, fast.n)
-        return s
+        return s, times.size
 
 
 class _Located(Exception):
