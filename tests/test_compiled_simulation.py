@@ -183,8 +183,14 @@ def test_batch_runs_equal_single_runs():
     rng = np.random.default_rng(5)
     twists = 0.05 * rng.standard_normal((4, 6))
     twists[3] = [0.0, 0.0, -5.0, 0.0, 0.0, 0.0]  # down fast: a stroke end within 0.1 s
-    with pytest.raises(SimulationError, match="run 3: simulation stopped"):
+    with pytest.raises(SimulationError, match="run 3: simulation stopped") as batch:
         simulate_batch(robot, 0.1, twists=twists, forces=g, dt=1e-3, backend="compiled", threads=2)
+    with pytest.raises(SimulationError) as single:
+        simulate(
+            robot, 0.1, twist=twists[3], forces=g, dt=1e-3, backend="compiled", integrator="python"
+        )
+    assert str(batch.value) == f"run 3: {single.value}"
+    _assert_same(batch.value.result, single.value.result)
     results = simulate_batch(
         robot,
         0.05,

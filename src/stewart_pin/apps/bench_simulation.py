@@ -13,6 +13,8 @@ assembly included), all measured in this one run:
   four RK4 evaluations);
 - ``C RK4, Python force function per step``: ``forces=f, control_period=dt`` (the C loop
   runs one period per call, Python gives the next forces);
+- ``C RK4 batch of 16 runs``: :func:`~stewart_pin.codegen.simulator.simulate_batch` of 16
+  initial twists with the same table, on the compiled models' threads (per run);
 - ``Python RK4, forces as data``: ``integrator="python"`` (the compiled direct model, the
   loop in Python), the path before the compiled loop;
 - ``MuJoCo RK4 step``: ``mj_step`` with ``opt.integrator = RK4`` and the same ``dt`` on
@@ -36,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin import StewartRobot
+from stewart_pin.codegen.simulator import simulate_batch
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.motion.simulation import simulate
@@ -44,6 +47,8 @@ from stewart_pin.motion.trajectories import standard_motion
 #: The yardstick row's name (as in :mod:`.bench`).
 YARDSTICK = "pin.constraintDynamics (raw call)"
 MUJOCO_ROW = "MuJoCo RK4 step (mj_step)"
+#: Runs of the batch row (``simulate_batch``: initial twists drawn at random, one table).
+BATCH_RUNS = 16
 
 
 def _medians_per_step(
@@ -131,11 +136,17 @@ def simulation_rows(
         "C RK4, Python force function per step": sim("compiled", forces=force, control_period=dt),
         "Python RK4, forces as data": sim("python", duration / 10, forces=table),
     }
+    twists = 1e-3 * rng.standard_normal((BATCH_RUNS, 6))
+    batch_row = f"C RK4 batch of {BATCH_RUNS} runs, forces as data (per run)"
+    runs[batch_row] = lambda: simulate_batch(
+        robot, duration, twists=twists, forces=table, dt=dt, backend="compiled"
+    )
     mj = mujoco_rk4_step(robot, hover, dt, steps)
     if mj is not None:
         runs[MUJOCO_ROW] = mj
     python = runs.pop("Python RK4, forces as data")
     rows = _medians_per_step(runs, steps, repeats)
+    rows[batch_row] /= BATCH_RUNS
     rows.update(_medians_per_step({"Python RK4, forces as data": python}, steps // 10, 3))
     T = robot.home_pose
     rows[YARDSTICK] = median_us(constraint_dynamics_call(robot, T, np.zeros(6), hover), 300)
@@ -154,7 +165,7 @@ def simulation_rows(
 def simulation_table(results: dict[str, dict[str, object]]) -> list[str]:
     """The simulator's rows of every preset: median per step [us] and the two ratios."""
     head = (
-        f"{'robot':10s}  {'simulate, per step':40s}  {'[us/step]':>10s}  "
+        f"{'robot':10s}  {'simulate, per step':50s}  {'[us/step]':>10s}  "
         f"{'/ MuJoCo RK4 step':>17s}  {'/ pin.constraintDynamics':>24s}"
     )
     lines = [head]
@@ -165,5 +176,5 @@ def simulation_table(results: dict[str, dict[str, object]]) -> list[str]:
         assert isinstance(times, dict) and isinstance(mj, dict) and isinstance(pin_ratio, dict)
         for row, t in times.items():
             to_mj = f"{mj[row]:17.3f}" if row in mj else f"{'-':>17s}"
-            lines.append(f"{name:10s}  {row:40s}  {t:10.2f}  {to_mj}  {pin_ratio[row]:24.3f}")
+            lines.append(f"{name:10s}  {row:50s}  {t:10.2f}  {to_mj}  {pin_ratio[row]:24.3f}")
     return lines

@@ -324,7 +324,6 @@ class Stepper:
         self._args = (ctypes.byref(sim), ctypes.c_void_p(self.st.ctypes.data))
         self._n_stop = (n_grid, ctypes.c_longlong(n_grid))
         self._run = self.lib.sp_sim_run_raw  # no argument types: prepared arguments
-        self.n = -1  # the grid index of the loaded state (-1: none)
 
     def load(
         self,
@@ -351,7 +350,6 @@ class Stepper:
         self.hold(held)
         st[S.ST_N] = n
         st[S.ST_H] = h
-        self.n = n
 
     def hold(self, held: tuple[int, np.ndarray] | None) -> None:
         """The forces held over control period ``held[0]``."""
@@ -367,8 +365,12 @@ class Stepper:
         if n_stop != self._n_stop[0]:
             self._n_stop = (n_stop, ctypes.c_longlong(n_stop))
         status: int = self._run(*self._args, self._n_stop[1])
-        self.n = int(self.st[S.ST_N])
         return status
+
+    @property
+    def n(self) -> int:
+        """The grid index of the state in the block (rk4)."""
+        return int(self.st[S.ST_N])
 
     def rows(self) -> tuple[np.ndarray | None, ...]:
         """The rows written since the last call (copies; times, poses, twists,
