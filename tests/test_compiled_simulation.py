@@ -245,3 +245,24 @@ def test_integrator_choice_is_checked():
             backend="compiled",
             integrator="compiled",
         )
+
+
+def test_cli_simulate_integrator(tmp_path, capsys):
+    """``stewart-pin simulate --integrator``: the C loop's result file equals the Python
+    loop's; a run it cannot take is one line and exit status 2."""
+    from stewart_pin.cli import main
+
+    args = ["simulate", "--preset", "simulator", "--motion", "sinusoid", "--duration", "0.1"]
+    args += ["--backend", "compiled", "--no-progress"]
+    for integrator in ("python", "compiled"):
+        out = tmp_path / f"{integrator}.npz"
+        assert main([*args, "--integrator", integrator, "-o", str(out)]) == 0
+    _assert_same(
+        simulation.SimulationResult.load(tmp_path / "compiled.npz"),
+        simulation.SimulationResult.load(tmp_path / "python.npz"),
+    )
+    capsys.readouterr()
+    bad = ["--integrator", "compiled", "--method", "adaptive", "--control-period", "3e-3"]
+    assert main([*args, *bad, "--backend", "pinocchio", "-o", str(tmp_path / "x.npz")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "integrator='compiled'" in err[0] and "not compiled" in err[0]
