@@ -475,11 +475,11 @@ def simulate_batch(
     Returns:
         N :class:`~stewart_pin.motion.simulation.SimulationResult`, each equal to
         ``simulate(robot, duration, poses[k], twists[k], forces[k], dt=dt, ...)``'s (a run
-        that meets an event is finished by :func:`simulate` itself).
+        that meets an event is finished by the Python loop, as ``simulate`` does; without
+        a compiled direct model every run is, one after the other).
 
     Raises:
-        InputError: mismatched counts, forces the compiled loop cannot run, or a robot
-            whose direct model is not compiled.
+        InputError: mismatched counts, or forces that are not data.
         SimulationError: a run stopped (the message names it; ``.result`` its states).
     """
     per_run = isinstance(forces, Sequence) and not isinstance(forces, str | bytes)
@@ -507,12 +507,13 @@ def simulate_batch(
             dt=dt,
             control_period=control_period,
             backend=backend,
-            integrator="compiled",
         )
         for k in range(n)
     ]
     active = []
     for run in runs:
+        if run.fast is None:  # the C loop cannot take it: run.go() below, in Python
+            continue
         try:
             s = run.begin()
         except Exception:  # run.go() below raises it as simulate does
