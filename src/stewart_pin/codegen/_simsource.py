@@ -128,10 +128,11 @@ static void sp_exp3(const double* v, double* R) {
   R[0] += ct; R[4] += ct; R[8] += ct;
 }
 
-/* Pinocchio's log3 (spatial/log.hxx) of R (row-major 3x3) away from pi: theta and the
-   rotation vector; returns 0 near pi (the caller bails). */
-static int sp_log3(const double* Rin, double* theta, double* w) {
-  double R[9], n0, n1, tr, c, prec = sp_prec2(), ae, th, n2, t;
+/* Pinocchio's log3 (spatial/log.hxx) of R (row-major 3x3) away from pi: theta, its sine
+   and cosine (sc, for Jlog3: one sincos call) and the rotation vector; returns 0 near pi
+   (the caller bails). */
+static int sp_log3(const double* Rin, double* theta, double* sc, double* w) {
+  double R[9], n0, n1, tr, c, prec = sp_prec2(), ae, th, n2, t, st, ct;
   int i;
   n0 = sqrt(Rin[0] * Rin[0] + Rin[3] * Rin[3] + Rin[6] * Rin[6]);
   n1 = sqrt(Rin[1] * Rin[1] + Rin[4] * Rin[4] + Rin[7] * Rin[7]);
@@ -154,19 +155,23 @@ static int sp_log3(const double* Rin, double* theta, double* w) {
   w[1] = 0.5 * (R[2] - R[6]);
   w[2] = 0.5 * (R[3] - R[1]);
   n2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-  t = th >= prec ? th / sin(th) : 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0;
+  st = sin(th);
+  ct = cos(th);
+  t = th >= prec ? th / st : 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0;
   for (i = 0; i < 3; ++i) w[i] = t * w[i];
   *theta = th;
+  sc[0] = st;
+  sc[1] = ct;
   return 1;
 }
 
 /* dxi/dt = Jlog3(exp3(xi))^T w (E = exp3(xi)), as simulation.py computes it through
    Pinocchio (so3_left_jacobian_inverse). Returns 0 near pi. */
 static int sp_dxi(const double* E, const double* w, double* out) {
-  double th, l[3], st, ct, s1, prec = sp_prec3(), alpha, d, J[9];
+  double th, l[3], sc[2], st, ct, s1, prec = sp_prec3(), alpha, d, J[9];
   int i, j;
-  if (!sp_log3(E, &th, l)) return 0;
-  st = sin(th); ct = cos(th);
+  if (!sp_log3(E, &th, sc, l)) return 0;
+  st = sc[0]; ct = sc[1];
   s1 = st / (1.0 - ct);
   alpha = th < prec ? 1.0 / 12.0 + th * th / 720.0 : 1.0 / (th * th) - s1 / (2.0 * th);
   d = th < prec ? 0.5 * (2.0 - th * th / 6.0) : 0.5 * (th * s1);
@@ -206,8 +211,9 @@ static double sp_det_sign(const double* J) {
       s = -s;
     }
     if (A[6 * k + k] < 0) s = -s;
+    t = 1.0 / A[6 * k + k];  /* one division per column: only the sign is kept */
     for (i = k + 1; i < 6; ++i) {
-      double l = A[6 * i + k] / A[6 * k + k];
+      double l = A[6 * i + k] * t;
       for (j = k + 1; j < 6; ++j) A[6 * i + j] -= l * A[6 * k + j];
     }
   }
@@ -227,7 +233,7 @@ static double sp_grid(const sp_sim* sim, long long n) {
 static int sp_ct(const sp_sim* sim, long long r, double t, const double* T, const double* V,
                  double* g) {
   const double *Tr, *Vr, *Ar;
-  double E[9], e[6], th, A[6];
+  double E[9], e[6], th, sc[2], A[6];
   int i, j, flag;
   if (r < 0 || r >= sim->n_ref || sim->ref_t[r] != t) return 0;
   Tr = sim->ref_T + 16 * r; Vr = sim->ref_V + 6 * r; Ar = sim->ref_A + 6 * r;
@@ -237,7 +243,7 @@ static int sp_ct(const sp_sim* sim, long long r, double t, const double* T, cons
       E[3 * i + j] = Tr[4 * i] * T[4 * j] + Tr[4 * i + 1] * T[4 * j + 1]
                    + Tr[4 * i + 2] * T[4 * j + 2];
   }
-  if (!sp_log3(E, &th, e + 3)) return 0;
+  if (!sp_log3(E, &th, sc, e + 3)) return 0;
   for (i = 0; i < 6; ++i) A[i] = (Ar[i] + sim->kd[i] * (Vr[i] - V[i])) + sim->kp[i] * e[i];
   sim->idm(1, T, V, A, sim->idm_chi, sim->idm_max_cond, g, &flag);
   return (flag & ~8) == 0;  /* REPIVOTED alone: solved, not an error */
