@@ -295,6 +295,10 @@ class Stepper:
         ups = robot.description.is_ideal_ups
         self.L = np.empty((CHUNK_ROWS, 6)) if ups else None
         self.st = np.zeros(S.ST_SIZE)
+        # Views of the state block taken once (a Python forces function's hot path).
+        self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
+        self._pend_T = self.st[S.ST_PEND_POSE : S.ST_PEND_POSE + 16].reshape(4, 4)
+        self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
         self._keep = (models, forces)
         sim = _Sim(
             ddm=_address(models._lib, "sp_ddm_aux"),
@@ -357,7 +361,7 @@ class Stepper:
             self.st[S.ST_HELD_K] = -1.0
         else:
             self.st[S.ST_HELD_K] = held[0]
-            self.st[S.ST_HELD_G : S.ST_HELD_G + 6] = held[1]
+            self._held_g[:] = held[1]
 
     def run(self, n_stop: int) -> int:
         """Grid steps up to ``n_stop``: the status (:data:`._simsource.DONE`, ``BAIL`` or
@@ -402,12 +406,7 @@ class Stepper:
 
     def pending(self) -> tuple[float, np.ndarray, np.ndarray]:
         """The end state waiting for its forces: ``(t, T, V)`` (copies)."""
-        st = self.st
-        return (
-            float(st[S.ST_PEND_T]),
-            st[S.ST_PEND_POSE : S.ST_PEND_POSE + 16].reshape(4, 4).copy(),
-            st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6].copy(),
-        )
+        return float(self.st[S.ST_PEND_T]), self._pend_T.copy(), self._pend_V.copy()
 
     def drop_pending(self) -> None:
         self.st[S.ST_PENDING] = 0.0
