@@ -293,7 +293,12 @@ class _Integrator:
             raise  # a controller's own workspace check at a trial stage: shrink the step
         except Exception as e:
             raise _CallbackError("forces(t, pose, twist)", t, e) from e
-        if type(g) is np.ndarray and g.shape == (6,) and g.dtype == _F64 and np.isfinite(g).all():
+        if (
+            type(g) is np.ndarray
+            and g.shape == (6,)
+            and g.dtype == _F64
+            and math.isfinite(g.dot(g))  # all finite (an overflow takes check_array)
+        ):
             g = g.copy()  # what check_array returns for it, without its other checks' cost
         else:
             g = check_array(g, (6,), "forces(t, pose, twist)")
