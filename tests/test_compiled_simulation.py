@@ -266,3 +266,27 @@ def test_cli_simulate_integrator(tmp_path, capsys):
     assert main([*args, *bad, "--backend", "pinocchio", "-o", str(tmp_path / "x.npz")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "integrator='compiled'" in err[0] and "not compiled" in err[0]
+
+
+def test_runs_longer_than_one_output_chunk():
+    """Over 4096 steps the C loop hands its rows over chunk by chunk (single runs and
+    batches): every row kept, equal to the Python loop's (computed torque on a sinusoid,
+    held over each step)."""
+    from stewart_pin.codegen.simulator import CHUNK_ROWS
+
+    robot = get_robot("simulator")
+    duration = (CHUNK_ROWS + 200) * 1e-3
+    motion = standard_motion(robot, "sinusoid", duration)
+    T0, V0, _ = motion(0.0)
+    ctl = ComputedTorqueController(robot, motion, backend="compiled")
+    twists = np.array([V0, V0 + 1e-3])
+    opts = {"forces": ctl, "control_period": 1e-3, "backend": "compiled"}
+    ref = [simulate(robot, duration, T0, v, integrator="python", **opts) for v in twists]
+    one, ran_c = _run(
+        robot, duration, "compiled", pose=T0, twist=twists[0], forces=ctl, control_period=1e-3
+    )
+    assert ran_c and one.t.size == CHUNK_ROWS + 201
+    _assert_same(one, ref[0])
+    batch = simulate_batch(robot, duration, poses=[T0, T0], twists=twists, **opts)
+    for got, want in zip(batch, ref, strict=True):
+        _assert_same(got, want)

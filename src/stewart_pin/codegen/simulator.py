@@ -287,13 +287,12 @@ class Stepper:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
         layout = model_layout(robot.description)
-        self.t = np.empty(CHUNK_ROWS)
-        self.P = np.empty((CHUNK_ROWS, 4, 4))
-        self.V, self.A, self.G = (np.empty((CHUNK_ROWS, 6)) for _ in range(3))
+        # Output rows per call: the whole rk4 run when it is shorter than a chunk.
+        self.capacity = CHUNK_ROWS if adaptive is not None else min(CHUNK_ROWS, n_grid + 1)
         # The 6-UPS leg lengths from the direct model's q3^2 (general legs: computed by
         # robot.actuator_positions afterwards, as the Python loop does).
         ups = robot.description.is_ideal_ups
-        self.L = np.empty((CHUNK_ROWS, 6)) if ups else None
+        self._ups = ups
         self.st = np.zeros(S.ST_SIZE)
         # Views of the state block taken once (a Python forces function's hot path).
         self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
@@ -310,14 +309,7 @@ class Stepper:
             duration=duration,
             period=0.0 if period is None else period,
             n_grid=n_grid,
-            rows=CHUNK_ROWS,
-            t_out=self.t.ctypes.data,
-            P_out=self.P.ctypes.data,
-            V_out=self.V.ctypes.data,
-            A_out=self.A.ctypes.data,
-            G_out=self.G.ctypes.data,
             q3sq=AUX_Q3SQ.start if ups else -1,
-            L_out=self.L.ctypes.data if self.L is not None else None,
             adaptive=int(adaptive is not None),
             rtol=adaptive[0] if adaptive else 0.0,
             atol=adaptive[1] if adaptive else 0.0,
@@ -325,9 +317,29 @@ class Stepper:
             **forces.fields,
         )
         self.sim = sim
+        self._buffers()
         self._args = (ctypes.byref(sim), ctypes.c_void_p(self.st.ctypes.data))
         self._n_stop = (n_grid, ctypes.c_longlong(n_grid))
         self._run = self.lib.sp_sim_run_raw  # no argument types: prepared arguments
+
+    def _buffers(self) -> None:
+        """New output buffers (the rows handed out by :meth:`rows` keep the old ones)."""
+        m = self.capacity
+        self.t = np.empty(m)
+        self.P = np.empty((m, 4, 4))
+        self.V, self.A, self.G = (np.empty((m, 6)) for _ in range(3))
+        self.L = np.empty((m, 6)) if self._ups else None
+        sim = self.sim
+        sim.rows = m
+        sim.t_out, sim.P_out = self.t.ctypes.data, self.P.ctypes.data
+        sim.V_out, sim.A_out, sim.G_out = (a.ctypes.data for a in (self.V, self.A, self.G))
+        sim.L_out = None if self.L is None else self.L.ctypes.data
+        self._handed = False
+
+    def ready(self) -> None:
+        """New buffers if the last rows were handed out (before a call of the C loop)."""
+        if self._handed:
+            self._buffers()
 
     def load(
         self,
@@ -366,6 +378,7 @@ class Stepper:
     def run(self, n_stop: int) -> int:
         """Grid steps up to ``n_stop``: the status (:data:`._simsource.DONE`, ``BAIL`` or
         ``NEED_FORCE``)."""
+        self.ready()
         if n_stop != self._n_stop[0]:
             self._n_stop = (n_stop, ctypes.c_longlong(n_stop))
         status: int = self._run(*self._args, self._n_stop[1])
@@ -377,13 +390,16 @@ class Stepper:
         return int(self.st[S.ST_N])
 
     def rows(self) -> tuple[np.ndarray | None, ...]:
-        """The rows written since the last call (copies; times, poses, twists,
-        accelerations, forces, and the 6-UPS leg lengths or None), the buffers then
-        emptied."""
+        """The rows written since the last call (times, poses, twists, accelerations,
+        forces, and the 6-UPS leg lengths or None): views of the buffers, which are handed
+        over (the next run writes into new ones)."""
         m = int(self.st[S.ST_ROW])
         self.st[S.ST_ROW] = 0.0
-        out = tuple(a[:m].copy() for a in (self.t, self.P, self.V, self.A, self.G))
-        return (*out, None if self.L is None else self.L[:m].copy())
+        if m == 0:
+            return (np.zeros(0),) * 5 + (None,)
+        self._handed = True
+        out = tuple(a[:m] for a in (self.t, self.P, self.V, self.A, self.G))
+        return (*out, None if self.L is None else self.L[:m])
 
     def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The last accepted state: ``(t, T, V, dy, gamma)`` (copies)."""
@@ -525,6 +541,8 @@ def simulate_batch(
     n_threads = threads or (models.threads if isinstance(models, CompiledDynamics) else 1)
     while active:
         status = np.zeros(len(active), dtype=np.int32)
+        for run in active:
+            run.fast.ready()
 
         def call(s: int, m: int, todo: list[Any] = active, status: np.ndarray = status) -> int:
             out = 0
@@ -536,10 +554,9 @@ def simulate_batch(
         split_batch(len(active), n_threads, 1, call)
         going = []
         for j, run in enumerate(active):
-            before = run.fast.n
             assert run.resume is not None
-            state, _ = run.absorb(run.resume[0])
-            if status[j] == S.DONE and state.t < run.duration and run.fast.n > before:
+            state, taken = run.absorb(run.resume[0])
+            if status[j] == S.DONE and state.t < run.duration and taken > 0:
                 going.append(run)
             elif state.t < run.duration:  # an event ahead: the Python loop's next step
                 run.fast_from = run.fast.n + 1
