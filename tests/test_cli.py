@@ -234,6 +234,18 @@ def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
     monkeypatch.setattr(bench, "architecture_rows", arch)
     monkeypatch.setattr(bench, "compiled_rows", lambda *a: ({"compiled IDM single (c)": 1.0}, {}))
     monkeypatch.setattr(bench, "mujoco_rows", lambda *a: {})
+    from stewart_pin.apps import bench_simulation
+
+    sim_rows = {"C RK4, forces as data": 3.0, "MuJoCo RK4 step (mj_step)": 60.0}
+    monkeypatch.setattr(
+        bench_simulation,
+        "simulation_rows",
+        lambda name, repeats, quick=False: {
+            "median_us_per_step": sim_rows,
+            "ratio_to_mujoco_rk4_step": {k: t / 60.0 for k, t in sim_rows.items()},
+            "ratio_to_pin_constraintDynamics": {k: t / 10.0 for k, t in sim_rows.items()},
+        },
+    )
     monkeypatch.setattr(
         bench,
         "cost_dict",
@@ -245,7 +257,7 @@ def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
     assert main([*args, "--repeats", "1", "--quick"]) == 0
     out, err = capsys.readouterr()
     stages = [line for line in err.splitlines() if line.startswith("bench: [")]
-    assert len(stages) == 5 and stages[0].startswith("bench: [1/5] 'rus'")
+    assert len(stages) == 6 and stages[0].startswith("bench: [1/6] 'rus'")
     lines = out.splitlines()
     assert "{" not in lines[0] and "CPUs" in lines[0] and "Python" in lines[0]
     assert lines[1].split() == [
@@ -256,9 +268,12 @@ def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
         "/",
         "pin.constraintDynamics",
     ]
-    rows = [line.split() for line in lines[2:]]
+    end = lines.index("")  # then the simulator's table
+    rows = [line.split() for line in lines[2:end]]
     assert [r[0] for r in rows] == ["rus"] * 2 + ["pus"] * 2 + ["desktop"] * 9
     assert rows[1][-2:] == ["2.000", "0.200"] and rows[-1][-2:] == ["1.000", "0.250"]
+    sim = [line.split() for line in lines[end + 2 :]]
+    assert sim[0][-3:] == ["3.00", "0.050", "0.300"] and len(sim) == 2
     assert main([*args, "--repeats", "1", "--quick", "--no-progress"]) == 0
     assert capsys.readouterr().err == ""
 

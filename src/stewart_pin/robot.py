@@ -707,6 +707,14 @@ class StewartRobot:
         ``Gamma . qdot_a = dE/dt + dissipated_power``."""
         return self._kind.dissipated_power(self, pose, twist)
 
+    def simulation_stepper(self, backend: str, *args: Any) -> Any:
+        """The compiled loop of one :func:`~stewart_pin.motion.simulation.simulate` run
+        (:func:`stewart_pin.codegen.simulator.compiled_stepper`), or the sentence saying why
+        it cannot run it (the Python loop then does)."""
+        from stewart_pin.codegen.simulator import compiled_stepper
+
+        return compiled_stepper(self, backend, *args)
+
     def _fast_backend(self, backend: str, details: bool = False) -> Any:
         """The compiled backend serving a dynamics call, or ``None`` for the reference
         path: ``"auto"`` (:func:`stewart_pin.codegen.compiled.auto_backend`; the reference

@@ -19,7 +19,11 @@ Median wall-clock time per state [us], all measured in this one run:
   1 000 000 states per call (the last streamed as 100 chunks of 10 000; ``--quick`` skips
   it, and times the architectures' batches at ``--batch`` states only);
 - MuJoCo's ``mj_forward`` on the MJCF of the same robot, when ``import mujoco`` works (soft
-  loop constraints: a timing reference, not an exact solution).
+  loop constraints: a timing reference, not an exact solution);
+- ``simulate`` per RK4 step at 1 ms on ``--preset`` (:mod:`.bench_simulation`): the
+  compiled loop with forces as data, with the computed-torque controller and with a Python
+  force function per step, the Python loop, and MuJoCo's own RK4 step (``mj_step``) on the
+  same robot, with the ratios to that step and to ``pin.constraintDynamics``.
 
 Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus]
 [--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
@@ -32,10 +36,8 @@ import argparse
 import json
 import os
 import platform
-import statistics
 import sys
 import tempfile
-import time
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -48,6 +50,7 @@ import pinocchio as pin
 import stewart_pin
 from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
+from stewart_pin.apps._timing import median_us
 from stewart_pin.apps.bench_args import ARCHITECTURES, add_arguments
 from stewart_pin.check.constrained_dynamics import (
     constrained_forward_dynamics,
@@ -58,17 +61,6 @@ from stewart_pin.check.constrained_dynamics import (
 )
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
-
-
-def median_us(fn: Callable[[], object], repeats: int, per: int = 1) -> float:
-    """Median over ``repeats`` calls of ``fn``, divided by ``per`` states per call [us]."""
-    fn()  # warm-up
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times) / per * 1e6
 
 
 def machine() -> dict[str, object]:
@@ -229,13 +221,13 @@ def run(
     """Every timing, as a JSON-ready dict; ``progress(message)`` is told each stage as it
     starts (a run takes minutes)."""
     say = progress or (lambda message: None)
-    stages = len(architectures) + 3
+    stages = len(architectures) + 4
     batches = (batch,) if quick else ARCHITECTURE_BATCHES
     arch = {}
     for k, name in enumerate(architectures, 1):
         say(f"[{k}/{stages}] '{name}': the default backend (compiled on first use)")
         arch[name] = architecture_rows(name, repeats, batches)
-    say(f"[{stages - 2}/{stages}] '{preset}': the reference path and pin.constraintDynamics")
+    say(f"[{stages - 3}/{stages}] '{preset}': the reference path and pin.constraintDynamics")
     robot = StewartRobot.from_preset(preset)  # any architecture
     poses, twists, accels = robot.sample_states(batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
@@ -270,11 +262,15 @@ def run(
             lambda: reference_actuator_efforts(robot, T, V, A), repeats
         ),
     }
-    say(f"[{stages - 1}/{stages}] '{preset}': the compiled models (CompiledDynamics)")
+    say(f"[{stages - 2}/{stages}] '{preset}': the compiled models (CompiledDynamics)")
     more, compiled_info = compiled_rows(robot, poses, twists, accels, gammas, repeats, quick)
     rows.update(more)
-    say(f"[{stages}/{stages}] '{preset}': MuJoCo mj_forward (when MuJoCo imports)")
+    say(f"[{stages - 1}/{stages}] '{preset}': MuJoCo mj_forward (when MuJoCo imports)")
     rows.update(mujoco_rows(robot, T, G, repeats))
+    say(f"[{stages}/{stages}] '{preset}': simulate per RK4 step, and MuJoCo's RK4 step")
+    from stewart_pin.apps.bench_simulation import simulation_rows
+
+    simulation = {preset: simulation_rows(preset, 3 if quick else 7, quick)}
     reference = rows["pin.constraintDynamics (raw call)"]
     counts = cost_dict(robot)
     return {
@@ -289,6 +285,7 @@ def run(
         },
         "median_us_per_state": rows,
         "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
+        "simulation": simulation,
     }
 
 
@@ -347,6 +344,13 @@ def report(args: argparse.Namespace) -> dict[str, object]:
     )
     print(f"stewart-pin {stewart_pin.__version__} on {machine_line(result['machine'])}")
     print("\n".join(table(result, args.preset)))
+    if result.get("simulation"):
+        from stewart_pin.apps.bench_simulation import simulation_table
+
+        print()
+        print(
+            "\n".join(simulation_table(cast(dict[str, dict[str, object]], result["simulation"])))
+        )
     if args.json:
         write_text_atomic(args.json, json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.json}")

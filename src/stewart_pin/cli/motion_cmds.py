@@ -133,6 +133,7 @@ def _simulate(args: argparse.Namespace) -> int:
                 control_period=args.control_period if forces is not None else None,
                 progress=bar.to,
                 backend=args.backend,
+                integrator=args.integrator,
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e
@@ -426,6 +427,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=positive_finite_float,
         default=1e-3,
         help="controller period [s]",
+    )
+    p.add_argument(
+        "--integrator",
+        choices=("auto", "compiled", "python"),
+        default="auto",
+        help="the stepping loop: auto (in C around the compiled direct model when it can "
+        "run this simulation, else Python), compiled (in C, or an error saying why not) or "
+        "python",
     )
     p.add_argument(
         "--model-error",

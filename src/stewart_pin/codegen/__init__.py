@@ -13,6 +13,8 @@
 - :class:`CompiledDerivatives` / :func:`derivatives_backend` (:mod:`.derivatives`): the exact
   Jacobians of both models in the platform state (pose chart, twist, third argument), by
   CasADi's algorithmic differentiation of the generated models, compiled the same way.
+- :func:`simulate_batch` (:mod:`.simulator`): many fixed-step RK4 runs in C around the
+  compiled direct model, on threads (``simulate`` takes the same C loop by itself).
 - :func:`auto_backend`: what the default ``backend="auto"`` of ``StewartRobot`` runs.
 - :func:`export_c` (:mod:`.c_export`): the models as a standalone C99 library (no CasADi,
   no Python, no allocation), with a test program, a benchmark and a C++ example.
@@ -49,6 +51,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported o
         cost_table,
         count_operations,
     )
+    from stewart_pin.codegen.simulator import simulate_batch
     from stewart_pin.codegen.symbolic import SymbolicModels
 
 __getattr__, __dir__ = lazy_names(
@@ -69,6 +72,7 @@ __getattr__, __dir__ = lazy_names(
         "count_operations": "stewart_pin.codegen.opcount",
         "SymbolicModels": "stewart_pin.codegen.symbolic",
         "generate_models": "stewart_pin.codegen._architecture",
+        "simulate_batch": "stewart_pin.codegen.simulator",
     },
 )
 
@@ -89,5 +93,6 @@ __all__ = [
     "derivatives_backend",
     "export_c",
     "generate_models",
+    "simulate_batch",
     "symbolic_derivatives",
 ]

@@ -107,6 +107,10 @@ class CodegenKind(Protocol):
     #: Whether the models have every parameter value baked in (no base-parameter input)
     #: and a flagged state goes through the leg-chain reference (slacks, joint limits).
     generic_models: bool
+    #: Where the direct model's by-products hold the squared actuated leg lengths (the
+    #: 6-UPS's ``q3^2``: its actuator positions come out of the compiled simulator), or
+    #: ``None`` (the simulator's caller computes the actuator positions afterwards).
+    leg_length_squares: slice | None
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         """The ``parameters`` variant the models are built with (or InputError)."""
@@ -173,6 +177,7 @@ class PaperUpsCodegen:
     """The paper's ideal 6-UPS: its hand-derived models (:mod:`.symbolic`)."""
 
     generic_models = False
+    leg_length_squares: slice | None = AUX_Q3SQ
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         return parameters
@@ -286,6 +291,7 @@ class LegChainCodegen:
     (:mod:`.leg_chain_symbolic`)."""
 
     generic_models = True
+    leg_length_squares: slice | None = None
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         if parameters not in ("base", "numeric"):

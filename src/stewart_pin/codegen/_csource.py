@@ -30,6 +30,9 @@ loop runs two states at a time through its vector copy (:mod:`._simd`; ``SP_VEC_
 ``SP_VEC_DDM`` defined), then the guards state by state (``sp_idm_after`` /
 ``sp_ddm_after``); an odd last state takes the scalar function.
 
+``sp_ddm_aux`` runs one direct-dynamics state and returns its by-products too (the
+compiled simulator, :mod:`._simsource`, reads ``Jp^-1`` there).
+
 ``sp_idm_one`` / ``sp_ddm_one`` run one state packed in one read-only input block (the
 single-state call from Python passes the bytes of its three arrays, no numpy buffer
 addresses to take). The batch loops keep no state between calls, so
@@ -333,6 +336,21 @@ SP_EXPORT int sp_ddm_one(const double* in, const double* chi, double max_cond, d
   int f;
   sp_ddm_batch(1, in, in + 16, in + 22, chi, max_cond, out, &f);
   return f;
+}
+
+/* One direct-dynamics state with its by-products (aux, SP_DDM_NAUX values: Jp^-1 among
+   them), the scalar path of sp_ddm_batch: the compiled simulator's entry
+   (codegen/_simsource.py). Returns the state's flag. */
+SP_EXPORT int sp_ddm_aux(const double* pose, const double* twist, const double* gam,
+                         const double* chi, double max_cond, double* accel, double* aux) {
+  const casadi_real* arg[%(ddm_sz_arg)d + 1];
+  casadi_real* res[%(ddm_sz_res)d + 1];
+  casadi_int iw[%(ddm_sz_iw)d + 1];
+  casadi_real w[%(ddm_sz_w)d + 1];
+  arg[0] = pose; arg[1] = twist; arg[2] = gam; arg[3] = chi;
+  res[0] = accel; res[1] = aux;
+  %(ddm)s(arg, res, iw, w, 0);
+  return sp_ddm_after(pose, twist, gam, accel, aux, max_cond);
 }
 """
 )

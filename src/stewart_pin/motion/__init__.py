@@ -1,6 +1,8 @@
 """Motion of the platform: reference trajectories (minimum jerk, washout, sinusoids,
 Fourier series) with exact twists and classical accelerations, the SE(3) integrators of
-the direct model (RK4, Dormand-Prince), and computed-torque control. :mod:`.payload`:
+the direct model (RK4, Dormand-Prince; the RK4 also in C around the compiled model,
+:mod:`stewart_pin.codegen.simulator`), forces as data (:class:`ForceTable`), and
+computed-torque control. :mod:`.payload`:
 a payload's joint trajectories, computed torque with the coupled model, and the
 simulation of a hexapod whose payload runs its own trajectory.
 
@@ -16,6 +18,7 @@ from stewart_pin._lazy import lazy_names
 
 if TYPE_CHECKING:  # what type checkers see; at run time each name is imported on first use
     from .control import ComputedTorqueController, pose_error, tracking_errors
+    from .force_tables import ForceTable
     from .simulation import SimulationResult, simulate
     from .trajectories import (
         CoordinateMotion,
@@ -32,6 +35,7 @@ __getattr__, __dir__ = lazy_names(
         "ComputedTorqueController": ".control",
         "pose_error": ".control",
         "tracking_errors": ".control",
+        "ForceTable": ".force_tables",
         "SimulationResult": ".simulation",
         "simulate": ".simulation",
         "CoordinateMotion": ".trajectories",
@@ -46,6 +50,7 @@ __getattr__, __dir__ = lazy_names(
 __all__ = [
     "ComputedTorqueController",
     "CoordinateMotion",
+    "ForceTable",
     "FourierTrajectory",
     "SimulationResult",
     "Trajectory",

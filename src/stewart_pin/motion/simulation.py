@@ -13,7 +13,8 @@ SO(3) to round-off, with no drift off the manifold.
   rotation [rad] and twist, ``rtol`` / ``atol`` as in ``scipy.integrate.solve_ivp``.
 
 Actuator forces come from ``forces(t, pose, twist) -> Gamma (6,)`` [N]: a time function
-or a controller. With ``control_period`` the forces are sampled at that period and held
+or a controller, a :class:`~stewart_pin.motion.force_tables.ForceTable` or a constant.
+With ``control_period`` the forces are sampled at that period and held
 (zero-order hold, as a digital controller does): sampled at the accepted state at the
 start of each period, never at a trial stage.
 
@@ -27,12 +28,26 @@ keeps the part already simulated, accepted states only, in ``.result``, and chai
 named error (``__cause__``). Whatever the forces function or the progress callback
 raises stops the run the same way.
 
+The compiled loop (``integrator="auto"``, the default, or ``"compiled"``): when the
+robot's direct model is compiled and the run has no ``output_dt`` or ``dynamics``, the
+steps run in C (:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic,
+forces as data (a ``ForceTable``, a constant, the
+:class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model; on the
+adaptive method with a ``control_period``) or a Python function called once per
+``control_period``. rk4: the same trajectory to round-off (1e-10 and less); adaptive: the
+same accepted steps, their times within about 1e-9 of a step where the error control
+alone sets them (a few ulps in a stage move the error estimate, a difference of two
+solutions). Any step that meets an event or a state the compiled guard flags is taken by
+the Python loop, so events stop the run as above; ``progress`` is called after each
+chunk of C steps (up to 4096) instead of after each step.
+
 Bounds (checked before the run): durations, steps, tolerances and periods finite and
 positive, no step below :data:`MIN_STEP`, at most :data:`MAX_STEPS` steps.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,6 +82,7 @@ from stewart_pin.formats.csv_tables import (
     write_csv,
 )
 from stewart_pin.motion.control import check_backend
+from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.protocols import RobotLike
 
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
@@ -75,6 +91,7 @@ ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 DirectModel = Callable[[float, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
 __all__ = [
+    "INTEGRATORS",
     "LIMIT_TOLERANCE",
     "MAX_STEPS",
     "MIN_STEP",
@@ -98,6 +115,16 @@ LIMIT_TOLERANCE = 1e-6
 #: Slack when a ratio of times is rounded to an integer (t / period, period / dt,
 #: duration / dt): round-off in the division must not add or drop a sample.
 _RATIO_SLACK = 1e-9
+#: ``simulate(integrator=...)``: ``"auto"`` (the compiled loop where it applies, else the
+#: Python one), ``"compiled"`` (the compiled loop, or an InputError saying why not),
+#: ``"python"``.
+INTEGRATORS = ("auto", "compiled", "python")
+#: Status of a compiled stepper's run (:mod:`stewart_pin.codegen._simsource`): done, the
+#: next step for the Python loop, the end state's forces from Python.
+_FAST_DONE, _FAST_BAIL, _FAST_FORCE = 0, 1, 2
+_F64 = np.dtype(np.float64)
+#: The most rows one call of the compiled loop writes (its buffers').
+_FAST_ROWS = 4096
 
 # Dormand-Prince 5(4) tableau.
 _DP_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1, 1])
@@ -253,7 +280,7 @@ class _Integrator:
 
     def period_index(self, t: float) -> int:
         """Index of the control period holding ``t`` (0 without a control period)."""
-        return 0 if self.period is None else int(np.floor(t / self.period + _RATIO_SLACK))
+        return 0 if self.period is None else math.floor(t / self.period + _RATIO_SLACK)
 
     def gamma(self, t: float, T: np.ndarray, V: np.ndarray, k: int) -> np.ndarray:
         """Forces at stage time ``t``; with a control period, the value sampled at the
@@ -266,7 +293,15 @@ class _Integrator:
             raise  # a controller's own workspace check at a trial stage: shrink the step
         except Exception as e:
             raise _CallbackError("forces(t, pose, twist)", t, e) from e
-        g = check_array(g, (6,), "forces(t, pose, twist)")
+        if (
+            type(g) is np.ndarray
+            and g.shape == (6,)
+            and g.dtype == _F64
+            and math.isfinite(g.dot(g))  # all finite (an overflow takes check_array)
+        ):
+            g = g.copy()  # what check_array returns for it, without its other checks' cost
+        else:
+            g = check_array(g, (6,), "forces(t, pose, twist)")
         if self.period is not None:
             self.held = (k, g)
         return g
@@ -338,9 +373,12 @@ class _Integrator:
                 K.append(dy)
                 stages.append(T)
             y1 = y  # FSAL: the last stage is the fifth-order solution
-            Ks = np.array(K)
             scale = atol + rtol * np.maximum(np.abs(y0), np.abs(y1))
-            err = float(np.sqrt(np.mean((h * (_DP_E @ Ks) / scale) ** 2)))
+            # The difference of the two solutions summed stage by stage, in order (not a
+            # BLAS product, whose order depends on the machine's kernel): the compiled
+            # loop (codegen/_simsource.py) sums it the same way.
+            diff = sum(e * k for e, k in zip(_DP_E, K, strict=True))
+            err = float(np.sqrt(np.mean((h * diff / scale) ** 2)))
             if not err <= 1.0:
                 return None, err
             poses, last = np.array(stages), (K[-1], g)
@@ -368,7 +406,7 @@ def simulate(
     duration: float,
     pose: Any = None,
     twist: Any = None,
-    forces: ForceFunction | None = None,
+    forces: ForceFunction | ForceTable | Any = None,
     method: str = "rk4",
     dt: float = 1e-3,
     rtol: float = 1e-9,
@@ -378,6 +416,7 @@ def simulate(
     progress: Callable[[float], None] | None = None,
     backend: str = "auto",
     dynamics: DirectModel | None = None,
+    integrator: str = "auto",
 ) -> SimulationResult:
     """Integrate the direct dynamic model from ``(pose, twist)`` for ``duration`` [s].
 
@@ -385,7 +424,9 @@ def simulate(
         robot: a :class:`~stewart_pin.StewartRobot`.
         duration: simulated time [s], finite and positive.
         pose: initial 0Tp (default the home pose); twist: initial ``[v, w]`` (default 0).
-        forces: ``Gamma = forces(t, pose, twist)`` [N]; default zero (free motion).
+        forces: ``Gamma = forces(t, pose, twist)`` [N], a
+            :class:`~stewart_pin.motion.force_tables.ForceTable` or a constant (6,);
+            default zero (free motion).
         method: ``"rk4"`` (fixed step ``dt``) or ``"adaptive"`` (Dormand-Prince 5(4);
             ``dt`` is the first trial step).
         dt: step [s], at least :data:`MIN_STEP`; for rk4, ``duration / dt`` is at most
@@ -406,6 +447,9 @@ def simulate(
             instead of ``robot.direct_dynamics`` (``robot`` still gives the limits and
             singularities): e.g. a payload running its own joint trajectory
             (:func:`stewart_pin.motion.payload.simulate_payload`).
+        integrator: ``"auto"`` (default: the compiled loop when the robot's direct model
+            is compiled and the run is one it reproduces, module docstring), ``"compiled"``
+            (that loop or :class:`InputError` saying why not) or ``"python"``.
 
     Raises:
         InputError: a duration, step, tolerance or period that is not finite and
@@ -421,6 +465,44 @@ def simulate(
         SimulationInterrupted: a ``KeyboardInterrupt`` (Ctrl-C, or raised by ``forces``
             or ``progress``) during the run; ``.result`` holds the accepted states.
     """
+    return prepare_run(
+        robot,
+        duration,
+        pose,
+        twist,
+        forces,
+        method,
+        dt,
+        rtol,
+        atol,
+        control_period,
+        output_dt,
+        progress,
+        backend,
+        dynamics,
+        integrator,
+    ).go()
+
+
+def prepare_run(
+    robot: RobotLike,
+    duration: float,
+    pose: Any = None,
+    twist: Any = None,
+    forces: Any = None,
+    method: str = "rk4",
+    dt: float = 1e-3,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    control_period: float | None = None,
+    output_dt: float | None = None,
+    progress: Callable[[float], None] | None = None,
+    backend: str = "auto",
+    dynamics: DirectModel | None = None,
+    integrator: str = "auto",
+) -> _Run:
+    """:func:`simulate`'s arguments checked, its loop ready: ``.go()`` runs it (the
+    batches of :func:`stewart_pin.codegen.simulator.simulate_batch` start many)."""
     duration = check_scalar(duration, "duration", positive=True, unit="s")
     dt = check_scalar(dt, "dt", positive=True, unit="s")
     rtol, atol = (
@@ -434,6 +516,12 @@ def simulate(
     if method not in ("rk4", "adaptive"):
         raise InputError(f"unknown method '{method}': 'rk4' or 'adaptive'")
     check_backend(robot, backend, "simulate")
+    if integrator not in INTEGRATORS:
+        raise InputError(
+            f"unknown integrator {integrator!r}: 'auto' (the default), 'compiled' or 'python'"
+        )
+    if forces is not None and not callable(forces):
+        forces = ForceTable.constant(forces)
     for fn, name in ((forces, "forces"), (progress, "progress"), (dynamics, "dynamics")):
         if fn is not None and not callable(fn):
             raise InputError(f"{name} must be a function, got {type(fn).__name__}")
@@ -463,8 +551,64 @@ def simulate(
     integ = _Integrator(
         robot, forces or (lambda t, T, V: np.zeros(6)), control_period, backend, dynamics
     )
-    run = _Run(robot, integ, duration, method, dt, rtol, atol, output_dt, progress)
-    return run.go(T, V)
+    run = _Run(robot, integ, duration, method, dt, rtol, atol, output_dt, progress, T, V)
+    if integrator != "python":
+        got = _compiled_stepper(
+            robot,
+            backend,
+            forces,
+            method,
+            dt,
+            duration,
+            control_period,
+            output_dt,
+            dynamics,
+            run.n_grid,
+            rtol,
+            atol,
+            run.h_min,
+        )
+        if isinstance(got, str):
+            if integrator == "compiled":
+                raise InputError(f"integrator='compiled' cannot run this simulation: {got}")
+        else:
+            run.fast = got
+    return run
+
+
+def _compiled_stepper(robot: RobotLike, backend: str, *args: Any) -> Any:
+    """The compiled loop for this run (``robot.simulation_stepper``: the robot's compiled
+    models, :mod:`stewart_pin.codegen.simulator`), or why there is none."""
+    make = getattr(robot, "simulation_stepper", None)
+    if make is None:
+        return "the robot has no compiled simulation loop"
+    return make(backend, *args)
+
+
+def grid_times(dt: float, duration: float, n_grid: int) -> np.ndarray:
+    """The rk4 grid ``n * dt`` (n < n_grid) and ``duration`` (n_grid), (n_grid + 1,) [s]:
+    the times the Python loop computes (:meth:`_Run._grid`)."""
+    grid = np.arange(n_grid + 1) * dt
+    grid[-1] = duration
+    return grid
+
+
+@dataclass(frozen=True)
+class _Block:
+    """Accepted states of the compiled loop: times (m,) [s], poses (m, 4, 4), twists,
+    accelerations, forces and the actuated joint positions (m, 6) (None: computed with the
+    result); ``t`` the last time."""
+
+    times: np.ndarray
+    poses: np.ndarray
+    twists: np.ndarray
+    accels: np.ndarray
+    gammas: np.ndarray
+    lengths: np.ndarray | None = None
+
+    @property
+    def t(self) -> float:
+        return float(self.times[-1])
 
 
 class _Run:
@@ -481,11 +625,19 @@ class _Run:
         atol: float,
         output_dt: float | None,
         progress: Callable[[float], None] | None,
+        T: np.ndarray | None = None,
+        V: np.ndarray | None = None,
     ) -> None:
+        self.T0, self.V0 = T, V
+        #: The compiled loop (a stepper of :mod:`stewart_pin.codegen.simulator`) or None.
+        self.fast: Any = None
+        self.fast_from = 0  # the compiled loop takes grid steps from this index on
+        self.fast_state: _State | None = None  # the state loaded in self.fast
+        self.resume: tuple[_State, int] | None = None  # (state, grid index) to go on from
         self.robot, self.integ, self.duration, self.method = robot, integ, duration, method
         self.dt, self.rtol, self.atol, self.output_dt = dt, rtol, atol, output_dt
         self.progress = progress
-        self.rows: list[_State] = []
+        self.rows: list[_State | _Block] = []
         self.last: _State | None = None
         self.n_output = 0  # output_dt: the index of the next output time
         # Step resolution: no step shorter than MIN_STEP, nor than the clock's resolution.
@@ -516,12 +668,39 @@ class _Run:
         if not self.rows:
             empty = np.zeros((0, 6))
             return SimulationResult(np.zeros(0), np.zeros((0, 4, 4)), empty, empty, empty, empty)
-        t = np.array([s.t for s in self.rows])
-        P = np.array([s.T for s in self.rows])
-        V = np.array([s.V for s in self.rows])
-        A = np.array([s.dy[6:] for s in self.rows])
-        G = np.array([s.gamma for s in self.rows])
-        return SimulationResult(t, P, V, A, G, self.robot.actuator_positions(P))
+        parts: list[_Block] = []
+        states: list[_State] = []
+        for row in [*self.rows, None]:
+            if isinstance(row, _State):
+                states.append(row)
+                continue
+            if states:
+                parts.append(
+                    _Block(
+                        np.array([s.t for s in states]),
+                        np.array([s.T for s in states]),
+                        np.array([s.V for s in states]),
+                        np.array([s.dy[6:] for s in states]),
+                        np.array([s.gamma for s in states]),
+                    )
+                )
+                states = []
+            if row is not None:
+                parts.append(row)
+        t, P, V, A, G = (
+            np.concatenate([getattr(p, k) for p in parts])
+            for k in ("times", "poses", "twists", "accels", "gammas")
+        )
+        if all(p.lengths is None for p in parts):
+            L = self.robot.actuator_positions(P)
+        else:  # the compiled loop's 6-UPS leg lengths, the rest computed here
+            L = np.concatenate(
+                [
+                    self.robot.actuator_positions(p.poses) if p.lengths is None else p.lengths
+                    for p in parts
+                ]
+            )
+        return SimulationResult(t, P, V, A, G, L)
 
     def stop(self, message: str, t: float) -> SimulationError:
         """The error to stop with; the result ends with the last accepted state."""
@@ -571,12 +750,20 @@ class _Run:
         return err
 
     # ------------------------------------------------------------------ loop
-    def go(self, T: np.ndarray, V: np.ndarray) -> SimulationResult:
-        s: _State | None = None
-        try:
-            s = self.integ.state(0.0, T, V)
+    def begin(self) -> _State:
+        """The initial state, evaluated and recorded (once)."""
+        if self.resume is None:
+            assert self.T0 is not None and self.V0 is not None
+            s = self.integ.state(0.0, self.T0, self.V0)
             self.record(s)
-            self._loop(s)
+            self.resume = (s, 0)
+        return self.resume[0]
+
+    def go(self) -> SimulationResult:
+        try:
+            self.begin()
+            assert self.resume is not None
+            self._loop(*self.resume)
             assert self.last is not None  # _loop accepted s at least
             self.record(self.last, final=True)
         except _Located as done:
@@ -603,13 +790,29 @@ class _Run:
         """rk4: the n-th grid time [s] (``duration`` for the last)."""
         return self.duration if n >= self.n_grid else n * self.dt
 
-    def _loop(self, s: _State) -> None:
+    def _loop(self, s: _State, n: int = 0) -> None:
         integ, duration, rk4 = self.integ, self.duration, self.method == "rk4"
-        n = 0  # rk4: the last grid time reached
+        # n, rk4: the last grid time reached
         h_cur = self.dt
         t_bad: float | None = None  # end of the last failed trial still ahead: the event
         steps = 0
         while s.t < duration:
+            if (
+                self.fast is not None
+                and t_bad is None
+                and steps < MAX_STEPS - _FAST_ROWS
+                and (
+                    (rk4 and n >= self.fast_from and h_cur == self.dt and s.t == self._grid(n))
+                    or (not rk4 and steps >= self.fast_from)
+                )
+            ):
+                s, n, h_next, taken, bailed = self.fast_steps(s, n, h_cur)
+                steps += taken
+                if not rk4:
+                    h_cur = h_next
+                if bailed or taken == 0:  # the Python loop takes the next (grid) step
+                    self.fast_from = n + 1 if rk4 else steps + 1
+                continue
             if rk4:
                 target = self._grid(n + 1)
             else:
@@ -671,6 +874,58 @@ class _Run:
                 n, h_cur = n + 1, self.dt
             elif t_bad is None:
                 h_cur = min(2 * h_cur, self.dt)
+
+    # ------------------------------------------------------------------ compiled loop
+    def fast_steps(self, s: _State, n: int, h: float) -> tuple[_State, int, float, int, bool]:
+        """Steps of the compiled loop from ``s`` (rk4: grid index ``n``; adaptive: next
+        trial step ``h`` [s]) until its buffer is full, the end, or a step it leaves to
+        the Python loop: ``(state, n, next trial step, accepted steps, bailed)``."""
+        fast, integ = self.fast, self.integ
+        if self.fast_state is not s or fast.step() != h:
+            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n, h)
+        try:
+            while True:
+                status = fast.run(self.n_grid)
+                if status != _FAST_FORCE:
+                    break
+                t, T, V = fast.pending()
+                held = integ.held
+                try:
+                    integ.gamma(t, T, V, integ.period_index(t))
+                except _LIMIT_ERRORS:  # a controller's own check: the Python loop decides
+                    integ.held = held
+                    fast.drop_pending()
+                    status = _FAST_BAIL
+                    break
+                except BaseException:
+                    integ.held = held
+                    fast.drop_pending()
+                    raise
+                fast.hold(integ.held)
+        finally:
+            s, taken = self.absorb(s)
+        if taken and self.progress is not None:
+            try:
+                self.progress(s.t)
+            except Exception as e:
+                raise _CallbackError("progress(t)", s.t, e) from e
+        return s, fast.n, fast.step(), taken, status == _FAST_BAIL
+
+    def absorb(self, s: _State) -> tuple[_State, int]:
+        """Keep the rows the compiled loop wrote: its last state (``s`` if none) and how
+        many."""
+        fast = self.fast
+        times, P, V, A, G, L = fast.rows()
+        if times.size == 0:
+            self.fast_state = s
+            return s, 0
+        self.rows.append(_Block(times, P, V, A, G, L))
+        t, T, Vl, dy, g = fast.state()
+        s = _State(t, T, Vl, dy, g, s.sign)
+        self.integ.held = fast.held()
+        self.last = self.fast_state = s
+        self.resume = (s, fast.n)
+        return s, times.size
 
 
 class _Located(Exception):

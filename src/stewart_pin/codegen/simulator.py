@@ -1,0 +1,586 @@
+"""The compiled simulator: :func:`~stewart_pin.motion.simulation.simulate`'s integrators
+(fixed-step RK4 and the adaptive Dormand-Prince 5(4)) run in C around a robot's compiled
+direct model (:mod:`._simsource`).
+
+:func:`compiled_stepper` gives :func:`~stewart_pin.motion.simulation.simulate` a
+:class:`Stepper` when the robot's direct model is compiled and the run's options are ones
+the C loop reproduces (else the reason it cannot): no ``output_dt``, no ``dynamics``, a
+robot without the 6-UPS U-joint limits (the reference inverse geometry checks them), and
+forces that are
+
+- ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
+  or interpolated table), computed in C;
+- a :class:`~stewart_pin.motion.control.ComputedTorqueController` whose model's inverse
+  model is compiled too: its reference sampled once, before the run, at the times the
+  Python loop asks for it (rk4: every stage time, or every control period's start; the
+  adaptive method: every period's start, so it needs a ``control_period``), the law in C;
+- any other function with a ``control_period``: called from Python once per period (the C
+  loop stops at the period's end state and goes on with the forces it returns).
+
+The trajectories are those of the Python loop (same arithmetic, see :mod:`._simsource`);
+any step the C loop does not take (an event, a state the guard flags) the Python loop
+takes, then the C loop goes on. :func:`simulate_batch` runs many initial states or force
+tables in one call across threads.
+
+The simulator's library does not depend on the robot (the models are called through
+function pointers): it is compiled once per machine into the cache of
+:mod:`.compiled` (about a second).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from stewart_pin.codegen import _simsource as S
+from stewart_pin.codegen._architecture import codegen_kind
+from stewart_pin.codegen.compiled import (
+    CFLAGS,
+    CompiledDynamics,
+    build_source_library,
+    model_layout,
+    split_batch,
+)
+from stewart_pin.exceptions import CompilationError, InputError, SimulationError
+from stewart_pin.motion.control import ComputedTorqueController
+from stewart_pin.motion.force_tables import ForceTable
+from stewart_pin.motion.simulation import SimulationResult, grid_times, prepare_run
+from stewart_pin.protocols import RobotLike
+
+#: The simulator's compiler flags: the models' without ``-freciprocal-math`` (the divisions
+#: as written, as NumPy and Pinocchio do them).
+SIM_CFLAGS = tuple(f for f in CFLAGS if f != "-freciprocal-math")
+#: Rows of the output buffers of one C call (then Python keeps them and the loop goes on).
+CHUNK_ROWS = 4096
+
+_LIB: list[Any] = []
+_LIB_LOCK = threading.Lock()
+_P = ctypes.c_void_p
+
+
+class _Sim(ctypes.Structure):
+    """``sp_sim`` of :mod:`._simsource` (every field 8 bytes)."""
+
+    _fields_ = [
+        ("ddm", _P),
+        ("chi", _P),
+        ("max_cond", ctypes.c_double),
+        ("naux", ctypes.c_longlong),
+        ("jinv", ctypes.c_longlong),
+        ("dt", ctypes.c_double),
+        ("duration", ctypes.c_double),
+        ("period", ctypes.c_double),
+        ("n_grid", ctypes.c_longlong),
+        ("kind", ctypes.c_longlong),
+        ("g_const", _P),
+        ("n_tab", ctypes.c_longlong),
+        ("tab_t", _P),
+        ("tab_g", _P),
+        ("idm", _P),
+        ("idm_chi", _P),
+        ("idm_max_cond", ctypes.c_double),
+        ("ref_per_period", ctypes.c_longlong),
+        ("n_ref", ctypes.c_longlong),
+        ("ref_t", _P),
+        ("ref_T", _P),
+        ("ref_V", _P),
+        ("ref_A", _P),
+        ("kp", _P),
+        ("kd", _P),
+        ("rows", ctypes.c_longlong),
+        ("t_out", _P),
+        ("P_out", _P),
+        ("V_out", _P),
+        ("A_out", _P),
+        ("G_out", _P),
+        ("q3sq", ctypes.c_longlong),
+        ("L_out", _P),
+        ("adaptive", ctypes.c_longlong),
+        ("rtol", ctypes.c_double),
+        ("atol", ctypes.c_double),
+        ("h_min", ctypes.c_double),
+    ]
+
+
+def simulator_library() -> Any:
+    """The simulator's shared library (built once per machine, loaded once per process)."""
+    with _LIB_LOCK:
+        if not _LIB:
+            loaded: list[Any] = []
+            build_source_library(
+                lambda: S.SOURCE,
+                load=lambda path: loaded.append(ctypes.CDLL(str(path))),
+                announce="the compiled simulator",
+                cflags=SIM_CFLAGS,
+            )
+            lib = loaded[0]
+            lib.sp_sim_run.argtypes = [_P, _P, ctypes.c_longlong]
+            lib.sp_sim_run.restype = ctypes.c_int
+            raw = lib["sp_sim_run"]  # another function object: called without conversions
+            raw.restype = ctypes.c_int
+            lib.sp_sim_run_raw = raw
+            lib.sp_sim_many.argtypes = [
+                ctypes.c_longlong,
+                _P,
+                _P,
+                ctypes.c_longlong,
+                ctypes.c_longlong,
+                _P,
+            ]
+            lib.sp_sim_many.restype = ctypes.c_int
+            _LIB.append(lib)
+        return _LIB[0]
+
+
+def _address(lib: Any, name: str) -> int:
+    return int(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value or 0)
+
+
+def _compiled(robot: RobotLike, backend: str) -> CompiledDynamics | str:
+    """The robot's compiled models serving ``backend``, or why there are none."""
+    fast = getattr(robot, "_fast_backend", None)
+    models = fast(backend) if fast is not None else None
+    if not isinstance(models, CompiledDynamics) or models.kind != "compiled":
+        return f"the direct model of backend={backend!r} is not compiled"
+    if models._limits:
+        return "the robot has U-joint limits (checked by the reference inverse geometry)"
+    return models
+
+
+class _Forces:
+    """The force arrays of one run, kept alive with the ``_Sim`` pointing at them."""
+
+    def __init__(
+        self,
+        forces: Any,
+        period: float | None,
+        dt: float,
+        duration: float,
+        n_grid: int,
+        adaptive: bool = False,
+    ) -> None:
+        self.keep: list[Any] = []
+        self.fields: dict[str, Any] = {}
+        self.reason: str | None = None
+        if forces is None:
+            forces = ForceTable.constant(np.zeros(6))
+        if isinstance(forces, ForceTable):
+            if forces.times.size == 1:
+                self._set(kind=S.KIND_CONSTANT, g_const=self._arr(forces.values[0]))
+            else:
+                kind = S.KIND_HOLD if forces.interpolation == "hold" else S.KIND_LINEAR
+                self._set(
+                    kind=kind,
+                    n_tab=forces.times.size,
+                    tab_t=self._arr(forces.times),
+                    tab_g=self._arr(forces.values),
+                )
+        elif isinstance(forces, ComputedTorqueController):
+            if adaptive and period is None:
+                self.reason = (
+                    "the computed-torque controller without control_period on the adaptive "
+                    "method (its stage times are not known before the run)"
+                )
+            else:
+                self._controller(forces, period, dt, duration, n_grid, adaptive)
+        elif period is not None:
+            self._set(kind=S.KIND_EXTERNAL)
+        else:
+            self.reason = (
+                "a forces function without control_period (called at every stage: give a "
+                "control_period, a ForceTable or the ComputedTorqueController)"
+            )
+
+    def _arr(self, x: Any) -> int:
+        a = np.ascontiguousarray(x, dtype=np.float64)
+        self.keep.append(a)
+        return int(a.ctypes.data)
+
+    def _set(self, **fields: Any) -> None:
+        self.fields.update(fields)
+
+    def _controller(
+        self,
+        c: ComputedTorqueController,
+        period: float | None,
+        dt: float,
+        duration: float,
+        n_grid: int,
+        adaptive: bool = False,
+    ) -> None:
+        model = _compiled(c.model, c.backend)
+        if isinstance(model, str):
+            self.reason = f"the controller's model: {model.replace('direct', 'inverse')}"
+            return
+        self.keep.append(model)
+        grid = grid_times(dt, duration, n_grid)
+        if adaptive:  # the periods' starts (k + 1) * period, where the steps end
+            assert period is not None
+            grid = np.arange(int(np.floor(duration / period + 1e-9)) + 1) * float(period)
+        if period is None:  # every stage time: t_n, t_n + h/2 (k2, k3), t_n+1 (k4, end)
+            times = np.empty(2 * n_grid + 1)
+            times[0::2] = grid
+            times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+            rows = times
+        else:  # the start of each period (the accepted state sampled there)
+            k = np.floor(grid / period + 1e-9).astype(np.int64)
+            first = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+            rows = np.full(int(k[-1]) + 1, np.nan)
+            rows[k[first]] = grid[first]
+            times = grid[first]
+        T, V, A = _sample(c.reference, times)
+        if period is not None:
+            full = np.full((rows.size, 4, 4), np.nan)
+            full[k[first]] = T
+            T = full
+            Vf, Af = np.full((rows.size, 6), np.nan), np.full((rows.size, 6), np.nan)
+            Vf[k[first]], Af[k[first]] = V, A
+            V, A = Vf, Af
+        self._set(
+            kind=S.KIND_CT,
+            idm=_address(model._lib, "sp_idm_batch"),
+            idm_chi=int(model.base_values.ctypes.data),
+            idm_max_cond=float(c.model.max_condition),
+            ref_per_period=int(period is not None),
+            n_ref=rows.size,
+            ref_t=self._arr(rows),
+            ref_T=self._arr(T),
+            ref_V=self._arr(V),
+            ref_A=self._arr(A),
+            kp=self._arr(c.kp),
+            kd=self._arr(c.kd),
+        )
+
+
+def _sample(reference: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reference's ``(T, V, A)`` at ``times``: its vectorised ``sample`` when it has
+    one (the motions of :mod:`stewart_pin.motion.trajectories`), else one call per time."""
+    sample = getattr(reference, "sample", None)
+    if sample is not None and times.size > 1 and np.all(np.diff(times) > 0):
+        traj = sample(times)
+        return traj.poses, traj.twists, traj.accels
+    T, V, A = np.empty((times.size, 4, 4)), np.empty((times.size, 6)), np.empty((times.size, 6))
+    for i, t in enumerate(times):
+        T[i], V[i], A[i] = reference(float(t))
+    return T, V, A
+
+
+class Stepper:
+    """One run's compiled loop (the object :func:`simulate` drives): a state block, the
+    ``sp_sim`` record and output buffers of :data:`CHUNK_ROWS` rows."""
+
+    def __init__(
+        self,
+        robot: RobotLike,
+        models: CompiledDynamics,
+        forces: _Forces,
+        dt: float,
+        duration: float,
+        period: float | None,
+        n_grid: int,
+        adaptive: tuple[float, float, float] | None = None,
+    ) -> None:
+        self.lib = simulator_library()
+        self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
+        layout = model_layout(robot.description)
+        # Output rows per call: the whole rk4 run when it is shorter than a chunk.
+        self.capacity = CHUNK_ROWS if adaptive is not None else min(CHUNK_ROWS, n_grid + 1)
+        # The 6-UPS leg lengths from the direct model's q3^2 (general legs: computed by
+        # robot.actuator_positions afterwards, as the Python loop does).
+        q3sq = codegen_kind(robot.description).leg_length_squares
+        ups = q3sq is not None
+        self._ups = ups
+        self.st = np.zeros(S.ST_SIZE)
+        # Views of the state block taken once (a Python forces function's hot path).
+        self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
+        self._pend_T = self.st[S.ST_PEND_POSE : S.ST_PEND_POSE + 16].reshape(4, 4)
+        self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
+        self._keep = (models, forces)
+        sim = _Sim(
+            ddm=_address(models._lib, "sp_ddm_aux"),
+            chi=int(models.base_values.ctypes.data),
+            max_cond=float(robot.max_condition),
+            naux=layout.ddm_size,
+            jinv=layout.jinv,
+            dt=dt,
+            duration=duration,
+            period=0.0 if period is None else period,
+            n_grid=n_grid,
+            q3sq=q3sq.start if q3sq is not None else -1,
+            adaptive=int(adaptive is not None),
+            rtol=adaptive[0] if adaptive else 0.0,
+            atol=adaptive[1] if adaptive else 0.0,
+            h_min=adaptive[2] if adaptive else 0.0,
+            **forces.fields,
+        )
+        self.sim = sim
+        self._buffers()
+        self._args = (ctypes.byref(sim), ctypes.c_void_p(self.st.ctypes.data))
+        self._n_stop = (n_grid, ctypes.c_longlong(n_grid))
+        self._run = self.lib.sp_sim_run_raw  # no argument types: prepared arguments
+
+    def _buffers(self) -> None:
+        """New output buffers (the rows handed out by :meth:`rows` keep the old ones)."""
+        m = self.capacity
+        self.t = np.empty(m)
+        self.P = np.empty((m, 4, 4))
+        self.V, self.A, self.G = (np.empty((m, 6)) for _ in range(3))
+        self.L = np.empty((m, 6)) if self._ups else None
+        sim = self.sim
+        sim.rows = m
+        sim.t_out, sim.P_out = self.t.ctypes.data, self.P.ctypes.data
+        sim.V_out, sim.A_out, sim.G_out = (a.ctypes.data for a in (self.V, self.A, self.G))
+        sim.L_out = None if self.L is None else self.L.ctypes.data
+        self._handed = False
+
+    def ready(self) -> None:
+        """New buffers if the last rows were handed out (before a call of the C loop)."""
+        if self._handed:
+            self._buffers()
+
+    def load(
+        self,
+        t: float,
+        T: np.ndarray,
+        V: np.ndarray,
+        dy: np.ndarray,
+        gamma: np.ndarray,
+        sign: float,
+        held: tuple[int, np.ndarray] | None,
+        n: int,
+        h: float = 0.0,
+    ) -> None:
+        """Start from an accepted state at grid index ``n`` (``held``: the forces held
+        over the current control period; ``h``: the adaptive method's next trial step)."""
+        st = self.st
+        st[:] = 0.0
+        st[S.ST_T] = t
+        st[S.ST_POSE : S.ST_POSE + 16] = T.ravel()
+        st[S.ST_TWIST : S.ST_TWIST + 6] = V
+        st[S.ST_DY : S.ST_DY + 12] = dy
+        st[S.ST_GAMMA : S.ST_GAMMA + 6] = gamma
+        st[S.ST_SIGN] = sign
+        self.hold(held)
+        st[S.ST_N] = n
+        st[S.ST_H] = h
+
+    def hold(self, held: tuple[int, np.ndarray] | None) -> None:
+        """The forces held over control period ``held[0]``."""
+        if held is None:
+            self.st[S.ST_HELD_K] = -1.0
+        else:
+            self.st[S.ST_HELD_K] = held[0]
+            self._held_g[:] = held[1]
+
+    def run(self, n_stop: int) -> int:
+        """Grid steps up to ``n_stop``: the status (:data:`._simsource.DONE`, ``BAIL`` or
+        ``NEED_FORCE``)."""
+        self.ready()
+        if n_stop != self._n_stop[0]:
+            self._n_stop = (n_stop, ctypes.c_longlong(n_stop))
+        status: int = self._run(*self._args, self._n_stop[1])
+        return status
+
+    @property
+    def n(self) -> int:
+        """The grid index of the state in the block (rk4)."""
+        return int(self.st[S.ST_N])
+
+    def rows(self) -> tuple[np.ndarray | None, ...]:
+        """The rows written since the last call (times, poses, twists, accelerations,
+        forces, and the 6-UPS leg lengths or None): views of the buffers, which are handed
+        over (the next run writes into new ones)."""
+        m = int(self.st[S.ST_ROW])
+        self.st[S.ST_ROW] = 0.0
+        if m == 0:
+            return (np.zeros(0),) * 5 + (None,)
+        self._handed = True
+        out = tuple(a[:m] for a in (self.t, self.P, self.V, self.A, self.G))
+        return (*out, None if self.L is None else self.L[:m])
+
+    def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The last accepted state: ``(t, T, V, dy, gamma)`` (copies)."""
+        st = self.st
+        return (
+            float(st[S.ST_T]),
+            st[S.ST_POSE : S.ST_POSE + 16].reshape(4, 4).copy(),
+            st[S.ST_TWIST : S.ST_TWIST + 6].copy(),
+            st[S.ST_DY : S.ST_DY + 12].copy(),
+            st[S.ST_GAMMA : S.ST_GAMMA + 6].copy(),
+        )
+
+    def step(self) -> float:
+        """The adaptive method's next trial step [s]."""
+        return float(self.st[S.ST_H])
+
+    def held(self) -> tuple[int, np.ndarray] | None:
+        k = self.st[S.ST_HELD_K]
+        return None if k < 0 else (int(k), self.st[S.ST_HELD_G : S.ST_HELD_G + 6].copy())
+
+    def pending(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """The end state waiting for its forces: ``(t, T, V)`` (copies)."""
+        return float(self.st[S.ST_PEND_T]), self._pend_T.copy(), self._pend_V.copy()
+
+    def drop_pending(self) -> None:
+        self.st[S.ST_PENDING] = 0.0
+
+
+def compiled_stepper(
+    robot: RobotLike,
+    backend: str,
+    forces: Any,
+    method: str,
+    dt: float,
+    duration: float,
+    control_period: float | None,
+    output_dt: float | None,
+    dynamics: Any,
+    n_grid: int,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    h_min: float = 1e-12,
+) -> Stepper | str:
+    """A :class:`Stepper` for this run of :func:`simulate`, or the reason the compiled
+    loop cannot run it (module docstring)."""
+    if output_dt is not None:
+        return "output_dt (its steps cut at the output times)"
+    if dynamics is not None:
+        return "a dynamics function"
+    models = _compiled(robot, backend)
+    if isinstance(models, str):
+        return models
+    adaptive = method == "adaptive"
+    data = _Forces(forces, control_period, dt, duration, n_grid, adaptive)
+    if data.reason is not None:
+        return data.reason
+    try:
+        simulator_library()
+    except CompilationError as e:
+        return f"the simulator's library: {str(e).splitlines()[0] if str(e) else e}"
+    tolerances = (rtol, atol, h_min) if adaptive else None
+    return Stepper(robot, models, data, dt, duration, control_period, n_grid, tolerances)
+
+
+def simulate_batch(
+    robot: RobotLike,
+    duration: float,
+    poses: Any = None,
+    twists: Any = None,
+    forces: Any = None,
+    dt: float = 1e-3,
+    control_period: float | None = None,
+    backend: str = "auto",
+    threads: int | None = None,
+) -> list[SimulationResult]:
+    """Many fixed-step RK4 runs of :func:`simulate` in one call, on threads.
+
+    Args:
+        robot, duration, dt, control_period, backend: as :func:`simulate`'s (method
+            ``"rk4"``).
+        poses: initial 0Tp, (N, 4, 4) (default: N home poses, N from ``twists`` or
+            ``forces``); twists: (N, 6) (default zeros).
+        forces: one for every run or a sequence of N: ``None`` (zero), a (6,) constant,
+            a :class:`~stewart_pin.motion.force_tables.ForceTable`, or a
+            :class:`~stewart_pin.motion.control.ComputedTorqueController`.
+        threads: threads sharing the runs (default the compiled models').
+
+    Returns:
+        N :class:`~stewart_pin.motion.simulation.SimulationResult`, each equal to
+        ``simulate(robot, duration, poses[k], twists[k], forces[k], dt=dt, ...)``'s (a run
+        that meets an event is finished by the Python loop, as ``simulate`` does; without
+        a compiled direct model every run is, one after the other).
+
+    Raises:
+        InputError: mismatched counts, or forces that are not data.
+        SimulationError: a run stopped (the message names it; ``.result`` its states).
+    """
+    per_run = isinstance(forces, Sequence) and not isinstance(forces, str | bytes)
+    if isinstance(forces, np.ndarray) and forces.ndim == 2:
+        forces, per_run = list(forces), True
+    counts = {len(x) for x, ok in ((poses, poses is not None), (twists, twists is not None)) if ok}
+    if per_run:
+        counts.add(len(forces))
+    if len(counts) != 1:
+        raise InputError(
+            f"simulate_batch: poses, twists and per-run forces must count the same runs, got "
+            f"{sorted(counts) or 'none'}"
+        )
+    n = counts.pop()
+    run_forces = [_as_data(f) for f in (forces if per_run else [forces] * n)]
+    P = np.repeat(robot.home_pose[None], n, 0) if poses is None else np.asarray(poses, float)
+    V = np.zeros((n, 6)) if twists is None else np.asarray(twists, float)
+    runs = [
+        prepare_run(
+            robot,
+            duration,
+            P[k],
+            V[k],
+            run_forces[k],
+            dt=dt,
+            control_period=control_period,
+            backend=backend,
+        )
+        for k in range(n)
+    ]
+    active = []
+    for run in runs:
+        if run.fast is None:  # the C loop cannot take it: run.go() below, in Python
+            continue
+        try:
+            s = run.begin()
+        except Exception:  # run.go() below raises it as simulate does
+            continue
+        run.fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, run.integ.held, 0)
+        run.fast_state = s
+        active.append(run)
+    lib = simulator_library()
+    models = _compiled(robot, backend)
+    n_threads = threads or (models.threads if isinstance(models, CompiledDynamics) else 1)
+    while active:
+        status = np.zeros(len(active), dtype=np.int32)
+        for run in active:
+            run.fast.ready()
+
+        def call(s: int, m: int, todo: list[Any] = active, status: np.ndarray = status) -> int:
+            out = 0
+            for j in range(s, s + m):
+                status[j] = lib.sp_sim_run(*todo[j].fast._args, todo[j].n_grid)
+                out |= int(status[j])
+            return out
+
+        split_batch(len(active), n_threads, 1, call)
+        going = []
+        for j, run in enumerate(active):
+            assert run.resume is not None
+            state, taken = run.absorb(run.resume[0])
+            if status[j] == S.DONE and state.t < run.duration and taken > 0:
+                going.append(run)
+            elif state.t < run.duration:  # an event ahead: the Python loop's next step
+                run.fast_from = run.fast.n + 1
+        active = going
+    results = []
+    for k, run in enumerate(runs):
+        try:
+            results.append(run.go())
+        except SimulationError as e:
+            raise SimulationError(f"run {k}: {e}", e.time, e.result) from e.__cause__
+    return results
+
+
+def _as_data(forces: Any) -> Any:
+    """A run's forces as the compiled loop takes them (a constant as a ForceTable)."""
+    if forces is None or isinstance(forces, ForceTable | ComputedTorqueController):
+        return forces
+    if callable(forces):
+        raise InputError(
+            "simulate_batch takes forces as data (None, a (6,) constant, a ForceTable or "
+            "the ComputedTorqueController); run a forces function with simulate"
+        )
+    return ForceTable.constant(forces)
+
+
+__all__ = ["SimulationError", "Stepper", "compiled_stepper", "simulate_batch"]

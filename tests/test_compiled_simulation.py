@@ -1,0 +1,292 @@
+"""The compiled simulator (codegen/simulator.py): the C loop's trajectories equal the Python
+loop's (same method, step and compiled direct model) to 1e-10, for forces as data, the
+computed-torque controller and a Python function per control period; events stop both the
+same way; energy and power balance hold (the reference path's energy, an independent
+model)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import get_robot, use_compile_cache
+
+from stewart_pin.codegen.simulator import simulate_batch
+from stewart_pin.exceptions import InputError
+from stewart_pin.motion import simulation
+from stewart_pin.motion.control import ComputedTorqueController
+from stewart_pin.motion.force_tables import ForceTable
+from stewart_pin.motion.simulation import SimulationError, prepare_run, simulate
+from stewart_pin.motion.trajectories import standard_motion
+
+TOL = 1e-10
+ROBOTS = ("simulator", "rus")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def cache_dir(shared_compile_cache):
+    yield from use_compile_cache(shared_compile_cache)
+
+
+def _hover(robot) -> np.ndarray:
+    """The forces holding the platform at rest at home (the reference path's IDM)."""
+    return robot.inverse_dynamics(robot.home_pose, np.zeros(6), np.zeros(6), backend="pinocchio")
+
+
+def _run(robot, duration, integrator, **kwargs):
+    """``simulate`` through :func:`prepare_run`: the result and whether the C loop ran
+    steps (rows it wrote)."""
+    run = prepare_run(robot, duration, backend="compiled", integrator=integrator, **kwargs)
+    result = run.go()
+    return result, any(isinstance(r, simulation._Block) for r in run.rows)
+
+
+def _assert_same(a, b) -> None:
+    np.testing.assert_array_equal(a.t, b.t)
+    for name in ("poses", "twists", "accels", "gammas", "lengths"):
+        x, y = getattr(a, name), getattr(b, name)
+        scale = max(1.0, float(np.abs(x).max()))
+        assert np.abs(x - y).max() <= TOL * scale, name
+
+
+def _cases(robot):
+    g = _hover(robot)
+    rng = np.random.default_rng(3)
+    times = np.linspace(0.0, 0.1, 6)
+    values = g * (1.0 + 0.02 * rng.standard_normal((6, 6)))
+    motion = standard_motion(robot, "sinusoid", 0.1)
+    T0, V0, _ = motion(0.0)
+    controller = ComputedTorqueController(robot, motion, backend="compiled")
+    return {
+        "constant": {"forces": g * 1.001},
+        "table-linear": {"forces": ForceTable(times, values, "linear")},
+        "table-hold": {"forces": ForceTable(times, values, "hold"), "control_period": 2e-3},
+        "ct": {"forces": controller, "pose": T0, "twist": V0},
+        "ct-period": {"forces": controller, "pose": T0, "twist": V0, "control_period": 2e-3},
+        "callback": {
+            "forces": lambda t, T, V: g * (1.0 + 0.01 * np.sin(30 * t)),
+            "control_period": 1e-3,
+        },
+    }
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_c_loop_equals_the_python_loop(name):
+    robot = get_robot(name)
+    for case, kwargs in _cases(robot).items():
+        ref, ran_c = _run(robot, 0.1, "python", dt=1e-3, **kwargs)
+        assert not ran_c
+        got, ran_c = _run(robot, 0.1, "compiled", dt=1e-3, **kwargs)
+        assert ran_c, case  # the C loop took the steps
+        assert got.t.size == 101, case
+        _assert_same(got, ref)
+
+
+def test_the_adaptive_c_loop_follows_the_python_loop():
+    """Dormand-Prince 5(4) in C: the same accepted steps as the Python loop. Where the
+    error control alone sets the step (no control period pins it), a difference of a few
+    ulps in a stage moves the next step by about 1e-9 of it (the error estimate is a
+    difference of two solutions): times within 1e-8 s, states within 1e-9 there."""
+    robot = get_robot("simulator")
+    g = _hover(robot)
+    motion = standard_motion(robot, "sinusoid", 0.2)
+    T0, V0, _ = motion(0.0)
+    controller = ComputedTorqueController(robot, motion, backend="compiled")
+    cases = {
+        "rotating": {"forces": g * 1.001, "twist": [0.02, 0.0, 0.05, 0.1, 0.0, 0.1]},
+        "ct-period": {"forces": controller, "pose": T0, "twist": V0, "control_period": 5e-3},
+        "callback": {
+            "forces": lambda t, T, V: g * (1.0 + 0.01 * np.sin(20 * t)),
+            "control_period": 0.01,
+        },
+    }
+    for case, kwargs in cases.items():
+        opts = {"method": "adaptive", "rtol": 1e-8, "atol": 1e-10, **kwargs}
+        ref, _ = _run(robot, 0.2, "python", **opts)
+        got, ran_c = _run(robot, 0.2, "compiled", **opts)
+        assert ran_c, case
+        assert got.t.shape == ref.t.shape and got.t.size >= 10, case
+        assert np.abs(got.t - ref.t).max() < 1e-8, case
+        for name in ("poses", "twists", "gammas"):
+            x, y = getattr(got, name), getattr(ref, name)
+            assert np.abs(x - y).max() < 1e-9 * max(1.0, float(np.abs(y).max())), (case, name)
+
+
+def test_the_computed_torque_controller_tracks_its_reference_in_c():
+    """Closed loop on an exact model: the tracking error stays small (an independent
+    check of the C law, against the reference motion itself)."""
+    robot = get_robot("simulator")
+    motion = standard_motion(robot, "sinusoid", 0.2)
+    T0, V0, _ = motion(0.0)
+    res, ran_c = _run(
+        robot,
+        0.2,
+        "compiled",
+        pose=T0,
+        twist=V0,
+        dt=1e-3,
+        forces=ComputedTorqueController(robot, motion, backend="compiled"),
+    )
+    assert ran_c
+    ref = motion.sample(res.t)
+    assert np.abs(res.poses[:, :3, 3] - ref.poses[:, :3, 3]).max() < 1e-6
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_a_stroke_end_stops_both_loops_the_same_way(name):
+    """Unpowered, the platform falls until a leg reaches its stroke end (or, for RUS
+    legs, a joint its limit): same message, time, cause and partial result."""
+    robot = get_robot(name)
+    errors, blocks = [], []
+    for integrator in ("python", "compiled"):
+        run = prepare_run(robot, 3.0, dt=2e-3, backend="compiled", integrator=integrator)
+        with pytest.raises(SimulationError) as e:
+            run.go()
+        errors.append(e.value)
+        blocks.append(sum(len(r.times) for r in run.rows if isinstance(r, simulation._Block)))
+    assert blocks[0] == 0 and blocks[1] > 10  # the C loop took the steps before the event
+    a, b = errors
+    assert str(a) == str(b) and a.time == b.time
+    assert type(a.__cause__) is type(b.__cause__)
+    _assert_same(a.result, b.result)
+    assert b.result.t.size > 10
+
+
+def test_energy_and_power_balance_on_the_c_loop():
+    """Free motion (Gamma = 0): the reference path's energy is constant; driven by a
+    force table: the actuators' work equals the energy gained (6-UPS, no friction)."""
+    robot = get_robot("simulator")
+    twist = np.array([0.02, -0.01, 0.05, 0.1, -0.05, 0.1])
+    res, ran_c = _run(robot, 0.1, "compiled", twist=twist, dt=1e-3)
+    assert ran_c
+    E = robot.energy(res.poses, res.twists)
+    scale = float(np.abs(E).max())
+    assert np.abs(E - E[0]).max() < 1e-9 * scale
+    g = _hover(robot)
+    table = ForceTable(np.array([0.0, 0.1]), np.array([g * 0.98, g * 1.03]), "linear")
+    res, ran_c = _run(robot, 0.1, "compiled", forces=table, dt=1e-3)
+    assert ran_c
+    E = robot.energy(res.poses, res.twists)
+    dt = 1e-3
+    # Five-point central differences of the energy: truncation O(dt^4).
+    dE = (-E[4:] + 8 * E[3:-1] - 8 * E[1:-3] + E[:-4]) / (12 * dt)
+    qd = np.einsum("nij,nj->ni", robot.inverse_jacobian(res.poses), res.twists)
+    power = np.einsum("ni,ni->n", res.gammas, qd)[2:-2]
+    assert np.abs(power).max() > 10.0  # the actuators do real work [W]
+    assert np.abs(dE - power).max() < 1e-6 * np.abs(power).max()
+
+
+def test_batch_runs_equal_single_runs():
+    """Many initial states in one call (threads), one of them meeting its stroke end:
+    each result is the single run's."""
+    robot = get_robot("simulator")
+    g = _hover(robot)
+    rng = np.random.default_rng(5)
+    twists = 0.05 * rng.standard_normal((4, 6))
+    twists[3] = [0.0, 0.0, -5.0, 0.0, 0.0, 0.0]  # down fast: a stroke end within 0.1 s
+    with pytest.raises(SimulationError, match="run 3: simulation stopped") as batch:
+        simulate_batch(robot, 0.1, twists=twists, forces=g, dt=1e-3, backend="compiled", threads=2)
+    with pytest.raises(SimulationError) as single:
+        simulate(
+            robot, 0.1, twist=twists[3], forces=g, dt=1e-3, backend="compiled", integrator="python"
+        )
+    assert str(batch.value) == f"run 3: {single.value}"
+    _assert_same(batch.value.result, single.value.result)
+    results = simulate_batch(
+        robot,
+        0.05,
+        twists=twists[:3],
+        forces=[g, g * 1.01, None],
+        dt=1e-3,
+        backend="compiled",
+        threads=2,
+    )
+    for k, (f, res) in enumerate(zip([g, g * 1.01, None], results, strict=True)):
+        ref = simulate(
+            robot,
+            0.05,
+            twist=twists[k],
+            forces=f,
+            dt=1e-3,
+            backend="compiled",
+            integrator="python",
+        )
+        _assert_same(res, ref)
+
+
+def test_force_table_values():
+    """Held and interpolated values against NumPy's own interpolation."""
+    times = np.array([0.0, 0.5, 2.0])
+    values = np.arange(18.0).reshape(3, 6) ** 1.5
+    linear, hold = ForceTable(times, values, "linear"), ForceTable(times, values)
+    for t in (-1.0, 0.0, 0.2, 0.5, 1.3, 2.0, 5.0):
+        expected = [np.interp(t, times, values[:, j]) for j in range(6)]
+        np.testing.assert_allclose(linear(t), expected, rtol=1e-15)
+        k = min(max(int(np.searchsorted(times, t, side="right")) - 1, 0), 2)
+        np.testing.assert_array_equal(hold(t), values[k])
+    with pytest.raises(InputError, match="interpolation"):
+        ForceTable(times, values, "cubic")
+    with pytest.raises(InputError, match="times"):
+        ForceTable(times[::-1], values)
+
+
+def test_integrator_choice_is_checked():
+    robot = get_robot("simulator")
+    with pytest.raises(InputError, match="unknown integrator"):
+        simulate(robot, 0.01, integrator="c")
+    with pytest.raises(InputError, match=r"integrator='compiled'.*output_dt"):
+        simulate(robot, 0.01, output_dt=1e-3, backend="compiled", integrator="compiled")
+    with pytest.raises(InputError, match=r"integrator='compiled'.*not compiled"):
+        simulate(robot, 0.01, backend="pinocchio", integrator="compiled")
+    with pytest.raises(InputError, match=r"integrator='compiled'.*control_period"):
+        simulate(
+            robot,
+            0.01,
+            forces=lambda t, T, V: np.zeros(6),
+            backend="compiled",
+            integrator="compiled",
+        )
+
+
+def test_cli_simulate_integrator(tmp_path, capsys):
+    """``stewart-pin simulate --integrator``: the C loop's result file equals the Python
+    loop's; a run it cannot take is one line and exit status 2."""
+    from stewart_pin.cli import main
+
+    args = ["simulate", "--preset", "simulator", "--motion", "sinusoid", "--duration", "0.1"]
+    args += ["--backend", "compiled", "--no-progress"]
+    for integrator in ("python", "compiled"):
+        out = tmp_path / f"{integrator}.npz"
+        assert main([*args, "--integrator", integrator, "-o", str(out)]) == 0
+    _assert_same(
+        simulation.SimulationResult.load(tmp_path / "compiled.npz"),
+        simulation.SimulationResult.load(tmp_path / "python.npz"),
+    )
+    capsys.readouterr()
+    bad = ["--integrator", "compiled", "--method", "adaptive", "--control-period", "3e-3"]
+    assert main([*args, *bad, "--backend", "pinocchio", "-o", str(tmp_path / "x.npz")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "integrator='compiled'" in err[0] and "not compiled" in err[0]
+
+
+def test_runs_longer_than_one_output_chunk():
+    """Over 4096 steps the C loop hands its rows over chunk by chunk (single runs and
+    batches): every row kept, equal to the Python loop's (computed torque on a sinusoid,
+    held over each step)."""
+    from stewart_pin.codegen.simulator import CHUNK_ROWS
+
+    robot = get_robot("simulator")
+    duration = (CHUNK_ROWS + 200) * 1e-3
+    motion = standard_motion(robot, "sinusoid", duration)
+    T0, V0, _ = motion(0.0)
+    ctl = ComputedTorqueController(robot, motion, backend="compiled")
+    twists = np.array([V0, V0 + 1e-3])
+    opts = {"forces": ctl, "control_period": 1e-3, "backend": "compiled"}
+    ref = [simulate(robot, duration, T0, v, integrator="python", **opts) for v in twists]
+    one, ran_c = _run(
+        robot, duration, "compiled", pose=T0, twist=twists[0], forces=ctl, control_period=1e-3
+    )
+    assert ran_c and one.t.size == CHUNK_ROWS + 201
+    _assert_same(one, ref[0])
+    batch = simulate_batch(robot, duration, poses=[T0, T0], twists=twists, **opts)
+    for got, want in zip(batch, ref, strict=True):
+        _assert_same(got, want)
