@@ -53,7 +53,7 @@ from stewart_pin.codegen.symbolic import (
     model_constants,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import ExportError, InputError
+from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -132,11 +132,6 @@ class CodegenKind(Protocol):
         """The names and values of the models' ``base_parameters`` input."""
         ...
 
-    def limits_in_python(self, desc: RobotDescription) -> bool:
-        """Whether every call must run the reference inverse geometry (limits the guard
-        does not know)."""
-        ...
-
     def actuator_function(self, desc: RobotDescription) -> cs.Function:
         """``actuators(pose, twist) -> (q_a, qdot_a)`` (SX)."""
         ...
@@ -187,8 +182,9 @@ class PaperUpsCodegen:
         return characteristic_length(desc)
 
     def leg_checks_source(self, desc: RobotDescription, layout: AuxLayout) -> str:
-        """The 6-UPS leg lengths and leg singularities (:data:`._csource.CHECK_LEGS_UPS`,
-        the thresholds of :mod:`stewart_pin.kinematics.geometry` with margins)."""
+        """The 6-UPS leg lengths, leg singularities and U-joint limits if any
+        (:data:`._csource.CHECK_LEGS_UPS`, :data:`._csource.CHECK_U_JOINTS_UPS`, the
+        thresholds of :mod:`stewart_pin.kinematics.geometry` with margins)."""
         lo, hi = (float(x) for x in desc.ideal_stroke("the 6-UPS leg checks"))
         min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
         return _csource.CHECK_LEGS_UPS % {
@@ -198,14 +194,12 @@ class PaperUpsCodegen:
             "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
             "q3sq": AUX_Q3SQ.start,
             "rho2": AUX_RHO2.start,
+            "u_joint_check": _u_joint_check(desc, layout.jinv),
         }
 
     def base_parameters(self, desc: RobotDescription) -> tuple[tuple[str, ...], np.ndarray]:
         bp = grouped_parameters(desc)
         return bp.names, np.ascontiguousarray(bp.values, dtype=np.float64)
-
-    def limits_in_python(self, desc: RobotDescription) -> bool:
-        return desc.u_joint_limits is not None  # the guard does not know the angles
 
     def actuator_function(self, desc: RobotDescription) -> cs.Function:
         """The leg lengths ``l_i = |p + R P_i - B_i|`` [m] and their rates
@@ -271,14 +265,36 @@ class PaperUpsCodegen:
         return [0] * 6
 
     def check_exportable(self, desc: RobotDescription) -> None:
-        if desc.u_joint_limits is not None:
-            raise ExportError(
-                "a 6-UPS robot with U-joint limits cannot export: its guard does not know the "
-                "U-joint angles (describe the legs as 'ups' legs to export with limits)"
-            )
+        """Every 6-UPS exports (its stroke and U-joint limits are in the guard)."""
 
     def has_custom_leg(self, desc: RobotDescription) -> bool:
         return False
+
+
+#: The margin [rad] narrowing each U-joint limit in the C guard (a flagged state is
+#: decided by the reference; the exported C refuses within it).
+U_JOINT_MARGIN = 1e-9
+
+
+def _u_joint_check(desc: RobotDescription, jinv: int) -> str:
+    """The C checking the 6-UPS's U-joint angles against ``desc.u_joint_limits`` (each
+    narrowed by :data:`U_JOINT_MARGIN`; ``jinv`` where ``Jp^-1`` starts in ``aux``), or
+    nothing for a robot without U-joint limits."""
+    if desc.u_joint_limits is None:
+        return ""
+    rows = ", ".join(
+        "{" + ", ".join(repr(float(x)) for x in R.ravel()) + "}" for R in desc.leg_base_rotations
+    )
+    lim = np.asarray(desc.u_joint_limits, dtype=np.float64)
+    narrowed = lim + np.array([U_JOINT_MARGIN, -U_JOINT_MARGIN])
+    limits = ", ".join(
+        "{" + ", ".join(repr(float(x)) for x in leg.ravel()) + "}" for leg in narrowed
+    )
+    return _csource.CHECK_U_JOINTS_UPS % {
+        "rotations": rows,
+        "limits": limits,
+        "jinv": jinv,
+    }
 
 
 class LegChainCodegen:
@@ -310,9 +326,6 @@ class LegChainCodegen:
 
     def base_parameters(self, desc: RobotDescription) -> tuple[tuple[str, ...], np.ndarray]:
         return (), np.zeros(0)  # compiled in
-
-    def limits_in_python(self, desc: RobotDescription) -> bool:
-        return False  # in the guard (the slacks)
 
     def actuator_function(self, desc: RobotDescription) -> cs.Function:
         return actuator_function(desc)

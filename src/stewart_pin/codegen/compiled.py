@@ -48,16 +48,17 @@ CasADi's virtual machine: correct, slower, with one warning giving the reason.
 Validation. The results are those of the reference path (``StewartRobot.inverse_dynamics``
 / ``direct_dynamics``), errors included: the C guard checks each state cheaply (finite
 inputs, orthonormal rotation, leg lengths within the stroke and away from the leg
-singularities from the generated code's ``q3^2`` and ``rho^2``, and an upper bound of the
+singularities from the generated code's ``q3^2`` and ``rho^2``, U-joint angles within their
+limits (if any) from the rows of ``Jp^-1``, and an upper bound of the
 singularity measure); any state it flags sends the batch through the reference checks
 (:func:`stewart_pin._checks.check_poses`,
 :func:`stewart_pin.kinematics.geometry.inverse_geometry_batch`,
 :func:`stewart_pin.kinematics.jacobians.check_condition` on the flagged states), which raise
-:class:`~stewart_pin.exceptions.InputError`, :class:`~stewart_pin.exceptions.StrokeLimitError`
-or :class:`~stewart_pin.exceptions.SingularityError` with the reference's messages. A robot
-with U-joint limits always runs the reference inverse geometry (the guard does not know
-the angles). The IDM's static-pivot LU is backed by a partial-pivoting solve in C when a
-multiplier grows past :data:`._csource.GROWTH_LIMIT`.
+:class:`~stewart_pin.exceptions.InputError`, :class:`~stewart_pin.exceptions.StrokeLimitError`,
+:class:`~stewart_pin.exceptions.JointLimitError` or
+:class:`~stewart_pin.exceptions.SingularityError` with the reference's messages. The
+IDM's static-pivot LU is backed by a partial-pivoting solve in C when a multiplier grows
+past :data:`._csource.GROWTH_LIMIT`.
 """
 
 from __future__ import annotations
@@ -818,7 +819,6 @@ class CompiledDynamics:
         kind = codegen_kind(desc)
         self.general = kind.generic_models
         self.parameter_names, self.base_values = kind.base_parameters(desc)
-        self._limits = kind.limits_in_python(desc)
         if self.general:
             self._hexapod = general_robot(desc)
             self._reference_models: Any = None
@@ -967,7 +967,7 @@ class CompiledDynamics:
         if self.general:
             if any_flag & ~_REPIVOTED:
                 self._resolve_general(which, flags, pose, twist, x, T, V, X, out)
-        elif any_flag or self._limits:
+        elif any_flag:
             self._resolve(which, flags, pose, twist, x, name, T.reshape(-1, 4, 4))
         return out if batched else out[0]
 
@@ -1046,7 +1046,7 @@ class CompiledDynamics:
                     out[None],
                 )
             return out
-        if flag or self._limits:
+        if flag:
             T = np.frombuffer(block, count=16).reshape(1, 4, 4).copy()
             if batch:
                 pose, twist, x = pose[None], twist[None], x[None]
@@ -1068,7 +1068,7 @@ class CompiledDynamics:
         desc = self._desc
         if bits & _INPUT:
             check_states(pose, (twist, "twist"), (x, name))
-        if bits & _GEOMETRY or self._limits:
+        if bits & _GEOMETRY:
             inverse_geometry_batch(desc, T)
         max_condition = self.robot.max_condition
         if bits & _COND:
