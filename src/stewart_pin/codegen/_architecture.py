@@ -120,6 +120,11 @@ class CodegenKind(Protocol):
         """Where the guarded models put their by-products."""
         ...
 
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        """The models with every Coulomb sign ``sign(qd)`` as ``tanh(qd / eps)`` (``eps``
+        [m/s or rad/s] > 0), for optimisers (uncached)."""
+        ...
+
     def singularity_length(self, desc: RobotDescription) -> float:
         """The length [m] dividing ``Jp^-1``'s angular columns in the singularity measure."""
         ...
@@ -177,6 +182,10 @@ class PaperUpsCodegen:
 
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return UPS_AUX_LAYOUT
+
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        """Its own models: the ideal 6-UPS has no friction to smooth."""
+        return generate_models(desc)
 
     def singularity_length(self, desc: RobotDescription) -> float:
         return characteristic_length(desc)
@@ -316,6 +325,9 @@ class LegChainCodegen:
 
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return aux_layout(generate_models(desc))
+
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        return build_general_models(desc, coulomb_smoothing=eps)[0]
 
     def singularity_length(self, desc: RobotDescription) -> float:
         return general_robot(desc).size  # the platform radius, as the reference path
