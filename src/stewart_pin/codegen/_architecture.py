@@ -25,6 +25,7 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin.codegen import _csource
+from stewart_pin.codegen._resolution import ReferenceChecks, ReferenceResults, Resolution
 from stewart_pin.codegen._sx_common import SymbolicModels, function, pose_from_input, vcross
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
@@ -120,6 +121,11 @@ class CodegenKind(Protocol):
         """Where the guarded models put their by-products."""
         ...
 
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """What the compiled backend does with the states its guard flags (a new object:
+        it may cache the reference models)."""
+        ...
+
     def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
         """The models with every Coulomb sign ``sign(qd)`` as ``tanh(qd / eps)`` (``eps``
         [m/s or rad/s] > 0), for optimisers (uncached)."""
@@ -182,6 +188,10 @@ class PaperUpsCodegen:
 
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return UPS_AUX_LAYOUT
+
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """The reference checks decide; the compiled results stand."""
+        return ReferenceChecks(desc, self.singularity_length(desc))
 
     def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
         """Its own models: the ideal 6-UPS has no friction to smooth."""
@@ -325,6 +335,10 @@ class LegChainCodegen:
 
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return aux_layout(generate_models(desc))
+
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """The reference path computes the flagged states."""
+        return ReferenceResults(desc)
 
     def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
         return build_general_models(desc, coulomb_smoothing=eps)[0]

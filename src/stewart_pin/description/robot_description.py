@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import re
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -440,6 +441,15 @@ class RobotDescription:
         """Whether this is the paper's ideal 6-UPS robot (``legs`` is ``None``): the fast
         closed-form path, the compiled backend and the identification apply."""
         return self.legs is None
+
+    def canonical(
+        self, rewrite: Callable[[RobotDescription], RobotDescription]
+    ) -> RobotDescription:
+        """This robot with its legs in canonical form: ``rewrite(self)`` (the rewrite of
+        leg chains, :func:`stewart_pin.importers.canonical.canonical_description`), or for
+        the ideal 6-UPS robot itself (its legs are the paper's MDH Table I frames: the
+        canonical form, no chain to rewrite)."""
+        return self if self.legs is None else rewrite(self)
 
     @property
     def leg_architectures(self) -> tuple[LegArchitecture, ...]:
