@@ -212,18 +212,15 @@ def test_the_pinocchio_models_are_chosen_by_the_path():
 #: chains) and a ``general`` flag or object tested for truth or ``None``. Where they may
 #: stay: the description (it defines the two forms), the independent check (its own
 #: trees), the regressor (below the paths: the standard-parameter layout, the paper's
-#: 190 or the chains' 280 with joint terms), the viewer and its plots (two renderers, the
-#: URDF tree with its visuals or the leg chains, chosen once by ``general_robot`` from the
-#: path's ``urdf_visuals``), and in ``general_robot`` the duck-typed objects that are no
+#: 190 or the chains' 280 with joint terms), the viewer's one choice of drawing
+#: (``drawing_for``: the URDF tree with its visuals or the leg chains, from the path's
+#: ``urdf_visuals``), and in ``general_robot`` the duck-typed objects that are no
 #: description (a foreign object without ``legs`` is drawn from its URDF tree).
-IDENTITY_ALLOWED_FILES = (
-    "description/",
-    "check/",
-    "dynamics/regressor.py",
-    "viz/viewer.py",
-    "viz/plots.py",
-)
-IDENTITY_ALLOWED_FUNCTIONS = {("viz/leg_scene.py", "general_robot")}
+IDENTITY_ALLOWED_FILES = ("description/", "check/", "dynamics/regressor.py")
+IDENTITY_ALLOWED_FUNCTIONS = {
+    ("viz/leg_scene.py", "general_robot"),
+    ("viz/viewer.py", "drawing_for"),
+}
 IDENTITY_NAMES = {"legs", "general"}
 
 

@@ -490,6 +490,18 @@ class RobotDescription:
         return "leg lengths" if self.is_ideal_ups else "actuated joint positions"
 
     @property
+    def position_label(self) -> str:
+        """The axis label of the actuated joints' positions in figures: ``"leg length [m]"``
+        (the ideal 6-UPS), ``"actuated joint [<unit>]"`` (any other robot)."""
+        return "leg length [m]" if self.is_ideal_ups else f"actuated joint [{self.position_unit}]"
+
+    @property
+    def positions_title(self) -> str:
+        """The title of a figure of the actuated joints' positions: ``"Leg lengths"`` (the
+        ideal 6-UPS), ``"Actuator positions"`` (any other robot)."""
+        return "Leg lengths" if self.is_ideal_ups else "Actuator positions"
+
+    @property
     def limits_name(self) -> str:
         """What bounds the actuated joints, in messages: ``"stroke"`` (the ideal 6-UPS's
         shared one), ``"joint limits"`` (each leg's own)."""
