@@ -798,7 +798,7 @@ class CompiledDynamics:
         desc = robot.description
         self._desc = desc
         kind = codegen_kind(desc)
-        self.general = kind.generic_models  # public, unread here: the kind's behaviour is
+        self.general = kind.generic_models  # public; nothing here branches on it
         self.parameter_names, self.base_values = kind.base_parameters(desc)
         self.base_values.flags.writeable = False
         self._length = singularity_length(desc)
