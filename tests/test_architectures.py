@@ -205,3 +205,92 @@ def test_the_pinocchio_models_are_chosen_by_the_path():
         assert (
             [n for n in old.model.names] == [n for n in new.model.names] == list(tree.model.names)
         )
+
+
+# ---------------------------------------------------------------------------- issue 19, item 1
+#: The same question in other spellings: ``legs is None`` (the ideal 6-UPS stores no leg
+#: chains) and a ``general`` flag or object tested for truth or ``None``. Where they may
+#: stay: the description (it defines the two forms), the independent check (its own
+#: trees), the regressor (below the paths: the standard-parameter layout, the paper's
+#: 190 or the chains' 280 with joint terms), the viewer's one choice of drawing
+#: (``drawing_for``: the URDF tree with its visuals or the leg chains, from the path's
+#: ``urdf_visuals``), and in ``general_robot`` the duck-typed objects that are no
+#: description (a foreign object without ``legs`` is drawn from its URDF tree).
+IDENTITY_ALLOWED_FILES = ("description/", "check/", "dynamics/regressor.py")
+IDENTITY_ALLOWED_FUNCTIONS = {
+    ("viz/leg_scene.py", "general_robot"),
+    ("viz/viewer.py", "drawing_for"),
+}
+IDENTITY_NAMES = {"legs", "general"}
+
+
+def identity_checks(source: str, rel: str = "") -> list[tuple[int, str]]:
+    """``(line, text)`` of each identity check in ``source``: ``x.legs is None`` /
+    ``legs is not None`` (any ``is``/``is not`` ``None`` on a ``legs`` or ``general``
+    name or attribute), and a ``legs`` / ``general`` name or attribute used as a truth
+    value (``if``, conditional expression, ``while``, ``and``/``or``, ``not``); outside
+    the functions of :data:`IDENTITY_ALLOWED_FUNCTIONS` for file ``rel``."""
+
+    def named(n: ast.AST) -> bool:
+        return (isinstance(n, ast.Attribute) and n.attr in IDENTITY_NAMES) or (
+            isinstance(n, ast.Name) and n.id in IDENTITY_NAMES
+        )
+
+    found: list[tuple[int, str]] = []
+
+    def visit(node: ast.AST, allowed: bool) -> None:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            allowed = allowed or (rel, node.name) in IDENTITY_ALLOWED_FUNCTIONS
+        if not allowed:
+            truth: list[ast.AST] = []
+            if isinstance(node, (ast.If, ast.IfExp, ast.While)):
+                truth.append(node.test)
+            elif isinstance(node, ast.BoolOp):
+                truth += node.values
+            elif isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not):
+                truth.append(node.operand)
+            elif (
+                isinstance(node, ast.Compare)
+                and named(node.left)
+                and all(isinstance(op, (ast.Is, ast.IsNot)) for op in node.ops)
+                and any(isinstance(c, ast.Constant) and c.value is None for c in node.comparators)
+            ):
+                found.append((node.lineno, ast.unparse(node)))
+            found.extend((t.lineno, ast.unparse(t)) for t in truth if named(t))
+        for child in ast.iter_child_nodes(node):
+            visit(child, allowed)
+
+    visit(ast.parse(source), False)
+    return sorted(set(found))
+
+
+def test_identity_checks_finds_every_spelling():
+    """The scan itself, on a source whose checks are known (data reads are no checks)."""
+    source = (
+        "def f(desc, self, legs, general):\n"
+        "    if desc.legs is None:\n"
+        "        return 1\n"
+        "    a = 2 if self.general else 3\n"
+        "    b = legs is not None and general\n"
+        "    c = not self.general\n"
+        "    d = [leg.name for leg in desc.legs]\n"
+        "    e = robot.general.legs\n"
+        "    return a, b, c, d, e\n"
+        "def general_robot(robot):\n"
+        "    return None if robot.legs is None else robot\n"
+    )
+    assert [line for line, _ in identity_checks(source)] == [2, 4, 5, 5, 6, 11]
+    assert [line for line, _ in identity_checks(source, "viz/leg_scene.py")] == [2, 4, 5, 5, 6]
+
+
+def test_no_module_above_the_architecture_layer_asks_in_another_spelling():
+    """No ``legs is None`` / ``general`` check outside the allowed places: the modules ask
+    their architecture's path or codegen strategy for behaviour (issue 19)."""
+    root = Path(stewart_pin.__file__).parent
+    checks = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
+        if rel.startswith(IDENTITY_ALLOWED_FILES):
+            continue
+        checks += [f"{rel}:{n}: {text}" for n, text in identity_checks(path.read_text(), rel)]
+    assert checks == []

@@ -91,8 +91,8 @@ def test_compiled_matches_reference(name, backends, states):
 
 
 def test_joint_limits_are_checked(states, cache_dir):
-    """The guard does not know the U-joint angles: a robot with limits takes the reference
-    inverse geometry, and raises its JointLimitError. (Its library is its own: the cache
+    """The guard checks the U-joint angles (issue 19): a robot with limits raises the
+    reference's JointLimitError, and computes within them. (Its library is its own: the cache
     key is the description, limits included, not the generated source, issue 24.)"""
     desc = get_robot("random-1").description
     P, V, A, G = (x[:10] for x in states["random-1"])

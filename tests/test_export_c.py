@@ -254,11 +254,53 @@ def test_cli_refusals_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert "other files" in capsys.readouterr().err
 
 
-def test_u_joint_limits_cannot_export(tmp_path: Path) -> None:
-    d = StewartRobot.from_preset("simulator").to_dict()
-    d["u_joint_limits"] = [[-1.0, 1.0], [-1.0, 1.0]]
-    with pytest.raises(ExportError, match="U-joint limits"):
-        StewartRobot.from_dict(d).export_c(tmp_path / "out", prefix="lim")
+U_JOINT_HARNESS = r"""#include <stdio.h>
+#include "PREFIX.h"
+static const double poses[NSTATES][16] = {POSES};
+int main(void) {
+  double work[PU_WORK_SIZE], out[6], zero[6] = {0, 0, 0, 0, 0, 0};
+  int s;
+  for (s = 0; s < NSTATES; ++s) {
+    int a = PREFIX_inverse_geometry(poses[s], out, work);
+    int b = PREFIX_inverse_dynamics(poses[s], zero, zero, out, work);
+    int c = PREFIX_direct_dynamics(poses[s], zero, zero, out, work);
+    printf("%d %d %d\n", a, b, c);
+  }
+  return 0;
+}
+"""
+
+
+def test_u_joint_limits_exported_decide_as_the_reference(tmp_path: Path) -> None:
+    """The ideal 6-UPS with U-joint limits exports (issue 19): its C refuses with ERR_RANGE
+    (-2) exactly the poses whose U-joint angles the reference path (Pinocchio) refuses
+    with a JointLimitError, and computes the others; limits cut through the sampled
+    angles of q1 of leg 2 and q2 of leg 5 (both angles checked)."""
+    from stewart_pin.exceptions import JointLimitError
+
+    base = StewartRobot.from_preset("simulator")
+    poses = base.sample_poses(16, np.random.default_rng(11), rotation=0.3)
+    q = np.asarray(base.inverse_geometry(poses))[..., :2]  # (16, 6, 2) [rad]
+    limits = np.stack([q.min(axis=0) - 0.05, q.max(axis=0) + 0.05], -1)  # (6, 2, 2)
+    limits[1, 0, 1] = np.quantile(q[:, 1, 0], 0.7)  # upper limit of q1 of leg 2
+    limits[4, 1, 0] = np.quantile(q[:, 4, 1], 0.3)  # lower limit of q2 of leg 5
+    robot = StewartRobot(base.description.replace(u_joint_limits=limits))
+    refused = []
+    for T in poses:
+        try:
+            robot.inverse_dynamics(T, np.zeros(6), np.zeros(6), backend="pinocchio")
+            refused.append(False)
+        except JointLimitError:
+            refused.append(True)
+    assert 4 <= sum(refused) <= 12  # both decisions met
+    robot.export_c(tmp_path, prefix="uj", samples=2)
+    rows = ", ".join("{" + ", ".join(repr(float(x)) for x in T.ravel()) + "}" for T in poses)
+    harness = U_JOINT_HARNESS.replace("PREFIX", "uj").replace("PU_", "UJ_")
+    (tmp_path / "harness.c").write_text(harness.replace("NSTATES", "16").replace("POSES", rows))
+    program = _build(tmp_path, "uj", "harness.c", "harness", "-O0")
+    out = _run([str(program)], tmp_path).stdout
+    codes = [tuple(map(int, line.split())) for line in out.split("\n") if line]
+    assert codes == [(-2, -2, -2) if r else (0, 0, 0) for r in refused]
 
 
 def test_only_numbers_from_the_description(exported: dict[str, tuple[Path, str]]) -> None:

@@ -331,7 +331,7 @@ def test_flagged_states_take_the_reference_values():
     out = np.zeros((20, 6))
     flags = np.full(20, compiled_module._GEOMETRY, dtype=np.int32)
     flags[::2] = 0
-    backend._resolve_general("idm", flags, P, V, A, P, V, A, out)
+    backend._resolve("idm", flags, (P, V, A, "accel"), P, V, A, out)
     np.testing.assert_array_equal(out[1::2], G[1::2])  # the reference's own numbers
     assert not out[::2].any()  # the unflagged states are left alone
     cond = leg_chains.condition_number_batch(robot.general, robot.inverse_jacobian(P))

@@ -280,8 +280,8 @@ def test_a_flagged_state_is_computed_by_the_reference_path():
 
 
 def test_u_joint_limits_are_checked_on_every_state():
-    """The guard does not know the U-joint angles: a 6-UPS robot with limits runs the
-    reference inverse geometry on every call, and raises its JointLimitError."""
+    """A 6-UPS robot with U-joint limits: the guard checks the angles (issue 19) and the
+    compiled model raises the reference's JointLimitError."""
     hexapod = StewartRobot.from_preset("simulator")
     P, V, A = hexapod.sample_states(6, 3)
     angles = hexapod.inverse_geometry(P)[..., :2]

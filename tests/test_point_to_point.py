@@ -164,7 +164,9 @@ def test_optimal_motion_on_every_leg_architecture(name, hessian):
     model reaches the goal at rest."""
     robot = StewartRobot.from_preset(name)
     goal = _small_goal(robot)
-    m = optimal_point_to_point(robot, robot.home_pose, goal, 1.0, intervals=6, hessian=hessian)
+    m = optimal_point_to_point(
+        robot, robot.home_pose, goal, 1.0, intervals=6, hessian=hessian, coulomb_smoothing=0.0
+    )  # the exact model (Coulomb's sign): this coarse transcription converges with it
     assert m.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     np.testing.assert_allclose(m.poses[-1], goal, rtol=0, atol=1e-8)
     np.testing.assert_allclose(m.twists[[0, -1]], 0.0, rtol=0, atol=1e-8)
@@ -195,3 +197,35 @@ def test_a_margin_past_half_a_crank_range_is_refused():
     rus = StewartRobot.from_preset("rus")  # cranks in [-pi/2, pi/2]: half is pi/2 rad
     with pytest.raises(InputError, match=r"margin must be in \[0, 1.5708\)"):
         optimal_point_to_point(rus, rus.home_pose, rus.home_pose, 1.0, margin=1.6)
+
+
+@pytest.mark.parametrize("intervals", [10, 20])
+@pytest.mark.parametrize("name", ["pus", "ups-offset"])
+def test_friction_robots_converge_on_fine_transcriptions(name, intervals):
+    """Coulomb friction made IPOPT stop on 10 and 20 intervals (its sign jumps where a
+    joint starts from rest); the NLP now optimises on tanh(qd / eps), eps = 1e-2 m/s or
+    rad/s, and reports the exact efforts of the motion it found. References at every node
+    (the motion's states and accelerations): the reference inverse model (Pinocchio's leg
+    dynamics and the closure layer, Coulomb's exact sign) and Pinocchio's constrained
+    dynamics on the closed-loop tree (the independent check's KKT solve); at rest (the
+    ends) both signs are 0, so the exact efforts are the held forces there."""
+    from stewart_pin.check.constrained_dynamics import reference_actuator_efforts
+
+    robot = StewartRobot.from_preset(name)
+    goal = _small_goal(robot)
+    m = optimal_point_to_point(robot, robot.home_pose, goal, 1.0, intervals=intervals)
+    assert m.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    assert m.coulomb_smoothing == 1e-2
+    np.testing.assert_allclose(m.poses[-1], goal, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(m.twists[[0, -1]], 0.0, rtol=0, atol=1e-8)
+    held = np.vstack([m.gammas, m.gammas[-1:]])
+    scale = np.abs(held).max()
+    assert m.exact_efforts.shape == (intervals + 1, 6)
+    gamma_ref = robot.inverse_dynamics(m.poses, m.twists, m.accels, backend="pinocchio")
+    np.testing.assert_allclose(m.exact_efforts, gamma_ref, rtol=0, atol=1e-9 * scale)
+    kkt = reference_actuator_efforts(robot, m.poses, m.twists, m.accels)
+    np.testing.assert_allclose(m.exact_efforts, kkt, rtol=0, atol=1e-7 * scale)
+    np.testing.assert_allclose(m.exact_efforts[0], held[0], rtol=0, atol=1e-9 * scale)
+    # elsewhere the smooth sign differs from the exact one: the efforts differ (by at most
+    # the Coulomb forces mapped to the actuators), not the motion
+    assert np.abs(m.exact_efforts - held).max() > 1e-6 * scale

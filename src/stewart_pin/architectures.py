@@ -24,7 +24,7 @@ and pickles as before.
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -115,6 +115,27 @@ def quiet_overflow() -> np.errstate:
     return np.errstate(over="ignore", invalid="ignore")
 
 
+_Result = TypeVar("_Result", covariant=True)
+
+
+class AnalyticRules(Protocol[_Result]):
+    """The sets of grouping rules of the base parameters
+    (:func:`stewart_pin.parameters.base.analytic_base_parameters`, a layer above): each
+    path picks its architecture's (:meth:`LegChainPath.analytic_base_parameters`)."""
+
+    def paper_rules(self, desc: RobotDescription) -> _Result:
+        """The paper's rules (eq. 44-66): the ideal 6-UPS's 88."""
+        ...
+
+    def leg_chain_rules(self, desc: RobotDescription) -> _Result:
+        """The rules of the leg chains (:mod:`stewart_pin.parameters.leg_chain_base`)."""
+        ...
+
+    def chain_leg_rules(self, desc: RobotDescription) -> _Result:
+        """Chain legs of any joints: no analytic rules (the error saying so)."""
+        ...
+
+
 class LegChainPath:
     """Every robot as six three-joint leg chains, joint terms included: the path of every
     architecture but the ideal 6-UPS, which overrides it with its closed forms
@@ -131,6 +152,17 @@ class LegChainPath:
     #: 1e-8 of the largest singular value (the kept ones measure 1e-8 to 1e-5 on the random
     #: robots and the presets), while round-off stays below 1e-15; 1e-11 sits between.
     rank_tolerance: float = 1e-11
+    #: Whether the closed-loop tree comes from the robot's URDF with its visuals, which
+    #: the viewer then draws (:func:`stewart_pin.viz.leg_scene.general_robot`); else the
+    #: viewer draws the leg chains.
+    urdf_visuals: bool = False
+
+    def analytic_base_parameters(
+        self, rules: AnalyticRules[_Result], desc: RobotDescription
+    ) -> _Result:
+        """The base parameters by the grouping rules of this architecture: the leg
+        chains' (``custom`` legs: their own error)."""
+        return rules.leg_chain_rules(desc)
 
     def closed_loop_tree(self, desc: RobotDescription) -> TreeModel:
         """The 24-dof closed-loop tree: the six chains (``model.armature`` set), the
@@ -324,6 +356,13 @@ class IdealUpsPath(LegChainPath):
     is_ideal_ups = True
     #: The paper's 88 grouped parameters and its rigid bodies: nothing acts below 1e-8.
     rank_tolerance = 1e-8
+    urdf_visuals = True
+
+    def analytic_base_parameters(
+        self, rules: AnalyticRules[_Result], desc: RobotDescription
+    ) -> _Result:
+        """The paper's rules (its 88 grouped parameters, dropped as gravity allows)."""
+        return rules.paper_rules(desc)
 
     def closed_loop_tree(self, desc: RobotDescription) -> TreeModel:
         """The tree parsed from its URDF (the paper's joint names and frames)."""
@@ -504,6 +543,12 @@ class ChainLegPath(LegChainPath):
     legs come as (N, 6, max n_i) arrays, zero past a leg's last joint. What is built on
     three-joint legs (the regressor, the Pinocchio leg models of :class:`LegDynamics`)
     raises :class:`UnsupportedArchitectureError`."""
+
+    def analytic_base_parameters(
+        self, rules: AnalyticRules[_Result], desc: RobotDescription
+    ) -> _Result:
+        """No grouping rules foresee an arbitrary chain (the rules' error)."""
+        return rules.chain_leg_rules(desc)
 
     def check_home(self, r: PathOwner) -> None:
         """Each leg reaches its attachment at the home pose from its guess, inside its

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 import numpy as np
 
@@ -43,7 +42,7 @@ def _ik(args: argparse.Namespace) -> int:
     np.set_printoptions(precision=6, suppress=True)
     print(f"pose 0Tp:\n{T}")
     desc = robot.description
-    legs: tuple[Any, ...] = desc.chain_legs or desc.leg_architectures
+    legs = desc.joint_legs  # chain legs: n joints each
     actuated = {leg.actuated for leg in legs}
     shared = f"q{actuated.pop()}" if len(actuated) == 1 else "* marks it"
     print(

@@ -25,6 +25,7 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin.codegen import _csource
+from stewart_pin.codegen._resolution import ReferenceChecks, ReferenceResults, Resolution
 from stewart_pin.codegen._sx_common import SymbolicModels, function, pose_from_input, vcross
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
@@ -53,7 +54,7 @@ from stewart_pin.codegen.symbolic import (
     model_constants,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import ExportError, InputError
+from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -124,6 +125,16 @@ class CodegenKind(Protocol):
         """Where the guarded models put their by-products."""
         ...
 
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """What the compiled backend does with the states its guard flags (a new object:
+        it may cache the reference models)."""
+        ...
+
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        """The models with every Coulomb sign ``sign(qd)`` as ``tanh(qd / eps)`` (``eps``
+        [m/s or rad/s] > 0), for optimisers (uncached)."""
+        ...
+
     def singularity_length(self, desc: RobotDescription) -> float:
         """The length [m] dividing ``Jp^-1``'s angular columns in the singularity measure."""
         ...
@@ -134,11 +145,6 @@ class CodegenKind(Protocol):
 
     def base_parameters(self, desc: RobotDescription) -> tuple[tuple[str, ...], np.ndarray]:
         """The names and values of the models' ``base_parameters`` input."""
-        ...
-
-    def limits_in_python(self, desc: RobotDescription) -> bool:
-        """Whether every call must run the reference inverse geometry (limits the guard
-        does not know)."""
         ...
 
     def actuator_function(self, desc: RobotDescription) -> cs.Function:
@@ -188,12 +194,21 @@ class PaperUpsCodegen:
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return UPS_AUX_LAYOUT
 
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """The reference checks decide; the compiled results stand."""
+        return ReferenceChecks(desc, self.singularity_length(desc))
+
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        """Its own models: the ideal 6-UPS has no friction to smooth."""
+        return generate_models(desc)
+
     def singularity_length(self, desc: RobotDescription) -> float:
         return characteristic_length(desc)
 
     def leg_checks_source(self, desc: RobotDescription, layout: AuxLayout) -> str:
-        """The 6-UPS leg lengths and leg singularities (:data:`._csource.CHECK_LEGS_UPS`,
-        the thresholds of :mod:`stewart_pin.kinematics.geometry` with margins)."""
+        """The 6-UPS leg lengths, leg singularities and U-joint limits if any
+        (:data:`._csource.CHECK_LEGS_UPS`, :data:`._csource.CHECK_U_JOINTS_UPS`, the
+        thresholds of :mod:`stewart_pin.kinematics.geometry` with margins)."""
         lo, hi = (float(x) for x in desc.ideal_stroke("the 6-UPS leg checks"))
         min_length = LEG_MIN_LENGTH_RATIO * characteristic_length(desc)
         return _csource.CHECK_LEGS_UPS % {
@@ -203,14 +218,12 @@ class PaperUpsCodegen:
             "min_sin2": LEG_SINGULARITY_SIN**2 * (1.0 + 1e-6),
             "q3sq": AUX_Q3SQ.start,
             "rho2": AUX_RHO2.start,
+            "u_joint_check": _u_joint_check(desc, layout.jinv),
         }
 
     def base_parameters(self, desc: RobotDescription) -> tuple[tuple[str, ...], np.ndarray]:
         bp = grouped_parameters(desc)
         return bp.names, np.ascontiguousarray(bp.values, dtype=np.float64)
-
-    def limits_in_python(self, desc: RobotDescription) -> bool:
-        return desc.u_joint_limits is not None  # the guard does not know the angles
 
     def actuator_function(self, desc: RobotDescription) -> cs.Function:
         """The leg lengths ``l_i = |p + R P_i - B_i|`` [m] and their rates
@@ -276,14 +289,36 @@ class PaperUpsCodegen:
         return [0] * 6
 
     def check_exportable(self, desc: RobotDescription) -> None:
-        if desc.u_joint_limits is not None:
-            raise ExportError(
-                "a 6-UPS robot with U-joint limits cannot export: its guard does not know the "
-                "U-joint angles (describe the legs as 'ups' legs to export with limits)"
-            )
+        """Every 6-UPS exports (its stroke and U-joint limits are in the guard)."""
 
     def has_custom_leg(self, desc: RobotDescription) -> bool:
         return False
+
+
+#: The margin [rad] narrowing each U-joint limit in the C guard (a flagged state is
+#: decided by the reference; the exported C refuses within it).
+U_JOINT_MARGIN = 1e-9
+
+
+def _u_joint_check(desc: RobotDescription, jinv: int) -> str:
+    """The C checking the 6-UPS's U-joint angles against ``desc.u_joint_limits`` (each
+    narrowed by :data:`U_JOINT_MARGIN`; ``jinv`` where ``Jp^-1`` starts in ``aux``), or
+    nothing for a robot without U-joint limits."""
+    if desc.u_joint_limits is None:
+        return ""
+    rows = ", ".join(
+        "{" + ", ".join(repr(float(x)) for x in R.ravel()) + "}" for R in desc.leg_base_rotations
+    )
+    lim = np.asarray(desc.u_joint_limits, dtype=np.float64)
+    narrowed = lim + np.array([U_JOINT_MARGIN, -U_JOINT_MARGIN])
+    limits = ", ".join(
+        "{" + ", ".join(repr(float(x)) for x in leg.ravel()) + "}" for leg in narrowed
+    )
+    return _csource.CHECK_U_JOINTS_UPS % {
+        "rotations": rows,
+        "limits": limits,
+        "jinv": jinv,
+    }
 
 
 class LegChainCodegen:
@@ -307,6 +342,13 @@ class LegChainCodegen:
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return aux_layout(generate_models(desc))
 
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """The reference path computes the flagged states."""
+        return ReferenceResults(desc)
+
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        return build_general_models(desc, coulomb_smoothing=eps)[0]
+
     def singularity_length(self, desc: RobotDescription) -> float:
         return general_robot(desc).size  # the platform radius, as the reference path
 
@@ -316,9 +358,6 @@ class LegChainCodegen:
 
     def base_parameters(self, desc: RobotDescription) -> tuple[tuple[str, ...], np.ndarray]:
         return (), np.zeros(0)  # compiled in
-
-    def limits_in_python(self, desc: RobotDescription) -> bool:
-        return False  # in the guard (the slacks)
 
     def actuator_function(self, desc: RobotDescription) -> cs.Function:
         return actuator_function(desc)

@@ -9,7 +9,8 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
   a reflection;
 - ``GEOMETRY``: for the paper's 6-UPS models (:data:`CHECK_LEGS_UPS`), a leg shorter than
   (or within 1e-6 of) the minimum leg length, as close to its first U-joint axis as the
-  threshold, or outside (or within 1e-9 of the ends of) its stroke (thresholds of
+  threshold, outside (or within 1e-9 of the ends of) its stroke, or a U-joint angle
+  outside (or within 1e-9 rad of) its limits (:data:`CHECK_U_JOINTS_UPS`; thresholds of
   :mod:`stewart_pin.kinematics.geometry`); for general legs (:data:`CHECK_LEGS_GENERAL`), a
   slack of the generated code not positive (a leg out of reach or near it, near a serial
   singularity, a joint at or near its limits, a custom leg's Newton residual: see
@@ -76,8 +77,34 @@ static int sp_check_legs(const double* aux, int slack) {
     if (!(q3sq[k] > sp_min_length2)) return SP_GEOMETRY;
     if (!(rho2[k] > sp_min_sin2 * q3sq[k])) return SP_GEOMETRY;
   }
-  return 0;
+%(u_joint_check)s  return 0;
 }
+"""
+
+#: The U-joint limits of the paper's 6-UPS (``desc.u_joint_limits``), inserted in
+#: :data:`CHECK_LEGS_UPS` when the robot has them: the angles ``q1i = atan2(u_y, u_x)``,
+#: ``q2i = atan2(hypot(u_x, u_y), -u_z)`` of the leg direction ``u = R_i^T a_i`` in the
+#: leg's base frame (``a_i`` the first three entries of row i of ``Jp^-1`` in ``aux``,
+#: :func:`stewart_pin.kinematics.geometry.inverse_geometry_batch`'s arithmetic), each
+#: within its limits narrowed by 1e-9 rad (the margin: a flagged state is decided by the
+#: reference). Runs after the length and singularity checks (``a_i`` finite then).
+CHECK_U_JOINTS_UPS = r"""  {
+    /* R_i row-major (leg base frame -> F0), then [q1 lo, q1 hi, q2 lo, q2 hi] [rad] */
+    static const double R[6][9] = {%(rotations)s};
+    static const double lim[6][4] = {%(limits)s};
+    const double* a;
+    double u0, u1, u2, q1, q2;
+    for (k = 0; k < 6; ++k) {
+      a = aux + %(jinv)d + 6 * k;
+      u0 = R[k][0] * a[0] + R[k][3] * a[1] + R[k][6] * a[2];
+      u1 = R[k][1] * a[0] + R[k][4] * a[1] + R[k][7] * a[2];
+      u2 = R[k][2] * a[0] + R[k][5] * a[1] + R[k][8] * a[2];
+      q1 = atan2(u1, u0);
+      q2 = atan2(sqrt(u0 * u0 + u1 * u1), -u2);
+      if (!(q1 >= lim[k][0] && q1 <= lim[k][1])) return SP_GEOMETRY;
+      if (!(q2 >= lim[k][2] && q2 <= lim[k][3])) return SP_GEOMETRY;
+    }
+  }
 """
 
 #: The leg checks of the general-leg models: every slack of the generated code (reach,

@@ -48,16 +48,17 @@ CasADi's virtual machine: correct, slower, with one warning giving the reason.
 Validation. The results are those of the reference path (``StewartRobot.inverse_dynamics``
 / ``direct_dynamics``), errors included: the C guard checks each state cheaply (finite
 inputs, orthonormal rotation, leg lengths within the stroke and away from the leg
-singularities from the generated code's ``q3^2`` and ``rho^2``, and an upper bound of the
+singularities from the generated code's ``q3^2`` and ``rho^2``, U-joint angles within their
+limits (if any) from the rows of ``Jp^-1``, and an upper bound of the
 singularity measure); any state it flags sends the batch through the reference checks
 (:func:`stewart_pin._checks.check_poses`,
 :func:`stewart_pin.kinematics.geometry.inverse_geometry_batch`,
 :func:`stewart_pin.kinematics.jacobians.check_condition` on the flagged states), which raise
-:class:`~stewart_pin.exceptions.InputError`, :class:`~stewart_pin.exceptions.StrokeLimitError`
-or :class:`~stewart_pin.exceptions.SingularityError` with the reference's messages. A robot
-with U-joint limits always runs the reference inverse geometry (the guard does not know
-the angles). The IDM's static-pivot LU is backed by a partial-pivoting solve in C when a
-multiplier grows past :data:`._csource.GROWTH_LIMIT`.
+:class:`~stewart_pin.exceptions.InputError`, :class:`~stewart_pin.exceptions.StrokeLimitError`,
+:class:`~stewart_pin.exceptions.JointLimitError` or
+:class:`~stewart_pin.exceptions.SingularityError` with the reference's messages. The
+IDM's static-pivot LU is backed by a partial-pivoting solve in C when a multiplier grows
+past :data:`._csource.GROWTH_LIMIT`.
 """
 
 from __future__ import annotations
@@ -86,7 +87,7 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states, in_batch
+from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states
 from stewart_pin.codegen import _csource, _simd
 from stewart_pin.codegen._architecture import UPS_AUX_LAYOUT as UPS_AUX_LAYOUT  # its old home
 from stewart_pin.codegen._architecture import codegen_kind, generate_models
@@ -95,34 +96,17 @@ from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.leg_chain_symbolic import (
     GENERAL_GENERATOR_VERSION,
     AuxLayout,
-    general_robot,
 )
 from stewart_pin.codegen.symbolic import (
-    AUX_DDM_D,
-    AUX_IDM_F,
-    AUX_IDM_GROWTH,
-    AUX_IDM_HZ,
-    AUX_JINV,
     GENERATOR_VERSION,
 )
-from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
-from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import (
     CompilationError,
     InputError,
-    NumericalError,
-    SingularityError,
-    StewartPinError,
     UnsafeCacheError,
     UnsupportedArchitectureError,
 )
-from stewart_pin.kinematics import leg_chains
-from stewart_pin.kinematics.geometry import (
-    inverse_geometry_batch,
-)
 from stewart_pin.kinematics.jacobians import (
-    check_condition,
-    inverse_jacobian_batch,
     scaled_inverse_jacobian,
 )
 from stewart_pin.protocols import RobotLike
@@ -164,7 +148,7 @@ THREAD_MIN_STATES = 512
 #: States per CasADi VM call in the fallback.
 VM_CHUNK = 4096
 
-_INPUT, _GEOMETRY, _COND = FLAG_NAMES["INPUT"], FLAG_NAMES["GEOMETRY"], FLAG_NAMES["COND"]
+_GEOMETRY, _COND = FLAG_NAMES["GEOMETRY"], FLAG_NAMES["COND"]
 _NOT_PD, _NONFINITE = FLAG_NAMES["NOT_PD"], FLAG_NAMES["NONFINITE"]
 _REPIVOTED = FLAG_NAMES["REPIVOTED"]
 _LIB_NAME = "libstewart_models.so"
@@ -173,8 +157,6 @@ _MANIFEST_NAME = "manifest.json"
 _LOCK_NAME = ".lock"
 _WARNED: set[str] = set()
 _COMPILER_IDS: dict[str, str] = {}
-#: The result each model checks, named as the reference names it in its NumericalError.
-_OUTPUTS = {"idm": IDM_OUTPUT, "ddm": DDM_OUTPUT}
 
 
 def cache_root() -> Path:
@@ -824,14 +806,11 @@ class CompiledDynamics:
         desc = robot.description
         self._desc = desc
         kind = codegen_kind(desc)
-        self.general = kind.generic_models
+        self.general = kind.generic_models  # public; nothing here branches on it
         self.parameter_names, self.base_values = kind.base_parameters(desc)
-        self._limits = kind.limits_in_python(desc)
-        if self.general:
-            self._hexapod = general_robot(desc)
-            self._reference_models: Any = None
         self.base_values.flags.writeable = False
         self._length = singularity_length(desc)
+        self._resolution = kind.resolution(desc)
         self.kind, self.reason = "vm", None
         self.library: Path | None = None
         self.compiled_now = False
@@ -927,7 +906,7 @@ class CompiledDynamics:
         checked (``(len(parameter_names),)``, finite), C-contiguous float64."""
         if base_values is None:
             return self.base_values
-        if self.general:
+        if not self.parameter_names:
             raise InputError(
                 f"base_values: robot '{self._desc.name}' has general legs, whose compiled "
                 "models have their inertial parameters built in (no base-parameter input); "
@@ -972,11 +951,8 @@ class CompiledDynamics:
         out = np.empty((n, 6))
         flags = np.empty(n, dtype=np.int32)
         any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
-        if self.general:
-            if any_flag & ~_REPIVOTED:
-                self._resolve_general(which, flags, pose, twist, x, T, V, X, out)
-        elif any_flag or self._limits:
-            self._resolve(which, flags, pose, twist, x, name, T.reshape(-1, 4, 4))
+        if any_flag & ~_REPIVOTED:
+            self._resolve(which, flags, (pose, twist, x, name), T, V, X, out)
         return out if batched else out[0]
 
     def _call_batch(
@@ -1040,104 +1016,27 @@ class CompiledDynamics:
         with self._lock:
             flag = self._c_one[which](block, chi_ptr, c_max_cond, self._one_out_ptr)
             out = self._one_out.copy()
-        if self.general:
-            if flag & ~_REPIVOTED:
-                T = np.frombuffer(block, count=16).reshape(1, 4, 4).copy()
-                args = (pose[None], twist[None], x[None]) if batch else (pose, twist, x)
-                self._resolve_general(
-                    which,
-                    np.array([flag], dtype=np.int32),
-                    *args,
-                    T,
-                    twist[None],
-                    x[None],
-                    out[None],
-                )
-            return out
-        if flag or self._limits:
+        if flag & ~_REPIVOTED:
             T = np.frombuffer(block, count=16).reshape(1, 4, 4).copy()
-            if batch:
-                pose, twist, x = pose[None], twist[None], x[None]
-            self._resolve(which, np.array([flag], dtype=np.int32), pose, twist, x, name, T)
+            args = (pose[None], twist[None], x[None]) if batch else (pose, twist, x)
+            flags = np.array([flag], dtype=np.int32)
+            self._resolve(which, flags, (*args, name), T, twist[None], x[None], out[None])
         return out
 
     def _resolve(
         self,
         which: str,
         flags: np.ndarray,
-        pose: Any,
-        twist: Any,
-        x: Any,
-        name: str,
-        T: np.ndarray,
-    ) -> None:
-        """Raise the reference's error for flagged states (or accept them)."""
-        bits = int(np.bitwise_or.reduce(flags)) if flags.size else 0
-        desc = self._desc
-        if bits & _INPUT:
-            check_states(pose, (twist, "twist"), (x, name))
-        if bits & _GEOMETRY or self._limits:
-            inverse_geometry_batch(desc, T)
-        max_condition = self.robot.max_condition
-        if bits & _COND:
-            idx = np.flatnonzero(flags & _COND)
-            J = scaled_inverse_jacobian(inverse_jacobian_batch(desc, T[idx]), self._length)
-            if np.any(~(np.linalg.cond(J) <= max_condition)):
-                check_condition(inverse_jacobian_batch(desc, T), max_condition, desc)
-        if bits & _NOT_PD:
-            raise in_batch(SingularityError.not_positive_definite(), flags & _NOT_PD)
-        if bits & _NONFINITE:
-            bad = (flags & _NONFINITE) != 0
-            raise NumericalError(
-                _OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), int(bad.size)
-            )
-
-    def _reference(self, which: str) -> Callable[[Any, Any, Any], np.ndarray]:
-        """The reference path of a general robot (:class:`GeneralDynamics`, joint limits
-        checked, the robot's current ``max_condition``), as ``StewartRobot`` runs it."""
-        if self._reference_models is None:
-            self._reference_models = GeneralDynamics(self._hexapod, check_limits=True)
-        ref = self._reference_models
-        ref.max_condition = self.robot.max_condition
-        return ref.inverse_dynamics if which == "idm" else ref.direct_dynamics
-
-    def _resolve_general(
-        self,
-        which: str,
-        flags: np.ndarray,
-        pose: Any,
-        twist: Any,
-        x: Any,
+        args: tuple[Any, Any, Any, str],
         T: np.ndarray,
         V: np.ndarray,
         X: np.ndarray,
         out: np.ndarray,
     ) -> None:
-        """General legs: the states the guard flagged (but ``REPIVOTED`` alone, solved
-        already) go through the reference path, whose results replace the compiled ones in
-        ``out``; if the reference refuses one, the whole batch goes through it, to raise
-        its error exactly as it would (the state index counts in the whole batch)."""
-        bad = np.flatnonzero(flags & ~_REPIVOTED)
-        if bad.size == 0:
-            return
-        only_cond = (flags[bad] & ~_REPIVOTED) == _COND
-        if np.any(only_cond):  # the cheap bound passed the threshold: the exact measure
-            idx = bad[only_cond]
-            J = leg_chains.inverse_jacobian_batch(self._hexapod, T.reshape(-1, 4, 4)[idx])
-            cond = leg_chains.condition_number_batch(self._hexapod, J)
-            bad = np.setdiff1d(bad, idx[cond <= self.robot.max_condition])
-            if bad.size == 0:
-                return
-        ref = self._reference(which)
-        with np.errstate(over="ignore", invalid="ignore"):
-            try:
-                values = ref(
-                    T.reshape(-1, 4, 4)[bad], V.reshape(-1, 6)[bad], X.reshape(-1, 6)[bad]
-                )
-            except StewartPinError:
-                ref(pose, twist, x)  # raises the reference's error for the whole batch
-                raise  # pragma: no cover - the subset failed, so the whole batch does
-        out.reshape(-1, 6)[bad] = values
+        """The flagged states as the architecture resolves them
+        (:mod:`._resolution`: the reference's checks, or its results into ``out``);
+        ``args`` the call's ``(pose, twist, x, name)``."""
+        self._resolution.resolve(which, flags, args, T, V, X, out, self.robot.max_condition)
 
     # ------------------------------------------------------------------ virtual machine
     def _vm_function(self, which: str) -> cs.Function:
@@ -1150,13 +1049,12 @@ class CompiledDynamics:
     def _run_vm(
         self, which: str, pose: Any, twist: Any, x: Any, name: str, chi: np.ndarray
     ) -> np.ndarray:
+        """The models in CasADi's VM: the architecture's checks first
+        (:meth:`._resolution.Resolution.before_vm`), then the C guard's flags computed
+        from ``aux`` in numpy (the slacks, the exact singularity measure, the pivots,
+        finite results) and resolved as the compiled path resolves them."""
         batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
-        if self.general:
-            out = self._run_vm_general(which, pose, twist, x, T, V, X)
-            return out if batched else out[0]
-        desc = self._desc
-        inverse_geometry_batch(desc, T)
-        check_condition(inverse_jacobian_batch(desc, T), self.robot.max_condition, desc)
+        self._resolution.before_vm(T, self.robot.max_condition)
         f = self._vm_function(which)
         n = T.shape[0]
         out = np.empty((n, 6))
@@ -1164,37 +1062,6 @@ class CompiledDynamics:
         for s in range(0, n, VM_CHUNK):
             e = min(n, s + VM_CHUNK)
             r, a = f(T[s:e].reshape(-1, 16).T, V[s:e].T, X[s:e].T, chi)
-            out[s:e], aux[s:e] = np.array(r).T, np.array(a).T
-        if which == "idm":
-            bad = np.flatnonzero(~(aux[:, AUX_IDM_GROWTH] <= GROWTH_LIMIT))
-            for k in bad:  # static pivots off: solve again with partial pivoting
-                J = aux[k, AUX_JINV].reshape(6, 6)
-                out[k] = aux[k, AUX_IDM_HZ] + np.linalg.solve(J.T, aux[k, AUX_IDM_F])
-        elif np.any(~(aux[:, AUX_DDM_D] > 0.0)):
-            raise in_batch(SingularityError.not_positive_definite(), ~(aux[:, AUX_DDM_D] > 0.0))
-        check_finite(out, _OUTPUTS[which])
-        return out if batched else out[0]
-
-    def _run_vm_general(
-        self,
-        which: str,
-        pose: Any,
-        twist: Any,
-        x: Any,
-        T: np.ndarray,
-        V: np.ndarray,
-        X: np.ndarray,
-    ) -> np.ndarray:
-        """General legs in the VM: the C guard's flags computed from ``aux`` in numpy (the
-        slacks, the exact singularity measure, the pivots, finite results), then
-        :meth:`_resolve_general`."""
-        f = self._vm_function(which)
-        n = T.shape[0]
-        out = np.empty((n, 6))
-        aux = np.empty((n, f.size1_out(1)))
-        for s in range(0, n, VM_CHUNK):
-            e = min(n, s + VM_CHUNK)
-            r, a = f(T[s:e].reshape(-1, 16).T, V[s:e].T, X[s:e].T, np.zeros(0))
             out[s:e], aux[s:e] = np.array(r).T, np.array(a).T
         layout = model_layout(self._desc)
         start = layout.idm_slack if which == "idm" else layout.ddm_slack
@@ -1216,8 +1083,9 @@ class CompiledDynamics:
                 D = aux[:, layout.ddm_d : layout.ddm_d + 6]
                 flags[~np.all(D > 0.0, axis=1)] |= _NOT_PD
             flags[~np.all(np.isfinite(out), axis=1)] |= _NONFINITE
-        self._resolve_general(which, flags, pose, twist, x, T, V, X, out)
-        return out
+        if np.any(flags):
+            self._resolve(which, flags, (pose, twist, x, name), T, V, X, out)
+        return out if batched else out[0]
 
 
 #: The attributes under which a robot keeps its backends (the robot and its backend live

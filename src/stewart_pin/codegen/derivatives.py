@@ -221,8 +221,11 @@ def symbolic_derivatives(models: SymbolicModels) -> SymbolicDerivatives:
     return result
 
 
-def symbolic_models_for(robot: RobotLike) -> SymbolicModels:
-    """The generated closed-form models the derivatives of ``robot`` are built from.
+def symbolic_models_for(robot: RobotLike, coulomb_smoothing: float = 0.0) -> SymbolicModels:
+    """The generated closed-form models the derivatives of ``robot`` are built from
+    (``coulomb_smoothing`` > 0, ``eps`` [m/s for a prismatic joint, rad/s for a revolute
+    one]: every Coulomb sign ``sign(qd)`` of the models smoothed as ``tanh(qd / eps)``,
+    the planner's smooth model; built anew on each call).
 
     This is the one place that says which architectures have them: every robot, through
     :func:`~.symbolic.generate_models` (the ideal 6-UPS: the paper's models with the 88
@@ -231,6 +234,8 @@ def symbolic_models_for(robot: RobotLike) -> SymbolicModels:
     empty ``base_parameters`` input, so that the derivatives take an empty parameter
     vector).
     """
+    if coulomb_smoothing > 0.0:
+        return codegen_kind(robot.description).smooth_models(robot.description, coulomb_smoothing)
     return generate_models(robot.description)
 
 

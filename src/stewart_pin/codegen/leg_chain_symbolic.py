@@ -249,6 +249,8 @@ class _JointConst:
     rest: float
     inertia: tuple[float, ...]  # XX XY XZ YY YZ ZZ MX MY MZ M, frame j about O_j
     gravcomp: float = 0.0  # the fraction of the link's weight removed
+    #: > 0: Coulomb's sign smoothed as tanh(qd / coulomb_smoothing) [m/s or rad/s]
+    coulomb_smoothing: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -270,7 +272,11 @@ class _LegConst:
     inline_newton: bool = True  # custom legs: Newton's steps inline, or calls of one step
 
 
-def leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> _LegConst:
+def leg_constants(
+    robot: GeneralHexapod, k: int, inline_newton: bool = True, coulomb_smoothing: float = 0.0
+) -> _LegConst:
+    """Leg ``k``'s numbers; ``coulomb_smoothing`` > 0 [m/s or rad/s, each joint's rate
+    unit]: its joints' Coulomb sign smoothed (:func:`build_general_models`)."""
     leg: LegArchitecture = robot.legs[k]
     size = max(robot.size, float(np.abs(robot.base_points).max()), 1e-300)
     joints = []
@@ -296,6 +302,7 @@ def leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> 
                 rest=dyn.rest_position,
                 inertia=tuple(float(x) for x in m),
                 gravcomp=float(robot.leg_gravcomp[k, j]),
+                coulomb_smoothing=float(coulomb_smoothing),
             )
         )
     R = robot.leg_base_rotations[k]
@@ -690,7 +697,10 @@ def _joint_terms(
         if k.viscous:
             t = _plus(t, _mul(k.viscous, qd[j]))
         if k.coulomb and not isinstance(qd[j], (int, float)):
-            sign = cs.if_else(cs.fabs(qd[j]) > COULOMB_DEAD_BAND, cs.sign(qd[j]), 0.0)
+            if k.coulomb_smoothing > 0.0:  # the planner's smooth model
+                sign = cs.tanh(qd[j] / k.coulomb_smoothing)
+            else:
+                sign = cs.if_else(cs.fabs(qd[j]) > COULOMB_DEAD_BAND, cs.sign(qd[j]), 0.0)
             t = _plus(t, _mul(k.coulomb, sign))
         if k.stiffness:
             t = _plus(t, _mul(k.stiffness, _minus(J.value(), k.rest)))
@@ -964,15 +974,20 @@ def build_general_models(
     prefix: str = "stewart_",
     stages: bool = False,
     inline_newton: bool = False,
+    coulomb_smoothing: float = 0.0,
 ) -> tuple[SymbolicModels, AuxLayout]:
     """The IDM and DDM of a robot with general legs (or an ideal 6-UPS robot taken as
     ``ups`` legs), as :class:`SymbolicModels` (``parameters="numeric"``, an empty
     ``base_parameters`` input), with the layout of their ``aux`` output. ``stages``: also
     split them for the operation counts (:attr:`SymbolicModels.idm_stages`; ``None``
     without: they take as long again to generate). ``inline_newton``: a custom leg's
-    Newton steps written out (for the operation counts) rather than called."""
+    Newton steps written out (for the operation counts) rather than called.
+    ``coulomb_smoothing`` > 0 (``eps`` [m/s for a prismatic joint, rad/s for a revolute
+    one]): every joint's Coulomb term ``Fc sign(qd)`` becomes ``Fc tanh(qd / eps)``, a
+    smooth model for optimisers (:mod:`stewart_pin.planning.point_to_point`); 0: the
+    exact model."""
     robot = general_robot(desc)
-    legs = [leg_constants(robot, k, inline_newton) for k in range(6)]
+    legs = [leg_constants(robot, k, inline_newton, coulomb_smoothing) for k in range(6)]
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
     # the platform's weight less its gravity compensation (the legs' in leg_constants)

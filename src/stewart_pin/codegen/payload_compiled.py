@@ -63,7 +63,6 @@ from stewart_pin.exceptions import (
     StewartPinError,
     UnsafeCacheError,
 )
-from stewart_pin.kinematics.geometry import inverse_geometry_batch
 
 __all__ = ["TEMPLATE", "CompiledPayloadDynamics", "payload_backend", "payload_c_source"]
 
@@ -349,8 +348,6 @@ class CompiledPayloadDynamics:
         self.nq, self.nv = payload.nq, payload.nv
         self._shape_q, self._shape_v = (self.nq,), (self.nv,)
         arm_joints(payload)  # refuses a joint it cannot generate, before anything else
-        # U-joint limits (the 6-UPS legs'; general legs hold theirs, in the slacks)
-        self._limits = desc.u_joint_limits is not None
         identity = library_identity(
             desc, "payload models\n" + payload_identity(payload, desc.gravity)
         )
@@ -465,7 +462,7 @@ class CompiledPayloadDynamics:
             with self._lock:
                 flag = self._one[which](block, c_max_cond, self._out_ptr)
                 out = self._out.copy()
-            if flag & ~_REPIVOTED or self._limits:
+            if flag & ~_REPIVOTED:
                 self._resolve(which, np.array([flag]), args, out[None])
             return out, False, y
         nq, nv = self.nq, self.nv
@@ -494,7 +491,7 @@ class CompiledPayloadDynamics:
             )
 
         any_flag = split_batch(n, self.threads, THREAD_MIN_STATES, call)
-        if any_flag & ~_REPIVOTED or self._limits:
+        if any_flag & ~_REPIVOTED:
             self._resolve(which, flags, args, out, arrays)
         return (out, True, Y) if batched else (out[0], False, Y[0])
 
@@ -520,17 +517,11 @@ class CompiledPayloadDynamics:
     ) -> None:
         """The flagged states (but ``REPIVOTED`` alone, solved already) computed by the
         reference path into ``out`` (N, 6 + nv); a state it refuses: the reference on the
-        whole call, which raises its error. A 6-UPS robot with U-joint limits: its inverse
-        geometry checks them on every state (as the hexapod's compiled models)."""
+        whole call, which raises its error (the guard checks every leg limit, a 6-UPS's
+        U-joint angles too)."""
         ref = self._reference(which)
         if arrays is None:  # one native state
             arrays = [np.asarray(a)[None] for a in args]
-        if self._limits:
-            try:
-                inverse_geometry_batch(self._desc, arrays[0])
-            except StewartPinError:
-                ref(*args)
-                raise  # pragma: no cover - the reference raised
         bad = np.flatnonzero(flags & ~_REPIVOTED)
         if bad.size == 0:
             return

@@ -146,8 +146,6 @@ def _compiled(robot: RobotLike, backend: str) -> CompiledDynamics | str:
     models = fast(backend) if fast is not None else None
     if not isinstance(models, CompiledDynamics) or models.kind != "compiled":
         return f"the direct model of backend={backend!r} is not compiled"
-    if models._limits:
-        return "the robot has U-joint limits (checked by the reference inverse geometry)"
     return models
 
 

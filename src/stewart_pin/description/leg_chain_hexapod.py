@@ -132,6 +132,11 @@ class GeneralHexapod:
         return T
 
     @property
+    def joint_legs(self) -> tuple[LegArchitecture, ...]:
+        """The six legs as chains of joints (:attr:`RobotDescription.joint_legs`)."""
+        return self.legs
+
+    @property
     def architecture(self) -> str:
         """The legs' common architecture name, or ``"mixed"``."""
         names = {leg.name for leg in self.legs}

@@ -23,6 +23,7 @@ import json
 import math
 import re
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -567,6 +568,23 @@ class RobotDescription:
         (``chain_legs``): the chain-leg path, no closed form, no compiled model yet."""
         return self.chain_legs is not None
 
+    def canonical(
+        self, rewrite: Callable[[RobotDescription], RobotDescription]
+    ) -> RobotDescription:
+        """This robot with its legs in canonical form: ``rewrite(self)`` (the rewrite of
+        leg chains, :func:`stewart_pin.importers.canonical.canonical_description`), or for
+        the ideal 6-UPS robot itself (its legs are the paper's MDH Table I frames: the
+        canonical form, no chain to rewrite)."""
+        return self if self.legs is None else rewrite(self)
+
+    @property
+    def joint_legs(self) -> tuple[Any, ...]:
+        """The six legs as chains of 1-dof joints, whatever their kind: ``chain_legs``
+        (:class:`~stewart_pin.description.chain_leg.ChainLeg`), else
+        :attr:`leg_architectures` (three-joint ball legs, the ideal 6-UPS's included). Each
+        has ``joints`` and ``actuated`` (1-based)."""
+        return self.chain_legs if self.chain_legs is not None else self.leg_architectures
+
     @property
     def leg_architectures(self) -> tuple[LegArchitecture, ...]:
         """The six legs: ``legs``, or for the ideal 6-UPS robot :func:`ups` legs with its
@@ -619,6 +637,18 @@ class RobotDescription:
         """What the actuated joints' positions are called in messages: ``"leg lengths"``
         (the ideal 6-UPS), ``"actuated joint positions"`` (any other robot)."""
         return "leg lengths" if self.is_ideal_ups else "actuated joint positions"
+
+    @property
+    def position_label(self) -> str:
+        """The axis label of the actuated joints' positions in figures: ``"leg length [m]"``
+        (the ideal 6-UPS), ``"actuated joint [<unit>]"`` (any other robot)."""
+        return "leg length [m]" if self.is_ideal_ups else f"actuated joint [{self.position_unit}]"
+
+    @property
+    def positions_title(self) -> str:
+        """The title of a figure of the actuated joints' positions: ``"Leg lengths"`` (the
+        ideal 6-UPS), ``"Actuator positions"`` (any other robot)."""
+        return "Leg lengths" if self.is_ideal_ups else "Actuator positions"
 
     @property
     def limits_name(self) -> str:

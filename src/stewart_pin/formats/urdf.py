@@ -681,7 +681,7 @@ def joint_terms(desc: Any) -> dict[str, dict[str, Any]]:
     :class:`~stewart_pin.description.leg_architecture.JointDynamics`); ``armature`` is
     the joint-side total (rotor inertia reflected), the others as described."""
     out: dict[str, dict[str, Any]] = {}
-    legs = getattr(desc, "chain_legs", None) or desc.legs  # chain legs: n joints each
+    legs = desc.joint_legs  # chain legs: n joints each
     for i, leg in enumerate(legs, start=1):
         for j, joint in enumerate(leg.joints, start=1):
             d = joint.dynamics

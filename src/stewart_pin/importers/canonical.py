@@ -317,10 +317,14 @@ def canonical_description(desc: RobotDescription) -> RobotDescription:
     home pose unchanged; ``R_i``, ``B_i``, the MDH parameters, the tips and each link's
     ten inertial parameters (re-expressed in its canonical frame) in canonical form; the
     architecture names by structure (:func:`classify`), each leg's branch that of its home
-    configuration, its ``guess`` kept. The paper's ideal 6-UPS robot (``legs`` is
-    ``None``) is canonical: it is returned as it is. ``source`` is kept."""
-    if desc.legs is None:  # no leg chains to rewrite
-        return desc
+    configuration, its ``guess`` kept. The architecture says whether its legs need the
+    rewrite (:meth:`RobotDescription.canonical`: the paper's ideal 6-UPS is canonical as
+    written and is returned as it is). ``source`` is kept."""
+    return desc.canonical(_canonical_chains)
+
+
+def _canonical_chains(desc: RobotDescription) -> RobotDescription:
+    """:func:`canonical_description`'s rewrite of a robot's leg chains."""
     from stewart_pin.kinematics.leg_chains import inverse_geometry
 
     g = general_from_description(desc)

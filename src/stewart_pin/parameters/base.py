@@ -44,6 +44,7 @@ from stewart_pin.dynamics.regressor import (
     JOINT_TERMS_START,
     N_STANDARD,
     STANDARD_NAMES,
+    parameter_groups,
     standard_parameter_names,
     standard_parameters,
 )
@@ -326,15 +327,11 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
     a :class:`~stewart_pin.exceptions.BaseParameterWarning` names the legs: the numerical
     rank may or may not count them, and identification will not resolve them.
     """
-    if desc.chain_legs is not None:
-        raise UnsupportedArchitectureError(
-            f"robot '{desc.name}' has chain legs: no grouping rules foresee an arbitrary "
-            "chain; base_parameters(robot, 'numerical') gives the numerical base set",
-            "analytic_base_parameters",
-            desc.architecture,
-        )
-    if desc.legs is not None:
-        return _general_analytic(desc)
+    return reference_path(desc).analytic_base_parameters(_RULES, desc)
+
+
+def _paper_analytic(desc: RobotDescription) -> BaseParameters:
+    """:func:`analytic_base_parameters` for the ideal 6-UPS robot (the paper's rules)."""
     lateral, total = gravity_ratios(desc)
     weak = [
         f"leg {i + 1} (|g x z1| / g0 = {lateral[i]:.3g})"
@@ -349,7 +346,7 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
             "tolerance) but barely act on the forces; make the axis exactly vertical to drop "
             "them, or compare with method='numerical'",
             BaseParameterWarning,
-            stacklevel=2,
+            stacklevel=5,
         )
     if GRAVITY_TOLERANCE < total < WEAK_GRAVITY:
         warnings.warn(
@@ -357,7 +354,7 @@ def analytic_base_parameters(desc: RobotDescription) -> BaseParameters:
             f"of every leg are kept (above the {GRAVITY_TOLERANCE:g} g0 tolerance) but "
             "barely act on the forces; set gravity to 0 to drop them",
             BaseParameterWarning,
-            stacklevel=2,
+            stacklevel=5,
         )
     return _grouping(desc, lateral > GRAVITY_TOLERANCE, total > GRAVITY_TOLERANCE)
 
@@ -374,13 +371,35 @@ def _general_analytic(desc: RobotDescription) -> BaseParameters:
             "the parameters it keeps barely act on the forces; make the geometry exact to "
             "drop them, or compare with method='numerical'",
             BaseParameterWarning,
-            stacklevel=3,
+            stacklevel=5,
         )
     names = standard_parameter_names(desc)
     K = grouping.K
     return BaseParameters(
         grouping.names, K, grouping.kept, K @ standard_parameters(desc), None, names
     )
+
+
+class _AnalyticRules:
+    """The two sets of grouping rules; each architecture's path chooses its own
+    (:meth:`stewart_pin.architectures.LegChainPath.analytic_base_parameters`)."""
+
+    def paper_rules(self, desc: RobotDescription) -> BaseParameters:
+        return _paper_analytic(desc)
+
+    def leg_chain_rules(self, desc: RobotDescription) -> BaseParameters:
+        return _general_analytic(desc)
+
+    def chain_leg_rules(self, desc: RobotDescription) -> BaseParameters:
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has chain legs: no grouping rules foresee an arbitrary "
+            "chain; base_parameters(robot, 'numerical') gives the numerical base set",
+            "analytic_base_parameters",
+            desc.architecture,
+        )
+
+
+_RULES = _AnalyticRules()
 
 
 @dataclass(frozen=True)
@@ -464,15 +483,12 @@ def dimensionless_scales(desc: RobotDescription) -> tuple[np.ndarray, np.ndarray
             [1.0 / L if leg.joints[leg.actuated - 1].revolute else 1.0 for leg in chain]
         )
         return np.concatenate([body, terms]), rows
-    if desc.legs is None:
-        return columns, np.ones(6)
-    joints = [
+    joints = [  # the regressor's joint-term columns (none for the ideal 6-UPS's 190)
         L**a * T**b
-        for leg in desc.legs
-        for joint in leg.joints
-        for a, b in _JOINT_POWERS[joint.revolute]
+        for joint in parameter_groups(desc).joints
+        for a, b in _JOINT_POWERS[joint.kind == "revolute"]
     ]
-    actuated = [leg.joints[leg.actuated - 1] for leg in desc.legs]
+    actuated = [leg.joints[leg.actuated - 1] for leg in desc.leg_architectures]
     rows = np.array([1.0 / L if joint.revolute else 1.0 for joint in actuated])
     return np.concatenate([columns, joints]), rows
 

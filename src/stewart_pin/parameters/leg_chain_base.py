@@ -78,7 +78,7 @@ import numpy as np
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import transform_khalil
 from stewart_pin.description.leg_architecture import LegArchitecture
-from stewart_pin.dynamics.regressor import GENERAL_STANDARD_NAMES, joint_index
+from stewart_pin.dynamics.regressor import GENERAL_STANDARD_NAMES, joint_index, parameter_groups
 from stewart_pin.exceptions import UnsupportedArchitectureError
 
 #: Tolerance of the particular cases on the (dimensionless) kinetic energy functions: a
@@ -239,8 +239,7 @@ def _leg_rules(
     weak: list[tuple[str, float]],
 ) -> None:
     """Apply the relations of the module docstring to leg i (1..6)."""
-    assert desc.legs is not None
-    leg = desc.legs[i - 1]
+    leg = desc.leg_architectures[i - 1]
     T0 = np.eye(4)
     T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[i - 1], desc.base_points[i - 1]
     s = _samples(leg, T0, rng)
@@ -373,7 +372,7 @@ class GeneralGrouping:
 def uncovered_legs(desc: RobotDescription) -> list[int]:
     """The legs (1..6) the analytic rules do not cover (``custom``; none on the ideal
     6-UPS, which has the paper's rules)."""
-    legs = desc.legs or ()
+    legs = desc.leg_architectures
     return [i + 1 for i, leg in enumerate(legs) if leg.name not in COVERED]
 
 
@@ -385,9 +384,10 @@ def general_grouping(
     Raises:
         UnsupportedArchitectureError: a ``custom`` leg (use the numerical base set).
     """
-    if desc.legs is None:
+    if not parameter_groups(desc).joints:  # the rules index the joint-term columns
         raise UnsupportedArchitectureError(
-            "general_grouping is for robots with general legs; the ideal 6-UPS robot has "
+            "general_grouping indexes the joint terms of the leg chains' regressor; robot "
+            f"'{desc.name}' has the paper's 190 standard parameters (the ideal 6-UPS) and "
             "the paper's grouping (analytic_base_parameters)",
             "general_grouping",
             "ups",

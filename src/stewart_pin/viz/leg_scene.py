@@ -44,8 +44,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from stewart_pin.architectures import reference_path
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.formats.urdf import VisualSizes, plate_visual
 from stewart_pin.kinematics.leg_chains import LegFrames, inverse_geometry_batch, leg_forward
 
@@ -65,26 +66,28 @@ _Y_TO_Z = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
 
 def general_robot(robot: Any) -> GeneralHexapod | None:
-    """The robot with general legs behind ``robot``, or ``None`` for today's 6-UPS path.
+    """The leg chains the viewer draws for ``robot``, or ``None`` when it draws the
+    robot's URDF tree with its visuals.
 
-    ``robot`` may be a :class:`GeneralHexapod`, a description-like object with ``legs``
-    (the duck-typed attributes of :class:`GeneralHexapod`), or a robot holding one as
-    ``description``. A robot with a URDF tree (``tree`` and ``urdf``) whose legs are all
-    plain ``ups`` legs, or whose description has no (or ``None``) ``legs``, takes today's
-    path.
+    ``robot`` may be a :class:`GeneralHexapod` (drawn as chains), a
+    :class:`RobotDescription` or a robot holding one as ``description`` (its
+    architecture's path says which: :attr:`stewart_pin.architectures.LegChainPath.urdf_visuals`,
+    the ideal 6-UPS's tree), or a description-like object with ``legs`` (the duck-typed
+    attributes of :class:`GeneralHexapod`; without ``legs``, or with a URDF tree (``tree``
+    and ``urdf``) and only plain ``ups`` legs, the URDF tree is drawn).
     """
     desc = getattr(robot, "description", robot)
-    legs = getattr(desc, "legs", None)
-    if legs is None:
-        return None
-    if not isinstance(desc, RobotDescription) and (  # a description's legs are its own
+    if isinstance(desc, GeneralHexapod):
+        return desc
+    if isinstance(desc, RobotDescription):  # its architecture's path says how it is drawn
+        return None if reference_path(desc).urdf_visuals else general_from_description(desc)
+    legs = getattr(desc, "legs", None)  # a description-like object: duck-typed
+    if legs is None or (
         hasattr(robot, "tree")
         and hasattr(robot, "urdf")
         and all(getattr(leg, "name", None) == "ups" for leg in legs)
     ):
         return None
-    if isinstance(desc, GeneralHexapod):
-        return desc
     return GeneralHexapod(
         base_points=desc.base_points,
         leg_base_rotations=desc.leg_base_rotations,

@@ -253,23 +253,18 @@ def save_figures(
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    general = robot is not None and _general_legs(robot)
+    desc = None if robot is None else robot.description
     if effort_unit is None:
-        effort_unit = "N" if robot is None else robot.description.effort_unit
+        effort_unit = "N" if desc is None else desc.effort_unit
     figures = {
         "forces": plot_forces(result.t, result.gammas, effort_unit),
-        "lengths": plot_lengths(
-            result.t,
-            result.lengths,
-            None if robot is None or general else robot.description.stroke,
-        ),
+        # the shared stroke's lines (the ideal 6-UPS's; each leg's own limits: none)
+        "lengths": plot_lengths(result.t, result.lengths, None if desc is None else desc.stroke),
     }
-    if general:
-        # general legs: the actuated joint values (slides [m], cranks [rad]), no stroke
+    if desc is not None:  # the actuated joint values (lengths [m], slides [m], cranks [rad])
         (ax,) = figures["lengths"].axes
-        assert robot is not None
-        ax.set_ylabel(f"actuated joint [{robot.description.position_unit}]")
-        ax.set_title("Actuator positions")
+        ax.set_ylabel(desc.position_label)
+        ax.set_title(desc.positions_title)
     if reference is not None:
         reference = reference_poses(reference, result.t)
         figures["tracking_error"] = plot_tracking_error(result.t, result.poses, reference)
@@ -286,10 +281,3 @@ def save_figures(
         with atomic_open(paths[name], "wb") as handle:
             fig.savefig(handle, format="png", dpi=dpi)
     return paths
-
-
-def _general_legs(robot: Any) -> bool:
-    """Whether ``robot`` has general legs (drawn and plotted without a shared stroke)."""
-    from stewart_pin.viz.leg_scene import general_robot
-
-    return general_robot(robot) is not None

@@ -164,19 +164,7 @@ class CameraView:
         ``direction`` at the distance where the bounding sphere of that box fills
         meshcat's vertical field of view, times ``margin``.
         """
-        general = general_robot(robot)
-        if general is not None:
-            T, _ = check_poses(general.home_pose if poses is None else poses, "poses")
-            scene = LegScene(general, T)
-            points = scene.extent_points(T)
-            pad = 3.0 * scene.sizes.joint_radius
-        else:
-            T, _ = check_poses(robot.home_pose if poses is None else poses, "poses")
-            desc = robot.description
-            points = np.concatenate(
-                [desc.base_points, platform_points_in_base(desc, T).reshape(-1, 3)]
-            )
-            pad = 3.0 * VisualSizes.for_robot(desc).joint_radius
+        points, pad = drawing_for(robot).extent(poses)
         if extra_points is not None:
             points = np.concatenate([points, check_array(extra_points, (None, 3), "points")])
         lo, hi = points.min(axis=0) - pad, points.max(axis=0) + pad
@@ -314,18 +302,18 @@ class Viewer:
         Viewer(robot).export_html("motion.html", result.poses, result.t)
     """
 
+    #: The URDF tree and its visuals (a robot drawn from them: the ideal 6-UPS).
+    model: pin.Model
+    visual_model: pin.GeometryModel
+
     def __init__(self, robot: StewartRobot | Any, camera: CameraView | None = None):
         require_meshcat()
         self.robot = robot
-        #: The robot with general legs when it is drawn by :class:`LegScene`, else None.
-        self.general = general_robot(robot)
-        if self.general is None:
-            self.model: pin.Model = robot.tree.model
-            self.visual_model: pin.GeometryModel = visual_model(robot)
-            self.home_pose = np.asarray(robot.home_pose)
-        else:
-            self.home_pose = np.asarray(self.general.home_pose)
-        self._scene: LegScene | None = None
+        self._drawing = drawing_for(robot)
+        #: The leg chains when the robot is drawn by :class:`LegScene`, else None.
+        self.general = self._drawing.chains
+        self._drawing.attach(self)  # the URDF tree's: ``model``, ``visual_model``
+        self.home_pose = self._drawing.home_pose
         self.camera = camera or CameraView.fit(robot, margin=1.0)
         self._server: _Server | None = None
         self._viz: Any = None
@@ -373,16 +361,7 @@ class Viewer:
         """Draw the robot in ``visualizer`` and set the scene; returns Pinocchio's
         visualiser (6-UPS) or ``visualizer`` itself (general legs; ``poses`` (K, 4, 4)
         set the drawn range of rails without limits)."""
-        if self.general is not None:
-            self._scene = LegScene(self.general, poses)
-            self._scene.load(visualizer, ROOT_NODE)
-            _set_scene(visualizer, camera, self.robot)
-            return visualizer
-        from pinocchio.visualize import MeshcatVisualizer
-
-        viz = MeshcatVisualizer(self.model, None, self.visual_model)
-        viz.initViewer(viewer=visualizer)
-        viz.loadViewerModel(rootNodeName=ROOT_NODE)
+        viz = self._drawing.load(self, visualizer, poses)
         _set_scene(visualizer, camera, self.robot)
         return viz
 
@@ -395,32 +374,20 @@ class Viewer:
     # ------------------------------------------------------------------ live
     def _show(self, pose: np.ndarray) -> None:
         """Draw at one validated pose (the server runs)."""
-        if self.general is not None:
-            assert self._scene is not None  # set by _load
-            self._scene.display(self._viz, ROOT_NODE, pose)
-        else:
-            self._viz.display(tree_configuration(self.robot, pose))
+        self._drawing.show(self._viz, self._drawing.frames(pose[None])[0])
 
     def display(self, pose: Any) -> None:
         """Draw the robot at platform pose ``pose`` (0Tp, (4, 4) or ``pin.SE3``)."""
         T = check_pose(pose)
-        if self.general is None:
-            q = tree_configuration(self.robot, T)
-            self.start()
-            self._viz.display(q)
-            self._extra_display(T)
-            return
-        self.general_joint_values(T[None])  # reach errors before the server starts
+        frames = self._drawing.frames(T[None])  # reach errors before the server starts
         self.start()
-        self._show(T)
+        self._drawing.show(self._viz, frames[0])
         self._extra_display(T)
 
     def general_joint_values(self, poses: np.ndarray) -> np.ndarray:
-        """Joint values (K, 6, 3) the general-leg drawing uses at poses (K, 4, 4)."""
-        assert self.general is not None
-        from stewart_pin.kinematics.leg_chains import inverse_geometry_batch
-
-        return inverse_geometry_batch(self.general, poses, check_limits=False)
+        """Joint values (K, 6, 3) the general-leg drawing uses at poses (K, 4, 4)
+        (:class:`InputError` for a robot drawn from its URDF tree)."""
+        return self._drawing.joint_values(poses)
 
     def play(self, poses: Any, times: Any, speed: float = 1.0) -> None:
         """Play a motion live, in real time divided by ``speed``; samples the display
@@ -433,24 +400,9 @@ class Viewer:
         T, t = check_motion(poses, times)
         if not speed > 0:
             raise InputError(f"speed must be positive, got {speed}")
-        if self.general is not None:
-            self.general_joint_values(T)  # reach errors before anything is drawn
-            self.start()
-            assert self._scene is not None
-            placed = self._scene.placements(T)
-            vis = self._viz
-
-            def show(k: int) -> None:
-                for node in placed.matrices:
-                    vis[f"{ROOT_NODE}/{node}"].set_transform(placed.scaled(node, k))
-
-        else:
-            q = tree_configuration(self.robot, T)
-            self.start()
-
-            def show(k: int) -> None:
-                self._viz.display(q[k])
-
+        frames = self._drawing.frames(T)  # reach errors before anything is drawn
+        self.start()
+        show = self._drawing.shower(self._viz, frames)
         due = (t - t[0]) / speed
         t0 = time.perf_counter()
         for k in range(len(T)):
@@ -493,24 +445,12 @@ class Viewer:
         if not fps > 0:
             raise InputError(f"fps must be positive, got {fps}")
         keep = frame_indices(t, fps)
-        if self.general is not None:
-            self.general_joint_values(T[keep])  # reach errors before the server starts
-        else:
-            q = tree_configuration(self.robot, T[keep])
+        frames = self._drawing.frames(T[keep])  # reach errors before the server starts
         camera = camera or CameraView.fit(self.robot, T)
         with _Server(quiet=True) as server:
             vis = server.visualizer
             viz = self._load(vis, camera, T[keep])
-            if self.general is not None:
-                from meshcat.animation import Animation
-
-                assert self._scene is not None
-                self._scene.display(vis, ROOT_NODE, T[keep[0]])
-                animation = Animation(default_framerate=fps)
-                self._scene.animate(animation, vis, ROOT_NODE, T[keep], t[keep] - t[0], fps)
-            else:
-                viz.display(q[0])
-                animation = self.animation(vis, q, t[keep] - t[0], fps)
+            animation = self._drawing.animate(self, vis, viz, frames, t[keep] - t[0], fps)
             self._extra_animation(animation, vis, T, keep, t[keep] - t[0], fps)
             vis.set_animation(animation, play=True, repetitions=_repetitions(loop))
             html = vis.static_html()
@@ -560,6 +500,159 @@ class Viewer:
         return animation
 
 
+# ---------------------------------------------------------------------- the two drawings
+class _TreeDrawing:
+    """The robot's URDF tree with its visuals (Pinocchio's ``MeshcatVisualizer``); its
+    frames are tree configurations (K, nq)."""
+
+    chains = None
+
+    def __init__(self, robot: Any) -> None:
+        self.robot = robot
+
+    @property
+    def home_pose(self) -> np.ndarray:
+        return np.asarray(self.robot.home_pose)
+
+    def attach(self, viewer: Viewer) -> None:
+        viewer.model = self.robot.tree.model
+        viewer.visual_model = visual_model(self.robot)
+
+    def extent(self, poses: Any) -> tuple[np.ndarray, float]:
+        """Points (M, 3) in F0 the view holds at ``poses`` (default home), and a pad [m]."""
+        T, _ = check_poses(self.robot.home_pose if poses is None else poses, "poses")
+        desc = self.robot.description
+        points = np.concatenate(
+            [desc.base_points, platform_points_in_base(desc, T).reshape(-1, 3)]
+        )
+        return points, 3.0 * VisualSizes.for_robot(desc).joint_radius
+
+    def grid(self) -> tuple[float, VisualSizes, float]:
+        """The grid's scale, the visual sizes, the lowest drawn height [m]."""
+        desc = self.robot.description
+        scale = float(np.clip(desc.size / 2.5, 1e-3, 1e3))
+        return scale, VisualSizes.for_robot(desc), float(desc.base_points[:, 2].min())
+
+    def frames(self, T: np.ndarray) -> np.ndarray:
+        """What each pose (K, 4, 4) is drawn from; raises the reach errors."""
+        return tree_configuration(self.robot, T)
+
+    def joint_values(self, poses: np.ndarray) -> np.ndarray:
+        raise InputError("this robot is drawn from its URDF tree: it has no leg-chain drawing")
+
+    def load(self, viewer: Viewer, visualizer: Any, poses: Any) -> Any:
+        from pinocchio.visualize import MeshcatVisualizer
+
+        viz = MeshcatVisualizer(viewer.model, None, viewer.visual_model)
+        viz.initViewer(viewer=visualizer)
+        viz.loadViewerModel(rootNodeName=ROOT_NODE)
+        return viz
+
+    def show(self, viz: Any, frame: np.ndarray) -> None:
+        viz.display(frame)
+
+    def shower(self, viz: Any, frames: np.ndarray) -> Any:
+        def show(k: int) -> None:
+            viz.display(frames[k])
+
+        return show
+
+    def animate(
+        self,
+        viewer: Viewer,
+        vis: Any,
+        viz: Any,
+        frames: np.ndarray,
+        times: np.ndarray,
+        fps: float,
+    ) -> Any:
+        """The keyframes of ``frames`` at ``times`` [s] in ``vis`` (meshcat's visualiser;
+        ``viz`` what :meth:`load` returned), the first one drawn."""
+        viz.display(frames[0])
+        return viewer.animation(vis, frames, times, fps)
+
+
+class _ChainDrawing:
+    """The leg chains (:class:`LegScene`); its frames are the poses (K, 4, 4)."""
+
+    def __init__(self, chains: Any) -> None:
+        self.chains = chains
+        self.scene: LegScene | None = None
+
+    @property
+    def home_pose(self) -> np.ndarray:
+        return np.asarray(self.chains.home_pose)
+
+    def attach(self, viewer: Viewer) -> None:
+        """Nothing: the scene is built when loaded."""
+
+    def extent(self, poses: Any) -> tuple[np.ndarray, float]:
+        T, _ = check_poses(self.chains.home_pose if poses is None else poses, "poses")
+        scene = LegScene(self.chains, T)
+        return scene.extent_points(T), 3.0 * scene.sizes.joint_radius
+
+    def grid(self) -> tuple[float, VisualSizes, float]:
+        scene = LegScene(self.chains)
+        scale = float(np.clip(self.chains.size / 2.5, 1e-3, 1e3))
+        low = min(
+            self.chains.base_points[:, 2].min(),
+            scene.extent_points(self.chains.home_pose[None])[:, 2].min(),
+        )
+        return scale, scene.sizes, float(low)
+
+    def frames(self, T: np.ndarray) -> np.ndarray:
+        self.joint_values(T)  # the reach errors
+        return T
+
+    def joint_values(self, poses: np.ndarray) -> np.ndarray:
+        from stewart_pin.kinematics.leg_chains import inverse_geometry_batch
+
+        return inverse_geometry_batch(self.chains, poses, check_limits=False)
+
+    def load(self, viewer: Viewer, visualizer: Any, poses: Any) -> Any:
+        self.scene = LegScene(self.chains, poses)
+        self.scene.load(visualizer, ROOT_NODE)
+        return visualizer
+
+    def show(self, viz: Any, frame: np.ndarray) -> None:
+        assert self.scene is not None  # set by load
+        self.scene.display(viz, ROOT_NODE, frame)
+
+    def shower(self, viz: Any, frames: np.ndarray) -> Any:
+        assert self.scene is not None
+        placed = self.scene.placements(frames)
+
+        def show(k: int) -> None:
+            for node in placed.matrices:
+                viz[f"{ROOT_NODE}/{node}"].set_transform(placed.scaled(node, k))
+
+        return show
+
+    def animate(
+        self,
+        viewer: Viewer,
+        vis: Any,
+        viz: Any,
+        frames: np.ndarray,
+        times: np.ndarray,
+        fps: float,
+    ) -> Any:
+        from meshcat.animation import Animation
+
+        assert self.scene is not None
+        self.scene.display(vis, ROOT_NODE, frames[0])
+        animation = Animation(default_framerate=fps)
+        self.scene.animate(animation, vis, ROOT_NODE, frames, times, fps)
+        return animation
+
+
+def drawing_for(robot: Any) -> _TreeDrawing | _ChainDrawing:
+    """How the viewer draws ``robot``: the one choice, from :func:`general_robot` (the
+    architecture's path for a description)."""
+    general = general_robot(robot)
+    return _TreeDrawing(robot) if general is None else _ChainDrawing(general)
+
+
 def _repetitions(loop: bool) -> float:
     # three.js LoopRepeat: Infinity repeats forever (msgpack carries the float).
     return float("inf") if loop else 1
@@ -581,20 +674,7 @@ def _set_scene(visualizer: Any, camera: CameraView, robot: StewartRobot | Any) -
     visualizer[ROOT_NODE].set_transform(shift)
     # meshcat's grid: 20 m, cells of 0.5 m; scaled to cells of about a fifth of the robot,
     # and lowered under the base plate.
-    general = general_robot(robot)
-    if general is not None:
-        scene = LegScene(general)
-        scale = float(np.clip(general.size / 2.5, 1e-3, 1e3))
-        vs = scene.sizes
-        low = min(
-            general.base_points[:, 2].min(),
-            scene.extent_points(general.home_pose[None])[:, 2].min(),
-        )
-    else:
-        desc = robot.description
-        scale = float(np.clip(desc.size / 2.5, 1e-3, 1e3))
-        vs = VisualSizes.for_robot(desc)
-        low = desc.base_points[:, 2].min()
+    scale, vs, low = drawing_for(robot).grid()
     floor = low - vs.plate_thickness - 1.5 * vs.joint_radius
     visualizer["/Grid"].set_transform(_translation([0, 0, floor] - target, scale))
     visualizer["/Axes"].set_transform(_translation(-target, scale))
