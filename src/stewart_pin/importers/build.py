@@ -753,6 +753,7 @@ def build(
     approximations = []
     if rec.dropped:
         approximations.append(f"{len(rec.dropped)} nearly massless bodies taken as massless")
+    approximations.extend(rec.approximated)
     if snapped:
         approximations.append(
             f"axes made parallel in {len(snapped)} leg(s) (turned by up to {max(snapped):.2g} rad)"

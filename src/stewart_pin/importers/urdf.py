@@ -543,7 +543,7 @@ def read_urdf(
             F1 = sc.frame1 if sc.frame1 is not None else _inertial_origin(links[sc.link1])
             F2 = sc.frame2 if sc.frame2 is not None else _inertial_origin(links[sc.link2])
             tree_closures.append(
-                TreeClosure(sc.name, "weld", b1, b2, T_1_2=F1 @ np.linalg.inv(F2))
+                TreeClosure(sc.name, "weld", b1, b2, T_1_2=F1 @ np.linalg.inv(F2), frame2=F2)
             )
     elif sidecar is not None or from_dict:
         for c in parse_closures(data, source):
