@@ -238,6 +238,7 @@ def recognise(
     mass = float(sum(lk.inertia[9] for lk in moving)) or 1.0
     dropped: list[str] = []
     approximated: list[str] = []
+    ref_poses = model.poses() if approximate else np.zeros((0, 4, 4))
 
     def massless(link: Link) -> bool:
         if approximate:
@@ -317,16 +318,24 @@ def recognise(
             continue
         hinges = (e1.joint, e2.joint, e3.joint)
         tolerance = APPROXIMATE_INTERSECTION if approximate else INTERSECTION_TOLERANCE
-        centre = _meeting_point(hinges, tolerance)
-        if centre is None or _coplanar(hinges):
+        lines = hinges
+        if approximate:  # at the reference configuration (at zero they may be aligned)
+            lines = tuple(_line_at(model, ref_poses, e.body) for e in (e1, e2, e3))
+        centre = _meeting_point(lines, tolerance)
+        if centre is None or _coplanar(lines):
             continue
+        centre_child = centre_parent = centre
         if approximate:
-            miss = _miss(hinges, centre)
+            miss = _miss(lines)
+            b3, b0 = e3.body, model.bodies[e1.body].parent
+            back = [model.bodies[b].pose @ np.linalg.inv(ref_poses[b]) for b in (b3, b0)]
+            centre_child = back[0][:3, :3] @ centre + back[0][:3, 3]
+            centre_parent = back[1][:3, :3] @ centre + back[1][:3, 3]
             terms = [h.name for h in hinges if h.has_terms]
             mass = sum(float(links[i].inertia[9]) for i in (e1.child, e2.child))
             approximated.append(
                 f"hinges {shown_list([h.name for h in hinges])} taken as an ideal spherical "
-                f"joint (axes missing by up to {miss:.3g} m, {mass:.3g} kg between them dropped"
+                f"joint (axes missing each other by up to {miss:.3g} m, {mass:.3g} kg between them dropped"
                 + (f", joint terms of {shown_list(terms)} dropped" if terms else "")
                 + ")"
             )
@@ -346,8 +355,10 @@ def recognise(
                     "(a massless body of a three-hinge spherical joint)"
                 )
         sph = Edge(e1.parent, e3.child, e3.joint, e3.body, hinges, (e1.child, e2.child))
-        sph.centre_child = _in_link(links[e3.child], model, e3.body, centre)
-        sph.centre_parent = _in_link(links[e1.parent], model, model.bodies[e1.body].parent, centre)
+        sph.centre_child = _in_link(links[e3.child], model, e3.body, centre_child)
+        sph.centre_parent = _in_link(
+            links[e1.parent], model, model.bodies[e1.body].parent, centre_parent
+        )
         used.update({id(e1), id(e2), id(e3)})
         merged.append(sph)
         for h in hinges:
@@ -670,12 +681,28 @@ def _in_link(link: Link, model: KinematicModel, body: int, point: np.ndarray) ->
     return T[:3, :3] @ point + T[:3, 3]
 
 
-def _miss(hinges: Sequence[TreeJoint], c: np.ndarray) -> float:
-    """The largest distance [m] of the three lines from the point ``c``."""
+def _line_at(model: KinematicModel, poses: np.ndarray, body: int) -> TreeJoint:
+    """The hinge of ``body`` with its line (anchor, axis) in F0 at the configuration of
+    ``poses`` (the bodies' poses there)."""
+    J = model.bodies[body].joint
+    assert J is not None
+    parent = model.bodies[body].parent
+    M = poses[parent] @ np.linalg.inv(model.bodies[parent].pose)
+    return TreeJoint(J.name, J.kind, M[:3, :3] @ J.anchor + M[:3, 3], M[:3, :3] @ J.axis)
+
+
+def _miss(hinges: Sequence[TreeJoint]) -> float:
+    """The largest distance [m] between two of the three lines (0 when they meet)."""
     out = 0.0
-    for h in hinges:
-        v = c - h.anchor
-        out = max(out, float(np.linalg.norm(v - (v @ h.axis) * h.axis)))
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        ha, hb = hinges[a], hinges[b]
+        n = np.cross(ha.axis, hb.axis)
+        w = hb.anchor - ha.anchor
+        if np.linalg.norm(n) > 1e-12:
+            d = abs(float(w @ n)) / float(np.linalg.norm(n))
+        else:
+            d = float(np.linalg.norm(w - (w @ ha.axis) * ha.axis))
+        out = max(out, d)
     return out
 
 
