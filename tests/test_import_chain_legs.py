@@ -1,3 +1,4 @@
+# ruff: noqa: E501 (lines of XML kept whole, as they appear in the files written)
 """Published-style model files whose legs are not three 1-dof joints and an ideal ball load
 as chain legs, exactly (``docs/importing.md``, "Legs of any joints: chain legs").
 
@@ -90,7 +91,7 @@ def community_mjcf() -> str:
         return f'qpos="{" ".join(repr(x) for x in q)}"'
 
     xml = re.sub(r'qpos="([^"]+)"', key, xml)
-    assert xml.count(f" ref=\"{SLIDE_REF!r}\"") == 6 and xml.count("springdamper") == 6
+    assert xml.count(f' ref="{SLIDE_REF!r}"') == 6 and xml.count("springdamper") == 6
     return xml
 
 
@@ -121,7 +122,9 @@ def test_community_mjcf_loads_as_chain_legs_matching_mujoco_kkt() -> None:
         legs = [m.joint(f"leg{k}_q{j}").qposadr[0] for k in range(1, 7) for j in range(1, 7)]
         assert np.abs(np.remainder(data.qpos[legs] - q + np.pi, 2 * np.pi) - np.pi).max() < 1e-9
         gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
-        assert rel_error(gamma[n], gamma_mj) < TOLERANCE, f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
+        assert rel_error(gamma[n], gamma_mj) < TOLERANCE, (
+            f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
+        )
         A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
         A_robot = robot.direct_dynamics(T[n], V[n], gamma_mj)
         assert rel_error(A_robot, A_mj) < TOLERANCE, f"DDM {rel_error(A_robot, A_mj):.2e}"
@@ -171,8 +174,9 @@ class Pin6D:
                 ends.append((f.parentJoint, f.placement * pin.SE3(F)))
             (j1, P1), (j2, P2) = ends
             self.constraints.append(
-                pin.RigidConstraintModel(pin.ContactType.CONTACT_6D, m, j1, P1, j2, P2,
-                                         pin.ReferenceFrame.LOCAL)  # fmt: skip
+                pin.RigidConstraintModel(
+                    pin.ContactType.CONTACT_6D, m, j1, P1, j2, P2, pin.ReferenceFrame.LOCAL
+                )
             )
             self.frames.append(ends)
         self.data = m.createData()
@@ -202,7 +206,9 @@ class Pin6D:
                 Jj = pin.getJointJacobian(m, d, j, pin.ReferenceFrame.WORLD)
                 J.append(pin.SE3(np.eye(3), -M.translation).action @ Jj)  # at M's origin
             rows.append(np.r_[J[0][:3] - J[1][:3], J[0][3:] - J[1][3:]])
-            res.append(np.r_[M1.translation - M2.translation, pin.log3(M1.rotation @ M2.rotation.T)])
+            res.append(
+                np.r_[M1.translation - M2.translation, pin.log3(M1.rotation @ M2.rotation.T)]
+            )
         Jp = pin.getFrameJacobian(m, d, self.platform, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
         return np.vstack(rows), np.concatenate(res), Jp
 
@@ -228,9 +234,7 @@ class Pin6D:
         """The platform's classical acceleration ``[a of its origin, dw/dt]`` (F0)."""
         m, d = self.model, self.data
         tau = self.S.T @ gamma - m.damping * v - m.friction * coulomb_sign(v)
-        ddq = pin.constraintDynamics(
-            m, d, q, v, tau, self.constraints, self.cdata, self.settings
-        )
+        ddq = pin.constraintDynamics(m, d, q, v, tau, self.constraints, self.cdata, self.settings)
         pin.forwardKinematics(m, d, q, v, ddq)
         pin.updateFramePlacements(m, d)
         a = pin.getFrameClassicalAcceleration(
@@ -373,7 +377,9 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
     out = ['<?xml version="1.0"?>\n<sdf version="1.9"><world name="lab">']
     out.append('<gravity>0 0 -9.81</gravity><model name="hexapod">')  # Pinocchio's
     out.append('<link name="base_link"><pose>0 0 0 0 0 0</pose></link>')
-    out.append('<joint name="anchor" type="fixed"><parent>world</parent><child>base_link</child></joint>')
+    out.append(
+        '<joint name="anchor" type="fixed"><parent>world</parent><child>base_link</child></joint>'
+    )
     parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
 
     def pose(T, rel=""):
@@ -391,7 +397,9 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
         ine = link.find("inertial")
         o = ine.find("origin")
         I = ine.find("inertia")
-        tensor = "".join(f"<{k}>{I.get(k)}</{k}>" for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+        tensor = "".join(
+            f"<{k}>{I.get(k)}</{k}>" for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        )
         out.append(
             f'<link name="{name}">{pose(rel, p if name != "platform" else "")}<inertial>'
             f"<pose>{o.get('xyz')} {o.get('rpy')}</pose><mass>{ine.find('mass').get('value')}</mass>"
@@ -451,3 +459,50 @@ def test_a_three_joint_leg_welded_to_the_platform_names_its_missing_freedoms() -
     with pytest.raises(ModelImportError, match="leaves the platform 3 freedom") as info:
         import_mjcf(xml)
     assert info.value.joints == ("leg2_q1", "leg2_q2", "leg2_q3")
+
+
+# --- R-S-S rods spinning freely: the idle joint -------------------------------------------------
+
+
+def test_rss_rods_spinning_freely_get_their_idle_joint_and_match_mujoco_kkt() -> None:
+    """6-RSS whose rods' inertia is not symmetric about their ball-to-ball line, written
+    with four hinges and a ``connect`` per leg: each leg's spin hinge (the joint that
+    leaves the ball centre in place) becomes its ``idle_joint``, exactly (no rod spin
+    removed); Gamma and the spin accelerations match MuJoCo's KKT solve for the same spin
+    state (``test_chain_legs_mjcf``'s, which takes no Coulomb friction)."""
+    from test_chain_legs_mjcf import mujoco_kkt_inverse_dynamics, without_coulomb
+
+    from stewart_pin.description.chain_leg_presets import rss_robot
+
+    xml = StewartRobot(without_coulomb(rss_robot(False))).mjcf()
+    result = import_mjcf(xml)
+    legs = result.description.chain_legs
+    assert [leg.idle_joint for leg in legs] == [4] * 6 and result.report.approximations == []
+    robot = StewartRobot(result.description)
+    m = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(m)
+    T, V, A = robot.sample_states(2, rng=6)
+    rng = np.random.default_rng(1)
+    spin, rate = rng.uniform(-1.0, 1.0, (2, 6)), rng.uniform(-5.0, 5.0, (2, 6))
+    res = robot.chain_dynamics.inverse_dynamics(T, V, A, details=True, idle=(spin, rate))
+    for n in range(2):
+        got, sigma = mujoco_kkt_inverse_dynamics(
+            m, data, robot, T[n], V[n], A[n], (spin[n], rate[n])
+        )
+        assert rel_error(res.gamma[n], got) < TOLERANCE
+        assert rel_error(res.idle_accel[n], sigma) < TOLERANCE
+
+
+def test_cli_import_reads_chain_legs_and_approximates_only_when_asked(tmp_path, capsys) -> None:
+    from stewart_pin.cli import main
+
+    path = tmp_path / "hexapod.xml"
+    path.write_text(community_mjcf())
+    assert main(["import", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "chain legs" in out and "chain of 6 joints closed by a weld" in out
+    assert "approximation:" not in out and "effect:" not in out
+    assert main(["import", str(path), "--approximate-legs"]) == 0
+    out = capsys.readouterr().out
+    assert "approximation: " in out and "taken as an ideal spherical joint" in out
+    assert re.search(r"effect: .* [0-9.e+-]+ % on IDM at home", out)

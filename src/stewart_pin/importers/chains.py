@@ -238,13 +238,13 @@ def recognise_chains(
 
     legs: list[ChainLegRead] = []
     seen: set[int] = set()
-    for X, kind, at_x, at_p, label, last, body in starts:
+    for X, kind, at_x, at_p, label, last, jbody in starts:
         joints: list[TreeJoint] = []
         children: list[int] = []
         if last is not None:
             joints.append(last)
             children.append(P)
-            tip = zero[body]
+            tip = zero[jbody]
         else:
             tip = link_zero(X) @ at_x
         cur = X
@@ -459,7 +459,8 @@ def build_chains(
             if limits is not None and (lim := limits(J.name)) is not None:
                 lo, hi = lim
             try:
-                joints.append(Joint(J.kind, *(float(v) for v in params[j]), lo, hi, dyn))
+                alpha, d, theta, r = (float(v) for v in params[j])
+                joints.append(Joint(J.kind, alpha, d, theta, r, lo, hi, dyn))
             except ArchitectureError as err:
                 raise ModelImportError(f"joint {shown(J.name)}: {err}", (), (J.name,)) from err
             dyns.append(dyn)

@@ -318,7 +318,7 @@ def recognise(
             continue
         hinges = (e1.joint, e2.joint, e3.joint)
         tolerance = APPROXIMATE_INTERSECTION if approximate else INTERSECTION_TOLERANCE
-        lines = hinges
+        lines: tuple[TreeJoint, ...] = hinges
         if approximate:  # at the reference configuration (at zero they may be aligned)
             lines = tuple(_line_at(model, ref_poses, e.body) for e in (e1, e2, e3))
         centre = _meeting_point(lines, tolerance)
@@ -335,7 +335,8 @@ def recognise(
             mass = sum(float(links[i].inertia[9]) for i in (e1.child, e2.child))
             approximated.append(
                 f"hinges {shown_list([h.name for h in hinges])} taken as an ideal spherical "
-                f"joint (axes missing each other by up to {miss:.3g} m, {mass:.3g} kg between them dropped"
+                f"joint (axes missing each other by up to {miss:.3g} m, {mass:.3g} kg between "
+                "them dropped"
                 + (f", joint terms of {shown_list(terms)} dropped" if terms else "")
                 + ")"
             )
