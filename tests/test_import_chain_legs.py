@@ -95,6 +95,31 @@ def community_mjcf() -> str:
     return xml
 
 
+def body_welds(xml: str) -> str:
+    """``xml`` with its site welds written in the body form: ``anchor`` (the platform
+    point, in the platform) and ``relpose`` (that point in the leg's last body, and the
+    platform's orientation in it) from MuJoCo's own state at the ``home`` keyframe."""
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    mujoco.mj_forward(m, d)
+    for k in range(1, 7):
+        b1, b2 = m.body(f"leg{k}_link6").id, m.body("platform").id
+        anchor = m.site_pos[m.site(f"platform_p{k}").id]
+        R1, R2 = d.xmat[b1].reshape(3, 3), d.xmat[b2].reshape(3, 3)
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, (R1.T @ R2).ravel())
+        pos = R1.T @ (R2 @ anchor + d.xpos[b2] - d.xpos[b1])
+        text = lambda xs: " ".join(repr(float(x)) for x in xs)  # noqa: E731
+        xml = xml.replace(
+            f'<weld name="loop{k}" site1="leg{k}_tip" site2="platform_p{k}"',
+            f'<weld name="loop{k}" body1="leg{k}_link6" body2="platform" '
+            f'anchor="{text(anchor)}" relpose="{text([*pos, *quat])}"',
+        )
+    assert "site1=" not in xml
+    return xml
+
+
 def in_range(m, data) -> None:
     """Hinges whose range spans a full turn (the spin's ``0 2pi``) taken into their range:
     MuJoCo's state of the file with every joint within its limits (Gauss-Newton may end a
@@ -106,8 +131,10 @@ def in_range(m, data) -> None:
             data.qpos[a] = lo + np.remainder(data.qpos[a] - lo, 2 * np.pi)
 
 
-def test_community_mjcf_loads_as_chain_legs_matching_mujoco_kkt() -> None:
-    xml = community_mjcf()
+@pytest.mark.parametrize("form", ["site", "body"])
+def test_community_mjcf_loads_as_chain_legs_matching_mujoco_kkt(form: str) -> None:
+    """Site welds, and the same welds in the body form (``anchor``, ``relpose``)."""
+    xml = community_mjcf() if form == "site" else body_welds(community_mjcf())
     with warnings.catch_warnings():
         warnings.simplefilter("error", ModelImportWarning)  # nothing approximated
         result = import_mjcf(xml)
