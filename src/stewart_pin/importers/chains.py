@@ -49,7 +49,9 @@ from stewart_pin.importers.build import (
     ImportReport,
     ImportResult,
     LegReport,
+    LinkPoses,
     _gravity,
+    assign_actuators,
     robot_name,
 )
 from stewart_pin.importers.canonical import transform_inertia
@@ -64,7 +66,6 @@ from stewart_pin.importers.tree import (
     BALL,
     FREE,
     KinematicModel,
-    TreeActuator,
     TreeClosure,
     TreeJoint,
     shown,
@@ -368,74 +369,18 @@ def build_chains(
     """The description of a robot with chain legs (module docstring); the arguments are
     :func:`~stewart_pin.importers.build.build`'s."""
     links, P = rec.links, rec.platform
-    bodies = model.bodies
-    ref_poses = model.poses()
-    zero = np.array([b.pose for b in bodies])
+    poses = LinkPoses(model, links)
+    link_zero, link_ref, link_names = poses.zero, poses.ref, poses.names
 
-    def link_zero(i: int) -> np.ndarray:
-        lk = links[i]
-        return zero[lk.root] @ np.linalg.inv(lk.rel[lk.root])
-
-    def link_ref(i: int) -> np.ndarray:
-        lk = links[i]
-        return ref_poses[lk.root] @ np.linalg.inv(lk.rel[lk.root])
-
-    def link_names(i: int) -> list[str]:
-        return [model.body_label(b) for b in links[i].bodies if not bodies[b].virtual]
-
-    leg_of: dict[str, int] = {J.name: k for k, leg in enumerate(rec.legs) for J in leg.joints}
-    if actuated is not None:
-        gears = {a.joint: a for a in model.actuators}
-        acts = [
-            TreeActuator(
-                gears[n].name if n in gears else str(n),
-                str(n),
-                gears[n].gear if n in gears else 1.0,
-            )
-            for n in actuated
-        ]
-    else:
-        acts = list(model.actuators)
-    act_of: dict[int, TreeActuator] = {}
-    order: list[int] = []
-    for a in acts:
-        if a.joint not in leg_of:
-            raise ModelImportError(
-                f"actuator {shown(a.name)} drives {shown(a.joint)}, not a leg joint: actuate "
-                "one 1-dof joint of each leg",
-                (),
-                (a.name, a.joint),
-            )
-        k = leg_of[a.joint]
-        if k in act_of:
-            if act_of[k].joint != a.joint:
-                raise ModelImportError(
-                    f"leg through {shown(act_of[k].joint)} has two actuated joints "
-                    f"({shown(act_of[k].joint)}, {shown(a.joint)}): stewart-pin actuates one "
-                    "joint per leg",
-                    (),
-                    (act_of[k].joint, a.joint),
-                )
-            continue
-        if not a.gear > 0 or not math.isfinite(a.gear):
-            raise ModelImportError(
-                f"actuator {shown(a.name)} has gear {a.gear:g}: stewart-pin's efforts are "
-                "along each joint's positive direction, through a positive ratio",
-                (),
-                (a.name,),
-            )
-        act_of[k] = a
-        order.append(k)
-    missing = [k for k in range(6) if k not in act_of]
-    if missing:
-        idle = [J.name for k in missing for J in rec.legs[k].joints]
-        raise ModelImportError(
-            f"{len(missing)} leg(s) without an actuator (joints {shown_list(idle)}): each leg "
-            "needs one actuated 1-dof joint"
-            + (" (give them with actuated=[...])" if model.format != "mjcf" else ""),
-            (),
-            tuple(idle),
-        )
+    leg_of = {J.name: k for k, leg in enumerate(rec.legs) for J in leg.joints}
+    order, act_of = assign_actuators(
+        model,
+        actuated,
+        leg_of,
+        set(),
+        [[J.name for J in leg.joints] for leg in rec.legs],
+        lambda k: [n for li in rec.legs[k].children[-1:] if li != P for n in link_names(li)],
+    )
 
     T_home = link_ref(P)
     chain_legs: list[ChainLeg] = []
