@@ -97,12 +97,12 @@ class _LegForm:
 
 @dataclass
 class LegReport:
-    """One leg as imported (names as in the file)."""
+    """One leg as imported (names as in the file; three joints, or a chain leg's n)."""
 
     shape: str
-    kinds: tuple[str, str, str]
-    joints: tuple[str, str, str]
-    bodies: tuple[str, str, str]
+    kinds: tuple[str, ...]
+    joints: tuple[str, ...]
+    bodies: tuple[str, ...]
     actuated: int
     actuator: str
     gear: float

@@ -449,9 +449,9 @@ def build_chains(
         reports.append(
             LegReport(
                 f"chain of {n} joints closed by a {leg.closure}",
-                tuple(kinds),  # type: ignore[arg-type]
-                names,  # type: ignore[arg-type]
-                tuple(", ".join(link_names(li)) if li != P else "" for li in leg.children),  # type: ignore[arg-type]
+                tuple(kinds),
+                names,
+                tuple(", ".join(link_names(li)) if li != P else "" for li in leg.children),
                 act_index,
                 a_act.name,
                 a_act.gear,
