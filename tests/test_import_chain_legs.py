@@ -202,8 +202,17 @@ class Pin6D:
     each link), the actuated joints, URDF damping and friction (the project's dead band),
     the platform frame. IDM by linearity of ``pin.constraintDynamics`` in the torques."""
 
-    def __init__(self, path, welds, actuated, platform="platform", home=None):
+    def __init__(self, path, welds, actuated, platform="platform", home=None, terms=None):
         m = self.model = pin.buildModelFromUrdf(str(path))
+        self.springs = []  # (idx_q, idx_v, stiffness, rest) from the sidecar's joint terms
+        for name, t in (terms or {}).items():
+            j = m.joints[m.getJointId(name)]
+            m.armature[j.idx_v] = t["armature"]
+            lo, hi = t["lower"], t["upper"]
+            turn = lo is not None and hi is not None and hi - lo >= 2 * np.pi - 1e-9
+            # a full-turn hinge's angle taken into its range (a spring pulls from there)
+            self.springs.append((j.idx_q, j.idx_v, t["stiffness"], t["rest_position"],
+                                 lo if turn else None))  # fmt: skip
         self.constraints = pin.StdVec_RigidConstraintModel()
         self.frames = []
         for l1, F1, l2, F2 in welds:
@@ -273,6 +282,9 @@ class Pin6D:
         """The platform's classical acceleration ``[a of its origin, dw/dt]`` (F0)."""
         m, d = self.model, self.data
         tau = self.S.T @ gamma - m.damping * v - m.friction * coulomb_sign(v)
+        for iq, iv, k, rest, lo in self.springs:
+            angle = q[iq] if lo is None else lo + np.remainder(q[iq] - lo, 2 * np.pi)
+            tau[iv] -= k * (angle - rest)
         ddq = pin.constraintDynamics(m, d, q, v, tau, self.constraints, self.cdata, self.settings)
         pin.forwardKinematics(m, d, q, v, ddq)
         pin.updateFramePlacements(m, d)
@@ -484,6 +496,30 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
     ref.q = q
     _check_against(robot, ref)
     assert src.description.name == "welded-ups-4"
+
+
+def test_the_projects_own_urdf_of_chain_legs_loads_with_its_frame_closures(tmp_path) -> None:
+    """The URDF writer's file of a robot with welded legs (its version-1 sidecar's
+    ``"frame"`` closures, joint terms, home) imports as chain legs, against Pinocchio's 6D
+    constrained dynamics of the URDF with the sidecar's welds, armatures and springs."""
+    _, _, data, _ = _urdf_parts(tmp_path)
+    robot = StewartRobot.from_urdf(tmp_path / "source.urdf")
+    assert [leg.closure for leg in robot.description.chain_legs] == ["weld"] * 6
+    welds = [
+        (c["link1"], _frame_of(c["frame1"]), c["link2"], _frame_of(c["frame2"]))
+        for c in data["closures"]
+    ]
+    ref = Pin6D(
+        tmp_path / "source.urdf", welds, data["actuated_joints"], terms=data["joint_terms"]
+    )
+    ref.model.gravity.linear = np.array(data["gravity"])  # the sidecar's
+    q = pin.neutral(ref.model)
+    for name, value in data["home_joint_positions"].items():
+        q[ref.model.joints[ref.model.getJointId(name)].idx_q] = value
+    j = ref.model.joints[ref.model.getJointId("platform_joint")]
+    q[j.idx_q : j.idx_q + 7] = pin.SE3ToXYZQUAT(pin.SE3(np.array(data["home_pose"])))
+    ref.q = q
+    _check_against(robot, ref)
 
 
 # --- legs that still do not fit ----------------------------------------------------------------
