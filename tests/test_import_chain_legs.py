@@ -581,3 +581,14 @@ def test_cli_import_reads_chain_legs_and_approximates_only_when_asked(tmp_path, 
     out = capsys.readouterr().out
     assert "approximation: " in out and "taken as an ideal spherical joint" in out
     assert re.search(r"effect: .* [0-9.e+-]+ % on IDM at home", out)
+
+
+def test_a_loop_away_from_the_platform_of_chain_legs_is_refused() -> None:
+    """A connect pinning a leg's first body to the world: not dropped, refused by name."""
+    xml = community_mjcf().replace(
+        "<equality>",
+        '<equality>\n    <connect name="pin" body1="leg1_link1" body2="world" anchor="0 0 0"/>',
+    )
+    with pytest.raises(ModelImportError, match=r"loop closure 'pin'.*away from the platform") as e:
+        import_mjcf(xml)
+    assert e.value.joints == ("pin",) and "world" in e.value.bodies

@@ -266,10 +266,7 @@ def _recognise(
         return recognise(model, platform)
     except ModelImportError as err:
         model.notes[:] = notes
-        try:
-            chains = recognise_chains(model, platform)
-        except ModelImportError:
-            chains = None
+        chains = recognise_chains(model, platform)
         if chains is None:
             model.notes[:] = notes
             raise err from None

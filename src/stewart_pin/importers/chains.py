@@ -191,6 +191,18 @@ def recognise_chains(
         _platform_body(model, links, P, [], [])
     if P == ground:
         return None
+    for c in kept:
+        if P not in (link_of[c.body1], link_of[c.body2]):
+            ends_ = (model.body_label(c.body1), model.body_label(c.body2))
+            raise ModelImportError(
+                f"loop closure {shown(c.name)} joins {shown(ends_[0])} and {shown(ends_[1])}, "
+                f"away from the platform {shown(model.body_label(links[P].root))}: "
+                "stewart-pin models the six loops that close the legs at the platform; "
+                "another loop (a body pinned to the base, two legs coupled) would be dropped "
+                "and the robot would move where the file's cannot; remove it",
+                ends_,
+                (c.name,),
+            )
     zero = np.array([b.pose for b in model.bodies])
 
     def link_zero(i: int) -> np.ndarray:
