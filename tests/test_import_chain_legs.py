@@ -173,7 +173,7 @@ def test_the_ball_approximation_is_an_explicit_option_reported_with_its_effect()
     """``approximate_legs=True``: the spin + U-joint tops taken as ideal balls (their links
     and joint terms dropped), reported, and its effect on the efforts measured against the
     file's physics; it is an approximation: MuJoCo's efforts differ."""
-    from stewart_pin.check.import_effects import import_effects
+    from stewart_pin.check.import_effects import effect_on_efforts, import_effects
 
     xml = community_mjcf()
     with warnings.catch_warnings():
@@ -188,6 +188,9 @@ def test_the_ball_approximation_is_an_explicit_option_reported_with_its_effect()
     (line,) = import_effects(result, robot)
     effect = float(re.search(r": ([0-9.e+-]+) % on IDM at home", line).group(1))
     assert effect > 0.01  # percent
+    # the same measure of the default import: the file's physics, exactly
+    exact = import_mjcf(xml)
+    assert effect_on_efforts(exact, StewartRobot(exact.description)) < 1e-12
     assert line in str(result.report)
     with pytest.raises(Exception, match="approximate_legs must be True or False"):
         import_mjcf(xml, approximate_legs="yes")
@@ -405,6 +408,20 @@ def test_cad_urdf_with_welds_at_com_frames_matches_pinocchio_6d_constraints(tmp_
     assert result.report.platform == "platform"
     assert "'leg1_q6'" in str(result.report)  # leg 1 closed in the tree
     robot = StewartRobot(desc)
+    # a home a micro-radian off: the loops closed from that residual, reported with its
+    # effect against the file's own physics (Pinocchio's model of the file's tree)
+    from stewart_pin.check.import_effects import import_effects
+
+    off = dict(
+        data["home_joint_positions"], leg2_q1=data["home_joint_positions"]["leg2_q1"] + 1e-6
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelImportWarning)
+        moved = import_urdf(path, closures=dict(sidecar, home_joint_positions=off))
+    assert moved.report.approximations[0].startswith("loops closed from a residual")
+    (line,) = import_effects(moved, StewartRobot(moved.description))
+    effect = float(re.search(r": ([0-9.e+-]+) % on IDM at home", line).group(1))
+    assert 0.0 < effect < 1e-2
     ref_welds = [(f"leg{k}_link6", _inertial_origin(urdf, f"leg{k}_link6"),
                   f"mount_{k}", _inertial_origin(urdf, f"mount_{k}")) for k in range(2, 7)]  # fmt: skip
     ref = Pin6D(path, ref_welds, data["actuated_joints"])
