@@ -8,7 +8,10 @@
   ignored. ``StewartRobot.from_mjcf`` / ``from_urdf`` / ``from_sdf`` wrap them.
 - :mod:`.tree`: the neutral kinematic tree both readers produce; :mod:`.topology`: the
   recognition of the base, the platform and six legs in it; :mod:`.build`: the
-  description built from them and the import report.
+  description built from them and the import report; :mod:`.chains`: legs that are not
+  three 1-dof joints and an ideal spherical joint, read exactly as chain legs (any 1-dof
+  joints closed by a ball or a weld; ``approximate_legs=True`` keeps the old ball
+  approximation instead).
 - :mod:`.canonical`: the canonical modified-DH form of a leg chosen from its joint axes,
   and :func:`~.canonical.canonical_description` (any description in that form).
 - :mod:`.mjcf` (through MuJoCo) and :mod:`.urdf` (through yourdfpy; loop closures from the

@@ -12,7 +12,9 @@
    (R-S-S, P-S-S: a 1-dof joint, a spherical joint, the rod; S-P-S: a spherical joint at
    the base, a slide along the rod), which :mod:`stewart_pin.importers.build` replaces by
    the equivalent universal-joint leg.
-4. Everything else that moves is an error naming its bodies.
+4. Everything else that moves is an error naming its bodies; a model whose legs are not
+   three joints and a spherical joint is then read by :mod:`stewart_pin.importers.chains`
+   (chain legs, exactly).
 """
 
 from __future__ import annotations
