@@ -428,7 +428,9 @@ def build(
                 if rod_spin == "error":
                     raise RodSpinError(
                         message + "; pass rod_spin='warn' to import it anyway (its inertia made "
-                        "symmetric)",
+                        "symmetric), or write the rod's spherical joint as three hinges, the "
+                        "last along the rod: the leg is then read exactly, a chain leg whose "
+                        "spin is an idle joint (docs/importing.md)",
                         asym,
                         spin_tolerance,
                         tuple(n for li in rod_links for n in link_names(li)),
