@@ -609,3 +609,29 @@ def test_a_loop_away_from_the_platform_of_chain_legs_is_refused() -> None:
     with pytest.raises(ModelImportError, match=r"loop closure 'pin'.*away from the platform") as e:
         import_mjcf(xml)
     assert e.value.joints == ("pin",) and "world" in e.value.bodies
+
+
+def test_a_mixed_robot_of_ball_and_welded_legs_matches_mujoco_kkt() -> None:
+    """Legs 1, 3, 5 three joints closed by ``<connect>``, legs 2, 4, 6 six joints welded:
+    one robot of chain legs, each leg with its own closure, against MuJoCo's KKT."""
+    from stewart_pin.description.chain_leg_presets import mixed_chain_robot
+
+    xml = StewartRobot(mixed_chain_robot(seed=4)).mjcf()
+    result = import_mjcf(xml)
+    legs = result.description.chain_legs
+    assert [leg.closure for leg in legs] == ["ball", "weld"] * 3
+    assert [leg.n_joints for leg in legs] == [3, 6] * 3
+    robot = StewartRobot(result.description)
+    m = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
+    guess = data.qpos.copy()
+    T, V, A = _states(robot, 3, seed=7)
+    gamma = robot.inverse_dynamics(T, V, A)
+    for n in range(len(T)):
+        mujoco_closed_state(m, data, "platform", T[n], V[n], guess=guess)
+        in_range(m, data)
+        gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
+        assert rel_error(gamma[n], gamma_mj) < TOLERANCE
+        A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
+        assert rel_error(robot.direct_dynamics(T[n], V[n], gamma_mj), A_mj) < TOLERANCE
