@@ -31,7 +31,6 @@ from stewart_pin import (
     FileFormatError,
     ModelImportError,
     StewartRobot,
-    UnsupportedArchitectureError,
 )
 from stewart_pin.description.leg_chain_presets import random_hexapod
 from stewart_pin.importers import import_urdf
@@ -214,18 +213,18 @@ def test_welds_at_the_rod_ends_inertial_frames_match_pinocchio_kkt(tmp_path):
     assert "hinges 'rod_1_a_hinge', 'rod_1_b_hinge', 'rod_1_hinge'" in report
 
 
-def test_a_weld_where_the_leg_needs_a_spherical_joint_is_unsupported(tmp_path):
-    """Legs closed by welds at the closing frames (no spherical joint left): refused
-    with UnsupportedArchitectureError naming the welds ("weld closures need chain
-    legs"), after the closures were read and checked."""
+def test_a_weld_where_the_leg_needs_a_spherical_joint_is_refused(tmp_path):
+    """Legs of three joints closed by welds at the closing frames (no spherical joint
+    left) are read as chain legs and refused for their mobility: a weld's six constraints
+    leave the platform three freedoms short, named with the weld and the joints."""
     path = _write(tmp_path, cad_urdf(_robot(), "floating", seed=1))
     data = point_sidecar()
     for c in data["closures"]:
         c.update(type="weld", frame1={"xyz": [0, 0, 0]}, frame2={"rpy": [0, 0, 0]})
         del c["point1"], c["point2"]
-    with pytest.raises(UnsupportedArchitectureError, match="weld closures need chain legs") as e:
+    with pytest.raises(ModelImportError, match="leaves the platform 3 freedom") as e:
         import_urdf(path, closures=data)
-    assert "loop1" in str(e.value) and e.value.value[0] == "loop1"
+    assert "weld 'loop" in str(e.value) and len(e.value.joints) == 3
 
 
 @pytest.mark.parametrize(

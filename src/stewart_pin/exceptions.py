@@ -580,9 +580,10 @@ class MissingDependencyError(StewartPinError, ImportError):
 # ---------------------------------------------------------------------------- importers
 class ModelImportError(FileFormatError):
     """A model file (MJCF, URDF) that stewart-pin cannot read as a six-legged platform:
-    not six legs, a chain of two or four joints, a closure that is not a point (a weld where
-    a ball should be), an actuator on a passive joint or none on a leg, a floating base,
-    extra moving bodies, an unsupported element (see ``docs/importing.md``).
+    not six legs, a leg whose joints and closure do not give the platform six freedoms (a
+    ball leg of two joints, a leg of three joints welded where a ball should be), an
+    actuator on a passive joint or none on a leg, a floating base, extra moving bodies, an
+    unsupported element (see ``docs/importing.md``).
 
     Attributes:
         bodies: the names of the bodies involved, as written in the file (a tuple).

@@ -200,6 +200,8 @@ def effect_on_efforts(result: ImportResult, robot: RobotLike) -> float:
     if result.model is None:
         raise InputError("the import result carries no file tree")
     desc = result.description
+    if desc.chain_legs is not None:
+        return _chain_effect(result, robot)
     source = desc.source
     assert source is not None
     actuated = (
@@ -212,6 +214,29 @@ def effect_on_efforts(result: ImportResult, robot: RobotLike) -> float:
     home = np.broadcast_to(desc.home_pose, (n, 4, 4))
     ours = reference_actuator_efforts(robot, home, np.zeros((n, 6)), ACCELERATIONS)
     ours = source.file_efforts(ours, actuated)
+    scale = float(np.abs(file_efforts).max())
+    return float(np.abs(ours - file_efforts).max() / scale) if scale > 0 else 0.0
+
+
+def _chain_effect(result: ImportResult, robot: RobotLike) -> float:
+    """:func:`effect_on_efforts` of chain legs (the file's joint values and directions):
+    the imported robot's efforts from the chain legs' constrained tree
+    (:class:`~stewart_pin.check.chain_legs_tree.ChainTreeSolver`, idle joints at rest)."""
+    from stewart_pin.check.chain_legs_tree import ChainTreeSolver
+
+    assert result.model is not None
+    desc = result.description
+    names = [leg.joints[leg.actuated - 1] for leg in result.report.legs]
+    tree = FileTree(result.model)
+    file_efforts = tree.inverse_dynamics_at_rest(result.report.platform, names, ACCELERATIONS)
+    solver = ChainTreeSolver(desc)
+    q_legs = robot.inverse_geometry(desc.home_pose, check_limits=False)
+    ours = np.array(
+        [
+            solver.inverse_idle_one(desc.home_pose, np.zeros(6), a, q_legs, np.zeros(6))[0]
+            for a in ACCELERATIONS
+        ]
+    )
     scale = float(np.abs(file_efforts).max())
     return float(np.abs(ours - file_efforts).max() / scale) if scale > 0 else 0.0
 

@@ -24,6 +24,7 @@ def _import(args: argparse.Namespace) -> int:
         "name": args.name,
         "closure_tolerance": args.closure_tolerance,
         "rod_spin": args.rod_spin,
+        "approximate_legs": args.approximate_legs,
     }
     kind = model_format(args.model)  # one line for a format not read
     ignored = [
@@ -120,5 +121,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("error", "warn"),
         default="error",
         help="an S-S rod not symmetric about its axis: refuse, or import it with a warning",
+    )
+    p.add_argument(
+        "--approximate-legs",
+        action="store_true",
+        help="take three hinges that nearly meet (a spin + U-joint top, massive links) as an "
+        "ideal ball, their masses and joint terms dropped, instead of reading the leg as it "
+        "is (a chain leg); reported with its effect on the efforts",
     )
     p.set_defaults(func=_import)

@@ -8,7 +8,10 @@
   ignored. ``StewartRobot.from_mjcf`` / ``from_urdf`` / ``from_sdf`` wrap them.
 - :mod:`.tree`: the neutral kinematic tree both readers produce; :mod:`.topology`: the
   recognition of the base, the platform and six legs in it; :mod:`.build`: the
-  description built from them and the import report.
+  description built from them and the import report; :mod:`.chains`: legs that are not
+  three 1-dof joints and an ideal spherical joint, read exactly as chain legs (any 1-dof
+  joints closed by a ball or a weld; ``approximate_legs=True`` keeps the old ball
+  approximation instead).
 - :mod:`.canonical`: the canonical modified-DH form of a leg chosen from its joint axes,
   and :func:`~.canonical.canonical_description` (any description in that form).
 - :mod:`.mjcf` (through MuJoCo) and :mod:`.urdf` (through yourdfpy; loop closures from the
@@ -30,6 +33,7 @@ import numpy as np
 
 from stewart_pin._checks import check_scalar
 from stewart_pin._so3 import so3_log as _so3_log
+from stewart_pin.description.chain_leg import CLOSURES
 from stewart_pin.exceptions import FileFormatError, InputError, ModelImportError
 from stewart_pin.importers.build import (
     CLOSURE_TOLERANCE,
@@ -39,7 +43,9 @@ from stewart_pin.importers.build import (
     build,
 )
 from stewart_pin.importers.canonical import canonical_description
-from stewart_pin.importers.topology import recognise
+from stewart_pin.importers.chains import ChainRecognition, build_chains, recognise_chains
+from stewart_pin.importers.topology import Recognition, recognise
+from stewart_pin.importers.tree import KinematicModel, shown_list
 
 __all__ = [
     "CLOSURE_TOLERANCE",
@@ -65,6 +71,7 @@ def import_mjcf(
     spin_tolerance: float = SPIN_TOLERANCE,
     rod_spin: str = "error",
     inertials: dict[str, Any] | None = None,
+    approximate_legs: bool = False,
 ) -> ImportResult:
     """A hexapod from an MJCF model (``docs/importing.md``).
 
@@ -82,6 +89,11 @@ def import_mjcf(
         inertials: body name -> ``{"mass", "pos", "inertia"}`` for bodies whose inertia
             MuJoCo computes from a mesh file that is missing
             (:func:`~stewart_pin.importers.mjcf.load_model`).
+        approximate_legs: a leg that is not exactly three 1-dof joints and an ideal
+            spherical joint is read as it is, a chain leg (default); ``True`` takes three
+            hinges that nearly meet as an ideal ball instead (masses between them and their
+            joint terms dropped, axes snapped: reported, with their effect on the efforts
+            by ``stewart-pin import``).
     """
     from stewart_pin.importers.mjcf import read_mjcf
 
@@ -97,8 +109,8 @@ def import_mjcf(
         platform, name, closure_tolerance, spin_tolerance
     )
     model = read_mjcf(source, keyframe, inertials)
-    rec = recognise(model, platform)
-    return build(
+    rec = _recognise(model, platform, approximate_legs)
+    return _build(
         model,
         rec,
         name=name,
@@ -119,6 +131,7 @@ def import_urdf(
     closure_tolerance: float = CLOSURE_TOLERANCE,
     spin_tolerance: float = SPIN_TOLERANCE,
     rod_spin: str = "error",
+    approximate_legs: bool = False,
 ) -> ImportResult:
     """A hexapod from a URDF (``docs/importing.md``).
 
@@ -132,7 +145,7 @@ def import_urdf(
             ``<transmission>`` elements in their order).
         armature: joint name -> armature [kg m^2 or kg] (URDF cannot say it; the
             project's sidecar can).
-        platform, name, closure_tolerance, spin_tolerance, rod_spin: as
+        platform, name, closure_tolerance, spin_tolerance, rod_spin, approximate_legs: as
             :func:`import_mjcf`.
     """
     from stewart_pin.importers.urdf import read_urdf
@@ -151,8 +164,10 @@ def import_urdf(
         for joint, value in armature.items():  # named here, not as the sidecar's
             check_scalar(value, f"armature of joint '{joint}'", nonnegative=True)
     read = read_urdf(path, closures, armature)
-    rec = recognise(read.model, platform if platform is not None else read.platform)
-    result = build(
+    rec = _recognise(
+        read.model, platform if platform is not None else read.platform, approximate_legs
+    )
+    result = _build(
         read.model,
         rec,
         actuated=actuated if actuated is not None else read.actuated,
@@ -198,6 +213,7 @@ def import_sdf(
     closure_tolerance: float = CLOSURE_TOLERANCE,
     spin_tolerance: float = SPIN_TOLERANCE,
     rod_spin: str = "error",
+    approximate_legs: bool = False,
 ) -> ImportResult:
     """A hexapod from a Gazebo SDF file (SDFormat 1.4 to 1.11; ``docs/importing.md``).
 
@@ -206,7 +222,7 @@ def import_sdf(
         actuated: the actuated joints in leg order. SDF has no actuators: by default each
             leg's one revolute or prismatic joint (a universal joint's hinges are passive),
             legs in the order of those joints in the file; a leg with several needs this.
-        platform, name, closure_tolerance, spin_tolerance, rod_spin: as
+        platform, name, closure_tolerance, spin_tolerance, rod_spin, approximate_legs: as
             :func:`import_mjcf`.
     """
     from stewart_pin.importers.sdf import default_actuated, read_sdf
@@ -217,11 +233,14 @@ def import_sdf(
     _check_actuated(actuated)
     model_format(path, "sdf")
     read = read_sdf(path)
-    rec = recognise(read.model, platform)
+    rec = _recognise(read.model, platform, approximate_legs)
     if actuated is None:
-        legs = [[e.joint.name for e in leg.edges if not e.spherical] for leg in rec.legs]
+        if isinstance(rec, ChainRecognition):
+            legs = [[J.name for J in leg.joints] for leg in rec.legs]
+        else:
+            legs = [[e.joint.name for e in leg.edges if not e.spherical] for leg in rec.legs]
         actuated = default_actuated(read, legs)
-    return build(
+    return _build(
         read.model,
         rec,
         actuated=actuated,
@@ -230,6 +249,63 @@ def import_sdf(
         spin_tolerance=spin_tolerance,
         rod_spin=rod_spin,
     )
+
+
+def _recognise(
+    model: KinematicModel, platform: str | None, approximate_legs: bool
+) -> Recognition | ChainRecognition:
+    """The three-joint recognition (:func:`~.topology.recognise`: today's legs, exactly
+    as before), or, when it does not fit, the legs as chain legs
+    (:func:`~.chains.recognise_chains`: any 1-dof joints closed by a ball or a weld, read
+    exactly); ``approximate_legs``: the three-joint recognition only, nearly spherical
+    hinge triples taken as ideal balls (reported with their effect). The three-joint
+    recognition's error is raised when neither fits."""
+    if not isinstance(approximate_legs, bool):
+        raise InputError(f"approximate_legs must be True or False, got {approximate_legs!r}")
+    if approximate_legs:
+        return recognise(model, platform, approximate=True)
+    notes = list(model.notes)
+    try:
+        return recognise(model, platform)
+    except ModelImportError as err:
+        model.notes[:] = notes
+        chains = recognise_chains(model, platform)
+        if chains is None:
+            model.notes[:] = notes
+            raise err from None
+        for leg in chains.legs:
+            n, c = len(leg.joints), CLOSURES[leg.closure]
+            if n == c or (leg.closure == "ball" and n == c + 1):
+                continue
+            if leg.closure == "ball" or "a weld where a ball should be" in str(err):
+                raise err from None
+            names = tuple(J.name for J in leg.joints)
+            raise ModelImportError(
+                f"the leg of joints {shown_list(names)} closed by the {leg.label} (a weld: 6 "
+                f"constraints) has {n} joints: "
+                + (
+                    f"it leaves the platform {c - n} freedom(s) short of six; close it by a "
+                    "ball (a point closure) at its spherical joint, or give it six joints"
+                    if n < c
+                    else f"{n - c} freedom(s) too many: the actuators would not hold the platform"
+                ),
+                (),
+                names,
+            ) from None
+        chains.fallback = err
+        return chains
+
+
+def _build(
+    model: KinematicModel, rec: Recognition | ChainRecognition, **options: Any
+) -> ImportResult:
+    """:func:`~.build.build` for three-joint legs, :func:`~.chains.build_chains` for chain
+    legs (the options only three-joint legs have left out)."""
+    if isinstance(rec, ChainRecognition):
+        for key in ("spin_tolerance", "rod_spin"):
+            options.pop(key, None)
+        return build_chains(model, rec, **options)
+    return build(model, rec, **options)
 
 
 def _check_actuated(actuated: Any) -> None:

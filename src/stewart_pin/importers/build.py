@@ -100,12 +100,12 @@ class _LegForm:
 
 @dataclass
 class LegReport:
-    """One leg as imported (names as in the file)."""
+    """One leg as imported (names as in the file; three joints, or a chain leg's n)."""
 
     shape: str
-    kinds: tuple[str, str, str]
-    joints: tuple[str, str, str]
-    bodies: tuple[str, str, str]
+    kinds: tuple[str, ...]
+    joints: tuple[str, ...]
+    bodies: tuple[str, ...]
     actuated: int
     actuator: str
     gear: float
@@ -194,6 +194,28 @@ class ImportResult:
     description: RobotDescription
     report: ImportReport
     model: KinematicModel | None = None
+
+
+class LinkPoses:
+    """Each link's frame (4x4, F0) at the file's zero configuration (:meth:`zero`) and at
+    the reference configuration (:meth:`ref`), and its file bodies' names (:meth:`names`)."""
+
+    def __init__(self, model: KinematicModel, links: Sequence[Link]) -> None:
+        self.model, self.links = model, links
+        self._zero = np.array([b.pose for b in model.bodies])
+        self._ref = model.poses()
+
+    def zero(self, i: int) -> np.ndarray:
+        lk = self.links[i]
+        return self._zero[lk.root] @ np.linalg.inv(lk.rel[lk.root])
+
+    def ref(self, i: int) -> np.ndarray:
+        lk = self.links[i]
+        return self._ref[lk.root] @ np.linalg.inv(lk.rel[lk.root])
+
+    def names(self, i: int) -> list[str]:
+        bodies = self.model.bodies
+        return [self.model.body_label(b) for b in self.links[i].bodies if not bodies[b].virtual]
 
 
 def robot_name(name: str) -> str:
@@ -290,19 +312,8 @@ def build(
         raise ModelImportError(f"rod_spin must be 'error' or 'warn', got {rod_spin!r}")
     links, P = rec.links, rec.platform
     bodies = model.bodies
-    ref_poses = model.poses()
-    zero = np.array([b.pose for b in bodies])
-
-    def link_zero(i: int) -> np.ndarray:
-        lk = links[i]
-        return zero[lk.root] @ np.linalg.inv(lk.rel[lk.root])
-
-    def link_ref(i: int) -> np.ndarray:
-        lk = links[i]
-        return ref_poses[lk.root] @ np.linalg.inv(lk.rel[lk.root])
-
-    def link_names(i: int) -> list[str]:
-        return [model.body_label(b) for b in links[i].bodies if not bodies[b].virtual]
+    poses = LinkPoses(model, links)
+    link_zero, link_ref, link_names = poses.zero, poses.ref, poses.names
 
     # actuators -> (leg, joint name)
     leg_of_joint: dict[str, int] = {}
@@ -317,77 +328,14 @@ def build(
         if e.spherical
         for h in (e.hinges or (e.joint,))
     }
-    if actuated is not None:
-        acts = [TreeActuator(str(n), str(n)) for n in actuated]
-        gears = {a.joint: a.gear for a in model.actuators}
-        for a in acts:
-            a.gear = gears.get(a.joint, 1.0)
-            a.name = next((x.name for x in model.actuators if x.joint == a.joint), a.name)
-    else:
-        acts = list(model.actuators)
-    all_joints = {b.joint.name for b in bodies if b.joint is not None}
-    order: list[int] = []
-    act_of_leg: dict[int, TreeActuator] = {}
-    for a in acts:
-        if a.joint in spherical_joints:
-            raise ModelImportError(
-                f"actuator {shown(a.name)} drives {shown(a.joint)}, a hinge of a spherical "
-                "joint (a passive joint): actuate one of the leg's three 1-dof joints",
-                (),
-                (a.name, a.joint),
-            )
-        if a.joint not in leg_of_joint:
-            what = "no joint of the model" if a.joint not in all_joints else "not a leg joint"
-            raise ModelImportError(
-                f"actuator {shown(a.name)} drives {shown(a.joint)}, {what}: actuate one 1-dof "
-                "joint of each leg",
-                (),
-                (a.name, a.joint),
-            )
-        k = leg_of_joint[a.joint]
-        if k in act_of_leg:
-            if act_of_leg[k].joint != a.joint:
-                raise ModelImportError(
-                    f"leg through {shown(act_of_leg[k].joint)} has two actuated joints "
-                    f"({shown(act_of_leg[k].joint)} by {shown(act_of_leg[k].name)}, "
-                    f"{shown(a.joint)} by {shown(a.name)}): stewart-pin actuates one joint "
-                    "per leg",
-                    (),
-                    (act_of_leg[k].joint, a.joint),
-                )
-            model.notes.append(
-                f"actuator {shown(a.name)} drives the same joint as "
-                f"{shown(act_of_leg[k].name)}: the leg's efforts are those of its joint"
-            )
-            continue
-        if not a.gear > 0 or not math.isfinite(a.gear):
-            raise ModelImportError(
-                f"actuator {shown(a.name)} has gear {a.gear:g}: stewart-pin's efforts are "
-                "along each joint's positive direction, through a positive ratio",
-                (),
-                (a.name,),
-            )
-        act_of_leg[k] = a
-        order.append(k)
-    missing = [k for k in range(6) if k not in act_of_leg]
-    if missing:
-        idle = [
-            n
-            for k in missing
-            for e in rec.legs[k].edges
-            for n in ([e.joint.name] if not e.spherical else [])
-        ]
-        raise ModelImportError(
-            f"{len(missing)} leg(s) without an actuator (joints {shown_list(idle)}): each leg "
-            "needs one actuated 1-dof joint"
-            + (
-                " (give them with actuated=[...] or <transmission>)"
-                if model.format == "urdf"
-                else ""
-            ),
-            tuple(n for k in missing for n in link_names(rec.legs[k].links[-1])),
-            tuple(idle),
-        )
+    order, act_of_leg = assign_actuators(
+        model,
+        actuated,
+        leg_of_joint,
+        spherical_joints,
+        [[e.joint.name for e in leg.edges if not e.spherical] for leg in rec.legs],
+        lambda k: link_names(rec.legs[k].links[-1]),
+    )
 
     # platform
     plat = links[P]
@@ -486,7 +434,9 @@ def build(
                 if rod_spin == "error":
                     raise RodSpinError(
                         message + "; pass rod_spin='warn' to import it anyway (its inertia made "
-                        "symmetric)",
+                        "symmetric), or write the rod's spherical joint as three hinges, the "
+                        "last along the rod: the leg is then read exactly, a chain leg whose "
+                        "spin is an idle joint (docs/importing.md)",
                         asym,
                         spin_tolerance,
                         tuple(n for li in rod_links for n in link_names(li)),
@@ -788,6 +738,7 @@ def build(
     approximations = []
     if rec.dropped:
         approximations.append(f"{len(rec.dropped)} nearly massless bodies taken as massless")
+    approximations.extend(rec.approximated)
     if snapped:
         approximations.append(
             f"axes made parallel in {len(snapped)} leg(s) (turned by up to {max(snapped):.2g} rad)"
@@ -816,6 +767,89 @@ def build(
         approximations,
     )
     return ImportResult(desc, report, model)
+
+
+def assign_actuators(
+    model: KinematicModel,
+    actuated: Sequence[str] | None,
+    leg_of_joint: dict[str, int],
+    spherical_joints: set[str],
+    leg_joints: Sequence[Sequence[str]],
+    leg_bodies: Callable[[int], list[str]],
+) -> tuple[list[int], dict[int, TreeActuator]]:
+    """The legs in actuator order and each leg's actuator: ``actuated`` (joint names in
+    leg order) or the model's actuators; :class:`ModelImportError` for an actuator on a
+    passive joint of ``spherical_joints`` or on no leg joint (``leg_of_joint``: joint name
+    -> leg), two actuated joints on a leg, a non-positive gear, or a leg without one
+    (named with its 1-dof joints ``leg_joints`` and ``leg_bodies(k)``)."""
+    if actuated is not None:
+        acts = [TreeActuator(str(n), str(n)) for n in actuated]
+        gears = {a.joint: a.gear for a in model.actuators}
+        for a in acts:
+            a.gear = gears.get(a.joint, 1.0)
+            a.name = next((x.name for x in model.actuators if x.joint == a.joint), a.name)
+    else:
+        acts = list(model.actuators)
+    all_joints = {b.joint.name for b in model.bodies if b.joint is not None}
+    order: list[int] = []
+    act_of_leg: dict[int, TreeActuator] = {}
+    for a in acts:
+        if a.joint in spherical_joints:
+            raise ModelImportError(
+                f"actuator {shown(a.name)} drives {shown(a.joint)}, a hinge of a spherical "
+                "joint (a passive joint): actuate one of the leg's three 1-dof joints",
+                (),
+                (a.name, a.joint),
+            )
+        if a.joint not in leg_of_joint:
+            what = "no joint of the model" if a.joint not in all_joints else "not a leg joint"
+            raise ModelImportError(
+                f"actuator {shown(a.name)} drives {shown(a.joint)}, {what}: actuate one 1-dof "
+                "joint of each leg",
+                (),
+                (a.name, a.joint),
+            )
+        k = leg_of_joint[a.joint]
+        if k in act_of_leg:
+            if act_of_leg[k].joint != a.joint:
+                raise ModelImportError(
+                    f"leg through {shown(act_of_leg[k].joint)} has two actuated joints "
+                    f"({shown(act_of_leg[k].joint)} by {shown(act_of_leg[k].name)}, "
+                    f"{shown(a.joint)} by {shown(a.name)}): stewart-pin actuates one joint "
+                    "per leg",
+                    (),
+                    (act_of_leg[k].joint, a.joint),
+                )
+            model.notes.append(
+                f"actuator {shown(a.name)} drives the same joint as "
+                f"{shown(act_of_leg[k].name)}: the leg's efforts are those of its joint"
+            )
+            continue
+        if not a.gear > 0 or not math.isfinite(a.gear):
+            raise ModelImportError(
+                f"actuator {shown(a.name)} has gear {a.gear:g}: stewart-pin's efforts are "
+                "along each joint's positive direction, through a positive ratio",
+                (),
+                (a.name,),
+            )
+        act_of_leg[k] = a
+        order.append(k)
+    missing = [k for k in range(6) if k not in act_of_leg]
+    if missing:
+        idle = [n for k in missing for n in leg_joints[k]]
+        raise ModelImportError(
+            f"{len(missing)} leg(s) without an actuator (joints {shown_list(idle)}): each leg "
+            "needs one actuated 1-dof joint"
+            + (
+                " (give them with actuated=[...] or <transmission>)"
+                if model.format == "urdf"
+                else ""
+            ),
+            tuple(n for k in missing for n in leg_bodies(k)),
+            tuple(idle),
+        )
+
+    return order, act_of_leg
 
 
 @dataclass
@@ -1142,6 +1176,8 @@ __all__ = [
     "ImportReport",
     "ImportResult",
     "LegReport",
+    "LinkPoses",
+    "assign_actuators",
     "build",
     "remove_spin",
     "robot_name",

@@ -571,10 +571,14 @@ def read_mjcf(
         else:
             if int(m.eq_objtype[e]) == site_obj:
                 T_1_2 = _pose(p1, R1) @ np.linalg.inv(_pose(p2, R2))
+                F2 = _pose(p2, R2)
             else:
                 R = _quat_matrix(data_e[6:10])
                 T_1_2 = _pose(data_e[3:6] - R @ data_e[0:3], R)
-            closures.append(TreeClosure(ename, "weld", index[b1], index[b2], T_1_2=T_1_2))
+                F2 = _pose(data_e[0:3], np.eye(3))
+            closures.append(
+                TreeClosure(ename, "weld", index[b1], index[b2], T_1_2=T_1_2, frame2=F2)
+            )
 
     actuators: list[TreeActuator] = []
     joint_trn = int(mujoco.mjtTrn.mjTRN_JOINT)

@@ -596,7 +596,10 @@ def read_sdf(path: str | Path) -> SdfRead:
             closures.append(TreeClosure(j.name, "point", b1, b2, p1, p2))
             _ball_terms(j, reader, notes)
         else:
-            closures.append(TreeClosure(j.name, "weld", b1, b2, T_1_2=np.linalg.inv(W1) @ W2))
+            F2 = np.linalg.inv(W2) @ poses[j.name]  # the joint's frame in the child
+            closures.append(
+                TreeClosure(j.name, "weld", b1, b2, T_1_2=np.linalg.inv(W1) @ W2, frame2=F2)
+            )
     for j in joints:
         if j.kind == "ball" and j not in closing:
             _ball_terms(j, reader, notes)

@@ -12,7 +12,9 @@
    (R-S-S, P-S-S: a 1-dof joint, a spherical joint, the rod; S-P-S: a spherical joint at
    the base, a slide along the rod), which :mod:`stewart_pin.importers.build` replaces by
    the equivalent universal-joint leg.
-4. Everything else that moves is an error naming its bodies.
+4. Everything else that moves is an error naming its bodies; a model whose legs are not
+   three joints and a spherical joint is then read by :mod:`stewart_pin.importers.chains`
+   (chain legs, exactly).
 """
 
 from __future__ import annotations
@@ -30,7 +32,6 @@ from stewart_pin.description.leg_architecture import (
 from stewart_pin.exceptions import (
     ModelImportError,
     ModelImportWarning,
-    UnsupportedArchitectureError,
 )
 from stewart_pin.importers.canonical import (
     transform_inertia,
@@ -53,6 +54,11 @@ MASSLESS = 1e-9
 #: Three hinge axes meet in one point when each passes within this fraction of the size of
 #: the point nearest to all three.
 INTERSECTION_TOLERANCE = 1e-9
+#: With ``approximate_legs``: three hinges whose axes pass within this fraction of the
+#: size of one point are taken as a spherical joint at that point, whatever the mass of
+#: the bodies between them (dropped) and their joint terms (dropped): the old
+#: approximation of a spin + U-joint top by an ideal ball (reported with its effect).
+APPROXIMATE_INTERSECTION = 1e-2
 
 
 # ------------------------------------------------------------------------------ links
@@ -136,6 +142,7 @@ class Recognition:
     scale: float
     mass: float
     dropped: list[str]
+    approximated: list[str] = field(default_factory=list)
 
 
 def _links(model: KinematicModel) -> tuple[list[Link], list[int]]:
@@ -209,9 +216,14 @@ def _scale(model: KinematicModel) -> float:
     return s if s > 0 else 1.0
 
 
-def recognise(model: KinematicModel, platform: str | None = None) -> Recognition:
+def recognise(
+    model: KinematicModel, platform: str | None = None, approximate: bool = False
+) -> Recognition:
     """Find the base, the platform and the six legs (module docstring); raises
-    :class:`ModelImportError` naming the bodies and joints that do not fit."""
+    :class:`ModelImportError` naming the bodies and joints that do not fit. With
+    ``approximate`` three hinges that nearly meet (:data:`APPROXIMATE_INTERSECTION`) with
+    massive bodies between them or joint terms are taken as an ideal spherical joint
+    (their masses and terms dropped, the miss reported in ``approximated``)."""
     links, link_of = _links(model)
     ground = link_of[0]
     forced: int | None = None
@@ -227,8 +239,12 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
     moving = [lk for i, lk in enumerate(links) if i != ground]
     mass = float(sum(lk.inertia[9] for lk in moving)) or 1.0
     dropped: list[str] = []
+    approximated: list[str] = []
+    ref_poses = model.poses() if approximate else np.zeros((0, 4, 4))
 
     def massless(link: Link) -> bool:
+        if approximate:
+            return True
         p = link.inertia
         moments = max(abs(p[0]), abs(p[3]), abs(p[5]))
         return p[9] <= MASSLESS * mass and moments <= MASSLESS * mass * scale**2
@@ -303,11 +319,31 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         if e3.joint.kind != REVOLUTE:
             continue
         hinges = (e1.joint, e2.joint, e3.joint)
-        centre = _meeting_point(hinges)
-        if centre is None or _coplanar(hinges):
+        tolerance = APPROXIMATE_INTERSECTION if approximate else INTERSECTION_TOLERANCE
+        lines: tuple[TreeJoint, ...] = hinges
+        if approximate:  # at the reference configuration (at zero they may be aligned)
+            lines = tuple(_line_at(model, ref_poses, e.body) for e in (e1, e2, e3))
+        centre = _meeting_point(lines, tolerance)
+        if centre is None or _coplanar(lines):
             continue
+        centre_child = centre_parent = centre
+        if approximate:
+            miss = _miss(lines)
+            b3, b0 = e3.body, model.bodies[e1.body].parent
+            back = [model.bodies[b].pose @ np.linalg.inv(ref_poses[b]) for b in (b3, b0)]
+            centre_child = back[0][:3, :3] @ centre + back[0][:3, 3]
+            centre_parent = back[1][:3, :3] @ centre + back[1][:3, 3]
+            terms = [h.name for h in hinges if h.has_terms]
+            mass = sum(float(links[i].inertia[9]) for i in (e1.child, e2.child))
+            approximated.append(
+                f"hinges {shown_list([h.name for h in hinges])} taken as an ideal spherical "
+                f"joint (axes missing each other by up to {miss:.3g} m, {mass:.3g} kg between "
+                "them dropped"
+                + (f", joint terms of {shown_list(terms)} dropped" if terms else "")
+                + ")"
+            )
         for h in hinges:
-            if h.has_terms:
+            if h.has_terms and not approximate:
                 raise ModelImportError(
                     f"hinges {shown_list([x.name for x in hinges])} make a spherical joint, but "
                     f"{shown(h.name)} carries joint terms (armature, damping, friction or a "
@@ -322,8 +358,10 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
                     "(a massless body of a three-hinge spherical joint)"
                 )
         sph = Edge(e1.parent, e3.child, e3.joint, e3.body, hinges, (e1.child, e2.child))
-        sph.centre_child = _in_link(links[e3.child], model, e3.body, centre)
-        sph.centre_parent = _in_link(links[e1.parent], model, model.bodies[e1.body].parent, centre)
+        sph.centre_child = _in_link(links[e3.child], model, e3.body, centre_child)
+        sph.centre_parent = _in_link(
+            links[e1.parent], model, model.bodies[e1.body].parent, centre_parent
+        )
         used.update({id(e1), id(e2), id(e3)})
         merged.append(sph)
         for h in hinges:
@@ -377,7 +415,6 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         six = [i for i, n in count.items() if n == 6]
         if len(six) != 1:
             best = max(count.items(), key=lambda kv: kv[1], default=(None, 0))
-            weld_closures_need_chain_legs(model)
             if best[0] is not None:
                 _weld_where_a_ball_should_be(model, links, link_of, edges, best[0])
             where = (
@@ -425,7 +462,6 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
         into.setdefault(e.child, []).append(e)
     for e in into.get(P, []):
         if not e.spherical and e.joint.one_dof:
-            weld_closures_need_chain_legs(model)
             welds = [
                 c.name
                 for c in model.closures
@@ -535,25 +571,7 @@ def recognise(model: KinematicModel, platform: str | None = None) -> Recognition
             tuple(names),
             tuple(joints),
         )
-    return Recognition(links, link_of, ground, P, legs, scale, mass, dropped)
-
-
-def weld_closures_need_chain_legs(model: KinematicModel) -> None:
-    """The one place where a leg closed by a weld closure of a URDF sidecar (version 2)
-    is refused: when the legs cannot be read as three 1-dof joints and a spherical joint
-    (a weld that only lumps a rod end carrying a spherical joint into the platform is
-    read), :class:`UnsupportedArchitectureError` naming the weld closures. Legs of any
-    number of joints closed by a weld are chain legs (``docs/importing.md``)."""
-    welds = tuple(c.name for c in model.closures if c.kind == "weld")
-    if model.format == "urdf" and welds:
-        raise UnsupportedArchitectureError(
-            f"weld closure(s) {shown_list(welds)} close legs that are not three 1-dof joints "
-            "and a spherical joint: weld closures need chain legs (legs of any number of "
-            "joints closed by a weld), which this version does not model; close those legs "
-            "with point closures at their spherical joints",
-            "closures",
-            welds,
-        )
+    return Recognition(links, link_of, ground, P, legs, scale, mass, dropped, approximated)
 
 
 def _weld_where_a_ball_should_be(
@@ -666,9 +684,36 @@ def _in_link(link: Link, model: KinematicModel, body: int, point: np.ndarray) ->
     return T[:3, :3] @ point + T[:3, 3]
 
 
-def _meeting_point(hinges: Sequence[TreeJoint]) -> np.ndarray | None:
-    """The point nearest to the three lines, if each passes within
-    :data:`INTERSECTION_TOLERANCE` of the lines' spread; else ``None``."""
+def _line_at(model: KinematicModel, poses: np.ndarray, body: int) -> TreeJoint:
+    """The hinge of ``body`` with its line (anchor, axis) in F0 at the configuration of
+    ``poses`` (the bodies' poses there)."""
+    J = model.bodies[body].joint
+    assert J is not None
+    parent = model.bodies[body].parent
+    M = poses[parent] @ np.linalg.inv(model.bodies[parent].pose)
+    return TreeJoint(J.name, J.kind, M[:3, :3] @ J.anchor + M[:3, 3], M[:3, :3] @ J.axis)
+
+
+def _miss(hinges: Sequence[TreeJoint]) -> float:
+    """The largest distance [m] between two of the three lines (0 when they meet)."""
+    out = 0.0
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        ha, hb = hinges[a], hinges[b]
+        n = np.cross(ha.axis, hb.axis)
+        w = hb.anchor - ha.anchor
+        if np.linalg.norm(n) > 1e-12:
+            d = abs(float(w @ n)) / float(np.linalg.norm(n))
+        else:
+            d = float(np.linalg.norm(w - (w @ ha.axis) * ha.axis))
+        out = max(out, d)
+    return out
+
+
+def _meeting_point(
+    hinges: Sequence[TreeJoint], tolerance: float = INTERSECTION_TOLERANCE
+) -> np.ndarray | None:
+    """The point nearest to the three lines, if each passes within ``tolerance``
+    (:data:`INTERSECTION_TOLERANCE`) of the lines' spread; else ``None``."""
     A = np.zeros((3, 3))
     b = np.zeros(3)
     for h in hinges:
@@ -682,7 +727,7 @@ def _meeting_point(hinges: Sequence[TreeJoint]) -> np.ndarray | None:
     spread = max(float(np.linalg.norm(h.anchor - c)) for h in hinges) + 1e-3
     for h in hinges:
         v = c - h.anchor
-        if np.linalg.norm(v - (v @ h.axis) * h.axis) > INTERSECTION_TOLERANCE * max(spread, 1.0):
+        if np.linalg.norm(v - (v @ h.axis) * h.axis) > tolerance * max(spread, 1.0):
             return None
     return c
 
@@ -692,6 +737,7 @@ def _coplanar(hinges: Sequence[TreeJoint]) -> bool:
 
 
 __all__ = [
+    "APPROXIMATE_INTERSECTION",
     "INTERSECTION_TOLERANCE",
     "MASSLESS",
     "PLATFORM_MASS_MARGIN",

@@ -119,7 +119,9 @@ class TreeBody:
 class TreeClosure:
     """A loop closure: ``point1`` in ``body1`` coincides with ``point2`` in ``body2``
     (``"point"``, MJCF ``connect``, URDF frame pairs), or ``body2`` is held at ``T_1_2``
-    in ``body1`` (``"weld"``)."""
+    in ``body1`` (``"weld"``; ``frame2``: the file's weld frame in ``body2``, e.g. an MJCF
+    site or a sidecar's ``frame2``, so at ``T_1_2 frame2`` in ``body1``: where a chain leg
+    is attached)."""
 
     name: str
     kind: str
@@ -128,6 +130,7 @@ class TreeClosure:
     point1: np.ndarray = field(default_factory=lambda: np.zeros(3))
     point2: np.ndarray = field(default_factory=lambda: np.zeros(3))
     T_1_2: np.ndarray = field(default_factory=lambda: np.eye(4))
+    frame2: np.ndarray = field(default_factory=lambda: np.eye(4))
 
 
 @dataclass

@@ -403,6 +403,29 @@ def _frame(value: Any, what: str) -> np.ndarray | None:
     return T
 
 
+#: The keys of a version-1 ``"frame"`` closure (the project's URDF writer of chain legs).
+FRAME_CLOSURE_KEYS = {"name", "type", "link1", "frame1", "link2", "frame2"}
+
+
+def _frame_closure(
+    item: dict[str, Any], source: str, body_of: Callable[[str, str], int]
+) -> TreeClosure:
+    """A version-1 sidecar's ``"frame"`` closure (``frame1`` in ``link1`` coincides with
+    ``frame2`` in ``link2``, each ``{"xyz", "rpy"}``) as a weld of the tree."""
+    name = item.get("name")
+    where = f"{source}: closure {shown(str(name))}"
+    if not isinstance(name, str) or set(item) != FRAME_CLOSURE_KEYS:
+        raise FileFormatError(
+            f"{where}: a frame closure has the keys {', '.join(sorted(FRAME_CLOSURE_KEYS))}"
+        )
+    F1 = _frame(item["frame1"], f"{where} 'frame1'")
+    F2 = _frame(item["frame2"], f"{where} 'frame2'")
+    if F1 is None or F2 is None:
+        raise FileFormatError(f'{where}: a version-1 frame is {{"xyz", "rpy"}}')
+    b1, b2 = body_of(str(item["link1"]), where), body_of(str(item["link2"]), where)
+    return TreeClosure(name, "weld", b1, b2, T_1_2=F1 @ np.linalg.inv(F2), frame2=F2)
+
+
 def read_urdf(
     path: str | Path, closures: Any = None, armature: dict[str, float] | None = None
 ) -> UrdfRead:
@@ -545,10 +568,20 @@ def read_urdf(
             F1 = sc.frame1 if sc.frame1 is not None else _inertial_origin(links[sc.link1])
             F2 = sc.frame2 if sc.frame2 is not None else _inertial_origin(links[sc.link2])
             tree_closures.append(
-                TreeClosure(sc.name, "weld", b1, b2, T_1_2=F1 @ np.linalg.inv(F2))
+                TreeClosure(sc.name, "weld", b1, b2, T_1_2=F1 @ np.linalg.inv(F2), frame2=F2)
             )
     elif sidecar is not None or from_dict:
-        for c in parse_closures(data, source):
+        items = data.get("closures") if isinstance(data, dict) else None
+        welds = [
+            w
+            for w in (items if isinstance(items, list) else [])
+            if isinstance(w, dict) and w.get("type") == "frame"
+        ]
+        for w in welds:  # the project's own weld closures (chain legs: frame1 == frame2)
+            tree_closures.append(_frame_closure(w, source, body_of))
+        if welds:
+            data = {**data, "closures": [w for w in items if w not in welds]}  # type: ignore[union-attr]
+        for c in parse_closures(data, source) if not welds or data["closures"] else []:
             tree_closures.append(
                 TreeClosure(
                     c.name,
