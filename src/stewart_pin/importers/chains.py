@@ -507,7 +507,14 @@ def build_chains(
         "the platform": [n for n in link_names(P) if n != model.body_label(links[P].root)],
         "the base": [n for n in link_names(rec.ground) if n != model.body_label(0)],
     }
-    gravity = _gravity(model, rec)  # type: ignore[arg-type]
+    gravity, uniform = _gravity(model, rec)  # type: ignore[arg-type]
+    if not uniform:
+        raise ModelImportError(
+            "gravity compensation differs between the moving bodies (gravcomp, or links "
+            "without gravity): per-body compensation is not modelled for chain legs (their "
+            "dynamics take every body's full weight); give every moving body the same "
+            "compensation, or none"
+        )
     robot = robot_name(model.name) if name is None else check_robot_name(name)
     notes = list(model.notes)
     notes.append(
