@@ -640,7 +640,9 @@ def test_a_mixed_robot_of_ball_and_welded_legs_matches_mujoco_kkt() -> None:
 def test_chain_legs_with_gravity_compensation_on_some_bodies_are_refused() -> None:
     """Chain legs take every body's full weight: a compensation on one body is refused by
     name at import, not dropped (the efforts would be silently wrong)."""
-    xml = re.sub(r'(<body name="leg1_link1"[^>]*?)>', r'\1 gravcomp="1">', community_mjcf(), 1)
+    xml = re.sub(
+        r'(<body name="leg1_link1"[^>]*?)>', r'\1 gravcomp="1">', community_mjcf(), count=1
+    )
     assert 'gravcomp="1"' in xml
     with pytest.raises(ModelImportError, match="per-body compensation is not modelled"):
         import_mjcf(xml)
