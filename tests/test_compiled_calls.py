@@ -3,6 +3,8 @@ batch split across threads give the reference's results and errors."""
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from conftest import fresh_compile_cache, get_robot
@@ -104,3 +106,30 @@ def test_vector_batch_equals_the_scalar_path(name: str) -> None:
             assert flag[0] == flags[k]
             if valid[k]:
                 assert np.max(np.abs(out[k] - one[0])) <= 1e-13 * np.max(np.abs(one[0]))
+
+
+@pytest.mark.parametrize("name", ["simulator", "rus"])
+def test_large_batch_is_split_across_threads(name: str) -> None:
+    """A batch of 2 * THREAD_MIN_STATES + 1 states on 2 threads runs as two slices of the C
+    loop in two threads, leg-chain robots as the 6-UPS (the decision, not the timing: the
+    slices' C calls are recorded), with the one-thread results."""
+    robot = get_robot(name)
+    n = 2 * compiled_module.THREAD_MIN_STATES + 1
+    P, V, A = (np.ascontiguousarray(a) for a in robot.sample_states(n, 9))
+    backend = CompiledDynamics(robot, threads=2)
+    calls: list[tuple[int, int]] = []
+    for which in ("idm", "ddm"):
+        fn = backend._c[which]
+
+        def recorded(m: int, *args: object, fn: object = fn) -> int:
+            calls.append((threading.get_ident(), m))
+            return fn(m, *args)  # type: ignore[operator]
+
+        backend._c[which] = recorded  # type: ignore[assignment]
+    G = backend.inverse_dynamics(P, V, A)
+    assert sorted(m for _, m in calls) == [n // 2, n - n // 2]
+    assert len({t for t, _ in calls}) == 2
+    np.testing.assert_array_equal(G, CompiledDynamics(robot, threads=1).inverse_dynamics(P, V, A))
+    calls.clear()
+    backend.direct_dynamics(P, V, G)
+    assert len(calls) == 2 and len({t for t, _ in calls}) == 2
