@@ -75,6 +75,20 @@ static int sp_check_legs(const double* aux, int slack) {
   }
   return 0;
 }
+#ifdef SP_WIDTH
+/* The lanes sp_check_legs passes (all ones), aux a structure of arrays. */
+SP_VTARGET static sp_ivec sp_v_legs_ok(const sp_vec* aux, int slack) {
+  sp_ivec ok = SP_ALL;
+  int k;
+  (void)slack;
+  for (k = 0; k < 6; ++k) {
+    sp_vec q = aux[%(q3sq)d + k], r = aux[%(rho2)d + k];
+    ok &= (q >= sp_bcast(sp_stroke_lo2)) & (q <= sp_bcast(sp_stroke_hi2));
+    ok &= (q > sp_bcast(sp_min_length2)) & (r > sp_bcast(sp_min_sin2) * q);
+  }
+  return ok;
+}
+#endif
 """
 
 #: The leg checks of the general-leg models: every slack of the generated code (reach,
@@ -86,6 +100,15 @@ static int sp_check_legs(const double* aux, int slack) {
   for (k = 0; k < %(n_slack)d; ++k) if (!(aux[slack + k] > 0.0)) return SP_GEOMETRY;
   return 0;
 }
+#ifdef SP_WIDTH
+/* The lanes sp_check_legs passes (all ones), aux a structure of arrays. */
+SP_VTARGET static sp_ivec sp_v_legs_ok(const sp_vec* aux, int slack) {
+  sp_ivec ok = SP_ALL;
+  int k;
+  for (k = 0; k < %(n_slack)d; ++k) ok &= aux[slack + k] > sp_bcast(0.0);
+  return ok;
+}
+#endif
 """
 
 #: The state guards (validity of the inputs, the leg checks, the condition bound, the
@@ -130,9 +153,33 @@ static int sp_check_inputs(const double* T, const double* x, const double* y) {
 %(check_legs)s
 /* The condition bound 2 / |det S| (||S||_F^2 / 6)^3 (Guggenheimer et al. 1995). */
 static int sp_cond_bound(double det, double fro2, double max_cond) {
-  double t = fro2 / 6.0;
-  double bound = 2.0 / fabs(det) * t * t * t;
-  return (bound <= 0.5 * max_cond) ? 0 : SP_COND;
+  double t = fro2 * (1.0 / 6.0);  /* products only: the vector screen's roundings */
+  return (2.0 * (t * t * t) <= 0.5 * max_cond * fabs(det)) ? 0 : SP_COND;
+}
+
+/* 1 if the LU of S (as sp_check_cond builds it) without pivoting has every multiplier
+   within the growth limit and its determinant passes the bound (then cond(S) is within
+   half the threshold, and sp_check_cond would return 0); else 0. The vector screen
+   sp_v_static_cond_ok does the same operations in the same order. */
+static int sp_static_cond_ok(const double* J, double max_cond) {
+  double A[6][6], fro2 = 0.0, det = 1.0, r, l;
+  int i, j, k, ok = 1;
+  for (i = 0; i < 6; ++i) {
+    for (j = 0; j < 6; ++j) {
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
+      fro2 += A[i][j] * A[i][j];
+    }
+  }
+  for (k = 0; k < 6; ++k) {
+    det *= A[k][k];
+    r = 1.0 / A[k][k];
+    for (i = k + 1; i < 6; ++i) {
+      l = A[i][k] * r;
+      ok &= fabs(l) <= sp_growth_limit;
+      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+    }
+  }
+  return ok && sp_cond_bound(det, fro2, max_cond) == 0;
 }
 
 /* LU with partial pivoting of A = S^T (column i = row i of Jp^-1, J row-major; rows 3-5,
@@ -236,36 +283,146 @@ static int sp_ddm_after(const double* T, const double* tw, const double* gam, co
                         const double* aux, double max_cond) {
   int k, f = sp_check_inputs(T, tw, gam);
   f |= sp_check_legs(aux, SP_DDM_SLACK);
-  f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  if (!sp_static_cond_ok(aux + %(jinv)d, max_cond))  /* the cheap screen, then the LU */
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
   for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
   if (!sp_finite6(a)) f |= SP_NONFINITE;
   return f;
 }
 
-/* SP_WIDTH states at a time (from state s, as long as SP_WIDTH remain) through VFN, the
-   vector copy of the generated code (codegen/_simd.py), then AFTER's guards per state. */
-#define SP_VEC_LOOP(VFN, AFTER, X, OUT, NAUX)                                           \
-  {                                                                                      \
+#ifdef SP_WIDTH
+/* ---- the vector screens: the lanes (all ones) whose scalar guard would return 0 ---- */
+#define SP_BIG 1.7976931348623157e308  /* DBL_MAX: |x| <= SP_BIG iff x is finite */
+
+/* The lanes sp_check_inputs passes: SP_WIDTH states from T (16 per state), x, y (6). */
+SP_VTARGET static sp_ivec sp_v_inputs_ok(const double* T, const double* x, const double* y) {
+  sp_vec t[16], s, e, det;
+  sp_ivec ok = SP_ALL;
+  int i, j, k;
+  for (k = 0; k < 16; ++k) {
+    t[k] = SP_STRIDED(T, 16, k);
+    ok &= sp_v_fabs(t[k]) <= sp_bcast(SP_BIG);
+  }
+  for (k = 0; k < 6; ++k) {
+    ok &= sp_v_fabs(SP_STRIDED(x, 6, k)) <= sp_bcast(SP_BIG);
+    ok &= sp_v_fabs(SP_STRIDED(y, 6, k)) <= sp_bcast(SP_BIG);
+  }
+  ok &= (t[12] == sp_bcast(0.0)) & (t[13] == sp_bcast(0.0)) & (t[14] == sp_bcast(0.0));
+  ok &= t[15] == sp_bcast(1.0);
+  for (i = 0; i < 3; ++i) {
+    for (j = i; j < 3; ++j) {
+      s = t[i] * t[j] + t[4 + i] * t[4 + j] + t[8 + i] * t[8 + j];
+      e = sp_v_fabs(s - sp_bcast(i == j ? 1.0 : 0.0));
+      ok &= e <= sp_bcast(sp_rotation_tol);
+    }
+  }
+  det = t[0] * (t[5] * t[10] - t[6] * t[9]) - t[1] * (t[4] * t[10] - t[6] * t[8])
+      + t[2] * (t[4] * t[9] - t[5] * t[8]);
+  return ok & (det > sp_bcast(0.0));
+}
+
+/* The lanes sp_cond_bound passes. */
+SP_VTARGET static sp_ivec sp_v_bound_ok(sp_vec det, sp_vec fro2, double max_cond) {
+  sp_vec t = fro2 * sp_bcast(1.0 / 6.0);
+  return sp_bcast(2.0) * (t * t * t) <= sp_bcast(0.5 * max_cond) * sp_v_fabs(det);
+}
+
+/* sp_static_cond_ok lane by lane (J: 36 vectors). */
+SP_VTARGET static sp_ivec sp_v_static_cond_ok(const sp_vec* J, double max_cond) {
+  sp_vec A[6][6], fro2 = sp_bcast(0.0), det = sp_bcast(1.0), r, l;
+  sp_ivec ok = SP_ALL;
+  int i, j, k;
+  for (i = 0; i < 6; ++i) {
+    for (j = 0; j < 6; ++j) {
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_bcast(sp_inv_length);
+      fro2 += A[i][j] * A[i][j];
+    }
+  }
+  for (k = 0; k < 6; ++k) {
+    det *= A[k][k];
+    r = sp_bcast(1.0) / A[k][k];
+    for (i = k + 1; i < 6; ++i) {
+      l = A[i][k] * r;
+      ok &= sp_v_fabs(l) <= sp_bcast(sp_growth_limit);
+      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+    }
+  }
+  return ok & sp_v_bound_ok(det, fro2, max_cond);
+}
+
+/* The lanes whose 6 results (6 per state from x) are finite. */
+SP_VTARGET static sp_ivec sp_v_finite6(const double* x) {
+  sp_ivec ok = SP_ALL;
+  int k;
+  for (k = 0; k < 6; ++k) ok &= sp_v_fabs(SP_STRIDED(x, 6, k)) <= sp_bcast(SP_BIG);
+  return ok;
+}
+
+/* The lanes sp_idm_after returns 0 for (as it computes them). */
+SP_VTARGET static sp_ivec sp_v_idm_ok(const double* T, const double* tw, const double* acc,
+                                      const double* g, const sp_vec* aux, double max_cond) {
+  sp_ivec ok = sp_v_inputs_ok(T, tw, acc) & sp_v_legs_ok(aux, SP_IDM_SLACK);
+  ok &= aux[%(growth)d] <= sp_bcast(sp_growth_limit);
+  ok &= sp_v_bound_ok(aux[%(det)d], aux[%(fro2)d], max_cond);
+  return ok & sp_v_finite6(g);
+}
+
+/* The lanes sp_ddm_after returns 0 for. */
+SP_VTARGET static sp_ivec sp_v_ddm_ok(const double* T, const double* tw, const double* gam,
+                                      const double* a, const sp_vec* aux, double max_cond) {
+  sp_ivec ok = sp_v_inputs_ok(T, tw, gam) & sp_v_legs_ok(aux, SP_DDM_SLACK);
+  int k;
+  ok &= sp_v_static_cond_ok(aux + %(jinv)d, max_cond);
+  for (k = 0; k < 6; ++k) ok &= aux[%(ddm_d)d + k] > sp_bcast(0.0);
+  return ok & sp_v_finite6(a);
+}
+
+/* SP_WIDTH states at a time (from state 0, as long as SP_WIDTH remain) through VFN, the
+   vector copy of the generated code (codegen/_simd.py; its by-products in aux, a
+   structure of arrays), the screen VOK, and AFTER's scalar guards for the lanes the
+   screen does not pass (their by-products copied out). Returns the first state left;
+   ORs the flags into *any. */
+#define SP_VEC_LOOP(NAME, VFN, VOK, AFTER, NAUX)                                         \
+  SP_VTARGET static long long NAME(long long n, const double* pose, const double* twist, \
+                                   const double* X, const double* chi, double max_cond,  \
+                                   double* out, int* flags, int* any) {                  \
     const double* av[SP_WIDTH][4];                                                       \
     double* rv[SP_WIDTH][2];                                                             \
     const double* const* argv[SP_WIDTH];                                                 \
     double* const* resv[SP_WIDTH];                                                       \
-    double auxv[SP_WIDTH][NAUX];                                                         \
-    int l;                                                                               \
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
-    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
+    sp_vec aux[NAUX];                                                                    \
+    double auxl[NAUX];                                                                   \
+    sp_ivec ok;                                                                          \
+    long long s;                                                                         \
+    int l, k, f, acc = 0;                                                                \
+    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = 0; }   \
+    for (s = 0; s + SP_WIDTH <= n; s += SP_WIDTH) {                                      \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
         av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);                  \
-        av[l][2] = X + 6 * (s + l); av[l][3] = chi; rv[l][0] = OUT + 6 * (s + l);        \
+        av[l][2] = X + 6 * (s + l); av[l][3] = chi; rv[l][0] = out + 6 * (s + l);        \
       }                                                                                  \
-      VFN(argv, resv);                                                                   \
+      VFN(argv, resv, aux);                                                              \
+      ok = VOK(pose + 16 * s, twist + 6 * s, X + 6 * s, out + 6 * s, aux, max_cond);     \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
-        f = AFTER(av[l][0], av[l][1], av[l][2], rv[l][0], auxv[l], max_cond);           \
+        f = 0;                                                                           \
+        if (!ok[l]) {                                                                    \
+          for (k = 0; k < NAUX; ++k) auxl[k] = aux[k][l];                                \
+          f = AFTER(av[l][0], av[l][1], av[l][2], rv[l][0], auxl, max_cond);            \
+        }                                                                                \
         flags[s + l] = f;                                                                \
-        any |= f;                                                                        \
+        acc |= f;                                                                        \
       }                                                                                  \
     }                                                                                    \
+    *any |= acc;                                                                         \
+    return s;                                                                            \
   }
+#endif
+#ifdef SP_VEC_IDM
+SP_VEC_LOOP(sp_idm_vloop, sp_idm_vec, sp_v_idm_ok, sp_idm_after, SP_IDM_NAUX)
+#endif
+#ifdef SP_VEC_DDM
+SP_VEC_LOOP(sp_ddm_vloop, sp_ddm_vec, sp_v_ddm_ok, sp_ddm_after, SP_DDM_NAUX)
+#endif
 
 /* Inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), chi (88) -> gamma
    (n x 6), flags (n). Returns the OR of the flags. With SP_VEC_IDM, SP_WIDTH states at a
@@ -282,7 +439,8 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
   int any = 0, f;
   long long s = 0;
 #ifdef SP_VEC_IDM
-  SP_VEC_LOOP(sp_idm_vec, sp_idm_after, accel, gamma, SP_IDM_NAUX)
+  if (n >= SP_WIDTH && SP_VEC_READY())
+    s = sp_idm_vloop(n, pose, twist, accel, chi, max_cond, gamma, flags, &any);
 #endif
   for (; s < n; ++s) {
     arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
@@ -307,7 +465,8 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   int any = 0, f;
   long long s = 0;
 #ifdef SP_VEC_DDM
-  SP_VEC_LOOP(sp_ddm_vec, sp_ddm_after, gam, accel, SP_DDM_NAUX)
+  if (n >= SP_WIDTH && SP_VEC_READY())
+    s = sp_ddm_vloop(n, pose, twist, gam, chi, max_cond, accel, flags, &any);
 #endif
   for (; s < n; ++s) {
     arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;

@@ -149,7 +149,8 @@ static int sp_ppdm_after(const double** arg, double* o, const double* aux,
   A[3] = q + SP_NQ * (S); A[4] = qd + SP_NV * (S); A[5] = y + SP_NV * (S);
 
 /* SP_WIDTH states at a time through VFN (the vector copy of the generated code,
-   codegen/_simd.py), then AFTER's guards per state. */
+   codegen/_simd.py; its by-products in soa, a structure of arrays, copied out per state),
+   then AFTER's guards per state. */
 #define SP_VEC_LOOP(VFN, AFTER, NAUX)                                                    \
   {                                                                                      \
     const double* av[SP_WIDTH][6];                                                       \
@@ -157,15 +158,17 @@ static int sp_ppdm_after(const double** arg, double* o, const double* aux,
     const double* const* argv[SP_WIDTH];                                                 \
     double* const* resv[SP_WIDTH];                                                       \
     double auxv[SP_WIDTH][NAUX];                                                         \
-    int l;                                                                               \
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
+    sp_vec soa[NAUX];                                                                    \
+    int l, k;                                                                            \
+    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = 0; }   \
     for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
         SP_ARGS(av[l], s + l)                                                            \
         rv[l][0] = out + SP_NOUT * (s + l);                                              \
       }                                                                                  \
-      VFN(argv, resv);                                                                   \
+      VFN(argv, resv, soa);                                                              \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        for (k = 0; k < NAUX; ++k) auxv[l][k] = soa[k][l];                               \
         f = AFTER(av[l], rv[l][0], auxv[l], max_cond);                                   \
         flags[s + l] = f;                                                                \
         any |= f;                                                                        \
@@ -186,7 +189,7 @@ static int sp_ppdm_after(const double** arg, double* o, const double* aux,
     double aux[NAUX];                                                                      \
     int any = 0, f;                                                                        \
     long long s = 0;                                                                       \
-    if (VEC) SP_VEC_LOOP(VFN, AFTER, NAUX)                                                 \
+    if (VEC && SP_VEC_READY()) SP_VEC_LOOP(VFN, AFTER, NAUX)                               \
     for (; s < n; ++s) {                                                                   \
       SP_ARGS(arg, s)                                                                      \
       res[0] = out + SP_NOUT * s; res[1] = aux;                                            \
@@ -267,11 +270,14 @@ def payload_c_source(
     stubs = "".join(
         f"#define {flag} 1\n"
         if v in written
-        else f"#define {flag} 0\n#define {v}(a, r) ((void)(a), (void)(r))\n"
+        else f"#define {flag} 0\n#define {v}(a, r, s) ((void)(a), (void)(r), (void)(s))\n"
         for v, flag in flags.items()
     )
     if not written:
-        stubs = "#define SP_WIDTH 1\n" + stubs
+        stubs = (
+            "#define SP_WIDTH 1\n#define SP_VEC_READY() 0\n"
+            "typedef double sp_vec __attribute__((vector_size(8)));\n" + stubs
+        )
     wrapper = TEMPLATE % {
         "vec_stubs": stubs,
         "check_legs": leg_checks_source(desc, lay),
