@@ -294,18 +294,15 @@ static int sp_ddm_after(const double* T, const double* tw, const double* gam, co
 /* ---- the vector screens: the lanes (all ones) whose scalar guard would return 0 ---- */
 #define SP_BIG 1.7976931348623157e308  /* DBL_MAX: |x| <= SP_BIG iff x is finite */
 
-/* The lanes sp_check_inputs passes: SP_WIDTH states from T (16 per state), x, y (6). */
-SP_VTARGET static sp_ivec sp_v_inputs_ok(const double* T, const double* x, const double* y) {
-  sp_vec t[16], s, e, det;
+/* The lanes sp_check_inputs passes: t the poses (16 vectors), x, y two 6-vectors. */
+SP_VTARGET static sp_ivec sp_v_inputs_ok(const sp_vec* t, const sp_vec* x, const sp_vec* y) {
+  sp_vec s, e, det;
   sp_ivec ok = SP_ALL;
   int i, j, k;
-  for (k = 0; k < 16; ++k) {
-    t[k] = SP_STRIDED(T, 16, k);
-    ok &= sp_v_fabs(t[k]) <= sp_bcast(SP_BIG);
-  }
+  for (k = 0; k < 16; ++k) ok &= sp_v_fabs(t[k]) <= sp_bcast(SP_BIG);
   for (k = 0; k < 6; ++k) {
-    ok &= sp_v_fabs(SP_STRIDED(x, 6, k)) <= sp_bcast(SP_BIG);
-    ok &= sp_v_fabs(SP_STRIDED(y, 6, k)) <= sp_bcast(SP_BIG);
+    ok &= sp_v_fabs(x[k]) <= sp_bcast(SP_BIG);
+    ok &= sp_v_fabs(y[k]) <= sp_bcast(SP_BIG);
   }
   ok &= (t[12] == sp_bcast(0.0)) & (t[13] == sp_bcast(0.0)) & (t[14] == sp_bcast(0.0));
   ok &= t[15] == sp_bcast(1.0);
@@ -359,25 +356,26 @@ SP_VTARGET static sp_ivec sp_v_finite6(const double* x) {
 }
 
 /* The lanes sp_idm_after returns 0 for (as it computes them). */
-SP_VTARGET static sp_ivec sp_v_idm_ok(const double* T, const double* tw, const double* acc,
-                                      const double* g, const sp_vec* aux, double max_cond) {
-  sp_ivec ok = sp_v_inputs_ok(T, tw, acc) & sp_v_legs_ok(aux, SP_IDM_SLACK);
+SP_VTARGET static sp_ivec sp_v_idm_ok(const sp_vec* in, const double* g, const sp_vec* aux,
+                                      double max_cond) {
+  sp_ivec ok = sp_v_inputs_ok(in, in + 16, in + 22) & sp_v_legs_ok(aux, SP_IDM_SLACK);
   ok &= aux[%(growth)d] <= sp_bcast(sp_growth_limit);
   ok &= sp_v_bound_ok(aux[%(det)d], aux[%(fro2)d], max_cond);
   return ok & sp_v_finite6(g);
 }
 
 /* The lanes sp_ddm_after returns 0 for. */
-SP_VTARGET static sp_ivec sp_v_ddm_ok(const double* T, const double* tw, const double* gam,
-                                      const double* a, const sp_vec* aux, double max_cond) {
-  sp_ivec ok = sp_v_inputs_ok(T, tw, gam) & sp_v_legs_ok(aux, SP_DDM_SLACK);
+SP_VTARGET static sp_ivec sp_v_ddm_ok(const sp_vec* in, const double* a, const sp_vec* aux,
+                                      double max_cond) {
+  sp_ivec ok = sp_v_inputs_ok(in, in + 16, in + 22) & sp_v_legs_ok(aux, SP_DDM_SLACK);
   int k;
   ok &= sp_v_static_cond_ok(aux + %(jinv)d, max_cond);
   for (k = 0; k < 6; ++k) ok &= aux[%(ddm_d)d + k] > sp_bcast(0.0);
   return ok & sp_v_finite6(a);
 }
 
-/* SP_WIDTH states at a time (from state 0, as long as SP_WIDTH remain) through VFN, the
+/* SP_WIDTH states at a time (from state 0, as long as SP_WIDTH remain): their inputs
+   gathered into a structure of arrays (in: pose 16, twist 6, X 6 vectors), VFN, the
    vector copy of the generated code (codegen/_simd.py; its by-products in aux, a
    structure of arrays), the screen VOK, and AFTER's scalar guards for the lanes the
    screen does not pass (their by-products copied out). Returns the first state left;
@@ -386,28 +384,29 @@ SP_VTARGET static sp_ivec sp_v_ddm_ok(const double* T, const double* tw, const d
   SP_VTARGET static long long NAME(long long n, const double* pose, const double* twist, \
                                    const double* X, const double* chi, double max_cond,  \
                                    double* out, int* flags, int* any) {                  \
-    const double* av[SP_WIDTH][4];                                                       \
+    sp_vec in[28], aux[NAUX];                                                            \
+    const sp_vec* argv[4] = {in, in + 16, in + 22, 0};                                   \
+    const double* shared[4] = {0, 0, 0, chi};                                            \
     double* rv[SP_WIDTH][2];                                                             \
-    const double* const* argv[SP_WIDTH];                                                 \
     double* const* resv[SP_WIDTH];                                                       \
-    sp_vec aux[NAUX];                                                                    \
     double auxl[NAUX];                                                                   \
     sp_ivec ok;                                                                          \
     long long s;                                                                         \
     int l, k, f, acc = 0;                                                                \
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = 0; }   \
+    for (l = 0; l < SP_WIDTH; ++l) { resv[l] = rv[l]; rv[l][1] = 0; }                    \
     for (s = 0; s + SP_WIDTH <= n; s += SP_WIDTH) {                                      \
-      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
-        av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);                  \
-        av[l][2] = X + 6 * (s + l); av[l][3] = chi; rv[l][0] = out + 6 * (s + l);        \
-      }                                                                                  \
-      VFN(argv, resv, aux);                                                              \
-      ok = VOK(pose + 16 * s, twist + 6 * s, X + 6 * s, out + 6 * s, aux, max_cond);     \
+      for (k = 0; k < 16; ++k) in[k] = SP_STRIDED(pose + 16 * s, 16, k);                 \
+      for (k = 0; k < 6; ++k) in[16 + k] = SP_STRIDED(twist + 6 * s, 6, k);              \
+      for (k = 0; k < 6; ++k) in[22 + k] = SP_STRIDED(X + 6 * s, 6, k);                  \
+      for (l = 0; l < SP_WIDTH; ++l) rv[l][0] = out + 6 * (s + l);                       \
+      VFN(argv, shared, resv, aux);                                                      \
+      ok = VOK(in, out + 6 * s, aux, max_cond);                                          \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
         f = 0;                                                                           \
         if (!ok[l]) {                                                                    \
           for (k = 0; k < NAUX; ++k) auxl[k] = aux[k][l];                                \
-          f = AFTER(av[l][0], av[l][1], av[l][2], rv[l][0], auxl, max_cond);            \
+          f = AFTER(pose + 16 * (s + l), twist + 6 * (s + l), X + 6 * (s + l), rv[l][0], \
+                    auxl, max_cond);                                                     \
         }                                                                                \
         flags[s + l] = f;                                                                \
         acc |= f;                                                                        \

@@ -6,10 +6,12 @@ arithmetic, ``sqrt``/``sin``/... and its helpers (``casadi_sq``, ``casadi_fabs``
 ``casadi_fmax``...), comparisons ``aNNN=(x<y);`` and selections ``aNNN=(c?x:y);``, and
 stores ``if (res[k]!=0) res[k][i]=aNNN;``. :func:`vector_source` rewrites that body over
 ``sp_vec``, a vector of ``SP_WIDTH`` doubles (GCC/Clang ``vector_size``), one state per
-lane: lane ``l`` reads ``argv[l]`` and writes ``resv[l]`` (an argument shared by every
-lane, such as the base parameters, is read once and broadcast; the by-products output,
-``res[1]``, is written whole vectors at a time to a structure-of-arrays buffer
-``soa[i]``, lane ``l`` of ``soa[i]`` being the state's ``aux[i]``). The text does not
+lane: the inputs come as a structure of arrays (``argv[k][i]``: element ``i`` of argument
+``k``, one lane per state, which the caller gathers once and its guards read again), an
+argument shared by every lane (the base parameters) as one array ``shared[k]``, read once
+and broadcast; lane ``l`` writes ``resv[l]``, but for the by-products output (``res[1]``),
+written whole vectors at a time to a structure of arrays ``soa[i]`` (lane ``l`` of
+``soa[i]`` being the state's ``aux[i]``). The text does not
 depend on the width; :data:`PREAMBLE` chooses it when the library is compiled:
 
 - x86-64 (and x86) with GCC or Clang: four doubles (AVX2), the vector functions compiled
@@ -44,7 +46,7 @@ import re
 
 #: The C before the vector functions: the width, the vector types, ``SP_VTARGET`` (the
 #: target of every vector function), ``SP_VEC_READY()`` (whether the processor runs them),
-#: ``SP_LANES(k, i)`` (argument ``k``'s element ``i`` of every lane, from ``argv``),
+#: ``SP_STRIDED(p, d, k)`` (element ``k`` of ``SP_WIDTH`` arrays ``d`` apart from ``p``),
 #: ``sp_bcast`` and the exact lane-mask helpers.
 PREAMBLE = r"""
 /* ---- stewart-pin: several states at once (see codegen/_simd.py) ---- */
@@ -59,7 +61,6 @@ __attribute__((constructor)) static void sp_vec_init(void) {
   sp_vec_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
 }
 #define SP_VEC_READY() sp_vec_ready
-#define SP_LANES(A, k, i) ((sp_vec){A[0][k][i], A[1][k][i], A[2][k][i], A[3][k][i]})
 #define SP_STRIDED(p, d, k) \
   ((sp_vec){(p)[k], (p)[(d) + (k)], (p)[2 * (d) + (k)], (p)[3 * (d) + (k)]})
 SP_VTARGET static inline sp_vec sp_bcast(double x) { return (sp_vec){x, x, x, x}; }
@@ -69,7 +70,6 @@ SP_VTARGET static inline sp_vec sp_v_sqrt(sp_vec x) { return _mm256_sqrt_pd(x); 
 #define SP_VTARGET
 typedef double sp_vec __attribute__((vector_size(16)));
 #define SP_VEC_READY() 1
-#define SP_LANES(A, k, i) ((sp_vec){A[0][k][i], A[1][k][i]})
 #define SP_STRIDED(p, d, k) ((sp_vec){(p)[k], (p)[(d) + (k)]})
 static inline sp_vec sp_bcast(double x) { return (sp_vec){x, x}; }
 static inline sp_vec sp_v_sqrt(sp_vec x) {
@@ -189,11 +189,12 @@ def _internal_name(source: str, name: str) -> str | None:
 def vector_source(
     source: str, names: dict[str, str], shared: frozenset[int] = frozenset()
 ) -> tuple[str, set[str]]:
-    """The C, to follow CasADi's ``source``, of ``static void vname(const double* const*
-    argv[SP_WIDTH], double* const* resv[SP_WIDTH], sp_vec* soa)`` for each exported
-    function ``name`` of ``names`` (``{name: vname}``) whose body is plain straight-line
-    code (output :data:`SOA_OUTPUT` goes to ``soa``, the others lane by lane to ``resv``;
-    the arguments numbered in ``shared`` are read from lane 0 and broadcast), after
+    """The C, to follow CasADi's ``source``, of ``static void vname(const sp_vec* const*
+    argv, const double* const* shared, double* const* resv[SP_WIDTH], sp_vec* soa)`` for
+    each exported function ``name`` of ``names`` (``{name: vname}``) whose body is plain
+    straight-line code (the arguments numbered in ``shared`` read from ``shared[k]`` and
+    broadcast, the others from ``argv[k]``; output :data:`SOA_OUTPUT` goes to ``soa``, the
+    others lane by lane to ``resv``), after
     :data:`PREAMBLE` and the lane-by-lane functions they call; and the set of the
     ``vname`` written (the others: keep the scalar loop)."""
     used: set[str] = set()
@@ -249,9 +250,9 @@ def _vector_function(
         if m:
             v, k, i = m.groups()
             if int(k) in shared:
-                out.append(f"  {v}=sp_bcast(argv[0][{k}][{i}]);")
+                out.append(f"  {v}=sp_bcast(shared[{k}][{i}]);")
             else:
-                out.append(f"  {v}=SP_LANES(argv, {k}, {i});")
+                out.append(f"  {v}=argv[{k}][{i}];")
             continue
         m = _STORE.match(line)
         if m:
@@ -285,8 +286,8 @@ def _vector_function(
         out.append(f"  {v}={_CALL.sub(lambda c: f'sp_v_{c.group(1)}(', expr)};")
     used |= calls
     return (
-        f"SP_VTARGET static void {vname}(const double* const* argv[SP_WIDTH], "
-        f"double* const* resv[SP_WIDTH], sp_vec* soa) {{\n  int l;\n"
+        f"SP_VTARGET static void {vname}(const sp_vec* const* argv, const double* const* "
+        f"shared, double* const* resv[SP_WIDTH], sp_vec* soa) {{\n  int l;\n"
         + "\n".join(out)
-        + "\n  (void)l;\n}\n"
+        + "\n  (void)l; (void)argv; (void)shared;\n}\n"
     )

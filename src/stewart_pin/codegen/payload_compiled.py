@@ -149,24 +149,33 @@ static int sp_ppdm_after(const double** arg, double* o, const double* aux,
   A[3] = q + SP_NQ * (S); A[4] = qd + SP_NV * (S); A[5] = y + SP_NV * (S);
 
 /* SP_WIDTH states at a time through VFN (the vector copy of the generated code,
-   codegen/_simd.py; its by-products in soa, a structure of arrays, copied out per state),
-   then AFTER's guards per state. */
+   codegen/_simd.py: the inputs gathered into a structure of arrays, the by-products in
+   soa, a structure of arrays, copied out per state), then AFTER's guards per state. */
 #define SP_VEC_LOOP(VFN, AFTER, NAUX)                                                    \
   {                                                                                      \
     const double* av[SP_WIDTH][6];                                                       \
     double* rv[SP_WIDTH][2];                                                             \
-    const double* const* argv[SP_WIDTH];                                                 \
     double* const* resv[SP_WIDTH];                                                       \
     double auxv[SP_WIDTH][NAUX];                                                         \
-    sp_vec soa[NAUX];                                                                    \
+    sp_vec soa[NAUX], in[28 + SP_NQ + 2 * SP_NV];                                        \
+    const sp_vec* argv[6] = {in, in + 16, in + 22, in + 28, in + 28 + SP_NQ,             \
+                             in + 28 + SP_NQ + SP_NV};                                   \
     int l, k;                                                                            \
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = 0; }   \
+    for (l = 0; l < SP_WIDTH; ++l) { resv[l] = rv[l]; rv[l][1] = 0; }                    \
     for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
         SP_ARGS(av[l], s + l)                                                            \
         rv[l][0] = out + SP_NOUT * (s + l);                                              \
       }                                                                                  \
-      VFN(argv, resv, soa);                                                              \
+      for (k = 0; k < 16; ++k) in[k] = SP_STRIDED(av[0][0], 16, k);                      \
+      for (k = 0; k < 6; ++k) in[16 + k] = SP_STRIDED(av[0][1], 6, k);                   \
+      for (k = 0; k < 6; ++k) in[22 + k] = SP_STRIDED(av[0][2], 6, k);                   \
+      for (k = 0; k < SP_NQ; ++k) in[28 + k] = SP_STRIDED(av[0][3], SP_NQ, k);           \
+      for (k = 0; k < SP_NV; ++k) {                                                      \
+        in[28 + SP_NQ + k] = SP_STRIDED(av[0][4], SP_NV, k);                             \
+        in[28 + SP_NQ + SP_NV + k] = SP_STRIDED(av[0][5], SP_NV, k);                     \
+      }                                                                                  \
+      VFN(argv, 0, resv, soa);                                                           \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
         for (k = 0; k < NAUX; ++k) auxv[l][k] = soa[k][l];                               \
         f = AFTER(av[l], rv[l][0], auxv[l], max_cond);                                   \
@@ -270,12 +279,12 @@ def payload_c_source(
     stubs = "".join(
         f"#define {flag} 1\n"
         if v in written
-        else f"#define {flag} 0\n#define {v}(a, r, s) ((void)(a), (void)(r), (void)(s))\n"
+        else f"#define {flag} 0\n#define {v}(a, b, r, s) ((void)(a), (void)(r), (void)(s))\n"
         for v, flag in flags.items()
     )
     if not written:
         stubs = (
-            "#define SP_WIDTH 1\n#define SP_VEC_READY() 0\n"
+            "#define SP_WIDTH 1\n#define SP_VEC_READY() 0\n#define SP_STRIDED(p, d, k) 0\n"
             "typedef double sp_vec __attribute__((vector_size(8)));\n" + stubs
         )
     wrapper = TEMPLATE % {
