@@ -18,17 +18,25 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
   Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
   measure's matrix (``l`` the characteristic length), passes half the threshold, and so
   does the tighter ``||S||_F ||S^-1||_F`` (``S^-1`` from an LU with partial pivoting): the
-  caller computes the exact measure of those states only;
+  caller computes the exact measure of those states only. The determinant comes from the
+  generated code's static-pivot LU (IDM) or, first, from an LU of ``S`` without pivoting
+  whose multipliers stay within ``GROWTH_LIMIT`` (DDM; else the pivoted one);
 - ``REPIVOTED`` (IDM): the static-pivot LU of the generated code met a multiplier larger
   than ``GROWTH_LIMIT``; the state was solved again here with partial pivoting (not an
   error);
 - ``NOT_PD`` (DDM): a pivot of ``A_robot = L D L^T`` is not positive;
 - ``NONFINITE``: a non-finite result.
 
-Where the generated function is plain straight-line code (every model so far), the batch
-loop runs two states at a time through its vector copy (:mod:`._simd`; ``SP_VEC_IDM`` /
-``SP_VEC_DDM`` defined), then the guards state by state (``sp_idm_after`` /
-``sp_ddm_after``); an odd last state takes the scalar function.
+Where the generated function is plain straight-line code (every model but custom legs',
+whose generated code calls sub-functions), the batch loop runs ``SP_WIDTH`` states at a
+time (:mod:`._simd`: four with AVX2, when the processor has it, else the scalar loop on
+x86; two on other processors; ``SP_VEC_IDM`` / ``SP_VEC_DDM`` defined): their inputs
+gathered into a structure of arrays, the vector copy of the generated code, then a vector
+screen of the guards (``sp_v_idm_ok`` / ``sp_v_ddm_ok``: the lanes whose scalar guard would
+return 0, computed with the same operations) and the scalar guards (``sp_idm_after`` /
+``sp_ddm_after``) only for the lanes the screen does not pass; the last states (fewer
+than ``SP_WIDTH``) take the scalar function. The flags and results equal the scalar
+path's (tests/test_compiled_calls.py).
 
 ``sp_idm_one`` / ``sp_ddm_one`` run one state packed in one read-only input block (the
 single-state call from Python passes the bytes of its three arrays, no numpy buffer
@@ -157,31 +165,6 @@ static int sp_cond_bound(double det, double fro2, double max_cond) {
   return (2.0 * (t * t * t) <= 0.5 * max_cond * fabs(det)) ? 0 : SP_COND;
 }
 
-/* 1 if the LU of S (as sp_check_cond builds it) without pivoting has every multiplier
-   within the growth limit and its determinant passes the bound (then cond(S) is within
-   half the threshold, and sp_check_cond would return 0); else 0. The vector screen
-   sp_v_static_cond_ok does the same operations in the same order. */
-static int sp_static_cond_ok(const double* J, double max_cond) {
-  double A[6][6], fro2 = 0.0, det = 1.0, r, l;
-  int i, j, k, ok = 1;
-  for (i = 0; i < 6; ++i) {
-    for (j = 0; j < 6; ++j) {
-      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
-      fro2 += A[i][j] * A[i][j];
-    }
-  }
-  for (k = 0; k < 6; ++k) {
-    det *= A[k][k];
-    r = 1.0 / A[k][k];
-    for (i = k + 1; i < 6; ++i) {
-      l = A[i][k] * r;
-      ok &= fabs(l) <= sp_growth_limit;
-      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
-    }
-  }
-  return ok && sp_cond_bound(det, fro2, max_cond) == 0;
-}
-
 /* LU with partial pivoting of A = S^T (column i = row i of Jp^-1, J row-major; rows 3-5,
    the angular columns of Jp^-1, divided by the characteristic length), the condition
    bound, and (if rhs) the solution of Jp^-T y = rhs (rows 3-5 of rhs scaled alike). When
@@ -259,6 +242,33 @@ TEMPLATE = (
 #define SP_DDM_NAUX %(ddm_naux)d
 #define SP_IDM_SLACK %(idm_slack)d
 #define SP_DDM_SLACK %(ddm_slack)d
+
+/* The direct model's cheap condition check: 1 if the LU of S (as sp_check_cond builds
+   it) without pivoting has every multiplier within the growth limit (its determinant
+   accurate) and the bound passes with that determinant (cond(S) <= bound <= half the
+   threshold: the reference accepts the state); else 0 (sp_check_cond decides). Cheaper
+   than the pivoted LU, and the vector screen sp_v_static_cond_ok does the same
+   operations in the same order, so the two paths flag alike. */
+static int sp_static_cond_ok(const double* J, double max_cond) {
+  double A[6][6], fro2 = 0.0, det = 1.0, r, l;
+  int i, j, k, ok = 1;
+  for (i = 0; i < 6; ++i) {
+    for (j = 0; j < 6; ++j) {
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
+      fro2 += A[i][j] * A[i][j];
+    }
+  }
+  for (k = 0; k < 6; ++k) {
+    det *= A[k][k];
+    r = 1.0 / A[k][k];
+    for (i = k + 1; i < 6; ++i) {
+      l = A[i][k] * r;
+      ok &= fabs(l) <= sp_growth_limit;
+      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+    }
+  }
+  return ok && sp_cond_bound(det, fro2, max_cond) == 0;
+}
 
 /* The guards of one inverse-dynamics state after the generated code ran (g: its Gamma,
    aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */
