@@ -230,19 +230,9 @@ static int sp_finite6(const double* x) {
 }
 """
 
-TEMPLATE = (
-    GUARDS
-    + r"""
-/* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
-#ifndef SP_EXPORT
-#define SP_EXPORT __attribute__((visibility("default")))
-#endif
-
-#define SP_IDM_NAUX %(idm_naux)d
-#define SP_DDM_NAUX %(ddm_naux)d
-#define SP_IDM_SLACK %(idm_slack)d
-#define SP_DDM_SLACK %(ddm_slack)d
-
+#: The direct models' cheap condition check (after :data:`GUARDS`; the batch loops of
+#: :data:`TEMPLATE` and of :mod:`.payload_compiled`).
+STATIC_COND = r"""
 /* The direct model's cheap condition check: 1 if the LU of S (as sp_check_cond builds
    it) without pivoting has every multiplier within the growth limit (its determinant
    accurate) and the bound passes with that determinant (cond(S) <= bound <= half the
@@ -269,6 +259,21 @@ static int sp_static_cond_ok(const double* J, double max_cond) {
   }
   return ok && sp_cond_bound(det, fro2, max_cond) == 0;
 }
+"""
+
+TEMPLATE = (
+    GUARDS
+    + STATIC_COND
+    + r"""
+/* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
+#ifndef SP_EXPORT
+#define SP_EXPORT __attribute__((visibility("default")))
+#endif
+
+#define SP_IDM_NAUX %(idm_naux)d
+#define SP_DDM_NAUX %(ddm_naux)d
+#define SP_IDM_SLACK %(idm_slack)d
+#define SP_DDM_SLACK %(ddm_slack)d
 
 /* The guards of one inverse-dynamics state after the generated code ran (g: its Gamma,
    aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */

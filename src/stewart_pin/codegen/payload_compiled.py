@@ -79,6 +79,7 @@ UNIT_TOLERANCE = 1e-9 * (1.0 - 1e-3)
 #: their single-state entries.
 TEMPLATE = (
     _csource.GUARDS
+    + _csource.STATIC_COND
     + r"""
 /* ---- stewart-pin: payload models' batch loops (hand-written, payload_compiled.py) ---- */
 #ifndef SP_EXPORT
@@ -126,7 +127,8 @@ static int sp_direct_after(const double** arg, const double* o, const double* au
                            int npiv, double max_cond) {
   int k, f = sp_check_inputs(arg[0], arg[1], arg[2]) | sp_arm_inputs(arg[3], arg[4], arg[5]);
   f |= sp_check_legs(aux, %(ddm_slack)d);
-  f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  if (!sp_static_cond_ok(aux + %(jinv)d, max_cond))  /* the cheap screen, then the LU */
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
   for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
   for (k = 6; k < npiv; ++k) if (!(aux[%(ddm_size)d + k - 6] > 0.0)) f |= SP_NOT_PD;
   if (!sp_finite_n(o, SP_NOUT)) f |= SP_NONFINITE;
