@@ -571,7 +571,7 @@ def _kill(proc: subprocess.Popen[str]) -> None:
 def build_seconds(source: str, cflags: tuple[str, ...] = CFLAGS) -> float:
     """About how long the system compiler takes on ``source`` with ``cflags`` [s]
     (measured on this project's 2-core machine with gcc -O2, before the models had their
-    two-state vector copy (:mod:`._simd`, about 1.5x the source and 2x the time): 1 s for
+    vector copy (:mod:`._simd`, about 1.5x the source and 2-2.5x the time): 1 s for
     the 6-UPS models, 1.3 s for 6-RUS, 3.4 s for a random 6-RUS with every joint term, 10 s
     for custom legs;
     with :data:`QUICK_CFLAGS`, linear: 2.5-2.8 s for the 1.2-1.5 MB of the exact

@@ -259,7 +259,7 @@ def payload_c_source(
     desc: Any, payload: Any, models: PayloadModels | None = None, vector: bool = True
 ) -> str:
     """The C source of the coupled models of ``desc`` carrying ``payload``: CasADi's
-    generated functions, their copies two states at a time (:mod:`._simd`, unless
+    generated functions, their copies several states at a time (:mod:`._simd`, unless
     ``vector`` is false) and :data:`TEMPLATE` (only numbers enter it)."""
     m = payload_models(desc, payload, model_layout(desc)) if models is None else models
     cg = cs.CodeGenerator(
