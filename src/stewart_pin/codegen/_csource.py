@@ -89,7 +89,7 @@ SP_VTARGET static sp_ivec sp_v_legs_ok(const sp_vec* aux, int slack) {
   sp_ivec ok = SP_ALL;
   int k;
   (void)slack;
-  for (k = 0; k < 6; ++k) {
+  SP_UNROLL for (k = 0; k < 6; ++k) {
     sp_vec q = aux[%(q3sq)d + k], r = aux[%(rho2)d + k];
     ok &= (q >= sp_bcast(sp_stroke_lo2)) & (q <= sp_bcast(sp_stroke_hi2));
     ok &= (q > sp_bcast(sp_min_length2)) & (r > sp_bcast(sp_min_sin2) * q);
@@ -113,7 +113,7 @@ static int sp_check_legs(const double* aux, int slack) {
 SP_VTARGET static sp_ivec sp_v_legs_ok(const sp_vec* aux, int slack) {
   sp_ivec ok = SP_ALL;
   int k;
-  for (k = 0; k < %(n_slack)d; ++k) ok &= aux[slack + k] > sp_bcast(0.0);
+  SP_UNROLL for (k = 0; k < %(n_slack)d; ++k) ok &= aux[slack + k] > sp_bcast(0.0);
   return ok;
 }
 #endif
@@ -314,15 +314,15 @@ SP_VTARGET static sp_ivec sp_v_inputs_ok(const sp_vec* t, const sp_vec* x, const
   sp_vec s, e, det;
   sp_ivec ok = SP_ALL;
   int i, j, k;
-  for (k = 0; k < 16; ++k) ok &= sp_v_fabs(t[k]) <= sp_bcast(SP_BIG);
-  for (k = 0; k < 6; ++k) {
+  SP_UNROLL for (k = 0; k < 16; ++k) ok &= sp_v_fabs(t[k]) <= sp_bcast(SP_BIG);
+  SP_UNROLL for (k = 0; k < 6; ++k) {
     ok &= sp_v_fabs(x[k]) <= sp_bcast(SP_BIG);
     ok &= sp_v_fabs(y[k]) <= sp_bcast(SP_BIG);
   }
   ok &= (t[12] == sp_bcast(0.0)) & (t[13] == sp_bcast(0.0)) & (t[14] == sp_bcast(0.0));
   ok &= t[15] == sp_bcast(1.0);
-  for (i = 0; i < 3; ++i) {
-    for (j = i; j < 3; ++j) {
+  SP_UNROLL for (i = 0; i < 3; ++i) {
+    SP_UNROLL for (j = i; j < 3; ++j) {
       s = t[i] * t[j] + t[4 + i] * t[4 + j] + t[8 + i] * t[8 + j];
       e = sp_v_fabs(s - sp_bcast(i == j ? 1.0 : 0.0));
       ok &= e <= sp_bcast(sp_rotation_tol);
@@ -344,19 +344,19 @@ SP_VTARGET static sp_ivec sp_v_static_cond_ok(const sp_vec* J, double max_cond) 
   sp_vec A[6][6], fro2 = sp_bcast(0.0), det = sp_bcast(1.0), r, l;
   sp_ivec ok = SP_ALL;
   int i, j, k;
-  for (i = 0; i < 6; ++i) {
-    for (j = 0; j < 6; ++j) {
+  SP_UNROLL for (i = 0; i < 6; ++i) {
+    SP_UNROLL for (j = 0; j < 6; ++j) {
       A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_bcast(sp_inv_length);
       fro2 += A[i][j] * A[i][j];
     }
   }
-  for (k = 0; k < 6; ++k) {
+  SP_UNROLL for (k = 0; k < 6; ++k) {
     det *= A[k][k];
     r = sp_bcast(1.0) / A[k][k];
-    for (i = k + 1; i < 6; ++i) {
+    SP_UNROLL for (i = k + 1; i < 6; ++i) {
       l = A[i][k] * r;
       ok &= sp_v_fabs(l) <= sp_bcast(sp_growth_limit);
-      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+      SP_UNROLL for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
     }
   }
   return ok & sp_v_bound_ok(det, fro2, max_cond);
@@ -366,7 +366,7 @@ SP_VTARGET static sp_ivec sp_v_static_cond_ok(const sp_vec* J, double max_cond) 
 SP_VTARGET static sp_ivec sp_v_finite6(const double* x) {
   sp_ivec ok = SP_ALL;
   int k;
-  for (k = 0; k < 6; ++k) ok &= sp_v_fabs(SP_STRIDED(x, 6, k)) <= sp_bcast(SP_BIG);
+  SP_UNROLL for (k = 0; k < 6; ++k) ok &= sp_v_fabs(SP_STRIDED(x, 6, k)) <= sp_bcast(SP_BIG);
   return ok;
 }
 
@@ -385,7 +385,7 @@ SP_VTARGET static sp_ivec sp_v_ddm_ok(const sp_vec* in, const double* a, const s
   sp_ivec ok = sp_v_inputs_ok(in, in + 16, in + 22) & sp_v_legs_ok(aux, SP_DDM_SLACK);
   int k;
   ok &= sp_v_static_cond_ok(aux + %(jinv)d, max_cond);
-  for (k = 0; k < 6; ++k) ok &= aux[%(ddm_d)d + k] > sp_bcast(0.0);
+  SP_UNROLL for (k = 0; k < 6; ++k) ok &= aux[%(ddm_d)d + k] > sp_bcast(0.0);
   return ok & sp_v_finite6(a);
 }
 

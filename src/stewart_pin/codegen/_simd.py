@@ -78,6 +78,12 @@ static inline sp_vec sp_v_sqrt(sp_vec x) {
   return r;
 }
 #endif
+/* the screens' short loops unrolled (their arrays then stay in registers) */
+#if defined(__GNUC__) && !defined(__clang__)
+#define SP_UNROLL _Pragma("GCC unroll 36")
+#else
+#define SP_UNROLL
+#endif
 /* the lane masks of comparisons (all ones where true) */
 typedef __typeof__((sp_vec){0} < (sp_vec){0}) sp_ivec;
 #define SP_ALL (sp_bcast(0.0) == sp_bcast(0.0))
