@@ -486,10 +486,14 @@ class CompiledPayloadDynamics:
                 self._resolve(which, np.array([flag]), args, out[None])
             return out, False, y
         nq, nv = self.nq, self.nv
-        batched, T, V, X = check_states(pose, (twist, "twist"), (x, x_name))
-        Q, Qd, Y = self.robot._joints(len(T), batched, q, (qd, "payload qd"), (y, y_name))
-        n = T.shape[0]
-        arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X, Q, Qd, Y)]
+        n = _native_batch(args, nq, nv)
+        if n:  # a batch of C-contiguous float64 arrays: the C guard checks the values
+            batched, Y, arrays = True, y, list(args)
+        else:
+            batched, T, V, X = check_states(pose, (twist, "twist"), (x, x_name))
+            Q, Qd, Y = self.robot._joints(len(T), batched, q, (qd, "payload qd"), (y, y_name))
+            n = T.shape[0]
+            arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X, Q, Qd, Y)]
         out = np.empty((n, 6 + nv))
         flags = np.empty(n, dtype=np.int32)
         fn = self._batch[which]
@@ -561,6 +565,24 @@ class CompiledPayloadDynamics:
         second = r.tau if which in ("pidm", "ppdm") else r.qdd
         out[bad, :6] = first
         out[bad, 6:] = second
+
+
+def _native_batch(args: tuple[Any, ...], nq: int, nv: int) -> int:
+    """The number of states when ``args`` (pose, twist, x, q, qd, y) are a batch of
+    C-contiguous float64 ndarrays of the shapes (N, 4, 4), (N, 6), (N, 6), (N, nq),
+    (N, nv), (N, nv), N > 0 (the C guard then checks their values, and a state it flags
+    goes through the reference path, which raises the reference's error); else 0."""
+    first = args[0]
+    if type(first) is not np.ndarray or first.ndim != 3 or first.shape[0] == 0:
+        return 0
+    n = first.shape[0]
+    shapes = ((n, 4, 4), (n, 6), (n, 6), (n, nq), (n, nv), (n, nv))
+    for a, shape in zip(args, shapes, strict=True):
+        if not (
+            type(a) is np.ndarray and a.dtype is _F64 and a.shape == shape and a.flags.c_contiguous
+        ):
+            return 0
+    return n
 
 
 # ---------------------------------------------------------------------------- backends
