@@ -27,7 +27,7 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
 - ``NOT_PD`` (DDM): a pivot of ``A_robot = L D L^T`` is not positive;
 - ``NONFINITE``: a non-finite result.
 
-Where the generated function is plain straight-line code (every model but custom legs',
+Where the generated function is plain straight-line code (every model but custom legs,
 whose generated code calls sub-functions), the batch loop runs ``SP_WIDTH`` states at a
 time (:mod:`._simd`: four with AVX2, when the processor has it, else the scalar loop on
 x86; two on other processors; ``SP_VEC_IDM`` / ``SP_VEC_DDM`` defined): their inputs
