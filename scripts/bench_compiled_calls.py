@@ -13,7 +13,10 @@ Median wall-clock time [us] per state, all in one run, on one preset (default
 - the single-state entry ``sp_idm_one`` / ``sp_ddm_one`` called on prepared arguments
   (what ``CompiledDynamics`` calls for one state);
 - per state at batches of 10 000 and 100 000 states, with the backend's thread count
-  (``STEWART_PIN_THREADS``, default ``os.cpu_count()``) and with one thread.
+  (``STEWART_PIN_THREADS``, default ``os.cpu_count()``) and with one thread; and for the
+  batches of 100 000, the process's CPU time per state (all threads: what the batch costs
+  whatever the machine's load; on otherwise idle cores the wall time on ``t`` threads
+  is about this divided by ``t``, on a loaded machine the slices wait for a CPU).
 
 Usage: ``python scripts/bench_compiled_calls.py [--preset simulator] [--repeats 2000]
 [--json out.json]``.
@@ -24,6 +27,9 @@ from __future__ import annotations
 import argparse
 import ctypes
 import json
+import statistics
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +60,18 @@ def raw_call(
         flags.ctypes.data,
     )  # type: ignore[attr-defined]
     return fn, (args, keep)
+
+
+def median_cpu_us(fn: Callable[[], object], repeats: int, per: int) -> float:
+    """Median over ``repeats`` calls of ``fn`` of the process's CPU time (all its threads),
+    divided by ``per`` states per call [us]."""
+    fn()  # warm-up
+    times = []
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times) / per * 1e6
 
 
 def run(preset: str, repeats: int) -> dict[str, object]:
@@ -100,6 +118,10 @@ def run(preset: str, repeats: int) -> dict[str, object]:
                 rows[f"{name} batch {n}, per state ({b.threads} threads)"] = median_us(
                     lambda m=m, n=n, x=X: m(P[:n], V[:n], x[:n]), reps, n
                 )
+                if n == big:
+                    rows[f"{name} batch {n}, CPU time per state ({b.threads} threads)"] = (
+                        median_cpu_us(lambda m=m, n=n, x=X: m(P[:n], V[:n], x[:n]), reps, n)
+                    )
     reference = rows["pin.constraintDynamics (raw call)"]
     return {
         "preset": preset,

@@ -3,16 +3,21 @@ batch split across threads give the reference's results and errors."""
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from conftest import fresh_compile_cache, get_robot
 from helpers import rel_error
 
+from stewart_pin import StewartRobot
 from stewart_pin.codegen import CompiledDynamics
 from stewart_pin.codegen import compiled as compiled_module
+from stewart_pin.codegen._csource import FLAG_NAMES
 from stewart_pin.exceptions import InputError, StrokeLimitError
 from stewart_pin.kinematics.workspace import sample_states
 
+COND, REPIVOTED = FLAG_NAMES["COND"], FLAG_NAMES["REPIVOTED"]
 TOL = 1e-10  # relative to the largest value of the batch (as in test_codegen.py)
 
 
@@ -74,33 +79,77 @@ def test_threads_setting(monkeypatch: pytest.MonkeyPatch) -> None:
         CompiledDynamics(get_robot("simulator"), threads=0)
 
 
-@pytest.mark.parametrize("name", ["simulator", "rus"])
+@pytest.mark.parametrize("name", ["simulator", "rus", "pus", "ups-offset"])
 def test_vector_batch_equals_the_scalar_path(name: str) -> None:
-    """The batch loop runs two states at a time through the vector copy of the generated
-    code (codegen/_simd.py): every state's result and flag equal those of the same C
-    called on that state alone (the scalar path) to 1e-13, whichever lane it takes, with
-    invalid states (out of stroke, not finite) in either lane and an odd count (the last
-    state scalar); the valid states also equal the reference path."""
+    """The batch loop runs SP_WIDTH states at a time (four with AVX2, two elsewhere)
+    through the vector copy of the generated code (codegen/_simd.py) and the vector screen
+    of the guards: every state's result and flag equal those of the same C called on that
+    state alone (the scalar path) to 1e-13, whichever lane it takes, with invalid states
+    (out of reach, not finite, not a rotation) in every lane, an uneven count (the last
+    states scalar) and, with a low ``max_condition``, states the screen leaves to the
+    scalar guards (flagged or not); the valid states also equal the reference path."""
     robot = get_robot(name)
-    n = 41
+    n = 43
     P, V, A = (np.ascontiguousarray(a) for a in robot.sample_states(n, 8))
-    backend = CompiledDynamics(robot, threads=1)
-    source = (backend.library.parent / "stewart_models.c").read_text()
+    source = (CompiledDynamics(robot).library.parent / "stewart_models.c").read_text()
     assert "#define SP_VEC_IDM 1" in source and "#define SP_VEC_DDM 1" in source
     G = np.ascontiguousarray(robot.inverse_dynamics(P, V, A, backend="pinocchio"))
-    P[6, 2, 3] += 10.0 * robot.description.size  # an even lane: out of reach
-    V[11, 0] = np.nan  # an odd lane: not finite
+    cond = robot.condition_number(P)
+    P[6, 2, 3] += 10.0 * robot.description.size  # lane 2 (of 4): out of reach
+    V[11, 0] = np.nan  # lane 3: not finite
+    P[12, 0, 1] += 1e-3  # lane 0: not a rotation
+    A[17, 2] = np.inf  # lane 1: not finite (the inverse model's input)
+    G[17, 2] = np.inf  # (the direct model's)
     valid = np.ones(n, dtype=bool)
-    valid[[6, 11]] = False
-    chi = np.ascontiguousarray(backend.base_values, dtype=np.float64)
-    for which, X, ref in (("idm", A, G), ("ddm", G, A)):
-        out, flags = np.empty((n, 6)), np.zeros(n, dtype=np.int32)
-        backend._call_batch(which, n, P, V, X, chi, out, flags)
-        assert flags[6] and flags[11]
-        assert rel_error(out[valid], ref[valid]) < 1e-8
-        for k in range(n):
-            one, flag = np.empty((1, 6)), np.zeros(1, dtype=np.int32)
-            backend._call_batch(which, 1, P[k : k + 1], V[k : k + 1], X[k : k + 1], chi, one, flag)
-            assert flag[0] == flags[k]
-            if valid[k]:
-                assert np.max(np.abs(out[k] - one[0])) <= 1e-13 * np.max(np.abs(one[0]))
+    valid[[6, 11, 12, 17]] = False
+    low = [m * float(np.median(cond)) for m in np.geomspace(1.2, 4.0, 12)]
+    partly_flagged = 0
+    for max_condition in (robot.max_condition, *low):
+        backend = CompiledDynamics(StewartRobot(robot.description, max_condition), threads=1)
+        chi = np.ascontiguousarray(backend.base_values, dtype=np.float64)
+        for which, X, ref in (("idm", A, G), ("ddm", G, A)):
+            out, flags = np.empty((n, 6)), np.zeros(n, dtype=np.int32)
+            backend._call_batch(which, n, P, V, X, chi, out, flags)
+            assert np.all(flags[~valid] != 0)
+            if max_condition == robot.max_condition:
+                assert not np.any(flags[valid] & ~REPIVOTED)
+                assert rel_error(out[valid], ref[valid]) < 1e-8
+            elif 0 < np.count_nonzero(flags[valid] & COND) < np.count_nonzero(valid):
+                partly_flagged += 1  # some flagged for their condition, some not
+            else:
+                continue
+            for k in range(n):
+                one, flag = np.empty((1, 6)), np.zeros(1, dtype=np.int32)
+                x = X[k : k + 1]
+                backend._call_batch(which, 1, P[k : k + 1], V[k : k + 1], x, chi, one, flag)
+                assert flag[0] == flags[k], (which, k)
+                if valid[k]:
+                    assert np.max(np.abs(out[k] - one[0])) <= 1e-13 * np.max(np.abs(one[0]))
+    assert partly_flagged >= 2
+
+
+@pytest.mark.parametrize("name", ["simulator", "rus"])
+def test_large_batch_is_split_across_threads(name: str) -> None:
+    """A batch of 2 * THREAD_MIN_STATES + 1 states on 2 threads runs as two slices of the C
+    loop in two threads, leg-chain robots as the 6-UPS (the decision, not the timing: the
+    slices' C calls are recorded), with the one-thread results."""
+    robot = get_robot(name)
+    n = 2 * compiled_module.THREAD_MIN_STATES + 1
+    P, V, A = (np.ascontiguousarray(a) for a in robot.sample_states(n, 9))
+    backend = CompiledDynamics(robot, threads=2)
+    calls: list[tuple[int, int]] = []
+    for which in ("idm", "ddm"):
+        fn = backend._c[which]
+
+        def recorded(m: int, *args: object, fn: object = fn) -> int:
+            calls.append((threading.get_ident(), m))
+            return fn(m, *args)  # type: ignore[operator]
+
+        backend._c[which] = recorded  # type: ignore[assignment]
+    G = backend.inverse_dynamics(P, V, A)
+    assert sorted(m for _, m in calls) == [n // 2, n - n // 2]
+    assert len({t for t, _ in calls}) == 2
+    np.testing.assert_array_equal(G, CompiledDynamics(robot, threads=1).inverse_dynamics(P, V, A))
+    calls.clear()
+    backend.direct_dynamics(P, V, G)
+    assert len(calls) == 2 and len({t for t, _ in calls}) == 2

@@ -228,7 +228,14 @@ def test_errors_are_the_reference_paths():
     nan[1, 4] = np.nan
     bad_pair = q.copy()
     bad_pair[3, 1:3] = [0.9, 0.1]  # the continuous joint's (cos, sin), not of unit norm
+    skew = P.copy()
+    skew[4, 0, 1] += 1e-3  # not a rotation
+    inf_qd = qd.copy()
+    inf_qd[0, -1] = np.inf
     cases = [
+        lambda b: robot.inverse_dynamics(skew, V, A, q, qd, qdd, backend=b),
+        lambda b: robot.inverse_dynamics(P, V, A, q, inf_qd, qdd, backend=b),
+        lambda b: robot.direct_dynamics(P, V, A, q, qd, tau=inf_qd, backend=b),
         lambda b: robot.inverse_dynamics(far, V, A, q, qd, qdd, backend=b),
         lambda b: robot.inverse_dynamics(P, nan, A, q, qd, qdd, backend=b),
         lambda b: robot.inverse_dynamics(P, V, A, bad_pair, qd, qdd, backend=b),
@@ -242,8 +249,9 @@ def test_errors_are_the_reference_paths():
         assert ref is not None
         assert _error(lambda case=case: case("compiled")) == ref
         kinds.append(ref[0])
-    assert kinds[0] is LegReachError  # out of the leg's reach
-    assert kinds[1:3] == [InputError, PayloadError]
+    assert kinds[:3] == [InputError] * 3  # the batches' native path: the C guard flags
+    assert kinds[3] is LegReachError  # out of the leg's reach
+    assert kinds[4:6] == [InputError, PayloadError]
 
 
 def test_a_flagged_state_is_computed_by_the_reference_path():

@@ -19,17 +19,25 @@ and then ``guard``, which sets bits of the state's flag (:data:`FLAG_NAMES`):
   Edelman & Johnson 1995), ``S = Jp^-1 diag(1, 1, 1, 1/l, 1/l, 1/l)`` the singularity
   measure's matrix (``l`` the characteristic length), passes half the threshold, and so
   does the tighter ``||S||_F ||S^-1||_F`` (``S^-1`` from an LU with partial pivoting): the
-  caller computes the exact measure of those states only;
+  caller computes the exact measure of those states only. The determinant comes from the
+  generated code's static-pivot LU (IDM) or, first, from an LU of ``S`` without pivoting
+  whose multipliers stay within ``GROWTH_LIMIT`` (DDM; else the pivoted one);
 - ``REPIVOTED`` (IDM): the static-pivot LU of the generated code met a multiplier larger
   than ``GROWTH_LIMIT``; the state was solved again here with partial pivoting (not an
   error);
 - ``NOT_PD`` (DDM): a pivot of ``A_robot = L D L^T`` is not positive;
 - ``NONFINITE``: a non-finite result.
 
-Where the generated function is plain straight-line code (every model so far), the batch
-loop runs two states at a time through its vector copy (:mod:`._simd`; ``SP_VEC_IDM`` /
-``SP_VEC_DDM`` defined), then the guards state by state (``sp_idm_after`` /
-``sp_ddm_after``); an odd last state takes the scalar function.
+Where the generated function is plain straight-line code (every model but custom legs,
+whose generated code calls sub-functions), the batch loop runs ``SP_WIDTH`` states at a
+time (:mod:`._simd`: four with AVX2, when the processor has it, else the scalar loop on
+x86; two on other processors; ``SP_VEC_IDM`` / ``SP_VEC_DDM`` defined): their inputs
+gathered into a structure of arrays, the vector copy of the generated code, then a vector
+screen of the guards (``sp_v_idm_ok`` / ``sp_v_ddm_ok``: the lanes whose scalar guard would
+return 0, computed with the same operations) and the scalar guards (``sp_idm_after`` /
+``sp_ddm_after``) only for the lanes the screen does not pass; the last states (fewer
+than ``SP_WIDTH``) take the scalar function. The flags and results equal the scalar
+path's (tests/test_compiled_calls.py).
 
 ``sp_ddm_aux`` runs one direct-dynamics state and returns its by-products too (the
 compiled simulator, :mod:`._simsource`, reads ``Jp^-1`` there).
@@ -79,6 +87,20 @@ static int sp_check_legs(const double* aux, int slack) {
   }
 %(u_joint_check)s  return 0;
 }
+#ifdef SP_WIDTH
+/* The lanes sp_check_legs passes (all ones), aux a structure of arrays. */
+SP_VTARGET static sp_ivec sp_v_legs_ok(const sp_vec* aux, int slack) {
+  sp_ivec ok = SP_ALL;
+  int k;
+  (void)slack;
+  SP_UNROLL for (k = 0; k < 6; ++k) {
+    sp_vec q = aux[%(q3sq)d + k], r = aux[%(rho2)d + k];
+    ok &= (q >= sp_bcast(sp_stroke_lo2)) & (q <= sp_bcast(sp_stroke_hi2));
+    ok &= (q > sp_bcast(sp_min_length2)) & (r > sp_bcast(sp_min_sin2) * q);
+  }
+  return ok;
+}
+#endif
 """
 
 #: The U-joint limits of the paper's 6-UPS (``desc.u_joint_limits``), inserted in
@@ -116,6 +138,15 @@ static int sp_check_legs(const double* aux, int slack) {
   for (k = 0; k < %(n_slack)d; ++k) if (!(aux[slack + k] > 0.0)) return SP_GEOMETRY;
   return 0;
 }
+#ifdef SP_WIDTH
+/* The lanes sp_check_legs passes (all ones), aux a structure of arrays. */
+SP_VTARGET static sp_ivec sp_v_legs_ok(const sp_vec* aux, int slack) {
+  sp_ivec ok = SP_ALL;
+  int k;
+  SP_UNROLL for (k = 0; k < %(n_slack)d; ++k) ok &= aux[slack + k] > sp_bcast(0.0);
+  return ok;
+}
+#endif
 """
 
 #: The state guards (validity of the inputs, the leg checks, the condition bound, the
@@ -160,9 +191,8 @@ static int sp_check_inputs(const double* T, const double* x, const double* y) {
 %(check_legs)s
 /* The condition bound 2 / |det S| (||S||_F^2 / 6)^3 (Guggenheimer et al. 1995). */
 static int sp_cond_bound(double det, double fro2, double max_cond) {
-  double t = fro2 / 6.0;
-  double bound = 2.0 / fabs(det) * t * t * t;
-  return (bound <= 0.5 * max_cond) ? 0 : SP_COND;
+  double t = fro2 * (1.0 / 6.0);  /* products only: the vector screen's roundings */
+  return (2.0 * (t * t * t) <= 0.5 * max_cond * fabs(det)) ? 0 : SP_COND;
 }
 
 /* LU with partial pivoting of A = S^T (column i = row i of Jp^-1, J row-major; rows 3-5,
@@ -230,8 +260,40 @@ static int sp_finite6(const double* x) {
 }
 """
 
+#: The direct models' cheap condition check (after :data:`GUARDS`; the batch loops of
+#: :data:`TEMPLATE` and of :mod:`.payload_compiled`).
+STATIC_COND = r"""
+/* The direct model's cheap condition check: 1 if the LU of S (as sp_check_cond builds
+   it) without pivoting has every multiplier within the growth limit (its determinant
+   accurate) and the bound passes with that determinant (cond(S) <= bound <= half the
+   threshold: the reference accepts the state); else 0 (sp_check_cond decides). Cheaper
+   than the pivoted LU, and the vector screen sp_v_static_cond_ok does the same
+   operations in the same order, so the two paths flag alike. */
+static int sp_static_cond_ok(const double* J, double max_cond) {
+  double A[6][6], fro2 = 0.0, det = 1.0, r, l;
+  int i, j, k, ok = 1;
+  for (i = 0; i < 6; ++i) {
+    for (j = 0; j < 6; ++j) {
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
+      fro2 += A[i][j] * A[i][j];
+    }
+  }
+  for (k = 0; k < 6; ++k) {
+    det *= A[k][k];
+    r = 1.0 / A[k][k];
+    for (i = k + 1; i < 6; ++i) {
+      l = A[i][k] * r;
+      ok &= fabs(l) <= sp_growth_limit;
+      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+    }
+  }
+  return ok && sp_cond_bound(det, fro2, max_cond) == 0;
+}
+"""
+
 TEMPLATE = (
     GUARDS
+    + STATIC_COND
     + r"""
 /* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
 #ifndef SP_EXPORT
@@ -266,36 +328,145 @@ static int sp_ddm_after(const double* T, const double* tw, const double* gam, co
                         const double* aux, double max_cond) {
   int k, f = sp_check_inputs(T, tw, gam);
   f |= sp_check_legs(aux, SP_DDM_SLACK);
-  f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  if (!sp_static_cond_ok(aux + %(jinv)d, max_cond))  /* the cheap screen, then the LU */
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
   for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
   if (!sp_finite6(a)) f |= SP_NONFINITE;
   return f;
 }
 
-/* SP_WIDTH states at a time (from state s, as long as SP_WIDTH remain) through VFN, the
-   vector copy of the generated code (codegen/_simd.py), then AFTER's guards per state. */
-#define SP_VEC_LOOP(VFN, AFTER, X, OUT, NAUX)                                           \
-  {                                                                                      \
-    const double* av[SP_WIDTH][4];                                                       \
+#ifdef SP_WIDTH
+/* ---- the vector screens: the lanes (all ones) whose scalar guard would return 0 ---- */
+#define SP_BIG 1.7976931348623157e308  /* DBL_MAX: |x| <= SP_BIG iff x is finite */
+
+/* The lanes sp_check_inputs passes: t the poses (16 vectors), x, y two 6-vectors. */
+SP_VTARGET static sp_ivec sp_v_inputs_ok(const sp_vec* t, const sp_vec* x, const sp_vec* y) {
+  sp_vec s, e, det;
+  sp_ivec ok = SP_ALL;
+  int i, j, k;
+  SP_UNROLL for (k = 0; k < 16; ++k) ok &= sp_v_fabs(t[k]) <= sp_bcast(SP_BIG);
+  SP_UNROLL for (k = 0; k < 6; ++k) {
+    ok &= sp_v_fabs(x[k]) <= sp_bcast(SP_BIG);
+    ok &= sp_v_fabs(y[k]) <= sp_bcast(SP_BIG);
+  }
+  ok &= (t[12] == sp_bcast(0.0)) & (t[13] == sp_bcast(0.0)) & (t[14] == sp_bcast(0.0));
+  ok &= t[15] == sp_bcast(1.0);
+  SP_UNROLL for (i = 0; i < 3; ++i) {
+    SP_UNROLL for (j = i; j < 3; ++j) {
+      s = t[i] * t[j] + t[4 + i] * t[4 + j] + t[8 + i] * t[8 + j];
+      e = sp_v_fabs(s - sp_bcast(i == j ? 1.0 : 0.0));
+      ok &= e <= sp_bcast(sp_rotation_tol);
+    }
+  }
+  det = t[0] * (t[5] * t[10] - t[6] * t[9]) - t[1] * (t[4] * t[10] - t[6] * t[8])
+      + t[2] * (t[4] * t[9] - t[5] * t[8]);
+  return ok & (det > sp_bcast(0.0));
+}
+
+/* The lanes sp_cond_bound passes. */
+SP_VTARGET static sp_ivec sp_v_bound_ok(sp_vec det, sp_vec fro2, double max_cond) {
+  sp_vec t = fro2 * sp_bcast(1.0 / 6.0);
+  return sp_bcast(2.0) * (t * t * t) <= sp_bcast(0.5 * max_cond) * sp_v_fabs(det);
+}
+
+/* sp_static_cond_ok lane by lane (J: 36 vectors). */
+SP_VTARGET static sp_ivec sp_v_static_cond_ok(const sp_vec* J, double max_cond) {
+  sp_vec A[6][6], fro2 = sp_bcast(0.0), det = sp_bcast(1.0), r, l;
+  sp_ivec ok = SP_ALL;
+  int i, j, k;
+  SP_UNROLL for (i = 0; i < 6; ++i) {
+    SP_UNROLL for (j = 0; j < 6; ++j) {
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_bcast(sp_inv_length);
+      fro2 += A[i][j] * A[i][j];
+    }
+  }
+  SP_UNROLL for (k = 0; k < 6; ++k) {
+    det *= A[k][k];
+    r = sp_bcast(1.0) / A[k][k];
+    SP_UNROLL for (i = k + 1; i < 6; ++i) {
+      l = A[i][k] * r;
+      ok &= sp_v_fabs(l) <= sp_bcast(sp_growth_limit);
+      SP_UNROLL for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+    }
+  }
+  return ok & sp_v_bound_ok(det, fro2, max_cond);
+}
+
+/* The lanes whose 6 results (6 per state from x) are finite. */
+SP_VTARGET static sp_ivec sp_v_finite6(const double* x) {
+  sp_ivec ok = SP_ALL;
+  int k;
+  SP_UNROLL for (k = 0; k < 6; ++k) ok &= sp_v_fabs(SP_STRIDED(x, 6, k)) <= sp_bcast(SP_BIG);
+  return ok;
+}
+
+/* The lanes sp_idm_after returns 0 for (as it computes them). */
+SP_VTARGET static sp_ivec sp_v_idm_ok(const sp_vec* in, const double* g, const sp_vec* aux,
+                                      double max_cond) {
+  sp_ivec ok = sp_v_inputs_ok(in, in + 16, in + 22) & sp_v_legs_ok(aux, SP_IDM_SLACK);
+  ok &= aux[%(growth)d] <= sp_bcast(sp_growth_limit);
+  ok &= sp_v_bound_ok(aux[%(det)d], aux[%(fro2)d], max_cond);
+  return ok & sp_v_finite6(g);
+}
+
+/* The lanes sp_ddm_after returns 0 for. */
+SP_VTARGET static sp_ivec sp_v_ddm_ok(const sp_vec* in, const double* a, const sp_vec* aux,
+                                      double max_cond) {
+  sp_ivec ok = sp_v_inputs_ok(in, in + 16, in + 22) & sp_v_legs_ok(aux, SP_DDM_SLACK);
+  int k;
+  ok &= sp_v_static_cond_ok(aux + %(jinv)d, max_cond);
+  SP_UNROLL for (k = 0; k < 6; ++k) ok &= aux[%(ddm_d)d + k] > sp_bcast(0.0);
+  return ok & sp_v_finite6(a);
+}
+
+/* SP_WIDTH states at a time (from state 0, as long as SP_WIDTH remain): their inputs
+   gathered into a structure of arrays (in: pose 16, twist 6, X 6 vectors), VFN, the
+   vector copy of the generated code (codegen/_simd.py; its by-products in aux, a
+   structure of arrays), the screen VOK, and AFTER's scalar guards for the lanes the
+   screen does not pass (their by-products copied out). Returns the first state left;
+   ORs the flags into *any. */
+#define SP_VEC_LOOP(NAME, VFN, VOK, AFTER, NAUX)                                         \
+  SP_VTARGET static long long NAME(long long n, const double* pose, const double* twist, \
+                                   const double* X, const double* chi, double max_cond,  \
+                                   double* out, int* flags, int* any) {                  \
+    sp_vec in[28], aux[NAUX];                                                            \
+    const sp_vec* argv[4] = {in, in + 16, in + 22, 0};                                   \
+    const double* shared[4] = {0, 0, 0, chi};                                            \
     double* rv[SP_WIDTH][2];                                                             \
-    const double* const* argv[SP_WIDTH];                                                 \
     double* const* resv[SP_WIDTH];                                                       \
-    double auxv[SP_WIDTH][NAUX];                                                         \
-    int l;                                                                               \
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
-    for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
+    double auxl[NAUX];                                                                   \
+    sp_ivec ok;                                                                          \
+    long long s;                                                                         \
+    int l, k, f, acc = 0;                                                                \
+    for (l = 0; l < SP_WIDTH; ++l) { resv[l] = rv[l]; rv[l][1] = 0; }                    \
+    for (s = 0; s + SP_WIDTH <= n; s += SP_WIDTH) {                                      \
+      for (k = 0; k < 16; ++k) in[k] = SP_STRIDED(pose + 16 * s, 16, k);                 \
+      for (k = 0; k < 6; ++k) in[16 + k] = SP_STRIDED(twist + 6 * s, 6, k);              \
+      for (k = 0; k < 6; ++k) in[22 + k] = SP_STRIDED(X + 6 * s, 6, k);                  \
+      for (l = 0; l < SP_WIDTH; ++l) rv[l][0] = out + 6 * (s + l);                       \
+      VFN(argv, shared, resv, aux);                                                      \
+      ok = VOK(in, out + 6 * s, aux, max_cond);                                          \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
-        av[l][0] = pose + 16 * (s + l); av[l][1] = twist + 6 * (s + l);                  \
-        av[l][2] = X + 6 * (s + l); av[l][3] = chi; rv[l][0] = OUT + 6 * (s + l);        \
-      }                                                                                  \
-      VFN(argv, resv);                                                                   \
-      for (l = 0; l < SP_WIDTH; ++l) {                                                   \
-        f = AFTER(av[l][0], av[l][1], av[l][2], rv[l][0], auxv[l], max_cond);           \
+        f = 0;                                                                           \
+        if (!ok[l]) {                                                                    \
+          for (k = 0; k < NAUX; ++k) auxl[k] = aux[k][l];                                \
+          f = AFTER(pose + 16 * (s + l), twist + 6 * (s + l), X + 6 * (s + l), rv[l][0], \
+                    auxl, max_cond);                                                     \
+        }                                                                                \
         flags[s + l] = f;                                                                \
-        any |= f;                                                                        \
+        acc |= f;                                                                        \
       }                                                                                  \
     }                                                                                    \
+    *any |= acc;                                                                         \
+    return s;                                                                            \
   }
+#endif
+#ifdef SP_VEC_IDM
+SP_VEC_LOOP(sp_idm_vloop, sp_idm_vec, sp_v_idm_ok, sp_idm_after, SP_IDM_NAUX)
+#endif
+#ifdef SP_VEC_DDM
+SP_VEC_LOOP(sp_ddm_vloop, sp_ddm_vec, sp_v_ddm_ok, sp_ddm_after, SP_DDM_NAUX)
+#endif
 
 /* Inverse dynamics of n states: pose (n x 16), twist, accel (n x 6), chi (88) -> gamma
    (n x 6), flags (n). Returns the OR of the flags. With SP_VEC_IDM, SP_WIDTH states at a
@@ -312,7 +483,8 @@ SP_EXPORT int sp_idm_batch(long long n, const double* pose, const double* twist,
   int any = 0, f;
   long long s = 0;
 #ifdef SP_VEC_IDM
-  SP_VEC_LOOP(sp_idm_vec, sp_idm_after, accel, gamma, SP_IDM_NAUX)
+  if (n >= SP_WIDTH && SP_VEC_READY())
+    s = sp_idm_vloop(n, pose, twist, accel, chi, max_cond, gamma, flags, &any);
 #endif
   for (; s < n; ++s) {
     arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
@@ -337,7 +509,8 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   int any = 0, f;
   long long s = 0;
 #ifdef SP_VEC_DDM
-  SP_VEC_LOOP(sp_ddm_vec, sp_ddm_after, gam, accel, SP_DDM_NAUX)
+  if (n >= SP_WIDTH && SP_VEC_READY())
+    s = sp_ddm_vloop(n, pose, twist, gam, chi, max_cond, accel, flags, &any);
 #endif
   for (; s < n; ++s) {
     arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = gam + 6 * s; arg[3] = chi;

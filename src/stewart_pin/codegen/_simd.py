@@ -5,30 +5,127 @@ CasADi writes an SX function as straight-line code on scalar locals ``aNNN`` (de
 arithmetic, ``sqrt``/``sin``/... and its helpers (``casadi_sq``, ``casadi_fabs``,
 ``casadi_fmax``...), comparisons ``aNNN=(x<y);`` and selections ``aNNN=(c?x:y);``, and
 stores ``if (res[k]!=0) res[k][i]=aNNN;``. :func:`vector_source` rewrites that body over
-``sp_vec``, a vector of :data:`WIDTH` doubles (GCC/Clang ``vector_size``: SSE2 on any
-x86-64, no ``-march``), one state per lane: lane ``l`` reads ``argv[l]`` and writes
-``resv[l]``. The operations are the scalar code's, in the same order, lane by lane (IEEE
-arithmetic, no contraction without ``-march``); the mathematical functions, comparisons
-and selections are evaluated lane by lane with the scalar ones. Each lane's result is the
-scalar function's but where ``-freciprocal-math`` (:data:`.compiled.CFLAGS`) turns
-divisions by one divisor into products by its reciprocal in one and not the other (the
-compiler's threshold differs for vectors): up to about 1e-15 relative, measured
-(tests/test_compiled_calls.py checks 1e-13).
+``sp_vec``, a vector of ``SP_WIDTH`` doubles (GCC/Clang ``vector_size``), one state per
+lane: the inputs come as a structure of arrays (``argv[k][i]``: element ``i`` of argument
+``k``, one lane per state, which the caller gathers once and its guards read again), an
+argument shared by every lane (the base parameters) as one array ``shared[k]``, read once
+and broadcast; lane ``l`` writes ``resv[l]``, but for the by-products output (``res[1]``),
+written whole vectors at a time to a structure of arrays ``soa[i]`` (lane ``l`` of
+``soa[i]`` being the state's ``aux[i]``). The text does not
+depend on the width; :data:`PREAMBLE` chooses it when the library is compiled:
+
+- x86-64 (and x86) with GCC or Clang: four doubles (AVX2), the vector functions compiled
+  for AVX2 alone (``__attribute__((target("avx2")))``: no FMA, so the same roundings as
+  the scalar code) and used only when the processor has AVX2 (``SP_VEC_READY()``:
+  ``__builtin_cpu_supports``, asked when the library is loaded); on an x86-64 without
+  AVX2 the batch loops take the scalar path (one copy of the code is compiled, not two:
+  the compile time). The library itself is built without ``-march``: it loads and runs on
+  any x86-64;
+- any other processor: two doubles (NEON on AArch64), always used.
+
+The operations are the scalar code's, in the same order, lane by lane (IEEE arithmetic, no
+contraction); ``sqrt`` is the processor's vector square root (correctly rounded, as the
+scalar one), ``fabs``, ``fmax``/``fmin`` (C99: a NaN operand yields the other),
+``casadi_sign``, comparisons and selections are written with lane masks (the same values
+as the scalar functions, signed zeros and NaN included up to the sign of a zero from
+``fmax(-0, +0)``); the other mathematical functions are called lane by lane. Each lane's
+result is the scalar function's but where ``-freciprocal-math`` (:data:`.compiled.CFLAGS`)
+turns divisions by one divisor into products by its reciprocal in one and not the other:
+up to about 1e-15 relative, measured (tests/test_compiled_calls.py checks 1e-13).
 
 Anything else in a body (a branch, a loop, a call of another function, a function not
 in :data:`_LANEWISE`) leaves that function out: the batch loop keeps its scalar path.
-Two doubles per vector: four (two SSE2 registers per operation) measured slower.
+Measured (issue 24): four doubles over SSE2 (two registers per operation) were slower than
+two; AVX2 four-wide is 1.4-1.5x faster than SSE2 two-wide on the generated code, AVX-512
+eight-wide only 1.1x more (and more states in the scalar tail), so it is not used.
 """
 
 from __future__ import annotations
 
 import re
 
-#: States per vector (two doubles: one SSE2 register).
-WIDTH = 2
+#: The C before the vector functions: the width, the vector types, ``SP_VTARGET`` (the
+#: target of every vector function), ``SP_VEC_READY()`` (whether the processor runs them),
+#: ``SP_STRIDED(p, d, k)`` (element ``k`` of ``SP_WIDTH`` arrays ``d`` apart from ``p``),
+#: ``sp_bcast`` and the exact lane-mask helpers.
+PREAMBLE = r"""
+/* ---- stewart-pin: several states at once (see codegen/_simd.py) ---- */
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define SP_WIDTH 4
+#define SP_VTARGET __attribute__((target("avx2")))
+typedef double sp_vec __attribute__((vector_size(32)));
+static int sp_vec_ready = 0;  /* the processor has AVX2: set when the library is loaded */
+__attribute__((constructor)) static void sp_vec_init(void) {
+  __builtin_cpu_init();
+  sp_vec_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
+}
+#define SP_VEC_READY() sp_vec_ready
+#define SP_STRIDED(p, d, k) \
+  ((sp_vec){(p)[k], (p)[(d) + (k)], (p)[2 * (d) + (k)], (p)[3 * (d) + (k)]})
+SP_VTARGET static inline sp_vec sp_bcast(double x) { return (sp_vec){x, x, x, x}; }
+SP_VTARGET static inline sp_vec sp_v_sqrt(sp_vec x) { return _mm256_sqrt_pd(x); }
+#else
+#define SP_WIDTH 2
+#define SP_VTARGET
+typedef double sp_vec __attribute__((vector_size(16)));
+#define SP_VEC_READY() 1
+#define SP_STRIDED(p, d, k) ((sp_vec){(p)[k], (p)[(d) + (k)]})
+static inline sp_vec sp_bcast(double x) { return (sp_vec){x, x}; }
+static inline sp_vec sp_v_sqrt(sp_vec x) {
+  sp_vec r; int l;
+  for (l = 0; l < SP_WIDTH; ++l) r[l] = sqrt(x[l]);
+  return r;
+}
+#endif
+/* the screens' short loops unrolled (their arrays then stay in registers) */
+#if defined(__GNUC__) && !defined(__clang__)
+#define SP_UNROLL _Pragma("GCC unroll 36")
+#else
+#define SP_UNROLL
+#endif
+/* the lane masks of comparisons (all ones where true) */
+typedef __typeof__((sp_vec){0} < (sp_vec){0}) sp_ivec;
+#define SP_ALL (sp_bcast(0.0) == sp_bcast(0.0))
+/* m ? x : y lane by lane (m: all ones or zeros per lane) */
+SP_VTARGET static inline sp_vec sp_sel(sp_ivec m, sp_vec x, sp_vec y) {
+  return (sp_vec)((m & (sp_ivec)x) | (~m & (sp_ivec)y));
+}
+/* 1.0 where m, else 0.0 (a C comparison's value) */
+SP_VTARGET static inline sp_vec sp_bool(sp_ivec m) { return (sp_vec)(m & (sp_ivec)sp_bcast(1.0)); }
+SP_VTARGET static inline sp_vec sp_v_fabs(sp_vec x) {
+  return (sp_vec)(~(sp_ivec)sp_bcast(-0.0) & (sp_ivec)x);
+}
+SP_VTARGET static inline sp_vec sp_v_fmax(sp_vec x, sp_vec y) {
+  return sp_sel((x > y) | (y != y), x, y);
+}
+SP_VTARGET static inline sp_vec sp_v_fmin(sp_vec x, sp_vec y) {
+  return sp_sel((x < y) | (y != y), x, y);
+}
+SP_VTARGET static inline sp_vec sp_v_casadi_sq(sp_vec x) { return x * x; }
+SP_VTARGET static inline sp_vec sp_v_casadi_fabs(sp_vec x) { return sp_v_fabs(x); }
+SP_VTARGET static inline sp_vec sp_v_casadi_fmax(sp_vec x, sp_vec y) { return sp_v_fmax(x, y); }
+SP_VTARGET static inline sp_vec sp_v_casadi_fmin(sp_vec x, sp_vec y) { return sp_v_fmin(x, y); }
+SP_VTARGET static inline sp_vec sp_v_casadi_sign(sp_vec x) {
+  return sp_sel(x < 0.0, sp_bcast(-1.0), sp_sel(x > 0.0, sp_bcast(1.0), x));
+}
+"""
+
+#: Helpers of :data:`PREAMBLE` (exact lane-mask or vector forms of the scalar functions).
+_VECTOR_FORMS = {
+    "sqrt",
+    "fabs",
+    "fmax",
+    "fmin",
+    "casadi_sq",
+    "casadi_fabs",
+    "casadi_fmax",
+    "casadi_fmin",
+    "casadi_sign",
+}
 
 #: Functions of the generated code, called lane by lane (the scalar function, one or two
-#: arguments).
+#: arguments), unless :data:`_VECTOR_FORMS` has them.
 _LANEWISE = {
     "sqrt": 1,
     "sin": 1,
@@ -66,6 +163,8 @@ _COMPARE = re.compile(rf"^\s*(a\d+)=\({_OPERAND}(<|<=|>|>=|==|!=){_OPERAND}\);$"
 _SELECT = re.compile(rf"^\s*(a\d+)=\({_OPERAND}\?{_OPERAND}:{_OPERAND}\);$")
 _CALL = re.compile(r"([A-Za-z_]\w*)\(")
 _VAR = re.compile(r"\ba\d+\b")
+#: The output written as a structure of arrays (``soa``): the by-products.
+SOA_OUTPUT = 1
 
 
 def function_body(source: str, name: str) -> list[str] | None:
@@ -93,54 +192,58 @@ def _internal_name(source: str, name: str) -> str | None:
     return m.group(1) if m else None
 
 
-def vector_source(source: str, names: dict[str, str]) -> tuple[str, set[str]]:
-    """The C, to follow CasADi's ``source``, of ``static void vname(const double* const*
-    argv[WIDTH], double* const* resv[WIDTH])`` for each exported function ``name`` of
-    ``names`` (``{name: vname}``) whose body is plain straight-line code, with the vector
-    type and the lane-by-lane functions they call; and the set of the ``vname`` written
-    (the others: keep the scalar loop)."""
+def vector_source(
+    source: str, names: dict[str, str], shared: frozenset[int] = frozenset()
+) -> tuple[str, set[str]]:
+    """The C, to follow CasADi's ``source``, of ``static void vname(const sp_vec* const*
+    argv, const double* const* shared, double* const* resv[SP_WIDTH], sp_vec* soa)`` for
+    each exported function ``name`` of ``names`` (``{name: vname}``) whose body is plain
+    straight-line code (the arguments numbered in ``shared`` read from ``shared[k]`` and
+    broadcast, the others from ``argv[k]``; output :data:`SOA_OUTPUT` goes to ``soa``, the
+    others lane by lane to ``resv``), after
+    :data:`PREAMBLE` and the lane-by-lane functions they call; and the set of the
+    ``vname`` written (the others: keep the scalar loop)."""
     used: set[str] = set()
     bodies: list[str] = []
     written: set[str] = set()
     for name, vname in names.items():
         internal = _internal_name(source, name)
-        code = None if internal is None else _vector_function(source, internal, vname, used)
+        code = (
+            None if internal is None else _vector_function(source, internal, vname, used, shared)
+        )
         if code is not None:
             bodies.append(code)
             written.add(vname)
     if not written:
         return "", written
-    lanes = range(WIDTH)
-    parts = [
-        "/* ---- stewart-pin: several states at once (see codegen/_simd.py) ---- */",
-        f"#define SP_WIDTH {WIDTH}",
-        f"typedef double sp_vec __attribute__((vector_size({8 * WIDTH})));",
-        "static const sp_vec sp_vec_zero = {0};",
-    ]
-    for fn in sorted(used):
-        n = _LANEWISE.get(fn, 1)
-        if fn == "casadi_sq":
-            parts.append("static inline sp_vec sp_v_casadi_sq(sp_vec x) { return x * x; }")
-        elif n == 1:
-            items = ", ".join(f"{fn}(x[{lane}])" for lane in lanes)
+    parts = [PREAMBLE]
+    for fn in sorted(used - _VECTOR_FORMS):
+        if _LANEWISE.get(fn, 1) == 1:
             parts.append(
-                f"static inline sp_vec sp_v_{fn}(sp_vec x) {{ return (sp_vec){{{items}}}; }}"
+                f"SP_VTARGET static inline sp_vec sp_v_{fn}(sp_vec x) {{\n"
+                f"  sp_vec r; int l;\n  for (l = 0; l < SP_WIDTH; ++l) r[l] = {fn}(x[l]);\n"
+                "  return r;\n}"
             )
         else:
-            items = ", ".join(f"{fn}(x[{lane}], y[{lane}])" for lane in lanes)
             parts.append(
-                f"static inline sp_vec sp_v_{fn}(sp_vec x, sp_vec y) "
-                f"{{ return (sp_vec){{{items}}}; }}"
+                f"SP_VTARGET static inline sp_vec sp_v_{fn}(sp_vec x, sp_vec y) {{\n"
+                f"  sp_vec r; int l;\n  for (l = 0; l < SP_WIDTH; ++l) r[l] = {fn}(x[l], y[l]);\n"
+                "  return r;\n}"
             )
     return "\n".join(parts) + "\n" + "\n".join(bodies), written
 
 
-def _vector_function(source: str, name: str, vname: str, used: set[str]) -> str | None:
+def _operand(x: str) -> str:
+    return x if _VAR.fullmatch(x) else f"sp_bcast({x})"
+
+
+def _vector_function(
+    source: str, name: str, vname: str, used: set[str], shared: frozenset[int]
+) -> str | None:
     body = function_body(source, name)
     if body is None:
         return None
     out: list[str] = []
-    lanes = range(WIDTH)
     calls: set[str] = set()
     for line in body:
         if not line.strip():
@@ -152,24 +255,28 @@ def _vector_function(source: str, name: str, vname: str, used: set[str]) -> str 
         m = _LOAD.match(line)
         if m:
             v, k, i = m.groups()
-            items = ", ".join(f"argv[{lane}][{k}][{i}]" for lane in lanes)
-            out.append(f"  {v}=(sp_vec){{{items}}};")
+            if int(k) in shared:
+                out.append(f"  {v}=sp_bcast(shared[{k}][{i}]);")
+            else:
+                out.append(f"  {v}=argv[{k}][{i}];")
             continue
         m = _STORE.match(line)
         if m:
             k, i, v = m.groups()
-            out.append("  " + " ".join(f"resv[{lane}][{k}][{i}]={v}[{lane}];" for lane in lanes))
+            if int(k) == SOA_OUTPUT:
+                out.append(f"  soa[{i}]={v};")
+            else:
+                out.append(f"  for (l = 0; l < SP_WIDTH; ++l) resv[l][{k}][{i}]={v}[l];")
             continue
-        m = _COMPARE.match(line) or _SELECT.match(line)
+        m = _COMPARE.match(line)
         if m:
-            v, *terms = m.groups()
-            ops = terms[1::2] if m.re is _COMPARE else ["?", ":"]
-            xs = terms[0::2] if m.re is _COMPARE else terms
-            per_lane = []
-            for lane in lanes:
-                at = [f"{x}[{lane}]" if _VAR.fullmatch(x) else x for x in xs]
-                per_lane.append(at[0] + "".join(o + a for o, a in zip(ops, at[1:], strict=True)))
-            out.append(f"  {v}=(sp_vec){{{', '.join(f'({it})' for it in per_lane)}}};")
+            v, x, op, y = m.groups()
+            out.append(f"  {v}=sp_bool({_operand(x)}{op}{_operand(y)});")
+            continue
+        m = _SELECT.match(line)
+        if m:
+            v, c, x, y = m.groups()
+            out.append(f"  {v}=sp_sel({_operand(c)}!=0.0, {_operand(x)}, {_operand(y)});")
             continue
         m = _ASSIGN.match(line)
         if not m:
@@ -180,11 +287,13 @@ def _vector_function(source: str, name: str, vname: str, used: set[str]) -> str 
             return None
         calls |= found
         if not _VAR.search(expr):  # a constant: broadcast
-            out.append(f"  {v}=sp_vec_zero+({expr});")
+            out.append(f"  {v}=sp_bcast({expr});")
             continue
         out.append(f"  {v}={_CALL.sub(lambda c: f'sp_v_{c.group(1)}(', expr)};")
     used |= calls
     return (
-        f"static void {vname}(const double* const* argv[{WIDTH}], double* const* "
-        f"resv[{WIDTH}]) {{\n" + "\n".join(out) + "\n}\n"
+        f"SP_VTARGET static void {vname}(const sp_vec* const* argv, const double* const* "
+        f"shared, double* const* resv[SP_WIDTH], sp_vec* soa) {{\n  int l;\n"
+        + "\n".join(out)
+        + "\n  (void)l; (void)argv; (void)shared;\n}\n"
     )

@@ -78,6 +78,7 @@ UNIT_TOLERANCE = 1e-9 * (1.0 - 1e-3)
 #: their single-state entries.
 TEMPLATE = (
     _csource.GUARDS
+    + _csource.STATIC_COND
     + r"""
 /* ---- stewart-pin: payload models' batch loops (hand-written, payload_compiled.py) ---- */
 #ifndef SP_EXPORT
@@ -125,7 +126,8 @@ static int sp_direct_after(const double** arg, const double* o, const double* au
                            int npiv, double max_cond) {
   int k, f = sp_check_inputs(arg[0], arg[1], arg[2]) | sp_arm_inputs(arg[3], arg[4], arg[5]);
   f |= sp_check_legs(aux, %(ddm_slack)d);
-  f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  if (!sp_static_cond_ok(aux + %(jinv)d, max_cond))  /* the cheap screen, then the LU */
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
   for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
   for (k = 6; k < npiv; ++k) if (!(aux[%(ddm_size)d + k - 6] > 0.0)) f |= SP_NOT_PD;
   if (!sp_finite_n(o, SP_NOUT)) f |= SP_NONFINITE;
@@ -148,23 +150,35 @@ static int sp_ppdm_after(const double** arg, double* o, const double* aux,
   A[3] = q + SP_NQ * (S); A[4] = qd + SP_NV * (S); A[5] = y + SP_NV * (S);
 
 /* SP_WIDTH states at a time through VFN (the vector copy of the generated code,
-   codegen/_simd.py), then AFTER's guards per state. */
+   codegen/_simd.py: the inputs gathered into a structure of arrays, the by-products in
+   soa, a structure of arrays, copied out per state), then AFTER's guards per state. */
 #define SP_VEC_LOOP(VFN, AFTER, NAUX)                                                    \
   {                                                                                      \
     const double* av[SP_WIDTH][6];                                                       \
     double* rv[SP_WIDTH][2];                                                             \
-    const double* const* argv[SP_WIDTH];                                                 \
     double* const* resv[SP_WIDTH];                                                       \
     double auxv[SP_WIDTH][NAUX];                                                         \
-    int l;                                                                               \
-    for (l = 0; l < SP_WIDTH; ++l) { argv[l] = av[l]; resv[l] = rv[l]; rv[l][1] = auxv[l]; } \
+    sp_vec soa[NAUX], in[28 + SP_NQ + 2 * SP_NV];                                        \
+    const sp_vec* argv[6] = {in, in + 16, in + 22, in + 28, in + 28 + SP_NQ,             \
+                             in + 28 + SP_NQ + SP_NV};                                   \
+    int l, k;                                                                            \
+    for (l = 0; l < SP_WIDTH; ++l) { resv[l] = rv[l]; rv[l][1] = 0; }                    \
     for (; s + SP_WIDTH <= n; s += SP_WIDTH) {                                           \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
         SP_ARGS(av[l], s + l)                                                            \
         rv[l][0] = out + SP_NOUT * (s + l);                                              \
       }                                                                                  \
-      VFN(argv, resv);                                                                   \
+      for (k = 0; k < 16; ++k) in[k] = SP_STRIDED(av[0][0], 16, k);                      \
+      for (k = 0; k < 6; ++k) in[16 + k] = SP_STRIDED(av[0][1], 6, k);                   \
+      for (k = 0; k < 6; ++k) in[22 + k] = SP_STRIDED(av[0][2], 6, k);                   \
+      for (k = 0; k < SP_NQ; ++k) in[28 + k] = SP_STRIDED(av[0][3], SP_NQ, k);           \
+      for (k = 0; k < SP_NV; ++k) {                                                      \
+        in[28 + SP_NQ + k] = SP_STRIDED(av[0][4], SP_NV, k);                             \
+        in[28 + SP_NQ + SP_NV + k] = SP_STRIDED(av[0][5], SP_NV, k);                     \
+      }                                                                                  \
+      VFN(argv, 0, resv, soa);                                                           \
       for (l = 0; l < SP_WIDTH; ++l) {                                                   \
+        for (k = 0; k < NAUX; ++k) auxv[l][k] = soa[k][l];                               \
         f = AFTER(av[l], rv[l][0], auxv[l], max_cond);                                   \
         flags[s + l] = f;                                                                \
         any |= f;                                                                        \
@@ -185,7 +199,7 @@ static int sp_ppdm_after(const double** arg, double* o, const double* aux,
     double aux[NAUX];                                                                      \
     int any = 0, f;                                                                        \
     long long s = 0;                                                                       \
-    if (VEC) SP_VEC_LOOP(VFN, AFTER, NAUX)                                                 \
+    if (VEC && SP_VEC_READY()) SP_VEC_LOOP(VFN, AFTER, NAUX)                               \
     for (; s < n; ++s) {                                                                   \
       SP_ARGS(arg, s)                                                                      \
       res[0] = out + SP_NOUT * s; res[1] = aux;                                            \
@@ -244,7 +258,7 @@ def payload_c_source(
     desc: Any, payload: Any, models: PayloadModels | None = None, vector: bool = True
 ) -> str:
     """The C source of the coupled models of ``desc`` carrying ``payload``: CasADi's
-    generated functions, their copies two states at a time (:mod:`._simd`, unless
+    generated functions, their copies several states at a time (:mod:`._simd`, unless
     ``vector`` is false) and :data:`TEMPLATE` (only numbers enter it)."""
     m = payload_models(desc, payload, model_layout(desc)) if models is None else models
     cg = cs.CodeGenerator(
@@ -266,11 +280,14 @@ def payload_c_source(
     stubs = "".join(
         f"#define {flag} 1\n"
         if v in written
-        else f"#define {flag} 0\n#define {v}(a, r) ((void)(a), (void)(r))\n"
+        else f"#define {flag} 0\n#define {v}(a, b, r, s) ((void)(a), (void)(r), (void)(s))\n"
         for v, flag in flags.items()
     )
     if not written:
-        stubs = "#define SP_WIDTH 1\n" + stubs
+        stubs = (
+            "#define SP_WIDTH 1\n#define SP_VEC_READY() 0\n#define SP_STRIDED(p, d, k) 0\n"
+            "typedef double sp_vec __attribute__((vector_size(8)));\n" + stubs
+        )
     wrapper = TEMPLATE % {
         "vec_stubs": stubs,
         "check_legs": leg_checks_source(desc, lay),
@@ -466,10 +483,14 @@ class CompiledPayloadDynamics:
                 self._resolve(which, np.array([flag]), args, out[None])
             return out, False, y
         nq, nv = self.nq, self.nv
-        batched, T, V, X = check_states(pose, (twist, "twist"), (x, x_name))
-        Q, Qd, Y = self.robot._joints(len(T), batched, q, (qd, "payload qd"), (y, y_name))
-        n = T.shape[0]
-        arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X, Q, Qd, Y)]
+        n = _native_batch(args, nq, nv)
+        if n:  # a batch of C-contiguous float64 arrays: the C guard checks the values
+            batched, Y, arrays = True, y, list(args)
+        else:
+            batched, T, V, X = check_states(pose, (twist, "twist"), (x, x_name))
+            Q, Qd, Y = self.robot._joints(len(T), batched, q, (qd, "payload qd"), (y, y_name))
+            n = T.shape[0]
+            arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X, Q, Qd, Y)]
         out = np.empty((n, 6 + nv))
         flags = np.empty(n, dtype=np.int32)
         fn = self._batch[which]
@@ -535,6 +556,24 @@ class CompiledPayloadDynamics:
         second = r.tau if which in ("pidm", "ppdm") else r.qdd
         out[bad, :6] = first
         out[bad, 6:] = second
+
+
+def _native_batch(args: tuple[Any, ...], nq: int, nv: int) -> int:
+    """The number of states when ``args`` (pose, twist, x, q, qd, y) are a batch of
+    C-contiguous float64 ndarrays of the shapes (N, 4, 4), (N, 6), (N, 6), (N, nq),
+    (N, nv), (N, nv), N > 0 (the C guard then checks their values, and a state it flags
+    goes through the reference path, which raises the reference's error); else 0."""
+    first = args[0]
+    if type(first) is not np.ndarray or first.ndim != 3 or first.shape[0] == 0:
+        return 0
+    n = first.shape[0]
+    shapes = ((n, 4, 4), (n, 6), (n, 6), (n, nq), (n, nv), (n, nv))
+    for a, shape in zip(args, shapes, strict=True):
+        if not (
+            type(a) is np.ndarray and a.dtype is _F64 and a.shape == shape and a.flags.c_contiguous
+        ):
+            return 0
+    return n
 
 
 # ---------------------------------------------------------------------------- backends
