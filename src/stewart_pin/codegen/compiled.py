@@ -105,6 +105,7 @@ from stewart_pin.codegen.symbolic import (
     AUX_JINV,
     GENERATOR_VERSION,
 )
+from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
 from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT, check_finite
 from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import (
@@ -116,7 +117,7 @@ from stewart_pin.exceptions import (
     UnsafeCacheError,
     UnsupportedArchitectureError,
 )
-from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics import chain_legs, leg_chains
 from stewart_pin.kinematics.geometry import (
     inverse_geometry_batch,
 )
@@ -812,13 +813,7 @@ class CompiledDynamics:
         vm_fallback: bool = True,
         announce: bool = False,
     ) -> None:
-        if robot.description.has_chain_legs:
-            raise UnsupportedArchitectureError(
-                f"robot '{robot.description.name}' has chain legs: no compiled models for "
-                "them yet; use backend='pinocchio' (the reference path)",
-                "backend",
-                robot.description.architecture,
-            )
+        _check_compilable(robot.description)
         self.robot = robot
         self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.description
@@ -827,8 +822,9 @@ class CompiledDynamics:
         self.general = kind.generic_models
         self.parameter_names, self.base_values = kind.base_parameters(desc)
         self._limits = kind.limits_in_python(desc)
+        self._chain = desc.has_chain_legs
         if self.general:
-            self._hexapod = general_robot(desc)
+            self._hexapod: Any = None if self._chain else general_robot(desc)
             self._reference_models: Any = None
         self.base_values.flags.writeable = False
         self._length = singularity_length(desc)
@@ -1093,10 +1089,14 @@ class CompiledDynamics:
             )
 
     def _reference(self, which: str) -> Callable[[Any, Any, Any], np.ndarray]:
-        """The reference path of a general robot (:class:`GeneralDynamics`, joint limits
+        """The reference path of a general robot (:class:`GeneralDynamics`, or
+        :class:`ChainDynamics` for chain legs; joint limits
         checked, the robot's current ``max_condition``), as ``StewartRobot`` runs it."""
         if self._reference_models is None:
-            self._reference_models = GeneralDynamics(self._hexapod, check_limits=True)
+            if self._chain:
+                self._reference_models = ChainDynamics(self._desc, check_limits=True)
+            else:
+                self._reference_models = GeneralDynamics(self._hexapod, check_limits=True)
         ref = self._reference_models
         ref.max_condition = self.robot.max_condition
         return ref.inverse_dynamics if which == "idm" else ref.direct_dynamics
@@ -1123,8 +1123,7 @@ class CompiledDynamics:
         only_cond = (flags[bad] & ~_REPIVOTED) == _COND
         if np.any(only_cond):  # the cheap bound passed the threshold: the exact measure
             idx = bad[only_cond]
-            J = leg_chains.inverse_jacobian_batch(self._hexapod, T.reshape(-1, 4, 4)[idx])
-            cond = leg_chains.condition_number_batch(self._hexapod, J)
+            cond = self._exact_condition(T.reshape(-1, 4, 4)[idx])
             bad = np.setdiff1d(bad, idx[cond <= self.robot.max_condition])
             if bad.size == 0:
                 return
@@ -1138,6 +1137,16 @@ class CompiledDynamics:
                 ref(pose, twist, x)  # raises the reference's error for the whole batch
                 raise  # pragma: no cover - the subset failed, so the whole batch does
         out.reshape(-1, 6)[bad] = values
+
+    def _exact_condition(self, T: np.ndarray) -> np.ndarray:
+        """The reference's parallel singularity measure at poses T (N, 4, 4)."""
+        if self._chain:
+            states = chain_legs.leg_states(self._desc, T, np.zeros((T.shape[0], 6)))
+            return chain_legs.condition_number(
+                self._desc, chain_legs.inverse_jacobian(self._desc, states)
+            )
+        J = leg_chains.inverse_jacobian_batch(self._hexapod, T)
+        return leg_chains.condition_number_batch(self._hexapod, J)
 
     # ------------------------------------------------------------------ virtual machine
     def _vm_function(self, which: str) -> cs.Function:
@@ -1307,7 +1316,7 @@ def auto_env() -> str:
 def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
     if auto_env() == "pinocchio":
         return None
-    if robot.description.has_chain_legs:  # no compiled models for chain legs yet
+    if not _compilable(robot.description):  # legs with idle joints: the reference path
         return None
     existing = _memo(robot, COMPILED_ATTR)
     if existing is not None and existing._desc is robot.description:
@@ -1324,6 +1333,21 @@ def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
         return None
     _remember(robot, COMPILED_ATTR, backend)
     return backend
+
+
+def _compilable(desc: Any) -> bool:
+    """Whether the compiled models take ``desc`` (not yet: chain legs with an idle joint)."""
+    return not desc.has_chain_legs or all(leg.idle_joint is None for leg in desc.chain_legs)
+
+
+def _check_compilable(desc: Any) -> None:
+    if not _compilable(desc):
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has chain legs with idle joints: no compiled models for "
+            "them yet; use backend='pinocchio' (the reference path)",
+            "backend",
+            desc.architecture,
+        )
 
 
 def _warn_reference(reason: str) -> None:

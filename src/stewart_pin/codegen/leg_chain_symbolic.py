@@ -724,7 +724,7 @@ def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinemat
     cols = [_column_of(J, z[j], O[j], P) for j, J in enumerate(joints)]
     inv_rows, det = _inverse3(cols)
     slacks = list(geo.slacks) + _serial_slacks(lc, joints, cols, O, P, det)
-    slacks += _limit_slacks(lc, joints)
+    slacks += _limit_slacks(lc.radius, joints)
     V0 = _rotate_T(lc.R, _add(v, _cross(w, L)))
     qd = _matvec_rows(inv_rows, V0)
     m = _rotate(lc.R, inv_rows[lc.actuated])
@@ -761,8 +761,9 @@ def _serial_slacks(
     return out
 
 
-def _limit_slacks(lc: _LegConst, joints: Sequence[_JointState]) -> list[Scalar]:
-    """Joint limits with margins: prismatic values against their limits, revolute angles
+def _limit_slacks(radius: float, joints: Sequence[_JointState]) -> list[Scalar]:
+    """Joint limits with margins (``radius`` [m] the prismatic margins' scale): prismatic
+    values against their limits, revolute angles
     by ``cos(q - mid) > cos(half range)`` (the reference takes a revolute value modulo
     2 pi into its limits: only a range shorter than 2 pi can refuse one)."""
     out: list[Scalar] = []
@@ -771,7 +772,7 @@ def _limit_slacks(lc: _LegConst, joints: Sequence[_JointState]) -> list[Scalar]:
         lo, hi = k.lower, k.upper
         if not k.revolute:
             assert J.q is not None
-            scale = max(lc.radius, *(abs(x) for x in (lo, hi) if math.isfinite(x)), 1e-300)
+            scale = max(radius, *(abs(x) for x in (lo, hi) if math.isfinite(x)), 1e-300)
             if math.isfinite(lo):
                 out.append(J.q - lo - _MARGIN_LIMIT * scale)
             if math.isfinite(hi):
