@@ -384,10 +384,12 @@ def chain_kinematics(lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _ChainK
     if lc.inline_newton:
         for _ in range(NEWTON_ITERATIONS):
             state = _newton_step(lc, state, P0, Rt0)
-    else:
+    else:  # the first step inline (from the constant home configuration: its kinematics
+        # and LU fold into numbers), the others calls of one step function
+        state = _newton_step(lc, state, P0, Rt0)
         step = _newton_step_function(lc)
         Rflat = column([x for r in Rt0 for x in r] if Rt0 is not None else [0.0] * 9)
-        for _ in range(NEWTON_ITERATIONS):
+        for _ in range(NEWTON_ITERATIONS - 1):
             state = split(step(column(state), column(P0), Rflat))
     joints = _joints_from(lc, state)
     f = _frames(lc, joints)
