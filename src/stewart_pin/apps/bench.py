@@ -22,7 +22,7 @@ Median wall-clock time per state [us], all measured in this one run:
 - MuJoCo's ``mj_forward`` on the MJCF of the same robot, when ``import mujoco`` works (soft
   loop constraints: a timing reference, not an exact solution).
 
-Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus]
+Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus,welded-ups]
 [--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
 ``python scripts/bench_dynamics.py`` with the same options).
 """
