@@ -46,18 +46,15 @@ from stewart_pin.codegen._sx_common import (
     Mat,
     ModelConstants,
     Scalar,
-    Stages,
     SymbolicModels,
     Vec,
     _lu_solve,
-    closure_stages,
     column,
     ddm_legs_closure,
     ddm_platform,
     idm_closure,
     idm_platform,
     idm_shared,
-    idm_shared_stage,
     is_zero,
     mat3,
     model_functions,
@@ -65,7 +62,6 @@ from stewart_pin.codegen._sx_common import (
     pose_from_input,
     pose_size,
     split,
-    stage_function,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
@@ -78,13 +74,16 @@ from stewart_pin.codegen.leg_chain_symbolic import (
     _leg_block,
     _limit_slacks,
     _lin,
+    _mass_matrix,
     _minus,
     _mul,
+    _newton_euler,
     _plus,
     _prismatic,
     _revolute,
     _scale,
     _snap,
+    _stages,
     _sub,
 )
 from stewart_pin.description import RobotDescription
@@ -450,68 +449,6 @@ def _drift(lc: _ChainConst, kin_: _ChainKinematics) -> list[Scalar]:
 
 
 # ---------------------------------------------------------------------------- dynamics
-def _newton_euler(
-    joints: Sequence[_JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar], base_acc: Vec
-) -> list[Scalar]:
-    """Joint efforts of an n-joint chain (Khalil's recursive Newton-Euler in the link
-    frames, as :func:`.leg_chain_symbolic._newton_euler` for three joints)."""
-    zero: Vec = [0.0, 0.0, 0.0]
-    w, wd, vd = zero, zero, list(base_acc)
-    forces = []
-    for j, J in enumerate(joints):
-        p = J.origin()
-        vd_par = _add(vd, _add(_cross(wd, p), _cross(w, _cross(w, p))))
-        vd, w_in, wd = J.to_child(vd_par), J.to_child(w), J.to_child(wd)
-        if J.k.revolute:
-            wd = [
-                _plus(wd[0], _mul(qd[j], w_in[1])),
-                _minus(wd[1], _mul(qd[j], w_in[0])),
-                _plus(wd[2], qdd[j]),
-            ]
-            w = [w_in[0], w_in[1], _plus(w_in[2], qd[j])]
-        else:
-            two = _mul(2.0, qd[j])
-            vd = [
-                _plus(vd[0], _mul(two, w_in[1])),
-                _minus(vd[1], _mul(two, w_in[0])),
-                _plus(vd[2], qdd[j]),
-            ]
-            w = w_in
-        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = J.k.inertia
-        MS: Vec = [MX, MY, MZ]
-        inertia = [[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]]
-        F = _add(_add(_scale(vd, M), _cross(wd, MS)), _cross(w, _cross(w, MS)))
-        Iw = [_dot(row, w) for row in inertia]
-        N = _add(_add([_dot(row, wd) for row in inertia], _cross(w, Iw)), _cross(MS, vd))
-        forces.append((F, N))
-    n_j = len(joints)
-    f, nn = forces[-1]
-    tau: list[Scalar] = [0.0] * n_j
-    tau[-1] = nn[2] if joints[-1].k.revolute else f[2]
-    for j in reversed(range(n_j - 1)):
-        child = joints[j + 1]
-        fc, nc = child.to_parent(f), child.to_parent(nn)
-        F, N = forces[j]
-        f = _add(F, fc)
-        nn = _add(_add(N, nc), _cross(child.origin(), fc))
-        tau[j] = nn[2] if joints[j].k.revolute else f[2]
-    return tau
-
-
-def _mass_matrix(joints: Sequence[_JointState]) -> list[list[Scalar]]:
-    """The chain's n x n joint-space inertia (armature on the diagonal)."""
-    n = len(joints)
-    M: list[list[Scalar]] = [[0.0] * n for _ in range(n)]
-    zero = [0.0] * n
-    for m in range(n):
-        e = [1.0 if i == m else 0.0 for i in range(n)]
-        tau = _newton_euler(joints, zero, e, [0.0, 0.0, 0.0])
-        for i in range(m + 1):
-            M[i][m] = M[m][i] = tau[i]
-        M[m][m] = _plus(M[m][m], joints[m].k.armature)
-    return M
-
-
 def _wrench(lc: _ChainConst, L: Vec, fc: Sequence[Scalar]) -> list[Scalar]:
     """``G_i^T`` of a frame-0i (c,) force (and moment) at P_i: the wrench about O_p in F0."""
     f = _from_frame(lc, list(fc[:3]))
@@ -608,61 +545,12 @@ def _dot_n(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
 
 
 # ---------------------------------------------------------------------------- assembly
-def _stages(
-    legs: Sequence[_ChainConst],
-    pose: str,
-    Pp: list[float],
-    gravity: np.ndarray,
-    pivots: Sequence[tuple[int, int]],
-) -> tuple[Stages, Stages]:
-    """The IDM and DDM split for the operation counts (as :mod:`.leg_chain_symbolic`)."""
-    npose = pose_size(pose)
+def _idm_leg_stage(lc: _ChainConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
+    return _idm_leg(lc, p, R, t[:3], t[3:], a[:3], a[3:], K)
 
-    def pose_of(ps: Sequence[Scalar]) -> tuple[Vec, Mat]:
-        return pose_from_input(column(ps), pose)
 
-    idm_closure_stage, ddm_closure_stage = closure_stages(pivots)
-    idm_stages = Stages(
-        shared=idm_shared_stage(gravity),
-        legs=tuple(
-            stage_function(
-                f"idm_leg{lc.index + 1}",
-                [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
-                lambda ps, t, a, Kf, lc=lc: _idm_leg(
-                    lc, *pose_of(ps), t[:3], t[3:], a[:3], a[3:], mat3(Kf)
-                ),
-            )
-            for lc in legs
-        ),
-        platform=stage_function(
-            "idm_platform",
-            [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9), ("vdg", 3)],
-            lambda ps, t, a, Kf, vg: {
-                "F_p": idm_platform(pose_of(ps)[1], t[3:], a[3:], vg, mat3(Kf), Pp)
-            },
-        ),
-        closure=idm_closure_stage,
-    )
-    ddm_stages = Stages(
-        shared=None,
-        legs=tuple(
-            stage_function(
-                f"ddm_leg{lc.index + 1}",
-                [("pose", npose), ("twist", 6), ("gamma", 1)],
-                lambda ps, t, gk, lc=lc: _ddm_leg(lc, *pose_of(ps), t[:3], t[3:], gk[0]),
-            )
-            for lc in legs
-        ),
-        platform=stage_function(
-            "ddm_platform",
-            [("pose", npose), ("twist", 6)],
-            lambda ps, t: dict(
-                zip(("Ip", "hp"), ddm_platform(pose_of(ps)[1], t[3:], Pp, gravity), strict=True)
-            ),
-        ),
-        closure=ddm_closure_stage,
-    )
-    return idm_stages, ddm_stages
+def _ddm_leg_stage(lc: _ChainConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
+    return _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
 
 
 def build_chain_models(
@@ -726,7 +614,11 @@ def build_chain_models(
     idm, ddm, idm_guarded, ddm_guarded = model_functions(
         prefix, inputs, gamma, idm_aux, accel, [*djinv, *D, *dslacks]
     )
-    idm_stages, ddm_stages = _stages(legs, pose, Pp, gravity, pivots) if stages else (None, None)
+    idm_stages, ddm_stages = (
+        _stages(legs, pose, Pp, gravity, pivots, _idm_leg_stage, _ddm_leg_stage)
+        if stages
+        else (None, None)
+    )
     constants = ModelConstants(
         base_points=np.array(desc.base_points),
         platform_points=np.array(desc.platform_points),

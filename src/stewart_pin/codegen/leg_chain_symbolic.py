@@ -54,8 +54,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as cs
 import numpy as np
@@ -612,8 +613,8 @@ def _drift(joints: Sequence[_JointState], z: list, O: list, P: Vec, qd: Vec) -> 
 def _newton_euler(
     joints: Sequence[_JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar], base_acc: Vec
 ) -> list[Scalar]:
-    """Joint efforts of the chain (Khalil's recursive Newton-Euler in the link frames):
-    ``qd``, ``qdd`` the joint rates and accelerations, ``base_acc`` the acceleration of
+    """Joint efforts of a chain of n joints (Khalil's recursive Newton-Euler in the link
+    frames): ``qd``, ``qdd`` the joint rates and accelerations, ``base_acc`` the acceleration of
     frame 0i's origin in frame 0i (``-g`` for gravity); nothing acts at the tip."""
     zero: Vec = [0.0, 0.0, 0.0]
     w, wd, vd = zero, zero, list(base_acc)
@@ -644,10 +645,10 @@ def _newton_euler(
         Iw = [_dot(row, w) for row in inertia]
         N = _add(_add([_dot(row, wd) for row in inertia], _cross(w, Iw)), _cross(MS, vd))
         forces.append((F, N))
-    f, n = forces[2]
-    tau: list[Scalar] = [0.0, 0.0, 0.0]
-    tau[2] = n[2] if joints[2].k.revolute else f[2]
-    for j in (1, 0):
+    f, n = forces[-1]
+    tau: list[Scalar] = [0.0] * len(joints)
+    tau[-1] = n[2] if joints[-1].k.revolute else f[2]
+    for j in reversed(range(len(joints) - 1)):
         child = joints[j + 1]
         fc, nc = child.to_parent(f), child.to_parent(n)
         F, N = forces[j]
@@ -679,13 +680,14 @@ def _joint_terms(
 
 
 def _mass_matrix(joints: Sequence[_JointState]) -> list[list[Scalar]]:
-    """The chain's 3x3 joint-space inertia (armature on the diagonal), column m from the
+    """The chain's n x n joint-space inertia (armature on the diagonal), column m from the
     efforts of a unit ``qdd_m`` without velocity or gravity."""
-    M: list[list[Scalar]] = [[0.0] * 3 for _ in range(3)]
-    zero = [0.0, 0.0, 0.0]
-    for m in range(3):
-        e = [1.0 if i == m else 0.0 for i in range(3)]
-        tau = _newton_euler(joints, zero, e, zero)
+    n = len(joints)
+    M: list[list[Scalar]] = [[0.0] * n for _ in range(n)]
+    zero = [0.0] * n
+    for m in range(n):
+        e = [1.0 if i == m else 0.0 for i in range(n)]
+        tau = _newton_euler(joints, zero, e, [0.0, 0.0, 0.0])
         for i in range(m + 1):
             M[i][m] = M[m][i] = tau[i]
         M[m][m] = _plus(M[m][m], joints[m].k.armature)
@@ -871,15 +873,28 @@ def _ddm_leg(
 
 
 # ---------------------------------------------------------------------------- assembly
+def _idm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
+    return _idm_leg(lc, p, R, t[:3], t[3:], a[:3], K)
+
+
+def _ddm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
+    return _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
+
+
 def _stages(
-    legs: Sequence[_LegConst],
+    legs: Sequence[Any],
     pose: str,
     Pp: list[float],
     gravity: np.ndarray,
     pivots: Sequence[tuple[int, int]],
+    idm_leg: Callable[..., dict] = _idm_leg_stage,
+    ddm_leg: Callable[..., dict] = _ddm_leg_stage,
 ) -> tuple[Stages, Stages]:
     """The IDM and DDM split for parallel evaluation (fresh symbols at each interface; for
-    the operation counts): the shared prelude, six legs, the platform, the closure."""
+    the operation counts): the shared prelude, six legs, the platform, the closure.
+    ``idm_leg(lc, p, R, twist, accel, K)`` and ``ddm_leg(lc, p, R, twist, gamma_k)`` give a
+    leg's outputs (``legs``: their constants, each with its ``index``; the chain legs'
+    generator passes its own)."""
     npose = pose_size(pose)
 
     def pose_of(ps: Sequence[Scalar]) -> tuple[Vec, Mat]:
@@ -892,9 +907,7 @@ def _stages(
             stage_function(
                 f"idm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
-                lambda ps, t, a, Kf, lc=lc: _idm_leg(
-                    lc, *pose_of(ps), t[:3], t[3:], a[:3], mat3(Kf)
-                ),
+                lambda ps, t, a, Kf, lc=lc: idm_leg(lc, *pose_of(ps), t, a, mat3(Kf)),
             )
             for lc in legs
         ),
@@ -913,7 +926,7 @@ def _stages(
             stage_function(
                 f"ddm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("gamma", 1)],
-                lambda ps, t, gk, lc=lc: _ddm_leg(lc, *pose_of(ps), t[:3], t[3:], gk[0]),
+                lambda ps, t, gk, lc=lc: ddm_leg(lc, *pose_of(ps), t, gk[0]),
             )
             for lc in legs
         ),
