@@ -44,23 +44,13 @@ import numpy as np
 
 from stewart_pin.codegen._sx_common import (
     Mat,
-    ModelConstants,
     Scalar,
     SymbolicModels,
     Vec,
     _lu_solve,
     column,
-    ddm_legs_closure,
-    ddm_platform,
-    idm_closure,
-    idm_platform,
-    idm_shared,
-    is_zero,
     mat3,
-    model_functions,
     pivot_order,
-    pose_from_input,
-    pose_size,
     split,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
@@ -83,11 +73,12 @@ from stewart_pin.codegen.leg_chain_symbolic import (
     _revolute,
     _scale,
     _snap,
-    _stages,
     _sub,
+    actuators_of,
+    assemble_models,
+    joint_constants,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.leg_architecture import Joint
 from stewart_pin.exceptions import UnsupportedArchitectureError
 from stewart_pin.kinematics import chain_legs as kin
 
@@ -126,28 +117,6 @@ class _ChainConst:
     inline_newton: bool = True
 
 
-def _joint_const(joint: Joint, inertia: np.ndarray, size: float) -> _JointConst:
-    dyn = joint.dynamics
-    return _JointConst(
-        revolute=joint.revolute,
-        ca=_snap(math.cos(joint.alpha)),
-        sa=_snap(math.sin(joint.alpha)),
-        d=_snap(joint.d, size),
-        theta=joint.theta,
-        ct=_snap(math.cos(joint.theta)),
-        st=_snap(math.sin(joint.theta)),
-        r=_snap(joint.r, size),
-        lower=joint.lower,
-        upper=joint.upper,
-        armature=dyn.total_armature,
-        viscous=dyn.viscous + dyn.damping,
-        coulomb=dyn.coulomb,
-        stiffness=dyn.stiffness,
-        rest=dyn.rest_position,
-        inertia=tuple(float(x) for x in inertia),
-    )
-
-
 def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) -> _ChainConst:
     """Leg k's :class:`_ChainConst` (:class:`UnsupportedArchitectureError` for a leg with an
     idle joint)."""
@@ -177,7 +146,7 @@ def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) 
         B=tuple(_snap(x, scale) for x in desc.base_points[k]),
         pL=tuple(_snap(x, scale) for x in desc.platform_points[k]),
         pR=tuple(tuple(_snap(x) for x in row) for row in leg.platform_rotation),
-        joints=tuple(_joint_const(j, leg.inertia[m], scale) for m, j in enumerate(leg.joints)),
+        joints=tuple(joint_constants(j, leg.inertia[m], scale) for m, j in enumerate(leg.joints)),
         tip=tuple(_snap(x, scale) for x in leg.tip),
         tip_R=tuple(tuple(_snap(x) for x in row) for row in leg.tip_rotation),
         constraints=leg.constraints,
@@ -565,96 +534,32 @@ def build_chain_models(
     ``aux``; ``stages`` and ``inline_newton`` as
     :func:`~.leg_chain_symbolic.build_general_models`."""
     legs = [chain_constants(desc, k, inline_newton) for k in range(6)]
-    Pp = [float(x) for x in desc.platform_inertia]
-    gravity = np.asarray(desc.gravity, dtype=float)
-    x_pose = cs.SX.sym("pose", pose_size(pose))
-    x_twist = cs.SX.sym("twist", 6)
-    x_accel = cs.SX.sym("accel", 6)
-    x_gamma = cs.SX.sym("gamma", 6)
-    x_chi = cs.SX.sym("base_parameters", 0)
-    p, R = pose_from_input(x_pose, pose)
-    tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
-    v, w, vd, wd = tw[:3], tw[3:], ac[:3], ac[3:]
-    inv_l = 1.0 / kin.robot_size(desc)
-
-    # ---- IDM
-    K, vdg = idm_shared(tw, ac, gravity)
-    ilegs = [_idm_leg(lc, p, R, v, w, vd, wd, K) for lc in legs]
-    F_p = idm_platform(R, w, wd, vdg, K, Pp)
-    rows = [lg["row"] for lg in ilegs]
     states = kin.leg_states(desc, desc.home_pose[None], np.zeros((1, 6)))
     home_rows = kin.inverse_jacobian(desc, states)[0]
-    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
-    pivots = tuple(pivot_order(home_rows.T, nonzero))
-    Hz = [lg["Hz"][0] for lg in ilegs]
-    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
-    fro2: Scalar = 0.0
-    for r in rows:
-        for j in range(3):
-            fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
-    det = det * inv_l**3
-    slacks = [s for lg in ilegs for s in lg["slack"]]
-    layout = AuxLayout(n_slack=len(slacks))
-    idm_aux = [*(x for r in rows for x in r), *F, *Hz, growth, det, fro2, *slacks]
-
-    # ---- DDM
-    dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
-    Ip, hp = ddm_platform(R, w, Pp, gravity)
-    accel, D = ddm_legs_closure(dlegs, Ip, hp)
-    dslacks = [s for lg in dlegs for s in lg["slack"]]
-    assert len(dslacks) == layout.n_slack
-    djinv = [x for lg in dlegs for x in lg["row"]]
-    inputs = {
-        "pose": x_pose,
-        "twist": x_twist,
-        "accel": x_accel,
-        "gamma": x_gamma,
-        "base_parameters": x_chi,
-    }
-    idm, ddm, idm_guarded, ddm_guarded = model_functions(
-        prefix, inputs, gamma, idm_aux, accel, [*djinv, *D, *dslacks]
+    return assemble_models(
+        desc,
+        legs,
+        home_rows,
+        kin.robot_size(desc),
+        pose,
+        prefix,
+        stages,
+        _idm_leg_stage,
+        _ddm_leg_stage,
     )
-    idm_stages, ddm_stages = (
-        _stages(legs, pose, Pp, gravity, pivots, _idm_leg_stage, _ddm_leg_stage)
-        if stages
-        else (None, None)
-    )
-    constants = ModelConstants(
-        base_points=np.array(desc.base_points),
-        platform_points=np.array(desc.platform_points),
-        leg_base_rotations=np.array(desc.leg_base_rotations),
-        gravity=gravity.copy(),
-        parameter_names=(),
-        parameter_values=np.zeros(0),
-    )
-    models = SymbolicModels(
-        idm, ddm, idm_guarded, ddm_guarded, idm_stages, ddm_stages, pose, "numeric",
-        constants, pivots,
-    )  # fmt: skip
-    return models, layout
 
 
 def chain_actuator_function(desc: RobotDescription) -> cs.Function:
     """``actuators(pose, twist) -> (q_a, qdot_a)``: the six actuated joint values [m or
     rad, a revolute one in (-pi, pi] taken into its limits] and rates from the generated
     leg code (pose 0Tp row-major (16), twist ``[v, w]`` in F0)."""
-    x_pose = cs.SX.sym("pose", 16)
-    x_twist = cs.SX.sym("twist", 6)
-    p, R = pose_from_input(x_pose, "matrix")
-    tw = split(x_twist)
-    q_a, qd_a = [], []
-    for k in range(6):
+
+    def actuated(k: int, p: Vec, R: Mat, tw: list) -> tuple[Scalar, Scalar]:
         lc = chain_constants(desc, k, inline_newton=False)
         ck = chain_kinematics(lc, p, R, tw[:3], tw[3:])
-        q_a.append(ck.joints[lc.actuated].value())
-        qd_a.append(ck.qd[lc.actuated])
-    return cs.Function(
-        "actuators",
-        [x_pose, x_twist],
-        [cs.vertcat(*q_a), cs.vertcat(*qd_a)],
-        ["pose", "twist"],
-        ["q_a", "qdot_a"],
-    )
+        return ck.joints[lc.actuated].value(), ck.qd[lc.actuated]
+
+    return actuators_of(actuated)
 
 
 __all__ = [

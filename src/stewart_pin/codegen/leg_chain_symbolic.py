@@ -86,7 +86,7 @@ from stewart_pin.codegen._sx_common import (
     stage_function,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND, LegArchitecture
+from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND, Joint, LegArchitecture
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics import leg_chains
@@ -268,33 +268,36 @@ class _LegConst:
     inline_newton: bool = True  # custom legs: Newton's steps inline, or calls of one step
 
 
+def joint_constants(jt: Joint, inertia: np.ndarray, size: float) -> _JointConst:
+    """A joint's numbers (snapped; ``size`` [m] the lengths' scale), ``inertia`` (10,) its
+    link's Khalil parameters."""
+    dyn = jt.dynamics
+    return _JointConst(
+        revolute=jt.revolute,
+        ca=_snap(math.cos(jt.alpha)),
+        sa=_snap(math.sin(jt.alpha)),
+        d=_snap(jt.d, size),
+        theta=jt.theta,
+        ct=_snap(math.cos(jt.theta)),
+        st=_snap(math.sin(jt.theta)),
+        r=_snap(jt.r, size),
+        lower=jt.lower,
+        upper=jt.upper,
+        armature=dyn.total_armature,
+        viscous=dyn.viscous + dyn.damping,
+        coulomb=dyn.coulomb,
+        stiffness=dyn.stiffness,
+        rest=dyn.rest_position,
+        inertia=tuple(float(x) for x in inertia),
+    )
+
+
 def leg_constants(robot: GeneralHexapod, k: int, inline_newton: bool = True) -> _LegConst:
     leg: LegArchitecture = robot.legs[k]
     size = max(robot.size, float(np.abs(robot.base_points).max()), 1e-300)
-    joints = []
-    for j, jt in enumerate(leg.joints):
-        dyn = jt.dynamics
-        m = robot.leg_inertia[k, j]
-        joints.append(
-            _JointConst(
-                revolute=jt.revolute,
-                ca=_snap(math.cos(jt.alpha)),
-                sa=_snap(math.sin(jt.alpha)),
-                d=_snap(jt.d, size),
-                theta=jt.theta,
-                ct=_snap(math.cos(jt.theta)),
-                st=_snap(math.sin(jt.theta)),
-                r=_snap(jt.r, size),
-                lower=jt.lower,
-                upper=jt.upper,
-                armature=dyn.total_armature,
-                viscous=dyn.viscous + dyn.damping,
-                coulomb=dyn.coulomb,
-                stiffness=dyn.stiffness,
-                rest=dyn.rest_position,
-                inertia=tuple(float(x) for x in m),
-            )
-        )
+    joints = [
+        joint_constants(jt, robot.leg_inertia[k, j], size) for j, jt in enumerate(leg.joints)
+    ]
     R = robot.leg_base_rotations[k]
     g = robot.gravity
     g0 = R.T @ g
@@ -967,6 +970,27 @@ def build_general_models(
     Newton steps written out (for the operation counts) rather than called."""
     robot = general_robot(desc)
     legs = [leg_constants(robot, k, inline_newton) for k in range(6)]
+    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
+    return assemble_models(robot, legs, home_rows, robot.size, pose, prefix, stages)
+
+
+def assemble_models(
+    robot: Any,
+    legs: Sequence[Any],
+    home_rows: np.ndarray,
+    size: float,
+    pose: str,
+    prefix: str,
+    stages: bool,
+    idm_leg: Callable[..., dict] = _idm_leg_stage,
+    ddm_leg: Callable[..., dict] = _ddm_leg_stage,
+) -> tuple[SymbolicModels, AuxLayout]:
+    """The models from six legs' outputs: ``idm_leg(lc, p, R, twist, accel, K)`` (``row``,
+    ``wrench``, ``Hz``, ``slack``) and ``ddm_leg(lc, p, R, twist, gamma_k)`` (``row``,
+    ``block``, ``wrench``, ``slack``) of each of ``legs``, the platform's Newton-Euler and
+    the closures; ``robot`` gives the geometry, platform inertia and gravity,
+    ``home_rows`` (6, 6) ``Jp^-1`` at the home pose (the static pivots), ``size`` [m] the
+    singularity measure's length (shared by the three-joint and the chain-leg generators)."""
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
     npose = pose_size(pose)
@@ -977,15 +1001,14 @@ def build_general_models(
     x_chi = cs.SX.sym("base_parameters", 0)
     p, R = pose_from_input(x_pose, pose)
     tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
-    v, w, vd, wd = tw[:3], tw[3:], ac[:3], ac[3:]
-    inv_l = 1.0 / robot.size
+    w, wd = tw[3:], ac[3:]
+    inv_l = 1.0 / size
 
     # ---- IDM
     K, vdg = idm_shared(tw, ac, gravity)
-    ilegs = [_idm_leg(lc, p, R, v, w, vd, K) for lc in legs]
+    ilegs = [idm_leg(lc, p, R, tw, ac, K) for lc in legs]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
     rows = [lg["row"] for lg in ilegs]
-    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
     nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
     pivots = tuple(pivot_order(home_rows.T, nonzero))
     Hz = [lg["Hz"][0] for lg in ilegs]
@@ -1001,7 +1024,7 @@ def build_general_models(
     idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
 
     # ---- DDM
-    dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
+    dlegs = [ddm_leg(lc, p, R, tw, gm[k]) for k, lc in enumerate(legs)]
     Ip, hp = ddm_platform(R, w, Pp, gravity)
     accel, D = ddm_legs_closure(dlegs, Ip, hp)
     dslacks = [s for lg in dlegs for s in lg["slack"]]
@@ -1018,7 +1041,9 @@ def build_general_models(
         prefix, inputs, gamma, idm_aux, accel, [*djinv, *D, *dslacks]
     )
 
-    idm_stages, ddm_stages = _stages(legs, pose, Pp, gravity, pivots) if stages else (None, None)
+    idm_stages, ddm_stages = (
+        _stages(legs, pose, Pp, gravity, pivots, idm_leg, ddm_leg) if stages else (None, None)
+    )
     constants = ModelConstants(
         base_points=np.array(robot.base_points),
         platform_points=np.array(robot.platform_points),
@@ -1049,16 +1074,23 @@ def actuator_function(desc: RobotDescription | GeneralHexapod) -> cs.Function:
     ``[v, w]`` in F0), from the generated models' leg code (the closed forms; a custom
     leg's Newton steps called). An SX function: its derivatives are CasADi's."""
     robot = general_robot(desc)
+
+    def actuated(k: int, p: Vec, R: Mat, tw: list) -> tuple[Scalar, Scalar]:
+        lc = leg_constants(robot, k, inline_newton=False)
+        kin = leg_kinematics(lc, p, R, tw[:3], tw[3:])
+        return kin.geo.joints[lc.actuated].value(), kin.qd[lc.actuated]
+
+    return actuators_of(actuated)
+
+
+def actuators_of(actuated: Callable[[int, Vec, Mat, list], tuple[Scalar, Scalar]]) -> cs.Function:
+    """``actuators(pose, twist) -> (q_a, qdot_a)`` from ``actuated(k, p, R, twist)``, leg
+    k's actuated joint value and rate (pose 0Tp row-major (16), twist ``[v, w]`` in F0)."""
     x_pose = cs.SX.sym("pose", pose_size("matrix"))
     x_twist = cs.SX.sym("twist", 6)
     p, R = pose_from_input(x_pose, "matrix")
     tw = split(x_twist)
-    q_a, qd_a = [], []
-    for k in range(6):
-        lc = leg_constants(robot, k, inline_newton=False)
-        kin = leg_kinematics(lc, p, R, tw[:3], tw[3:])
-        q_a.append(kin.geo.joints[lc.actuated].value())
-        qd_a.append(kin.qd[lc.actuated])
+    q_a, qd_a = zip(*(actuated(k, p, R, tw) for k in range(6)), strict=True)
     return cs.Function(
         "actuators",
         [x_pose, x_twist],
@@ -1073,7 +1105,10 @@ __all__ = [
     "NEWTON_ITERATIONS",
     "AuxLayout",
     "actuator_function",
+    "actuators_of",
+    "assemble_models",
     "aux_layout",
     "build_general_models",
     "general_robot",
+    "joint_constants",
 ]
