@@ -15,6 +15,7 @@ from conftest import use_compile_cache
 
 from stewart_pin import StewartRobot
 from stewart_pin._so3 import so3_exp
+from stewart_pin.apps.bench import architecture_rows
 from stewart_pin.check.chain_legs_tree import ChainTreeSolver
 from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.chain_leg_symbolic import NEWTON_ITERATIONS, build_chain_models
@@ -33,7 +34,7 @@ def cache_dir(shared_compile_cache: Path) -> Iterator[Path]:
 
 @pytest.fixture(scope="module", params=["welded", "mixed"])
 def robot(request: pytest.FixtureRequest) -> StewartRobot:
-    desc = welded_ups(seed=1) if request.param == "welded" else mixed_chain_robot(seed=2)
+    desc = welded_ups() if request.param == "welded" else mixed_chain_robot(seed=2)
     return StewartRobot(desc)
 
 
@@ -103,7 +104,7 @@ def _far(robot: StewartRobot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_a_state_newton_has_not_solved_is_flagged_and_recomputed() -> None:
-    robot = StewartRobot(welded_ups(seed=1))
+    robot = StewartRobot(welded_ups())
     T, V, A = _far(robot)
     models, layout = build_chain_models(robot.description)
     _, aux = models.idm_guarded(T.reshape(16), V, A, np.zeros(0))
@@ -112,13 +113,18 @@ def test_a_state_newton_has_not_solved_is_flagged_and_recomputed() -> None:
     ref = robot.inverse_dynamics(T, V, A, backend="pinocchio")
     gamma = robot.inverse_dynamics(T, V, A, backend="compiled")
     assert np.abs(gamma - ref).max() <= TOL * np.abs(ref).max()
-    batch = robot.inverse_dynamics(np.stack([T, T]), np.stack([V, V]), np.stack([A, A]),
-                                   backend="compiled")  # fmt: skip
-    assert np.abs(batch - ref).max() <= TOL * np.abs(ref).max()
+    # in a batch beside a state the guard passes: only the flagged one is recomputed
+    T0, V0, A0 = (x[0] for x in robot.sample_states(1, rng=2))
+    Ts, Vs, As = np.stack([T0, T]), np.stack([V0, V]), np.stack([A0, A])
+    batch = robot.inverse_dynamics(Ts, Vs, As, backend="compiled")
+    refs = robot.inverse_dynamics(Ts, Vs, As, backend="pinocchio")
+    assert np.abs(batch - refs).max() <= TOL * np.abs(refs).max()
+    acc = robot.direct_dynamics(Ts, Vs, refs, backend="compiled")
+    assert np.abs(acc - As).max() <= TOL * np.abs(As).max()
 
 
 def test_a_pose_out_of_the_legs_limits_raises_the_reference_error() -> None:
-    robot = StewartRobot(welded_ups(seed=1))
+    robot = StewartRobot(welded_ups())
     T = robot.description.home_pose.copy()
     T[2, 3] += 10.0 * chain_legs.robot_size(robot.description)
     zero = np.zeros(6)
@@ -132,9 +138,20 @@ def test_a_pose_out_of_the_legs_limits_raises_the_reference_error() -> None:
                               np.zeros((2, 6)), backend="compiled")  # fmt: skip
 
 
+def test_the_bench_times_the_welded_robot_against_its_constrained_tree(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv(compiled_module.BACKEND_ENV, "auto")
+    row = architecture_rows("welded-ups", repeats=3, batches=(4,))
+    assert row["architecture"] == "chain" and str(row["backend"]).startswith("compiled")
+    ratios = row["ratio_to_pin_constraintDynamics"]
+    assert set(ratios) >= {"IDM single", "DDM single", "IDM batch 4", "DDM batch 4"}
+    assert all(np.isfinite(x) and x > 0 for x in ratios.values())
+
+
 @pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
 def test_exact_derivatives_match_central_differences() -> None:
-    robot = StewartRobot(welded_ups(seed=1))
+    robot = StewartRobot(welded_ups())
     T, V, A = (x[0] for x in robot.sample_states(1, rng=8))
     d = CompiledDerivatives(robot, compiler=False).inverse_dynamics_derivatives(T, V, A)
     h = 1e-6
