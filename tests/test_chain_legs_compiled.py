@@ -6,7 +6,8 @@ path, whose errors it raises)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -149,17 +150,11 @@ def test_the_bench_times_the_welded_robot_against_its_constrained_tree(
     assert all(np.isfinite(x) and x > 0 for x in ratios.values())
 
 
-@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
-def test_exact_derivatives_match_central_differences() -> None:
-    robot = StewartRobot(welded_ups())
-    T, V, A = (x[0] for x in robot.sample_states(1, rng=8))
-    d = CompiledDerivatives(robot, compiler=False).inverse_dynamics_derivatives(T, V, A)
-    h = 1e-6
-
-    def idm(P: np.ndarray, Vs: np.ndarray, As: np.ndarray) -> np.ndarray:
-        return robot.inverse_dynamics(P, Vs, As, backend="pinocchio")
-
-    fd_pose, fd_twist, fd_accel = (np.zeros((6, 6)) for _ in range(3))
+def _central(f: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray], T: np.ndarray,
+             V: np.ndarray, X: np.ndarray, h: float = 1e-6) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """Central differences of ``f(pose, twist, x)`` in ``delta = [dp, dtheta]`` (F0), the
+    twist and ``x``: three (6, 6)."""
+    out = tuple(np.zeros((6, 6)) for _ in range(3))
     for j in range(6):
         e = np.zeros(6)
         e[j] = h
@@ -167,8 +162,22 @@ def test_exact_derivatives_match_central_differences() -> None:
         for P_s, s in zip(P, (1.0, -1.0), strict=True):
             P_s[:3, 3] += s * e[:3]
             P_s[:3, :3] = so3_exp((s * e[3:])[None])[0] @ T[:3, :3]
-        fd_pose[:, j] = (idm(P[0], V, A) - idm(P[1], V, A)) / (2 * h)
-        fd_twist[:, j] = (idm(T, V + e, A) - idm(T, V - e, A)) / (2 * h)
-        fd_accel[:, j] = (idm(T, V, A + e) - idm(T, V, A - e)) / (2 * h)
-    for exact, fd in ((d.pose, fd_pose), (d.twist, fd_twist), (d.accel, fd_accel)):
-        assert np.abs(exact - fd).max() <= 1e-6 * np.abs(fd).max()
+        out[0][:, j] = (f(P[0], V, X) - f(P[1], V, X)) / (2 * h)
+        out[1][:, j] = (f(T, V + e, X) - f(T, V - e, X)) / (2 * h)
+        out[2][:, j] = (f(T, V, X + e) - f(T, V, X - e)) / (2 * h)
+    return out
+
+
+@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
+def test_exact_derivatives_match_central_differences() -> None:
+    robot = StewartRobot(welded_ups())
+    T, V, A = (x[0] for x in robot.sample_states(1, rng=8))
+    exact = CompiledDerivatives(robot, compiler=False)  # the VM: nothing to compile
+    d = exact.inverse_dynamics_derivatives(T, V, A)
+    fd = _central(partial(robot.inverse_dynamics, backend="pinocchio"), T, V, A)
+    for x, y in zip((d.pose, d.twist, d.accel), fd, strict=True):
+        assert np.abs(x - y).max() <= 1e-6 * np.abs(y).max()
+    g = exact.direct_dynamics_derivatives(T, V, d.gamma)
+    fd = _central(partial(robot.direct_dynamics, backend="pinocchio"), T, V, d.gamma)
+    for x, y in zip((g.pose, g.twist, g.gamma), fd, strict=True):
+        assert np.abs(x - y).max() <= 1e-6 * np.abs(y).max()
