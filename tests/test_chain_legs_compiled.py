@@ -135,8 +135,8 @@ def test_a_pose_out_of_the_legs_limits_raises_the_reference_error() -> None:
         robot.inverse_dynamics(T, zero, zero, backend="compiled")
     assert str(err.value) == str(ref.value)
     with pytest.raises(LegJointLimitError):
-        robot.direct_dynamics(np.stack([robot.description.home_pose, T]), np.zeros((2, 6)),
-                              np.zeros((2, 6)), backend="compiled")  # fmt: skip
+        poses = np.stack([robot.description.home_pose, T])
+        robot.direct_dynamics(poses, np.zeros((2, 6)), np.zeros((2, 6)), backend="compiled")
 
 
 def test_the_bench_times_the_welded_robot_against_its_constrained_tree(
@@ -150,8 +150,9 @@ def test_the_bench_times_the_welded_robot_against_its_constrained_tree(
     assert all(np.isfinite(x) and x > 0 for x in ratios.values())
 
 
-def _central(f: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray], T: np.ndarray,
-             V: np.ndarray, X: np.ndarray, h: float = 1e-6) -> tuple[np.ndarray, ...]:  # fmt: skip
+def _central(
+    f: Callable[..., np.ndarray], T: np.ndarray, V: np.ndarray, X: np.ndarray, h: float = 1e-6
+) -> tuple[np.ndarray, ...]:
     """Central differences of ``f(pose, twist, x)`` in ``delta = [dp, dtheta]`` (F0), the
     twist and ``x``: three (6, 6)."""
     out = tuple(np.zeros((6, 6)) for _ in range(3))
