@@ -3,7 +3,8 @@
 Median wall-clock time per state [us], all measured in this one run:
 
 - for each architecture (``--architectures``, default the 6-UPS ``simulator``, the
-  6-RUS ``rus`` and the 6-PUS ``pus`` presets): the default backend (``backend="auto"``:
+  6-RUS ``rus`` and the 6-PUS ``pus`` presets and ``welded-ups``, six welded six-joint
+  chain legs): the default backend (``backend="auto"``:
   the compiled models) of ``StewartRobot.inverse_dynamics`` / ``direct_dynamics``, one
   state per call and batches of 10 000 and 100 000 states (threads stated), beside one
   ``pin.constraintDynamics`` call on that robot's closed-loop tree (the ratios' yardstick);
@@ -25,7 +26,7 @@ Median wall-clock time per state [us], all measured in this one run:
   force function per step, the Python loop, and MuJoCo's own RK4 step (``mj_step``) on the
   same robot, with the ratios to that step and to ``pin.constraintDynamics``.
 
-Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus]
+Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus,welded-ups]
 [--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
 ``python scripts/bench_dynamics.py`` with the same options).
 """
@@ -61,6 +62,7 @@ from stewart_pin.check.constrained_dynamics import (
 )
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
+from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
 
 
 def machine() -> dict[str, object]:
@@ -180,7 +182,8 @@ def architecture_rows(
     """The default backend (``backend="auto"``) of one preset: one state per call and
     batches of ``batches`` states [us per state], and the ``pin.constraintDynamics`` call
     on its tree; with the ratios to that call, the backend that ran and its threads."""
-    robot = StewartRobot.from_preset(name)
+    chain = CHAIN_PRESETS.get(name)  # a chain-leg robot (welded-ups) or a preset
+    robot = StewartRobot(chain()) if chain else StewartRobot.from_preset(name)
     poses, twists, accels = robot.sample_states(min(max(batches), 10_000), 0)
     gammas = robot.inverse_dynamics(poses, twists, accels)  # compiles on first use
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]

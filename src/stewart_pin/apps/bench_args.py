@@ -10,8 +10,9 @@ from stewart_pin._argtypes import BYTES_PER_STATE, count_within_memory, positive
 
 __all__ = ["ARCHITECTURES", "add_arguments"]
 
-#: The architectures' presets of the default-backend rows.
-ARCHITECTURES = ("simulator", "rus", "pus")
+#: The architectures' presets of the default-backend rows (``welded-ups``: six welded
+#: six-joint chain legs, :data:`~stewart_pin.description.chain_leg_presets.CHAIN_PRESETS`).
+ARCHITECTURES = ("simulator", "rus", "pus", "welded-ups")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,7 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--architectures",
         type=_preset_list,
         default=ARCHITECTURES,
-        help="comma-separated presets of the default-backend rows (one per architecture)",
+        help="comma-separated presets of the default-backend rows (one per architecture; "
+        "also welded-ups, mixed-chain: chain-leg robots)",
     )
     parser.add_argument(
         "--batch",

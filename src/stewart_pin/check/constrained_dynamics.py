@@ -335,7 +335,18 @@ def constraint_dynamics_call(
     yardstick ``stewart-pin bench`` divides every row by. Leg rates from the loop
     constraints (:func:`tree_state`); general legs: the 24-dof tree of
     :func:`stewart_pin.models.leg_chains.build_general_tree` (``model.armature`` set, the
-    joint terms in ``tau``; a solver of its own, not the cached reference's)."""
+    joint terms in ``tau``; a solver of its own, not the cached reference's); chain legs:
+    :class:`~stewart_pin.check.chain_legs_tree.ChainTreeSolver` (3D / 6D loops)."""
+    if robot.description.has_chain_legs:  # chain legs: their tree with 3D / 6D loops
+        chain = ChainTreeSolver(robot.description)
+        q_all = np.asarray(robot.inverse_geometry(pose, check_limits=False), dtype=float)
+        legs = robot.description.chain_legs or ()
+        q_legs = [q_all[k, : len(leg.joints)] for k, leg in enumerate(legs)]
+        q, v, _ = chain.state(pose, twist, q_legs)
+        tau = -chain.joint_torques(q, v)
+        tau[chain.v_act] += gamma
+        args = (chain.model, chain.data, q, v, tau, chain.cmodels, chain.cdatas)
+        return partial(pin.constraintDynamics, *args, chain.settings)
     if not robot.description.is_ideal_ups:  # general legs: their tree with joint terms
         general = GeneralTreeSolver(general_from_description(robot.description))
         q, v, _ = general.state(pose, twist, robot.inverse_geometry(pose, check_limits=False))

@@ -9,7 +9,10 @@ module of :mod:`stewart_pin.codegen` asks instead of asking the architecture:
   operation counts;
 - :class:`LegChainCodegen`: every other robot (``ups-offset``, ``rus``, ``pus``, custom
   and mixed legs) and its generic models (:mod:`.leg_chain_symbolic`: every number baked
-  in, joint terms included, the guard's slacks, a custom leg's Newton steps).
+  in, joint terms included, the guard's slacks, a custom leg's Newton steps);
+- :class:`ChainLegCodegen`: robots with chain legs (``description.chain_legs``: any 1-dof
+  joints closed by a ball or a weld) and their models (:mod:`.chain_leg_symbolic`: each
+  leg's Newton steps from its home configuration, the guard's slacks).
 
 :func:`generate_models` (the symbolic models of any robot, cached per description) is
 here too: it is the first question codegen asks the strategy. The strategies hold no
@@ -25,8 +28,14 @@ import casadi as cs
 import numpy as np
 
 from stewart_pin.codegen import _csource
-from stewart_pin.codegen._resolution import ReferenceChecks, ReferenceResults, Resolution
+from stewart_pin.codegen._resolution import (
+    ChainReferenceResults,
+    ReferenceChecks,
+    ReferenceResults,
+    Resolution,
+)
 from stewart_pin.codegen._sx_common import SymbolicModels, function, pose_from_input, vcross
+from stewart_pin.codegen.chain_leg_symbolic import build_chain_models, chain_actuator_function
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
     actuator_function,
@@ -54,7 +63,8 @@ from stewart_pin.codegen.symbolic import (
     model_constants,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import InputError
+from stewart_pin.exceptions import ExportError, InputError
+from stewart_pin.kinematics.chain_legs import robot_size
 from stewart_pin.kinematics.geometry import (
     LEG_MIN_LENGTH_RATIO,
     LEG_SINGULARITY_SIN,
@@ -64,6 +74,7 @@ from stewart_pin.parameters.base import grouped_parameters
 
 __all__ = [
     "UPS_AUX_LAYOUT",
+    "ChainLegCodegen",
     "CodegenKind",
     "CostModels",
     "LegChainCodegen",
@@ -420,12 +431,64 @@ class LegChainCodegen:
         return any(leg.name == "custom" for leg in general_robot(desc).legs)
 
 
-#: The two strategies (stateless: one instance each).
-_PAPER_UPS, _LEG_CHAINS = PaperUpsCodegen(), LegChainCodegen()
+class ChainLegCodegen(LegChainCodegen):
+    """Robots with chain legs: the models of :mod:`.chain_leg_symbolic` (no standalone C
+    export yet: :class:`ExportError`)."""
+
+    def build_models(self, desc: RobotDescription, pose: str, parameters: str) -> SymbolicModels:
+        return build_chain_models(desc, pose)[0]
+
+    def singularity_length(self, desc: RobotDescription) -> float:
+        return robot_size(desc)  # as the reference path (chain_legs.condition_number)
+
+    def resolution(self, desc: RobotDescription) -> Resolution:
+        """The chain legs' reference path computes the flagged states."""
+        return ChainReferenceResults(desc)
+
+    def actuator_function(self, desc: RobotDescription) -> cs.Function:
+        return chain_actuator_function(desc)
+
+    def cost_models(self, desc: RobotDescription) -> CostModels:
+        """The values baked in (stages split, the Newton steps written out) and the pose
+        as a quaternion; the critical path of the first."""
+        models = {
+            "numeric": build_chain_models(desc, stages=True, inline_newton=True)[0],
+            "quaternion": build_chain_models(desc, "quaternion", inline_newton=True)[0],
+        }
+        return CostModels(models, {"": "numeric"}, {"architecture": desc.architecture})
+
+    def _no_export(self, desc: RobotDescription) -> ExportError:
+        return ExportError(
+            f"robot '{desc.name}' has chain legs: the standalone C library does not take "
+            "them yet (the compiled models in Python do: backend='compiled')"
+        )
+
+    def geometry_function(self, desc: RobotDescription, name: str) -> tuple[cs.Function, int, int]:
+        raise self._no_export(desc)
+
+    def newton_rows(
+        self, desc: RobotDescription, p: Any, R: Any, t: list[Any]
+    ) -> tuple[list[Any], list[Any], list[Any]]:
+        raise self._no_export(desc)
+
+    def actuated_revolute(self, desc: RobotDescription) -> list[int]:
+        return [int(leg.revolute[leg.actuated - 1]) for leg in desc.chain_legs or ()]
+
+    def check_exportable(self, desc: RobotDescription) -> None:
+        raise self._no_export(desc)
+
+    def has_custom_leg(self, desc: RobotDescription) -> bool:
+        return True  # every leg by Newton
+
+
+#: The strategies (stateless: one instance each).
+_PAPER_UPS, _LEG_CHAINS, _CHAIN_LEGS = PaperUpsCodegen(), LegChainCodegen(), ChainLegCodegen()
 
 
 def codegen_kind(desc: RobotDescription) -> CodegenKind:
     """The codegen strategy of ``desc``'s architecture: the one place codegen chooses."""
+    if desc.has_chain_legs:
+        return _CHAIN_LEGS
     return _PAPER_UPS if desc.is_ideal_ups else _LEG_CHAINS
 
 

@@ -27,10 +27,11 @@ from stewart_pin._checks import check_states, in_batch
 from stewart_pin.codegen._csource import FLAG_NAMES
 from stewart_pin.codegen.leg_chain_symbolic import general_robot
 from stewart_pin.description import RobotDescription
+from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
 from stewart_pin.dynamics.closed_loop import DDM_OUTPUT, IDM_OUTPUT
 from stewart_pin.dynamics.leg_chain_dynamics import GeneralDynamics
 from stewart_pin.exceptions import NumericalError, SingularityError, StewartPinError
-from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics import chain_legs, leg_chains
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
 from stewart_pin.kinematics.jacobians import (
     check_condition,
@@ -38,7 +39,13 @@ from stewart_pin.kinematics.jacobians import (
     scaled_inverse_jacobian,
 )
 
-__all__ = ["OUTPUTS", "ReferenceChecks", "ReferenceResults", "Resolution"]
+__all__ = [
+    "OUTPUTS",
+    "ChainReferenceResults",
+    "ReferenceChecks",
+    "ReferenceResults",
+    "Resolution",
+]
 
 _INPUT, _GEOMETRY, _COND = FLAG_NAMES["INPUT"], FLAG_NAMES["GEOMETRY"], FLAG_NAMES["COND"]
 _NOT_PD, _NONFINITE = FLAG_NAMES["NOT_PD"], FLAG_NAMES["NONFINITE"]
@@ -128,20 +135,29 @@ class ReferenceResults:
     replaces the compiled one (the guard's slacks flag generously)."""
 
     def __init__(self, desc: RobotDescription) -> None:
-        self._hexapod = general_robot(desc)
-        self._models: GeneralDynamics | None = None
+        self._desc = desc
+        self._hexapod: Any = general_robot(desc)
+        self._models: Any = None
 
     def before_vm(self, T: np.ndarray, max_condition: float) -> None:
         """Nothing: the slacks, in the VM's ``aux``, are its flags."""
+
+    def _reference_models(self) -> Any:
+        return GeneralDynamics(self._hexapod, check_limits=True)
 
     def _reference(self, which: str, max_condition: float) -> Callable[[Any, Any, Any], Any]:
         """The reference path (:class:`GeneralDynamics`, joint limits checked, the
         robot's current ``max_condition``), as ``StewartRobot`` runs it."""
         if self._models is None:
-            self._models = GeneralDynamics(self._hexapod, check_limits=True)
+            self._models = self._reference_models()
         ref = self._models
         ref.max_condition = max_condition
         return ref.inverse_dynamics if which == "idm" else ref.direct_dynamics
+
+    def _exact_condition(self, T: np.ndarray) -> np.ndarray:
+        """The reference's parallel singularity measure at poses ``T`` (N, 4, 4)."""
+        J = leg_chains.inverse_jacobian_batch(self._hexapod, T)
+        return np.asarray(leg_chains.condition_number_batch(self._hexapod, J))
 
     def resolve(
         self,
@@ -164,8 +180,7 @@ class ReferenceResults:
         only_cond = (flags[bad] & ~_REPIVOTED) == _COND
         if np.any(only_cond):  # the cheap bound passed the threshold: the exact measure
             idx = bad[only_cond]
-            J = leg_chains.inverse_jacobian_batch(self._hexapod, T.reshape(-1, 4, 4)[idx])
-            cond = leg_chains.condition_number_batch(self._hexapod, J)
+            cond = self._exact_condition(T.reshape(-1, 4, 4)[idx])
             bad = np.setdiff1d(bad, idx[cond <= max_condition])
             if bad.size == 0:
                 return
@@ -180,3 +195,25 @@ class ReferenceResults:
                 ref(pose, twist, x)  # raises the reference's error for the whole batch
                 raise  # pragma: no cover - the subset failed, so the whole batch does
         out.reshape(-1, 6)[bad] = values
+
+
+class ChainReferenceResults(ReferenceResults):
+    """Chain legs: as :class:`ReferenceResults`, the reference path being
+    :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics` (joint limits
+    checked) and its singularity measure
+    :func:`stewart_pin.kinematics.chain_legs.condition_number`."""
+
+    def __init__(self, desc: RobotDescription) -> None:
+        self._desc = desc
+        self._hexapod = None
+        self._models = None
+
+    def _reference_models(self) -> Any:
+        return ChainDynamics(self._desc, check_limits=True)
+
+    def _exact_condition(self, T: np.ndarray) -> np.ndarray:
+        desc = self._desc
+        states = chain_legs.leg_states(desc, T, np.zeros((T.shape[0], 6)))
+        return np.asarray(
+            chain_legs.condition_number(desc, chain_legs.inverse_jacobian(desc, states))
+        )

@@ -796,13 +796,7 @@ class CompiledDynamics:
         vm_fallback: bool = True,
         announce: bool = False,
     ) -> None:
-        if robot.description.has_chain_legs:
-            raise UnsupportedArchitectureError(
-                f"robot '{robot.description.name}' has chain legs: no compiled models for "
-                "them yet; use backend='pinocchio' (the reference path)",
-                "backend",
-                robot.description.architecture,
-            )
+        _check_compilable(robot.description)
         self.robot = robot
         self.threads = default_threads() if threads is None else _positive_threads(threads)
         desc = robot.description
@@ -1177,7 +1171,7 @@ def auto_env() -> str:
 def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
     if auto_env() == "pinocchio":
         return None
-    if robot.description.has_chain_legs:  # no compiled models for chain legs yet
+    if not _compilable(robot.description):  # legs with idle joints: the reference path
         return None
     existing = _memo(robot, COMPILED_ATTR)
     if existing is not None and existing._desc is robot.description:
@@ -1194,6 +1188,21 @@ def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
         return None
     _remember(robot, COMPILED_ATTR, backend)
     return backend
+
+
+def _compilable(desc: Any) -> bool:
+    """Whether the compiled models take ``desc`` (not yet: chain legs with an idle joint)."""
+    return not desc.has_chain_legs or all(leg.idle_joint is None for leg in desc.chain_legs)
+
+
+def _check_compilable(desc: Any) -> None:
+    if not _compilable(desc):
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has chain legs with idle joints: no compiled models for "
+            "them yet; use backend='pinocchio' (the reference path)",
+            "backend",
+            desc.architecture,
+        )
 
 
 def _warn_reference(reason: str) -> None:

@@ -569,11 +569,13 @@ _BACKENDS_LOCK = threading.Lock()
 def derivatives_backend(robot: RobotLike) -> CompiledDerivatives:
     """The :class:`CompiledDerivatives` of ``robot``, built on first use and kept with it
     (a weak reference: the robot stays picklable)."""
-    if robot.description.has_chain_legs:
+    if robot.description.has_chain_legs and any(
+        leg.idle_joint is not None for leg in robot.description.chain_legs or ()
+    ):
         raise UnsupportedArchitectureError(
-            f"robot '{robot.description.name}' has chain legs: the exact derivatives come "
-            "from the compiled models, which do not take chain legs yet (central "
-            "differences of robot.inverse_dynamics / direct_dynamics work)",
+            f"robot '{robot.description.name}' has chain legs with idle joints: the exact "
+            "derivatives come from the compiled models, which do not take idle freedoms yet "
+            "(central differences of robot.inverse_dynamics / direct_dynamics work)",
             "derivatives",
             robot.description.architecture,
         )

@@ -56,8 +56,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as cs
 import numpy as np
@@ -87,7 +88,7 @@ from stewart_pin.codegen._sx_common import (
     stage_function,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND, LegArchitecture
+from stewart_pin.description.leg_architecture import COULOMB_DEAD_BAND, Joint, LegArchitecture
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
 from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics import leg_chains
@@ -272,6 +273,39 @@ class _LegConst:
     inline_newton: bool = True  # custom legs: Newton's steps inline, or calls of one step
 
 
+def joint_constants(
+    jt: Joint,
+    inertia: np.ndarray,
+    size: float,
+    gravcomp: float = 0.0,
+    coulomb_smoothing: float = 0.0,
+) -> _JointConst:
+    """A joint's numbers (snapped; ``size`` [m] the lengths' scale), ``inertia`` (10,) its
+    link's Khalil parameters, ``gravcomp`` the fraction of its link's weight removed,
+    ``coulomb_smoothing`` > 0 [m/s or rad/s]: its Coulomb sign smoothed."""
+    dyn = jt.dynamics
+    return _JointConst(
+        revolute=jt.revolute,
+        ca=_snap(math.cos(jt.alpha)),
+        sa=_snap(math.sin(jt.alpha)),
+        d=_snap(jt.d, size),
+        theta=jt.theta,
+        ct=_snap(math.cos(jt.theta)),
+        st=_snap(math.sin(jt.theta)),
+        r=_snap(jt.r, size),
+        lower=jt.lower,
+        upper=jt.upper,
+        armature=dyn.total_armature,
+        viscous=dyn.viscous + dyn.damping,
+        coulomb=dyn.coulomb,
+        stiffness=dyn.stiffness,
+        rest=dyn.rest_position,
+        inertia=tuple(float(x) for x in inertia),
+        gravcomp=float(gravcomp),
+        coulomb_smoothing=float(coulomb_smoothing),
+    )
+
+
 def leg_constants(
     robot: GeneralHexapod, k: int, inline_newton: bool = True, coulomb_smoothing: float = 0.0
 ) -> _LegConst:
@@ -279,32 +313,12 @@ def leg_constants(
     unit]: its joints' Coulomb sign smoothed (:func:`build_general_models`)."""
     leg: LegArchitecture = robot.legs[k]
     size = max(robot.size, float(np.abs(robot.base_points).max()), 1e-300)
-    joints = []
-    for j, jt in enumerate(leg.joints):
-        dyn = jt.dynamics
-        m = robot.leg_inertia[k, j]
-        joints.append(
-            _JointConst(
-                revolute=jt.revolute,
-                ca=_snap(math.cos(jt.alpha)),
-                sa=_snap(math.sin(jt.alpha)),
-                d=_snap(jt.d, size),
-                theta=jt.theta,
-                ct=_snap(math.cos(jt.theta)),
-                st=_snap(math.sin(jt.theta)),
-                r=_snap(jt.r, size),
-                lower=jt.lower,
-                upper=jt.upper,
-                armature=dyn.total_armature,
-                viscous=dyn.viscous + dyn.damping,
-                coulomb=dyn.coulomb,
-                stiffness=dyn.stiffness,
-                rest=dyn.rest_position,
-                inertia=tuple(float(x) for x in m),
-                gravcomp=float(robot.leg_gravcomp[k, j]),
-                coulomb_smoothing=float(coulomb_smoothing),
-            )
+    joints = [
+        joint_constants(
+            jt, robot.leg_inertia[k, j], size, robot.leg_gravcomp[k, j], coulomb_smoothing
         )
+        for j, jt in enumerate(leg.joints)
+    ]
     R = robot.leg_base_rotations[k]
     g = robot.gravity
     g0 = R.T @ g
@@ -671,10 +685,10 @@ def _newton_euler(
             F = _add(F, _scale(g, c * M))
             N = _add(N, _cross([c * x for x in MS], g))
         forces.append((F, N))
-    f, n = forces[2]
-    tau: list[Scalar] = [0.0, 0.0, 0.0]
-    tau[2] = n[2] if joints[2].k.revolute else f[2]
-    for j in (1, 0):
+    f, n = forces[-1]
+    tau: list[Scalar] = [0.0] * len(joints)
+    tau[-1] = n[2] if joints[-1].k.revolute else f[2]
+    for j in reversed(range(len(joints) - 1)):
         child = joints[j + 1]
         fc, nc = child.to_parent(f), child.to_parent(n)
         F, N = forces[j]
@@ -709,13 +723,14 @@ def _joint_terms(
 
 
 def _mass_matrix(joints: Sequence[_JointState]) -> list[list[Scalar]]:
-    """The chain's 3x3 joint-space inertia (armature on the diagonal), column m from the
+    """The chain's n x n joint-space inertia (armature on the diagonal), column m from the
     efforts of a unit ``qdd_m`` without velocity or gravity."""
-    M: list[list[Scalar]] = [[0.0] * 3 for _ in range(3)]
-    zero = [0.0, 0.0, 0.0]
-    for m in range(3):
-        e = [1.0 if i == m else 0.0 for i in range(3)]
-        tau = _newton_euler(joints, zero, e, zero)
+    n = len(joints)
+    M: list[list[Scalar]] = [[0.0] * n for _ in range(n)]
+    zero = [0.0] * n
+    for m in range(n):
+        e = [1.0 if i == m else 0.0 for i in range(n)]
+        tau = _newton_euler(joints, zero, e, [0.0, 0.0, 0.0])
         for i in range(m + 1):
             M[i][m] = M[m][i] = tau[i]
         M[m][m] = _plus(M[m][m], joints[m].k.armature)
@@ -754,7 +769,7 @@ def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinemat
     cols = [_column_of(J, z[j], O[j], P) for j, J in enumerate(joints)]
     inv_rows, det = _inverse3(cols)
     slacks = list(geo.slacks) + _serial_slacks(lc, joints, cols, O, P, det)
-    slacks += _limit_slacks(lc, joints)
+    slacks += _limit_slacks(lc.radius, joints)
     V0 = _rotate_T(lc.R, _add(v, _cross(w, L)))
     qd = _matvec_rows(inv_rows, V0)
     m = _rotate(lc.R, inv_rows[lc.actuated])
@@ -791,8 +806,9 @@ def _serial_slacks(
     return out
 
 
-def _limit_slacks(lc: _LegConst, joints: Sequence[_JointState]) -> list[Scalar]:
-    """Joint limits with margins: prismatic values against their limits, revolute angles
+def _limit_slacks(radius: float, joints: Sequence[_JointState]) -> list[Scalar]:
+    """Joint limits with margins (``radius`` [m] the prismatic margins' scale): prismatic
+    values against their limits, revolute angles
     by ``cos(q - mid) > cos(half range)`` (the reference takes a revolute value modulo
     2 pi into its limits: only a range shorter than 2 pi can refuse one)."""
     out: list[Scalar] = []
@@ -801,7 +817,7 @@ def _limit_slacks(lc: _LegConst, joints: Sequence[_JointState]) -> list[Scalar]:
         lo, hi = k.lower, k.upper
         if not k.revolute:
             assert J.q is not None
-            scale = max(lc.radius, *(abs(x) for x in (lo, hi) if math.isfinite(x)), 1e-300)
+            scale = max(radius, *(abs(x) for x in (lo, hi) if math.isfinite(x)), 1e-300)
             if math.isfinite(lo):
                 out.append(J.q - lo - _MARGIN_LIMIT * scale)
             if math.isfinite(hi):
@@ -900,15 +916,28 @@ def _ddm_leg(
 
 
 # ---------------------------------------------------------------------------- assembly
+def _idm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
+    return _idm_leg(lc, p, R, t[:3], t[3:], a[:3], K)
+
+
+def _ddm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
+    return _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
+
+
 def _stages(
-    legs: Sequence[_LegConst],
+    legs: Sequence[Any],
     pose: str,
     Pp: list[float],
     gravity: np.ndarray,
     pivots: Sequence[tuple[int, int]],
+    idm_leg: Callable[..., dict] = _idm_leg_stage,
+    ddm_leg: Callable[..., dict] = _ddm_leg_stage,
 ) -> tuple[Stages, Stages]:
     """The IDM and DDM split for parallel evaluation (fresh symbols at each interface; for
-    the operation counts): the shared prelude, six legs, the platform, the closure."""
+    the operation counts): the shared prelude, six legs, the platform, the closure.
+    ``idm_leg(lc, p, R, twist, accel, K)`` and ``ddm_leg(lc, p, R, twist, gamma_k)`` give a
+    leg's outputs (``legs``: their constants, each with its ``index``; the chain legs'
+    generator passes its own)."""
     npose = pose_size(pose)
 
     def pose_of(ps: Sequence[Scalar]) -> tuple[Vec, Mat]:
@@ -921,9 +950,7 @@ def _stages(
             stage_function(
                 f"idm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
-                lambda ps, t, a, Kf, lc=lc: _idm_leg(
-                    lc, *pose_of(ps), t[:3], t[3:], a[:3], mat3(Kf)
-                ),
+                lambda ps, t, a, Kf, lc=lc: idm_leg(lc, *pose_of(ps), t, a, mat3(Kf)),
             )
             for lc in legs
         ),
@@ -942,7 +969,7 @@ def _stages(
             stage_function(
                 f"ddm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("gamma", 1)],
-                lambda ps, t, gk, lc=lc: _ddm_leg(lc, *pose_of(ps), t[:3], t[3:], gk[0]),
+                lambda ps, t, gk, lc=lc: ddm_leg(lc, *pose_of(ps), t, gk[0]),
             )
             for lc in legs
         ),
@@ -988,6 +1015,27 @@ def build_general_models(
     exact model."""
     robot = general_robot(desc)
     legs = [leg_constants(robot, k, inline_newton, coulomb_smoothing) for k in range(6)]
+    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
+    return assemble_models(robot, legs, home_rows, robot.size, pose, prefix, stages)
+
+
+def assemble_models(
+    robot: Any,
+    legs: Sequence[Any],
+    home_rows: np.ndarray,
+    size: float,
+    pose: str,
+    prefix: str,
+    stages: bool,
+    idm_leg: Callable[..., dict] = _idm_leg_stage,
+    ddm_leg: Callable[..., dict] = _ddm_leg_stage,
+) -> tuple[SymbolicModels, AuxLayout]:
+    """The models from six legs' outputs: ``idm_leg(lc, p, R, twist, accel, K)`` (``row``,
+    ``wrench``, ``Hz``, ``slack``) and ``ddm_leg(lc, p, R, twist, gamma_k)`` (``row``,
+    ``block``, ``wrench``, ``slack``) of each of ``legs``, the platform's Newton-Euler and
+    the closures; ``robot`` gives the geometry, platform inertia and gravity,
+    ``home_rows`` (6, 6) ``Jp^-1`` at the home pose (the static pivots), ``size`` [m] the
+    singularity measure's length (shared by the three-joint and the chain-leg generators)."""
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
     # the platform's weight less its gravity compensation (the legs' in leg_constants)
@@ -1000,15 +1048,14 @@ def build_general_models(
     x_chi = cs.SX.sym("base_parameters", 0)
     p, R = pose_from_input(x_pose, pose)
     tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
-    v, w, vd, wd = tw[:3], tw[3:], ac[:3], ac[3:]
-    inv_l = 1.0 / robot.size
+    w, wd = tw[3:], ac[3:]
+    inv_l = 1.0 / size
 
     # ---- IDM
     K, vdg = idm_shared(tw, ac, g_platform)
-    ilegs = [_idm_leg(lc, p, R, v, w, vd, K) for lc in legs]
+    ilegs = [idm_leg(lc, p, R, tw, ac, K) for lc in legs]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
     rows = [lg["row"] for lg in ilegs]
-    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
     nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
     pivots = tuple(pivot_order(home_rows.T, nonzero))
     Hz = [lg["Hz"][0] for lg in ilegs]
@@ -1024,7 +1071,7 @@ def build_general_models(
     idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
 
     # ---- DDM
-    dlegs = [_ddm_leg(lc, p, R, v, w, gm[k]) for k, lc in enumerate(legs)]
+    dlegs = [ddm_leg(lc, p, R, tw, gm[k]) for k, lc in enumerate(legs)]
     Ip, hp = ddm_platform(R, w, Pp, g_platform)
     accel, D = ddm_legs_closure(dlegs, Ip, hp)
     dslacks = [s for lg in dlegs for s in lg["slack"]]
@@ -1042,7 +1089,7 @@ def build_general_models(
     )
 
     idm_stages, ddm_stages = (
-        _stages(legs, pose, Pp, g_platform, pivots) if stages else (None, None)
+        _stages(legs, pose, Pp, g_platform, pivots, idm_leg, ddm_leg) if stages else (None, None)
     )
     constants = ModelConstants(
         base_points=np.array(robot.base_points),
@@ -1074,16 +1121,23 @@ def actuator_function(desc: RobotDescription | GeneralHexapod) -> cs.Function:
     ``[v, w]`` in F0), from the generated models' leg code (the closed forms; a custom
     leg's Newton steps called). An SX function: its derivatives are CasADi's."""
     robot = general_robot(desc)
+
+    def actuated(k: int, p: Vec, R: Mat, tw: list) -> tuple[Scalar, Scalar]:
+        lc = leg_constants(robot, k, inline_newton=False)
+        kin = leg_kinematics(lc, p, R, tw[:3], tw[3:])
+        return kin.geo.joints[lc.actuated].value(), kin.qd[lc.actuated]
+
+    return actuators_of(actuated)
+
+
+def actuators_of(actuated: Callable[[int, Vec, Mat, list], tuple[Scalar, Scalar]]) -> cs.Function:
+    """``actuators(pose, twist) -> (q_a, qdot_a)`` from ``actuated(k, p, R, twist)``, leg
+    k's actuated joint value and rate (pose 0Tp row-major (16), twist ``[v, w]`` in F0)."""
     x_pose = cs.SX.sym("pose", pose_size("matrix"))
     x_twist = cs.SX.sym("twist", 6)
     p, R = pose_from_input(x_pose, "matrix")
     tw = split(x_twist)
-    q_a, qd_a = [], []
-    for k in range(6):
-        lc = leg_constants(robot, k, inline_newton=False)
-        kin = leg_kinematics(lc, p, R, tw[:3], tw[3:])
-        q_a.append(kin.geo.joints[lc.actuated].value())
-        qd_a.append(kin.qd[lc.actuated])
+    q_a, qd_a = zip(*(actuated(k, p, R, tw) for k in range(6)), strict=True)
     return cs.Function(
         "actuators",
         [x_pose, x_twist],
@@ -1098,7 +1152,10 @@ __all__ = [
     "NEWTON_ITERATIONS",
     "AuxLayout",
     "actuator_function",
+    "actuators_of",
+    "assemble_models",
     "aux_layout",
     "build_general_models",
     "general_robot",
+    "joint_constants",
 ]

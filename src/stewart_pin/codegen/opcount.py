@@ -303,6 +303,7 @@ ARCHITECTURE_ROBOTS = (
     ("6-PUS", "pus"),
     ("6-UPS, every joint term", "random-ups-0"),
     ("custom legs (Newton)", "random-custom-0"),
+    ("chain legs, welded, 6 joints", "welded-ups"),
 )
 
 
@@ -316,11 +317,13 @@ def architecture_dict() -> dict[str, Any]:
 @functools.lru_cache(maxsize=1)
 def _architecture_dict() -> dict[str, Any]:
     from stewart_pin.codegen.leg_chain_symbolic import build_general_models
+    from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
     from stewart_pin.description.presets import preset
 
     out: dict[str, Any] = {}
     for label, name in ARCHITECTURE_ROBOTS:
-        desc = preset(name)
+        chain = CHAIN_PRESETS.get(name)
+        desc = chain() if chain else preset(name)
         if label == "6-UPS as general ups legs":
             models = build_general_models(desc, stages=True, inline_newton=True)[0]
             d: dict[str, Any] = {}

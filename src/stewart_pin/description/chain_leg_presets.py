@@ -253,4 +253,16 @@ def mixed_chain_robot(
     return _robot(f"mixed-chain-{seed}", (1, 3, 5), seed, offset, joint_terms)
 
 
-__all__ = ["UPPER_U_OFFSET", "mixed_chain_robot", "rss_robot", "welded_joints", "welded_ups"]
+#: The chain-leg robots the benchmark and the operation counts name (``stewart-pin bench
+#: --architectures welded-ups``): name -> description (seed 0, joint terms on).
+CHAIN_PRESETS = {"welded-ups": welded_ups, "mixed-chain": mixed_chain_robot}
+
+
+__all__ = [
+    "CHAIN_PRESETS",
+    "UPPER_U_OFFSET",
+    "mixed_chain_robot",
+    "rss_robot",
+    "welded_joints",
+    "welded_ups",
+]
