@@ -389,13 +389,3 @@ def test_urdf_sidecar_records_the_compensation(tmp_path):
     sidecar.write_text(text)
     with pytest.raises(FileFormatError, match="'leg2_link3' must be a number in"):
         StewartRobot.from_urdf(urdf)
-
-
-def test_chain_legs_with_compensation_are_refused_not_ignored():
-    """Chain legs' dynamics take every body's full weight: a compensation is refused by
-    name instead of being dropped (the efforts would be silently wrong)."""
-    from stewart_pin.description.chain_leg_presets import welded_ups
-
-    desc = welded_ups()
-    with pytest.raises(GravityCompensationError, match="not modelled for chain legs"):
-        desc.replace(platform_gravcomp=0.5)

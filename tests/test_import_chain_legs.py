@@ -637,12 +637,67 @@ def test_a_mixed_robot_of_ball_and_welded_legs_matches_mujoco_kkt() -> None:
         assert rel_error(robot.direct_dynamics(T[n], V[n], gamma_mj), A_mj) < TOLERANCE
 
 
-def test_chain_legs_with_gravity_compensation_on_some_bodies_are_refused() -> None:
-    """Chain legs take every body's full weight: a compensation on one body is refused by
-    name at import, not dropped (the efforts would be silently wrong)."""
-    xml = re.sub(
-        r'(<body name="leg1_link1"[^>]*?)>', r'\1 gravcomp="1">', community_mjcf(), count=1
+#: Community MJCF bodies given a gravcomp (the platform, a slide's link, a spin link, a
+#: last link), different factors.
+GRAVCOMP = {
+    "platform": 0.6,
+    "leg1_link1": 1.0,
+    "leg2_link4": 0.35,
+    "leg5_link3": 0.8,
+    "leg6_link6": 0.5,
+}
+
+
+def _with_gravcomp(xml: str, bodies: dict[str, float]) -> str:
+    for body, c in bodies.items():
+        xml, n = re.subn(rf'(<body name="{body}"[^>]*?)>', rf'\1 gravcomp="{c}">', xml, count=1)
+        assert n == 1, body
+    return xml
+
+
+def test_chain_legs_with_gravity_compensation_on_some_bodies_match_mujoco_kkt() -> None:
+    """``gravcomp`` on some bodies of the community MJCF (MuJoCo applies it as a passive
+    force): each link's factor read into its chain leg's ``gravcomp``, the platform's into
+    ``platform_gravcomp``, IDM and DDM against MuJoCo's exact KKT."""
+    xml = _with_gravcomp(community_mjcf(), GRAVCOMP)
+    result = import_mjcf(xml)
+    desc = result.description
+    assert desc.platform_gravcomp == GRAVCOMP["platform"]
+    got = {}
+    for leg, source in zip(desc.chain_legs, result.report.legs, strict=True):
+        for c, bodies in zip(leg.gravcomp, source.bodies, strict=True):
+            if c:
+                got[bodies] = float(c)
+    assert got == {k: v for k, v in GRAVCOMP.items() if k != "platform"}
+    assert "gravity compensation of some bodies" in str(result.report)
+    robot = StewartRobot(desc)
+    m = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
+    guess = data.qpos.copy()
+    T, V, A = _states(robot, 3, seed=9)
+    gamma = robot.inverse_dynamics(T, V, A)
+    without = StewartRobot(import_mjcf(community_mjcf()).description).inverse_dynamics(T, V, A)
+    for n in range(len(T)):
+        mujoco_closed_state(m, data, "platform", T[n], V[n], guess=guess)
+        in_range(m, data)
+        gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
+        assert rel_error(gamma[n], gamma_mj) < TOLERANCE, (
+            f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
+        )
+        assert rel_error(without[n], gamma_mj) > 1e-3  # the compensation matters
+        A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
+        A_robot = robot.direct_dynamics(T[n], V[n], gamma_mj)
+        assert rel_error(A_robot, A_mj) < TOLERANCE, f"DDM {rel_error(A_robot, A_mj):.2e}"
+
+
+def test_chain_leg_bodies_of_one_link_with_different_compensations_are_refused() -> None:
+    """A body fixed in a chain leg's link with another compensation than the link's: one
+    factor per link is exact only when its bodies share it, so the import refuses by name."""
+    extra = (
+        '<body name="sensor" gravcomp="1">'
+        '<inertial pos="0 0 0.01" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/></body>'
     )
-    assert 'gravcomp="1"' in xml
-    with pytest.raises(ModelImportError, match="per-body compensation is not modelled"):
+    xml = re.sub(r'(<body name="leg2_link4"[^>]*>)', r"\1" + extra, community_mjcf(), count=1)
+    with pytest.raises(ModelImportError, match=r"'leg2_link4', 'sensor'.*different gravity comp"):
         import_mjcf(xml)
