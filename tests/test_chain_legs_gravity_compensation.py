@@ -185,3 +185,24 @@ def test_mjcf_written_with_gravcomp_matches_mujoco_kkt_and_reads_back(name: str)
     for a, b in zip(back.chain_legs, desc.chain_legs, strict=True):
         np.testing.assert_array_equal(a.gravcomp, b.gravcomp)
     assert "gravity compensation of some bodies" in str(result.report)
+
+
+# ---------------------------------------------------------------------- URDF
+def test_urdf_sidecar_of_chain_legs_records_the_compensation(tmp_path) -> None:
+    """URDF has no such field: the sidecar's ``gravcomp`` (link -> factor) of a robot with
+    chain legs, read back onto the same links; the robot read back has the same efforts."""
+    from stewart_pin.formats.urdf import write_urdf
+
+    desc = _compensated(mixed_chain_robot(seed=2), seed=6)
+    urdf, sidecar = write_urdf(desc, tmp_path / "r.urdf")
+    assert '"gravcomp"' in sidecar.read_text()
+    back = StewartRobot.from_urdf(urdf).description
+    assert back.platform_gravcomp == 0.4
+    for a, b in zip(back.chain_legs, desc.chain_legs, strict=True):
+        np.testing.assert_array_equal(a.gravcomp, b.gravcomp)
+    robot = StewartRobot(desc)
+    T, V, A = robot.sample_states(2, rng=1)
+    ref = StewartRobot(back).inverse_dynamics(T, V, A)
+    assert rel_error(robot.inverse_dynamics(T, V, A), ref) < TOL
+    _, plain = write_urdf(mixed_chain_robot(seed=2), tmp_path / "p.urdf")
+    assert "gravcomp" not in plain.read_text()
