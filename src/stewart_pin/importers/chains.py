@@ -8,9 +8,12 @@ whose last link *is* the platform, a weld at that body's frame) and walks each l
 the platform back to the base through 1-dof joints only; :func:`build_chains` places each
 leg's joints exactly (modified DH, frames chosen from the joint lines at the file's zero
 configuration: :func:`mdh_frames`), with its links' ten inertial parameters, its joint
-terms and limits, the file's joint values (no sign, no offset) and its closure (ball: the
-point; weld: the two frames). Nothing is approximated: no link is made massless, no axis
-is snapped; the joint values of the description are the file's.
+terms and limits, the file's joint values (no sign, no offset), its closure (ball: the
+point; weld: the two frames) and its links' gravity compensation (``ChainLeg.gravcomp``,
+the one each link's bodies share: different factors in one link refused; the platform's
+into ``platform_gravcomp``; the same on every moving body is gravity scaled).
+Nothing is approximated: no link is made massless, no axis is snapped; the joint values of
+the description are the file's.
 
 A ball leg of four joints has an idle freedom (an R-S-S rod's spin about its ball-to-ball
 line): the joint whose motion does not move the ball centre at the reference configuration
