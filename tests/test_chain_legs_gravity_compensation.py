@@ -24,7 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from helpers import mujoco_closed_state, mujoco_kkt, rel_error
+from helpers import rel_error
 
 from stewart_pin import FileFormatError, GravityCompensationError, RobotDescription, StewartRobot
 from stewart_pin.check.chain_legs_tree import ChainTreeSolver
@@ -159,25 +159,15 @@ def test_compensation_one_on_every_body_is_the_robot_without_gravity() -> None:
 # ---------------------------------------------------------------------- MJCF
 @pytest.mark.parametrize("name", list(PRESETS))
 def test_mjcf_written_with_gravcomp_matches_mujoco_kkt_and_reads_back(name: str) -> None:
-    mujoco = pytest.importorskip("mujoco", reason="MuJoCo is optional: pip install mujoco")
+    pytest.importorskip("mujoco", reason="MuJoCo is optional: pip install mujoco")
+    from test_import_chain_legs import matches_mujoco_kkt
+
     desc = _compensated(PRESETS[name](), seed=4)
     robot = StewartRobot(desc)
     xml = robot.mjcf()
     assert xml.count("gravcomp=") == 1 + sum(np.count_nonzero(x.gravcomp) for x in desc.chain_legs)
     assert re.search(r'<body name="platform"[^>]* gravcomp="0.4"', xml)
-    m = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(m)
-    mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
-    guess = data.qpos.copy()
-    T, V, A = robot.sample_states(3, rng=5)
-    gamma = robot.inverse_dynamics(T, V, A)
-    for n in range(len(T)):
-        mujoco_closed_state(m, data, "platform", T[n], V[n], guess=guess)
-        gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
-        assert rel_error(gamma[n], gamma_mj) < TOL, f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
-        A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
-        A_robot = robot.direct_dynamics(T[n], V[n], gamma_mj)
-        assert rel_error(A_robot, A_mj) < TOL, f"DDM {rel_error(A_robot, A_mj):.2e}"
+    matches_mujoco_kkt(xml, robot, *robot.sample_states(3, rng=5))
     # read back: the same factors on the same links (the legs in the actuators' order)
     result = import_mjcf(xml)
     back = result.description

@@ -622,19 +622,30 @@ def test_a_mixed_robot_of_ball_and_welded_legs_matches_mujoco_kkt() -> None:
     assert [leg.closure for leg in legs] == ["ball", "weld"] * 3
     assert [leg.n_joints for leg in legs] == [3, 6] * 3
     robot = StewartRobot(result.description)
+    matches_mujoco_kkt(xml, robot, *_states(robot, 3, seed=7))
+
+
+def matches_mujoco_kkt(xml: str, robot: StewartRobot, T, V, A) -> np.ndarray:
+    """IDM and DDM of ``robot`` at the states ``T, V, A`` against MuJoCo's exact KKT solve
+    on ``xml`` (each state closed by MuJoCo's own constraints, from the ``home``
+    keyframe); returns MuJoCo's efforts (N, 6)."""
     m = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
     guess = data.qpos.copy()
-    T, V, A = _states(robot, 3, seed=7)
     gamma = robot.inverse_dynamics(T, V, A)
+    out = np.empty_like(gamma)
     for n in range(len(T)):
         mujoco_closed_state(m, data, "platform", T[n], V[n], guess=guess)
         in_range(m, data)
-        gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
-        assert rel_error(gamma[n], gamma_mj) < TOLERANCE
+        out[n] = gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
+        assert rel_error(gamma[n], gamma_mj) < TOLERANCE, (
+            f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
+        )
         A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
-        assert rel_error(robot.direct_dynamics(T[n], V[n], gamma_mj), A_mj) < TOLERANCE
+        A_robot = robot.direct_dynamics(T[n], V[n], gamma_mj)
+        assert rel_error(A_robot, A_mj) < TOLERANCE, f"DDM {rel_error(A_robot, A_mj):.2e}"
+    return out
 
 
 #: Community MJCF bodies given a gravcomp (the platform, a slide's link, a spin link, a
@@ -671,24 +682,10 @@ def test_chain_legs_with_gravity_compensation_on_some_bodies_match_mujoco_kkt() 
     assert got == {k: v for k, v in GRAVCOMP.items() if k != "platform"}
     assert "gravity compensation of some bodies" in str(result.report)
     robot = StewartRobot(desc)
-    m = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(m)
-    mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
-    guess = data.qpos.copy()
     T, V, A = _states(robot, 3, seed=9)
-    gamma = robot.inverse_dynamics(T, V, A)
+    gamma_mj = matches_mujoco_kkt(xml, robot, T, V, A)
     without = StewartRobot(import_mjcf(community_mjcf()).description).inverse_dynamics(T, V, A)
-    for n in range(len(T)):
-        mujoco_closed_state(m, data, "platform", T[n], V[n], guess=guess)
-        in_range(m, data)
-        gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
-        assert rel_error(gamma[n], gamma_mj) < TOLERANCE, (
-            f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
-        )
-        assert rel_error(without[n], gamma_mj) > 1e-3  # the compensation matters
-        A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
-        A_robot = robot.direct_dynamics(T[n], V[n], gamma_mj)
-        assert rel_error(A_robot, A_mj) < TOLERANCE, f"DDM {rel_error(A_robot, A_mj):.2e}"
+    assert rel_error(without, gamma_mj) > 1e-3  # the compensation matters
 
 
 def test_chain_leg_bodies_of_one_link_with_different_compensations_are_refused() -> None:
