@@ -205,8 +205,21 @@ class Pin6D:
     each link), the actuated joints, URDF damping and friction (the project's dead band),
     the platform frame. IDM by linearity of ``pin.constraintDynamics`` in the torques."""
 
-    def __init__(self, path, welds, actuated, platform="platform", home=None, terms=None):
+    def __init__(
+        self, path, welds, actuated, platform="platform", home=None, terms=None, weightless=()
+    ):
         m = self.model = pin.buildModelFromUrdf(str(path))
+        # links without gravity (SDF <gravity>false</gravity>): the forces -m g at their
+        # centres of mass, as external forces (joint, mass, centre of mass in the joint)
+        self.weightless = []
+        root = ET.parse(path).getroot()
+        for name in weightless:
+            inertial = root.find(f"link[@name='{name}']/inertial")
+            origin = inertial.find("origin")
+            xyz = np.zeros(3) if origin is None else np.array(origin.get("xyz").split(), float)
+            frame = m.frames[m.getFrameId(name)]
+            mass = float(inertial.find("mass").get("value"))
+            self.weightless.append((frame.parentJoint, mass, frame.placement.act(xyz)))
         self.springs = []  # (idx_q, idx_v, stiffness, rest) from the sidecar's joint terms
         for name, t in (terms or {}).items():
             j = m.joints[m.getJointId(name)]
@@ -288,6 +301,15 @@ class Pin6D:
         for iq, iv, k, rest, lo in self.springs:
             angle = q[iq] if lo is None else lo + np.remainder(q[iq] - lo, 2 * np.pi)
             tau[iv] -= k * (angle - rest)
+        if self.weightless:  # J^T f of the compensating forces
+            pin.forwardKinematics(m, d, q)
+            g = np.array(m.gravity.linear)
+            fext = [pin.Force.Zero() for _ in range(m.njoints)]
+            for jid, mass, com in self.weightless:
+                f = d.oMi[jid].rotation.T @ (-mass * g)
+                fext[jid] = fext[jid] + pin.Force(f, np.cross(com, f))
+            zero = np.zeros(m.nv)
+            tau += pin.rnea(m, d, q, zero, zero) - pin.rnea(m, d, q, zero, zero, fext)
         ddq = pin.constraintDynamics(m, d, q, v, tau, self.constraints, self.cdata, self.settings)
         pin.forwardKinematics(m, d, q, v, ddq)
         pin.updateFramePlacements(m, d)
@@ -435,11 +457,10 @@ def test_cad_urdf_with_welds_at_com_frames_matches_pinocchio_6d_constraints(tmp_
 # --- (c) SDFormat 1.9, loops closed by fixed joints --------------------------------------------
 
 
-def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path) -> None:
-    """SDF 1.9 as Gazebo users write it: every link posed ``relative_to`` its parent at the
-    assembled home (every joint 0 there), joint axes in the joint frame, the platform the
-    child of six fixed joints placed at the legs' weld frames (its only joints: loops).
-    Reference: Pinocchio on the source URDF with the same six welds (6D constraints)."""
+def _sdf_of_welded_ups(tmp_path, weightless=()):
+    """The SDF 1.9 of :func:`_urdf_parts`'s robot as Gazebo users write it (the test
+    below), the links ``weightless`` with ``<gravity>false</gravity>``; returns its path,
+    the sidecar's data and the welds for :class:`Pin6D`."""
     src, urdf, data, world = _urdf_parts(tmp_path)
     root = ET.fromstring(urdf)
     out = ['<?xml version="1.0"?>\n<sdf version="1.9"><world name="lab">']
@@ -471,7 +492,9 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
         out.append(
             f'<link name="{name}">{pose(rel, p if name != "platform" else "")}<inertial>'
             f"<pose>{o.get('xyz')} {o.get('rpy')}</pose><mass>{ine.find('mass').get('value')}</mass>"
-            f"<inertia>{tensor}</inertia></inertial></link>"
+            f"<inertia>{tensor}</inertia></inertial>"
+            + ("<gravity>false</gravity>" if name in weightless else "")
+            + "</link>"
         )
     for j in root.findall("joint"):
         if j.get("type") == "floating":
@@ -496,6 +519,15 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
     out.append("</model></world></sdf>\n")
     path = tmp_path / "hexapod.sdf"
     path.write_text("".join(out))
+    return path, data, welds, src
+
+
+def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path) -> None:
+    """SDF 1.9 as Gazebo users write it: every link posed ``relative_to`` its parent at the
+    assembled home (every joint 0 there), joint axes in the joint frame, the platform the
+    child of six fixed joints placed at the legs' weld frames (its only joints: loops).
+    Reference: Pinocchio on the source URDF with the same six welds (6D constraints)."""
+    path, data, welds, src = _sdf_of_welded_ups(tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModelImportWarning)
         result = import_sdf(path, actuated=data["actuated_joints"])
@@ -503,16 +535,58 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
     assert [leg.closure for leg in desc.chain_legs] == ["weld"] * 6
     assert [leg.n_joints for leg in desc.chain_legs] == [6] * 6
     robot = StewartRobot(desc)
-    # the reference: the source URDF (zeros elsewhere: the efforts do not depend on them)
-    ref = Pin6D(tmp_path / "source.urdf", welds, data["actuated_joints"])
+    _check_against(robot, _source_reference(tmp_path, data, welds))
+    assert src.description.name == "welded-ups-4"
+
+
+def _source_reference(tmp_path, data, welds, weightless=()) -> Pin6D:
+    """The reference of the SDF tests: the source URDF in Pinocchio with its welds, at its
+    home (zeros elsewhere: the efforts do not depend on them); ``weightless``: links whose
+    weights the compensating forces remove."""
+    ref = Pin6D(tmp_path / "source.urdf", welds, data["actuated_joints"], weightless=weightless)
     q = pin.neutral(ref.model)
     for name, value in data["home_joint_positions"].items():
         q[ref.model.joints[ref.model.getJointId(name)].idx_q] = value
     j = ref.model.joints[ref.model.getJointId("platform_joint")]
     q[j.idx_q : j.idx_q + 7] = pin.SE3ToXYZQUAT(pin.SE3(np.array(data["home_pose"])))
     ref.q = q
-    _check_against(robot, ref)
-    assert src.description.name == "welded-ups-4"
+    return ref
+
+
+def test_sdf_links_without_gravity_in_chain_legs_match_pinocchio_with_compensating_forces(
+    tmp_path,
+) -> None:
+    """The same SDF with ``<gravity>false</gravity>`` on the platform and two leg links
+    (one a slide's, one a leg's last): compensation 1 on those links of the chain legs and
+    the platform, against Pinocchio with the forces ``-m g`` at their centres of mass.
+    (Leg 1's last link is the platform's parent in the SDF tree, fixed to it: one link with
+    it, so it shares the platform's factor; a different one is refused, by name.)"""
+    weightless = ("platform", "leg1_link6", "leg2_link3", "leg5_link6")
+    path, data, welds, _ = _sdf_of_welded_ups(tmp_path, weightless)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelImportWarning)
+        result = import_sdf(path, actuated=data["actuated_joints"])
+    desc = result.description
+    assert desc.platform_gravcomp == 1.0
+    got = [
+        bodies
+        for leg, report in zip(desc.chain_legs, result.report.legs, strict=True)
+        for c, bodies in zip(leg.gravcomp, report.bodies, strict=True)
+        if c
+    ]
+    assert sorted(got) == ["leg2_link3", "leg5_link6"]
+    assert sum(int(np.count_nonzero(leg.gravcomp == 1.0)) for leg in desc.chain_legs) == 2
+    robot = StewartRobot(desc)
+    _check_against(robot, _source_reference(tmp_path, data, welds, weightless))
+    # leg 1's last link without the platform's factor: one link, two factors, refused
+    path, *_ = _sdf_of_welded_ups(tmp_path, weightless[1:])
+    with pytest.raises(ModelImportError, match=r"'leg1_link6', 'platform'.*different gravity"):
+        import_sdf(path, actuated=data["actuated_joints"])
+    # the compensation matters: the reference with every weight differs
+    T, V, A = _states(robot)
+    full = _source_reference(tmp_path, data, welds)
+    q, v = full.closed_state(T[0], V[0])
+    assert rel_error(robot.inverse_dynamics(T[0], V[0], A[0]), full.inverse(q, v, A[0])) > 1e-3
 
 
 def test_the_projects_own_urdf_of_chain_legs_loads_with_its_frame_closures(tmp_path) -> None:
