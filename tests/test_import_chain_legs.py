@@ -29,7 +29,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pinocchio as pin
 import pytest
-from helpers import mujoco_closed_state, mujoco_kkt, rel_error
+from helpers import (
+    mujoco_closed_state,
+    mujoco_kkt,
+    rel_error,
+    urdf_weights,
+    weight_removal_torques,
+)
 from scipy.spatial.transform import Rotation
 
 from stewart_pin import ModelImportError, StewartRobot
@@ -211,15 +217,7 @@ class Pin6D:
         m = self.model = pin.buildModelFromUrdf(str(path))
         # links without gravity (SDF <gravity>false</gravity>): the forces -m g at their
         # centres of mass, as external forces (joint, mass, centre of mass in the joint)
-        self.weightless = []
-        root = ET.parse(path).getroot()
-        for name in weightless:
-            inertial = root.find(f"link[@name='{name}']/inertial")
-            origin = inertial.find("origin")
-            xyz = np.zeros(3) if origin is None else np.array(origin.get("xyz").split(), float)
-            frame = m.frames[m.getFrameId(name)]
-            mass = float(inertial.find("mass").get("value"))
-            self.weightless.append((frame.parentJoint, mass, frame.placement.act(xyz)))
+        self.weightless = urdf_weights(m, path, weightless)
         self.springs = []  # (idx_q, idx_v, stiffness, rest) from the sidecar's joint terms
         for name, t in (terms or {}).items():
             j = m.joints[m.getJointId(name)]
@@ -302,14 +300,7 @@ class Pin6D:
             angle = q[iq] if lo is None else lo + np.remainder(q[iq] - lo, 2 * np.pi)
             tau[iv] -= k * (angle - rest)
         if self.weightless:  # J^T f of the compensating forces
-            pin.forwardKinematics(m, d, q)
-            g = np.array(m.gravity.linear)
-            fext = [pin.Force.Zero() for _ in range(m.njoints)]
-            for jid, mass, com in self.weightless:
-                f = d.oMi[jid].rotation.T @ (-mass * g)
-                fext[jid] = fext[jid] + pin.Force(f, np.cross(com, f))
-            zero = np.zeros(m.nv)
-            tau += pin.rnea(m, d, q, zero, zero) - pin.rnea(m, d, q, zero, zero, fext)
+            tau += weight_removal_torques(m, d, q, self.weightless)
         ddq = pin.constraintDynamics(m, d, q, v, tau, self.constraints, self.cdata, self.settings)
         pin.forwardKinematics(m, d, q, v, ddq)
         pin.updateFramePlacements(m, d)
