@@ -23,6 +23,7 @@ import re
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from helpers import rel_error
 
@@ -127,6 +128,28 @@ def test_models_equal_the_constrained_tree_with_compensating_forces(name: str) -
         assert abs(robot.energy(T[n], V[n]) - (k + u)) <= 1e-12 * (abs(k) + abs(u))
     with pytest.raises(Exception, match="no per-body gravity compensation"):
         tree.regressor_one(T[0], V[0], A[0], _q_legs(desc, T[0]))
+
+
+def test_power_balance_with_compensation() -> None:
+    """``Gamma . qdot_a = dE/dt + dissipated``, E with the compensated weights' potential,
+    along an exact SE(3) motion (constant twist-rate about a fixed axis; central
+    differences)."""
+    desc = _compensated(mixed_chain_robot(seed=2), seed=5)
+    robot = StewartRobot(desc)
+    T, V, A = (x[0] for x in robot.sample_states(1, rng=2))
+    A = np.r_[A[:3], np.zeros(3)]  # a constant angular velocity: the exponential exact
+
+    def energy_at(t: float) -> float:
+        Tt = T.copy()
+        Tt[:3, 3] += V[:3] * t + 0.5 * A[:3] * t * t
+        Tt[:3, :3] = pin.exp3(V[3:] * t) @ T[:3, :3]
+        return float(robot.energy(Tt, V + A * t))
+
+    h = 1e-5
+    dE = (energy_at(h) - energy_at(-h)) / (2 * h)
+    power = robot.inverse_dynamics(T, V, A) @ (robot.inverse_jacobian(T) @ V)
+    loss = robot.dissipated_power(T, V)
+    assert abs(dE - (power - loss)) <= 1e-6 * (abs(power) + abs(loss) + abs(dE))
 
 
 def test_compensation_one_on_every_body_is_the_robot_without_gravity() -> None:
