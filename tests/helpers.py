@@ -323,3 +323,40 @@ def backends_agree_or_raise_the_same_named_error(
         scale = max(np.abs(ref).max(), np.abs(free).max(), np.abs(ref - free).max())
         assert np.abs(got - ref).max() <= agree * scale
     return pair is not None
+
+
+def urdf_weights(model, path, links) -> list[tuple[int, float, np.ndarray]]:
+    """``(joint, mass, centre of mass in the joint's frame)`` of the URDF ``links`` (read
+    from the file at ``path``) in the Pinocchio ``model`` built from it: the weights a
+    reference removes for links without gravity (:func:`weight_removal_torques`)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    out = []
+    for name in links:
+        inertial = root.find(f"link[@name='{name}']/inertial")
+        origin = inertial.find("origin")
+        xyz = np.zeros(3) if origin is None else np.array(origin.get("xyz").split(), float)
+        frame = model.frames[model.getFrameId(name)]
+        out.append(
+            (
+                frame.parentJoint,
+                float(inertial.find("mass").get("value")),
+                frame.placement.act(xyz),
+            )
+        )
+    return out
+
+
+def weight_removal_torques(model, data, q, weights) -> np.ndarray:
+    """``J^T f`` (nv,) of the forces ``f = -m g`` at the centres of mass of ``weights``
+    (:func:`urdf_weights`) at ``q``: the joint torques removing those weights (the
+    difference of ``pin.rnea`` at rest without and with them as external forces)."""
+    pin.forwardKinematics(model, data, q)
+    g = np.array(model.gravity.linear)
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
+    for jid, mass, com in weights:
+        f = data.oMi[jid].rotation.T @ (-mass * g)
+        fext[jid] = fext[jid] + pin.Force(f, np.cross(com, f))
+    zero = np.zeros(model.nv)
+    return pin.rnea(model, data, q, zero, zero) - pin.rnea(model, data, q, zero, zero, fext)

@@ -27,7 +27,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from cad_models import cad_urdf
-from helpers import rel_error
+from helpers import rel_error, urdf_weights, weight_removal_torques
 from sdf_models import closed_urdf, urdf_to_sdf
 from test_import_mjcf import differences
 from test_import_side_features import _check
@@ -295,26 +295,10 @@ class _CompensatedReference(PinReference):
 
     def __init__(self, path, pairs, links):
         super().__init__(path, pairs, {})
-        root = ET.parse(path).getroot()
-        self.forces = []
-        for name in links:
-            inertial = root.find(f"link[@name='{name}']/inertial")
-            mass = float(inertial.find("mass").get("value"))
-            origin = inertial.find("origin")
-            xyz = np.zeros(3) if origin is None else np.array(origin.get("xyz").split(), float)
-            frame = self.model.frames[self.model.getFrameId(name)]
-            self.forces.append((frame.parentJoint, mass, frame.placement.act(xyz)))
+        self.forces = urdf_weights(self.model, path, links)
 
     def _bias(self, q, v):
-        m, d = self.model, self.data
-        pin.forwardKinematics(m, d, q)
-        g = np.array(m.gravity.linear)
-        fext = [pin.Force.Zero() for _ in range(m.njoints)]
-        for jid, mass, com in self.forces:
-            f = d.oMi[jid].rotation.T @ (-mass * g)
-            fext[jid] = fext[jid] + pin.Force(f, np.cross(com, f))
-        zero = np.zeros(m.nv)
-        jt_f = pin.rnea(m, d, q, zero, zero) - pin.rnea(m, d, q, zero, zero, fext)  # J^T f
+        jt_f = weight_removal_torques(self.model, self.data, q, self.forces)
         c, drift, plat = super()._bias(q, v)
         return c - jt_f, drift, plat
 
@@ -389,13 +373,3 @@ def test_urdf_sidecar_records_the_compensation(tmp_path):
     sidecar.write_text(text)
     with pytest.raises(FileFormatError, match="'leg2_link3' must be a number in"):
         StewartRobot.from_urdf(urdf)
-
-
-def test_chain_legs_with_compensation_are_refused_not_ignored():
-    """Chain legs' dynamics take every body's full weight: a compensation is refused by
-    name instead of being dropped (the efforts would be silently wrong)."""
-    from stewart_pin.description.chain_leg_presets import welded_ups
-
-    desc = welded_ups()
-    with pytest.raises(GravityCompensationError, match="not modelled for chain legs"):
-        desc.replace(platform_gravcomp=0.5)

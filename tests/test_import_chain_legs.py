@@ -29,7 +29,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pinocchio as pin
 import pytest
-from helpers import mujoco_closed_state, mujoco_kkt, rel_error
+from helpers import (
+    mujoco_closed_state,
+    mujoco_kkt,
+    rel_error,
+    urdf_weights,
+    weight_removal_torques,
+)
 from scipy.spatial.transform import Rotation
 
 from stewart_pin import ModelImportError, StewartRobot
@@ -205,8 +211,13 @@ class Pin6D:
     each link), the actuated joints, URDF damping and friction (the project's dead band),
     the platform frame. IDM by linearity of ``pin.constraintDynamics`` in the torques."""
 
-    def __init__(self, path, welds, actuated, platform="platform", home=None, terms=None):
+    def __init__(
+        self, path, welds, actuated, platform="platform", home=None, terms=None, weightless=()
+    ):
         m = self.model = pin.buildModelFromUrdf(str(path))
+        # links without gravity (SDF <gravity>false</gravity>): the forces -m g at their
+        # centres of mass, as external forces (joint, mass, centre of mass in the joint)
+        self.weightless = urdf_weights(m, path, weightless)
         self.springs = []  # (idx_q, idx_v, stiffness, rest) from the sidecar's joint terms
         for name, t in (terms or {}).items():
             j = m.joints[m.getJointId(name)]
@@ -288,6 +299,8 @@ class Pin6D:
         for iq, iv, k, rest, lo in self.springs:
             angle = q[iq] if lo is None else lo + np.remainder(q[iq] - lo, 2 * np.pi)
             tau[iv] -= k * (angle - rest)
+        if self.weightless:  # J^T f of the compensating forces
+            tau += weight_removal_torques(m, d, q, self.weightless)
         ddq = pin.constraintDynamics(m, d, q, v, tau, self.constraints, self.cdata, self.settings)
         pin.forwardKinematics(m, d, q, v, ddq)
         pin.updateFramePlacements(m, d)
@@ -435,11 +448,10 @@ def test_cad_urdf_with_welds_at_com_frames_matches_pinocchio_6d_constraints(tmp_
 # --- (c) SDFormat 1.9, loops closed by fixed joints --------------------------------------------
 
 
-def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path) -> None:
-    """SDF 1.9 as Gazebo users write it: every link posed ``relative_to`` its parent at the
-    assembled home (every joint 0 there), joint axes in the joint frame, the platform the
-    child of six fixed joints placed at the legs' weld frames (its only joints: loops).
-    Reference: Pinocchio on the source URDF with the same six welds (6D constraints)."""
+def _sdf_of_welded_ups(tmp_path, weightless=()):
+    """The SDF 1.9 of :func:`_urdf_parts`'s robot as Gazebo users write it (the test
+    below), the links ``weightless`` with ``<gravity>false</gravity>``; returns its path,
+    the sidecar's data and the welds for :class:`Pin6D`."""
     src, urdf, data, world = _urdf_parts(tmp_path)
     root = ET.fromstring(urdf)
     out = ['<?xml version="1.0"?>\n<sdf version="1.9"><world name="lab">']
@@ -471,7 +483,9 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
         out.append(
             f'<link name="{name}">{pose(rel, p if name != "platform" else "")}<inertial>'
             f"<pose>{o.get('xyz')} {o.get('rpy')}</pose><mass>{ine.find('mass').get('value')}</mass>"
-            f"<inertia>{tensor}</inertia></inertial></link>"
+            f"<inertia>{tensor}</inertia></inertial>"
+            + ("<gravity>false</gravity>" if name in weightless else "")
+            + "</link>"
         )
     for j in root.findall("joint"):
         if j.get("type") == "floating":
@@ -496,6 +510,15 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
     out.append("</model></world></sdf>\n")
     path = tmp_path / "hexapod.sdf"
     path.write_text("".join(out))
+    return path, data, welds, src
+
+
+def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path) -> None:
+    """SDF 1.9 as Gazebo users write it: every link posed ``relative_to`` its parent at the
+    assembled home (every joint 0 there), joint axes in the joint frame, the platform the
+    child of six fixed joints placed at the legs' weld frames (its only joints: loops).
+    Reference: Pinocchio on the source URDF with the same six welds (6D constraints)."""
+    path, data, welds, src = _sdf_of_welded_ups(tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModelImportWarning)
         result = import_sdf(path, actuated=data["actuated_joints"])
@@ -503,16 +526,58 @@ def test_sdf_with_fixed_joint_closures_matches_pinocchio_6d_constraints(tmp_path
     assert [leg.closure for leg in desc.chain_legs] == ["weld"] * 6
     assert [leg.n_joints for leg in desc.chain_legs] == [6] * 6
     robot = StewartRobot(desc)
-    # the reference: the source URDF (zeros elsewhere: the efforts do not depend on them)
-    ref = Pin6D(tmp_path / "source.urdf", welds, data["actuated_joints"])
+    _check_against(robot, _source_reference(tmp_path, data, welds))
+    assert src.description.name == "welded-ups-4"
+
+
+def _source_reference(tmp_path, data, welds, weightless=()) -> Pin6D:
+    """The reference of the SDF tests: the source URDF in Pinocchio with its welds, at its
+    home (zeros elsewhere: the efforts do not depend on them); ``weightless``: links whose
+    weights the compensating forces remove."""
+    ref = Pin6D(tmp_path / "source.urdf", welds, data["actuated_joints"], weightless=weightless)
     q = pin.neutral(ref.model)
     for name, value in data["home_joint_positions"].items():
         q[ref.model.joints[ref.model.getJointId(name)].idx_q] = value
     j = ref.model.joints[ref.model.getJointId("platform_joint")]
     q[j.idx_q : j.idx_q + 7] = pin.SE3ToXYZQUAT(pin.SE3(np.array(data["home_pose"])))
     ref.q = q
-    _check_against(robot, ref)
-    assert src.description.name == "welded-ups-4"
+    return ref
+
+
+def test_sdf_links_without_gravity_in_chain_legs_match_pinocchio_with_compensating_forces(
+    tmp_path,
+) -> None:
+    """The same SDF with ``<gravity>false</gravity>`` on the platform and two leg links
+    (one a slide's, one a leg's last): compensation 1 on those links of the chain legs and
+    the platform, against Pinocchio with the forces ``-m g`` at their centres of mass.
+    (Leg 1's last link is the platform's parent in the SDF tree, fixed to it: one link with
+    it, so it shares the platform's factor; a different one is refused, by name.)"""
+    weightless = ("platform", "leg1_link6", "leg2_link3", "leg5_link6")
+    path, data, welds, _ = _sdf_of_welded_ups(tmp_path, weightless)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelImportWarning)
+        result = import_sdf(path, actuated=data["actuated_joints"])
+    desc = result.description
+    assert desc.platform_gravcomp == 1.0
+    got = [
+        bodies
+        for leg, report in zip(desc.chain_legs, result.report.legs, strict=True)
+        for c, bodies in zip(leg.gravcomp, report.bodies, strict=True)
+        if c
+    ]
+    assert sorted(got) == ["leg2_link3", "leg5_link6"]
+    assert sum(int(np.count_nonzero(leg.gravcomp == 1.0)) for leg in desc.chain_legs) == 2
+    robot = StewartRobot(desc)
+    _check_against(robot, _source_reference(tmp_path, data, welds, weightless))
+    # leg 1's last link without the platform's factor: one link, two factors, refused
+    path, *_ = _sdf_of_welded_ups(tmp_path, weightless[1:])
+    with pytest.raises(ModelImportError, match=r"'leg1_link6', 'platform'.*different gravity"):
+        import_sdf(path, actuated=data["actuated_joints"])
+    # the compensation matters: the reference with every weight differs
+    T, V, A = _states(robot)
+    full = _source_reference(tmp_path, data, welds)
+    q, v = full.closed_state(T[0], V[0])
+    assert rel_error(robot.inverse_dynamics(T[0], V[0], A[0]), full.inverse(q, v, A[0])) > 1e-3
 
 
 def test_the_projects_own_urdf_of_chain_legs_loads_with_its_frame_closures(tmp_path) -> None:
@@ -622,27 +687,79 @@ def test_a_mixed_robot_of_ball_and_welded_legs_matches_mujoco_kkt() -> None:
     assert [leg.closure for leg in legs] == ["ball", "weld"] * 3
     assert [leg.n_joints for leg in legs] == [3, 6] * 3
     robot = StewartRobot(result.description)
+    matches_mujoco_kkt(xml, robot, *_states(robot, 3, seed=7))
+
+
+def matches_mujoco_kkt(xml: str, robot: StewartRobot, T, V, A) -> np.ndarray:
+    """IDM and DDM of ``robot`` at the states ``T, V, A`` against MuJoCo's exact KKT solve
+    on ``xml`` (each state closed by MuJoCo's own constraints, from the ``home``
+    keyframe); returns MuJoCo's efforts (N, 6)."""
     m = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, data, m.key("home").id)
     guess = data.qpos.copy()
-    T, V, A = _states(robot, 3, seed=7)
     gamma = robot.inverse_dynamics(T, V, A)
+    out = np.empty_like(gamma)
     for n in range(len(T)):
         mujoco_closed_state(m, data, "platform", T[n], V[n], guess=guess)
         in_range(m, data)
-        gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
-        assert rel_error(gamma[n], gamma_mj) < TOLERANCE
+        out[n] = gamma_mj = mujoco_kkt(m, data, "platform", A=A[n])
+        assert rel_error(gamma[n], gamma_mj) < TOLERANCE, (
+            f"IDM {rel_error(gamma[n], gamma_mj):.2e}"
+        )
         A_mj = mujoco_kkt(m, data, "platform", gamma=gamma_mj)
-        assert rel_error(robot.direct_dynamics(T[n], V[n], gamma_mj), A_mj) < TOLERANCE
+        A_robot = robot.direct_dynamics(T[n], V[n], gamma_mj)
+        assert rel_error(A_robot, A_mj) < TOLERANCE, f"DDM {rel_error(A_robot, A_mj):.2e}"
+    return out
 
 
-def test_chain_legs_with_gravity_compensation_on_some_bodies_are_refused() -> None:
-    """Chain legs take every body's full weight: a compensation on one body is refused by
-    name at import, not dropped (the efforts would be silently wrong)."""
-    xml = re.sub(
-        r'(<body name="leg1_link1"[^>]*?)>', r'\1 gravcomp="1">', community_mjcf(), count=1
+#: Community MJCF bodies given a gravcomp (the platform, a slide's link, a spin link, a
+#: last link), different factors.
+GRAVCOMP = {
+    "platform": 0.6,
+    "leg1_link1": 1.0,
+    "leg2_link4": 0.35,
+    "leg5_link3": 0.8,
+    "leg6_link6": 0.5,
+}
+
+
+def _with_gravcomp(xml: str, bodies: dict[str, float]) -> str:
+    for body, c in bodies.items():
+        xml, n = re.subn(rf'(<body name="{body}"[^>]*?)>', rf'\1 gravcomp="{c}">', xml, count=1)
+        assert n == 1, body
+    return xml
+
+
+def test_chain_legs_with_gravity_compensation_on_some_bodies_match_mujoco_kkt() -> None:
+    """``gravcomp`` on some bodies of the community MJCF (MuJoCo applies it as a passive
+    force): each link's factor read into its chain leg's ``gravcomp``, the platform's into
+    ``platform_gravcomp``, IDM and DDM against MuJoCo's exact KKT."""
+    xml = _with_gravcomp(community_mjcf(), GRAVCOMP)
+    result = import_mjcf(xml)
+    desc = result.description
+    assert desc.platform_gravcomp == GRAVCOMP["platform"]
+    got = {}
+    for leg, source in zip(desc.chain_legs, result.report.legs, strict=True):
+        for c, bodies in zip(leg.gravcomp, source.bodies, strict=True):
+            if c:
+                got[bodies] = float(c)
+    assert got == {k: v for k, v in GRAVCOMP.items() if k != "platform"}
+    assert "gravity compensation of some bodies" in str(result.report)
+    robot = StewartRobot(desc)
+    T, V, A = _states(robot, 3, seed=9)
+    gamma_mj = matches_mujoco_kkt(xml, robot, T, V, A)
+    without = StewartRobot(import_mjcf(community_mjcf()).description).inverse_dynamics(T, V, A)
+    assert rel_error(without, gamma_mj) > 1e-3  # the compensation matters
+
+
+def test_chain_leg_bodies_of_one_link_with_different_compensations_are_refused() -> None:
+    """A body fixed in a chain leg's link with another compensation than the link's: one
+    factor per link is exact only when its bodies share it, so the import refuses by name."""
+    extra = (
+        '<body name="sensor" gravcomp="1">'
+        '<inertial pos="0 0 0.01" mass="0.05" diaginertia="1e-5 1e-5 1e-5"/></body>'
     )
-    assert 'gravcomp="1"' in xml
-    with pytest.raises(ModelImportError, match="per-body compensation is not modelled"):
+    xml = re.sub(r'(<body name="leg2_link4"[^>]*>)', r"\1" + extra, community_mjcf(), count=1)
+    with pytest.raises(ModelImportError, match=r"'leg2_link4', 'sensor'.*different gravity comp"):
         import_mjcf(xml)

@@ -166,8 +166,10 @@ class JointDynamicsError(DescriptionError):
 
 class GravityCompensationError(DescriptionError):
     """A per-body gravity compensation (the fraction of a body's weight removed,
-    ``platform_gravcomp``, ``leg_gravcomp``) that is not a finite number in [0, 1], or a
-    ``leg_gravcomp`` that is not one list per leg with one factor per link.
+    ``platform_gravcomp``, ``leg_gravcomp``, a chain leg's ``gravcomp``) that is not a
+    finite number in [0, 1], a ``leg_gravcomp`` that is not one list per leg with one
+    factor per link (or is given beside ``chain_legs``), or a chain leg's ``gravcomp``
+    that is not one factor per link.
 
     Attributes:
         body: the body (``"platform"``, ``"leg 2 link 3"``) or the key when the shape is

@@ -17,7 +17,14 @@ geometry may give them), checked to close the loops within :data:`CLOSURE_TOLERA
 - direct dynamics: ``pin.constraintDynamics`` with ``tau = S^T Gamma - tau_joint`` and
   ``pin.ProximalSettings(1e-14, 0, 1)`` (an exact KKT solve);
 - energy: ``1/2 v^T M v`` (CRBA, armature included), ``pin.computePotentialEnergy`` and
-  the springs.
+  the springs;
+- per-body gravity compensation (``platform_gravcomp``, each chain leg's ``gravcomp``: the
+  fraction ``c_b`` of body b's weight removed): external forces ``f_b = -c_b m_b g`` at
+  each body's centre of mass on the tree, from the tree's own inertias
+  (:func:`~stewart_pin.check.leg_chain_tree.compensation_forces`): ``fext`` of ``pin.rnea``
+  in the inverse model, ``J^T fext`` added to the torques of ``pin.constraintDynamics`` in
+  the direct one, their potential ``c_b m_b g . c_b`` added to the energy; the regressor
+  refuses such a robot.
 
 Conventions: pose 0Tp (4, 4), twist ``[v, w]`` of O_p in F0, classical acceleration in
 F0, ``Gamma`` (6,) the actuated joints' efforts (joint side). A Python loop over states.
@@ -30,7 +37,12 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin.check.leg_chain_tree import _solve
+from stewart_pin.check.leg_chain_tree import (
+    _solve,
+    compensation_forces,
+    compensation_potential,
+    compensation_torques,
+)
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import pin_inertia_from_khalil
 from stewart_pin.description.leg_architecture import coulomb_sign
@@ -119,6 +131,13 @@ class ChainTreeSolver:
         self.coulomb = np.array([d.coulomb for d in dyn])
         self.stiffness = np.array([d.stiffness for d in dyn])
         self.rest = np.array([d.rest_position for d in dyn])
+        # (joint id, compensation) of each body whose weight is partly compensated
+        compensated = [(ff, float(desc.platform_gravcomp))] + [
+            (jid, float(c))
+            for ids, leg in zip(self.leg_joints, legs, strict=True)
+            for jid, c in zip(ids, leg.gravcomp, strict=True)
+        ]
+        self.compensated = [(jid, c) for jid, c in compensated if c != 0.0]
 
     # ------------------------------------------------------------------ pieces
     def joint_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -245,7 +264,8 @@ class ChainTreeSolver:
         q, v, Jc = self.state(T, twist, q_legs, idle_rates)
         n_idle = len(self.idle_legs)
         a = self._accelerations(T, twist, accel, q, v, Jc)
-        tau = pin.rnea(self.model, self.data, q, v, a) + self.joint_torques(q, v)
+        fext = compensation_forces(self.model, self.data, self.compensated)
+        tau = pin.rnea(self.model, self.data, q, v, a, fext) + self.joint_torques(q, v)
         N = np.zeros((self.nv, n_idle))
         for i in range(n_idle):
             N[self.v_legs, i] = self._legs_solve(Jc, np.zeros(Jc.shape[0]), np.eye(n_idle)[i])
@@ -270,6 +290,11 @@ class ChainTreeSolver:
         ``[S^T, Jc^T] [Gamma; lambda] = tau``."""
         if self.idle_legs:
             raise InputError("a robot with idle joints has no regressor")
+        if self.compensated:
+            raise InputError(
+                "the tree's regressor has no per-body gravity compensation (its gravity "
+                "columns would need each body's weight scaled): not for such a robot"
+            )
         q, v, Jc = self.state(T, twist, q_legs)
         a = self._accelerations(T, twist, accel, q, v, Jc)
         Y = pin.computeJointTorqueRegressor(self.model, self.data, q, v, a)
@@ -308,6 +333,8 @@ class ChainTreeSolver:
         (6,) (0 for legs without one) from ``pin.constraintDynamics``."""
         q, v, _ = self.state(T, twist, q_legs, idle_rates)
         tau = -self.joint_torques(q, v)
+        if self.compensated:
+            tau += compensation_torques(self.model, self.data, self.compensated, q)
         tau[self.v_act] += gamma
         ddq = np.array(
             pin.constraintDynamics(
@@ -329,6 +356,7 @@ class ChainTreeSolver:
         M = pin.crba(self.model, self.data, q)
         M = np.triu(M) + np.triu(M, 1).T
         potential = pin.computePotentialEnergy(self.model, self.data, q)
+        potential += compensation_potential(self.model, self.data, self.compensated)
         ql = q[self.q_legs]
         potential += 0.5 * float(self.stiffness @ (ql - self.rest) ** 2)
         return float(0.5 * v @ M @ v), float(potential)

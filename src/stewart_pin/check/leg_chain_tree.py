@@ -90,22 +90,12 @@ class GeneralTreeSolver:
         """The forces ``-c_b m_b g`` at the bodies' centres of mass (F0), each as a
         ``pin.Force`` in its joint's frame (``fext`` of ``pin.rnea``; one per joint), at the
         placements in ``data`` (after ``pin.forwardKinematics``)."""
-        g = np.array(self.model.gravity.linear)
-        fext = [pin.Force.Zero() for _ in range(self.model.njoints)]
-        for jid, c in self.compensated:
-            body = self.model.inertias[jid]
-            f = self.data.oMi[jid].rotation.T @ (-c * body.mass * g)
-            fext[jid] = pin.Force(f, np.cross(body.lever, f))
-        return fext
+        return compensation_forces(self.model, self.data, self.compensated)
 
     def compensation_torques(self, q: np.ndarray) -> np.ndarray:
         """``J^T fext`` (nv,): the compensating forces as joint torques (the difference of
         ``pin.rnea`` at rest without and with them)."""
-        zero = np.zeros(self.nv)
-        pin.forwardKinematics(self.model, self.data, q)
-        fext = self.compensation_forces()
-        without = pin.rnea(self.model, self.data, q, zero, zero)
-        return np.asarray(without - pin.rnea(self.model, self.data, q, zero, zero, fext))
+        return compensation_torques(self.model, self.data, self.compensated, q)
 
     def joint_torques(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Friction, spring and damper torques on the tree's joints (nv,)."""
@@ -267,11 +257,7 @@ class GeneralTreeSolver:
         if not abs(kinetic - kinetic_m) <= 1e-9 * max(abs(kinetic_m), 1e-300):
             kinetic = kinetic_m  # computeKineticEnergy without the armature: use M's
         potential = pin.computePotentialEnergy(self.model, self.data, q)
-        g = np.array(self.model.gravity.linear)
-        for jid, c in self.compensated:  # the compensating forces' potential, +c m g.com
-            body = self.model.inertias[jid]
-            com = self.data.oMi[jid].act(body.lever)
-            potential += c * body.mass * float(g @ com)
+        potential += compensation_potential(self.model, self.data, self.compensated)
         ql = q[self.q_legs]
         potential += 0.5 * float(self.stiffness @ (ql - self.rest) ** 2)
         return float(kinetic), float(potential)
@@ -280,6 +266,47 @@ class GeneralTreeSolver:
         _, v, _ = self.state(T, twist, q_legs)
         vl = v[self.v_legs]
         return float(self.viscous @ vl**2 + self.coulomb @ np.abs(vl))
+
+
+def compensation_forces(
+    model: pin.Model, data: pin.Data, compensated: list[tuple[int, float]]
+) -> list[pin.Force]:
+    """The forces ``-c_b m_b g`` at the centres of mass of the bodies ``compensated``
+    (``(joint id, c_b)``, one body per joint, F0), each as a ``pin.Force`` in its joint's
+    frame (``fext`` of ``pin.rnea``; one per joint), at the placements in ``data`` (after
+    ``pin.forwardKinematics``)."""
+    g = np.array(model.gravity.linear)
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
+    for jid, c in compensated:
+        body = model.inertias[jid]
+        f = data.oMi[jid].rotation.T @ (-c * body.mass * g)
+        fext[jid] = pin.Force(f, np.cross(body.lever, f))
+    return fext
+
+
+def compensation_torques(
+    model: pin.Model, data: pin.Data, compensated: list[tuple[int, float]], q: np.ndarray
+) -> np.ndarray:
+    """``J^T fext`` (nv,): :func:`compensation_forces` at ``q`` as joint torques (the
+    difference of ``pin.rnea`` at rest without and with them)."""
+    zero = np.zeros(model.nv)
+    pin.forwardKinematics(model, data, q)
+    fext = compensation_forces(model, data, compensated)
+    without = pin.rnea(model, data, q, zero, zero)
+    return np.asarray(without - pin.rnea(model, data, q, zero, zero, fext))
+
+
+def compensation_potential(
+    model: pin.Model, data: pin.Data, compensated: list[tuple[int, float]]
+) -> float:
+    """The potential of the compensating forces, ``sum c_b m_b g . com_b`` [J], at the
+    placements in ``data``."""
+    g = np.array(model.gravity.linear)
+    out = 0.0
+    for jid, c in compensated:
+        body = model.inertias[jid]
+        out += c * body.mass * float(g @ data.oMi[jid].act(body.lever))
+    return out
 
 
 def largest_loop_gap(data: pin.Data, cmodels: Any) -> float:

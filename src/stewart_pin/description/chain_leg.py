@@ -6,7 +6,9 @@ Frames and units (SI) as :mod:`stewart_pin.description.leg_architecture`: frame 
 leg i is placed by the robot (``B_i``, ``R_i`` in F0); joint j places frame j from frame
 j-1 as ``Rx(alpha_j) Tx(d_j) Rz(theta_j) Tz(r_j)`` (modified DH), its value added to
 ``theta_j`` (revolute) or ``r_j`` (prismatic); link j's ten inertial parameters (Khalil's
-order ``XX XY XZ YY YZ ZZ MX MY MZ M``) are in frame j about its origin.
+order ``XX XY XZ YY YZ ZZ MX MY MZ M``) are in frame j about its origin; its gravity
+compensation ``gravcomp[j]`` (MJCF ``gravcomp``, 1 for an SDF link without gravity) is the
+fraction of its weight removed: its weight is ``(1 - c_j) m_j g`` at its centre of mass.
 
 The closure of leg i:
 
@@ -38,7 +40,12 @@ import numpy as np
 from stewart_pin._checks import check_array, project_rotation
 from stewart_pin.description.inertia import check_physical
 from stewart_pin.description.leg_architecture import Joint, LegArchitecture
-from stewart_pin.exceptions import ArchitectureError, InputError, LegMobilityError
+from stewart_pin.exceptions import (
+    ArchitectureError,
+    GravityCompensationError,
+    InputError,
+    LegMobilityError,
+)
 
 #: The closures and the number of constraints each imposes.
 CLOSURES = {"ball": 3, "weld": 6}
@@ -67,6 +74,8 @@ class ChainLeg:
             freedom, e.g. an R-S-S rod's spin about its ball-to-ball line), the joint
             (1..n, not the actuated one) whose value and rate are part of the robot's
             state: the idle freedom's coordinate; ``None`` otherwise.
+        gravcomp: (n,) each link's gravity compensation, the fraction of its weight
+            removed (finite, in [0, 1]; ``None``: zeros, every link its full weight).
     """
 
     joints: tuple[Joint, ...]
@@ -80,6 +89,8 @@ class ChainLeg:
     guess: np.ndarray = None  # type: ignore[assignment]
     name: str = CHAIN
     idle_joint: int | None = None
+    # None (zeros) is accepted at construction; __post_init__ stores an (n,) array
+    gravcomp: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         joints = self.joints
@@ -146,6 +157,25 @@ class ChainLeg:
             object.__setattr__(self, key, R)
         for j in range(n):
             check_physical(self.inertia[j], f"chain leg link {j + 1}")
+        self._check_gravcomp(n)
+
+    def _check_gravcomp(self, n: int) -> None:
+        """``gravcomp``: ``None`` (zeros) or n factors, each :func:`gravcomp_factor`."""
+        value = self.gravcomp
+        out = np.zeros(n)
+        if value is not None:
+            rows = value.tolist() if isinstance(value, np.ndarray) else value
+            if not isinstance(rows, (list, tuple)) or len(rows) != n:
+                raise GravityCompensationError(
+                    f"a chain leg's gravcomp must be {n} factors (one per link, links "
+                    f"1..{n}), got {_short(value)}",
+                    "gravcomp",
+                    value,
+                )
+            for j, x in enumerate(rows):
+                out[j] = gravcomp_factor(x, f"chain leg link {j + 1}")
+        out.flags.writeable = False
+        object.__setattr__(self, "gravcomp", out)
 
     def check_mobility(self, leg: int) -> None:
         """As many joints as constraints, else :class:`LegMobilityError` naming ``leg``
@@ -266,10 +296,36 @@ def check_chain_legs(value: Any) -> tuple[ChainLeg, ...]:
     return legs
 
 
+def gravcomp_factor(value: Any, body: str) -> float:
+    """A body's gravity compensation: a finite number in [0, 1] (the fraction of its
+    weight removed), else :class:`GravityCompensationError` naming the body."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise GravityCompensationError(
+            f"gravity compensation of the {body} must be a number in [0, 1] (the fraction of "
+            f"its weight removed), got {_short(value)}",
+            body,
+            value,
+        )
+    c = float(value)
+    if not (math.isfinite(c) and 0.0 <= c <= 1.0):
+        raise GravityCompensationError(
+            f"gravity compensation of the {body} must be in [0, 1] (the fraction of its "
+            f"weight removed: 0 none, 1 all), got {c!r}",
+            body,
+            value,
+        )
+    return c + 0.0  # -0.0 as 0.0
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def full_turn(lower: Any, upper: Any) -> Any:
     """Whether a revolute range ``[lower, upper]`` [rad] spans a full turn (CAD exports
     write ``0..2 pi``): such a hinge limits nothing, its angle is taken modulo 2 pi."""
     return np.asarray(upper) - np.asarray(lower) >= 2.0 * math.pi - 1e-9
 
 
-__all__ = ["CHAIN", "CLOSURES", "ChainLeg", "check_chain_legs", "full_turn"]
+__all__ = ["CHAIN", "CLOSURES", "ChainLeg", "check_chain_legs", "full_turn", "gravcomp_factor"]

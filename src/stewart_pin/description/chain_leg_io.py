@@ -6,8 +6,9 @@ A chain leg table: ``actuated`` (1..n), ``closure`` (``"ball"`` or ``"weld"``),
 ``inertia`` (n rows of 10: Khalil's parameters of each link in its frame [kg, kg m,
 kg m^2]), ``joints`` (n joint tables, as for three-joint legs:
 :func:`~stewart_pin.description.leg_io.joint_from_dict`), and optionally ``tip`` (3,)
-[m], ``tip_rotation`` and ``platform_rotation`` (3 x 3, weld), ``guess`` (n,) and
-``idle_joint``.
+[m], ``tip_rotation`` and ``platform_rotation`` (3 x 3, weld), ``guess`` (n,),
+``idle_joint`` and ``gravcomp`` (n,): each link's gravity compensation, the fraction of its
+weight removed (in [0, 1]; left out when every link has its full weight).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 
 from stewart_pin.description.chain_leg import ChainLeg, check_chain_legs
 from stewart_pin.description.leg_io import joint_from_dict, joint_to_dict
-from stewart_pin.exceptions import ArchitectureError
+from stewart_pin.exceptions import ArchitectureError, GravityCompensationError
 
 #: Keys of a chain leg table (``actuated``, ``closure``, ``inertia`` and ``joints``
 #: required).
@@ -32,14 +33,15 @@ CHAIN_LEG_KEYS = (
     "platform_rotation",
     "guess",
     "idle_joint",
+    "gravcomp",
     "joints",
 )
 _REQUIRED = ("actuated", "closure", "inertia", "joints")
 
 
 def chain_leg_to_dict(leg: ChainLeg) -> dict[str, Any]:
-    """A chain leg as plain Python values (identity rotations, a zero guess and no idle
-    joint left out: the defaults)."""
+    """A chain leg as plain Python values (identity rotations, a zero guess, no idle
+    joint and no gravity compensation left out: the defaults)."""
     d: dict[str, Any] = {
         "actuated": leg.actuated,
         "closure": leg.closure,
@@ -54,6 +56,8 @@ def chain_leg_to_dict(leg: ChainLeg) -> dict[str, Any]:
         d["guess"] = leg.guess.tolist()
     if leg.idle_joint is not None:
         d["idle_joint"] = leg.idle_joint
+    if np.any(leg.gravcomp):
+        d["gravcomp"] = leg.gravcomp.tolist()
     d["joints"] = [joint_to_dict(j) for j in leg.joints]
     return d
 
@@ -88,6 +92,11 @@ def chain_leg_from_dict(d: Any, i: int) -> ChainLeg:
         return ChainLeg(parsed, **kwargs)
     except ArchitectureError as e:
         raise ArchitectureError(f"{where}: {e}", e.field, e.value) from e
+    except GravityCompensationError as e:
+        body = e.body.replace("chain leg", where) if e.body != "gravcomp" else where
+        error = GravityCompensationError(f"{where}: {e}", body, e.value)
+        error.key = "chain_legs"  # type: ignore[attr-defined] # read() quotes its line
+        raise error from e
 
 
 def chain_legs_from_value(value: Any) -> tuple[ChainLeg, ...]:

@@ -20,7 +20,6 @@ Legs are numbered 1..6 in messages (as in the paper) and 0..5 as array indices.
 from __future__ import annotations
 
 import json
-import math
 import re
 import tomllib
 from collections.abc import Callable
@@ -39,7 +38,7 @@ from stewart_pin._checks import (
     project_rotation,
 )
 from stewart_pin._io import write_text_atomic
-from stewart_pin.description.chain_leg import ChainLeg
+from stewart_pin.description.chain_leg import ChainLeg, gravcomp_factor
 from stewart_pin.description.chain_leg_io import chain_leg_to_dict, chain_legs_from_value
 from stewart_pin.description.inertia import check_physical, khalil_from_inertial_table
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
@@ -81,8 +80,9 @@ OPTIONAL_KEYS = (*OPTIONAL_KEYS, *ACTUATOR_LIMIT_KEYS)  # type: ignore[assignmen
 #: Optional per-body gravity compensation, the fraction ``c`` of a body's weight removed
 #: (MJCF ``gravcomp``; 1 for an SDF link with ``<gravity>false</gravity>``): each body's
 #: weight is ``(1 - c) m g`` at its centre of mass. ``platform_gravcomp`` one number,
-#: ``leg_gravcomp`` one list per leg with one factor per link (links 1, 2, 3); each finite
-#: in [0, 1], 0 when left out (and left out of the files when every factor is 0).
+#: ``leg_gravcomp`` one list per leg with one factor per link (links 1, 2, 3; chain legs
+#: carry theirs, each leg table's ``gravcomp``); each finite in [0, 1], 0 when left out
+#: (and left out of the files when every factor is 0).
 GRAVCOMP_KEYS = ("platform_gravcomp", "leg_gravcomp")
 OPTIONAL_KEYS = (*OPTIONAL_KEYS, *GRAVCOMP_KEYS)  # type: ignore[assignment]
 
@@ -253,15 +253,15 @@ class RobotDescription:
         except InertiaError as e:
             e.key = key  # type: ignore[attr-defined] # read() quotes the line of the key
             raise
-        if self.has_gravcomp and self.chain_legs is not None:
+        if self.chain_legs is not None and np.any(self.leg_gravcomp):
             raise _gravcomp_error(
-                "platform" if self.platform_gravcomp != 0.0 else "leg_gravcomp",
-                f"robot description '{self.name}': per-body gravity compensation is not "
-                "modelled for chain legs (their dynamics and check take every body's full "
-                "weight): remove platform_gravcomp / leg_gravcomp or describe three-joint legs",
-                self.platform_gravcomp if self.platform_gravcomp != 0.0 else "leg_gravcomp",
+                "leg_gravcomp",
+                f"robot description '{self.name}': with chain_legs each link's gravity "
+                "compensation is in its ChainLeg (gravcomp, one factor per link); "
+                "leg_gravcomp must be left out",
+                "leg_gravcomp",
             )
-        if self.has_gravcomp and self.legs is None:
+        if self.has_gravcomp and self.legs is None and self.chain_legs is None:
             # the ideal 6-UPS form has one gravity for every body: a robot whose bodies'
             # weights are compensated differently takes the same legs as general legs
             object.__setattr__(self, "legs", self.leg_architectures)
@@ -301,9 +301,13 @@ class RobotDescription:
 
     @property
     def has_gravcomp(self) -> bool:
-        """Whether some body's weight is compensated (a non-zero ``platform_gravcomp`` or
-        ``leg_gravcomp``)."""
-        return self.platform_gravcomp != 0.0 or bool(np.any(self.leg_gravcomp))
+        """Whether some body's weight is compensated (a non-zero ``platform_gravcomp``,
+        ``leg_gravcomp`` or a chain leg's ``gravcomp``)."""
+        return (
+            self.platform_gravcomp != 0.0
+            or bool(np.any(self.leg_gravcomp))
+            or any(np.any(leg.gravcomp) for leg in self.chain_legs or ())
+        )
 
     def _check_legs(self) -> None:
         """Six legs (parsed from tables when needed); no shared stroke or U-joint limits
@@ -421,7 +425,8 @@ class RobotDescription:
             d["source"] = self.source.to_dict()
         if self.has_gravcomp:  # left out when every body has its full weight
             d["platform_gravcomp"] = self.platform_gravcomp
-            d["leg_gravcomp"] = self.leg_gravcomp.tolist()
+            if self.chain_legs is None:  # chain legs: in each leg's table (gravcomp)
+                d["leg_gravcomp"] = self.leg_gravcomp.tolist()
         return d
 
     @classmethod
@@ -789,23 +794,13 @@ def _gravcomp_error(body: str, message: str, value: Any) -> GravityCompensationE
 
 def _gravcomp_factor(value: Any, body: str) -> float:
     """A body's gravity compensation: a finite number in [0, 1] (the fraction of its
-    weight removed), else :class:`GravityCompensationError` naming the body."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise _gravcomp_error(
-            body,
-            f"gravity compensation of the {body} must be a number in [0, 1] (the fraction of "
-            f"its weight removed), got {_short(value)}",
-            value,
-        )
-    c = float(value)
-    if not (math.isfinite(c) and 0.0 <= c <= 1.0):
-        raise _gravcomp_error(
-            body,
-            f"gravity compensation of the {body} must be in [0, 1] (the fraction of its "
-            f"weight removed: 0 none, 1 all), got {c!r}",
-            value,
-        )
-    return c + 0.0  # -0.0 as 0.0
+    weight removed), else :class:`GravityCompensationError` naming the body
+    (:func:`~stewart_pin.description.chain_leg.gravcomp_factor`; ``read`` quotes the line
+    of its key)."""
+    try:
+        return gravcomp_factor(value, body)
+    except GravityCompensationError as e:
+        raise _gravcomp_error(body, str(e), value) from None
 
 
 def _field_error(key: str, message: str) -> DescriptionError:

@@ -96,6 +96,20 @@ def leg_model(desc: RobotDescription, k: int) -> pin.Model:
     return model
 
 
+def compensated_model(model: pin.Model, leg: ChainLeg) -> pin.Model | None:
+    """A copy of leg ``model`` (:func:`leg_model`) whose link j has its mass and first
+    moments scaled by its gravity compensation ``c_j`` (``leg.gravcomp``): its generalized
+    gravity is the joint efforts of the forces ``c_j m_j g`` at the centres of mass, its
+    potential energy theirs. ``None`` when no link has a compensation."""
+    if not np.any(leg.gravcomp):
+        return None
+    out = pin.Model(model)
+    for j, c in enumerate(leg.gravcomp):
+        I = out.inertias[j + 1]
+        out.inertias[j + 1] = pin.Inertia(float(c) * I.mass, I.lever, float(c) * I.inertia)
+    return out
+
+
 @dataclass(frozen=True)
 class ChainJointTerms:
     """One leg's joint terms (n,) each: viscous + damper, Coulomb, spring and its rest
@@ -136,12 +150,25 @@ class ChainLegModels:
         self.models = [leg_model(desc, k) for k in range(6)]
         self.datas = [m.createData() for m in self.models]
         self.terms = [ChainJointTerms.of(leg) for leg in self.legs]
+        #: each leg's model with its links' compensated weights (or None without any)
+        self.compensated = [
+            compensated_model(m, leg) for m, leg in zip(self.models, self.legs, strict=True)
+        ]
+        self._compensated_datas = [None if m is None else m.createData() for m in self.compensated]
+
+    def compensation_efforts(self, k: int, q: np.ndarray) -> np.ndarray:
+        """``g_c`` (N, n) [N m or N]: the joint efforts of leg k's links' gravity
+        compensation (module docstring), zeros when no link has one."""
+        model, data = self.compensated[k], self._compensated_datas[k]
+        if model is None:
+            return np.zeros(q.shape)
+        return np.array([pin.computeGeneralizedGravity(model, data, x) for x in q])
 
     def mass_and_bias(
         self, k: int, q: np.ndarray, qdot: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Leg k's ``A_k`` (N, n, n) (armature included) and ``h_k`` (N, n) (joint terms
-        included)."""
+        included, less the links' gravity compensation)."""
         model, data = self.models[k], self.datas[k]
         N, n = q.shape
         M, h = np.empty((N, n, n)), np.empty((N, n))
@@ -149,15 +176,21 @@ class ChainLegModels:
             m = pin.crba(model, data, q[s])
             M[s] = np.triu(m) + np.triu(m, 1).T
             h[s] = pin.nonLinearEffects(model, data, q[s], qdot[s])
-        return M, h + self.terms[k].efforts(q, qdot)
+        h += self.terms[k].efforts(q, qdot)
+        if self.compensated[k] is not None:
+            h -= self.compensation_efforts(k, q)
+        return M, h
 
     def energy(self, k: int, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Leg k's kinetic (armature included) and potential (gravity, springs) energy,
-        each (N,) [J]."""
+        """Leg k's kinetic (armature included) and potential (gravity less its
+        compensation, springs) energy, each (N,) [J]."""
         model, data = self.models[k], self.datas[k]
         M, _ = self.mass_and_bias(k, q, np.zeros_like(qdot))
         kinetic = 0.5 * np.einsum("ni,nij,nj->n", qdot, M, qdot)
         potential = np.array([pin.computePotentialEnergy(model, data, x) for x in q])
+        compensated, cdata = self.compensated[k], self._compensated_datas[k]
+        if compensated is not None:
+            potential -= [pin.computePotentialEnergy(compensated, cdata, x) for x in q]
         t = self.terms[k]
         return kinetic, potential + 0.5 * ((q - t.rest) ** 2) @ t.stiffness
 
@@ -435,10 +468,18 @@ class ChainDynamics:
         for k, s in enumerate(legs):
             model, data = self.legs.models[k], self.legs.datas[k]
             n = s.q.shape[1]
+            cols = np.concatenate([10 * j + khalil for j in range(n)])
+            # each link's gravity columns (the regressor at rest) scaled by 1 - c_j: its
+            # weight (1 - c_j) m_j g (the efforts stay linear in the same parameters)
+            c = np.repeat(self.legs.legs[k].gravcomp, 10)
+            zero = np.zeros(n)
             Y = np.empty((N, n, 10 * n))
             for m in range(N):
                 y = pin.computeJointTorqueRegressor(model, data, s.q[m], s.qdot[m], s.qddot[m])
-                Y[m] = np.concatenate([y[:, 10 * j + khalil] for j in range(n)], axis=1)
+                Y[m] = y[:, cols]
+                if np.any(c):
+                    yg = pin.computeJointTorqueRegressor(model, data, s.q[m], zero, zero)
+                    Y[m] -= c * yg[:, cols]
             terms = np.zeros((N, n, 5 * n))
             for j in range(n):
                 terms[:, j, 5 * j : 5 * j + 5] = np.stack(
@@ -457,7 +498,9 @@ class ChainDynamics:
         platform = np.empty((N, 6, 10))
         for j in range(10):
             unit = SimpleNamespace(
-                platform_inertia=np.eye(10)[j], gravity=self.desc.gravity, platform_gravcomp=0.0
+                platform_inertia=np.eye(10)[j],
+                gravity=self.desc.gravity,
+                platform_gravcomp=self.desc.platform_gravcomp,
             )
             plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
             platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
@@ -484,5 +527,6 @@ __all__ = [
     "ChainJointTerms",
     "ChainLegModels",
     "chain_parameters",
+    "compensated_model",
     "leg_model",
 ]

@@ -718,7 +718,9 @@ def chain_legs_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
     ball centre or the attachment frame) and ``platform_p{i}`` (``P_i``, with the platform
     attachment's orientation for a weld), the loops as ``<connect>`` (ball) or ``<weld>``
     (weld: the two sites' frames coincide) equalities, a motor on each actuated joint and
-    the ``home`` keyframe. Only MuJoCo's layout (``pinocchio_layout`` refused)."""
+    the ``home`` keyframe, ``gravcomp`` on the bodies whose weight is partly removed (each
+    leg's ``gravcomp``, ``platform_gravcomp``). Only MuJoCo's layout (``pinocchio_layout``
+    refused)."""
     if pinocchio_layout:
         raise UnsupportedArchitectureError(
             "the Pinocchio layout of the MJCF is not written for chain legs (Pinocchio's "
@@ -747,6 +749,7 @@ def chain_legs_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
             body = mjcf_body(parent, leg_link(k + 1, j + 1), X[:3, 3], X[:3, :3])
             _chain_joint(body, leg_joint(k + 1, j + 1), joint, np.eye(4))
             mjcf_inertial(body, leg.inertia[j])
+            gravcomp(body, leg.gravcomp[j])
             mjcf_geom(body, "sphere", "joint", (radius,))
             parent = body
         site = {"name": leg_tip_site(k + 1), "pos": vec(leg.tip)}
@@ -757,6 +760,7 @@ def chain_legs_mjcf_string(desc: Any, pinocchio_layout: bool = False) -> str:
     platform = mjcf_body(world, PLATFORM_LINK, T[:3, 3], T[:3, :3])
     ET.SubElement(platform, "freejoint", name=PLATFORM_JOINT)
     mjcf_inertial(platform, desc.platform_inertia)
+    gravcomp(platform, desc.platform_gravcomp)
     for k, leg in enumerate(legs):
         site = {"name": platform_site(k + 1), "pos": vec(desc.platform_points[k])}
         if leg.closure == "weld":

@@ -742,10 +742,15 @@ GRAVCOMP_KEY = "gravcomp"
 
 def gravcomp_entry(desc: Any) -> dict[str, dict[str, float]]:
     """The sidecar's ``gravcomp``: link name -> the fraction of its weight removed, for
-    the links (``platform``, ``leg{i}_link{j}``) whose factor is not 0; ``{}`` (no key)
+    the links (``platform``, ``leg{i}_link{j}``; chain legs: each leg's ``gravcomp``)
+    whose factor is not 0; ``{}`` (no key)
     when no body has one, so that such files are unchanged."""
     platform = float(getattr(desc, "platform_gravcomp", 0.0))
-    legs = np.asarray(getattr(desc, "leg_gravcomp", np.zeros((6, 3))), dtype=float)
+    chain = getattr(desc, "chain_legs", None)
+    if chain is not None:  # each chain leg's links (n_i factors)
+        legs: Any = [leg.gravcomp for leg in chain]
+    else:
+        legs = np.asarray(getattr(desc, "leg_gravcomp", np.zeros((6, 3))), dtype=float)
     out = {PLATFORM_LINK: platform} if platform else {}
     for i, row in enumerate(legs, start=1):
         for j, c in enumerate(row, start=1):
@@ -862,7 +867,8 @@ def chain_legs_closures_dict(desc: Any, urdf_name: str | None = None) -> dict[st
     (``point1`` in the leg's last link, ``point2`` in the platform), a ``"frame"`` closure
     per welded leg (``frame1`` / ``frame2``: ``xyz`` [m] and ``rpy`` [rad] of the two
     frames that coincide, in the last link and in the platform), the actuated joints,
-    gravity, the joint terms and the home configuration."""
+    gravity, the joint terms, the home configuration and the links' gravity compensation
+    (:func:`gravcomp_entry`)."""
     closures = []
     for i, leg in enumerate(desc.chain_legs, start=1):
         c: dict[str, Any] = {
@@ -897,6 +903,7 @@ def chain_legs_closures_dict(desc: Any, urdf_name: str | None = None) -> dict[st
         "architectures": ["chain"] * 6,
         JOINT_TERMS_KEY: joint_terms(desc),
         **_chain_home_configuration(desc),
+        **gravcomp_entry(desc),
     }
 
 

@@ -9,7 +9,8 @@ terms are read; the loops are checked at the reference configuration
 (:data:`CLOSURE_TOLERANCE`); the description takes the ideal 6-UPS form when it fits. Gravity
 compensation (``TreeBody.gravcomp``): the same on every moving body is gravity scaled;
 else each link's (the one its bodies share) goes to the description's
-``platform_gravcomp`` and ``leg_gravcomp`` (general legs).
+``platform_gravcomp`` and ``leg_gravcomp`` (general legs; chain legs:
+:mod:`~stewart_pin.importers.chains`, each leg's ``gravcomp``).
 """
 
 from __future__ import annotations

@@ -8,9 +8,12 @@ whose last link *is* the platform, a weld at that body's frame) and walks each l
 the platform back to the base through 1-dof joints only; :func:`build_chains` places each
 leg's joints exactly (modified DH, frames chosen from the joint lines at the file's zero
 configuration: :func:`mdh_frames`), with its links' ten inertial parameters, its joint
-terms and limits, the file's joint values (no sign, no offset) and its closure (ball: the
-point; weld: the two frames). Nothing is approximated: no link is made massless, no axis
-is snapped; the joint values of the description are the file's.
+terms and limits, the file's joint values (no sign, no offset), its closure (ball: the
+point; weld: the two frames) and its links' gravity compensation (``ChainLeg.gravcomp``,
+the one each link's bodies share: different factors in one link refused; the platform's
+into ``platform_gravcomp``; the same on every moving body is gravity scaled).
+Nothing is approximated: no link is made massless, no axis is snapped; the joint values of
+the description are the file's.
 
 A ball leg of four joints has an idle freedom (an R-S-S rod's spin about its ball-to-ball
 line): the joint whose motion does not move the ball centre at the reference configuration
@@ -51,6 +54,7 @@ from stewart_pin.importers.build import (
     LegReport,
     LinkPoses,
     _gravity,
+    _link_gravcomp,
     assign_actuators,
     robot_name,
 )
@@ -395,6 +399,10 @@ def build_chains(
     )
 
     T_home = link_ref(P)
+    # per-body gravity compensation: one fraction on every moving body scales gravity;
+    # else each link's (its bodies' shared one: _link_gravcomp) and the platform's
+    gravity, uniform = _gravity(model, rec)  # type: ignore[arg-type]
+    platform_gravcomp = 0.0 if uniform else _link_gravcomp(model, links, P)
     chain_legs: list[ChainLeg] = []
     base_pts, base_rot, plat_pts = np.zeros((6, 3)), np.zeros((6, 3, 3)), np.zeros((6, 3))
     reports: list[LegReport] = []
@@ -427,6 +435,10 @@ def build_chains(
                 continue  # the platform's own mass
             params_f0 = transform_inertia(links[li].inertia, link_zero(li))
             inertia[j] = transform_inertia(params_f0, np.linalg.inv(frames[j]))
+        gravcomp = np.zeros(n)
+        if not uniform:
+            for j, li in enumerate(leg.children):
+                gravcomp[j] = 0.0 if li == P else _link_gravcomp(model, links, li)
         tip = np.linalg.inv(frames[-1]) @ leg.tip
         q_ref = np.array([model.values.get(J.name, 0.0) for J in leg.joints])
         chain = ChainLeg(
@@ -438,6 +450,7 @@ def build_chains(
             tip[:3, :3],
             leg.at_platform[:3, :3],
             guess=q_ref,
+            gravcomp=gravcomp,
         )
         if leg.closure == "ball" and n == 4:
             chain = chain.replace(
@@ -507,13 +520,17 @@ def build_chains(
         "the platform": [n for n in link_names(P) if n != model.body_label(links[P].root)],
         "the base": [n for n in link_names(rec.ground) if n != model.body_label(0)],
     }
-    gravity, uniform = _gravity(model, rec)  # type: ignore[arg-type]
-    if not uniform:
-        raise ModelImportError(
-            "gravity compensation differs between the moving bodies (gravcomp, or links "
-            "without gravity): per-body compensation is not modelled for chain legs (their "
-            "dynamics take every body's full weight); give every moving body the same "
-            "compensation, or none"
+    compensated = [("the platform", platform_gravcomp)] + [
+        (f"leg {i + 1} link {j + 1}", float(c))
+        for i, chain in enumerate(chain_legs)
+        for j, c in enumerate(chain.gravcomp)
+    ]
+    if any(c for _, c in compensated):
+        model.notes.append(
+            "gravity compensation of some bodies (gravcomp, or no gravity); "
+            + ", ".join(f"{body}: {c:g}" for body, c in compensated if c)
+            + " (the fractions of their weights removed: platform_gravcomp, each chain "
+            "leg's gravcomp)"
         )
     robot = robot_name(model.name) if name is None else check_robot_name(name)
     notes = list(model.notes)
@@ -536,6 +553,7 @@ def build_chains(
             name=robot,
             home_pose=T_home,
             chain_legs=tuple(chain_legs),
+            platform_gravcomp=platform_gravcomp,
         )
     except DescriptionError as err:
         raise ModelImportError(f"the robot read from the file is not valid: {err}") from err
