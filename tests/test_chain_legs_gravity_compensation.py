@@ -25,6 +25,7 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import use_compile_cache
 from helpers import rel_error
 
 from stewart_pin import FileFormatError, GravityCompensationError, RobotDescription, StewartRobot
@@ -32,6 +33,7 @@ from stewart_pin.check.chain_legs_tree import ChainTreeSolver
 from stewart_pin.description.chain_leg_presets import mixed_chain_robot, welded_ups
 from stewart_pin.description.leg_architecture import JointDynamics
 from stewart_pin.dynamics.chain_leg_dynamics import chain_parameters
+from stewart_pin.exceptions import InputError
 from stewart_pin.importers import import_mjcf
 from stewart_pin.kinematics import chain_legs
 
@@ -126,7 +128,7 @@ def test_models_equal_the_constrained_tree_with_compensating_forces(name: str) -
         assert rel_error(W[n] @ chi, ref) < TOL
         k, u = tree.energy_one(T[n], V[n], q)
         assert abs(robot.energy(T[n], V[n]) - (k + u)) <= 1e-12 * (abs(k) + abs(u))
-    with pytest.raises(Exception, match="no per-body gravity compensation"):
+    with pytest.raises(InputError, match="no per-body gravity compensation"):
         tree.regressor_one(T[0], V[0], A[0], _q_legs(desc, T[0]))
 
 
@@ -219,3 +221,27 @@ def test_urdf_sidecar_of_chain_legs_records_the_compensation(tmp_path) -> None:
     assert rel_error(robot.inverse_dynamics(T, V, A), ref) < TOL
     _, plain = write_urdf(mixed_chain_robot(seed=2), tmp_path / "p.urdf")
     assert "gravcomp" not in plain.read_text()
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_compiled_models_remove_the_compensated_weights(name: str, shared_compile_cache) -> None:
+    """The compiled chain-leg models (generated Newton-Euler with ``c M g``, ``c MS x g``
+    per link and the platform's scaled gravity) against the tree with the forces
+    ``-c m g``, 1e-10 relative: IDM and DDM."""
+    gen = use_compile_cache(shared_compile_cache)
+    next(gen)
+    try:
+        desc = _compensated(PRESETS[name]())
+        robot = StewartRobot(desc)
+        T, V, A = robot.sample_states(3, rng=11)
+        tree = ChainTreeSolver(desc)
+        gamma = robot.inverse_dynamics(T, V, A, backend="compiled")
+        accel = robot.direct_dynamics(T, V, gamma, backend="compiled")
+        for n in range(len(T)):
+            q = _q_legs(desc, T[n])
+            ref = tree.inverse_one(T[n], V[n], A[n], q)
+            assert rel_error(gamma[n], ref) < TOL, f"IDM {rel_error(gamma[n], ref):.2e}"
+            acc_ref = tree.forward_one(T[n], V[n], ref, q)
+            assert rel_error(accel[n], acc_ref) < TOL, f"DDM {rel_error(accel[n], acc_ref):.2e}"
+    finally:
+        gen.close()

@@ -41,7 +41,7 @@ from scipy.spatial.transform import Rotation
 from stewart_pin import ModelImportError, StewartRobot
 from stewart_pin.description.chain_leg_presets import welded_ups
 from stewart_pin.description.leg_architecture import coulomb_sign
-from stewart_pin.exceptions import ModelImportWarning
+from stewart_pin.exceptions import InputError, ModelImportWarning
 from stewart_pin.importers import import_mjcf, import_sdf, import_urdf
 
 mujoco = pytest.importorskip("mujoco", reason="MuJoCo is optional: pip install mujoco")
@@ -198,7 +198,7 @@ def test_the_ball_approximation_is_an_explicit_option_reported_with_its_effect()
     exact = import_mjcf(xml)
     assert effect_on_efforts(exact, StewartRobot(exact.description)) < 1e-12
     assert line in str(result.report)
-    with pytest.raises(Exception, match="approximate_legs must be True or False"):
+    with pytest.raises(InputError, match="approximate_legs must be True or False"):
         import_mjcf(xml, approximate_legs="yes")
 
 

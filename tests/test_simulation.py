@@ -121,7 +121,7 @@ def test_zero_order_hold(desktop):
     # Forces change only at the 10 ms samples.
     changes = np.flatnonzero(np.abs(np.diff(held, axis=0)).max(axis=1) > 0) + 1
     assert set(np.round(res.t[changes], 9)) <= {0.01, 0.02, 0.03, 0.04, 0.05}
-    with pytest.raises(Exception, match="whole multiple"):
+    with pytest.raises(InputError, match="whole multiple"):
         simulate(desktop, 0.05, dt=3e-3, control_period=1e-2)
 
 

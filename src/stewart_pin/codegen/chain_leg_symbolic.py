@@ -146,7 +146,10 @@ def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) 
         B=tuple(_snap(x, scale) for x in desc.base_points[k]),
         pL=tuple(_snap(x, scale) for x in desc.platform_points[k]),
         pR=tuple(tuple(_snap(x) for x in row) for row in leg.platform_rotation),
-        joints=tuple(joint_constants(j, leg.inertia[m], scale) for m, j in enumerate(leg.joints)),
+        joints=tuple(
+            joint_constants(j, leg.inertia[m], scale, leg.gravcomp[m])
+            for m, j in enumerate(leg.joints)
+        ),
         tip=tuple(_snap(x, scale) for x in leg.tip),
         tip_R=tuple(tuple(_snap(x) for x in row) for row in leg.tip_rotation),
         constraints=leg.constraints,
@@ -438,7 +441,7 @@ def _idm_leg(
     drift = _drift(lc, ck)
     qdd = _matvec(ck.inv, [_minus(a, d) for a, d in zip(acc, drift, strict=True)])
     g = lc.gravity
-    tau = _newton_euler(ck.joints, ck.qd, qdd, [-g[0], -g[1], -g[2]])
+    tau = _newton_euler(ck.joints, ck.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
     terms = _joint_terms(ck.joints, ck.qd, qdd)
     H = [_plus(t, u) for t, u in zip(tau, terms, strict=True)]
     a = lc.actuated
@@ -475,7 +478,7 @@ def _ddm_leg(
     n = len(joints)
     g = lc.gravity
     zero = [0.0] * n
-    h = _newton_euler(joints, ck.qd, zero, [-g[0], -g[1], -g[2]])
+    h = _newton_euler(joints, ck.qd, zero, [-g[0], -g[1], -g[2]], list(g))
     terms = _joint_terms(joints, ck.qd, zero)
     h = [_plus(a, b) for a, b in zip(h, terms, strict=True)]
     c = lc.constraints
