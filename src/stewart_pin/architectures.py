@@ -156,6 +156,9 @@ class LegChainPath:
     #: the viewer then draws (:func:`stewart_pin.viz.leg_scene.general_robot`); else the
     #: viewer draws the leg chains.
     urdf_visuals: bool = False
+    #: Whether grouping rules give this architecture's analytic base parameters (else
+    #: ``base_parameters(..., "analytic")`` falls back to the numerical set, with a warning).
+    analytic_rules: bool = True
 
     def analytic_base_parameters(
         self, rules: AnalyticRules[_Result], desc: RobotDescription
@@ -543,6 +546,8 @@ class ChainLegPath(LegChainPath):
     legs come as (N, 6, max n_i) arrays, zero past a leg's last joint. What is built on
     three-joint legs (the regressor, the Pinocchio leg models of :class:`LegDynamics`)
     raises :class:`UnsupportedArchitectureError`."""
+
+    analytic_rules = False
 
     def analytic_base_parameters(
         self, rules: AnalyticRules[_Result], desc: RobotDescription

@@ -9,6 +9,7 @@ import numpy as np
 from stewart_pin._argtypes import BYTES_PER_REGRESSOR_STATE, count_within_memory
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import file_in_folder
+from stewart_pin.architectures import reference_path
 from stewart_pin.cli import identify_log
 from stewart_pin.cli._common import (
     add_robot_args,
@@ -30,9 +31,10 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
     desc = robot.description
     method = args.method
-    if method == "analytic" and desc.chain_legs is not None:
+    if method == "analytic" and not reference_path(desc).analytic_rules:
         print(
-            f"note: robot '{robot.name}' has chain legs, which the analytic grouping rules "
+            f"note: robot '{robot.name}' has {desc.architecture} legs, which the analytic "
+            "grouping rules "
             "do not cover: showing the numerical base parameters"
         )
         method = "numerical"

@@ -185,6 +185,11 @@ class CodegenKind(Protocol):
         """ExportError if the standalone C library cannot hold the robot's checks."""
         ...
 
+    def not_compiled(self, desc: RobotDescription) -> str | None:
+        """Why the compiled models (and their exact derivatives) do not take ``desc``, or
+        ``None`` when they do."""
+        ...
+
     def has_custom_leg(self, desc: RobotDescription) -> bool:
         """Whether a leg is ``custom`` (an inverse geometry by Newton)."""
         ...
@@ -192,6 +197,9 @@ class CodegenKind(Protocol):
 
 class PaperUpsCodegen:
     """The paper's ideal 6-UPS: its hand-derived models (:mod:`.symbolic`)."""
+
+    def not_compiled(self, desc: RobotDescription) -> str | None:
+        return None
 
     generic_models = False
     leg_length_squares: slice | None = AUX_Q3SQ
@@ -336,6 +344,9 @@ class LegChainCodegen:
     """Every robot but the ideal 6-UPS: the generic models of its leg chains
     (:mod:`.leg_chain_symbolic`)."""
 
+    def not_compiled(self, desc: RobotDescription) -> str | None:
+        return None
+
     generic_models = True
     leg_length_squares: slice | None = None
 
@@ -440,6 +451,12 @@ class ChainLegCodegen(LegChainCodegen):
 
     def singularity_length(self, desc: RobotDescription) -> float:
         return robot_size(desc)  # as the reference path (chain_legs.condition_number)
+
+    def not_compiled(self, desc: RobotDescription) -> str | None:
+        """Legs with idle joints (an R-S-S spin as state): not generated yet."""
+        if any(leg.idle_joint is not None for leg in desc.chain_legs or ()):
+            return "chain legs with idle joints"
+        return None
 
     def resolution(self, desc: RobotDescription) -> Resolution:
         """The chain legs' reference path computes the flagged states."""

@@ -1191,15 +1191,16 @@ def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
 
 
 def _compilable(desc: Any) -> bool:
-    """Whether the compiled models take ``desc`` (not yet: chain legs with an idle joint)."""
-    return not desc.has_chain_legs or all(leg.idle_joint is None for leg in desc.chain_legs)
+    """Whether the compiled models take ``desc`` (:meth:`CodegenKind.not_compiled`)."""
+    return codegen_kind(desc).not_compiled(desc) is None
 
 
 def _check_compilable(desc: Any) -> None:
-    if not _compilable(desc):
+    reason = codegen_kind(desc).not_compiled(desc)
+    if reason is not None:
         raise UnsupportedArchitectureError(
-            f"robot '{desc.name}' has chain legs with idle joints: no compiled models for "
-            "them yet; use backend='pinocchio' (the reference path)",
+            f"robot '{desc.name}' has {reason}: no compiled models for them yet; use "
+            "backend='pinocchio' (the reference path)",
             "backend",
             desc.architecture,
         )

@@ -569,11 +569,10 @@ _BACKENDS_LOCK = threading.Lock()
 def derivatives_backend(robot: RobotLike) -> CompiledDerivatives:
     """The :class:`CompiledDerivatives` of ``robot``, built on first use and kept with it
     (a weak reference: the robot stays picklable)."""
-    if robot.description.has_chain_legs and any(
-        leg.idle_joint is not None for leg in robot.description.chain_legs or ()
-    ):
+    reason = codegen_kind(robot.description).not_compiled(robot.description)
+    if reason is not None:
         raise UnsupportedArchitectureError(
-            f"robot '{robot.description.name}' has chain legs with idle joints: the exact "
+            f"robot '{robot.description.name}' has {reason}: the exact "
             "derivatives come from the compiled models, which do not take idle freedoms yet "
             "(central differences of robot.inverse_dynamics / direct_dynamics work)",
             "derivatives",

@@ -467,28 +467,13 @@ def dimensionless_scales(desc: RobotDescription) -> tuple[np.ndarray, np.ndarray
     are forces already.
     """
     L = float(desc.size)
-    columns = L ** _LENGTH_POWERS.astype(float)
     T = math.sqrt(L / STANDARD_GRAVITY)
-    if desc.chain_legs is not None:
-        chain = desc.chain_legs
-        n_links = sum(leg.n_joints for leg in chain) + 1  # the links and the platform
-        body = L ** np.tile(_LENGTH_POWERS[:10], n_links).astype(float)
-        terms = [
-            L**a * T**b
-            for leg in chain
-            for joint in leg.joints
-            for a, b in _JOINT_POWERS[joint.revolute]
-        ]
-        rows = np.array(
-            [1.0 / L if leg.joints[leg.actuated - 1].revolute else 1.0 for leg in chain]
-        )
-        return np.concatenate([body, terms]), rows
+    groups = parameter_groups(desc)  # the regressor's layout: bodies (10 each), joints (5)
+    columns = L ** np.tile(_LENGTH_POWERS[:10], len(groups.bodies)).astype(float)
     joints = [  # the regressor's joint-term columns (none for the ideal 6-UPS's 190)
-        L**a * T**b
-        for joint in parameter_groups(desc).joints
-        for a, b in _JOINT_POWERS[joint.kind == "revolute"]
+        L**a * T**b for joint in groups.joints for a, b in _JOINT_POWERS[joint.kind == "revolute"]
     ]
-    actuated = [leg.joints[leg.actuated - 1] for leg in desc.leg_architectures]
+    actuated = [leg.joints[leg.actuated - 1] for leg in desc.joint_legs]
     rows = np.array([1.0 / L if joint.revolute else 1.0 for joint in actuated])
     return np.concatenate([columns, joints]), rows
 
@@ -605,9 +590,9 @@ def base_parameters(robot: RobotLike, method: str = "analytic", **kwargs: Any) -
     if method not in ("analytic", "numerical"):
         raise InputError(f"unknown method '{method}': 'analytic' or 'numerical'")
     desc = robot.description
-    if method == "analytic" and desc.chain_legs is not None:
+    if method == "analytic" and not reference_path(desc).analytic_rules:
         warnings.warn(
-            f"the analytic base parameters have no rules for chain legs: robot "
+            f"the analytic base parameters have no rules for {desc.architecture} legs: robot "
             f"'{desc.name}' gets the numerical base parameters (QR of the stacked "
             "regressor) instead",
             BaseParameterWarning,
