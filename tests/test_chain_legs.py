@@ -501,3 +501,17 @@ def test_the_urdf_and_its_sidecar_are_the_checked_tree(tmp_path: Path) -> None:
 
     with pytest.raises(FileFormatError, match="type 'frame', not 'point'"):
         read_sidecar(sidecar)
+
+
+def test_chain_models_of_a_robot_without_chain_legs_name_what_they_need() -> None:
+    """The chain-leg models and the idle simulation asked of a robot of three-joint legs
+    (the ideal 6-UPS): the project's error naming the chain legs, not an assertion."""
+    from stewart_pin.motion.idle_simulation import simulate_idle
+
+    robot = StewartRobot.from_preset("simulator")
+    H, zero = robot.home_pose, np.zeros(6)
+    with pytest.raises(UnsupportedArchitectureError, match="no chain legs") as info:
+        robot.chain_dynamics.inverse_dynamics(H, zero, zero)
+    assert info.value.field == "chain_legs"
+    with pytest.raises(UnsupportedArchitectureError, match="no chain legs"):
+        simulate_idle(robot, 0.01)
