@@ -501,3 +501,40 @@ def test_the_urdf_and_its_sidecar_are_the_checked_tree(tmp_path: Path) -> None:
 
     with pytest.raises(FileFormatError, match="type 'frame', not 'point'"):
         read_sidecar(sidecar)
+
+
+def test_chain_models_of_a_robot_without_chain_legs_name_what_they_need() -> None:
+    """The chain-leg models and the idle simulation asked of a robot of three-joint legs
+    (the ideal 6-UPS): the project's error naming the chain legs, not an assertion."""
+    from stewart_pin.motion.idle_simulation import simulate_idle
+
+    robot = StewartRobot.from_preset("simulator")
+    H, zero = robot.home_pose, np.zeros(6)
+    with pytest.raises(UnsupportedArchitectureError, match="no chain legs") as info:
+        robot.chain_dynamics.inverse_dynamics(H, zero, zero)
+    assert info.value.field == "chain_legs"
+    with pytest.raises(UnsupportedArchitectureError, match="no chain legs"):
+        simulate_idle(robot, 0.01)
+
+
+def test_an_idle_state_given_to_a_robot_without_idle_joints_is_refused() -> None:
+    """``idle=(values, rates)`` to a chain-leg robot without idle joints would be ignored:
+    every model refuses it (the project's error), and the idle simulation too; without it
+    the simulation runs, at rest, its idle entries 0."""
+    from stewart_pin.motion.idle_simulation import simulate_idle
+
+    robot = StewartRobot(welded_ups(seed=1))
+    dyn = robot.chain_dynamics
+    assert not dyn.idle_legs
+    H, zero = robot.home_pose, np.zeros(6)
+    for call in (
+        lambda: dyn.inverse_dynamics(H, zero, zero, idle=(zero, zero)),
+        lambda: dyn.direct_dynamics_idle(H, zero, zero, idle=(zero, zero)),
+        lambda: dyn.energy(H, zero, idle=(zero, zero)),
+    ):
+        with pytest.raises(InputError, match="no idle joints"):
+            call()
+    with pytest.raises(InputError, match="no idle joints"):
+        simulate_idle(robot, 0.002, idle=(zero, zero))
+    res = simulate_idle(robot, 0.002)
+    assert np.all(res.idle_q == 0.0) and np.all(res.idle_v == 0.0)

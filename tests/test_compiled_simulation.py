@@ -229,6 +229,18 @@ def test_force_table_values():
         ForceTable(times[::-1], values)
 
 
+def test_force_tables_the_interpolation_would_overflow_are_refused():
+    """Values beyond 1e150 (whose difference overflows: ``inf`` at mid-interval, where the
+    exact value is 0) and times of infinite span (``inf`` weights) are refused, naming the
+    bound; at the bound the interpolation is exact."""
+    with pytest.raises(InputError, match=r"values\[0, 0\].*at most 1e\+150"):
+        ForceTable([0.0, 1.0], [[-1e308] * 6, [1e308] * 6], "linear")
+    with pytest.raises(InputError, match="span"):
+        ForceTable([-1e308, 1e308], np.zeros((2, 6)), "linear")
+    table = ForceTable([0.0, 1.0], [[-1e150] * 6, [1e150] * 6], "linear")
+    np.testing.assert_array_equal(table(0.5), np.zeros(6))
+
+
 def test_integrator_choice_is_checked():
     robot = get_robot("simulator")
     with pytest.raises(InputError, match="unknown integrator"):

@@ -236,9 +236,9 @@ def ups() -> FileCase:
 
 
 def test_the_planner_gives_the_files_efforts_positions_and_rates(ups):
-    """An optimal motion on the imported 6-UPS: at its nodes, the efforts are MuJoCo's KKT
-    forces of the nodes' accelerations, the positions and rates MuJoCo's ``qpos`` and
-    ``qvel``, within the bounds it reports."""
+    """An optimal motion on the imported 6-UPS: at its nodes, the efforts (held and exact)
+    are MuJoCo's KKT forces of the nodes' accelerations, the positions and rates MuJoCo's
+    ``qpos`` and ``qvel``, within the bounds it reports."""
     from stewart_pin.planning.point_to_point import optimal_point_to_point
 
     robot = ups.robot
@@ -250,7 +250,9 @@ def test_the_planner_gives_the_files_efforts_positions_and_rates(ups):
     assert np.all(motion.leg_lengths < 0)  # the file's inverted slides
     for k in (1, 4):
         ups.at(motion.poses[k], motion.twists[k])
-        assert rel_error(motion.gammas[k], ups.kkt(A=motion.accels[k])) < 1e-8
+        kkt = ups.kkt(A=motion.accels[k])
+        assert rel_error(motion.gammas[k], kkt) < 1e-8
+        assert rel_error(motion.exact_efforts[k], kkt) < 1e-8
         assert np.abs(motion.leg_lengths[k] - ups.data.qpos[ups.qadr]).max() < 1e-9
         assert rel_error(motion.actuator_speeds[k], ups.data.qvel[ups.dadr]) < 1e-8
 

@@ -9,6 +9,7 @@ effect the report states.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 import xml.etree.ElementTree as ET
 
@@ -28,6 +29,7 @@ from stewart_pin.check.import_effects import (
 )
 from stewart_pin.description.leg_chain_presets import pus_preset, random_hexapod
 from stewart_pin.description.presets import preset
+from stewart_pin.exceptions import InputError
 from stewart_pin.formats.mjcf import mjcf_string
 from stewart_pin.importers import import_mjcf, import_urdf
 
@@ -144,3 +146,12 @@ def test_the_import_command_prints_the_effect(tmp_path, capsys):
     text = out.out + out.err
     assert "approximation: axes made parallel in 1 leg(s)" in text
     assert "% on IDM at home" in text
+
+
+def test_effect_on_efforts_refuses_a_result_without_the_files_record():
+    """An import result whose description lost its source (the file's record of its joints)
+    is refused with the project's error naming it, not an assertion."""
+    result = import_mjcf(mjcf_string(preset("rus")))
+    bare = dataclasses.replace(result, description=result.description.replace(source=None))
+    with pytest.raises(InputError, match="carries no source"):
+        effect_on_efforts(bare, StewartRobot(bare.description))

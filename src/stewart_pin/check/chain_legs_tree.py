@@ -38,10 +38,10 @@ import numpy as np
 import pinocchio as pin
 
 from stewart_pin.check.leg_chain_tree import (
-    _solve,
     compensation_forces,
     compensation_potential,
     compensation_torques,
+    solve,
 )
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import pin_inertia_from_khalil
@@ -191,7 +191,7 @@ class ChainTreeSolver:
         """The legs' velocities (or accelerations) from ``Jc_legs x = rhs`` and the idle
         joints' values ``idle`` (one per idle leg)."""
         A = np.vstack([Jc[:, self.v_legs], self.E_idle])
-        return _solve(A, np.concatenate([rhs, idle]), "Jc legs")
+        return solve(A, np.concatenate([rhs, idle]), "Jc legs")
 
     def state(
         self, T: np.ndarray, twist: np.ndarray, q_legs: Any, idle_rates: Any = None
@@ -275,7 +275,7 @@ class ChainTreeSolver:
         K[self.v_act, np.arange(6)] = 1.0
         K[:, 6 : 6 + Jc.shape[0]] = Jc.T
         K[:, 6 + Jc.shape[0] :] = -M @ N
-        x = _solve(K, tau, "[S^T, Jc^T, -M N]")
+        x = solve(K, tau, "[S^T, Jc^T, -M N]")
         sigma = np.zeros(6)
         sigma[self.idle_legs] = x[6 + Jc.shape[0] :]
         return x[:6], sigma
@@ -313,7 +313,7 @@ class ChainTreeSolver:
         K = np.zeros((self.nv, self.nv))
         K[self.v_act, np.arange(6)] = 1.0
         K[:, 6:] = Jc.T
-        return np.asarray(_solve(K, tau, "[S^T, Jc^T]")[:6])
+        return np.asarray(solve(K, tau, "[S^T, Jc^T]")[:6])
 
     def forward_one(
         self, T: np.ndarray, twist: np.ndarray, gamma: np.ndarray, q_legs: Any

@@ -203,7 +203,11 @@ def effect_on_efforts(result: ImportResult, robot: RobotLike) -> float:
     if desc.chain_legs is not None:
         return _chain_effect(result, robot)
     source = desc.source
-    assert source is not None
+    if source is None:
+        raise InputError(
+            "the import result's description carries no source (the file's record of its "
+            "joints, description.source): compare an importer's result"
+        )
     actuated = (
         [3] * 6 if desc.legs is None else [leg.actuated for leg in desc.legs]
     )  # the ideal 6-UPS actuates its slides

@@ -149,7 +149,7 @@ class GeneralTreeSolver:
         Jc = self.constraint_jacobian(q)
         v = np.zeros(self.nv)
         v[self.v_ff] = np.concatenate([R.T @ twist[:3], R.T @ twist[3:]])
-        v[self.v_legs] = _solve(Jc[:, self.v_legs], -Jc[:, self.v_ff] @ v[self.v_ff], "Jc legs")
+        v[self.v_legs] = solve(Jc[:, self.v_legs], -Jc[:, self.v_ff] @ v[self.v_ff], "Jc legs")
         return q, v, Jc
 
     # ------------------------------------------------------------------ one state
@@ -165,7 +165,7 @@ class GeneralTreeSolver:
         a[self.v_ff] = np.concatenate([R.T @ accel[:3] - np.cross(w_loc, v_loc), R.T @ accel[3:]])
         pin.forwardKinematics(self.model, self.data, q, v, a)
         residual = self.loop_accelerations()
-        a[self.v_legs] = _solve(Jc[:, self.v_legs], -residual, "Jc legs")
+        a[self.v_legs] = solve(Jc[:, self.v_legs], -residual, "Jc legs")
         K = np.zeros((self.nv, self.nv))
         K[self.v_act, np.arange(6)] = 1.0
         K[:, 6:] = Jc.T
@@ -189,7 +189,7 @@ class GeneralTreeSolver:
         else:
             tau = pin.rnea(self.model, self.data, q, v, a)
         tau = tau + self.joint_torques(q, v)
-        x = _solve(K, tau, "[S^T, Jc^T]")
+        x = solve(K, tau, "[S^T, Jc^T]")
         lam = x[6:].reshape(-1, 3)
         rotations = np.array([cd.oMc1.rotation for cd in self.cdatas])
         return x[:6], -np.einsum("kij,kj->ki", rotations, lam), a
@@ -223,7 +223,7 @@ class GeneralTreeSolver:
         ql, vl, al = q[self.q_legs], v[self.v_legs], a[self.v_legs]
         for k, (row, qk, vk, ak) in enumerate(zip(self.v_legs, ql, vl, al, strict=True)):
             tau[row, 190 + 5 * k : 195 + 5 * k] = [ak, vk, coulomb_sign(np.array(vk)), qk, 1.0]
-        x = _solve(K, tau, "[S^T, Jc^T]")
+        x = solve(K, tau, "[S^T, Jc^T]")
         return np.asarray(x[:6])
 
     def forward_one(
@@ -320,7 +320,7 @@ def largest_loop_gap(data: pin.Data, cmodels: Any) -> float:
     return gap
 
 
-def _solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
+def solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     try:
         x = np.linalg.solve(A, b)
     except np.linalg.LinAlgError as e:

@@ -57,7 +57,7 @@ from stewart_pin.codegen.symbolic import (
     AUX_JINV,
     AUX_Q3SQ,
     AUX_RHO2,
-    _build,
+    build,
     description_key,
     leg_geometry,
     model_constants,
@@ -208,7 +208,7 @@ class PaperUpsCodegen:
         return parameters
 
     def build_models(self, desc: RobotDescription, pose: str, parameters: str) -> SymbolicModels:
-        return _build(desc, pose, parameters, "stewart_")
+        return build(desc, pose, parameters, "stewart_")
 
     def model_layout(self, desc: RobotDescription) -> AuxLayout:
         return UPS_AUX_LAYOUT

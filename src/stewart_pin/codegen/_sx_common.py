@@ -177,7 +177,7 @@ def pivot_order(A: np.ndarray, nonzero: np.ndarray) -> list[tuple[int, int]]:
     return pivots
 
 
-def _lu_solve(
+def lu_solve(
     A: list[list[Scalar]], b: list[Scalar], pivots: Sequence[tuple[int, int]]
 ) -> tuple[list[Scalar], list[Scalar], list[Scalar]]:
     """Solve ``A x = b`` by LU with the static ``pivots``; returns x, the multipliers and
@@ -221,7 +221,7 @@ def idm_closure(
     for wr in wrenches:
         F = [F[j] + wr[j] for j in range(6)]
     JT = [[rows[i][c] for i in range(6)] for c in range(6)]  # Jp^-T: column i = row i
-    x, mults, diag = _lu_solve(JT, F, pivots)
+    x, mults, diag = lu_solve(JT, F, pivots)
     gamma = [Hz[i] + x[i] for i in range(6)]
     growth: Scalar = 0.0
     for m in mults:
@@ -260,7 +260,7 @@ def ddm_platform(
     return [Ip[i][j] for i, j in UPPER6], [*hF, *hN]
 
 
-def _ldlt_solve(A: list[list[Scalar]], b: list[Scalar]) -> tuple[list[Scalar], list[Scalar]]:
+def ldlt_solve(A: list[list[Scalar]], b: list[Scalar]) -> tuple[list[Scalar], list[Scalar]]:
     """Solve ``A x = b`` for a symmetric positive definite A (upper triangle read) by
     ``L D L^T``; returns x and D."""
     n = len(b)
@@ -307,7 +307,7 @@ def ddm_closure(
     rhs = [-h for h in hp]
     for wr in wrenches:
         rhs = [rhs[j] + wr[j] for j in range(6)]
-    return _ldlt_solve(A, rhs)
+    return ldlt_solve(A, rhs)
 
 
 # ---------------------------------------------------------------------------- assembly

@@ -47,36 +47,36 @@ from stewart_pin.codegen._sx_common import (
     Scalar,
     SymbolicModels,
     Vec,
-    _lu_solve,
     column,
+    lu_solve,
     mat3,
     pivot_order,
     split,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
-    _add,
-    _cross,
-    _dot,
-    _joint_terms,
-    _JointConst,
-    _JointState,
-    _leg_block,
-    _limit_slacks,
-    _lin,
-    _mass_matrix,
-    _minus,
-    _mul,
-    _newton_euler,
-    _plus,
-    _prismatic,
-    _revolute,
-    _scale,
-    _snap,
-    _sub,
+    JointConst,
+    JointState,
     actuators_of,
+    add,
     assemble_models,
+    cross,
+    dot,
     joint_constants,
+    joint_terms,
+    leg_block,
+    limit_slacks,
+    lin_comb,
+    mass_matrix,
+    minus,
+    mul,
+    newton_euler,
+    plus,
+    prismatic,
+    revolute,
+    scaled,
+    snap,
+    sub,
 )
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import UnsupportedArchitectureError
@@ -104,7 +104,7 @@ class _ChainConst:
     B: tuple[float, ...]
     pL: tuple[float, ...]  # P_i in Fp
     pR: tuple[tuple[float, ...], ...]  # the platform attachment's orientation in Fp (weld)
-    joints: tuple[_JointConst, ...]
+    joints: tuple[JointConst, ...]
     tip: tuple[float, ...]
     tip_R: tuple[tuple[float, ...], ...]
     constraints: int
@@ -142,22 +142,22 @@ def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) 
     gscale = max(math.hypot(*(float(x) for x in g)), 1e-300)
     return _ChainConst(
         index=k,
-        R=tuple(tuple(_snap(x) for x in row) for row in R),
-        B=tuple(_snap(x, scale) for x in desc.base_points[k]),
-        pL=tuple(_snap(x, scale) for x in desc.platform_points[k]),
-        pR=tuple(tuple(_snap(x) for x in row) for row in leg.platform_rotation),
+        R=tuple(tuple(snap(x) for x in row) for row in R),
+        B=tuple(snap(x, scale) for x in desc.base_points[k]),
+        pL=tuple(snap(x, scale) for x in desc.platform_points[k]),
+        pR=tuple(tuple(snap(x) for x in row) for row in leg.platform_rotation),
         joints=tuple(
             joint_constants(j, leg.inertia[m], scale, leg.gravcomp[m])
             for m, j in enumerate(leg.joints)
         ),
-        tip=tuple(_snap(x, scale) for x in leg.tip),
-        tip_R=tuple(tuple(_snap(x) for x in row) for row in leg.tip_rotation),
+        tip=tuple(snap(x, scale) for x in leg.tip),
+        tip_R=tuple(tuple(snap(x) for x in row) for row in leg.tip_rotation),
         constraints=leg.constraints,
         actuated=leg.actuated - 1,
         home=tuple(float(x) for x in home),
         caps=tuple(kin.MAX_STEP if j.revolute else kin.MAX_STEP * size for j in leg.joints),
         pivots=tuple(pivot_order(J_home, nonzero)),
-        gravity=tuple(_snap(x, gscale) for x in R.T @ g),
+        gravity=tuple(snap(x, gscale) for x in R.T @ g),
         size=size,
         inline_newton=inline_newton,
     )
@@ -165,23 +165,25 @@ def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) 
 
 # ---------------------------------------------------------------------------- algebra
 def _matvec(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> list[Scalar]:
-    return [_lin(*zip(row, v, strict=True)) for row in M]
+    return [lin_comb(*zip(row, v, strict=True)) for row in M]
 
 
 def _matTvec(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> list[Scalar]:
-    return [_lin(*((M[i][j], v[i]) for i in range(len(M)))) for j in range(len(M[0]))]
+    return [lin_comb(*((M[i][j], v[i]) for i in range(len(M)))) for j in range(len(M[0]))]
 
 
 def _rot(R: Sequence[Sequence[Scalar]], u: Vec) -> Vec:
-    return [_lin((R[i][0], u[0]), (R[i][1], u[1]), (R[i][2], u[2])) for i in range(3)]
+    return [lin_comb((R[i][0], u[0]), (R[i][1], u[1]), (R[i][2], u[2])) for i in range(3)]
 
 
 def _rotT(R: Sequence[Sequence[Scalar]], u: Vec) -> Vec:
-    return [_lin((R[0][i], u[0]), (R[1][i], u[1]), (R[2][i], u[2])) for i in range(3)]
+    return [lin_comb((R[0][i], u[0]), (R[1][i], u[1]), (R[2][i], u[2])) for i in range(3)]
 
 
 def _matmul3(A: Sequence[Sequence[Scalar]], B: Sequence[Sequence[Scalar]]) -> Mat:
-    return [[_lin(*((A[i][m], B[m][j]) for m in range(3))) for j in range(3)] for i in range(3)]
+    return [
+        [lin_comb(*((A[i][m], B[m][j]) for m in range(3))) for j in range(3)] for i in range(3)
+    ]
 
 
 def _to_frame(lc: _ChainConst, u: Vec) -> Vec:
@@ -203,7 +205,7 @@ def _lu_inverse(
     cols = []
     growth: Scalar = 0.0
     for m in range(n):
-        x, mults, _ = _lu_solve(J, [1.0 if i == m else 0.0 for i in range(n)], pivots)
+        x, mults, _ = lu_solve(J, [1.0 if i == m else 0.0 for i in range(n)], pivots)
         cols.append(x)
         if m == 0:
             for mult in mults:
@@ -220,61 +222,62 @@ class _Frames:
     R_tip: Mat | None  # weld: the attachment frame's orientation in frame 0i
 
 
-def _frames(lc: _ChainConst, joints: Sequence[_JointState]) -> _Frames:
+def _frames(lc: _ChainConst, joints: Sequence[JointState]) -> _Frames:
     """Axes and origins of the joint frames in frame 0i, forward from the base."""
     R: Mat = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     origin: Vec = [0.0, 0.0, 0.0]
     z, O = [], []
     unit = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0])
     for J in joints:
-        origin = _add(origin, _rot(R, J.origin()))
+        origin = add(origin, _rot(R, J.origin()))
         cols = [_rot(R, J.to_parent(list(e))) for e in unit]
         R = [[cols[c][r] for c in range(3)] for r in range(3)]
         z.append([R[0][2], R[1][2], R[2][2]])
         O.append(origin)
-    P = _add(origin, _rot(R, list(lc.tip)))
+    P = add(origin, _rot(R, list(lc.tip)))
     R_tip = _matmul3(R, lc.tip_R) if lc.constraints == 6 else None
     return _Frames(z, O, P, R_tip)
 
 
-def _jacobian(lc: _ChainConst, joints: Sequence[_JointState], f: _Frames) -> list[list[Scalar]]:
+def _jacobian(lc: _ChainConst, joints: Sequence[JointState], f: _Frames) -> list[list[Scalar]]:
     """``J_i`` (c x n) in frame 0i, by rows."""
     cols = []
     for j, J in enumerate(joints):
         if J.k.revolute:
-            cols.append([*_cross(f.z[j], _sub(f.P, f.O[j])), *f.z[j]])
+            cols.append([*cross(f.z[j], sub(f.P, f.O[j])), *f.z[j]])
         else:
             cols.append([*f.z[j], 0.0, 0.0, 0.0])
     return [[cols[j][i] for j in range(len(joints))] for i in range(lc.constraints)]
 
 
 def _residual(lc: _ChainConst, f: _Frames, P0: Vec, Rt0: Mat | None) -> list[Scalar]:
-    e = _sub(P0, f.P)
+    e = sub(P0, f.P)
     if lc.constraints == 3:
         return e
     assert Rt0 is not None and f.R_tip is not None
     # M = R_target R_tip^T; vex((M - M^T) / 2)
     M = [
-        [_lin(*((Rt0[i][m], f.R_tip[j][m]) for m in range(3))) for j in range(3)] for i in range(3)
+        [lin_comb(*((Rt0[i][m], f.R_tip[j][m]) for m in range(3))) for j in range(3)]
+        for i in range(3)
     ]
     r = [
-        _mul(0.5, _minus(M[2][1], M[1][2])),
-        _mul(0.5, _minus(M[0][2], M[2][0])),
-        _mul(0.5, _minus(M[1][0], M[0][1])),
+        mul(0.5, minus(M[2][1], M[1][2])),
+        mul(0.5, minus(M[0][2], M[2][0])),
+        mul(0.5, minus(M[1][0], M[0][1])),
     ]
     return [*e, *r]
 
 
-def _joints_from(lc: _ChainConst, state: Sequence[Scalar]) -> list[_JointState]:
+def _joints_from(lc: _ChainConst, state: Sequence[Scalar]) -> list[JointState]:
     """Joint states from Newton's state: ``(cos, sin)`` of ``theta + q`` per revolute
     joint, ``q`` per prismatic one."""
     out, i = [], 0
     for k in lc.joints:
         if k.revolute:
-            out.append(_revolute(k, state[i], state[i + 1]))
+            out.append(revolute(k, state[i], state[i + 1]))
             i += 2
         else:
-            out.append(_prismatic(k, state[i]))
+            out.append(prismatic(k, state[i]))
             i += 1
     return out
 
@@ -294,7 +297,7 @@ def _newton_step(
     joints = _joints_from(lc, state)
     f = _frames(lc, joints)
     e = _residual(lc, f, P0, Rt0)
-    dq, _, _ = _lu_solve(_jacobian(lc, joints, f), e, lc.pivots)
+    dq, _, _ = lu_solve(_jacobian(lc, joints, f), e, lc.pivots)
     scale: Scalar = 1.0
     for d, cap in zip(dq, lc.caps, strict=True):
         scale = cs.fmax(scale, cs.fabs(d) * (1.0 / cap))
@@ -335,7 +338,7 @@ def _newton_step_function(lc: _ChainConst) -> cs.Function:
 
 @dataclass
 class _ChainKinematics:
-    joints: list[_JointState]
+    joints: list[JointState]
     frames: _Frames
     L: Vec  # O_p -> P_i in F0
     inv: list[list[Scalar]]  # J_i^-1 (n x c) in frame 0i
@@ -347,7 +350,7 @@ class _ChainKinematics:
 def chain_kinematics(lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _ChainKinematics:
     """Inverse geometry (Newton), ``J_i^-1``, the slacks, ``qdot`` and the ``Jp^-1`` row."""
     L = _rot(R, list(lc.pL))
-    P0 = _to_frame(lc, [_plus(_minus(p[i], lc.B[i]), L[i]) for i in range(3)])
+    P0 = _to_frame(lc, [plus(minus(p[i], lc.B[i]), L[i]) for i in range(3)])
     Rt0 = None
     if lc.constraints == 6:  # R_i^T R R_p
         Rt0 = _matmul3([list(r) for r in zip(*lc.R, strict=True)], _matmul3(R, lc.pR))
@@ -367,26 +370,26 @@ def chain_kinematics(lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _ChainK
     e = _residual(lc, f, P0, Rt0)
     tol = RESIDUAL_TOLERANCE
     slacks: list[Scalar] = [
-        (tol * lc.size) ** 2 - _dot(e[:3], e[:3]),
+        (tol * lc.size) ** 2 - dot(e[:3], e[:3]),
     ]
     if lc.constraints == 6:
-        slacks.append(tol * tol - _dot(e[3:], e[3:]))
+        slacks.append(tol * tol - dot(e[3:], e[3:]))
     inv, growth = _lu_inverse(_jacobian(lc, joints, f), lc.pivots)
     slacks.append(LEG_GROWTH_LIMIT - growth)
-    slacks += _limit_slacks(lc.size, joints)
+    slacks += limit_slacks(lc.size, joints)
     tw = _platform_twist(lc, L, v, w)
     qd = _matvec(inv, tw)
     a = inv[lc.actuated]
     m = _from_frame(lc, a[:3])
-    row = [*m, *_cross(L, m)]
+    row = [*m, *cross(L, m)]
     if lc.constraints == 6:
-        row = [*m, *_add(row[3:], _from_frame(lc, a[3:]))]
+        row = [*m, *add(row[3:], _from_frame(lc, a[3:]))]
     return _ChainKinematics(joints, f, L, inv, qd, row, slacks)
 
 
 def _platform_twist(lc: _ChainConst, L: Vec, v: Vec, w: Vec) -> list[Scalar]:
     """``G_i V`` in frame 0i (c,)."""
-    vP = _to_frame(lc, _add(v, _cross(w, L)))
+    vP = _to_frame(lc, add(v, cross(w, L)))
     return vP if lc.constraints == 3 else [*vP, *_to_frame(lc, w)]
 
 
@@ -396,27 +399,27 @@ def _drift(lc: _ChainConst, kin_: _ChainKinematics) -> list[Scalar]:
     z, o, P = f.z, f.O, f.P
 
     def lin_col(k: int, point: Vec) -> Vec:
-        return _cross(z[k], _sub(point, o[k])) if joints[k].k.revolute else z[k]
+        return cross(z[k], sub(point, o[k])) if joints[k].k.revolute else z[k]
 
     n = len(joints)
     v_P: Vec = [0.0, 0.0, 0.0]
     for k in range(n):
-        v_P = _add(v_P, _scale(lin_col(k, P), qd[k]))
+        v_P = add(v_P, scaled(lin_col(k, P), qd[k]))
     lin: Vec = [0.0, 0.0, 0.0]
     ang: Vec = [0.0, 0.0, 0.0]
     w: Vec = [0.0, 0.0, 0.0]
     for j in range(n):
-        wz = _cross(w, z[j])
+        wz = cross(w, z[j])
         if joints[j].k.revolute:
             v_o: Vec = [0.0, 0.0, 0.0]
             for k in range(j):
-                v_o = _add(v_o, _scale(lin_col(k, o[j]), qd[k]))
-            term = _add(_cross(wz, _sub(P, o[j])), _cross(z[j], _sub(v_P, v_o)))
-            lin = _add(lin, _scale(term, qd[j]))
-            ang = _add(ang, _scale(wz, qd[j]))
-            w = _add(w, _scale(z[j], qd[j]))
+                v_o = add(v_o, scaled(lin_col(k, o[j]), qd[k]))
+            term = add(cross(wz, sub(P, o[j])), cross(z[j], sub(v_P, v_o)))
+            lin = add(lin, scaled(term, qd[j]))
+            ang = add(ang, scaled(wz, qd[j]))
+            w = add(w, scaled(z[j], qd[j]))
         else:
-            lin = _add(lin, _scale(wz, qd[j]))
+            lin = add(lin, scaled(wz, qd[j]))
     return lin if lc.constraints == 3 else [*lin, *ang]
 
 
@@ -424,9 +427,9 @@ def _drift(lc: _ChainConst, kin_: _ChainKinematics) -> list[Scalar]:
 def _wrench(lc: _ChainConst, L: Vec, fc: Sequence[Scalar]) -> list[Scalar]:
     """``G_i^T`` of a frame-0i (c,) force (and moment) at P_i: the wrench about O_p in F0."""
     f = _from_frame(lc, list(fc[:3]))
-    moment = _cross(L, f)
+    moment = cross(L, f)
     if lc.constraints == 6:
-        moment = _add(moment, _from_frame(lc, list(fc[3:])))
+        moment = add(moment, _from_frame(lc, list(fc[3:])))
     return [*f, *moment]
 
 
@@ -434,16 +437,16 @@ def _idm_leg(
     lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, wd: Vec, K: Mat
 ) -> dict[str, list[Scalar]]:
     ck = chain_kinematics(lc, p, R, v, w)
-    A_P = _add(vd, [_dot(K[i], ck.L) for i in range(3)])
+    A_P = add(vd, [dot(K[i], ck.L) for i in range(3)])
     acc = _to_frame(lc, A_P)
     if lc.constraints == 6:
         acc = [*acc, *_to_frame(lc, wd)]
     drift = _drift(lc, ck)
-    qdd = _matvec(ck.inv, [_minus(a, d) for a, d in zip(acc, drift, strict=True)])
+    qdd = _matvec(ck.inv, [minus(a, d) for a, d in zip(acc, drift, strict=True)])
     g = lc.gravity
-    tau = _newton_euler(ck.joints, ck.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
-    terms = _joint_terms(ck.joints, ck.qd, qdd)
-    H = [_plus(t, u) for t, u in zip(tau, terms, strict=True)]
+    tau = newton_euler(ck.joints, ck.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
+    terms = joint_terms(ck.joints, ck.qd, qdd)
+    H = [plus(t, u) for t, u in zip(tau, terms, strict=True)]
     a = lc.actuated
     Hp = [0.0 if j == a else H[j] for j in range(len(H))]
     return {
@@ -459,15 +462,15 @@ _UPPER6 = [(i, j) for i in range(6) for j in range(i, 6)]
 
 def _weld_block(A: list[list[Scalar]], L: Vec) -> list[Scalar]:
     """The upper triangle (21) of ``G^T A G``, ``G = [[I3, -L^], [0, I3]]`` (A 6x6, F0)."""
-    nL = [_mul(-1.0, x) for x in L]
+    nL = [mul(-1.0, x) for x in L]
     G: list[list[Scalar]] = [[0.0] * 6 for _ in range(6)]
     Lh = [[0.0, nL[2], L[1]], [L[2], 0.0, nL[0]], [nL[1], L[0], 0.0]]
     for i in range(3):
         G[i][i] = G[3 + i][3 + i] = 1.0
         for j in range(3):
-            G[i][3 + j] = _mul(-1.0, Lh[i][j])
-    AG = [[_lin(*((A[i][m], G[m][j]) for m in range(6))) for j in range(6)] for i in range(6)]
-    return [_lin(*((G[m][i], AG[m][j]) for m in range(6))) for i, j in _UPPER6]
+            G[i][3 + j] = mul(-1.0, Lh[i][j])
+    AG = [[lin_comb(*((A[i][m], G[m][j]) for m in range(6))) for j in range(6)] for i in range(6)]
+    return [lin_comb(*((G[m][i], AG[m][j]) for m in range(6))) for i, j in _UPPER6]
 
 
 def _ddm_leg(
@@ -478,42 +481,44 @@ def _ddm_leg(
     n = len(joints)
     g = lc.gravity
     zero = [0.0] * n
-    h = _newton_euler(joints, ck.qd, zero, [-g[0], -g[1], -g[2]], list(g))
-    terms = _joint_terms(joints, ck.qd, zero)
-    h = [_plus(a, b) for a, b in zip(h, terms, strict=True)]
+    h = newton_euler(joints, ck.qd, zero, [-g[0], -g[1], -g[2]], list(g))
+    terms = joint_terms(joints, ck.qd, zero)
+    h = [plus(a, b) for a, b in zip(h, terms, strict=True)]
     c = lc.constraints
     # B = J_i^-1 blockdiag(R_i^T) (n x c, F0): column i of B^T...; d_i - drift in F0
     drift0 = _drift(lc, ck)
     dr = _from_frame(lc, drift0[:3])
     if c == 6:
         dr = [*dr, *_from_frame(lc, drift0[3:])]
-    cw = _cross(w, _cross(w, ck.L))
-    cvec = [_minus(cw[i], dr[i]) for i in range(3)]
+    cw = cross(w, cross(w, ck.L))
+    cvec = [minus(cw[i], dr[i]) for i in range(3)]
     if c == 6:
-        cvec += [_mul(-1.0, x) for x in dr[3:]]
+        cvec += [mul(-1.0, x) for x in dr[3:]]
     Bm = []
     for row in ck.inv:
         b = _from_frame(lc, row[:3])
         Bm.append(b if c == 3 else [*b, *_from_frame(lc, row[3:])])
-    Mq = _mass_matrix(joints)
-    MB = [[_lin(*((Mq[i][m], Bm[m][j]) for m in range(n))) for j in range(c)] for i in range(n)]
+    Mq = mass_matrix(joints)
+    MB = [
+        [lin_comb(*((Mq[i][m], Bm[m][j]) for m in range(n))) for j in range(c)] for i in range(n)
+    ]
     A0: list[list[Scalar]] = [[0.0] * c for _ in range(c)]
     for i in range(c):
         for j in range(i, c):
-            A0[i][j] = A0[j][i] = _lin(*((Bm[m][i], MB[m][j]) for m in range(n)))
+            A0[i][j] = A0[j][i] = lin_comb(*((Bm[m][i], MB[m][j]) for m in range(n)))
     a = lc.actuated
     rhs = [(gamma_k if j == a else 0.0) - h[j] for j in range(n)]
     Btr = _matTvec(Bm, rhs)
-    f = [_minus(Btr[i], _dot_n(A0[i], cvec)) for i in range(c)]
-    moment = _cross(ck.L, f[:3])
+    f = [minus(Btr[i], _dot_n(A0[i], cvec)) for i in range(c)]
+    moment = cross(ck.L, f[:3])
     if c == 6:
-        moment = _add(moment, f[3:])
-    block = _leg_block(A0, ck.L) if c == 3 else _weld_block(A0, ck.L)
+        moment = add(moment, f[3:])
+    block = leg_block(A0, ck.L) if c == 3 else _weld_block(A0, ck.L)
     return {"row": ck.row, "block": block, "wrench": [*f[:3], *moment], "slack": ck.slacks}
 
 
 def _dot_n(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
-    return _lin(*zip(a, b, strict=True))
+    return lin_comb(*zip(a, b, strict=True))
 
 
 # ---------------------------------------------------------------------------- assembly

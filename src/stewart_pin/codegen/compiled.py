@@ -673,7 +673,7 @@ def printable_name(desc: Any) -> str:
     return name[:57] + "..." if len(name) > 60 else name
 
 
-def _positive_threads(value: Any) -> int:
+def positive_threads(value: Any) -> int:
     try:
         n = int(value)
     except (TypeError, ValueError):
@@ -689,7 +689,7 @@ def default_threads() -> int:
     ``os.cpu_count()`` (1 when unknown)."""
     env = os.environ.get(THREADS_ENV)
     if env is not None and env.strip():
-        return _positive_threads(env.strip())
+        return positive_threads(env.strip())
     return os.cpu_count() or 1
 
 
@@ -798,7 +798,7 @@ class CompiledDynamics:
     ) -> None:
         _check_compilable(robot.description)
         self.robot = robot
-        self.threads = default_threads() if threads is None else _positive_threads(threads)
+        self.threads = default_threads() if threads is None else positive_threads(threads)
         desc = robot.description
         self._desc = desc
         kind = codegen_kind(desc)
@@ -1179,12 +1179,12 @@ def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
             return existing
     compiler = find_compiler()
     if compiler is None:
-        _warn_reference("no C compiler found (cc, gcc, clang or $CC)")
+        warn_reference("no C compiler found (cc, gcc, clang or $CC)")
         return None
     try:
         backend = CompiledDynamics(robot, compiler=compiler, vm_fallback=False, announce=True)
     except (CompilationError, UnsafeCacheError) as e:
-        _warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
+        warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
         return None
     _remember(robot, COMPILED_ATTR, backend)
     return backend
@@ -1206,7 +1206,7 @@ def _check_compilable(desc: Any) -> None:
         )
 
 
-def _warn_reference(reason: str) -> None:
+def warn_reference(reason: str) -> None:
     if reason not in _WARNED_AUTO:
         _WARNED_AUTO.add(reason)
         warnings.warn(

@@ -145,7 +145,7 @@ class AuxLayout:
 # what they can in Python before building an SX node (CasADi would fold 0 * x, 1 * x, x + 0
 # too, but building the node first costs tens of microseconds each: a robot's models
 # generate several times faster this way; the expressions are the same).
-def _mul(a: Scalar, b: Scalar) -> Scalar:
+def mul(a: Scalar, b: Scalar) -> Scalar:
     if isinstance(a, (int, float)):
         if a == 0.0:
             return 0.0
@@ -165,7 +165,7 @@ def _mul(a: Scalar, b: Scalar) -> Scalar:
     return a * b
 
 
-def _plus(a: Scalar, b: Scalar) -> Scalar:
+def plus(a: Scalar, b: Scalar) -> Scalar:
     if isinstance(a, (int, float)):
         if a == 0.0:
             return b
@@ -176,7 +176,7 @@ def _plus(a: Scalar, b: Scalar) -> Scalar:
     return a + b
 
 
-def _minus(a: Scalar, b: Scalar) -> Scalar:
+def minus(a: Scalar, b: Scalar) -> Scalar:
     if isinstance(b, (int, float)):
         if b == 0.0:
             return a
@@ -187,40 +187,40 @@ def _minus(a: Scalar, b: Scalar) -> Scalar:
     return a - b
 
 
-def _dot(a: Vec, b: Vec) -> Scalar:
-    return _plus(_plus(_mul(a[0], b[0]), _mul(a[1], b[1])), _mul(a[2], b[2]))
+def dot(a: Vec, b: Vec) -> Scalar:
+    return plus(plus(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
 
 
-def _cross(a: Vec, b: Vec) -> Vec:
+def cross(a: Vec, b: Vec) -> Vec:
     return [
-        _minus(_mul(a[1], b[2]), _mul(a[2], b[1])),
-        _minus(_mul(a[2], b[0]), _mul(a[0], b[2])),
-        _minus(_mul(a[0], b[1]), _mul(a[1], b[0])),
+        minus(mul(a[1], b[2]), mul(a[2], b[1])),
+        minus(mul(a[2], b[0]), mul(a[0], b[2])),
+        minus(mul(a[0], b[1]), mul(a[1], b[0])),
     ]
 
 
-def _add(a: Vec, b: Vec) -> Vec:
-    return [_plus(a[0], b[0]), _plus(a[1], b[1]), _plus(a[2], b[2])]
+def add(a: Vec, b: Vec) -> Vec:
+    return [plus(a[0], b[0]), plus(a[1], b[1]), plus(a[2], b[2])]
 
 
-def _sub(a: Vec, b: Vec) -> Vec:
-    return [_minus(a[0], b[0]), _minus(a[1], b[1]), _minus(a[2], b[2])]
+def sub(a: Vec, b: Vec) -> Vec:
+    return [minus(a[0], b[0]), minus(a[1], b[1]), minus(a[2], b[2])]
 
 
-def _scale(a: Vec, s: Scalar) -> Vec:
-    return [_mul(a[0], s), _mul(a[1], s), _mul(a[2], s)]
+def scaled(a: Vec, s: Scalar) -> Vec:
+    return [mul(a[0], s), mul(a[1], s), mul(a[2], s)]
 
 
-def _lin(*terms: tuple[Scalar, Scalar]) -> Scalar:
+def lin_comb(*terms: tuple[Scalar, Scalar]) -> Scalar:
     """``sum a * b`` over the pairs, folding constants."""
     out: Scalar = 0.0
     for a, b in terms:
-        out = _plus(out, _mul(a, b))
+        out = plus(out, mul(a, b))
     return out
 
 
 # ---------------------------------------------------------------------------- constants
-def _snap(x: float, scale: float = 1.0) -> float:
+def snap(x: float, scale: float = 1.0) -> float:
     x = float(x)
     if abs(x) <= SNAP * scale:
         return 0.0
@@ -230,7 +230,7 @@ def _snap(x: float, scale: float = 1.0) -> float:
 
 
 @dataclass(frozen=True)
-class _JointConst:
+class JointConst:
     """One joint's numbers: placement, limits, joint terms, its link's inertia."""
 
     revolute: bool
@@ -263,7 +263,7 @@ class _LegConst:
     R: tuple[tuple[float, ...], ...]  # R_i, frame 0i in F0
     B: tuple[float, ...]
     pL: tuple[float, ...]  # P_i in Fp
-    joints: tuple[_JointConst, ...]
+    joints: tuple[JointConst, ...]
     tip: tuple[float, ...]
     branch: int
     guess: tuple[float, ...]
@@ -279,20 +279,20 @@ def joint_constants(
     size: float,
     gravcomp: float = 0.0,
     coulomb_smoothing: float = 0.0,
-) -> _JointConst:
+) -> JointConst:
     """A joint's numbers (snapped; ``size`` [m] the lengths' scale), ``inertia`` (10,) its
     link's Khalil parameters, ``gravcomp`` the fraction of its link's weight removed,
     ``coulomb_smoothing`` > 0 [m/s or rad/s]: its Coulomb sign smoothed."""
     dyn = jt.dynamics
-    return _JointConst(
+    return JointConst(
         revolute=jt.revolute,
-        ca=_snap(math.cos(jt.alpha)),
-        sa=_snap(math.sin(jt.alpha)),
-        d=_snap(jt.d, size),
+        ca=snap(math.cos(jt.alpha)),
+        sa=snap(math.sin(jt.alpha)),
+        d=snap(jt.d, size),
         theta=jt.theta,
-        ct=_snap(math.cos(jt.theta)),
-        st=_snap(math.sin(jt.theta)),
-        r=_snap(jt.r, size),
+        ct=snap(math.cos(jt.theta)),
+        st=snap(math.sin(jt.theta)),
+        r=snap(jt.r, size),
         lower=jt.lower,
         upper=jt.upper,
         armature=dyn.total_armature,
@@ -328,15 +328,15 @@ def leg_constants(
     return _LegConst(
         index=k,
         name=leg.name,
-        R=tuple(tuple(_snap(x) for x in row) for row in R),
-        B=tuple(_snap(x, size) for x in robot.base_points[k]),
-        pL=tuple(_snap(x, size) for x in robot.platform_points[k]),
+        R=tuple(tuple(snap(x) for x in row) for row in R),
+        B=tuple(snap(x, size) for x in robot.base_points[k]),
+        pL=tuple(snap(x, size) for x in robot.platform_points[k]),
         joints=tuple(joints),
-        tip=tuple(_snap(x, size) for x in leg.tip),
+        tip=tuple(snap(x, size) for x in leg.tip),
         branch=leg.branch,
         guess=tuple(float(x) for x in leg.guess),
         actuated=leg.actuated - 1,
-        gravity=tuple(_snap(x, gscale) for x in g0),
+        gravity=tuple(snap(x, gscale) for x in g0),
         radius=robot.size,
         inline_newton=inline_newton,
     )
@@ -344,12 +344,12 @@ def leg_constants(
 
 # ---------------------------------------------------------------------------- joints
 @dataclass
-class _JointState:
+class JointState:
     """A joint at a state: ``c``, ``s`` = cos, sin of ``theta + q`` (constants for a
     prismatic joint), ``rr`` = ``r + q`` (prismatic) or ``r``, and ``q`` when known
     directly (prismatic joints, Newton's iterate), else computed on demand."""
 
-    k: _JointConst
+    k: JointConst
     c: Scalar
     s: Scalar
     rr: Scalar
@@ -358,7 +358,7 @@ class _JointState:
     def origin(self) -> Vec:
         """The origin of this joint's frame in the previous frame."""
         k = self.k
-        return [k.d, _mul(-k.sa, self.rr), _mul(k.ca, self.rr)]
+        return [k.d, mul(-k.sa, self.rr), mul(k.ca, self.rr)]
 
     def axis(self) -> Vec:
         """This joint's axis z_j in the previous frame."""
@@ -367,16 +367,16 @@ class _JointState:
     def to_parent(self, u: Vec) -> Vec:
         """``Rx(alpha) Rz(phi) u``: a vector of this joint's frame in the previous one."""
         c, s, ca, sa = self.c, self.s, self.k.ca, self.k.sa
-        t0 = _minus(_mul(c, u[0]), _mul(s, u[1]))
-        t1 = _plus(_mul(s, u[0]), _mul(c, u[1]))
-        return [t0, _minus(_mul(ca, t1), _mul(sa, u[2])), _plus(_mul(sa, t1), _mul(ca, u[2]))]
+        t0 = minus(mul(c, u[0]), mul(s, u[1]))
+        t1 = plus(mul(s, u[0]), mul(c, u[1]))
+        return [t0, minus(mul(ca, t1), mul(sa, u[2])), plus(mul(sa, t1), mul(ca, u[2]))]
 
     def to_child(self, u: Vec) -> Vec:
         """``Rz(phi)^T Rx(alpha)^T u``: a vector of the previous frame in this joint's."""
         c, s, ca, sa = self.c, self.s, self.k.ca, self.k.sa
-        t1 = _plus(_mul(ca, u[1]), _mul(sa, u[2]))
-        t2 = _minus(_mul(ca, u[2]), _mul(sa, u[1]))
-        return [_plus(_mul(c, u[0]), _mul(s, t1)), _minus(_mul(c, t1), _mul(s, u[0])), t2]
+        t1 = plus(mul(ca, u[1]), mul(sa, u[2]))
+        t2 = minus(mul(ca, u[2]), mul(sa, u[1]))
+        return [plus(mul(c, u[0]), mul(s, t1)), minus(mul(c, t1), mul(s, u[0])), t2]
 
     def value(self) -> Scalar:
         """The joint value the reference reports: for a revolute joint the closed form's
@@ -412,23 +412,23 @@ def _wrap_into_limits(q: Scalar, lower: float, upper: float) -> Scalar:
     return cs.if_else(outside, rep, q)
 
 
-def _revolute(k: _JointConst, c: Scalar, s: Scalar, q: Scalar | None = None) -> _JointState:
-    return _JointState(k, c, s, k.r, q)
+def revolute(k: JointConst, c: Scalar, s: Scalar, q: Scalar | None = None) -> JointState:
+    return JointState(k, c, s, k.r, q)
 
 
-def _prismatic(k: _JointConst, q: Scalar) -> _JointState:
-    return _JointState(k, k.ct, k.st, _plus(k.r, q), q)
+def prismatic(k: JointConst, q: Scalar) -> JointState:
+    return JointState(k, k.ct, k.st, plus(k.r, q), q)
 
 
 def _shift(c: Scalar, s: Scalar, ct: float, st: float) -> tuple[Scalar, Scalar]:
     """cos, sin of ``a - t`` from those of ``a`` and ``t``."""
-    return _plus(_mul(c, ct), _mul(s, st)), _minus(_mul(s, ct), _mul(c, st))
+    return plus(mul(c, ct), mul(s, st)), minus(mul(s, ct), mul(c, st))
 
 
 # ---------------------------------------------------------------------------- geometry
 @dataclass
 class _LegGeometry:
-    joints: list[_JointState]
+    joints: list[JointState]
     P: Vec  # P_i in frame 0i
     slacks: list[Scalar]
 
@@ -440,7 +440,7 @@ def _pre_joint1(lc: _LegConst, P0: Vec) -> Vec:
     return [x, j1.ca * y + j1.sa * z, j1.ca * z - j1.sa * y]
 
 
-def _solve_u(lc: _LegConst, w: Vec, slacks: list[Scalar]) -> tuple[_JointState, _JointState]:
+def _solve_u(lc: _LegConst, w: Vec, slacks: list[Scalar]) -> tuple[JointState, JointState]:
     """The universal joint (joints 2, 3, intersecting axes) pointing ``tip`` at ``w``
     (frame 1 rotated by ``Rx(alpha2)``; the reference's ``_solve_u``):
     ``psi3 = atan2(b, a) - acos(k / hypot(a, b))``, ``psi2 = atan2(w_y, w_x) - atan2(v_y, v_x)``,
@@ -461,7 +461,7 @@ def _solve_u(lc: _LegConst, w: Vec, slacks: list[Scalar]) -> tuple[_JointState, 
     inv = 1.0 / cs.sqrt((w[0] * w[0] + w[1] * w[1]) * (vx * vx + vy * vy))
     c2 = (w[0] * vx + w[1] * vy) * inv
     s2 = (w[1] * vx - w[0] * vy) * inv
-    return _revolute(j2, c2, s2), _revolute(j3, c3, s3)
+    return revolute(j2, c2, s2), revolute(j3, c3, s3)
 
 
 def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
@@ -481,9 +481,9 @@ def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
         rho = b * h2 * ih - j2.d
         q3 = cs.sqrt(rho * rho + pz * pz)
         c2, s2 = -pz / q3, rho / q3
-        J1 = _revolute(j1, c1, s1)
-        J2 = _revolute(j2, c2, s2)  # theta2 = 0: the angle is q2 = atan2(rho, -p_z)
-        J3 = _prismatic(lc.joints[2], q3)
+        J1 = revolute(j1, c1, s1)
+        J2 = revolute(j2, c2, s2)  # theta2 = 0: the angle is q2 = atan2(rho, -p_z)
+        J3 = prismatic(lc.joints[2], q3)
         return _LegGeometry([J1, J2, J3], P0, slacks)
     j2 = lc.joints[1]
     cvec = [j2.d, -(j2.sa * j2.r), j2.ca * j2.r]  # the U-joint centre in frame 1
@@ -493,24 +493,24 @@ def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
         px, py, pz = p[0], p[1], p[2] - j1.r
         A = px * cvec[0] + py * cvec[1]
         Bq = py * cvec[0] - px * cvec[1]
-        K = 0.5 * (px * px + py * py + pz * pz + _dot(cvec, cvec) - ell2) - pz * cvec[2]
+        K = 0.5 * (px * px + py * py + pz * pz + dot(cvec, cvec) - ell2) - pz * cvec[2]
         R2 = A * A + Bq * Bq
         disc = R2 - K * K
         slacks.append(disc)  # |K| < R: the crank equation has a solution
         S = cs.sqrt(cs.fmax(disc, 0.0))
         c1 = (A * K + b * Bq * S) / R2
         s1 = (Bq * K - b * A * S) / R2
-        J1 = _revolute(j1, c1, s1)
+        J1 = revolute(j1, c1, s1)
         local = [c1 * px + s1 * py, c1 * py - s1 * px, pz]
-        e = _sub(local, cvec)
+        e = sub(local, cvec)
     elif lc.name == "pus":
         ct, st = j1.ct, j1.st
         Rc = [ct * cvec[0] - st * cvec[1], st * cvec[0] + ct * cvec[1], cvec[2] + j1.r]
-        ev = _sub(p, Rc)
+        ev = sub(p, Rc)
         disc = ell2 - ev[0] * ev[0] - ev[1] * ev[1]
         slacks.append(disc)  # the rod reaches from the rail
         q1 = ev[2] - b * cs.sqrt(cs.fmax(disc, 0.0))
-        J1 = _prismatic(j1, q1)
+        J1 = prismatic(j1, q1)
         rel = [ev[0], ev[1], ev[2] - q1]
         e = [ct * rel[0] + st * rel[1], ct * rel[1] - st * rel[0], rel[2]]
     else:  # pragma: no cover - the architecture names are checked by LegArchitecture
@@ -521,13 +521,13 @@ def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
     return _LegGeometry([J1, J2, J3], P0, slacks)
 
 
-def _joints_at(lc: _LegConst, q: Sequence[Scalar]) -> list[_JointState]:
+def _joints_at(lc: _LegConst, q: Sequence[Scalar]) -> list[JointState]:
     out = []
     for k, qj in zip(lc.joints, q, strict=True):
         if k.revolute:
-            out.append(_revolute(k, cs.cos(k.theta + qj), cs.sin(k.theta + qj), qj))
+            out.append(revolute(k, cs.cos(k.theta + qj), cs.sin(k.theta + qj), qj))
         else:
-            out.append(_prismatic(k, qj))
+            out.append(prismatic(k, qj))
     return out
 
 
@@ -546,19 +546,19 @@ def _newton(lc: _LegConst, P0: Vec) -> _LegGeometry:
             q = split(step(column(q), P))
     joints = _joints_at(lc, q)
     _, _, tip = _chain(joints, lc.tip)
-    err = _sub(P0, tip)
+    err = sub(P0, tip)
     tol = LEG_TOLERANCE * (1.0 - 1e-6)
-    return _LegGeometry(joints, tip, [tol * tol - _dot(err, err)])
+    return _LegGeometry(joints, tip, [tol * tol - dot(err, err)])
 
 
 def _newton_step(lc: _LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
     """``q + J(q)^-1 (P - P(q))``."""
     joints = _joints_at(lc, q)
     z, O, tip = _chain(joints, lc.tip)
-    err = _sub(P0, tip)
+    err = sub(P0, tip)
     cols = [_column_of(J, z[j], O[j], tip) for j, J in enumerate(joints)]
     inv_rows, _ = _inverse3(cols)
-    return [_plus(q[j], _dot(inv_rows[j], err)) for j in range(3)]
+    return [plus(q[j], dot(inv_rows[j], err)) for j in range(3)]
 
 
 @functools.lru_cache(maxsize=64)
@@ -577,7 +577,7 @@ def _newton_step_function(lc: _LegConst) -> cs.Function:
 
 
 # ---------------------------------------------------------------------------- kinematics
-def _chain(joints: Sequence[_JointState], tip: Sequence[float]) -> tuple[list, list, Vec]:
+def _chain(joints: Sequence[JointState], tip: Sequence[float]) -> tuple[list, list, Vec]:
     """Axes ``z_j`` and origins ``O_j`` of the three joint frames in frame 0i, and the tip
     position by forward kinematics."""
     z, O = [], []
@@ -586,56 +586,56 @@ def _chain(joints: Sequence[_JointState], tip: Sequence[float]) -> tuple[list, l
         zj, pj = J.axis(), J.origin()
         for m in reversed(range(j)):
             zj, pj = joints[m].to_parent(zj), joints[m].to_parent(pj)
-        origin = _add(origin, pj)
+        origin = add(origin, pj)
         z.append(zj)
         O.append(origin)
     t = list(tip)
     for m in reversed(range(3)):
         t = joints[m].to_parent(t)
-    return z, O, _add(O[2], t)
+    return z, O, add(O[2], t)
 
 
-def _column_of(J: _JointState, z: Vec, O: Vec, P: Vec) -> Vec:
-    return _cross(z, _sub(P, O)) if J.k.revolute else z
+def _column_of(J: JointState, z: Vec, O: Vec, P: Vec) -> Vec:
+    return cross(z, sub(P, O)) if J.k.revolute else z
 
 
 def _inverse3(cols: Sequence[Vec]) -> tuple[list[Vec], Scalar]:
     """Rows of the inverse of the matrix with columns ``cols`` (adjugate / det), and det."""
-    r0, r1, r2 = _cross(cols[1], cols[2]), _cross(cols[2], cols[0]), _cross(cols[0], cols[1])
-    det = _dot(cols[0], r0)
+    r0, r1, r2 = cross(cols[1], cols[2]), cross(cols[2], cols[0]), cross(cols[0], cols[1])
+    det = dot(cols[0], r0)
     inv = 1.0 / det
-    return [_scale(r0, inv), _scale(r1, inv), _scale(r2, inv)], det
+    return [scaled(r0, inv), scaled(r1, inv), scaled(r2, inv)], det
 
 
 def _matvec_rows(rows: Sequence[Vec], v: Vec) -> Vec:
-    return [_dot(r, v) for r in rows]
+    return [dot(r, v) for r in rows]
 
 
 def _rows_T_vec(rows: Sequence[Vec], v: Vec) -> Vec:
     """``M^T v`` for M given by its rows."""
-    return [_lin((rows[0][i], v[0]), (rows[1][i], v[1]), (rows[2][i], v[2])) for i in range(3)]
+    return [lin_comb((rows[0][i], v[0]), (rows[1][i], v[1]), (rows[2][i], v[2])) for i in range(3)]
 
 
-def _drift(joints: Sequence[_JointState], z: list, O: list, P: Vec, qd: Vec) -> Vec:
+def _drift(joints: Sequence[JointState], z: list, O: list, P: Vec, qd: Vec) -> Vec:
     """``Jdot_i qdot_i`` in frame 0i (the reference's :func:`leg_drift`)."""
     zero: Vec = [0.0, 0.0, 0.0]
     w, wd, acc, prev = zero, zero, zero, zero
     for j, J in enumerate(joints):
-        r = _sub(O[j], prev)
-        acc = _add(acc, _add(_cross(wd, r), _cross(w, _cross(w, r))))
+        r = sub(O[j], prev)
+        acc = add(acc, add(cross(wd, r), cross(w, cross(w, r))))
         if J.k.revolute:
-            wd = _add(wd, _scale(_cross(w, z[j]), qd[j]))
-            w = _add(w, _scale(z[j], qd[j]))
+            wd = add(wd, scaled(cross(w, z[j]), qd[j]))
+            w = add(w, scaled(z[j], qd[j]))
         else:
-            acc = _add(acc, _scale(_cross(w, z[j]), 2.0 * qd[j]))
+            acc = add(acc, scaled(cross(w, z[j]), 2.0 * qd[j]))
         prev = O[j]
-    r = _sub(P, prev)
-    return _add(acc, _add(_cross(wd, r), _cross(w, _cross(w, r))))
+    r = sub(P, prev)
+    return add(acc, add(cross(wd, r), cross(w, cross(w, r))))
 
 
 # ---------------------------------------------------------------------------- dynamics
-def _newton_euler(
-    joints: Sequence[_JointState],
+def newton_euler(
+    joints: Sequence[JointState],
     qd: Sequence[Scalar],
     qdd: Sequence[Scalar],
     base_acc: Vec,
@@ -655,35 +655,35 @@ def _newton_euler(
     forces = []
     for j, J in enumerate(joints):
         p = J.origin()
-        vd_par = _add(vd, _add(_cross(wd, p), _cross(w, _cross(w, p))))
+        vd_par = add(vd, add(cross(wd, p), cross(w, cross(w, p))))
         vd, w_in, wd = J.to_child(vd_par), J.to_child(w), J.to_child(wd)
         if g is not None:
             g = J.to_child(g)
         if J.k.revolute:
             wd = [
-                _plus(wd[0], _mul(qd[j], w_in[1])),
-                _minus(wd[1], _mul(qd[j], w_in[0])),
-                _plus(wd[2], qdd[j]),
+                plus(wd[0], mul(qd[j], w_in[1])),
+                minus(wd[1], mul(qd[j], w_in[0])),
+                plus(wd[2], qdd[j]),
             ]
-            w = [w_in[0], w_in[1], _plus(w_in[2], qd[j])]
+            w = [w_in[0], w_in[1], plus(w_in[2], qd[j])]
         else:
-            two = _mul(2.0, qd[j])
+            two = mul(2.0, qd[j])
             vd = [
-                _plus(vd[0], _mul(two, w_in[1])),
-                _minus(vd[1], _mul(two, w_in[0])),
-                _plus(vd[2], qdd[j]),
+                plus(vd[0], mul(two, w_in[1])),
+                minus(vd[1], mul(two, w_in[0])),
+                plus(vd[2], qdd[j]),
             ]
             w = w_in
         XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = J.k.inertia
         MS: Vec = [MX, MY, MZ]
         inertia = [[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]]
-        F = _add(_add(_scale(vd, M), _cross(wd, MS)), _cross(w, _cross(w, MS)))
-        Iw = [_dot(row, w) for row in inertia]
-        N = _add(_add([_dot(row, wd) for row in inertia], _cross(w, Iw)), _cross(MS, vd))
+        F = add(add(scaled(vd, M), cross(wd, MS)), cross(w, cross(w, MS)))
+        Iw = [dot(row, w) for row in inertia]
+        N = add(add([dot(row, wd) for row in inertia], cross(w, Iw)), cross(MS, vd))
         c = J.k.gravcomp
         if g is not None and c:
-            F = _add(F, _scale(g, c * M))
-            N = _add(N, _cross([c * x for x in MS], g))
+            F = add(F, scaled(g, c * M))
+            N = add(N, cross([c * x for x in MS], g))
         forces.append((F, N))
     f, n = forces[-1]
     tau: list[Scalar] = [0.0] * len(joints)
@@ -692,14 +692,14 @@ def _newton_euler(
         child = joints[j + 1]
         fc, nc = child.to_parent(f), child.to_parent(n)
         F, N = forces[j]
-        f = _add(F, fc)
-        n = _add(_add(N, nc), _cross(child.origin(), fc))
+        f = add(F, fc)
+        n = add(add(N, nc), cross(child.origin(), fc))
         tau[j] = n[2] if joints[j].k.revolute else f[2]
     return tau
 
 
-def _joint_terms(
-    joints: Sequence[_JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar]
+def joint_terms(
+    joints: Sequence[JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar]
 ) -> list[Scalar]:
     """``Ia qdd + (Fv + D) qd + Fc sign(qd) + K (q - q0)`` per joint (zero terms fold)."""
     out: list[Scalar] = []
@@ -707,22 +707,22 @@ def _joint_terms(
         k = J.k
         t: Scalar = 0.0
         if k.armature:
-            t = _plus(t, _mul(k.armature, qdd[j]))
+            t = plus(t, mul(k.armature, qdd[j]))
         if k.viscous:
-            t = _plus(t, _mul(k.viscous, qd[j]))
+            t = plus(t, mul(k.viscous, qd[j]))
         if k.coulomb and not isinstance(qd[j], (int, float)):
             if k.coulomb_smoothing > 0.0:  # the planner's smooth model
                 sign = cs.tanh(qd[j] / k.coulomb_smoothing)
             else:
                 sign = cs.if_else(cs.fabs(qd[j]) > COULOMB_DEAD_BAND, cs.sign(qd[j]), 0.0)
-            t = _plus(t, _mul(k.coulomb, sign))
+            t = plus(t, mul(k.coulomb, sign))
         if k.stiffness:
-            t = _plus(t, _mul(k.stiffness, _minus(J.value(), k.rest)))
+            t = plus(t, mul(k.stiffness, minus(J.value(), k.rest)))
         out.append(t)
     return out
 
 
-def _mass_matrix(joints: Sequence[_JointState]) -> list[list[Scalar]]:
+def mass_matrix(joints: Sequence[JointState]) -> list[list[Scalar]]:
     """The chain's n x n joint-space inertia (armature on the diagonal), column m from the
     efforts of a unit ``qdd_m`` without velocity or gravity."""
     n = len(joints)
@@ -730,20 +730,20 @@ def _mass_matrix(joints: Sequence[_JointState]) -> list[list[Scalar]]:
     zero = [0.0] * n
     for m in range(n):
         e = [1.0 if i == m else 0.0 for i in range(n)]
-        tau = _newton_euler(joints, zero, e, [0.0, 0.0, 0.0])
+        tau = newton_euler(joints, zero, e, [0.0, 0.0, 0.0])
         for i in range(m + 1):
             M[i][m] = M[m][i] = tau[i]
-        M[m][m] = _plus(M[m][m], joints[m].k.armature)
+        M[m][m] = plus(M[m][m], joints[m].k.armature)
     return M
 
 
 # ---------------------------------------------------------------------------- one leg
 def _rotate(R: Sequence[Sequence[float]], u: Vec) -> Vec:
-    return [_lin((R[i][0], u[0]), (R[i][1], u[1]), (R[i][2], u[2])) for i in range(3)]
+    return [lin_comb((R[i][0], u[0]), (R[i][1], u[1]), (R[i][2], u[2])) for i in range(3)]
 
 
 def _rotate_T(R: Sequence[Sequence[float]], u: Vec) -> Vec:
-    return [_lin((R[0][i], u[0]), (R[1][i], u[1]), (R[2][i], u[2])) for i in range(3)]
+    return [lin_comb((R[0][i], u[0]), (R[1][i], u[1]), (R[2][i], u[2])) for i in range(3)]
 
 
 @dataclass
@@ -761,7 +761,7 @@ class _LegKinematics:
 def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinematics:
     """Inverse geometry, ``J_i^-1``, the guard's slacks, ``qdot`` and the Jp^-1 row."""
     L = _rotate(R, list(lc.pL))
-    P0 = _rotate_T(lc.R, [_plus(_minus(p[i], lc.B[i]), L[i]) for i in range(3)])
+    P0 = _rotate_T(lc.R, [plus(minus(p[i], lc.B[i]), L[i]) for i in range(3)])
     geo = _inverse_geometry(lc, P0)
     joints = geo.joints
     z, O, _ = _chain(joints, lc.tip)
@@ -769,15 +769,15 @@ def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinemat
     cols = [_column_of(J, z[j], O[j], P) for j, J in enumerate(joints)]
     inv_rows, det = _inverse3(cols)
     slacks = list(geo.slacks) + _serial_slacks(lc, joints, cols, O, P, det)
-    slacks += _limit_slacks(lc.radius, joints)
-    V0 = _rotate_T(lc.R, _add(v, _cross(w, L)))
+    slacks += limit_slacks(lc.radius, joints)
+    V0 = _rotate_T(lc.R, add(v, cross(w, L)))
     qd = _matvec_rows(inv_rows, V0)
     m = _rotate(lc.R, inv_rows[lc.actuated])
-    return _LegKinematics(geo, L, inv_rows, z, O, qd, [*m, *_cross(L, m)], slacks)
+    return _LegKinematics(geo, L, inv_rows, z, O, qd, [*m, *cross(L, m)], slacks)
 
 
 def _serial_slacks(
-    lc: _LegConst, joints: Sequence[_JointState], cols: list, O: list, P: Vec, det: Scalar
+    lc: _LegConst, joints: Sequence[JointState], cols: list, O: list, P: Vec, det: Scalar
 ) -> list[Scalar]:
     """The reference's serial-singularity refusals as slacks: each revolute lever
     ``l_j = |P_i - O_j|`` longer than ``LEG_MIN_LENGTH_RATIO`` of the platform radius, and
@@ -791,22 +791,22 @@ def _serial_slacks(
     lever2: list[Scalar] = []
     for j, J in enumerate(joints):
         if J.k.revolute:
-            r = _sub(P, O[j])
-            l2 = _dot(r, r)
+            r = sub(P, O[j])
+            l2 = dot(r, r)
             lever2.append(l2)
             out.append(l2 - (LEG_MIN_LENGTH_RATIO * lc.radius) ** 2 * (1.0 + _MARGIN_SERIAL))
         else:
             lever2.append(1.0)
     minors: Scalar = 0.0
     for k in range(3):
-        adj = _cross(cols[(k + 1) % 3], cols[(k + 2) % 3])
-        minors = _plus(minors, _mul(_dot(adj, adj), lever2[k]))
+        adj = cross(cols[(k + 1) % 3], cols[(k + 2) % 3])
+        minors = plus(minors, mul(dot(adj, adj), lever2[k]))
     tau = LEG_SINGULARITY * (1.0 + _MARGIN_SERIAL)
     out.append(det * det - tau * tau * minors)
     return out
 
 
-def _limit_slacks(radius: float, joints: Sequence[_JointState]) -> list[Scalar]:
+def limit_slacks(radius: float, joints: Sequence[JointState]) -> list[Scalar]:
     """Joint limits with margins (``radius`` [m] the prismatic margins' scale): prismatic
     values against their limits, revolute angles
     by ``cos(q - mid) > cos(half range)`` (the reference takes a revolute value modulo
@@ -836,10 +836,10 @@ def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Sca
     joints = kin.geo.joints
     A0 = _rotate_T(lc.R, A_P)
     drift = _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd)
-    qdd = _matvec_rows(kin.inv_rows, _sub(A0, drift))
+    qdd = _matvec_rows(kin.inv_rows, sub(A0, drift))
     g = lc.gravity
-    tau = _newton_euler(joints, kin.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
-    terms = _joint_terms(joints, kin.qd, qdd)
+    tau = newton_euler(joints, kin.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
+    terms = joint_terms(joints, kin.qd, qdd)
     return [tau[j] + terms[j] for j in range(3)], qdd
 
 
@@ -847,14 +847,14 @@ def _idm_leg(
     lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat
 ) -> dict[str, list[Scalar]]:
     kin = leg_kinematics(lc, p, R, v, w)
-    A_P = _add(vd, [_dot(K[i], kin.L) for i in range(3)])
+    A_P = add(vd, [dot(K[i], kin.L) for i in range(3)])
     H, _ = _leg_torques(lc, kin, A_P)
     a = lc.actuated
     Hp = [0.0 if j == a else H[j] for j in range(3)]
     f = _rotate(lc.R, _rows_T_vec(kin.inv_rows, Hp))
     return {
         "row": kin.row,
-        "wrench": [*f, *_cross(kin.L, f)],
+        "wrench": [*f, *cross(kin.L, f)],
         "Hz": [H[a]],
         "slack": kin.slacks,
     }
@@ -863,12 +863,12 @@ def _idm_leg(
 _UPPER6 = [(i, j) for i in range(6) for j in range(i, 6)]
 
 
-def _leg_block(A0: Mat, L: Vec) -> list[Scalar]:
+def leg_block(A0: Mat, L: Vec) -> list[Scalar]:
     """The upper triangle (21) of ``G^T A_x G``, ``G = [I3, -L^]``."""
-    nL = [_mul(-1.0, x) for x in L]
+    nL = [mul(-1.0, x) for x in L]
     Lh = [[0.0, nL[2], L[1]], [L[2], 0.0, nL[0]], [nL[1], L[0], 0.0]]
     TR = [
-        [_mul(-1.0, _lin(*((A0[i][m], Lh[m][j]) for m in range(3)))) for j in range(3)]
+        [mul(-1.0, lin_comb(*((A0[i][m], Lh[m][j]) for m in range(3)))) for j in range(3)]
         for i in range(3)
     ]
     block: list[list[Scalar]] = [[0.0] * 6 for _ in range(6)]
@@ -878,7 +878,7 @@ def _leg_block(A0: Mat, L: Vec) -> list[Scalar]:
             block[i][3 + j] = TR[i][j]
     for i in range(3):
         for j in range(i, 3):
-            block[3 + i][3 + j] = _lin(*((Lh[i][m], TR[m][j]) for m in range(3)))
+            block[3 + i][3 + j] = lin_comb(*((Lh[i][m], TR[m][j]) for m in range(3)))
     return [block[i][j] for i, j in _UPPER6]
 
 
@@ -891,26 +891,28 @@ def _ddm_leg(
     # J^-T h), h the nonlinear effects (gravity, velocity, joint terms) at zero qddot.
     g = lc.gravity
     zero3: Vec = [0.0, 0.0, 0.0]
-    h = _newton_euler(joints, kin.qd, zero3, [-g[0], -g[1], -g[2]], list(g))
-    terms = _joint_terms(joints, kin.qd, zero3)
-    h = [_plus(h[j], terms[j]) for j in range(3)]
+    h = newton_euler(joints, kin.qd, zero3, [-g[0], -g[1], -g[2]], list(g))
+    terms = joint_terms(joints, kin.qd, zero3)
+    h = [plus(h[j], terms[j]) for j in range(3)]
     drift = _rotate(lc.R, _drift(joints, kin.z, kin.O, kin.geo.P, kin.qd))
-    c = _sub(_cross(w, _cross(w, kin.L)), drift)
-    Mq = _mass_matrix(joints)
+    c = sub(cross(w, cross(w, kin.L)), drift)
+    Mq = mass_matrix(joints)
     # B = J_i^-1 R_i^T (J^-1 in F0); A_x = B^T M B.
     Bm = [_rotate(lc.R, row) for row in kin.inv_rows]  # rows of B
-    MB = [[_lin(*((Mq[i][m], Bm[m][c]) for m in range(3))) for c in range(3)] for i in range(3)]
+    MB = [
+        [lin_comb(*((Mq[i][m], Bm[m][c]) for m in range(3))) for c in range(3)] for i in range(3)
+    ]
     A0: Mat = [[0.0] * 3 for _ in range(3)]
     for i in range(3):
         for j in range(i, 3):
-            A0[i][j] = A0[j][i] = _lin(*((Bm[m][i], MB[m][j]) for m in range(3)))
+            A0[i][j] = A0[j][i] = lin_comb(*((Bm[m][i], MB[m][j]) for m in range(3)))
     a = lc.actuated
     rhs = [(gamma_k if j == a else 0.0) - h[j] for j in range(3)]
-    f = _sub(_rotate(lc.R, _rows_T_vec(kin.inv_rows, rhs)), [_dot(row, c) for row in A0])
+    f = sub(_rotate(lc.R, _rows_T_vec(kin.inv_rows, rhs)), [dot(row, c) for row in A0])
     return {
         "row": kin.row,
-        "block": _leg_block(A0, kin.L),
-        "wrench": [*f, *_cross(kin.L, f)],
+        "block": leg_block(A0, kin.L),
+        "wrench": [*f, *cross(kin.L, f)],
         "slack": kin.slacks,
     }
 

@@ -37,17 +37,17 @@ from stewart_pin.codegen._csource import FLAG_NAMES, GROWTH_LIMIT
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.compiled import (
     THREAD_MIN_STATES,
-    _positive_threads,
-    _warn_reference,
     auto_env,
     build_source_library,
     default_threads,
     find_compiler,
     leg_checks_source,
     model_layout,
+    positive_threads,
     printable_name,
     singularity_length,
     split_batch,
+    warn_reference,
 )
 from stewart_pin.codegen.payload_symbolic import (
     PayloadModels,
@@ -358,7 +358,7 @@ class CompiledPayloadDynamics:
         announce: bool = False,
     ) -> None:
         self.robot = robot
-        self.threads = default_threads() if threads is None else _positive_threads(threads)
+        self.threads = default_threads() if threads is None else positive_threads(threads)
         desc = robot.robot.description
         self._desc = desc
         payload = robot.payload
@@ -613,10 +613,10 @@ def _auto_choice(robot: Any, memo: dict[str, Any]) -> CompiledPayloadDynamics | 
         return memo["compiled"]
     compiler = find_compiler()
     if compiler is None:
-        _warn_reference("no C compiler found (cc, gcc, clang or $CC)")
+        warn_reference("no C compiler found (cc, gcc, clang or $CC)")
         return None
     try:
         return CompiledPayloadDynamics(robot, compiler=compiler, announce=True)
     except (CompilationError, UnsafeCacheError, PayloadError) as e:
-        _warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
+        warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
         return None

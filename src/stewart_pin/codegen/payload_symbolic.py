@@ -58,22 +58,22 @@ from stewart_pin.codegen._sx_common import (
     Mat,
     Scalar,
     Vec,
-    _ldlt_solve,
     function,
     idm_closure,
+    ldlt_solve,
     pose_from_input,
     split,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
-    _mul,
     build_general_models,
+    mul,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
-    _minus as _sub,  # the folding arithmetic of the general-leg generator
+    minus as _sub,  # the folding arithmetic of the general-leg generator
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
-    _plus as _add,
+    plus as _add,
 )
 from stewart_pin.codegen.symbolic import generate_models
 from stewart_pin.description import RobotDescription
@@ -244,7 +244,7 @@ def payload_identity(payload: Payload, gravity: Sequence[float]) -> str:
 def _dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
     s: Scalar = 0.0
     for x, y in zip(a, b, strict=True):
-        s = _add(s, _mul(x, y))
+        s = _add(s, mul(x, y))
     return s
 
 
@@ -258,9 +258,9 @@ def _mtv(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> Vec:
 
 def _cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> Vec:
     return [
-        _sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
-        _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
-        _sub(_mul(a[0], b[1]), _mul(a[1], b[0])),
+        _sub(mul(a[1], b[2]), mul(a[2], b[1])),
+        _sub(mul(a[2], b[0]), mul(a[0], b[2])),
+        _sub(mul(a[0], b[1]), mul(a[1], b[0])),
     ]
 
 
@@ -277,7 +277,7 @@ def _vsub(a: Sequence[Scalar], b: Sequence[Scalar]) -> Vec:
 
 
 def _vscale(a: Sequence[Scalar], s: Scalar) -> Vec:
-    return [_mul(x, s) for x in a]
+    return [mul(x, s) for x in a]
 
 
 def _matmul(A: Sequence[Sequence[Scalar]], B: Sequence[Sequence[Scalar]]) -> Mat:
@@ -311,7 +311,7 @@ def _rotation_about(u: Sequence[float], c: Scalar, s: Scalar) -> Mat:
         for j in range(3):
             uu = float(u[i] * u[j])
             R[i][j] = _add(
-                _add(uu, _mul((1.0 if i == j else 0.0) - uu, c)), _mul(float(skew[i][j]), s)
+                _add(uu, mul((1.0 if i == j else 0.0) - uu, c)), mul(float(skew[i][j]), s)
             )
     return R
 
@@ -422,7 +422,7 @@ def arm_rnea(
         S = _subspace(j)
         t = _add(_dot(S[0], f[k][0]), _dot(S[1], f[k][1]))
         if qdd is not None and j.armature != 0.0:
-            t = _add(t, _mul(j.armature, qdd[j.idx_v]))
+            t = _add(t, mul(j.armature, qdd[j.idx_v]))
         tau[j.idx_v] = t
         fp = links[k].act_force(f[k])
         if j.parent < 0:
@@ -449,9 +449,9 @@ def _act_inertia(link: _Link, body: tuple[Scalar, Vec, Mat]) -> tuple[Scalar, Ve
             # -[a]x[b]x = (a.b) I - b a^T: -[Rh]x[p]x - [p]x[Rh]x = 2 (p.Rh) I - p Rh^T -
             # Rh p^T, and -m [p]x^2 = m (p.p I - p p^T)
             cross_terms = _sub(
-                _mul(2.0, ph) if i == j else 0.0, _add(_mul(p[i], Rh[j]), _mul(Rh[i], p[j]))
+                mul(2.0, ph) if i == j else 0.0, _add(mul(p[i], Rh[j]), mul(Rh[i], p[j]))
             )
-            par = _mul(m, _sub(pp if i == j else 0.0, _mul(p[i], p[j])))
+            par = mul(m, _sub(pp if i == j else 0.0, mul(p[i], p[j])))
             out[i][j] = _add(_add(RIRt[i][j], cross_terms), par)
     for i in range(3):  # symmetric: one expression per pair
         for j in range(i):
@@ -646,7 +646,7 @@ def payload_models(desc: RobotDescription, payload: Payload, layout: AuxLayout) 
             K[6 + i][6 + j] = Mjj[i][j]
     tau_in = split(x_tau)
     rhs = [rhs_r[i] - b_f[i] for i in range(6)] + [tau_in[i] - b_j[i] for i in range(nv)]
-    x, D = _ldlt_solve(K, rhs)
+    x, D = ldlt_solve(K, rhs)
     ddm = function(
         "payload_ddm",
         [*ddm_in, ("tau", x_tau)],
@@ -656,7 +656,7 @@ def payload_models(desc: RobotDescription, payload: Payload, layout: AuxLayout) 
     # ---- prescribed DDM: the platform's row, then the torques
     Wq, tauq = arm_rnea(joints, base, gravity, R, tw, None, q, qd, split(x_qdd), links)
     Kp = [[A_r[i][j] + Kff[i][j] for j in range(6)] for i in range(6)]
-    accel, Dp = _ldlt_solve(Kp, [rhs_r[i] - Wq[i] for i in range(6)])
+    accel, Dp = ldlt_solve(Kp, [rhs_r[i] - Wq[i] for i in range(6)])
     torques = [tauq[j] + _dot([Kfj[i][j] for i in range(6)], accel) for j in range(nv)]
     pddm = function(
         "payload_pddm",

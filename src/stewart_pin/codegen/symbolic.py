@@ -360,7 +360,7 @@ def _chi_values(c: ModelConstants, chi: cs.SX, parameters: str) -> list[Scalar]:
     raise InputError(f"parameters must be 'base', 'essential' or 'numeric', got {parameters!r}")
 
 
-def _build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> SymbolicModels:
+def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> SymbolicModels:
     c = model_constants(desc)
     names = c.parameter_names
     npose = pose_size(pose)

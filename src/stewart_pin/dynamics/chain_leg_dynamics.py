@@ -251,7 +251,8 @@ class ChainDynamics:
     each (6,) or (N, 6) (entries of legs without one ignored), to every model below; the
     inverse model returns the idle accelerations (``details=True``: ``idle_accel``), the
     direct model too (:meth:`direct_dynamics_idle`). Such a robot's models refuse to run
-    without ``idle`` (:class:`InputError`): no silent assumption about the spin.
+    without ``idle`` (:class:`InputError`): no silent assumption about the spin; a robot
+    without idle joints refuses one (:class:`InputError`: it would be ignored).
 
     Args:
         desc: a description with ``chain_legs``. max_condition: the parallel singularity
@@ -276,8 +277,13 @@ class ChainDynamics:
 
     def _idle(self, idle: Any, n: int) -> kin.IdleState | None:
         """The idle state for a batch of n states (:class:`InputError` when required and
-        missing, or of the wrong shape)."""
+        missing, given to a robot without idle joints, or of the wrong shape)."""
         if not self.idle_legs:
+            if idle is not None:
+                raise InputError(
+                    f"robot '{self.desc.name}' has no idle joints (ChainLeg.idle_joint): "
+                    "give idle=None (its state is the pose and twist only)"
+                )
             return None
         if idle is None:
             legs = ", ".join(

@@ -574,7 +574,7 @@ def build(
             )
         # link inertias in the canonical frames, their gravity compensation
         for j in range(3):
-            leg_gravcomp[len(reports), j] = _link_gravcomp(model, links, link_ids[j])
+            leg_gravcomp[len(reports), j] = link_gravcomp(model, links, link_ids[j])
             leg_inertia[len(reports), j] = transform_inertia(
                 link_params[j], np.linalg.inv(form.frames[j])
             )
@@ -672,12 +672,12 @@ def build(
             fixed = [n for n in link_names(li) if n != model.body_label(links[li].root)]
             if fixed:
                 lumped.setdefault("leg links", []).extend(fixed)
-    gravity, uniform = _gravity(model, rec)
+    gravity, uniform = compensated_gravity(model, rec)
     platform_gravcomp = 0.0
     if uniform:
         leg_gravcomp[:] = 0.0
     else:
-        platform_gravcomp = _link_gravcomp(model, links, P)
+        platform_gravcomp = link_gravcomp(model, links, P)
         if platform_gravcomp or np.any(leg_gravcomp):
             model.notes.append(
                 "gravity compensation of some bodies (gravcomp, or no gravity); "
@@ -996,12 +996,12 @@ def _closed_form_fits(form: _LegForm, scale: float, any_branch: bool = False) ->
     return bool(np.abs(diff).max() <= 1e-9)
 
 
-def _gravity(model: KinematicModel, rec: Recognition) -> tuple[np.ndarray, bool]:
+def compensated_gravity(model: KinematicModel, rec: Recognition) -> tuple[np.ndarray, bool]:
     """The model's gravity with the bodies' gravity compensation (``TreeBody.gravcomp``),
     and whether it is uniform: the same fraction c on every moving body with mass is
     gravity scaled by 1 - c (exact: every weight scaled; noted; the robot keeps its
     closed forms); else the model's gravity, the compensation per body
-    (:func:`_link_gravcomp`: the description's ``platform_gravcomp``, ``leg_gravcomp``)."""
+    (:func:`link_gravcomp`: the description's ``platform_gravcomp``, ``leg_gravcomp``)."""
     fixed = set(rec.links[rec.ground].bodies)
     moving = [
         b
@@ -1021,7 +1021,7 @@ def _gravity(model: KinematicModel, rec: Recognition) -> tuple[np.ndarray, bool]
     return model.gravity, False
 
 
-def _link_gravcomp(model: KinematicModel, links: Sequence[Link], li: int | None) -> float:
+def link_gravcomp(model: KinematicModel, links: Sequence[Link], li: int | None) -> float:
     """The gravity compensation of link ``li`` (``None``: a massless link, 0): the one its
     bodies with mass share; :class:`ModelImportError` naming them when they differ (one
     factor per link is exact only when its bodies share it: the compensated weights of

@@ -53,18 +53,19 @@ from stewart_pin.importers.build import (
     ImportResult,
     LegReport,
     LinkPoses,
-    _gravity,
-    _link_gravcomp,
     assign_actuators,
+    compensated_gravity,
+    link_gravcomp,
     robot_name,
 )
 from stewart_pin.importers.canonical import transform_inertia
 from stewart_pin.importers.topology import (
     Link,
-    _in_link,
-    _links,
-    _platform_body,
-    _scale,
+    frame_in_link,
+    length_scale,
+    platform_body,
+    reroot,
+    union_links,
 )
 from stewart_pin.importers.tree import (
     BALL,
@@ -151,7 +152,7 @@ def recognise_chains(
                 grew = True
     lumped = [c for c in model.closures if c.kind == "weld" and ({c.body1, c.body2} & world)]
     kept = [c for c in model.closures if c not in lumped]
-    links, link_of = _links(dc_replace(model, closures=lumped))
+    links, link_of = union_links(dc_replace(model, closures=lumped))
     ground = link_of[0]
     edges: list[tuple[int, int, TreeJoint, int]] = []  # parent link, child link, joint, body
     for b, body in enumerate(model.bodies[1:], start=1):
@@ -179,7 +180,7 @@ def recognise_chains(
         if not matches:
             return None
         P = link_of[matches[-1]]
-        links[P] = _reroot(links[P], matches[-1])
+        links[P] = reroot(links[P], matches[-1])
     else:
         count: dict[int, int] = {}
         for lk, _, _, _, _ in ends:
@@ -192,7 +193,7 @@ def recognise_chains(
         if len(six) != 1:
             return None
         P = six[0]
-        _platform_body(model, links, P, [], [])
+        platform_body(model, links, P, [], [])
     if P == ground:
         return None
     for c in kept:
@@ -237,9 +238,9 @@ def recognise_chains(
         else:
             pa, ch, J, b = item
             if ch == P:  # the platform hangs from this leg by a ball joint
-                at_p = _frame(np.eye(3), _in_link(links[P], model, b, J.anchor))
+                at_p = _frame(np.eye(3), frame_in_link(links[P], model, b, J.anchor))
                 at_x = _frame(
-                    np.eye(3), _in_link(links[pa], model, model.bodies[b].parent, J.anchor)
+                    np.eye(3), frame_in_link(links[pa], model, model.bodies[b].parent, J.anchor)
                 )
             else:  # a ball joint moves a leg link from the platform: no leg from the base
                 return None
@@ -282,13 +283,7 @@ def recognise_chains(
     used = {i for leg in legs for i in leg.children} | {ground, P}
     if any(i not in used for i in range(len(links))):
         return None
-    return ChainRecognition(links, link_of, ground, P, legs, _scale(model))
-
-
-def _reroot(link: Link, root: int) -> Link:
-    from stewart_pin.importers.topology import _reroot as reroot
-
-    return reroot(link, root)
+    return ChainRecognition(links, link_of, ground, P, legs, length_scale(model))
 
 
 def mdh_frames(kinds: Sequence[str], anchors: Any, axes: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -400,9 +395,9 @@ def build_chains(
 
     T_home = link_ref(P)
     # per-body gravity compensation: one fraction on every moving body scales gravity;
-    # else each link's (its bodies' shared one: _link_gravcomp) and the platform's
-    gravity, uniform = _gravity(model, rec)  # type: ignore[arg-type]
-    platform_gravcomp = 0.0 if uniform else _link_gravcomp(model, links, P)
+    # else each link's (its bodies' shared one: link_gravcomp) and the platform's
+    gravity, uniform = compensated_gravity(model, rec)  # type: ignore[arg-type]
+    platform_gravcomp = 0.0 if uniform else link_gravcomp(model, links, P)
     chain_legs: list[ChainLeg] = []
     base_pts, base_rot, plat_pts = np.zeros((6, 3)), np.zeros((6, 3, 3)), np.zeros((6, 3))
     reports: list[LegReport] = []
@@ -438,7 +433,7 @@ def build_chains(
         gravcomp = np.zeros(n)
         if not uniform:
             for j, li in enumerate(leg.children):
-                gravcomp[j] = 0.0 if li == P else _link_gravcomp(model, links, li)
+                gravcomp[j] = 0.0 if li == P else link_gravcomp(model, links, li)
         tip = np.linalg.inv(frames[-1]) @ leg.tip
         q_ref = np.array([model.values.get(J.name, 0.0) for J in leg.joints])
         chain = ChainLeg(

@@ -145,7 +145,7 @@ class Recognition:
     approximated: list[str] = field(default_factory=list)
 
 
-def _links(model: KinematicModel) -> tuple[list[Link], list[int]]:
+def union_links(model: KinematicModel) -> tuple[list[Link], list[int]]:
     """Union the bodies fixed to their parents and the welded ones into links."""
     n = len(model.bodies)
     parent = list(range(n))
@@ -206,7 +206,7 @@ def _links(model: KinematicModel) -> tuple[list[Link], list[int]]:
     return links, link_of
 
 
-def _scale(model: KinematicModel) -> float:
+def length_scale(model: KinematicModel) -> float:
     """A length scale of the model [m]: the spread of the body origins and joint anchors
     at the reference configuration."""
     poses = model.poses()
@@ -224,7 +224,7 @@ def recognise(
     ``approximate`` three hinges that nearly meet (:data:`APPROXIMATE_INTERSECTION`) with
     massive bodies between them or joint terms are taken as an ideal spherical joint
     (their masses and terms dropped, the miss reported in ``approximated``)."""
-    links, link_of = _links(model)
+    links, link_of = union_links(model)
     ground = link_of[0]
     forced: int | None = None
     if platform is not None:  # the body whose frame is Fp: its link's frame
@@ -234,8 +234,8 @@ def recognise(
                 f"no body named {shown(platform)} (the platform asked for)", (platform,)
             )
         forced = link_of[matches[-1]]
-        links[forced] = _reroot(links[forced], matches[-1])
-    scale = _scale(model)
+        links[forced] = reroot(links[forced], matches[-1])
+    scale = length_scale(model)
     moving = [lk for i, lk in enumerate(links) if i != ground]
     mass = float(sum(lk.inertia[9] for lk in moving)) or 1.0
     dropped: list[str] = []
@@ -273,8 +273,8 @@ def recognise(
             )
         e = Edge(pa, ch, J, b)
         if J.kind == BALL:
-            e.centre_child = _in_link(links[ch], model, b, J.anchor)
-            e.centre_parent = _in_link(links[pa], model, body.parent, J.anchor)
+            e.centre_child = frame_in_link(links[ch], model, b, J.anchor)
+            e.centre_parent = frame_in_link(links[pa], model, body.parent, J.anchor)
         edges.append(e)
     free_edges = [e for e in edges if e.joint.kind == FREE]
     for e in free_edges:
@@ -358,8 +358,8 @@ def recognise(
                     "(a massless body of a three-hinge spherical joint)"
                 )
         sph = Edge(e1.parent, e3.child, e3.joint, e3.body, hinges, (e1.child, e2.child))
-        sph.centre_child = _in_link(links[e3.child], model, e3.body, centre_child)
-        sph.centre_parent = _in_link(
+        sph.centre_child = frame_in_link(links[e3.child], model, e3.body, centre_child)
+        sph.centre_parent = frame_in_link(
             links[e1.parent], model, model.bodies[e1.body].parent, centre_parent
         )
         used.update({id(e1), id(e2), id(e3)})
@@ -430,7 +430,7 @@ def recognise(
                 tuple(link_names(best[0])) if best[0] is not None else (),
             )
         P = six[0]
-        _platform_body(model, links, P, connections, edges)
+        platform_body(model, links, P, connections, edges)
     if P == ground:
         raise ModelImportError(
             f"the platform {shown(platform or '')} is fixed to the base", (platform or "",)
@@ -605,7 +605,7 @@ def _weld_where_a_ball_should_be(
 PLATFORM_MASS_MARGIN = 0.1
 
 
-def _platform_body(
+def platform_body(
     model: KinematicModel,
     links: list[Link],
     P: int,
@@ -646,7 +646,7 @@ def _platform_body(
             )
     if heaviest == link.root:
         return
-    new = _reroot(link, heaviest)
+    new = reroot(link, heaviest)
     T = new.rel[link.root]  # the old link frame in the new one
 
     def moved(p: np.ndarray) -> np.ndarray:
@@ -670,7 +670,7 @@ def _platform_body(
     )
 
 
-def _reroot(link: Link, root: int) -> Link:
+def reroot(link: Link, root: int) -> Link:
     """The link with its frame moved to body ``root``'s (the platform asked for)."""
     T = np.linalg.inv(link.rel[root])
     rel = {b: T @ R for b, R in link.rel.items()}
@@ -678,7 +678,7 @@ def _reroot(link: Link, root: int) -> Link:
     return Link(root, link.bodies, rel, inertia)
 
 
-def _in_link(link: Link, model: KinematicModel, body: int, point: np.ndarray) -> np.ndarray:
+def frame_in_link(link: Link, model: KinematicModel, body: int, point: np.ndarray) -> np.ndarray:
     """``point`` (F0, zero configuration, a point of ``body``) in the link's frame."""
     T = link.rel[body] @ np.linalg.inv(model.bodies[body].pose)
     return T[:3, :3] @ point + T[:3, 3]

@@ -43,6 +43,7 @@ from stewart_pin.exceptions import (
     LegMobilityError,
     LegReachError,
     SingularityError,
+    UnsupportedArchitectureError,
 )
 from stewart_pin.kinematics._se3_newton import newton_se3
 from stewart_pin.kinematics.leg_chains import (
@@ -69,8 +70,19 @@ RANK_TOLERANCE = 1e-9
 
 
 def chain_legs_of(desc: RobotDescription) -> tuple[ChainLeg, ...]:
-    """The description's chain legs (it must have them)."""
-    assert desc.chain_legs is not None
+    """The description's chain legs.
+
+    Raises:
+        UnsupportedArchitectureError: the robot has no chain legs (its legs are three-joint
+            ball legs: the general and 6-UPS models take them)."""
+    if desc.chain_legs is None:
+        raise UnsupportedArchitectureError(
+            f"robot '{desc.name}' has no chain legs (description.chain_legs): the chain-leg "
+            f"models and the idle simulation take chain legs only; its {desc.architecture} "
+            "legs take the robot's inverse and direct models and simulation",
+            "chain_legs",
+            desc.architecture,
+        )
     return desc.chain_legs
 
 

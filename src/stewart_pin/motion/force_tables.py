@@ -18,6 +18,9 @@ from stewart_pin.exceptions import InputError
 
 #: The interpolations of a :class:`ForceTable`.
 INTERPOLATIONS = ("hold", "linear")
+#: The largest magnitude of a table's value [N or N m]: the interpolation's difference of
+#: two rows stays finite (far above any actuator's force), in Python and in C alike.
+MAX_TABLE_VALUE = 1e150
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,6 +32,10 @@ class ForceTable:
     ``times[i]`` until ``times[i + 1]``; ``"linear"``: ``values[i] + w (values[i + 1] -
     values[i])``, ``w = (t - times[i]) / (times[i + 1] - times[i])``. Before ``times[0]``
     the first row, after ``times[-1]`` the last. Arrays copied and made read-only.
+
+    Values are finite with magnitudes at most :data:`MAX_TABLE_VALUE`, and the times
+    finite with a finite span ``times[-1] - times[0]``, so that the interpolation neither
+    overflows nor loses its weight (:class:`InputError` otherwise).
     """
 
     times: np.ndarray
@@ -40,7 +47,20 @@ class ForceTable:
         if t.size == 0:
             raise InputError("times: a force table needs at least one row")
         check_increasing_times(t)
+        span = float(t[-1] - t[0])
+        if not np.isfinite(span):
+            raise InputError(
+                f"times: the span times[-1] - times[0] = {span!r} s must be finite "
+                f"(times from {float(t[0])!r} to {float(t[-1])!r} s)"
+            )
         g = check_array(self.values, (t.size, 6), "values").copy()
+        big = np.abs(g) > MAX_TABLE_VALUE
+        if np.any(big):
+            k, j = (int(x) for x in np.argwhere(big)[0])
+            raise InputError(
+                f"values[{k}, {j}] = {float(g[k, j])!r}: a force table's values must be at "
+                f"most {MAX_TABLE_VALUE:g} [N or N m] in magnitude"
+            )
         if self.interpolation not in INTERPOLATIONS:
             raise InputError(f"unknown interpolation {self.interpolation!r}: 'hold' or 'linear'")
         t.flags.writeable = False

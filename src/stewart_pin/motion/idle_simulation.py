@@ -69,7 +69,7 @@ def simulate_idle(
         duration: [s], finite and positive. dt: the RK4 step [s].
         pose: initial 0Tp (default the home pose); twist: initial ``[v, w]`` (default 0).
         idle: initial idle joints' ``(values, rates)``, each (6,) (default their home
-            values, at rest).
+            values, at rest; a robot without idle joints refuses one: :class:`InputError`).
         forces: ``Gamma = forces(t, pose, twist)``; default zero.
     """
     duration = check_scalar(duration, "duration", positive=True)
@@ -83,6 +83,10 @@ def simulate_idle(
     dyn = robot.chain_dynamics
     if idle is None:
         s, sd = idle_home(desc), np.zeros(6)
+    elif not dyn.idle_legs:
+        raise InputError(
+            f"robot '{desc.name}' has no idle joints (ChainLeg.idle_joint): give idle=None"
+        )
     else:
         s, sd = (
             check_array(x, (6,), name)
@@ -95,7 +99,8 @@ def simulate_idle(
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         Tt, Vt = _pose(T0, y), y[6:12]
         g = check_array(force(t, Tt, Vt), (6,), "forces(t, pose, twist)")
-        acc, sigma = dyn.direct_dynamics_idle(Tt, Vt, g, idle=(y[12:18], y[18:24]))
+        state = (y[12:18], y[18:24]) if dyn.idle_legs else None  # else they stay 0
+        acc, sigma = dyn.direct_dynamics_idle(Tt, Vt, g, idle=state)
         dy = np.concatenate(
             [Vt[:3], so3_left_jacobian_inverse(y[3:6]) @ Vt[3:], acc, y[18:24], sigma]
         )

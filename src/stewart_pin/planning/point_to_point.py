@@ -109,8 +109,9 @@ class OptimalMotion:
         status: IPOPT's return status; iterations: its iteration count; solve_time [s].
         substeps: RK4 steps per interval in the transcription.
         exact_efforts: (K+1, 6) the exact inverse model's efforts [N or N m] at the nodes'
-            states and accelerations (Coulomb's exact sign): what the actuators apply to
-            follow the found motion; :attr:`gammas` are the smooth model's.
+            states and accelerations (Coulomb's exact sign), in the robot's actuator
+            convention as :attr:`gammas`: what the actuators apply to follow the found
+            motion; :attr:`gammas` are the smooth model's.
         coulomb_smoothing: the ``eps`` of the smooth Coulomb sign ``tanh(qd / eps)`` the
             NLP optimised on [m/s or rad/s].
     """
@@ -548,6 +549,6 @@ def optimal_point_to_point(
         iterations=iterations,
         solve_time=elapsed,
         substeps=int(substeps),
-        exact_efforts=exact,
+        exact_efforts=conv.efforts_from_description(exact),
         coulomb_smoothing=eps,
     )
