@@ -122,3 +122,74 @@ def test_a_tilted_crank_hinge_imported_exactly_matches_mujoco_kkt() -> None:
         )
         assert rel_error(res.gamma[n], got) < 1e-10
         assert rel_error(res.idle_accel[n], sigma) < 1e-10
+
+
+# --- R-S-S rods written in oblique frames and rounded to 6 digits: the idle joint ---------
+
+
+def _rounded_rss_xml(digits: int = 6) -> str:
+    """The asymmetric 6-RSS preset's MJCF with each rod body's frame turned obliquely (its
+    spin axis written unnormalised and anchored 37 mm along the rod, the ball site, the
+    inertial in that frame) and every number rounded to ``digits`` significant digits, as a
+    CAD export writes it: the spin axes miss the ball centres by ~1e-7 m."""
+    from scipy.spatial.transform import Rotation
+    from test_chain_legs_mjcf import without_coulomb
+
+    from stewart_pin.description.chain_leg_presets import rss_robot
+
+    xml = StewartRobot(without_coulomb(rss_robot(False))).mjcf()
+    turn = Rotation.from_rotvec([0.4, -0.9, 0.7])
+    R = turn.as_matrix()
+
+    def text(v) -> str:  # type: ignore[no-untyped-def]
+        return " ".join(repr(float(x)) for x in v)
+
+    def floats(pattern: str, tag: str) -> list[float]:
+        return [float(x) for x in re.search(pattern, tag).group(1).split()]  # type: ignore[union-attr]
+
+    def body(m: re.Match[str]) -> str:
+        b = m.group(0)
+        q = floats(r'quat="([^"]+)"', b)
+        qn = (Rotation.from_quat([*q[1:], q[0]]) * turn).as_quat()
+        b = re.sub(r'quat="[^"]+"', f'quat="{text([qn[3], *qn[:3]])}"', b, count=1)
+        a = R.T @ [0.0, 0.0, 1.0]
+        b = b.replace('axis="0 0 1"', f'pos="{text(0.037 * a)}" axis="{text(3.7 * a)}"')
+        p = floats(r'<inertial pos="([^"]+)"', b)
+        b = re.sub(r'<inertial pos="[^"]+"', f'<inertial pos="{text(R.T @ p)}"', b)
+        f = floats(r'fullinertia="([^"]+)"', b)
+        Ic = R.T @ np.array([[f[0], f[3], f[4]], [f[3], f[1], f[5]], [f[4], f[5], f[2]]]) @ R
+        six = [Ic[0, 0], Ic[1, 1], Ic[2, 2], Ic[0, 1], Ic[0, 2], Ic[1, 2]]
+        b = re.sub(r'fullinertia="[^"]+"', f'fullinertia="{text(six)}"', b)
+        tip = re.search(r'<site name="(leg\d_tip)" pos="([^"]+)"', b)
+        assert tip is not None
+        t = R.T @ [float(x) for x in tip.group(2).split()]
+        return b.replace(tip.group(0), f'<site name="{tip.group(1)}" pos="{text(t)}"')
+
+    xml, n = re.subn(r'<body name="leg\d_link4".*?</body>', body, xml, flags=re.S)
+    assert n == 6
+    return re.sub(r"-?\d+\.\d+(?:e-?\d+)?", lambda m: f"{float(m.group(0)):.{digits}g}", xml)
+
+
+def test_rss_rods_rounded_to_six_digits_keep_their_idle_joints_and_match_mujoco_kkt() -> None:
+    from test_chain_legs_mjcf import mujoco_kkt_inverse_dynamics
+
+    xml = _rounded_rss_xml(6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelImportWarning)  # the rounded loops' residual
+        result = import_mjcf(xml)
+    assert [leg.idle_joint for leg in result.description.chain_legs] == [4] * 6
+    said = [n for n in result.report.notes if "passes the ball centre within" in n]
+    assert said and all("leg" in n for n in said)
+    robot = StewartRobot(result.description)
+    m = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(m)
+    T, V, A = robot.sample_states(2, rng=4)
+    rng = np.random.default_rng(5)
+    spin, rate = rng.uniform(-1.0, 1.0, (2, 6)), rng.uniform(-5.0, 5.0, (2, 6))
+    res = robot.chain_dynamics.inverse_dynamics(T, V, A, details=True, idle=(spin, rate))
+    for n in range(2):
+        got, sigma = mujoco_kkt_inverse_dynamics(
+            m, data, robot, T[n], V[n], A[n], (spin[n], rate[n])
+        )
+        assert rel_error(res.gamma[n], got) < 1e-10
+        assert rel_error(res.idle_accel[n], sigma) < 1e-10

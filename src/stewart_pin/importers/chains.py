@@ -81,8 +81,11 @@ from stewart_pin.importers.tree import (
 #: snapped.
 PARALLEL = 1e-12
 #: A joint of a four-joint ball leg is its idle freedom's coordinate when its motion
-#: moves the ball centre by at most this fraction of the robot's size per unit rate.
-IDLE_TOLERANCE = 1e-9
+#: moves the ball centre by at most this fraction of the robot's size per unit rate: the
+#: axis passes the ball centre within it (files round their numbers to 6-9 digits; the
+#: three-joint path's ``PARALLEL_TOLERANCE``). Only the choice of the coordinate: the leg
+#: stays exact (the residual is reported).
+IDLE_TOLERANCE = 1e-4
 #: Two joint lines whose common normal's feet lie more than this times the robot's size
 #: from the lines' anchors are taken as parallel (reported when they are not exactly).
 FAR = 1e3
@@ -521,9 +524,13 @@ def build_chains(
             gravcomp=gravcomp,
         )
         if leg.closure == "ball" and n == 4:
-            chain = chain.replace(
-                idle_joint=_idle_joint(chain, frames[0], rec.scale, leg, rec.fallback)
-            )
+            idle, miss_idle = _idle_joint(chain, frames[0], rec.scale, leg, rec.fallback)
+            chain = chain.replace(idle_joint=idle)
+            if miss_idle > EXACT_CLOSURE * rec.scale:
+                model.notes.append(
+                    f"idle joint {shown(leg.joints[idle - 1].name)}: its axis passes the ball "
+                    f"centre within {miss_idle:.3g} m (the file's rounding; the leg is exact)"
+                )
         chain_legs.append(chain)
         base_pts[n_out], base_rot[n_out] = frames[0][:3, 3], frames[0][:3, :3]
         plat_pts[n_out] = leg.at_platform[:3, 3]
@@ -648,17 +655,18 @@ def _idle_joint(
     scale: float,
     leg: ChainLegRead,
     fallback: ModelImportError | None = None,
-) -> int:
+) -> tuple[int, float]:
     """The joint of a four-joint ball leg whose motion leaves the ball centre in place at
-    the reference configuration (the idle freedom's coordinate), else
-    :class:`ModelImportError` naming the leg's joints."""
+    the reference configuration (the idle freedom's coordinate; :data:`IDLE_TOLERANCE`)
+    and the distance [m] of its axis from the ball centre, else :class:`ModelImportError`
+    naming the leg's joints."""
     T = base.copy()
     frames = []
     for jt, q in zip(chain.joints, chain.guess, strict=True):
         T = T @ jt.transform(q)
         frames.append(T)
     tip = T[:3, :3] @ chain.tip + T[:3, 3]
-    found = []
+    found, miss = [], []
     for j, F in enumerate(frames):
         if j + 1 == chain.actuated:
             continue
@@ -666,8 +674,9 @@ def _idle_joint(
         col = np.cross(z, tip - F[:3, 3]) if chain.joints[j].kind == REVOLUTE else z
         if np.linalg.norm(col) <= IDLE_TOLERANCE * scale:
             found.append(j + 1)
+            miss.append(float(np.linalg.norm(col)))
     if len(found) == 1:
-        return found[0]
+        return found[0], miss[0]
     names = [J.name for J in leg.joints]
     reason = (
         f"the leg of joints {shown_list(names)} closed by a ball ({leg.label}) has four "
