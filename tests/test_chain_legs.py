@@ -538,3 +538,31 @@ def test_an_idle_state_given_to_a_robot_without_idle_joints_is_refused() -> None
         simulate_idle(robot, 0.002, idle=(zero, zero))
     res = simulate_idle(robot, 0.002)
     assert np.all(res.idle_q == 0.0) and np.all(res.idle_v == 0.0)
+
+
+def test_the_tree_check_builds_its_placements_and_inertias_itself(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The check shares no algebra with the code it checks: with ``Joint.placement``,
+    ``Joint.transform`` and ``pin_inertia_from_khalil`` broken, it builds the same tree
+    (its IDM equals the robot's, computed before)."""
+    import stewart_pin.check.chain_legs_tree as check
+    import stewart_pin.description.inertia as inertia
+    from stewart_pin.description.leg_architecture import Joint
+
+    robot = StewartRobot(mixed_chain_robot(seed=2))
+    T, V, A = robot.sample_states(2, rng=3)
+    gamma = robot.inverse_dynamics(T, V, A)
+    q_legs = [[q[0] for q in _q_legs(robot, T[n])] for n in range(2)]
+
+    def broken(*args: object) -> None:
+        raise AssertionError("the check used the code it checks")
+
+    monkeypatch.setattr(Joint, "placement", broken)
+    monkeypatch.setattr(Joint, "transform", broken)
+    monkeypatch.setattr(inertia, "pin_inertia_from_khalil", broken)
+    monkeypatch.setattr(check, "pin_inertia_from_khalil", broken, raising=False)
+    tree = ChainTreeSolver(robot.description)
+    for n in range(2):
+        ref = tree.inverse_one(T[n], V[n], A[n], q_legs[n])
+        assert np.abs(gamma[n] - ref).max() <= TOL * np.abs(ref).max()

@@ -3,7 +3,8 @@
 
 Shares no algebra with :mod:`stewart_pin.dynamics.chain_leg_dynamics` or
 :mod:`stewart_pin.kinematics.chain_legs` (it imports neither): the tree (the platform a
-free-flyer, each leg's chain from its MDH placements, ``model.armature``) and its loop
+free-flyer, each leg's chain from its MDH placements and inertias converted here, not by
+``Joint.placement`` or ``pin_inertia_from_khalil``, ``model.armature``) and its loop
 constraints (``pin.RigidConstraintModel``: ``CONTACT_3D`` between the ball centre on the
 last link and ``P_i`` on the platform; ``CONTACT_6D`` between the leg's attachment frame
 and the platform's) are built here. The leg joint positions are an input (any inverse
@@ -44,7 +45,6 @@ from stewart_pin.check.leg_chain_tree import (
     solve,
 )
 from stewart_pin.description import RobotDescription
-from stewart_pin.description.inertia import pin_inertia_from_khalil
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.exceptions import InputError, SingularityError
 
@@ -53,6 +53,31 @@ from stewart_pin.exceptions import InputError, SingularityError
 _KHALIL_TO_PIN = np.array([9, 6, 7, 8, 0, 1, 3, 2, 4, 5])
 #: Largest loop-closure error [m, rad] accepted for the given leg joint positions.
 CLOSURE_TOLERANCE = 1e-9
+
+
+def _placement(alpha: float, d: float, theta: float, r: float) -> pin.SE3:
+    """Frame j in frame j-1 at q = 0 (modified DH, Khalil): ``Rx(alpha) Tx(d) Rz(theta)
+    Tz(r)``, written out here (not ``Joint.placement``)."""
+    ca, sa, ct, st = np.cos(alpha), np.sin(alpha), np.cos(theta), np.sin(theta)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    Rz = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+    I3, o = np.eye(3), np.zeros(3)
+    return (
+        pin.SE3(Rx, o)
+        * pin.SE3(I3, np.array([d, 0.0, 0.0]))
+        * pin.SE3(Rz, o)
+        * pin.SE3(I3, np.array([0.0, 0.0, r]))
+    )
+
+
+def _inertia(params: np.ndarray) -> pin.Inertia:
+    """A body's inertia from Khalil's 10 parameters about its frame origin (converted
+    here: :data:`_KHALIL_TO_PIN`); a massless body keeps its rotational inertia."""
+    p = np.asarray(params, dtype=float)
+    if p[9] == 0.0:
+        I_O = np.array([[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]])
+        return pin.Inertia(0.0, np.zeros(3), I_O)
+    return pin.Inertia.FromDynamicParameters(p[_KHALIL_TO_PIN])
 
 
 class ChainTreeSolver:
@@ -66,23 +91,19 @@ class ChainTreeSolver:
         model = pin.Model()
         model.gravity = pin.Motion(np.asarray(desc.gravity, float), np.zeros(3))
         ff = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "platform")
-        model.appendBodyToJoint(
-            ff, pin_inertia_from_khalil(desc.platform_inertia), pin.SE3.Identity()
-        )
+        model.appendBodyToJoint(ff, _inertia(desc.platform_inertia), pin.SE3.Identity())
         last, act, armature = [], [], []
         self.leg_joints: list[list[int]] = []
         for k, leg in enumerate(legs):
             parent = 0
             ids = []
             for j, joint in enumerate(leg.joints):
-                M = pin.SE3(joint.placement())
+                M = _placement(joint.alpha, joint.d, joint.theta, joint.r)
                 if j == 0:
                     M = pin.SE3(desc.leg_base_rotations[k], desc.base_points[k]) * M
                 jm = pin.JointModelRZ() if joint.revolute else pin.JointModelPZ()
                 parent = model.addJoint(parent, jm, M, f"l{k + 1}j{j + 1}")
-                model.appendBodyToJoint(
-                    parent, pin_inertia_from_khalil(leg.inertia[j]), pin.SE3.Identity()
-                )
+                model.appendBodyToJoint(parent, _inertia(leg.inertia[j]), pin.SE3.Identity())
                 ids.append(parent)
                 armature.append(joint.dynamics.total_armature)
             last.append(parent)

@@ -127,6 +127,16 @@ class FileTree:
                 f1 = self._add_frame(f"loop {k} a", c.body1, c.T_1_2)
                 f2 = self._add_frame(f"loop {k} b", c.body2, np.eye(4))
                 self._loops.append((f1, f2, 6))
+        # bodies with gravity compensation: (a frame at the centre of mass, the fraction
+        # of the weight compensated, the mass [kg])
+        self._gravcomp: list[tuple[int, float, float]] = []
+        for b, body in enumerate(tree.bodies):
+            mass = float(body.inertia[9])
+            if b and body.gravcomp and mass > 0.0:
+                com = _frame(np.eye(3), body.inertia[6:9] / mass)
+                self._gravcomp.append(
+                    (self._add_frame(f"com {b}", b, com), float(body.gravcomp), mass)
+                )
         self.data = model.createData()
         self.q = self._reference()
 
@@ -158,7 +168,9 @@ class FileTree:
         """The actuated joints' efforts (N, len(actuated)) [N or N m, along the file's
         joint axes] at the reference configuration at rest, the frame of body
         ``platform`` given the classical accelerations ``accels`` (N, 6) ``[a of its
-        origin, dw/dt]`` in F0: a KKT solve with the loops as hard constraints."""
+        origin, dw/dt]`` in F0: a KKT solve with the loops as hard constraints; each
+        body's compensated weight (``gravcomp`` times its weight, at its centre of mass)
+        removed."""
         m, d, q = self.model, self.data, self.q
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
@@ -172,6 +184,10 @@ class FileTree:
         M = pin.crba(m, d, q)
         M = np.triu(M) + np.triu(M, 1).T
         c = pin.rnea(m, d, q, np.zeros(m.nv), np.zeros(m.nv)).copy()
+        g = np.asarray(m.gravity.linear)
+        for frame, gravcomp, mass in self._gravcomp:  # the compensated weights removed
+            J_com = pin.getFrameJacobian(m, d, frame, world)[:3]
+            c += gravcomp * mass * (J_com.T @ g)
         for jid, k, rest in self._springs:
             c[m.joints[jid].idx_v] += k * (q[m.joints[jid].idx_q] - rest)
         S = np.zeros((len(actuated), m.nv))

@@ -82,8 +82,17 @@ from stewart_pin.importers.tree import (
 #: snapped.
 PARALLEL = 1e-12
 #: A joint of a four-joint ball leg is its idle freedom's coordinate when its motion
-#: moves the ball centre by at most this fraction of the robot's size per unit rate.
-IDLE_TOLERANCE = 1e-9
+#: moves the ball centre by at most this fraction of the robot's size per unit rate: the
+#: axis passes the ball centre within it (files round their numbers to 6-9 digits; the
+#: three-joint path's ``PARALLEL_TOLERANCE``). Only the choice of the coordinate: the leg
+#: stays exact (the residual is reported).
+IDLE_TOLERANCE = 1e-4
+#: Two joint lines whose common normal's feet lie more than this times the robot's size
+#: from the lines' anchors are taken as parallel (reported when they are not exactly).
+FAR = 1e3
+#: Largest distance [fraction of the size] and angle [rad] between the frames rebuilt from
+#: a leg's modified-DH parameters and the file's joint lines (round-off is ~1e-15).
+MDH_MATCH = 1e-9
 
 
 @dataclass
@@ -286,7 +295,13 @@ def recognise_chains(
     return ChainRecognition(links, link_of, ground, P, legs, length_scale(model))
 
 
-def mdh_frames(kinds: Sequence[str], anchors: Any, axes: Any) -> tuple[np.ndarray, np.ndarray]:
+def mdh_frames(
+    kinds: Sequence[str],
+    anchors: Any,
+    axes: Any,
+    size: float = 1.0,
+    nearly: list[int] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Frames 1..n (n, 4, 4) in F0 and the modified-DH parameters (n, 4) ``alpha, d,
     theta, r`` of a chain of n 1-dof joints given by a point and the unit axis of each
     line (F0, zero configuration), joint 1's all zero (frame 0 is frame 1 at q1 = 0).
@@ -294,7 +309,11 @@ def mdh_frames(kinds: Sequence[str], anchors: Any, axes: Any) -> tuple[np.ndarra
     ``x_j`` is the common normal of lines j and j+1 (``z_j x z_{j+1}``), ``o_j`` its foot
     on line j; for parallel lines (:data:`PARALLEL`) ``o_j`` is where the previous normal
     meets line j (joint 1: its anchor) and ``x_j`` points from it to line j+1; the last
-    frame's ``x_n`` is ``x_{n-1}`` made normal to ``z_n``."""
+    frame's ``x_n`` is ``x_{n-1}`` made normal to ``z_n``. Lines whose common normal's feet
+    lie more than :data:`FAR` times ``size`` [m] from the anchors are taken as parallel: the
+    1-based indices j of those not exactly parallel are appended to ``nearly`` (the frames
+    rebuilt from the parameters then miss the file's lines: :func:`mdh_mismatch`)."""
+    nearly = [] if nearly is None else nearly
     n = len(kinds)
     a = np.array(anchors, dtype=float).reshape(n, 3)
     z = np.array([np.asarray(v, float) / np.linalg.norm(v) for v in axes]).reshape(n, 3)
@@ -311,18 +330,23 @@ def mdh_frames(kinds: Sequence[str], anchors: Any, axes: Any) -> tuple[np.ndarra
             x[j] = v / np.linalg.norm(v)
             break
         c = np.cross(z[j], z[j + 1])
-        if np.linalg.norm(c) > PARALLEL:
-            w = a[j] - a[j + 1]
-            b = z[j] @ z[j + 1]
-            d_, e_ = z[j] @ w, z[j + 1] @ w
-            den = 1.0 - b * b
-            o[j] = a[j] + ((b * e_ - d_) / den) * z[j]
-            p = a[j + 1] + ((e_ - b * d_) / den) * z[j + 1]
-            x[j] = c / np.linalg.norm(c)
-        else:
+        # the feet of the common normal: ((a_{j+1} - a_j) x z) . c / |c|^2, well conditioned
+        # (``1 - (z_j . z_{j+1})^2`` would cancel for nearly parallel lines)
+        den = float(c @ c)
+        w = a[j + 1] - a[j]
+        s = float(np.cross(w, z[j + 1]) @ c) / den if den > PARALLEL**2 else math.inf
+        t = float(np.cross(w, z[j]) @ c) / den if den > PARALLEL**2 else math.inf
+        if max(abs(s), abs(t)) <= FAR * size:
+            o[j] = a[j] + s * z[j]
+            p = a[j + 1] + t * z[j + 1]
+            x[j] = c / math.sqrt(den)
+        else:  # parallel, or so nearly that the common normal lies FAR away: as parallel
+            if den > PARALLEL**2:
+                nearly.append(j + 1)
             o[j] = p
             foot = a[j + 1] + ((o[j] - a[j + 1]) @ z[j + 1]) * z[j + 1]
             v = foot - o[j]
+            v = v - (v @ z[j]) * z[j]  # normal to z_j (lines nearly parallel)
             if np.linalg.norm(v) < 1e-12 * (1.0 + np.linalg.norm(o[j])):
                 prev = x[j - 1] if j else np.array([1.0, 0.0, 0.0])
                 v = prev - (prev @ z[j]) * z[j]
@@ -342,6 +366,23 @@ def mdh_frames(kinds: Sequence[str], anchors: Any, axes: Any) -> tuple[np.ndarra
         r = -t[1] * math.sin(alpha) + t[2] * math.cos(alpha)
         params[j] = (alpha, t[0], theta, r)
     return frames, params
+
+
+def mdh_mismatch(
+    frame0: np.ndarray, joints: Sequence[Joint], anchors: Any, axes: Any
+) -> np.ndarray:
+    """(n, 2) the distance [m] of each frame rebuilt from ``frame0`` (F0, (4, 4)) and the
+    joints' parameters at q = 0 from the file's joint line (its anchor and axis, F0), and
+    the angle [rad] between their axes."""
+    out = np.zeros((len(joints), 2))
+    T = frame0.copy()
+    for j, jt in enumerate(joints):
+        if j:
+            T = T @ jt.transform(0.0)
+        z = np.asarray(axes[j], float) / np.linalg.norm(axes[j])
+        out[j, 0] = np.linalg.norm(np.cross(T[:3, 3] - np.asarray(anchors[j], float), z))
+        out[j, 1] = math.atan2(float(np.linalg.norm(np.cross(T[:3, 2], z))), float(T[:3, 2] @ z))
+    return out
 
 
 def _dynamics(
@@ -403,12 +444,15 @@ def build_chains(
     reports: list[LegReport] = []
     residuals = np.zeros(6)
     angles = np.zeros(6)
+    near: list[str] = []  # nearly parallel joint lines taken as parallel
     for n_out, k in enumerate(order):
         leg = rec.legs[k]
         n = len(leg.joints)
         kinds = [J.kind for J in leg.joints]
         anchors = [J.anchor for J in leg.joints]
-        frames, params = mdh_frames(kinds, anchors, [J.axis for J in leg.joints])
+        axes = [J.axis for J in leg.joints]
+        nearly: list[int] = []
+        frames, params = mdh_frames(kinds, anchors, axes, rec.scale, nearly)
         a_act = act_of[k]
         act_index = [J.name for J in leg.joints].index(a_act.joint) + 1
         joints: list[Joint] = []
@@ -424,6 +468,33 @@ def build_chains(
             except ArchitectureError as err:
                 raise ModelImportError(f"joint {shown(J.name)}: {err}", (), (J.name,)) from err
             dyns.append(dyn)
+        miss = mdh_mismatch(frames[0], joints, anchors, axes)
+        worst = float(max(miss[:, 0].max() / rec.scale, miss[:, 1].max()))
+        names = tuple(J.name for J in leg.joints)
+        if worst > MDH_MATCH:
+            pairs = ", ".join(f"{shown(names[j - 1])}-{shown(names[j])}" for j in nearly)
+            if not nearly:
+                raise ModelImportError(
+                    f"the leg of joints {shown_list(names)}: its joint frames rebuilt from "
+                    f"the modified-DH parameters miss the file's joint lines by "
+                    f"{miss[:, 0].max():.3g} m, {miss[:, 1].max():.3g} rad",
+                    (),
+                    names,
+                )
+            warnings.warn(
+                ModelImportWarning(
+                    f"leg through {shown_list(names)}: the joint lines {pairs} are so nearly "
+                    f"parallel that their common normal lies over {FAR:g} times the robot's "
+                    "size away; taken as parallel, the frames miss the file's lines by "
+                    f"{miss[:, 0].max():.3g} m, {miss[:, 1].max():.3g} rad",
+                    short=f"nearly parallel joint lines {pairs} taken as parallel",
+                ),
+                stacklevel=3,
+            )
+            near.append(
+                f"nearly parallel joint lines {pairs} taken as parallel (the frames move by "
+                f"{miss[:, 0].max():.2g} m, {miss[:, 1].max():.2g} rad)"
+            )
         inertia = np.zeros((n, 10))
         for j, li in enumerate(leg.children):
             if li == P:
@@ -448,9 +519,13 @@ def build_chains(
             gravcomp=gravcomp,
         )
         if leg.closure == "ball" and n == 4:
-            chain = chain.replace(
-                idle_joint=_idle_joint(chain, frames[0], rec.scale, leg, rec.fallback)
-            )
+            idle, miss_idle = _idle_joint(chain, frames[0], rec.scale, leg, rec.fallback)
+            chain = chain.replace(idle_joint=idle)
+            if miss_idle > EXACT_CLOSURE * rec.scale:
+                model.notes.append(
+                    f"idle joint {shown(leg.joints[idle - 1].name)}: its axis passes the ball "
+                    f"centre within {miss_idle:.3g} m (the file's rounding; the leg is exact)"
+                )
         chain_legs.append(chain)
         base_pts[n_out], base_rot[n_out] = frames[0][:3, 3], frames[0][:3, :3]
         plat_pts[n_out] = leg.at_platform[:3, 3]
@@ -465,7 +540,6 @@ def build_chains(
             R = T_leg[:3, :3].T @ T_plat[:3, :3]
             s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
             angles[n_out] = math.atan2(s, 0.5 * (np.trace(R) - 1.0))
-        names = tuple(J.name for J in leg.joints)
         reports.append(
             LegReport(
                 f"chain of {n} joints closed by a {leg.closure}",
@@ -498,7 +572,7 @@ def build_chains(
             tuple(residuals),
             tol,
         )
-    approximations = []
+    approximations = list(near)
     if np.any(residuals > EXACT_CLOSURE * size) or np.any(angles > EXACT_CLOSURE):
         warnings.warn(
             ModelImportWarning(
@@ -576,17 +650,18 @@ def _idle_joint(
     scale: float,
     leg: ChainLegRead,
     fallback: ModelImportError | None = None,
-) -> int:
+) -> tuple[int, float]:
     """The joint of a four-joint ball leg whose motion leaves the ball centre in place at
-    the reference configuration (the idle freedom's coordinate), else
-    :class:`ModelImportError` naming the leg's joints."""
+    the reference configuration (the idle freedom's coordinate; :data:`IDLE_TOLERANCE`)
+    and the distance [m] of its axis from the ball centre, else :class:`ModelImportError`
+    naming the leg's joints."""
     T = base.copy()
     frames = []
     for jt, q in zip(chain.joints, chain.guess, strict=True):
         T = T @ jt.transform(q)
         frames.append(T)
     tip = T[:3, :3] @ chain.tip + T[:3, 3]
-    found = []
+    found, miss = [], []
     for j, F in enumerate(frames):
         if j + 1 == chain.actuated:
             continue
@@ -594,8 +669,9 @@ def _idle_joint(
         col = np.cross(z, tip - F[:3, 3]) if chain.joints[j].kind == REVOLUTE else z
         if np.linalg.norm(col) <= IDLE_TOLERANCE * scale:
             found.append(j + 1)
+            miss.append(float(np.linalg.norm(col)))
     if len(found) == 1:
-        return found[0]
+        return found[0], miss[0]
     names = [J.name for J in leg.joints]
     reason = (
         f"the leg of joints {shown_list(names)} closed by a ball ({leg.label}) has four "
@@ -617,11 +693,14 @@ def _idle_joint(
 
 
 __all__ = [
+    "FAR",
     "IDLE_TOLERANCE",
+    "MDH_MATCH",
     "PARALLEL",
     "ChainLegRead",
     "ChainRecognition",
     "build_chains",
     "mdh_frames",
+    "mdh_mismatch",
     "recognise_chains",
 ]
