@@ -9,7 +9,6 @@ import numpy as np
 from stewart_pin._argtypes import BYTES_PER_REGRESSOR_STATE, count_within_memory
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import file_in_folder
-from stewart_pin.architectures import reference_path
 from stewart_pin.cli import identify_log
 from stewart_pin.cli._common import (
     add_robot_args,
@@ -31,6 +30,8 @@ def _cmd_base_params(args: argparse.Namespace) -> int:
     numerical, rank = numerical_base_parameters(robot, n_states=args.states, seed=args.seed)
     desc = robot.description
     method = args.method
+    from stewart_pin.architectures import reference_path  # heavy (Pinocchio): at run time
+
     if method == "analytic" and not reference_path(desc).analytic_rules:
         print(
             f"note: robot '{robot.name}' has {desc.architecture} legs, which the analytic "
