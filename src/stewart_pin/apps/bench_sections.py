@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -78,7 +79,8 @@ def payload_rows(
     arm = StewartRobot.from_preset(preset).with_payload(payload)
     hexapod = arm.robot
     P, V, A, q, qd, qdd = arm.sample_states(batch, 0)
-    gamma, tau = arm.inverse_dynamics(P, V, A, q, qd, qdd, backend="pinocchio")
+    reference = arm.inverse_dynamics(P, V, A, q, qd, qdd, backend="pinocchio")
+    gamma, tau = reference.gamma, reference.tau
     fast = payload_backend(arm, "compiled")  # built (or found in the cache) before timing
     one = (P[0], V[0], A[0], q[0], qd[0], qdd[0])
     reps, breps = repeats, max(3, min(repeats, 5))
@@ -101,17 +103,17 @@ def payload_rows(
     }
     for backend, r in (("pinocchio", reps), ("compiled", reps_c)):
         rows[f"payload robot, inverse, {backend}, one state"] = median_us(
-            lambda b=backend: arm.inverse_dynamics(*one, backend=b), r
+            partial(arm.inverse_dynamics, *one, backend=backend), r
         )
         rows[f"payload robot, direct (prescribed qdd), {backend}, one state"] = median_us(
-            lambda b=backend: arm.direct_dynamics(
-                P[0], V[0], gamma[0], q[0], qd[0], qdd[0], backend=b
+            partial(
+                arm.direct_dynamics, P[0], V[0], gamma[0], q[0], qd[0], qdd[0], backend=backend
             ),
             r,
         )
         rows[f"payload robot, direct (torques), {backend}, one state"] = median_us(
-            lambda b=backend: arm.direct_dynamics(
-                P[0], V[0], gamma[0], q[0], qd[0], tau=tau[0], backend=b
+            partial(
+                arm.direct_dynamics, P[0], V[0], gamma[0], q[0], qd[0], tau=tau[0], backend=backend
             ),
             r,
         )
@@ -132,7 +134,7 @@ def payload_rows(
     rows[f"payload robot, direct (torques), compiled, batch of {nb}"] = median_us(
         lambda: arm.direct_dynamics(Pb, Vb, gb, qb, qdb, tau=taub, backend="compiled"), creps, nb
     )
-    return rows, fast.threads
+    return rows, getattr(fast, "threads", 1)
 
 
 # --- the compiled calls and batches (scripts/bench_compiled_calls.py) -----------------
@@ -203,37 +205,37 @@ def compiled_call_rows(
             for n, label in ((1, "1 state"), (1000, "1000 states, per state")):
                 fn, (args, _keep) = raw_call(backend, which, n, P[:n], V[:n], X[:n])
                 rows[f"{name} C function via ctypes, {label}"] = median_us(
-                    lambda fn=fn, args=args: fn(*args),  # type: ignore[operator]
+                    partial(cast(Callable[..., object], fn), *cast(tuple[object, ...], args)),
                     repeats if n == 1 else 200,
                     n,
                 )
-            one = backend._c_one[which]  # type: ignore[attr-defined]
+            one = backend._c_one[which]
             block = T0.tobytes() + V0.tobytes() + X0.tobytes()
-            args1 = (block, backend._chi_ptr, ctypes.c_double(1e4), backend._one_out_ptr)  # type: ignore[attr-defined]
+            args1 = (block, backend._chi_ptr, ctypes.c_double(1e4), backend._one_out_ptr)
             rows[f"{name} single-state C entry via ctypes (prepared arguments)"] = median_us(
-                lambda f=one, a=args1: f(*a), repeats
+                partial(one, *args1), repeats
             )
             method = backend.inverse_dynamics if which == "idm" else backend.direct_dynamics
             facade = robot.inverse_dynamics if which == "idm" else robot.direct_dynamics
             rows[f"{name} single, CompiledDynamics"] = median_us(
-                lambda m=method, x=X0: m(T0, V0, x), repeats
+                partial(method, T0, V0, X0), repeats
             )
             rows[f"{name} single, robot facade backend='compiled'"] = median_us(
-                lambda f=facade, x=X0: f(T0, V0, x, backend="compiled"), repeats
+                partial(facade, T0, V0, X0, backend="compiled"), repeats
             )
             rows[f"{name} single, robot facade default backend='auto'"] = median_us(
-                lambda f=facade, x=X0: f(T0, V0, x), repeats
+                partial(facade, T0, V0, X0), repeats
             )
         for n in batches:
             reps = 50 if n <= 10_000 else 10
             for b in (backend, serial):
                 m = b.inverse_dynamics if which == "idm" else b.direct_dynamics
                 rows[f"{name} batch {n}, per state ({b.threads} threads)"] = median_us(
-                    lambda m=m, n=n, x=X: m(P[:n], V[:n], x[:n]), reps, n
+                    partial(m, P[:n], V[:n], X[:n]), reps, n
                 )
                 if n == big:
                     rows[f"{name} batch {n}, CPU time per state ({b.threads} threads)"] = (
-                        median_cpu_us(lambda m=m, n=n, x=X: m(P[:n], V[:n], x[:n]), reps, n)
+                        median_cpu_us(partial(m, P[:n], V[:n], X[:n]), reps, n)
                     )
     return rows, backend.kind, getattr(backend, "threads", 1)
 
