@@ -24,7 +24,16 @@ Median wall-clock time per state [us], all measured in this one run:
 - ``simulate`` per RK4 step at 1 ms on ``--preset`` (:mod:`.bench_simulation`): the
   compiled loop with forces as data, with the computed-torque controller and with a Python
   force function per step, the Python loop, and MuJoCo's own RK4 step (``mj_step``) on the
-  same robot, with the ratios to that step and to ``pin.constraintDynamics``.
+  same robot, with the ratios to that step and to ``pin.constraintDynamics``;
+- the other figures of issue 24, one section each with the issue's aim
+  (:mod:`.bench_sections`, the same functions as ``scripts/bench_*.py``): a ``--preset``
+  robot carrying a UR5 (reference and compiled, also as ratios to ``pin.constraintDynamics``
+  on the whole tree), the first exact-derivatives call in a new process with an empty cache
+  (every preset; ``--quick``: ``--preset`` only), a new process's start-up (7 fresh
+  processes per figure; ``--quick``: 1), ``sample_states`` on every architecture (10 000
+  states; ``--quick``: at most ``--batch``) and the compiled batches of 100 000 states on
+  every thread and on one (``--quick``: ``--batch`` states). Fresh processes use a
+  temporary cache folder.
 
 Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus,welded-ups]
 [--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
