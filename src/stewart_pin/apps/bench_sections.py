@@ -460,7 +460,8 @@ def bench_sections(
         ratio_to_whole_tree={r: t / whole for r, t in rows.items()},
     )
     presets = (preset,) if quick else FIRST_USE_PRESETS
-    say(f"[{next(k)}/{stages}] first derivatives call in a new process, empty cache: {presets}")
+    listed = ", ".join(presets)
+    say(f"[{next(k)}/{stages}] first derivatives call in a new process, empty cache: {listed}")
     rows = {}
     for p in presets:
         r = first_use(p)
