@@ -165,13 +165,7 @@ def raw_call(
 def median_cpu_us(fn: Callable[[], object], repeats: int, per: int) -> float:
     """Median over ``repeats`` calls of ``fn`` of the process's CPU time (all its threads),
     divided by ``per`` states per call [us]."""
-    fn()  # warm-up
-    times = []
-    for _ in range(repeats):
-        t0 = time.process_time()
-        fn()
-        times.append(time.process_time() - t0)
-    return statistics.median(times) / per * 1e6
+    return median_us(fn, repeats, per, clock=time.process_time)
 
 
 def compiled_call_rows(
