@@ -38,10 +38,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -49,43 +45,12 @@ import numpy as np
 from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
 from stewart_pin.apps.bench import constraint_dynamics_call, machine, machine_line, median_us
+from stewart_pin.apps.bench_sections import FIRST_USE_PRESETS, first_use
 from stewart_pin.check.dynamics_derivatives import (
     constrained_direct_dynamics_derivatives,
     tree_derivatives_call,
 )
 from stewart_pin.codegen.derivatives import CompiledDerivatives, derivatives_backend
-
-#: The presets timed by ``--first-use``: every named preset (the three ideal 6-UPS share
-#: one generator, so ``paper`` stands for ``desktop`` too) and every leg preset.
-FIRST_USE_PRESETS = ("simulator", "desktop", "paper", "ups-offset", "rus", "pus")
-#: What runs in the new process: a value call first (its library cached by an earlier
-#: process, as it stands after any use of the robot), then the timed first derivatives
-#: call (``sys.argv[2]``: "time"; else only the value call, to fill the cache).
-_FIRST_USE = """
-import sys, time
-from stewart_pin import StewartRobot
-from stewart_pin.codegen import compiled
-robot = StewartRobot.from_preset(sys.argv[1])
-P, V, A = robot.sample_states(1, 0)
-robot.inverse_dynamics(P[0], V[0], A[0], backend="compiled")
-if sys.argv[2] != "time":
-    sys.exit(0)
-calls = []
-original = compiled._compile
-def timed(*args, **kwargs):
-    t = time.perf_counter()
-    try:
-        return original(*args, **kwargs)
-    finally:
-        calls.append(time.perf_counter() - t)
-compiled._compile = timed
-t = time.perf_counter()
-robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
-total = time.perf_counter() - t
-t = time.perf_counter()
-robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
-print(total, sum(calls), time.perf_counter() - t)
-"""
 
 PIN_VALUE = "pin.constraintDynamics (raw call)"
 PIN_DERIVATIVES = "pin.constraintDynamics + computeConstraintDynamicsDerivatives (raw calls)"
@@ -139,36 +104,6 @@ def run(preset: str, repeats: int, batch: int) -> dict[str, object]:
         "median_us_per_state": rows,
         "ratio_to_pin_constraintDynamics": {k: t / rows[PIN_VALUE] for k, t in rows.items()},
         "ratio_to_pin_derivatives": {k: t / rows[PIN_DERIVATIVES] for k, t in rows.items()},
-    }
-
-
-def first_use(preset: str) -> dict[str, object]:
-    """The first derivatives call of ``preset`` in a new process with an empty cache:
-    seconds in all, compiling, and for the second call; the load average just before."""
-    with tempfile.TemporaryDirectory(prefix="stewart-pin-first-use-") as cache:
-        env = {**os.environ, "STEWART_PIN_CACHE": cache}
-        for step in ("values", "time"):
-            load = os.getloadavg()[0]
-            run = subprocess.run(
-                [sys.executable, "-c", _FIRST_USE, preset, step],
-                capture_output=True,
-                text=True,
-                env=env,
-                check=False,
-            )
-            if run.returncode != 0:
-                break
-    if run.returncode != 0:
-        raise SystemExit(f"{preset}: {run.stderr.strip().splitlines()[-1:]}")
-    total, compiling, second = (float(x) for x in run.stdout.split())
-    announced = [ln for ln in run.stderr.splitlines() if "exact derivatives" in ln]
-    return {
-        "preset": preset,
-        "first_call_s": total,
-        "compiling_s": compiling,
-        "second_call_us": 1e6 * second,
-        "announced": announced[0] if announced else "",
-        "load_average_1min": load,
     }
 
 

@@ -23,74 +23,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
-import statistics
-import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parent.parent / "src"
-
-FIRST_CALL = """
-import numpy as np
-import stewart_pin
-robot = stewart_pin.StewartRobot.from_preset({preset!r})
-gamma = robot.inverse_dynamics(robot.home_pose, np.zeros(6), np.zeros(6))
-backend = robot._stewart_pin_auto_backend[1]
-assert backend is not None and backend.kind == "compiled" and not backend.compiled_now
-assert np.all(np.isfinite(gamma))
-"""
-
-#: (label, python arguments, aim [s] or None)
-CASES = (
-    ("python -c pass", ["-c", "pass"], None),
-    ("import stewart_pin", ["-c", "import stewart_pin"], 0.3),
-    ("stewart-pin --help", ["-m", "stewart_pin.cli", "--help"], 0.5),
-)
-
-
-def environment(cache: str) -> dict[str, str]:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(SRC), env.get("PYTHONPATH")]))
-    env["STEWART_PIN_CACHE"] = cache
-    env["STEWART_PIN_BACKEND"] = "auto"
-    return env
-
-
-def timed(args: list[str], env: dict[str, str]) -> tuple[float, float]:
-    """Wall-clock and CPU (user + system) seconds of one fresh process ``python *args``
-    (which must succeed)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    subprocess.run([sys.executable, *args], env=env, check=True, capture_output=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
-    return wall, cpu
-
-
-def run(runs: int, preset: str) -> dict[str, dict[str, float | None]]:
-    with tempfile.TemporaryDirectory(prefix="stewart-pin-startup-") as tmp:
-        cache = os.path.join(tmp, "cache")
-        env = environment(cache)
-        first = FIRST_CALL.format(preset=preset)
-        # fill the cache (compiles once, not timed): the build's own process
-        fill = first.replace("and not backend.compiled_now", "")
-        subprocess.run([sys.executable, "-c", fill], env=env, check=True)
-        cases = [*CASES, (f"first call on a cached robot ({preset})", ["-c", first], 0.5)]
-        out: dict[str, dict[str, float | None]] = {}
-        for label, args, aim in cases:
-            timed(args, env)  # warm the file-system cache
-            wall, cpu = zip(*(timed(args, env) for _ in range(runs)), strict=True)
-            out[label] = {
-                "median_s": statistics.median(wall),
-                "min_s": min(wall),
-                "cpu_median_s": statistics.median(cpu),
-                "aim_s": aim,
-            }
-    return out
+from stewart_pin.apps.bench_sections import startup_figures
 
 
 def load() -> str:
@@ -107,7 +43,7 @@ def main() -> None:
     ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
     a = ap.parse_args()
     load_before = load()
-    figures = run(a.runs, a.preset)
+    figures = startup_figures(a.runs, a.preset)
     print(f"start-up, medians of {a.runs} fresh processes ({sys.executable})")
     print(f"load average (1, 5, 15 min): before {load_before}, after {load()}")
     for label, f in figures.items():

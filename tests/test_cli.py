@@ -206,12 +206,34 @@ def test_bench_writes_json(tmp_path, capsys):
 
     path = tmp_path / "bench.json"
     args = ["bench", "--preset", "desktop", "--batch", "50", "--repeats", "3", "--quick"]
+    args += ["--architectures", "simulator"]
     assert main([*args, "--json", str(path)]) == 0
+    out = capsys.readouterr().out
     data = json.loads(path.read_text())
     rows = data["median_us_per_state"]
     assert "pin.constraintDynamics (raw call)" in rows and "IDM single" in rows
     assert all(t > 0 for t in rows.values())
     assert data["machine"]["cpus"] >= 1
+    # every figure of issue 24 in the one run: each section printed with its aim, and in
+    # the JSON with finite positive medians and ratios (no timing asserted)
+    from stewart_pin.apps.bench_sections import AIMS
+
+    sections = data["sections"]
+    assert set(sections) == set(AIMS)
+    for name, entry in sections.items():
+        assert f"{name}: aim {AIMS[name]}" in out
+        medians, ratios = entry["median"], entry["ratio_to_pin_constraintDynamics"]
+        assert medians and set(ratios) == set(medians)
+        assert all(np.isfinite(v) and v > 0 for v in [*medians.values(), *ratios.values()])
+    first = sections["derivatives first use"]["median"]
+    assert "desktop: first inverse_dynamics_derivatives call" in first
+    assert "import stewart_pin" in sections["start-up"]["median"]
+    assert len(sections["sampling"]["median"]) == 5
+    assert "payload robot, inverse, compiled, one state" in sections["payload"]["median"]
+    assert any(k.startswith("IDM batch 50, per state") for k in sections["batches"]["median"])
+    sim = data["simulation"]["desktop"]
+    assert all(np.isfinite(v) and v > 0 for v in sim["median_us_per_step"].values())
+    assert "simulation: aim" in out
 
 
 def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
@@ -246,6 +268,9 @@ def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
             "ratio_to_pin_constraintDynamics": {k: t / 10.0 for k, t in sim_rows.items()},
         },
     )
+    from stewart_pin.apps import bench_sections
+
+    monkeypatch.setattr(bench_sections, "bench_sections", lambda *a: {})
     monkeypatch.setattr(
         bench,
         "cost_dict",
@@ -257,7 +282,7 @@ def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
     assert main([*args, "--repeats", "1", "--quick"]) == 0
     out, err = capsys.readouterr()
     stages = [line for line in err.splitlines() if line.startswith("bench: [")]
-    assert len(stages) == 6 and stages[0].startswith("bench: [1/6] 'rus'")
+    assert len(stages) == 6 and stages[0].startswith("bench: [1/11] 'rus'")
     lines = out.splitlines()
     assert "{" not in lines[0] and "CPUs" in lines[0] and "Python" in lines[0]
     assert lines[1].split() == [
@@ -272,7 +297,8 @@ def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
     rows = [line.split() for line in lines[2:end]]
     assert [r[0] for r in rows] == ["rus"] * 2 + ["pus"] * 2 + ["desktop"] * 9
     assert rows[1][-2:] == ["2.000", "0.200"] and rows[-1][-2:] == ["1.000", "0.250"]
-    sim = [line.split() for line in lines[end + 2 :]]
+    assert lines[end + 1].startswith("simulation: aim")
+    sim = [line.split() for line in lines[end + 3 :]]
     assert sim[0][-3:] == ["3.00", "0.050", "0.300"] and len(sim) == 2
     assert main([*args, "--repeats", "1", "--quick", "--no-progress"]) == 0
     assert capsys.readouterr().err == ""

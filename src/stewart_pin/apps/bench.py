@@ -24,7 +24,16 @@ Median wall-clock time per state [us], all measured in this one run:
 - ``simulate`` per RK4 step at 1 ms on ``--preset`` (:mod:`.bench_simulation`): the
   compiled loop with forces as data, with the computed-torque controller and with a Python
   force function per step, the Python loop, and MuJoCo's own RK4 step (``mj_step``) on the
-  same robot, with the ratios to that step and to ``pin.constraintDynamics``.
+  same robot, with the ratios to that step and to ``pin.constraintDynamics``;
+- the other figures of issue 24, one section each with the issue's aim
+  (:mod:`.bench_sections`, the same functions as ``scripts/bench_*.py``): a ``--preset``
+  robot carrying a UR5 (reference and compiled, also as ratios to ``pin.constraintDynamics``
+  on the whole tree), the first exact-derivatives call in a new process with an empty cache
+  (every preset; ``--quick``: ``--preset`` only), a new process's start-up (7 fresh
+  processes per figure; ``--quick``: 1), ``sample_states`` on every architecture (10 000
+  states; ``--quick``: at most ``--batch``) and the compiled batches of 100 000 states on
+  every thread and on one (``--quick``: ``--batch`` states). Fresh processes use a
+  temporary cache folder.
 
 Usage: ``stewart-pin bench [--preset simulator] [--architectures simulator,rus,pus,welded-ups]
 [--batch 10000] [--repeats 300] [--quick] [--json bench.json]`` (or
@@ -224,13 +233,16 @@ def run(
     """Every timing, as a JSON-ready dict; ``progress(message)`` is told each stage as it
     starts (a run takes minutes)."""
     say = progress or (lambda message: None)
-    stages = len(architectures) + 4
+    from stewart_pin.apps.bench_sections import AIMS, bench_sections, with_ratios
+
+    stages = len(architectures) + 4 + len(AIMS)
     batches = (batch,) if quick else ARCHITECTURE_BATCHES
     arch = {}
     for k, name in enumerate(architectures, 1):
         say(f"[{k}/{stages}] '{name}': the default backend (compiled on first use)")
         arch[name] = architecture_rows(name, repeats, batches)
-    say(f"[{stages - 3}/{stages}] '{preset}': the reference path and pin.constraintDynamics")
+    base = len(architectures) + 1
+    say(f"[{base}/{stages}] '{preset}': the reference path and pin.constraintDynamics")
     robot = StewartRobot.from_preset(preset)  # any architecture
     poses, twists, accels = robot.sample_states(batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels, backend="pinocchio")
@@ -265,16 +277,17 @@ def run(
             lambda: reference_actuator_efforts(robot, T, V, A), repeats
         ),
     }
-    say(f"[{stages - 2}/{stages}] '{preset}': the compiled models (CompiledDynamics)")
+    say(f"[{base + 1}/{stages}] '{preset}': the compiled models (CompiledDynamics)")
     more, compiled_info = compiled_rows(robot, poses, twists, accels, gammas, repeats, quick)
     rows.update(more)
-    say(f"[{stages - 1}/{stages}] '{preset}': MuJoCo mj_forward (when MuJoCo imports)")
+    say(f"[{base + 2}/{stages}] '{preset}': MuJoCo mj_forward (when MuJoCo imports)")
     rows.update(mujoco_rows(robot, T, G, repeats))
-    say(f"[{stages}/{stages}] '{preset}': simulate per RK4 step, and MuJoCo's RK4 step")
+    say(f"[{base + 3}/{stages}] '{preset}': simulate per RK4 step, and MuJoCo's RK4 step")
     from stewart_pin.apps.bench_simulation import simulation_rows
 
     simulation = {preset: simulation_rows(preset, 3 if quick else 7, quick)}
     reference = rows["pin.constraintDynamics (raw call)"]
+    sections = bench_sections(preset, batch, repeats, quick, say, base + 4, stages)
     counts = cost_dict(robot)
     return {
         "preset": preset,
@@ -289,6 +302,7 @@ def run(
         "median_us_per_state": rows,
         "ratio_to_pin_constraintDynamics": {k: t / reference for k, t in rows.items()},
         "simulation": simulation,
+        "sections": {k: with_ratios(v, reference) for k, v in sections.items()},
     }
 
 
@@ -348,12 +362,18 @@ def report(args: argparse.Namespace) -> dict[str, object]:
     print(f"stewart-pin {stewart_pin.__version__} on {machine_line(result['machine'])}")
     print("\n".join(table(result, args.preset)))
     if result.get("simulation"):
+        from stewart_pin.apps.bench_sections import SIMULATION_AIM
         from stewart_pin.apps.bench_simulation import simulation_table
 
         print()
+        print(f"simulation: aim {SIMULATION_AIM}")
         print(
             "\n".join(simulation_table(cast(dict[str, dict[str, object]], result["simulation"])))
         )
+    if result.get("sections"):
+        from stewart_pin.apps.bench_sections import sections_table
+
+        print("\n".join(sections_table(cast(dict[str, dict[str, object]], result["sections"]))))
     if args.json:
         write_text_atomic(args.json, json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.json}")

@@ -41,7 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--quick",
         action="store_true",
-        help="skip the 1 000 000-state batch; time the architectures at --batch states only",
+        help="a short run: skip the 1 000 000-state batch; time the architectures, the "
+        "compiled batches and the sampling at --batch states, the first derivatives call "
+        "on --preset only, fewer repeats",
     )
     parser.add_argument("--json", type=Path, help="write the results as JSON here")
     parser.add_argument("--no-progress", action="store_true", help="no progress lines (on stderr)")
