@@ -1,7 +1,7 @@
 """Overhead of the compiled backend's calls from Python (issue 14, item 3).
 
 Median wall-clock time [us] per state, all in one run, on one preset (default
-``simulator``):
+``simulator``; also the chain-leg robots ``welded-ups``, ``mixed-chain``):
 
 - ``pin.constraintDynamics`` on the 24-dof closed-loop tree (raw C++ call, q, v, tau
   prepared beforehand): the reference for the ratios;
@@ -38,6 +38,7 @@ from stewart_pin import StewartRobot
 from stewart_pin._io import write_text_atomic
 from stewart_pin.apps.bench import constraint_dynamics_call, machine, median_us
 from stewart_pin.codegen import CompiledDynamics, compiled_backend
+from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
 
 
 def raw_call(
@@ -75,7 +76,8 @@ def median_cpu_us(fn: Callable[[], object], repeats: int, per: int) -> float:
 
 
 def run(preset: str, repeats: int) -> dict[str, object]:
-    robot = StewartRobot.from_preset(preset)
+    chain = CHAIN_PRESETS.get(preset)  # a chain-leg robot (welded-ups) or a preset
+    robot = StewartRobot(chain()) if chain else StewartRobot.from_preset(preset)
     big = 100_000
     poses, twists, accels = robot.sample_states(2000, 0)  # any architecture
     idx = np.arange(big) % poses.shape[0]
