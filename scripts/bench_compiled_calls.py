@@ -1,7 +1,7 @@
 """Overhead of the compiled backend's calls from Python (issue 14, item 3).
 
 Median wall-clock time [us] per state, all in one run, on one preset (default
-``simulator``):
+``simulator``; also the chain-leg robots ``welded-ups``, ``mixed-chain``):
 
 - ``pin.constraintDynamics`` on the 24-dof closed-loop tree (raw C++ call, q, v, tau
   prepared beforehand): the reference for the ratios;

@@ -189,3 +189,41 @@ def test_the_standalone_c_export_refuses_chain_legs_before_writing(tmp_path: Pat
     with pytest.raises(ExportError, match="chain legs"):
         export_c(StewartRobot(welded_ups()), tmp_path / "out", "sp")
     assert not list(tmp_path.iterdir())
+
+
+def test_vector_batch_of_welded_legs_equals_the_scalar_path() -> None:
+    """The chain legs' Newton steps are calls of one step function per leg: the batch loop
+    runs them SP_WIDTH states at a time through the vector copies of the body and of the
+    step functions (codegen/_simd.py; issue 20). Every state's result and flag equal those
+    of the same C called on that state alone (the scalar path) to 1e-13, whichever lane it
+    takes, with a state Newton has not solved (flagged: the guard's slack), states out of
+    reach or not finite in other lanes and an uneven count (the last states scalar); the
+    valid states equal the reference path."""
+    robot = StewartRobot(welded_ups())
+    n = 23
+    P, V, A = (np.ascontiguousarray(a) for a in robot.sample_states(n, 8))
+    backend = compiled_module.CompiledDynamics(robot, threads=1)
+    source = (backend.library.parent / "stewart_models.c").read_text()
+    assert "#define SP_VEC_IDM 1" in source and "#define SP_VEC_DDM 1" in source
+    assert "sp_vf_" in source  # the step functions' vector copies
+    G = np.ascontiguousarray(robot.inverse_dynamics(P, V, A, backend="pinocchio"))
+    P[5], V[5], A[5] = _far(robot)  # lane 1 (of 4): Newton has not solved it
+    G[5] = robot.inverse_dynamics(P[5], V[5], A[5], backend="pinocchio")
+    P[6, 2, 3] += 10.0 * chain_legs.robot_size(robot.description)  # lane 2: out of reach
+    V[11, 0] = np.nan  # lane 3: not finite
+    A[16, 2] = G[16, 2] = np.inf  # lane 0: not finite
+    valid = np.ones(n, dtype=bool)
+    valid[[5, 6, 11, 16]] = False
+    chi = np.ascontiguousarray(backend.base_values, dtype=np.float64)
+    for which, X, ref in (("idm", A, G), ("ddm", G, A)):
+        out, flags = np.empty((n, 6)), np.zeros(n, dtype=np.int32)
+        backend._call_batch(which, n, P, V, X, chi, out, flags)
+        assert np.all(flags[~valid] != 0) and not np.any(flags[valid])
+        assert np.abs(out[valid] - ref[valid]).max() <= TOL * np.abs(ref[valid]).max()
+        for k in range(n):
+            one, flag = np.empty((1, 6)), np.zeros(1, dtype=np.int32)
+            x = X[k : k + 1]
+            backend._call_batch(which, 1, P[k : k + 1], V[k : k + 1], x, chi, one, flag)
+            assert flag[0] == flags[k], (which, k)
+            if valid[k] or k == 5:  # the unsolved state's (unused) values too
+                assert np.max(np.abs(out[k] - one[0])) <= 1e-13 * np.max(np.abs(one[0]))

@@ -79,7 +79,7 @@ def test_threads_setting(monkeypatch: pytest.MonkeyPatch) -> None:
         CompiledDynamics(get_robot("simulator"), threads=0)
 
 
-@pytest.mark.parametrize("name", ["simulator", "rus", "pus", "ups-offset"])
+@pytest.mark.parametrize("name", ["simulator", "rus", "pus", "ups-offset", "random-custom-0"])
 def test_vector_batch_equals_the_scalar_path(name: str) -> None:
     """The batch loop runs SP_WIDTH states at a time (four with AVX2, two elsewhere)
     through the vector copy of the generated code (codegen/_simd.py) and the vector screen
@@ -87,7 +87,9 @@ def test_vector_batch_equals_the_scalar_path(name: str) -> None:
     state alone (the scalar path) to 1e-13, whichever lane it takes, with invalid states
     (out of reach, not finite, not a rotation) in every lane, an uneven count (the last
     states scalar) and, with a low ``max_condition``, states the screen leaves to the
-    scalar guards (flagged or not); the valid states also equal the reference path."""
+    scalar guards (flagged or not); the valid states also equal the reference path.
+    Custom legs' Newton steps are calls of a step function: its vector copy is called
+    (issue 20; the welded chain legs: tests/test_chain_legs_compiled.py)."""
     robot = get_robot(name)
     n = 43
     P, V, A = (np.ascontiguousarray(a) for a in robot.sample_states(n, 8))

@@ -179,8 +179,10 @@ def compiled_call_rows(
     import ctypes
 
     from stewart_pin.codegen import CompiledDynamics, compiled_backend
+    from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
 
-    robot = StewartRobot.from_preset(preset)
+    chain = CHAIN_PRESETS.get(preset)  # a chain-leg robot (welded-ups, mixed-chain)
+    robot = StewartRobot(chain()) if chain else StewartRobot.from_preset(preset)
     big = max(batches)
     poses, twists, accels = robot.sample_states(min(2000, big), 0)  # any architecture
     idx = np.arange(big) % poses.shape[0]

@@ -3,7 +3,8 @@
 CasADi writes an SX function as straight-line code on scalar locals ``aNNN`` (declared
 ``casadi_real``): loads ``aNNN=arg[k]? arg[k][i] : 0;``, assignments ``aNNN=expr;`` of
 arithmetic, ``sqrt``/``sin``/... and its helpers (``casadi_sq``, ``casadi_fabs``,
-``casadi_fmax``...), comparisons ``aNNN=(x<y);`` and selections ``aNNN=(c?x:y);``, and
+``casadi_fmax``...), comparisons ``aNNN=(x<y);``, logic ``aNNN=(x&&y);``, ``(x||y)``,
+``(!x)`` and selections ``aNNN=(c?x:y);``, and
 stores ``if (res[k]!=0) res[k][i]=aNNN;``. :func:`vector_source` rewrites that body over
 ``sp_vec``, a vector of ``SP_WIDTH`` doubles (GCC/Clang ``vector_size``), one state per
 lane: the inputs come as a structure of arrays (``argv[k][i]``: element ``i`` of argument
@@ -33,8 +34,12 @@ result is the scalar function's but where ``-freciprocal-math`` (:data:`.compile
 turns divisions by one divisor into products by its reciprocal in one and not the other:
 up to about 1e-15 relative, measured (tests/test_compiled_calls.py checks 1e-13).
 
-Anything else in a body (a branch, a loop, a call of another function, a function not
-in :data:`_LANEWISE`) leaves that function out: the batch loop keeps its scalar path.
+A call of another generated function (CasADi's ``arg[k]=w+N; res[k]=w+N; w[i] = aNNN;
+if (casadi_fN(arg+A, res+R, iw, w+W, 0)) return 1; aNNN = w[i];``: the chain legs' Newton
+steps, issue 20) becomes a call of that function's vector copy ``sp_vf_casadi_fN`` (written
+once, not inlined: the compile time) on a local vector workspace, if its body is
+straight-line code in turn. Anything else in a body (a branch, a loop, a function not in
+:data:`_LANEWISE`) leaves that function out: the batch loop keeps its scalar path.
 Measured (issue 24): four doubles over SSE2 (two registers per operation) were slower than
 two; AVX2 four-wide is 1.4-1.5x faster than SSE2 two-wide on the generated code, AVX-512
 eight-wide only 1.1x more (and more states in the scalar tail), so it is not used.
@@ -43,6 +48,7 @@ eight-wide only 1.1x more (and more states in the scalar tail), so it is not use
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 
 #: The C before the vector functions: the width, the vector types, ``SP_VTARGET`` (the
 #: target of every vector function), ``SP_VEC_READY()`` (whether the processor runs them),
@@ -151,6 +157,7 @@ _LANEWISE = {
     "casadi_fmin": 2,
     "casadi_fmax": 2,
     "copysign": 2,
+    "fmod": 2,
 }
 
 _DECL = re.compile(r"^\s*casadi_real (a\d+(?:, a\d+)*);$")
@@ -162,6 +169,17 @@ _OPERAND = r"(a\d+|[0-9][0-9.eE+-]*)"
 _COMPARE = re.compile(rf"^\s*(a\d+)=\({_OPERAND}(<|<=|>|>=|==|!=){_OPERAND}\);$")
 _SELECT = re.compile(rf"^\s*(a\d+)=\({_OPERAND}\?{_OPERAND}:{_OPERAND}\);$")
 _CALL = re.compile(r"([A-Za-z_]\w*)\(")
+#: ``aNNN=(x&&y);``, ``aNNN=(x||y);`` and ``aNNN=(!x);`` (1 or 0), lane by lane.
+_LOGIC = re.compile(rf"^\s*(a\d+)=\({_OPERAND}(&&|\|\|){_OPERAND}\);$")
+_NOT = re.compile(rf"^\s*(a\d+)=\(!{_OPERAND}\);$")
+#: A call of another generated function: its pointers into ``w``, the values copied in and
+#: out, and the call itself.
+_POINTER = re.compile(r"^\s*(arg|res)\[(\d+)\]=w\+(\d+);$")
+_COPY_IN = re.compile(rf"^\s*w\[(\d+)\] = {_OPERAND};$")
+_COPY_OUT = re.compile(r"^\s*(a\d+) = w\[(\d+)\];$")
+_SUBCALL = re.compile(
+    r"^\s*if \((casadi_f\d+)\(arg\+(\d+), res\+(\d+), iw, w\+\d+, 0\)\) return 1;$"
+)
 _VAR = re.compile(r"\ba\d+\b")
 #: The output written as a structure of arrays (``soa``): the by-products.
 SOA_OUTPUT = 1
@@ -206,10 +224,13 @@ def vector_source(
     used: set[str] = set()
     bodies: list[str] = []
     written: set[str] = set()
+    callees: dict[str, _Callee | None] = {}
     for name, vname in names.items():
         internal = _internal_name(source, name)
         code = (
-            None if internal is None else _vector_function(source, internal, vname, used, shared)
+            None
+            if internal is None
+            else _vector_function(source, internal, vname, used, shared, callees)
         )
         if code is not None:
             bodies.append(code)
@@ -230,6 +251,7 @@ def vector_source(
                 f"  sp_vec r; int l;\n  for (l = 0; l < SP_WIDTH; ++l) r[l] = {fn}(x[l], y[l]);\n"
                 "  return r;\n}"
             )
+    parts += [c.code for c in callees.values() if c is not None]
     return "\n".join(parts) + "\n" + "\n".join(bodies), written
 
 
@@ -237,14 +259,87 @@ def _operand(x: str) -> str:
     return x if _VAR.fullmatch(x) else f"sp_bcast({x})"
 
 
+@dataclass
+class _Callee:
+    """The vector copy of a called function: its C, its numbers of inputs and outputs and
+    the elements it reads of each input."""
+
+    code: str
+    n_in: int
+    n_out: int
+    sizes: dict[int, int]
+
+
 def _vector_function(
-    source: str, name: str, vname: str, used: set[str], shared: frozenset[int]
+    source: str,
+    name: str,
+    vname: str,
+    used: set[str],
+    shared: frozenset[int],
+    callees: dict[str, _Callee | None],
 ) -> str | None:
+    out = _vector_lines(source, name, used, shared, callees, called=False)
+    if out is None:
+        return None
+    return (
+        f"SP_VTARGET static void {vname}(const sp_vec* const* argv, const double* const* "
+        f"shared, double* const* resv[SP_WIDTH], sp_vec* soa) {{\n  int l;\n"
+        + "\n".join(out)
+        + "\n  (void)l; (void)argv; (void)shared;\n}\n"
+    )
+
+
+def _callee(
+    source: str, name: str, used: set[str], callees: dict[str, _Callee | None]
+) -> _Callee | None:
+    """The vector copy ``sp_vf_<name>(const sp_vec* const* argv, sp_vec* const* resv)`` of
+    the called function ``name`` (None if it is not straight-line code), written once."""
+    if name not in callees:
+        callees[name] = None  # a call of itself: not written
+        body = function_body(source, name)
+        inner: set[str] = set()
+        out = (
+            None
+            if body is None
+            else _vector_lines(source, name, inner, frozenset(), callees, True)
+        )
+        if out is not None and body is not None:
+            used |= inner
+            loads = [_LOAD.match(x) for x in body]
+            sizes: dict[int, int] = {}
+            for m in loads:
+                if m:
+                    k, i = int(m.group(2)), int(m.group(3))
+                    sizes[k] = max(sizes.get(k, 0), i + 1)
+            n_out = 1 + max((int(m.group(1)) for x in body if (m := _STORE.match(x))), default=-1)
+            code = (
+                f"SP_VTARGET __attribute__((noinline)) static void sp_vf_{name}("
+                "const sp_vec* const* argv, sp_vec* const* resv) {\n"
+                + "\n".join(out)
+                + "\n  (void)argv; (void)resv;\n}\n"
+            )
+            del callees[name]  # after the functions it calls
+            callees[name] = _Callee(code, 1 + max(sizes, default=-1), n_out, sizes)
+    return callees[name]
+
+
+def _vector_lines(
+    source: str,
+    name: str,
+    used: set[str],
+    shared: frozenset[int],
+    callees: dict[str, _Callee | None],
+    called: bool,
+) -> list[str] | None:
+    """The vector body of function ``name`` (None if it is not straight-line code); a
+    ``called`` function reads ``argv[k][i]`` and writes ``resv[k][i]``."""
     body = function_body(source, name)
     if body is None:
         return None
     out: list[str] = []
     calls: set[str] = set()
+    pointers: dict[tuple[str, int], int] = {}
+    nw = 0
     for line in body:
         if not line.strip():
             continue
@@ -263,20 +358,63 @@ def _vector_function(
         m = _STORE.match(line)
         if m:
             k, i, v = m.groups()
-            if int(k) == SOA_OUTPUT:
+            if called:
+                out.append(f"  resv[{k}][{i}]={v};")
+            elif int(k) == SOA_OUTPUT:
                 out.append(f"  soa[{i}]={v};")
             else:
                 out.append(f"  for (l = 0; l < SP_WIDTH; ++l) resv[l][{k}][{i}]={v}[l];")
+            continue
+        m = _POINTER.match(line)
+        if m:
+            pointers[(m.group(1), int(m.group(2)))] = int(m.group(3))
+            continue
+        m = _COPY_IN.match(line)
+        if m:
+            i, x = m.groups()
+            nw = max(nw, int(i) + 1)
+            out.append(f"  vw[{i}]={_operand(x)};")
+            continue
+        m = _COPY_OUT.match(line)
+        if m:
+            v, i = m.groups()
+            nw = max(nw, int(i) + 1)
+            out.append(f"  {v}=vw[{i}];")
+            continue
+        m = _SUBCALL.match(line)
+        if m:
+            fn, a, r = m.group(1), int(m.group(2)), int(m.group(3))
+            c = _callee(source, fn, used, callees)
+            ins = [pointers.get(("arg", a + j)) for j in range(c.n_in)] if c else [None]
+            outs = [pointers.get(("res", r + j)) for j in range(c.n_out)] if c else [None]
+            if c is None or None in ins or None in outs:
+                return None
+            nw = max([nw] + [o + c.sizes.get(j, 0) for j, o in enumerate(ins) if o is not None])
+            out.append(
+                f"  {{ const sp_vec* ca[] = {{{', '.join(f'vw+{o}' for o in ins)}}}; "
+                f"sp_vec* cr[] = {{{', '.join(f'vw+{o}' for o in outs)}}}; "
+                f"sp_vf_{fn}(ca, cr); }}"
+            )
             continue
         m = _COMPARE.match(line)
         if m:
             v, x, op, y = m.groups()
             out.append(f"  {v}=sp_bool({_operand(x)}{op}{_operand(y)});")
             continue
+        m = _LOGIC.match(line)
+        if m:
+            v, x, op, y = m.groups()
+            out.append(f"  {v}=sp_bool(({_operand(x)}!=0.0){op[0]}({_operand(y)}!=0.0));")
+            continue
+        m = _NOT.match(line)
+        if m:
+            v, x = m.groups()
+            out.append(f"  {v}=sp_bool({_operand(x)}==0.0);")
+            continue
         m = _SELECT.match(line)
         if m:
-            v, c, x, y = m.groups()
-            out.append(f"  {v}=sp_sel({_operand(c)}!=0.0, {_operand(x)}, {_operand(y)});")
+            v, c_, x, y = m.groups()
+            out.append(f"  {v}=sp_sel({_operand(c_)}!=0.0, {_operand(x)}, {_operand(y)});")
             continue
         m = _ASSIGN.match(line)
         if not m:
@@ -291,9 +429,6 @@ def _vector_function(
             continue
         out.append(f"  {v}={_CALL.sub(lambda c: f'sp_v_{c.group(1)}(', expr)};")
     used |= calls
-    return (
-        f"SP_VTARGET static void {vname}(const sp_vec* const* argv, const double* const* "
-        f"shared, double* const* resv[SP_WIDTH], sp_vec* soa) {{\n  int l;\n"
-        + "\n".join(out)
-        + "\n  (void)l; (void)argv; (void)shared;\n}\n"
-    )
+    if nw:
+        out.insert(0, f"  sp_vec vw[{nw}];")
+    return out

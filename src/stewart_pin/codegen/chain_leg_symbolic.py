@@ -17,7 +17,8 @@ robot baked in. Per leg i, in its frame 0i (``[R_i, B_i]`` in F0):
   as the reference caps it (:data:`~stewart_pin.kinematics.chain_legs.MAX_STEP`), a
   revolute joint carried as ``cos``, ``sin`` of ``theta + q`` and turned by the Cayley
   rotation of ``dq`` (no trigonometric call). Each step is one function called, never
-  inlined, in the compiled source. The final residual is reported to the guard: a state
+  inlined, in the compiled source (the batch loop calls its vector copy,
+  :mod:`._simd`). The final residual is reported to the guard: a state
   where the fixed count has not converged is decided by the reference path;
 - ``J_i`` (c x n, columns ``[z_j x (P - O_j); z_j]`` or ``[z_j; 0]``) inverted by the
   same static-pivot LU (its largest multiplier reported to the guard); ``qdot = J_i^-1
