@@ -910,23 +910,8 @@ def _leg_form(leg: _LegInput, signs: np.ndarray, rezero: bool) -> _LegForm:
         lo, hi = sorted((s * lo + o, s * hi + o))
         dyn = JointDynamics()
         if J is not None:
-            full = leg.joint_terms(J.name) if leg.joint_terms is not None else None
-            if full is not None:
-                dyn = full
-            else:
-                gear = leg.gear if j + 1 == actuated_index else 1.0
-                extra = (leg.armature or {}).get(J.name, 0.0)
-                try:
-                    dyn = JointDynamics(
-                        armature=J.armature + float(extra),
-                        viscous=J.damping,
-                        coulomb=J.coulomb,
-                        stiffness=J.stiffness,
-                        rest_position=J.rest if J.stiffness else 0.0,
-                        gear_ratio=gear if gear != 1.0 else None,
-                    )
-                except JointDynamicsError as err:
-                    raise ModelImportError(f"joint {shown(J.name)}: {err}", (), (J.name,)) from err
+            gear = leg.gear if j + 1 == actuated_index else 1.0
+            dyn = joint_dynamics(J, gear, leg.armature, leg.joint_terms)
             if dyn.stiffness and (s, o) != (1.0, 0.0):
                 dyn = replace(dyn, rest_position=s * dyn.rest_position + o)
         dyns_.append(dyn)
@@ -1168,6 +1153,32 @@ def _description(
     return desc, False
 
 
+def joint_dynamics(
+    J: TreeJoint,
+    gear: float,
+    armature: dict[str, float] | None,
+    joint_terms: Callable[[str], JointDynamics | None] | None,
+) -> JointDynamics:
+    """A file joint's :class:`JointDynamics`: the sidecar's full terms when it gives them
+    (``joint_terms``), else the file's armature (plus ``armature[name]``), damping as
+    viscous friction, Coulomb friction, spring about its rest position, the transmission
+    ``gear`` (1: none); :class:`ModelImportError` naming the joint for a bad value."""
+    full = joint_terms(J.name) if joint_terms is not None else None
+    if full is not None:
+        return full
+    try:
+        return JointDynamics(
+            armature=J.armature + float((armature or {}).get(J.name, 0.0)),
+            viscous=J.damping,
+            coulomb=J.coulomb,
+            stiffness=J.stiffness,
+            rest_position=J.rest if J.stiffness else 0.0,
+            gear_ratio=gear if gear != 1.0 else None,
+        )
+    except JointDynamicsError as err:
+        raise ModelImportError(f"joint {shown(J.name)}: {err}", (), (J.name,)) from err
+
+
 __all__ = [
     "AXIS_TOLERANCE",
     "CLOSURE_TOLERANCE",
@@ -1180,6 +1191,7 @@ __all__ = [
     "LinkPoses",
     "assign_actuators",
     "build",
+    "joint_dynamics",
     "remove_spin",
     "robot_name",
     "rod_asymmetry",

@@ -41,7 +41,6 @@ from stewart_pin.description.robot_description import RobotDescription, check_ro
 from stewart_pin.exceptions import (
     ArchitectureError,
     DescriptionError,
-    JointDynamicsError,
     LoopClosureError,
     ModelImportError,
     ModelImportWarning,
@@ -55,6 +54,7 @@ from stewart_pin.importers.build import (
     LinkPoses,
     assign_actuators,
     compensated_gravity,
+    joint_dynamics,
     link_gravcomp,
     robot_name,
 )
@@ -385,28 +385,6 @@ def mdh_mismatch(
     return out
 
 
-def _dynamics(
-    J: TreeJoint,
-    gear: float,
-    armature: dict[str, float] | None,
-    joint_terms: Callable[[str], JointDynamics | None] | None,
-) -> JointDynamics:
-    full = joint_terms(J.name) if joint_terms is not None else None
-    if full is not None:
-        return full
-    try:
-        return JointDynamics(
-            armature=J.armature + float((armature or {}).get(J.name, 0.0)),
-            viscous=J.damping,
-            coulomb=J.coulomb,
-            stiffness=J.stiffness,
-            rest_position=J.rest if J.stiffness else 0.0,
-            gear_ratio=gear if gear != 1.0 else None,
-        )
-    except JointDynamicsError as err:
-        raise ModelImportError(f"joint {shown(J.name)}: {err}", (), (J.name,)) from err
-
-
 def build_chains(
     model: KinematicModel,
     rec: ChainRecognition,
@@ -458,7 +436,9 @@ def build_chains(
         joints: list[Joint] = []
         dyns: list[JointDynamics] = []
         for j, J in enumerate(leg.joints):
-            dyn = _dynamics(J, a_act.gear if j + 1 == act_index else 1.0, armature, joint_terms)
+            dyn = joint_dynamics(
+                J, a_act.gear if j + 1 == act_index else 1.0, armature, joint_terms
+            )
             lo, hi = J.lower, J.upper
             if limits is not None and (lim := limits(J.name)) is not None:
                 lo, hi = lim
