@@ -65,6 +65,7 @@ from stewart_pin.kinematics import chain_legs, geometry, leg_chains, workspace
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import leg_state
+from stewart_pin.models.chain_legs import build_chain_leg, build_chain_legs, build_chain_tree
 from stewart_pin.models.leg_chains import build_general_tree, build_leg_chain, build_leg_chains
 from stewart_pin.models.pinocchio_models import (
     TreeModel,
@@ -543,9 +544,9 @@ class ChainLegPath(LegChainPath):
     """Robots with chain legs (``description.chain_legs``: any 1-dof joints, ball or weld
     closures; :mod:`stewart_pin.kinematics.chain_legs`,
     :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`). Joint values of the
-    legs come as (N, 6, max n_i) arrays, zero past a leg's last joint. What is built on
-    three-joint legs (the regressor, the Pinocchio leg models of :class:`LegDynamics`)
-    raises :class:`UnsupportedArchitectureError`."""
+    legs come as (N, 6, max n_i) arrays, zero past a leg's last joint. The Pinocchio
+    models (the tree, the leg models) are those of :mod:`stewart_pin.models.chain_legs`;
+    what is built on three-joint legs only raises :class:`UnsupportedArchitectureError`."""
 
     analytic_rules = False
 
@@ -554,6 +555,23 @@ class ChainLegPath(LegChainPath):
     ) -> _Result:
         """No grouping rules foresee an arbitrary chain (the rules' error)."""
         return rules.chain_leg_rules(desc)
+
+    def closed_loop_tree(self, desc: RobotDescription) -> TreeModel:
+        """The tree of the six chains (``model.armature`` set) and the platform as a
+        free-flyer, with a 3D loop closure at each ball centre and a 6D one at each weld
+        (:func:`~stewart_pin.models.chain_legs.build_chain_tree`; leg indices (6, max n),
+        ``-1`` past a leg's last joint)."""
+        return build_chain_tree(desc)
+
+    def leg_models(self, desc: RobotDescription) -> list[pin.Model]:
+        """The six serial chains (n_i dof each, ``model.armature`` set): the models of
+        :class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`."""
+        return [build_chain_leg(desc, k) for k in range(6)]
+
+    def legs_model(self, desc: RobotDescription) -> tuple[pin.Model, np.ndarray]:
+        """The six chains on a fixed base and the (6, max n) velocity index of joint j of
+        leg i (``-1`` past a leg's last joint)."""
+        return build_chain_legs(desc)
 
     def check_home(self, r: PathOwner) -> None:
         """Each leg reaches its attachment at the home pose from its guess, inside its

@@ -334,17 +334,20 @@ class StewartRobot:
         """The 24-dof closed-loop Pinocchio tree of the robot: six leg chains, the
         platform as a free-flyer, six 3D loop-closure constraints at the ``P_i``
         (:func:`stewart_pin.architectures.closed_loop_tree`: the ideal 6-UPS's from its
-        URDF, every other robot's from its chains with ``model.armature`` set)."""
+        URDF, every other robot's from its chains with ``model.armature`` set; chain legs:
+        6 + sum n_i dof, 3D loops at the balls, 6D at the welds, leg indices (6, max n)
+        with ``-1`` past a leg's last joint)."""
         return self._kind.closed_loop_tree(self.description)
 
     @cached_property
     def leg_models(self) -> list[pin.Model]:
-        """The six 3-dof leg models (joints from the base in order)."""
+        """The six 3-dof leg models (joints from the base in order; chain legs: n_i dof)."""
         return self._kind.leg_models(self.description)
 
     @cached_property
     def legs_model(self) -> tuple[pin.Model, IntArray]:
-        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index."""
+        """The six legs as one 18-dof fixed-base model, and its (6, 3) velocity index
+        (chain legs: sum n_i dof, (6, max n), ``-1`` past a leg's last joint)."""
         return self._kind.legs_model(self.description)
 
     # ------------------------------------------------------------------ geometry

@@ -33,7 +33,7 @@ import pinocchio as pin
 from stewart_pin._checks import check_array, check_poses, check_states
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.chain_leg import ChainLeg
-from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL, pin_inertia_from_khalil
+from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL
 from stewart_pin.description.leg_architecture import coulomb_sign
 from stewart_pin.dynamics.closed_loop import (
     check_finite,
@@ -44,6 +44,7 @@ from stewart_pin.dynamics.closed_loop import (
 from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
 from stewart_pin.kinematics import chain_legs as kin
 from stewart_pin.kinematics.jacobians import MAX_CONDITION
+from stewart_pin.models.chain_legs import build_chain_leg
 
 
 def chain_parameters(desc: RobotDescription) -> tuple[np.ndarray, tuple[str, ...]]:
@@ -78,22 +79,9 @@ def chain_parameters(desc: RobotDescription) -> tuple[np.ndarray, tuple[str, ...
 
 def leg_model(desc: RobotDescription, k: int) -> pin.Model:
     """Leg k's serial Pinocchio model: fixed base at frame 0k, joints RZ / PZ placed by
-    their MDH transforms, links' inertia, ``model.armature``, the robot's gravity."""
-    leg = kin.chain_legs_of(desc)[k]
-    model = pin.Model()
-    model.gravity = pin.Motion(np.asarray(desc.gravity, float), np.zeros(3))
-    parent = 0
-    for j, joint in enumerate(leg.joints):
-        placement = pin.SE3(joint.placement())
-        if j == 0:
-            placement = pin.SE3(kin.leg_base_pose(desc, k)) * placement
-        jm = pin.JointModelRZ() if joint.revolute else pin.JointModelPZ()
-        parent = model.addJoint(parent, jm, placement, f"leg{k + 1}_q{j + 1}")
-        model.appendBodyToJoint(
-            parent, pin_inertia_from_khalil(leg.inertia[j]), pin.SE3.Identity()
-        )
-    model.armature = leg.armature
-    return model
+    their MDH transforms, links' inertia, ``model.armature``, the robot's gravity
+    (:func:`~stewart_pin.models.chain_legs.build_chain_leg`)."""
+    return build_chain_leg(desc, k)
 
 
 def compensated_model(model: pin.Model, leg: ChainLeg) -> pin.Model | None:
