@@ -242,8 +242,8 @@ SAMPLING_PRESETS = ("simulator", "ups-offset", "rus", "pus", "random-custom-0")
 
 
 def sampling_seconds(name: str, n: int, repeats: int) -> float:
-    """Median [s] of ``robot.sample_states(n, seed)`` over seeds ``0 .. repeats - 1`` (the
-    robot built and warmed by a small call before timing)."""
+    """Median [s] of ``robot.sample_states(n, seed)`` over the seeds 0 to ``repeats - 1``
+    (the robot built and warmed by a small call before timing)."""
     robot = StewartRobot.from_preset(name)
     robot.sample_states(10, 0)  # warm-up: the robot's cached views and constants
     times = []

@@ -299,7 +299,7 @@ def compensation_torques(
 def compensation_potential(
     model: pin.Model, data: pin.Data, compensated: list[tuple[int, float]]
 ) -> float:
-    """The potential of the compensating forces, ``sum c_b m_b g . com_b`` [J], at the
+    """The potential of the compensating forces, ``sum c_b m_b (g dot com_b)`` [J], at the
     placements in ``data``."""
     g = np.array(model.gravity.linear)
     out = 0.0

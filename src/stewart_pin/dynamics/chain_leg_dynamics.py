@@ -188,11 +188,14 @@ class ChainInverseDynamics:
     """The inverse model with its terms (batches).
 
     Attributes:
-        gamma: (N, 6) actuated efforts, joint side [N or N m]. motor: (N, 6) ``gamma /
-        ratio``. H: six (N, n_i) each leg's joint efforts (joint terms included).
+        gamma: (N, 6) actuated efforts, joint side [N or N m].
+        motor: (N, 6) ``gamma / ratio``.
+        H: six (N, n_i) each leg's joint efforts (joint terms included).
         wrenches: (N, 6, 6) each leg's wrench on the platform about O_p in F0 ``[f, m]``
-        [N, N m] (``-G_i^T J_i^-T (H_i - e_a gamma_i)``). F_p: (N, 6) the platform's own
-        ``Ip Vdot + bias``. J_inv: (N, 6, 6) ``Jp^-1``. legs: the leg states.
+            [N, N m] (``-G_i^T J_i^-T (H_i - e_a gamma_i)``).
+        F_p: (N, 6) the platform's own ``Ip Vdot + bias``.
+        J_inv: (N, 6, 6) ``Jp^-1``.
+        legs: the leg states.
         idle_accel: (N, 6) the idle joints' accelerations [rad/s^2 or m/s^2] (0 for a leg
         without one).
     """

@@ -1,5 +1,6 @@
-"""Legs read as they are written: chain legs (:class:`~stewart_pin.description.chain_leg.
-ChainLeg`) for every leg that is not exactly three 1-dof joints and an ideal spherical joint
+"""Legs read as they are written: chain legs
+(:class:`~stewart_pin.description.chain_leg.ChainLeg`) for every leg that is not exactly
+three 1-dof joints and an ideal spherical joint
 (``docs/importing.md``, "Chain legs").
 
 :func:`recognise_chains` finds the platform as the link with six closures (a ball joint to
