@@ -229,3 +229,35 @@ def test_friction_robots_converge_on_fine_transcriptions(name, intervals):
     # elsewhere the smooth sign differs from the exact one: the efforts differ (by at most
     # the Coulomb forces mapped to the actuators), not the motion
     assert np.abs(m.exact_efforts - held).max() > 1e-6 * scale
+
+
+def test_optimal_motion_on_chain_legs():
+    """The planner on chain legs (welded six-joint legs, Coulomb friction on every joint):
+    the NLP on the chain generator's smooth models. References at the nodes: the reference
+    inverse model (Pinocchio's chain-leg dynamics and the closure layer, Coulomb's exact
+    sign) and the independent constrained tree (check/chain_legs_tree.py); at rest (the
+    start) both signs are 0, so there the held force is exact; elsewhere the smooth sign
+    moves the efforts by the Coulomb forces mapped to the actuators (a few per mille of the
+    largest effort here, 3e-3 measured), not more."""
+    from stewart_pin.check.chain_legs_tree import ChainTreeSolver
+    from stewart_pin.description.chain_leg_presets import welded_ups
+    from stewart_pin.kinematics import chain_legs
+
+    robot = StewartRobot(welded_ups(seed=1))
+    goal = robot.home_pose
+    goal[2, 3] += 0.005  # 5 mm up
+    m = optimal_point_to_point(robot, robot.home_pose, goal, 0.5, intervals=4, tol=1e-6)
+    assert m.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    np.testing.assert_allclose(m.poses[-1], goal, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(m.twists[[0, -1]], 0.0, rtol=0, atol=1e-8)
+    held = np.vstack([m.gammas, m.gammas[-1:]])
+    scale = np.abs(m.exact_efforts).max()
+    gamma_ref = robot.inverse_dynamics(m.poses, m.twists, m.accels, backend="pinocchio")
+    np.testing.assert_allclose(m.exact_efforts, gamma_ref, rtol=0, atol=1e-9 * scale)
+    tree = ChainTreeSolver(robot.description)
+    for T, V, A, gamma in zip(m.poses, m.twists, m.accels, m.exact_efforts, strict=True):
+        q = [x[0] for x in chain_legs.inverse_geometry(robot.description, T[None], False)]
+        np.testing.assert_allclose(gamma, tree.inverse_one(T, V, A, q), rtol=0, atol=1e-7 * scale)
+    np.testing.assert_allclose(m.exact_efforts[0], held[0], rtol=0, atol=1e-9 * scale)
+    gap = np.abs(m.exact_efforts - held).max()
+    assert 1e-6 * scale < gap < 2e-2 * scale

@@ -449,6 +449,9 @@ class ChainLegCodegen(LegChainCodegen):
     def build_models(self, desc: RobotDescription, pose: str, parameters: str) -> SymbolicModels:
         return build_chain_models(desc, pose)[0]
 
+    def smooth_models(self, desc: RobotDescription, eps: float) -> SymbolicModels:
+        return build_chain_models(desc, coulomb_smoothing=eps)[0]
+
     def singularity_length(self, desc: RobotDescription) -> float:
         return robot_size(desc)  # as the reference path (chain_legs.condition_number)
 

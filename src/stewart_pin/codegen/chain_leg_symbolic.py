@@ -118,9 +118,12 @@ class _ChainConst:
     inline_newton: bool = True
 
 
-def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) -> _ChainConst:
+def chain_constants(
+    desc: RobotDescription, k: int, inline_newton: bool = True, coulomb_smoothing: float = 0.0
+) -> _ChainConst:
     """Leg k's :class:`_ChainConst` (:class:`UnsupportedArchitectureError` for a leg with an
-    idle joint)."""
+    idle joint); ``coulomb_smoothing`` > 0 [m/s or rad/s, each joint's rate]: its joints'
+    Coulomb signs smoothed as ``tanh(qd / eps)``."""
     leg = kin.chain_legs_of(desc)[k]
     if leg.idle_joint is not None:
         raise UnsupportedArchitectureError(
@@ -148,7 +151,7 @@ def chain_constants(desc: RobotDescription, k: int, inline_newton: bool = True) 
         pL=tuple(snap(x, scale) for x in desc.platform_points[k]),
         pR=tuple(tuple(snap(x) for x in row) for row in leg.platform_rotation),
         joints=tuple(
-            joint_constants(j, leg.inertia[m], scale, leg.gravcomp[m])
+            joint_constants(j, leg.inertia[m], scale, leg.gravcomp[m], coulomb_smoothing)
             for m, j in enumerate(leg.joints)
         ),
         tip=tuple(snap(x, scale) for x in leg.tip),
@@ -537,12 +540,14 @@ def build_chain_models(
     prefix: str = "stewart_",
     stages: bool = False,
     inline_newton: bool = False,
+    coulomb_smoothing: float = 0.0,
 ) -> tuple[SymbolicModels, AuxLayout]:
     """The IDM and DDM of a robot with chain legs as :class:`SymbolicModels`
     (``parameters="numeric"``, an empty ``base_parameters`` input) with the layout of their
-    ``aux``; ``stages`` and ``inline_newton`` as
-    :func:`~.leg_chain_symbolic.build_general_models`."""
-    legs = [chain_constants(desc, k, inline_newton) for k in range(6)]
+    ``aux``; ``stages``, ``inline_newton`` and ``coulomb_smoothing`` (``eps`` [m/s or
+    rad/s] > 0: every joint's ``Fc sign(qd)`` as ``Fc tanh(qd / eps)``, the planner's
+    smooth model) as :func:`~.leg_chain_symbolic.build_general_models`."""
+    legs = [chain_constants(desc, k, inline_newton, coulomb_smoothing) for k in range(6)]
     states = kin.leg_states(desc, desc.home_pose[None], np.zeros((1, 6)))
     home_rows = kin.inverse_jacobian(desc, states)[0]
     return assemble_models(

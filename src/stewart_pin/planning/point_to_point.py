@@ -69,7 +69,6 @@ from stewart_pin._checks import check_pose, check_scalar
 from stewart_pin._so3 import quaternions_xyzw_from_rotations, rotation_rows_from_quaternion_xyzw
 from stewart_pin.codegen.derivatives import symbolic_actuators_for, symbolic_models_for
 from stewart_pin.description.actuator_convention import actuator_convention_of
-from stewart_pin.description.leg_chain_hexapod import general_from_description
 from stewart_pin.exceptions import ConvergenceError, InputError, SingularityError
 from stewart_pin.motion.simulation import SimulationResult, simulate
 from stewart_pin.protocols import RobotLike
@@ -304,7 +303,7 @@ def _actuator_bounds(robot: RobotLike, margin: Any) -> np.ndarray:
     """Each actuated joint's limits less ``margin`` (default 1 % of its range; none
     within an infinite limit), (6, 2) [m or rad]; InputError for a margin not in
     ``[0, half the narrowest range)``."""
-    legs = general_from_description(robot.description).legs  # the 6-UPS's: its stroke
+    legs = robot.description.joint_legs  # three-joint or chain legs; the 6-UPS's: its stroke
     limits = np.array([leg.limits[leg.actuated - 1] for leg in legs], dtype=float)
     width = limits[:, 1] - limits[:, 0]
     if margin is None:
