@@ -104,3 +104,12 @@ def test_leg_models_are_the_models_of_chain_dynamics(robot: StewartRobot) -> Non
                 qdd[s, k, :n],
             )
             assert np.allclose(pin.rnea(big, big_data, qb, vb, ab)[index[k, :n]], tau, atol=1e-12)
+
+
+def test_actuator_limits_of_chain_legs_are_the_actuated_joints_limits() -> None:
+    """``actuator_limits`` reads each leg's actuated joint (any chain), as it is described."""
+    desc = welded_ups(seed=1)
+    got = StewartRobot(desc).actuator_limits
+    for k, leg in enumerate(desc.chain_legs):
+        joint = leg.joints[leg.actuated - 1]
+        assert got[k].tolist() == [joint.lower, joint.upper]

@@ -162,7 +162,7 @@ class StewartRobot:
     def actuator_limits(self) -> FloatArray:
         """Each actuated joint's limits ``[lower, upper]`` (6, 2) [m or rad] in the
         robot's convention (:attr:`actuator_convention`; infinite: none)."""
-        legs = self.description.leg_architectures
+        legs = self.description.joint_legs
         lim = np.array([[leg.joints[leg.actuated - 1].lower, leg.joints[leg.actuated - 1].upper]
                         for leg in legs], dtype=float)  # fmt: skip
         return lim if self._actuators is None else self._actuators.limits_from_description(lim)
