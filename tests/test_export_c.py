@@ -512,13 +512,19 @@ CHAIN_ROBOTS = ("welded-ups", "mixed-chain", "rus-chain")
 
 @pytest.fixture(scope="module")
 def chain_exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Path]]:
-    """Robots with chain legs exported (3 states each) and their test programs built with
-    the strict flags at -O0 (the welded legs' Newton steps make a 1 MB source)."""
+    """Robots with chain legs exported (3 states each; the welded one by the command line
+    from a description file) and their test programs built with the strict flags at -O0
+    (the welded legs' Newton steps make a 1 MB source)."""
     root = tmp_path_factory.mktemp("export_c_chain")
     out = {}
     for name in CHAIN_ROBOTS:
         folder = root / name
-        _chain_robot(name).export_c(folder, prefix="cl", samples=3, seed=1)
+        if name == "welded-ups":
+            path = _chain_robot(name).write(root / "welded.json")
+            argv = ["--description", str(path), "--prefix", "cl", "--samples", "3"]
+            assert main(["export-c", *argv, "-o", str(folder)]) == 0
+        else:
+            _chain_robot(name).export_c(folder, prefix="cl", samples=3, seed=1)
         out[name] = (folder, _build(folder, "cl", "cl_test.c", "check", "-O0"))
     return out
 
@@ -634,7 +640,9 @@ def test_chain_leg_guard_decides_as_the_compiled_path(tmp_path: Path) -> None:
     assert codes == [(-2, -2, -2, 1) if r else (0, 0, 0, 0) for r in [*refused, True]]
 
 
-def test_chain_legs_with_an_idle_joint_are_refused_before_writing(tmp_path: Path) -> None:
+def test_chain_legs_with_an_idle_joint_are_refused_before_writing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """An R-S-S leg's idle spin (its state is not an input of the exported functions):
     an ExportError naming the leg and the reason, and nothing written."""
     from stewart_pin.description.chain_leg_presets import rss_robot
@@ -642,3 +650,10 @@ def test_chain_legs_with_an_idle_joint_are_refused_before_writing(tmp_path: Path
     with pytest.raises(ExportError, match=r"leg 1 has an idle joint \(joint 4.*spin state"):
         StewartRobot(rss_robot(symmetric=False)).export_c(tmp_path / "out", prefix="rss")
     assert not (tmp_path / "out").exists()
+    # the command line (a description file): one line, exit code 2
+    path = StewartRobot(rss_robot()).write(tmp_path / "rss.json")
+    argv = ["export-c", "--description", str(path), "--prefix", "rss", "-o", str(tmp_path / "o")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "idle joint" in err
+    assert not (tmp_path / "o").exists()

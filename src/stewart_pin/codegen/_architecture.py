@@ -534,9 +534,9 @@ class ChainLegCodegen(LegChainCodegen):
             if leg.idle_joint is not None:
                 raise ExportError(
                     f"robot '{desc.name}': leg {k + 1} has an idle joint (joint "
-                    f"{leg.idle_joint}, a rod spinning about its ball-to-ball line): the "
-                    "standalone C library does not take it (the spin state is not an input "
-                    "of the exported functions); use the Python robot"
+                    f"{leg.idle_joint}, an idle freedom such as a rod's spin about its "
+                    "ball-to-ball line): the standalone C library does not take it (the spin "
+                    "state is not an input of the exported functions); use the Python robot"
                 )
 
     def has_custom_leg(self, desc: RobotDescription) -> bool:
