@@ -542,6 +542,8 @@ def test_chain_legs_export_equals_the_reference_path(
     invalid poses give their error codes."""
     folder, program = chain_exported[name]
     assert "#define CL_REF_TOLERANCE 1e-10" in (folder / "cl_reference.h").read_text()
+    readme = (folder / "README.md").read_text()
+    assert "(1e-10 relative)" in readme and "fixed number of guarded Newton steps" in readme
     run = _run([str(program)], folder)
     assert run.returncode == 0, run.stdout + run.stderr
     errors = re.findall(r"(\w+) +largest relative error (\S+)", run.stdout)
@@ -554,6 +556,21 @@ def test_chain_legs_export_equals_the_reference_path(
     far = np.array([float(x) for x in body.split(",")]).reshape(4, 4)
     with pytest.raises(WorkspaceError):
         _chain_robot(name).inverse_dynamics(far, np.zeros(6), np.zeros(6), backend="pinocchio")
+
+
+def test_chain_legs_library_calls_only_libm(chain_exported: dict[str, tuple[Path, Path]]) -> None:
+    """The welded robot's library (its legs' Newton steps are static functions of their
+    own): nothing but libm called, no writable data, every external symbol prefixed."""
+    if shutil.which("nm") is None:
+        pytest.skip("nm (binutils) is not installed")
+    folder, _ = chain_exported["welded-ups"]
+    run = _run([GCC, *STRICT, "-O0", "-c", "cl.c", "-o", "lib.o"], folder)  # type: ignore[list-item]
+    assert run.returncode == 0, run.stderr
+    symbols = [s.split() for s in _run(["nm", "lib.o"], folder).stdout.split("\n") if s.strip()]
+    undefined = {s[-1] for s in symbols if s[0] == "U"}
+    assert undefined <= MATH, undefined - MATH
+    assert not {s[-2] for s in symbols if len(s) == 3} & set("BbDdCGgSs")
+    assert all(s[-1].startswith("cl_") for s in symbols if len(s) == 3 and s[-2] == "T")
 
 
 def test_rus_as_chain_legs_is_the_rus_robot() -> None:

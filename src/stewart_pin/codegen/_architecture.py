@@ -345,6 +345,18 @@ def _u_joint_check(desc: RobotDescription, jinv: int) -> str:
     }
 
 
+def _actuated_residual(J: Any, t0: Any, t1: Any) -> tuple[Any, Any]:
+    """The forward geometry's residual ``(y, x)`` of one leg's actuated joint state ``J``
+    against its target ``(t0, t1)`` (see :func:`~.c_export.newton_function`): revolute,
+    ``sin`` and ``cos`` of ``q_a - q`` (``cos``, ``sin`` of ``q`` from those of
+    ``theta + q``); prismatic, ``q_a - q`` and 1."""
+    if J.k.revolute:
+        cq = J.c * J.k.ct + J.s * J.k.st
+        sq = J.s * J.k.ct - J.c * J.k.st
+        return t1 * cq - t0 * sq, t0 * cq + t1 * sq
+    return t0 - J.value(), 1.0
+
+
 class LegChainCodegen:
     """Every robot but the ideal 6-UPS: the generic models of its leg chains
     (:mod:`.leg_chain_symbolic`)."""
@@ -425,15 +437,9 @@ class LegChainCodegen:
         for k in range(6):
             lc = leg_constants(robot, k, inline_newton=False)
             kin = leg_kinematics(lc, p, R, zero, zero)
-            J = kin.geo.joints[lc.actuated]
-            if J.k.revolute:  # cos, sin of q from those of theta + q
-                cq = J.c * J.k.ct + J.s * J.k.st
-                sq = J.s * J.k.ct - J.c * J.k.st
-                ys.append(t[2 * k + 1] * cq - t[2 * k] * sq)
-                xs.append(t[2 * k] * cq + t[2 * k + 1] * sq)
-            else:
-                ys.append(t[2 * k] - J.value())
-                xs.append(1.0)
+            y, x = _actuated_residual(kin.geo.joints[lc.actuated], t[2 * k], t[2 * k + 1])
+            ys.append(y)
+            xs.append(x)
             jinv += kin.row
         return ys, xs, jinv
 
@@ -511,15 +517,9 @@ class ChainLegCodegen(LegChainCodegen):
         for k in range(6):
             lc = chain_constants(desc, k, inline_newton=False)
             ck = chain_kinematics(lc, p, R, zero, zero)
-            J = ck.joints[lc.actuated]
-            if J.k.revolute:  # cos, sin of q from those of theta + q
-                cq = J.c * J.k.ct + J.s * J.k.st
-                sq = J.s * J.k.ct - J.c * J.k.st
-                ys.append(t[2 * k + 1] * cq - t[2 * k] * sq)
-                xs.append(t[2 * k] * cq + t[2 * k + 1] * sq)
-            else:
-                ys.append(t[2 * k] - J.value())
-                xs.append(1.0)
+            y, x = _actuated_residual(ck.joints[lc.actuated], t[2 * k], t[2 * k + 1])
+            ys.append(y)
+            xs.append(x)
             jinv += ck.row
         return ys, xs, jinv
 
