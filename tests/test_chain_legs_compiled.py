@@ -19,11 +19,10 @@ from stewart_pin._so3 import so3_exp
 from stewart_pin.apps.bench import architecture_rows
 from stewart_pin.check.chain_legs_tree import ChainTreeSolver
 from stewart_pin.codegen import compiled as compiled_module
-from stewart_pin.codegen.c_export import export_c
 from stewart_pin.codegen.chain_leg_symbolic import NEWTON_ITERATIONS, build_chain_models
 from stewart_pin.codegen.derivatives import CompiledDerivatives
 from stewart_pin.description.chain_leg_presets import mixed_chain_robot, welded_ups
-from stewart_pin.exceptions import ExportError, LegJointLimitError
+from stewart_pin.exceptions import LegJointLimitError
 from stewart_pin.kinematics import chain_legs
 
 TOL = 1e-10  # relative agreement with the constrained tree
@@ -183,12 +182,6 @@ def test_exact_derivatives_match_central_differences() -> None:
     fd = _central(partial(robot.direct_dynamics, backend="pinocchio"), T, V, d.gamma)
     for x, y in zip((g.pose, g.twist, g.gamma), fd, strict=True):
         assert np.abs(x - y).max() <= 1e-6 * np.abs(y).max()
-
-
-def test_the_standalone_c_export_refuses_chain_legs_before_writing(tmp_path: Path) -> None:
-    with pytest.raises(ExportError, match="chain legs"):
-        export_c(StewartRobot(welded_ups()), tmp_path / "out", "sp")
-    assert not list(tmp_path.iterdir())
 
 
 def test_vector_batch_of_welded_legs_equals_the_scalar_path() -> None:

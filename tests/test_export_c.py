@@ -5,15 +5,18 @@ refusals."""
 
 from __future__ import annotations
 
+import math
 import re
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from stewart_pin import StewartRobot
+from stewart_pin._so3 import so3_exp
 from stewart_pin.cli import main
 from stewart_pin.codegen.c_export import file_names
 from stewart_pin.exceptions import ExportError, WorkspaceError
@@ -457,3 +460,217 @@ def test_the_c_forward_geometry_stops_as_the_python_one():
 
     assert c_export.FORWARD_TOLERANCE == leg_chains.FORWARD_TOLERANCE
     assert c_export.FORWARD_MAX_ITERATIONS == leg_chains.FORWARD_MAX_ITERATIONS
+
+
+# ---------------------------------------------------------------------------- chain legs
+def _rus_as_chain_legs() -> StewartRobot:
+    """The ``rus`` preset with its legs written as chain legs (crank, U-joint, ball): a
+    revolute actuated joint on the chain-leg path."""
+    from stewart_pin.description import RobotDescription
+    from stewart_pin.description.chain_leg import ChainLeg
+
+    b = StewartRobot.from_preset("rus").description
+    assert b.legs is not None
+    legs = tuple(
+        ChainLeg(
+            tuple(leg.joints),
+            leg.actuated,
+            "ball",
+            np.asarray(b.leg_inertia[k]),
+            np.asarray(leg.tip),
+            guess=np.asarray(leg.guess),
+        )
+        for k, leg in enumerate(b.legs)
+    )
+    desc = RobotDescription(
+        base_points=b.base_points,
+        platform_points=b.platform_points,
+        leg_base_rotations=b.leg_base_rotations,
+        stroke=None,
+        leg_inertia=np.zeros((6, 3, 10)),
+        platform_inertia=b.platform_inertia,
+        gravity=b.gravity,
+        name="rus-chain",
+        home_pose=b.home_pose,
+        chain_legs=legs,
+    )
+    return StewartRobot(desc)
+
+
+def _chain_robot(name: str) -> StewartRobot:
+    from stewart_pin.description.chain_leg_presets import mixed_chain_robot, welded_ups
+
+    if name == "welded-ups":
+        return StewartRobot(welded_ups())
+    if name == "mixed-chain":
+        return StewartRobot(mixed_chain_robot(seed=2))
+    return _rus_as_chain_legs()
+
+
+CHAIN_ROBOTS = ("welded-ups", "mixed-chain", "rus-chain")
+
+
+@pytest.fixture(scope="module")
+def chain_exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Path]]:
+    """Robots with chain legs exported (3 states each; the welded one by the command line
+    from a description file) and their test programs built with the strict flags at -O0
+    (the welded legs' Newton steps make a 1 MB source)."""
+    root = tmp_path_factory.mktemp("export_c_chain")
+    out = {}
+    for name in CHAIN_ROBOTS:
+        folder = root / name
+        if name == "welded-ups":
+            path = _chain_robot(name).write(root / "welded.json")
+            argv = ["--description", str(path), "--prefix", "cl", "--samples", "3"]
+            assert main(["export-c", *argv, "-o", str(folder)]) == 0
+        else:
+            _chain_robot(name).export_c(folder, prefix="cl", samples=3, seed=1)
+        out[name] = (folder, _build(folder, "cl", "cl_test.c", "check", "-O0"))
+    return out
+
+
+@pytest.mark.parametrize("name", CHAIN_ROBOTS)
+def test_chain_legs_export_equals_the_reference_path(
+    chain_exported: dict[str, tuple[Path, Path]], name: str
+) -> None:
+    """Chain legs (issue 20): the welded 6-UPS (six joints, weld closures), the mixed robot
+    (ball and weld legs) and the rus legs as chain legs (a revolute actuated joint: the
+    forward geometry's wrapped error) export; their strict build equals the reference path
+    (Pinocchio on each leg's chain, the reference's Newton) on the random states to the
+    header's tolerance (1e-10, the Newton legs' CUSTOM_TOLERANCE: the reference stops at
+    1e-13 m, the C runs its 7 steps out; measured about 3e-14), and the out-of-reach and
+    invalid poses give their error codes."""
+    folder, program = chain_exported[name]
+    assert "#define CL_REF_TOLERANCE 1e-10" in (folder / "cl_reference.h").read_text()
+    readme = (folder / "README.md").read_text()
+    assert "(1e-10 relative)" in readme and "fixed number of guarded Newton steps" in readme
+    run = _run([str(program)], folder)
+    assert run.returncode == 0, run.stdout + run.stderr
+    errors = re.findall(r"(\w+) +largest relative error (\S+)", run.stdout)
+    assert len(errors) == 5
+    assert all(float(e) <= 1e-10 for _, e in errors), run.stdout
+    assert "passed: 0 failure(s)" in run.stdout
+    # the pose the program expects ERR_RANGE for is refused by the reference path too
+    text = (folder / "cl_reference.h").read_text()
+    body = text.split("cl_far_pose[16] = {", 1)[1].split("}", 1)[0]
+    far = np.array([float(x) for x in body.split(",")]).reshape(4, 4)
+    with pytest.raises(WorkspaceError):
+        _chain_robot(name).inverse_dynamics(far, np.zeros(6), np.zeros(6), backend="pinocchio")
+
+
+def test_chain_legs_library_calls_only_libm(chain_exported: dict[str, tuple[Path, Path]]) -> None:
+    """The welded robot's library (its legs' Newton steps are static functions of their
+    own): nothing but libm called, no writable data, every external symbol prefixed."""
+    if shutil.which("nm") is None:
+        pytest.skip("nm (binutils) is not installed")
+    folder, _ = chain_exported["welded-ups"]
+    run = _run([GCC, *STRICT, "-O0", "-c", "cl.c", "-o", "lib.o"], folder)  # type: ignore[list-item]
+    assert run.returncode == 0, run.stderr
+    symbols = [s.split() for s in _run(["nm", "lib.o"], folder).stdout.split("\n") if s.strip()]
+    undefined = {s[-1] for s in symbols if s[0] == "U"}
+    assert undefined <= MATH, undefined - MATH
+    assert not {s[-2] for s in symbols if len(s) == 3} & set("BbDdCGgSs")
+    assert all(s[-1].startswith("cl_") for s in symbols if len(s) == 3 and s[-2] == "T")
+
+
+def test_rus_as_chain_legs_is_the_rus_robot() -> None:
+    """The reference values embedded for the rus-as-chain-legs robot are those of the rus
+    robot's own (three-joint leg) models, a different code path: the chain-leg export's
+    revolute case is checked against an independent model (1e-12 relative)."""
+    from stewart_pin.codegen.c_export import reference_values
+
+    chain = reference_values(_rus_as_chain_legs(), 3, 1)
+    rus = reference_values(StewartRobot.from_preset("rus"), 3, 1)
+    assert np.array_equal(chain["poses"], rus["poses"])
+    for key in ("ref_q", "ref_jinv", "ref_gamma", "ref_accel", "ref_pose"):
+        scale = np.abs(rus[key]).max()
+        assert np.abs(chain[key] - rus[key]).max() <= 1e-12 * scale, key
+
+
+CHAIN_HARNESS = r"""#include <math.h>
+#include <stdio.h>
+#include "PREFIX.h"
+static const double poses[NSTATES][16] = {POSES};
+int main(void) {
+  double work[PU_WORK_SIZE], out[6], zero[6] = {0, 0, 0, 0, 0, 0};
+  int s;
+  for (s = 0; s < NSTATES; ++s) {
+    int a = PREFIX_inverse_geometry(poses[s], out, work);
+    int b = PREFIX_inverse_dynamics(poses[s], zero, zero, out, work);
+    int c = PREFIX_direct_dynamics(poses[s], zero, zero, out, work);
+    printf("%d %d %d %d\n", a, b, c, isnan(out[0]) ? 1 : 0);
+  }
+  return 0;
+}
+"""
+
+
+def test_chain_leg_guard_decides_as_the_compiled_path(tmp_path: Path) -> None:
+    """The exported guard of chain legs (issue 20): on the welded 6-UPS with a passive
+    joint's limits (leg 2, joint 5) cutting through the sampled poses, the C refuses with
+    ERR_RANGE (-2, NaN outputs) exactly the poses the reference path refuses with a
+    LegJointLimitError and computes the others; a reachable pose the legs' 7 Newton steps
+    from home do not solve (the compiled guard flags it, the reference's continuation
+    solves it) is ERR_RANGE too: the C never returns a number it cannot vouch for."""
+    from stewart_pin.description.chain_leg_presets import welded_ups
+    from stewart_pin.exceptions import LegJointLimitError
+    from stewart_pin.kinematics import chain_legs
+
+    base = welded_ups()
+    poses = StewartRobot(base).sample_poses(16, np.random.default_rng(11))
+    q5 = chain_legs.inverse_geometry(base, poses, check_limits=False)[1][:, 4]
+    home = chain_legs.home_configuration(base)[1][4]
+    legs = list(base.chain_legs or ())
+    joints = list(legs[1].joints)
+    s = np.sort(q5)  # a limit midway between two sampled values (home inside)
+    if home < np.median(q5):
+        joints[4] = replace(joints[4], lower=-math.pi, upper=float(s[9] + s[10]) / 2)
+    else:
+        joints[4] = replace(joints[4], lower=float(s[5] + s[6]) / 2, upper=math.pi)
+    legs[1] = legs[1].replace(joints=tuple(joints))
+    robot = StewartRobot(base.replace(chain_legs=tuple(legs)))
+    refused = []
+    for T in poses:
+        try:
+            robot.inverse_dynamics(T, np.zeros(6), np.zeros(6), backend="pinocchio")
+            refused.append(False)
+        except LegJointLimitError:
+            refused.append(True)
+    assert 4 <= sum(refused) <= 12  # both decisions met
+    # the compiled test's pose: reachable, not solved by the Newton steps from home
+    H = base.home_pose
+    size = chain_legs.robot_size(base)
+    far = H.copy()
+    far[:3, 3] += np.array([1.05, -0.9, 0.45]) * size
+    far[:3, :3] = so3_exp(np.array([[0.75, -0.9, 1.05]]))[0] @ H[:3, :3]
+    ref = StewartRobot(base).inverse_dynamics(far, np.zeros(6), np.zeros(6), backend="pinocchio")
+    assert np.all(np.isfinite(ref))
+    robot.export_c(tmp_path, prefix="cg", samples=1)
+    rows = ", ".join(
+        "{" + ", ".join(repr(float(x)) for x in T.ravel()) + "}" for T in [*poses, far]
+    )
+    harness = CHAIN_HARNESS.replace("PREFIX", "cg").replace("PU_", "CG_")
+    (tmp_path / "harness.c").write_text(harness.replace("NSTATES", "17").replace("POSES", rows))
+    program = _build(tmp_path, "cg", "harness.c", "harness", "-O0")
+    out = _run([str(program)], tmp_path).stdout
+    codes = [tuple(map(int, line.split())) for line in out.split("\n") if line]
+    assert codes == [(-2, -2, -2, 1) if r else (0, 0, 0, 0) for r in [*refused, True]]
+
+
+def test_chain_legs_with_an_idle_joint_are_refused_before_writing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An R-S-S leg's idle spin (its state is not an input of the exported functions):
+    an ExportError naming the leg and the reason, and nothing written."""
+    from stewart_pin.description.chain_leg_presets import rss_robot
+
+    with pytest.raises(ExportError, match=r"leg 1 has an idle joint \(joint 4.*spin state"):
+        StewartRobot(rss_robot(symmetric=False)).export_c(tmp_path / "out", prefix="rss")
+    assert not (tmp_path / "out").exists()
+    # the command line (a description file): one line, exit code 2
+    path = StewartRobot(rss_robot()).write(tmp_path / "rss.json")
+    argv = ["export-c", "--description", str(path), "--prefix", "rss", "-o", str(tmp_path / "o")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "idle joint" in err
+    assert not (tmp_path / "o").exists()

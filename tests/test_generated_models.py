@@ -19,6 +19,7 @@ SOURCES = {
     "stewart_leg.xacro",
     "stewart_general.urdf.xacro",
     "stewart_general_leg.xacro",
+    "stewart_chain.urdf.xacro",
 }
 
 

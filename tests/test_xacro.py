@@ -226,3 +226,84 @@ def test_general_source_refuses_ups_arguments(tmp_path):
     args_path = write_xacro_args(preset("desktop"), tmp_path / "ups.xacro.yaml")
     with pytest.raises(XacroException, match="general legs"):
         xacrodoc.XacroDoc.from_file(GENERAL_XACRO, subargs={"args_file": str(args_path.resolve())})
+
+
+# ------------------------------------------------------------------------- chain legs
+CHAIN_XACRO = XACRO.with_name("stewart_chain.urdf.xacro")
+
+
+def make_chain(name: str):
+    """The welded 6-UPS (six joints, welds) or the mixed robot (ball and weld legs)."""
+    from stewart_pin.description.chain_leg_presets import mixed_chain_robot, welded_ups
+
+    return welded_ups() if name == "welded-ups" else mixed_chain_robot(seed=2)
+
+
+@pytest.fixture(scope="module", params=["welded-ups", "mixed-chain"])
+def rendered_chain(request, tmp_path_factory):
+    """``(description, args file, rendered URDF text)`` for each robot with chain legs."""
+    desc = make_chain(request.param)
+    args_path = write_xacro_args(desc, tmp_path_factory.mktemp("xacro") / "robot.xacro.yaml")
+    doc = xacrodoc.XacroDoc.from_file(CHAIN_XACRO, subargs={"args_file": str(args_path.resolve())})
+    return desc, args_path, doc.to_urdf_string()
+
+
+def test_chain_args_file_reads_back_exactly(rendered_chain):
+    desc, args_path, _ = rendered_chain
+    assert yaml.safe_load(args_path.read_text()) == xacro_args(desc)
+    assert "stewart_chain.urdf.xacro" in args_path.read_text().splitlines()[0]
+
+
+def test_chain_rendered_xml_equals_writer_output(rendered_chain):
+    # Same elements, order and attribute strings as the URDF writer's chain-leg tree.
+    desc, _, text = rendered_chain
+    assert canonical(ET.fromstring(text)) == canonical(ET.fromstring(urdf_string(desc)))
+
+
+def test_chain_rendered_tree_closes_the_loops_at_home(rendered_chain):
+    """Pinocchio's model of the rendered URDF, independently of the writer: at the legs'
+    home joint values (the reference kinematics' Newton) each leg's attachment frame (last
+    link, ``tip``, ``tip_rotation``) is the platform's at the home pose (P_i; a weld's
+    orientation too) to 1e-12, and every link's inertia is the description's Khalil
+    parameters (first moments, inertia about the link origin) to 1e-12."""
+    from stewart_pin.kinematics import chain_legs
+
+    desc, _, text = rendered_chain
+    model = pin.buildModelFromXML(text)
+    data = model.createData()
+    q = pin.neutral(model)
+    home = chain_legs.home_configuration(desc)
+    for k, leg in enumerate(desc.chain_legs):
+        for j in range(len(leg.joints)):
+            q[model.joints[model.getJointId(f"leg{k + 1}_q{j + 1}")].idx_q] = home[k][j]
+    pin.forwardKinematics(model, data, q)
+    H = desc.home_pose
+    for k, leg in enumerate(desc.chain_legs):
+        n = len(leg.joints)
+        oMn = data.oMi[model.getJointId(f"leg{k + 1}_q{n}")]
+        tip = oMn.rotation @ leg.tip + oMn.translation
+        P = H[:3, :3] @ desc.platform_points[k] + H[:3, 3]
+        assert np.allclose(tip, P, rtol=0, atol=1e-12)
+        if leg.closure == "weld":
+            R = oMn.rotation @ leg.tip_rotation
+            assert np.allclose(R, H[:3, :3] @ leg.platform_rotation, rtol=0, atol=1e-12)
+        for j in range(n):
+            I = model.inertias[model.getJointId(f"leg{k + 1}_q{j + 1}")]
+            XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = np.asarray(leg.inertia[j], float)
+            J = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
+            assert I.mass == pytest.approx(M, abs=1e-12)
+            assert np.allclose(I.mass * I.lever, [MX, MY, MZ], rtol=0, atol=1e-12)
+            c = I.lever
+            about_origin = I.inertia + I.mass * (c @ c * np.eye(3) - np.outer(c, c))
+            assert np.allclose(about_origin, J, rtol=0, atol=1e-12)
+
+
+def test_general_source_refuses_chain_arguments(tmp_path):
+    from xacro import XacroException
+
+    args_path = write_xacro_args(make_chain("mixed-chain"), tmp_path / "chain.xacro.yaml")
+    with pytest.raises(XacroException, match="chain legs: stewart_chain"):
+        xacrodoc.XacroDoc.from_file(GENERAL_XACRO, subargs={"args_file": str(args_path.resolve())})
+    with pytest.raises(XacroException, match="robot with chain legs"):
+        args_path = write_xacro_args(preset("desktop"), tmp_path / "ups.xacro.yaml")
+        xacrodoc.XacroDoc.from_file(CHAIN_XACRO, subargs={"args_file": str(args_path.resolve())})

@@ -325,8 +325,9 @@ class StewartRobot:
 
     def write_xacro_args(self, path: str | Path) -> Path:
         """Write the YAML arguments of the package's xacro model for this robot
-        (``stewart.urdf.xacro`` for the ideal 6-UPS, ``stewart_general.urdf.xacro``
-        otherwise: the header names it); returns the path."""
+        (``stewart.urdf.xacro`` for the ideal 6-UPS, ``stewart_chain.urdf.xacro`` for chain
+        legs, ``stewart_general.urdf.xacro`` otherwise: the header names it); returns the
+        path."""
         return write_xacro_args(self.description, path)
 
     @cached_property

@@ -35,7 +35,12 @@ from stewart_pin.codegen._resolution import (
     Resolution,
 )
 from stewart_pin.codegen._sx_common import SymbolicModels, function, pose_from_input, vcross
-from stewart_pin.codegen.chain_leg_symbolic import build_chain_models, chain_actuator_function
+from stewart_pin.codegen.chain_leg_symbolic import (
+    build_chain_models,
+    chain_actuator_function,
+    chain_constants,
+    chain_kinematics,
+)
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
     actuator_function,
@@ -340,6 +345,18 @@ def _u_joint_check(desc: RobotDescription, jinv: int) -> str:
     }
 
 
+def _actuated_residual(J: Any, t0: Any, t1: Any) -> tuple[Any, Any]:
+    """The forward geometry's residual ``(y, x)`` of one leg's actuated joint state ``J``
+    against its target ``(t0, t1)`` (see :func:`~.c_export.newton_function`): revolute,
+    ``sin`` and ``cos`` of ``q_a - q`` (``cos``, ``sin`` of ``q`` from those of
+    ``theta + q``); prismatic, ``q_a - q`` and 1."""
+    if J.k.revolute:
+        cq = J.c * J.k.ct + J.s * J.k.st
+        sq = J.s * J.k.ct - J.c * J.k.st
+        return t1 * cq - t0 * sq, t0 * cq + t1 * sq
+    return t0 - J.value(), 1.0
+
+
 class LegChainCodegen:
     """Every robot but the ideal 6-UPS: the generic models of its leg chains
     (:mod:`.leg_chain_symbolic`)."""
@@ -420,15 +437,9 @@ class LegChainCodegen:
         for k in range(6):
             lc = leg_constants(robot, k, inline_newton=False)
             kin = leg_kinematics(lc, p, R, zero, zero)
-            J = kin.geo.joints[lc.actuated]
-            if J.k.revolute:  # cos, sin of q from those of theta + q
-                cq = J.c * J.k.ct + J.s * J.k.st
-                sq = J.s * J.k.ct - J.c * J.k.st
-                ys.append(t[2 * k + 1] * cq - t[2 * k] * sq)
-                xs.append(t[2 * k] * cq + t[2 * k + 1] * sq)
-            else:
-                ys.append(t[2 * k] - J.value())
-                xs.append(1.0)
+            y, x = _actuated_residual(kin.geo.joints[lc.actuated], t[2 * k], t[2 * k + 1])
+            ys.append(y)
+            xs.append(x)
             jinv += kin.row
         return ys, xs, jinv
 
@@ -443,8 +454,8 @@ class LegChainCodegen:
 
 
 class ChainLegCodegen(LegChainCodegen):
-    """Robots with chain legs: the models of :mod:`.chain_leg_symbolic` (no standalone C
-    export yet: :class:`ExportError`)."""
+    """Robots with chain legs: the models of :mod:`.chain_leg_symbolic` (the standalone C
+    export too, but for legs with an idle joint: :class:`ExportError`)."""
 
     def build_models(self, desc: RobotDescription, pose: str, parameters: str) -> SymbolicModels:
         return build_chain_models(desc, pose)[0]
@@ -477,25 +488,56 @@ class ChainLegCodegen(LegChainCodegen):
         }
         return CostModels(models, {"": "numeric"}, {"architecture": desc.architecture})
 
-    def _no_export(self, desc: RobotDescription) -> ExportError:
-        return ExportError(
-            f"robot '{desc.name}' has chain legs: the standalone C library does not take "
-            "them yet (the compiled models in Python do: backend='compiled')"
-        )
-
     def geometry_function(self, desc: RobotDescription, name: str) -> tuple[cs.Function, int, int]:
-        raise self._no_export(desc)
+        """``q_act`` the actuated joint values (each leg's guarded Newton from its home
+        configuration, as the compiled models); ``aux`` ``Jp^-1`` then the slacks (the
+        Newton residual, the leg LU's growth, the joint limits)."""
+        x_pose = cs.SX.sym("pose", 16)
+        p, R = pose_from_input(x_pose, "matrix")
+        zero = [0.0, 0.0, 0.0]
+        q, jinv, slacks = [], [], []
+        for k in range(6):
+            lc = chain_constants(desc, k, inline_newton=False)
+            ck = chain_kinematics(lc, p, R, zero, zero)
+            q.append(ck.joints[lc.actuated].value())
+            jinv += ck.row
+            slacks += ck.slacks
+        f = function(name, [("pose", x_pose)], [("q_act", q), ("aux", [*jinv, *slacks])])
+        return f, 0, 36
 
     def newton_rows(
         self, desc: RobotDescription, p: Any, R: Any, t: list[Any]
     ) -> tuple[list[Any], list[Any], list[Any]]:
-        raise self._no_export(desc)
+        """The legs' Newton from home at each forward-geometry iterate (no guard: the
+        converged pose is checked by :meth:`geometry_function`'s slacks)."""
+        zero = [0.0, 0.0, 0.0]
+        ys: list[Any] = []
+        xs: list[Any] = []
+        jinv: list[Any] = []
+        for k in range(6):
+            lc = chain_constants(desc, k, inline_newton=False)
+            ck = chain_kinematics(lc, p, R, zero, zero)
+            y, x = _actuated_residual(ck.joints[lc.actuated], t[2 * k], t[2 * k + 1])
+            ys.append(y)
+            xs.append(x)
+            jinv += ck.row
+        return ys, xs, jinv
 
     def actuated_revolute(self, desc: RobotDescription) -> list[int]:
         return [int(leg.revolute[leg.actuated - 1]) for leg in desc.chain_legs or ()]
 
     def check_exportable(self, desc: RobotDescription) -> None:
-        raise self._no_export(desc)
+        """ExportError for a leg with an idle joint (its spin state is not an input of
+        the exported functions); every other chain leg exports (its Newton's residual,
+        LU growth and joint limits are in the guard's slacks)."""
+        for k, leg in enumerate(desc.chain_legs or ()):
+            if leg.idle_joint is not None:
+                raise ExportError(
+                    f"robot '{desc.name}': leg {k + 1} has an idle joint (joint "
+                    f"{leg.idle_joint}, an idle freedom such as a rod's spin about its "
+                    "ball-to-ball line): the standalone C library does not take it (the spin "
+                    "state is not an input of the exported functions); use the Python robot"
+                )
 
     def has_custom_leg(self, desc: RobotDescription) -> bool:
         return True  # every leg by Newton

@@ -412,7 +412,7 @@ allocation, no global written: every function is reentrant, its work memory
 | --- | --- |
 | `${P}.h`, `${P}.c` | the library |
 | `${P}_reference.h` | random states and the Python reference path's values at them |
-| `${P}_test.c` | checks every function against them (1e-12 relative) and the error codes |
+| `${P}_test.c` | every function against them (${ref_tolerance} relative), the error codes |
 | `${P}_bench.c` | the median time per call of each function |
 | `${P}_control_loop.cpp` | a computed-torque loop shaped as a `ros2_control` controller (C++17) |
 
@@ -462,4 +462,4 @@ its outputs:
 The guards are those of stewart-pin's compiled models, with small margins: a state
 within about 1e-9 (relative) of a joint limit, or 1e-6 of a leg's serial-singularity
 threshold, is refused here where the Python path would decide it exactly.
-"""
+${newton_readme}"""

@@ -262,6 +262,14 @@ def c_library(
         if derivatives
         else ""
     )
+    numbers["ref_tolerance"] = f"{reference_tolerance(robot):g}"
+    numbers["newton_readme"] = (
+        "\nA leg's inverse geometry here is a fixed number of guarded Newton steps on its "
+        "joint chain:\na pose they do not solve (reachable, but far from where they start) is "
+        f"`{prefix.upper()}_ERR_RANGE`,\nwhere the Python path may still solve it.\n"
+        if codegen_kind(desc).has_custom_leg(desc)
+        else ""
+    )
     numbers["derivatives_decl"] = (
         Template(_cexport.DERIVATIVES_DECL).substitute(numbers) if derivatives else ""
     )

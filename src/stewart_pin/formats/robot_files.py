@@ -5,8 +5,9 @@ For a robot named ``<name>``:
 - ``<name>.toml``: the description (:meth:`RobotDescription.write`);
 - ``<name>.urdf`` and ``<name>.closures.json``: the tree and its loop closures
   (:mod:`stewart_pin.formats.urdf`);
-- ``<name>.xacro.yaml``: the arguments of ``models/urdf/stewart.urdf.xacro`` (6-UPS) or
-  ``models/urdf/stewart_general.urdf.xacro`` (general legs) (:mod:`stewart_pin.formats.xacro`);
+- ``<name>.xacro.yaml``: the arguments of ``models/urdf/stewart.urdf.xacro`` (6-UPS),
+  ``models/urdf/stewart_general.urdf.xacro`` (general legs) or
+  ``models/urdf/stewart_chain.urdf.xacro`` (chain legs) (:mod:`stewart_pin.formats.xacro`);
 - ``<name>.xml``: the MJCF for MuJoCo (:mod:`stewart_pin.formats.mjcf`).
 
 ``scripts/generate_models.py`` writes them for the presets into ``models/urdf/``, and a test
@@ -35,7 +36,8 @@ MODEL_FILES_PACKAGE = "stewart_pin.model_files"
 def model_files() -> Traversable:
     """The model files shipped with stewart-pin, a folder of :mod:`importlib.resources`:
     ``package.xml`` and ``urdf/`` with the xacro sources (``stewart.urdf.xacro``,
-    ``stewart_leg.xacro``, ``stewart_general.urdf.xacro``, ``stewart_general_leg.xacro``)
+    ``stewart_leg.xacro``, ``stewart_general.urdf.xacro``, ``stewart_general_leg.xacro``,
+    ``stewart_chain.urdf.xacro``)
     and, for each preset, the files of :func:`robot_file_names`.
 
     Read one with ``(model_files() / "urdf" / "paper.urdf").read_text()``, or get its

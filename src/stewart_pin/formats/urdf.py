@@ -67,7 +67,7 @@ from stewart_pin._checks import check_array, decode_utf8
 from stewart_pin._io import write_text_atomic
 from stewart_pin._safe import check_xml_text
 from stewart_pin.description import RobotDescription
-from stewart_pin.exceptions import FileFormatError, InputError, UnsupportedArchitectureError
+from stewart_pin.exceptions import FileFormatError, InputError
 from stewart_pin.formats._xml import Visual, num, urdf_inertial, urdf_origin, urdf_visual
 
 BASE_LINK = "base_link"
@@ -937,15 +937,3 @@ def _form(desc: Any) -> _UrdfForm:
     if getattr(desc, "chain_legs", None) is not None:
         return _CHAIN_LEGS
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS
-
-
-def refuse_chain_legs(desc: Any) -> None:
-    """:class:`UnsupportedArchitectureError` for a robot with chain legs (the xacro
-    writer's guard)."""
-    if getattr(desc, "chain_legs", None) is not None:
-        raise UnsupportedArchitectureError(
-            f"robot '{desc.name}' has chain legs (any joints, ball or weld closures): the "
-            "xacro arguments take three-joint ball legs only; write the URDF or the MJCF",
-            "export",
-            "chain",
-        )

@@ -33,7 +33,9 @@ against the xacro file's directory by ROS's ``xacro``: pass an absolute path.
 A robot with general legs (RUS, PUS, offset UPS, custom: see
 :func:`stewart_pin.formats.urdf.is_general`) gets the arguments of
 ``models/urdf/stewart_general.urdf.xacro`` instead (:func:`general_xacro_args`), which
-renders to the document :func:`stewart_pin.formats.urdf.urdf_string` writes for it.
+renders to the document :func:`stewart_pin.formats.urdf.urdf_string` writes for it; a
+robot with chain legs (``desc.chain_legs``) those of ``models/urdf/stewart_chain.urdf.xacro``
+(:func:`chain_xacro_args`: n joints per leg).
 """
 
 from __future__ import annotations
@@ -64,10 +66,15 @@ from stewart_pin.formats.urdf import (
     limit_values,
     plate_disc,
     plate_visual,
-    refuse_chain_legs,
 )
 
-__all__ = ["general_xacro_args", "write_xacro_args", "xacro_args", "yaml_string"]
+__all__ = [
+    "chain_xacro_args",
+    "general_xacro_args",
+    "write_xacro_args",
+    "xacro_args",
+    "yaml_string",
+]
 
 
 def _floats(v: Any) -> list[Any]:
@@ -92,7 +99,8 @@ def xacro_args(desc: Any) -> dict[str, Any]:
     docstring): plain ``dict`` / ``list`` / ``float`` / ``str``.
 
     A robot with general legs gets :func:`general_xacro_args` (the arguments of
-    ``models/urdf/stewart_general.urdf.xacro``).
+    ``models/urdf/stewart_general.urdf.xacro``), one with chain legs
+    :func:`chain_xacro_args` (``models/urdf/stewart_chain.urdf.xacro``).
     """
     return _form(desc).args(desc)
 
@@ -207,6 +215,65 @@ def general_xacro_args(desc: Any) -> dict[str, Any]:
     }
 
 
+# ------------------------------------------------------------------------- chain legs
+def chain_xacro_args(desc: Any) -> dict[str, Any]:
+    """The arguments of ``models/urdf/stewart_chain.urdf.xacro`` for a robot with chain
+    legs (``desc.chain_legs``)::
+
+        name: "welded-ups-0"
+        effort: 1000000.0                   # URDF placeholder limits [N], [m/s]
+        velocity: 10.0
+        closures: ["weld", ...]             # each leg's closure: "ball" or "weld"
+        base_visuals: [visual]              # the base disc
+        legs:                               # six of them, leg 1 first
+          - joints:                         # n_i of them, joint 1 first
+              - {type, xyz, rpy, limits, damping, friction}   # as general_xacro_args
+            links: [{mass, com, inertia, visuals: []}] * n_i  # link frames
+        platform: {mass, com, inertia, visuals: [visual]}
+
+    Every number is the one :func:`~stewart_pin.formats.urdf.chain_legs_urdf_string`
+    writes (each joint's MDH placement, preceded by ``[R_i, B_i]`` for joint 1), so the
+    rendered URDF is the same document. The loop closures (points, frames) and the terms
+    URDF cannot hold stay in the ``.closures.json`` sidecar.
+    """
+    vs = LegVisualSizes.for_robot(desc).plate()
+    legs = []
+    for k, leg in enumerate(desc.chain_legs):
+        joints, links = [], []
+        for j, joint in enumerate(leg.joints):
+            link = _inertial(np.asarray(leg.inertia[j], dtype=float))
+            link["visuals"] = []
+            links.append(link)
+            T = joint.placement()
+            if j == 0:
+                T0 = np.eye(4)
+                T0[:3, :3], T0[:3, 3] = desc.leg_base_rotations[k], desc.base_points[k]
+                T = T0 @ T
+            dyn = joint.dynamics
+            joints.append(
+                {
+                    "type": str(joint.kind),
+                    "xyz": _floats(T[:3, 3]),
+                    "rpy": _floats(pin.rpy.matrixToRpy(T[:3, :3])),
+                    "limits": _floats(limit_values(joint.lower, joint.upper)),
+                    "damping": float(dyn.viscous + dyn.damping),
+                    "friction": float(dyn.coulomb),
+                }
+            )
+        legs.append({"joints": joints, "links": links})
+    platform = _inertial(np.asarray(desc.platform_inertia, dtype=float))
+    platform["visuals"] = [_visual(plate_disc(desc.platform_points, vs, 1.0, "platform_orange"))]
+    return {
+        "name": check_xml_text(desc.name, "robot name"),
+        "effort": float(URDF_EFFORT),
+        "velocity": float(URDF_VELOCITY),
+        "closures": [str(leg.closure) for leg in desc.chain_legs],
+        "base_visuals": [_visual(plate_disc(desc.base_points, vs, -1.0, "base_grey"))],
+        "legs": legs,
+        "platform": platform,
+    }
+
+
 # ---------------------------------------------------------------------- a tiny YAML writer
 def _scalar(x: Any) -> str:
     if isinstance(x, str):
@@ -260,7 +327,8 @@ def yaml_string(args: dict[str, Any], header: str = "") -> str:
 def write_xacro_args(desc: Any, path: str | Path) -> Path:
     """Write :func:`xacro_args` of ``desc`` as YAML to ``path`` (atomically: a temporary
     file in the folder, then renamed); returns the path. The header names the xacro
-    source to render: ``stewart.urdf.xacro`` (6-UPS) or ``stewart_general.urdf.xacro``."""
+    source to render: ``stewart.urdf.xacro`` (6-UPS), ``stewart_general.urdf.xacro``
+    (general legs) or ``stewart_chain.urdf.xacro`` (chain legs)."""
     path = Path(path)
     source = _form(desc).source
     header = (
@@ -283,13 +351,16 @@ class _XacroForm:
     source: str
 
 
-#: The ideal 6-UPS and every robot carrying leg chains.
+#: The ideal 6-UPS, every robot carrying leg chains, robots with chain legs.
 _IDEAL_UPS = _XacroForm(_ideal_ups_xacro_args, "stewart.urdf.xacro")
 _LEG_CHAINS = _XacroForm(general_xacro_args, "stewart_general.urdf.xacro")
+_CHAIN_LEGS = _XacroForm(chain_xacro_args, "stewart_chain.urdf.xacro")
 
 
 def _form(desc: Any) -> _XacroForm:
-    """The arguments of ``desc``'s kind (:func:`~stewart_pin.formats.urdf.is_general`): the
-    one place the xacro's choice is made."""
-    refuse_chain_legs(desc)  # no writer for chain legs yet
+    """The arguments of ``desc``'s kind (chain legs: ``desc.chain_legs``; else
+    :func:`~stewart_pin.formats.urdf.is_general`): the one place the xacro's choice is
+    made."""
+    if getattr(desc, "chain_legs", None) is not None:
+        return _CHAIN_LEGS
     return _LEG_CHAINS if is_general(desc) else _IDEAL_UPS
