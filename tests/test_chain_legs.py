@@ -243,11 +243,11 @@ def test_what_takes_three_joint_legs_refuses_chain_legs_clearly(tmp_path: Path) 
         r.write_xacro_args(tmp_path / "robot.yaml")
     assert not list(tmp_path.iterdir())
     assert "<weld" in r.write_mjcf(tmp_path / "robot.xml").read_text()  # the MJCF is written
-    spin = StewartRobot(rss_robot())  # idle joints: no compiled models yet
+    spin = StewartRobot(rss_robot())  # idle joints: every backend needs the spin state
     H, zero = spin.description.home_pose, np.zeros(6)
-    with pytest.raises(UnsupportedArchitectureError, match="chain legs with idle joints"):
+    with pytest.raises(InputError, match=r"idle freedoms \(leg 1 joint 4"):
         spin.inverse_dynamics(H, zero, zero, backend="compiled")
-    with pytest.raises(UnsupportedArchitectureError, match="idle joints: the exact derivatives"):
+    with pytest.raises(InputError, match=r"idle freedoms \(leg 1 joint 4"):
         spin.inverse_dynamics_derivatives(H, zero, zero)
 
 

@@ -456,9 +456,13 @@ class ChainLegCodegen(LegChainCodegen):
         return robot_size(desc)  # as the reference path (chain_legs.condition_number)
 
     def not_compiled(self, desc: RobotDescription) -> str | None:
-        """Legs with idle joints (an R-S-S spin as state): not generated yet."""
+        """Legs with idle joints (an R-S-S spin as state): these models have no idle
+        input; the compiled models taking it are :mod:`.idle_compiled`'s."""
         if any(leg.idle_joint is not None for leg in desc.chain_legs or ()):
-            return "chain legs with idle joints"
+            return (
+                "chain legs with idle joints, whose models take the idle state (give "
+                "idle=(values, rates): stewart_pin.codegen.idle_compiled)"
+            )
         return None
 
     def resolution(self, desc: RobotDescription) -> Resolution:

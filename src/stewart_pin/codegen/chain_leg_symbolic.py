@@ -100,6 +100,9 @@ CHAIN_GENERATOR_VERSION = "1"
 #: from home needs at most 7 on the welded and mixed robots' sampled states; more: the
 #: guard flags the state).
 NEWTON_ITERATIONS = 7
+#: The idle models' Newton steps per leg (an R-S-S crank swings further from home than
+#: the welded legs' joints: 7 steps leave 14 % of the sampled states to the reference).
+IDLE_NEWTON_ITERATIONS = 9
 #: The residual the guard accepts after the last step: position over the robot's size,
 #: rotation [rad] (the reference's own tolerance is 1e-13; one more quadratic step).
 RESIDUAL_TOLERANCE = 1e-11
@@ -128,6 +131,7 @@ class _ChainConst:
     size: float
     inline_newton: bool = True
     idle: int = -1  # the idle joint (0-based), -1 without one
+    iterations: int = NEWTON_ITERATIONS
 
     @property
     def free(self) -> tuple[int, ...]:
@@ -191,6 +195,7 @@ def chain_constants(
         size=size,
         inline_newton=inline_newton,
         idle=idle_index,
+        iterations=IDLE_NEWTON_ITERATIONS if idle else NEWTON_ITERATIONS,
     )
 
 
@@ -424,14 +429,14 @@ def chain_kinematics(
         Rt0 = _matmul3([list(r) for r in zip(*lc.R, strict=True)], _matmul3(R, lc.pR))
     state: list[Scalar] = _home_state(lc, None if idle is None or lc.idle < 0 else idle[0])
     if lc.inline_newton:
-        for _ in range(NEWTON_ITERATIONS):
+        for _ in range(lc.iterations):
             state = _newton_step(lc, state, P0, Rt0)
     else:  # the first step inline (from the constant home configuration: its kinematics
         # and LU fold into numbers), the others calls of one step function
         state = _newton_step(lc, state, P0, Rt0)
         step = _newton_step_function(lc)
         Rflat = column([x for r in Rt0 for x in r] if Rt0 is not None else [0.0] * 9)
-        for _ in range(NEWTON_ITERATIONS - 1):
+        for _ in range(lc.iterations - 1):
             state = split(step(column(state), column(P0), Rflat))
     joints = _joints_from(lc, state)
     f = _frames(lc, joints)

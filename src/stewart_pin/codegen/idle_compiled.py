@@ -44,11 +44,14 @@ from stewart_pin.codegen.chain_leg_symbolic import IDLE_INPUT, IdleModels, build
 from stewart_pin.codegen.compiled import (
     CFLAGS,
     QUICK_CFLAGS,
+    auto_env,
     build_source_library,
     default_threads,
+    find_compiler,
     positive_threads,
     printable_name,
     split_batch,
+    warn_reference,
 )
 from stewart_pin.codegen.derivatives import perturbed_pose
 from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
@@ -69,6 +72,7 @@ __all__ = [
     "CompiledIdleDynamics",
     "IdleDirectDerivatives",
     "IdleInverseDerivatives",
+    "auto_idle_backend",
     "idle_backend",
     "idle_c_source",
     "idle_derivatives_backend",
@@ -556,6 +560,32 @@ def idle_backend(robot: RobotLike, **kwargs: Any) -> CompiledIdleDynamics:
         return backend
 
 
+_AUTO: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def auto_idle_backend(robot: RobotLike) -> CompiledIdleDynamics | None:
+    """What ``backend="auto"`` runs for a robot with idle freedoms: its
+    :class:`CompiledIdleDynamics`, or ``None`` for the reference path, decided on the
+    robot's first call as :func:`.compiled.auto_backend` decides
+    (``$STEWART_PIN_BACKEND=pinocchio``, no C compiler, a failed build: ``None``, with
+    one warning per reason)."""
+    hit = _AUTO.get(robot)
+    if hit is not None and hit[0] is robot.description:
+        return hit[1]  # type: ignore[no-any-return]
+    choice: CompiledIdleDynamics | None = None
+    if auto_env() != "pinocchio":
+        compiler = find_compiler()
+        if compiler is None:
+            warn_reference("no C compiler found (cc, gcc, clang or $CC)")
+        else:
+            try:
+                choice = idle_backend(robot, compiler=compiler, vm_fallback=False, announce=True)
+            except (CompilationError, UnsafeCacheError) as e:
+                warn_reference(str(e).splitlines()[0] if str(e) else type(e).__name__)
+    _AUTO[robot] = (robot.description, choice)
+    return choice
+
+
 # ---------------------------------------------------------------------------- derivatives
 @dataclass(frozen=True)
 class IdleInverseDerivatives:
@@ -605,7 +635,8 @@ def _jacobian_function(model: cs.Function, name: str) -> cs.Function:
     out = model(perturbed_pose(x[0], delta), x[1], x[2], x[3], x[4])
     J = cs.jacobian(out, cs.vertcat(delta, x[1], x[2], x[4]))
     J = cs.substitute(J, delta, cs.DM.zeros(6))
-    return cs.Function(name, x, [cs.cse(cs.vec(J.T))], [model.name_in(k) for k in range(5)], ["d"])
+    flat = cs.cse(cs.vec(cs.densify(J).T))  # dense: every entry written, zeros included
+    return cs.Function(name, x, [flat], [model.name_in(k) for k in range(5)], ["d"])
 
 
 _DERIV_LOOPS = r"""
@@ -645,9 +676,10 @@ SP_DBATCH(sp_idle_ddm_derivatives, %(ddm)s, %(ddm_sz_arg)d, %(ddm_sz_res)d, %(dd
 
 class CompiledIdleDerivatives:
     """The exact Jacobians of :class:`CompiledIdleDynamics`'s models, compiled (or in
-    CasADi's VM). Each call first evaluates the values with the compiled idle models
-    (which raise what the reference raises for the state), then the Jacobians
-    (:class:`~stewart_pin.exceptions.NumericalError` for a non-finite one).
+    CasADi's VM; ``compiler=False``: the VM, nothing compiled). Each call first evaluates
+    the values with the compiled idle models (which raise what the reference raises for
+    the state), then the Jacobians (:class:`~stewart_pin.exceptions.NumericalError` for a
+    non-finite one).
 
     - ``inverse_dynamics_derivatives(pose, twist, accel, idle)`` ->
       :class:`IdleInverseDerivatives`;
@@ -655,7 +687,12 @@ class CompiledIdleDerivatives:
       :class:`IdleDirectDerivatives`.
     """
 
-    def __init__(self, robot: RobotLike, values: CompiledIdleDynamics | None = None) -> None:
+    def __init__(
+        self,
+        robot: RobotLike,
+        values: CompiledIdleDynamics | None = None,
+        compiler: bool | None = None,
+    ) -> None:
         self.robot = robot
         self._desc = robot.description
         self._values = values if values is not None else idle_backend(robot)
@@ -667,6 +704,9 @@ class CompiledIdleDerivatives:
         }
         self.kind, self.reason = "vm", None
         self.library: Path | None = None
+        if compiler is False:  # the VM: nothing to compile
+            self.reason = "compiler disabled"
+            return
         try:
             self.library, _ = build_source_library(
                 self._source,
