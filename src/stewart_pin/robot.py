@@ -695,7 +695,7 @@ class StewartRobot:
         models = self._idle_models(backend)
         if self._actuators is not None:
             pose, twist, gamma = self._efforts_in(pose, twist, gamma)
-        return models.direct_dynamics(pose, twist, gamma, idle)  # type: ignore[no-any-return]
+        return models.direct_dynamics(pose, twist, gamma, idle)
 
     def _idle_reference(self) -> _IdleReference:
         if not leg_chains_idle(self.description):
@@ -955,7 +955,7 @@ class _IdleReference:
         return (gamma, r.idle_accel) if batched else (gamma[0], r.idle_accel[0])
 
     def details(self, pose: Any, twist: Any, accel: Any, idle: Any) -> ChainInverseDynamics:
-        return self._dyn.inverse_dynamics(pose, twist, accel, details=True, idle=idle)  # type: ignore[no-any-return]
+        return self._dyn.inverse_dynamics(pose, twist, accel, details=True, idle=idle)
 
     def direct_dynamics(
         self, pose: Any, twist: Any, gamma: Any, idle: Any

@@ -462,9 +462,9 @@ def chain_kinematics(
         rows: list[list[Scalar]] = [[0.0] * c for _ in lc.joints]
         null = [0.0] * len(lc.joints)
         null[lc.idle] = 1.0
-        for m, j in enumerate(lc.free):
-            rows[j] = inv[m]
-            null[j] = null_free[m]
+        for i, j in enumerate(lc.free):
+            rows[j] = inv[i]
+            null[j] = null_free[i]
         inv = rows
     qd = _matvec(inv, tw)
     if null is not None and idle is not None:

@@ -375,7 +375,7 @@ class CompiledIdleDynamics:
 
     def _load(self, path: Path) -> None:
         lib = ctypes.CDLL(str(path))
-        argtypes = [
+        argtypes: list[Any] = [
             ctypes.c_longlong,
             *[ctypes.c_void_p] * 5,
             ctypes.c_double,
@@ -571,7 +571,7 @@ def auto_idle_backend(robot: RobotLike) -> CompiledIdleDynamics | None:
     one warning per reason)."""
     hit = _AUTO.get(robot)
     if hit is not None and hit[0] is robot.description:
-        return hit[1]  # type: ignore[no-any-return]
+        return hit[1]
     choice: CompiledIdleDynamics | None = None
     if auto_env() != "pinocchio":
         compiler = find_compiler()
