@@ -698,29 +698,41 @@ class StewartRobot:
         return models.direct_dynamics(pose, twist, gamma, idle)
 
     def _idle_reference(self) -> _IdleReference:
-        if not leg_chains_idle(self.description):
+        self._check_idle()
+        return _IdleReference(self.chain_dynamics)
+
+    def _check_idle(self) -> None:
+        """:class:`InputError` for an idle state given to a robot without idle joints (the
+        answer kept with the robot, per description)."""
+        memo = self.__dict__.get("_idle_memo")
+        if memo is None or memo[0] is not self.description:
+            memo = (self.description, bool(leg_chains_idle(self.description)))
+            self.__dict__["_idle_memo"] = memo
+        if not memo[1]:
             raise InputError(
                 f"robot '{self.name}' has no idle joints (ChainLeg.idle_joint): give "
                 "idle=None (its state is the pose and twist only)"
             )
-        return _IdleReference(self.chain_dynamics)
 
     def _idle_models(self, backend: str) -> Any:
         """The models taking the idle state: the compiled ones
         (:func:`stewart_pin.codegen.idle_compiled.idle_backend`) or the reference
         (:class:`_IdleReference`), as ``backend`` chooses (see :meth:`_fast_backend`)."""
-        reference = self._idle_reference()
-        if backend == "pinocchio":
-            return reference
+        self._check_idle()
         if backend == "auto":
-            from stewart_pin.codegen.idle_compiled import auto_idle_backend
+            if not _AUTO_IDLE:
+                from stewart_pin.codegen.idle_compiled import auto_idle_backend
 
-            return auto_idle_backend(self) or reference
+                _AUTO_IDLE.append(auto_idle_backend)
+            fast = _AUTO_IDLE[0](self)
+            return fast if fast is not None else _IdleReference(self.chain_dynamics)
+        if backend == "pinocchio":
+            return _IdleReference(self.chain_dynamics)
         if _compiled(backend):
             from stewart_pin.codegen.idle_compiled import idle_backend
 
             return idle_backend(self)
-        return reference  # pragma: no cover - _compiled raised
+        return None  # pragma: no cover - _compiled raised
 
     # ------------------------------------------------------------------ derivatives
     def inverse_dynamics_derivatives(
@@ -972,6 +984,8 @@ BACKENDS = ("pinocchio", "compiled", "auto")
 _COMPILED_BACKEND: list[Any] = []
 #: :func:`stewart_pin.codegen.compiled.auto_backend`, imported on first use.
 _AUTO_BACKEND: list[Any] = []
+#: :func:`stewart_pin.codegen.idle_compiled.auto_idle_backend`, imported on first use.
+_AUTO_IDLE: list[Any] = []
 
 
 def _compiled(backend: str, details: bool = False) -> bool:

@@ -35,7 +35,11 @@ from stewart_pin.codegen._resolution import (
     Resolution,
 )
 from stewart_pin.codegen._sx_common import SymbolicModels, function, pose_from_input, vcross
-from stewart_pin.codegen.chain_leg_symbolic import build_chain_models, chain_actuator_function
+from stewart_pin.codegen.chain_leg_symbolic import (
+    build_chain_models,
+    build_idle_models,
+    chain_actuator_function,
+)
 from stewart_pin.codegen.leg_chain_symbolic import (
     AuxLayout,
     actuator_function,
@@ -474,7 +478,12 @@ class ChainLegCodegen(LegChainCodegen):
 
     def cost_models(self, desc: RobotDescription) -> CostModels:
         """The values baked in (stages split, the Newton steps written out) and the pose
-        as a quaternion; the critical path of the first."""
+        as a quaternion; the critical path of the first. Legs with idle joints: the idle
+        models (:func:`.chain_leg_symbolic.build_idle_models`, Newton written out), no
+        stages (no critical path)."""
+        if self.not_compiled(desc) is not None:
+            idle = build_idle_models(desc, inline_newton=True)
+            return CostModels({"numeric": idle}, {}, {"architecture": desc.architecture})  # type: ignore[dict-item]
         models = {
             "numeric": build_chain_models(desc, stages=True, inline_newton=True)[0],
             "quaternion": build_chain_models(desc, "quaternion", inline_newton=True)[0],

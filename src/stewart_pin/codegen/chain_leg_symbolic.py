@@ -738,14 +738,17 @@ class IdleModels:
     constants: ModelConstants
 
 
-def build_idle_models(desc: RobotDescription, prefix: str = "stewart_idle_") -> IdleModels:
+def build_idle_models(
+    desc: RobotDescription, prefix: str = "stewart_idle_", inline_newton: bool = False
+) -> IdleModels:
     """The IDM and DDM of a robot with chain legs some of which have an idle joint, the
     idle joints' values and rates an input (:class:`IdleModels`): each leg as
     :func:`build_chain_models`'s, with the reference's idle equations
     (:class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`): the IDM's idle
     acceleration from ``null^T H_i = 0``, the DDM's eliminated (``M - Mn Mn^T / m``) and
-    recovered from the platform's acceleration."""
-    legs = [chain_constants(desc, k, inline_newton=False, idle=True) for k in range(6)]
+    recovered from the platform's acceleration. ``inline_newton``: the Newton steps
+    written out (the operation counts) rather than calls of one step function."""
+    legs = [chain_constants(desc, k, inline_newton=inline_newton, idle=True) for k in range(6)]
     states = kin.leg_states(
         desc,
         desc.home_pose[None],

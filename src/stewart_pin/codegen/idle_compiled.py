@@ -27,6 +27,7 @@ without optimisation (:data:`.compiled.QUICK_CFLAGS`).
 from __future__ import annotations
 
 import ctypes
+import math
 import threading
 import warnings
 import weakref
@@ -284,16 +285,17 @@ _F64 = np.dtype(np.float64)
 def _one_state(pose: Any, twist: Any, x: Any, idle: Any) -> bytes | None:
     """The single-state block (pose 16, twist 6, x 6, idle values 6, rates 6) when every
     input is a float64 array of one state's shape, else None (the general path)."""
-    try:
-        values, rates = idle
-    except (TypeError, ValueError):
+    if type(idle) is not tuple or len(idle) != 2:
         return None
-    arrays = (pose, twist, x, values, rates)
-    if not all(type(a) is np.ndarray and a.dtype is _F64 for a in arrays):
+    values, rates = idle
+    for a in (pose, twist, x, values, rates):
+        if type(a) is not np.ndarray or a.dtype is not _F64:
+            return None
+    if pose.shape != (4, 4) or twist.shape != (6,) or x.shape != (6,):
         return None
-    if pose.shape != (4, 4) or any(a.shape != (6,) for a in arrays[1:]):
+    if values.shape != (6,) or rates.shape != (6,):
         return None
-    return b"".join(np.ascontiguousarray(a).tobytes() for a in arrays)
+    return pose.tobytes() + twist.tobytes() + x.tobytes() + values.tobytes() + rates.tobytes()
 
 
 # ---------------------------------------------------------------------------- backend
@@ -397,6 +399,7 @@ class CompiledIdleDynamics:
         self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
         self._chi = np.zeros(1)
         self._chi_ptr = ctypes.c_void_p(self._chi.ctypes.data)
+        self._max_cond = (math.nan, ctypes.c_double(math.nan))
 
     # ------------------------------------------------------------------ public API
     def inverse_dynamics(
@@ -421,9 +424,11 @@ class CompiledIdleDynamics:
         if self.kind == "compiled":
             block = _one_state(pose, twist, x, idle)
             if block is not None:
+                if max_cond != self._max_cond[0]:
+                    self._max_cond = (max_cond, ctypes.c_double(max_cond))
                 with self._lock:
                     flag = self._c_one[which](
-                        block, self._chi_ptr, ctypes.c_double(max_cond), self._one_out_ptr
+                        block, self._chi_ptr, self._max_cond[1], self._one_out_ptr
                     )
                     out = self._one_out.copy()
                 if not flag & ~_REPIVOTED:
