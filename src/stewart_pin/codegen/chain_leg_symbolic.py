@@ -1,6 +1,7 @@
 """Symbolic models of robots with chain legs (CasADi SX): any serial chain of n 1-dof
-joints closed by a ball (c = 3) or a weld (c = 6), ``n = c`` (legs with an idle joint are
-not generated: :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`).
+joints closed by a ball (c = 3) or a weld (c = 6), ``n = c``; legs with an idle joint
+(``n = c + 1``, an R-S-S rod's spin) in :func:`build_idle_models`, the idle state an input
+(:mod:`.idle_compiled` compiles them).
 
 The same models as :mod:`.leg_chain_symbolic` (IDM and DDM, their guarded variants with
 ``aux`` in :class:`~.leg_chain_symbolic.AuxLayout`, the closures of :mod:`._sx_common`)
