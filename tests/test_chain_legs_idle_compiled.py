@@ -286,3 +286,29 @@ def test_simulate_idle_runs_on_the_compiled_direct_model(
     assert len(runs[0].t) == 6
     for a, b in zip((runs[0].poses, runs[0].idle_v), (runs[1].poses, runs[1].idle_v), strict=True):
         assert np.abs(a - b).max() <= 1e-9 * max(np.abs(b).max(), 1.0)
+
+
+@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
+def test_the_generated_models_match_mujocos_kkt_with_spinning_rods() -> None:
+    """MuJoCo's model of the same 6-RSS (the spins as hinges; Coulomb off: MuJoCo's
+    frictionloss is no ``Fc sign(qdot)``) in an exact KKT solve
+    (``tests/test_chain_legs_mjcf.py``) against the generated idle models (in the VM:
+    the compiled library's functions, nothing compiled), efforts and spin accelerations."""
+    pytest.importorskip("mujoco", reason="MuJoCo is optional: pip install mujoco")
+    import mujoco
+    from test_chain_legs_mjcf import mujoco_kkt_inverse_dynamics, without_coulomb
+
+    robot = StewartRobot(without_coulomb(rss_robot(symmetric=False)))
+    with pytest.warns(RuntimeWarning, match="compiler disabled"):
+        fast = CompiledIdleDynamics(robot, compiler=False)
+    m = mujoco.MjModel.from_xml_string(robot.mjcf())
+    data = mujoco.MjData(m)
+    T, V, A = robot.sample_states(3, rng=6)
+    spin, rate = _idle(robot, 3, 7)
+    gamma, sigma = fast.inverse_dynamics(T, V, A, (spin, rate))
+    for n in range(3):
+        ref, ref_sigma = mujoco_kkt_inverse_dynamics(
+            m, data, robot, T[n], V[n], A[n], (spin[n], rate[n])
+        )
+        assert _rel(gamma[n], ref) <= TOL
+        assert _rel(sigma[n], ref_sigma) <= TOL
