@@ -77,6 +77,7 @@ from stewart_pin.formats.mjcf import mjcf_string, write_mjcf
 from stewart_pin.formats.urdf import urdf_string, write_urdf
 from stewart_pin.formats.xacro import write_xacro_args
 from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics.chain_legs import idle_legs as leg_chains_idle
 from stewart_pin.kinematics.jacobians import MAX_CONDITION
 from stewart_pin.models import leg_chains as models
 from stewart_pin.models.pinocchio_models import TreeModel
@@ -517,6 +518,7 @@ class StewartRobot:
         details: Literal[False] = False,
         backend: str = "auto",
         motor: bool = False,
+        idle: Any = None,
     ) -> Forces: ...
 
     @overload
@@ -528,6 +530,7 @@ class StewartRobot:
         details: Literal[True],
         backend: str = "auto",
         motor: bool = False,
+        idle: Any = None,
     ) -> InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics: ...
 
     @overload
@@ -539,6 +542,7 @@ class StewartRobot:
         details: bool = False,
         backend: str = "auto",
         motor: bool = False,
+        idle: Any = None,
     ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics: ...
 
     def inverse_dynamics(
@@ -549,6 +553,7 @@ class StewartRobot:
         details: bool = False,
         backend: str = "auto",
         motor: bool = False,
+        idle: Any = None,
     ) -> Forces | InverseDynamicsResult | GeneralInverseDynamics | ChainInverseDynamics:
         """Actuator forces ``Gamma = Jp^T (F_p + F_leg)`` (eq. 31) [N].
 
@@ -568,6 +573,11 @@ class StewartRobot:
             motor: general legs with a transmission (gear or screw) on an actuated joint:
                 the motor-side torque ``Gamma / ratio`` [N m] (joint side where there is
                 none); the ideal 6-UPS has none, so ``motor`` changes nothing there.
+            idle: chain legs with idle joints (an R-S-S rod's spin,
+                ``ChainLeg.idle_joint``): the idle joints' ``(values, rates)``, each (6,)
+                or (N, 6) [rad or m, /s], part of such a robot's state (required there,
+                refused elsewhere: :class:`InputError`); their accelerations come with
+                :meth:`inverse_dynamics_idle` (or ``details=True``).
 
         Returns:
             Gamma (6,) or (N, 6); positive extends the leg. General legs: the actuated
@@ -583,6 +593,12 @@ class StewartRobot:
             NumericalError: finite inputs whose Gamma overflows (every backend).
             InputError: an unknown backend, or ``details=True`` with ``"compiled"``.
         """
+        if idle is not None:
+            if details:
+                _compiled(backend, details)  # the backend's name checked
+                return self._idle_reference().details(pose, twist, accel, idle)
+            out = self._idle_models(backend).inverse_dynamics(pose, twist, accel, idle)[0]
+            return out if self._actuators is None and not motor else self._efforts_out(out, motor)
         if backend == "auto" and not details and _AUTO_BACKEND:
             fast = _AUTO_BACKEND[0](self)  # the hot path: one look-up
         else:
@@ -607,7 +623,12 @@ class StewartRobot:
         return gamma if a is None else a.efforts_from_description(gamma)
 
     def direct_dynamics(
-        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, backend: str = "auto"
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        gamma: ArrayLike,
+        backend: str = "auto",
+        idle: Any = None,
     ) -> FloatArray:
         """Classical platform acceleration ``[dv/dt, dw/dt]`` in F0 (eq. 35):
         ``A_robot Vdot_p = Jp^-T Gamma - h_robot``, solved by Cholesky.
@@ -618,6 +639,8 @@ class StewartRobot:
             backend: ``"auto"`` (default: compiled where a C compiler is available, else
                 the reference), ``"pinocchio"`` (reference) or ``"compiled"`` (generated C);
                 see :meth:`inverse_dynamics`.
+            idle: the idle joints' ``(values, rates)`` of a robot with idle freedoms (as
+                :meth:`inverse_dynamics`; their accelerations: :meth:`direct_dynamics_idle`).
 
         General legs: ``gamma`` are the actuated joints' joint-side efforts [N or N m];
         Coulomb friction is ``Fc sign(qdot)``, zero at zero joint velocity (no stiction).
@@ -627,6 +650,8 @@ class StewartRobot:
             NumericalError: finite inputs whose acceleration overflows (every backend).
             InputError: an unknown backend.
         """
+        if idle is not None:
+            return self.direct_dynamics_idle(pose, twist, gamma, idle, backend)[0]
         if backend == "auto" and _AUTO_BACKEND:
             fast = _AUTO_BACKEND[0](self)  # the hot path: one look-up
         else:
@@ -637,10 +662,83 @@ class StewartRobot:
             return fast.direct_dynamics(pose, twist, gamma)
         return self._kind.direct_dynamics(self, pose, twist, gamma)
 
+    # ------------------------------------------------------------------ idle freedoms
+    def inverse_dynamics_idle(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        idle: Any,
+        backend: str = "auto",
+        motor: bool = False,
+    ) -> tuple[FloatArray, FloatArray]:
+        """A robot with idle freedoms (chain legs with ``idle_joint``, an R-S-S rod's
+        spin): the actuated efforts (as :meth:`inverse_dynamics`) and the idle joints'
+        accelerations (6,) or (N, 6) [rad/s^2 or m/s^2, 0 for a leg without one], at the
+        idle joints' ``idle = (values, rates)``, each (6,) or (N, 6). ``backend``: as
+        :meth:`inverse_dynamics` (compiled: :mod:`stewart_pin.codegen.idle_compiled`)."""
+        gamma, sigma = self._idle_models(backend).inverse_dynamics(pose, twist, accel, idle)
+        if self._actuators is not None or motor:
+            gamma = self._efforts_out(gamma, motor)
+        return gamma, sigma
+
+    def direct_dynamics_idle(
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        gamma: ArrayLike,
+        idle: Any,
+        backend: str = "auto",
+    ) -> tuple[FloatArray, FloatArray]:
+        """A robot with idle freedoms: the platform's classical acceleration (as
+        :meth:`direct_dynamics`) and the idle joints' accelerations (6,) or (N, 6) at the
+        idle joints' ``idle = (values, rates)``; ``backend`` as :meth:`direct_dynamics`."""
+        models = self._idle_models(backend)
+        if self._actuators is not None:
+            pose, twist, gamma = self._efforts_in(pose, twist, gamma)
+        return models.direct_dynamics(pose, twist, gamma, idle)
+
+    def _idle_reference(self) -> _IdleReference:
+        self._check_idle()
+        return _IdleReference(self.chain_dynamics)
+
+    def _check_idle(self) -> None:
+        """:class:`InputError` for an idle state given to a robot without idle joints (the
+        answer kept with the robot, per description)."""
+        memo = self.__dict__.get("_idle_memo")
+        if memo is None or memo[0] is not self.description:
+            memo = (self.description, bool(leg_chains_idle(self.description)))
+            self.__dict__["_idle_memo"] = memo
+        if not memo[1]:
+            raise InputError(
+                f"robot '{self.name}' has no idle joints (ChainLeg.idle_joint): give "
+                "idle=None (its state is the pose and twist only)"
+            )
+
+    def _idle_models(self, backend: str) -> Any:
+        """The models taking the idle state: the compiled ones
+        (:func:`stewart_pin.codegen.idle_compiled.idle_backend`) or the reference
+        (:class:`_IdleReference`), as ``backend`` chooses (see :meth:`_fast_backend`)."""
+        self._check_idle()
+        if backend == "auto":
+            if not _AUTO_IDLE:
+                from stewart_pin.codegen.idle_compiled import auto_idle_backend
+
+                _AUTO_IDLE.append(auto_idle_backend)
+            fast = _AUTO_IDLE[0](self)
+            return fast if fast is not None else _IdleReference(self.chain_dynamics)
+        if backend == "pinocchio":
+            return _IdleReference(self.chain_dynamics)
+        if _compiled(backend):
+            from stewart_pin.codegen.idle_compiled import idle_backend
+
+            return idle_backend(self)
+        return None  # pragma: no cover - _compiled raised
+
     # ------------------------------------------------------------------ derivatives
     def inverse_dynamics_derivatives(
-        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike
-    ) -> InverseDynamicsDerivatives:
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike, idle: Any = None
+    ) -> InverseDynamicsDerivatives | IdleInverseDerivatives:
         """Gamma and its exact Jacobians ``.pose``, ``.twist``, ``.accel`` (6, 6) (or
         (N, 6, 6)) in the platform state, from CasADi's differentiation of the compiled
         closed form (:mod:`stewart_pin.codegen.derivatives`; built on first use).
@@ -650,7 +748,30 @@ class StewartRobot:
         ``dGamma/dt = D.pose @ [v, w] + D.twist @ Vdot + D.accel @ dVdot/dt`` (Vdot the
         classical acceleration). Arguments and errors as :meth:`inverse_dynamics`
         (general legs included: their Gamma is the actuated joints' efforts), Gamma in the
-        robot's :attr:`actuator_convention`."""
+        robot's :attr:`actuator_convention`.
+
+        A robot with idle freedoms takes ``idle = (values, rates)`` (as
+        :meth:`inverse_dynamics_idle`) and returns an
+        :class:`~stewart_pin.codegen.idle_compiled.IdleInverseDerivatives`: the efforts
+        and the idle accelerations (rows: 6 + 6) differentiated in the pose, twist,
+        acceleration and the idle joints' values and rates."""
+        if idle is not None:
+            self._idle_reference()  # a robot without idle joints refuses one
+            di = _idle_derivatives(self).inverse_dynamics_derivatives(pose, twist, accel, idle)
+            a = self._actuators
+            if a is None:
+                return di
+            sign = np.concatenate([a.signs, np.ones(6)])[:, None]
+            return replace(
+                di,
+                gamma=a.efforts_from_description(di.gamma),
+                pose=sign * di.pose,
+                twist=sign * di.twist,
+                accel=sign * di.accel,
+                idle_values=sign * di.idle_values,
+                idle_rates=sign * di.idle_rates,
+            )
+        self._no_idle_state()
         d = _derivatives(self).inverse_dynamics_derivatives(pose, twist, accel)
         a = self._actuators
         if a is None:
@@ -664,14 +785,23 @@ class StewartRobot:
         )
 
     def direct_dynamics_derivatives(
-        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike
-    ) -> DirectDynamicsDerivatives:
+        self, pose: ArrayLike, twist: ArrayLike, gamma: ArrayLike, idle: Any = None
+    ) -> DirectDynamicsDerivatives | IdleDirectDerivatives:
         """The classical acceleration ``.accel`` and its exact Jacobians ``.pose``,
         ``.twist``, ``.gamma`` (6, 6) (or (N, 6, 6)); the pose chart as in
         :meth:`inverse_dynamics_derivatives`. Arguments and errors as
         :meth:`direct_dynamics` (``gamma`` and ``.gamma`` in the robot's
-        :attr:`actuator_convention`)."""
+        :attr:`actuator_convention`); ``idle`` as
+        :meth:`inverse_dynamics_derivatives` (an
+        :class:`~stewart_pin.codegen.idle_compiled.IdleDirectDerivatives`)."""
         a = self._actuators
+        if idle is not None:
+            self._idle_reference()
+            if a is not None:
+                pose, twist, gamma = self._efforts_in(pose, twist, gamma)
+            di = _idle_derivatives(self).direct_dynamics_derivatives(pose, twist, gamma, idle)
+            return di if a is None else replace(di, gamma=a.columns(di.gamma))
+        self._no_idle_state()
         if a is None:
             return _derivatives(self).direct_dynamics_derivatives(pose, twist, gamma)
         d = _derivatives(self).direct_dynamics_derivatives(*self._efforts_in(pose, twist, gamma))
@@ -735,8 +865,15 @@ class StewartRobot:
         if backend == "pinocchio":
             return None
         if _compiled(backend, details):
+            self._no_idle_state()
             return self._compiled_backend()
         return None  # pragma: no cover - _compiled raised
+
+    def _no_idle_state(self) -> None:
+        """:class:`InputError` (the reference's) for a robot with idle freedoms called
+        without their state: its models need ``idle=(values, rates)``."""
+        if leg_chains_idle(self.description):
+            self.chain_dynamics.idle_state(None, 1)
 
     @cached_property
     def _motor_ratio(self) -> FloatArray:
@@ -815,6 +952,30 @@ class StewartRobot:
         return PayloadRobot(self, payload, placement)
 
 
+class _IdleReference:
+    """The reference path's models of a robot with idle freedoms, with the compiled idle
+    models' calls (:class:`~stewart_pin.codegen.idle_compiled.CompiledIdleDynamics`)."""
+
+    def __init__(self, dynamics: ChainDynamics) -> None:
+        self._dyn = dynamics
+
+    def inverse_dynamics(
+        self, pose: Any, twist: Any, accel: Any, idle: Any
+    ) -> tuple[np.ndarray, np.ndarray]:
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        r = self._dyn.inverse_batch(T, V, A, idle)
+        gamma = check_finite(r.gamma, "inverse dynamics Gamma")
+        return (gamma, r.idle_accel) if batched else (gamma[0], r.idle_accel[0])
+
+    def details(self, pose: Any, twist: Any, accel: Any, idle: Any) -> ChainInverseDynamics:
+        return self._dyn.inverse_dynamics(pose, twist, accel, details=True, idle=idle)
+
+    def direct_dynamics(
+        self, pose: Any, twist: Any, gamma: Any, idle: Any
+    ) -> tuple[np.ndarray, np.ndarray]:
+        return self._dyn.direct_dynamics_idle(pose, twist, gamma, idle)
+
+
 #: The backends of the dynamic models: ``"auto"`` is the default (compiled where a C
 #: compiler is available, else the reference; ``$STEWART_PIN_BACKEND=pinocchio`` makes it
 #: the reference: :func:`stewart_pin.codegen.compiled.auto_backend`).
@@ -824,6 +985,8 @@ BACKENDS = ("pinocchio", "compiled", "auto")
 _COMPILED_BACKEND: list[Any] = []
 #: :func:`stewart_pin.codegen.compiled.auto_backend`, imported on first use.
 _AUTO_BACKEND: list[Any] = []
+#: :func:`stewart_pin.codegen.idle_compiled.auto_idle_backend`, imported on first use.
+_AUTO_IDLE: list[Any] = []
 
 
 def _compiled(backend: str, details: bool = False) -> bool:
@@ -842,6 +1005,14 @@ if TYPE_CHECKING:
         DirectDynamicsDerivatives,
         InverseDynamicsDerivatives,
     )
+    from stewart_pin.codegen.idle_compiled import IdleDirectDerivatives, IdleInverseDerivatives
+
+
+def _idle_derivatives(robot: StewartRobot) -> Any:
+    """The robot's :class:`~stewart_pin.codegen.idle_compiled.CompiledIdleDerivatives`."""
+    from stewart_pin.codegen.idle_compiled import idle_derivatives_backend
+
+    return idle_derivatives_backend(robot)
 
 
 def _derivatives(robot: StewartRobot) -> Any:

@@ -51,7 +51,7 @@ import tempfile
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import casadi
 import numpy as np
@@ -72,6 +72,7 @@ from stewart_pin.check.constrained_dynamics import (
 from stewart_pin.codegen import CompiledDynamics, cost_dict
 from stewart_pin.codegen.compiled import CFLAGS, find_compiler
 from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
+from stewart_pin.kinematics.chain_legs import idle_home, idle_legs
 
 
 def machine() -> dict[str, object]:
@@ -194,24 +195,41 @@ def architecture_rows(
     chain = CHAIN_PRESETS.get(name)  # a chain-leg robot (welded-ups) or a preset
     robot = StewartRobot(chain()) if chain else StewartRobot.from_preset(name)
     poses, twists, accels = robot.sample_states(min(max(batches), 10_000), 0)
-    gammas = robot.inverse_dynamics(poses, twists, accels)  # compiles on first use
+    spins = idle_legs(robot.description)  # idle freedoms (R-S-S): at home, at rest
+
+    def idle_of(n: int | None) -> Any:
+        if not spins:
+            return None
+        s = idle_home(robot.description)
+        return (s, np.zeros(6)) if n is None else (np.tile(s, (n, 1)), np.zeros((n, 6)))
+
+    one, many = idle_of(None), idle_of(poses.shape[0])
+    gammas = robot.inverse_dynamics(poses, twists, accels, idle=many)  # compiles on first use
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     rows = {
         "pin.constraintDynamics (raw call)": median_us(
             constraint_dynamics_call(robot, T, V, G), repeats
         ),
-        "IDM single": median_us(lambda: robot.inverse_dynamics(T, V, A), max(repeats, 1000)),
-        "DDM single": median_us(lambda: robot.direct_dynamics(T, V, G), max(repeats, 1000)),
+        "IDM single": median_us(
+            lambda: robot.inverse_dynamics(T, V, A, idle=one), max(repeats, 1000)
+        ),
+        "DDM single": median_us(
+            lambda: robot.direct_dynamics(T, V, G, idle=one), max(repeats, 1000)
+        ),
     }
     for n in batches:
         idx = np.arange(n) % poses.shape[0]
         P, Vn, An, Gn = poses[idx], twists[idx], accels[idx], gammas[idx]
         reps = 20 if n <= 10_000 else 5
-        rows[f"IDM batch {n}"] = median_us(partial(robot.inverse_dynamics, P, Vn, An), reps, n)
-        rows[f"DDM batch {n}"] = median_us(partial(robot.direct_dynamics, P, Vn, Gn), reps, n)
+        idle = idle_of(n)
+        idm = partial(robot.inverse_dynamics, P, Vn, An, idle=idle)
+        ddm = partial(robot.direct_dynamics, P, Vn, Gn, idle=idle)
+        rows[f"IDM batch {n}"] = median_us(idm, reps, n)
+        rows[f"DDM batch {n}"] = median_us(ddm, reps, n)
     from stewart_pin.codegen.compiled import auto_backend
+    from stewart_pin.codegen.idle_compiled import auto_idle_backend
 
-    fast = auto_backend(robot)
+    fast: Any = auto_idle_backend(robot) if spins else auto_backend(robot)
     reference = rows["pin.constraintDynamics (raw call)"]
     return {
         "architecture": robot.architecture,

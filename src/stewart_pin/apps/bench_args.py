@@ -27,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=_preset_list,
         default=ARCHITECTURES,
         help="comma-separated presets of the default-backend rows (one per architecture; "
-        "also welded-ups, mixed-chain: chain-leg robots)",
+        "also welded-ups, mixed-chain, rss-asymmetric: chain-leg robots)",
     )
     parser.add_argument(
         "--batch",

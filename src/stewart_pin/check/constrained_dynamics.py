@@ -342,7 +342,7 @@ def constraint_dynamics_call(
         q_all = np.asarray(robot.inverse_geometry(pose, check_limits=False), dtype=float)
         legs = robot.description.chain_legs or ()
         q_legs = [q_all[k, : len(leg.joints)] for k, leg in enumerate(legs)]
-        q, v, _ = chain.state(pose, twist, q_legs)
+        q, v, _ = chain.state(pose, twist, q_legs, np.zeros(6))  # idle joints: at rest
         tau = -chain.joint_torques(q, v)
         tau[chain.v_act] += gamma
         args = (chain.model, chain.data, q, v, tau, chain.cmodels, chain.cdatas)

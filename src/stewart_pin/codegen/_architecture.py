@@ -37,6 +37,7 @@ from stewart_pin.codegen._resolution import (
 from stewart_pin.codegen._sx_common import SymbolicModels, function, pose_from_input, vcross
 from stewart_pin.codegen.chain_leg_symbolic import (
     build_chain_models,
+    build_idle_models,
     chain_actuator_function,
     chain_constants,
     chain_kinematics,
@@ -467,9 +468,13 @@ class ChainLegCodegen(LegChainCodegen):
         return robot_size(desc)  # as the reference path (chain_legs.condition_number)
 
     def not_compiled(self, desc: RobotDescription) -> str | None:
-        """Legs with idle joints (an R-S-S spin as state): not generated yet."""
+        """Legs with idle joints (an R-S-S spin as state): these models have no idle
+        input; the compiled models taking it are :mod:`.idle_compiled`'s."""
         if any(leg.idle_joint is not None for leg in desc.chain_legs or ()):
-            return "chain legs with idle joints"
+            return (
+                "chain legs with idle joints, whose models take the idle state (give "
+                "idle=(values, rates): stewart_pin.codegen.idle_compiled)"
+            )
         return None
 
     def resolution(self, desc: RobotDescription) -> Resolution:
@@ -481,7 +486,12 @@ class ChainLegCodegen(LegChainCodegen):
 
     def cost_models(self, desc: RobotDescription) -> CostModels:
         """The values baked in (stages split, the Newton steps written out) and the pose
-        as a quaternion; the critical path of the first."""
+        as a quaternion; the critical path of the first. Legs with idle joints: the idle
+        models (:func:`.chain_leg_symbolic.build_idle_models`, Newton written out), no
+        stages (no critical path)."""
+        if self.not_compiled(desc) is not None:
+            idle = build_idle_models(desc, inline_newton=True)
+            return CostModels({"numeric": idle}, {}, {"architecture": desc.architecture})  # type: ignore[dict-item]
         models = {
             "numeric": build_chain_models(desc, stages=True, inline_newton=True)[0],
             "quaternion": build_chain_models(desc, "quaternion", inline_newton=True)[0],

@@ -1,6 +1,7 @@
 """Symbolic models of robots with chain legs (CasADi SX): any serial chain of n 1-dof
-joints closed by a ball (c = 3) or a weld (c = 6), ``n = c`` (legs with an idle joint are
-not generated: :class:`~stewart_pin.exceptions.UnsupportedArchitectureError`).
+joints closed by a ball (c = 3) or a weld (c = 6), ``n = c``; legs with an idle joint
+(``n = c + 1``, an R-S-S rod's spin) in :func:`build_idle_models`, the idle state an input
+(:mod:`.idle_compiled` compiles them).
 
 The same models as :mod:`.leg_chain_symbolic` (IDM and DDM, their guarded variants with
 ``aux`` in :class:`~.leg_chain_symbolic.AuxLayout`, the closures of :mod:`._sx_common`)
@@ -39,19 +40,30 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as cs
 import numpy as np
 
 from stewart_pin.codegen._sx_common import (
     Mat,
+    ModelConstants,
     Scalar,
     SymbolicModels,
     Vec,
     column,
+    ddm_legs_closure,
+    ddm_platform,
+    function,
+    idm_closure,
+    idm_platform,
+    idm_shared,
+    is_zero,
     lu_solve,
     mat3,
     pivot_order,
+    pose_from_input,
+    pose_size,
     split,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
@@ -89,6 +101,11 @@ CHAIN_GENERATOR_VERSION = "1"
 #: from home needs at most 7 on the welded and mixed robots' sampled states; more: the
 #: guard flags the state).
 NEWTON_ITERATIONS = 7
+#: The idle models' Newton steps per leg (an R-S-S crank swings further from home than
+#: the welded legs' joints: of 10 000 states of ``sample_states`` on the 6-RSS, 7 steps
+#: leave 14 % to the reference path, 9 steps 0.2 % (each costs milliseconds there), 12
+#: none).
+IDLE_NEWTON_ITERATIONS = 12
 #: The residual the guard accepts after the last step: position over the robot's size,
 #: rotation [rad] (the reference's own tolerance is 1e-13; one more quadratic step).
 RESIDUAL_TOLERANCE = 1e-11
@@ -116,16 +133,29 @@ class _ChainConst:
     gravity: tuple[float, ...]  # g in frame 0i
     size: float
     inline_newton: bool = True
+    idle: int = -1  # the idle joint (0-based), -1 without one
+    iterations: int = NEWTON_ITERATIONS
+
+    @property
+    def free(self) -> tuple[int, ...]:
+        """The joints Newton moves (all but the idle joint)."""
+        return tuple(j for j in range(len(self.joints)) if j != self.idle)
 
 
 def chain_constants(
-    desc: RobotDescription, k: int, inline_newton: bool = True, coulomb_smoothing: float = 0.0
+    desc: RobotDescription,
+    k: int,
+    inline_newton: bool = True,
+    coulomb_smoothing: float = 0.0,
+    idle: bool = False,
 ) -> _ChainConst:
-    """Leg k's :class:`_ChainConst` (:class:`UnsupportedArchitectureError` for a leg with an
-    idle joint); ``coulomb_smoothing`` > 0 [m/s or rad/s, each joint's rate]: its joints'
-    Coulomb signs smoothed as ``tanh(qd / eps)``."""
+    """Leg k's :class:`_ChainConst` (a leg with an idle joint:
+    :class:`UnsupportedArchitectureError` unless ``idle``, for the models taking the idle
+    state); ``coulomb_smoothing`` > 0
+    [m/s or rad/s, each joint's rate]: its joints' Coulomb signs smoothed as
+    ``tanh(qd / eps)``."""
     leg = kin.chain_legs_of(desc)[k]
-    if leg.idle_joint is not None:
+    if leg.idle_joint is not None and not idle:
         raise UnsupportedArchitectureError(
             f"robot '{desc.name}': leg {k + 1} has an idle joint ({leg.idle_joint}): the "
             "compiled models do not take idle freedoms yet; use backend='pinocchio'",
@@ -141,6 +171,9 @@ def chain_constants(
     if J_home is None:
         J6 = kin.chain_jacobian(leg, frames)[0]
         J_home = np.vstack([R.T @ J6[:3], R.T @ J6[3:]])
+    idle_index = -1 if leg.idle_joint is None else leg.idle_joint - 1
+    free = [j for j in range(leg.n_joints) if j != idle_index]
+    J_home = J_home[:, free]  # Newton and J_i^-1 move the joints but the idle one
     nonzero = np.abs(J_home) > 1e-12 * max(np.abs(J_home).max(), 1e-300)
     g = desc.gravity
     gscale = max(math.hypot(*(float(x) for x in g)), 1e-300)
@@ -159,11 +192,13 @@ def chain_constants(
         constraints=leg.constraints,
         actuated=leg.actuated - 1,
         home=tuple(float(x) for x in home),
-        caps=tuple(kin.MAX_STEP if j.revolute else kin.MAX_STEP * size for j in leg.joints),
+        caps=tuple(kin.MAX_STEP if leg.joints[j].revolute else kin.MAX_STEP * size for j in free),
         pivots=tuple(pivot_order(J_home, nonzero)),
         gravity=tuple(snap(x, gscale) for x in R.T @ g),
         size=size,
         inline_newton=inline_newton,
+        idle=idle_index,
+        iterations=IDLE_NEWTON_ITERATIONS if idle else NEWTON_ITERATIONS,
     )
 
 
@@ -286,29 +321,47 @@ def _joints_from(lc: _ChainConst, state: Sequence[Scalar]) -> list[JointState]:
     return out
 
 
-def _home_state(lc: _ChainConst) -> list[Scalar]:
+def _home_state(lc: _ChainConst, idle_q: Scalar | None = None) -> list[Scalar]:
+    """Newton's start: the home configuration, the idle joint (if any) at ``idle_q``."""
     out: list[Scalar] = []
-    for k, q in zip(lc.joints, lc.home, strict=True):
-        out += [math.cos(k.theta + q), math.sin(k.theta + q)] if k.revolute else [q]
+    for j, (k, q) in enumerate(zip(lc.joints, lc.home, strict=True)):
+        if j == lc.idle and idle_q is not None:
+            out += [cs.cos(k.theta + idle_q), cs.sin(k.theta + idle_q)] if k.revolute else [idle_q]
+        else:
+            out += [math.cos(k.theta + q), math.sin(k.theta + q)] if k.revolute else [q]
     return out
+
+
+def _free_columns(lc: _ChainConst, J: list[list[Scalar]]) -> list[list[Scalar]]:
+    """``J`` (c x n) without the idle joint's column (c x c)."""
+    if lc.idle < 0:
+        return J
+    return [[row[j] for j in lc.free] for row in J]
 
 
 def _newton_step(
     lc: _ChainConst, state: Sequence[Scalar], P0: Vec, Rt0: Mat | None
 ) -> list[Scalar]:
     """One capped Newton step ``J dq = e`` (the reference's), revolute joints turned by
-    the Cayley rotation of ``dq``."""
+    the Cayley rotation of ``dq``; an idle joint kept (the reference's Newton too)."""
     joints = _joints_from(lc, state)
     f = _frames(lc, joints)
     e = _residual(lc, f, P0, Rt0)
-    dq, _, _ = lu_solve(_jacobian(lc, joints, f), e, lc.pivots)
+    dq_free, _, _ = lu_solve(_free_columns(lc, _jacobian(lc, joints, f)), e, lc.pivots)
     scale: Scalar = 1.0
-    for d, cap in zip(dq, lc.caps, strict=True):
+    for d, cap in zip(dq_free, lc.caps, strict=True):
         scale = cs.fmax(scale, cs.fabs(d) * (1.0 / cap))
     inv = 1.0 / scale
+    dq: list[Scalar | None] = [None] * len(lc.joints)
+    for j, d in zip(lc.free, dq_free, strict=True):
+        dq[j] = d
     out: list[Scalar] = []
     i = 0
     for k, d in zip(lc.joints, dq, strict=True):
+        if d is None:  # the idle joint: its value is given
+            out += [state[i], state[i + 1]] if k.revolute else [state[i]]
+            i += 2 if k.revolute else 1
+            continue
         d = d * inv
         if k.revolute:
             t = 0.5 * d
@@ -349,25 +402,44 @@ class _ChainKinematics:
     qd: list[Scalar]
     row: list[Scalar]  # row i of Jp^-1 (F0)
     slacks: list[Scalar]
+    #: the idle motion per unit idle rate (n,) (``J_i null = 0``, 1 at the idle joint)
+    null: list[Scalar] | None = None
 
 
-def chain_kinematics(lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _ChainKinematics:
-    """Inverse geometry (Newton), ``J_i^-1``, the slacks, ``qdot`` and the ``Jp^-1`` row."""
+def chain_kinematics(
+    lc: _ChainConst,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    idle: tuple[Scalar, Scalar] | None = None,
+) -> _ChainKinematics:
+    """Inverse geometry (Newton), ``J_i^-1``, the slacks, ``qdot`` and the ``Jp^-1`` row;
+    a leg with an idle joint (``lc.idle``) takes its value and rate ``idle`` (the
+    reference's :func:`~stewart_pin.kinematics.chain_legs.leg_states`: Newton with the
+    idle joint kept, ``J_i^-1`` the first c columns of ``[J_i; e_idle^T]^-1`` and
+    ``qdot = J_i^-1 G_i V + null * idle_rate``)."""
+    if lc.idle >= 0 and idle is None:
+        raise UnsupportedArchitectureError(
+            f"leg {lc.index + 1} has an idle joint: its models take the idle state",
+            "backend",
+            "chain",
+        )
     L = _rot(R, list(lc.pL))
     P0 = _to_frame(lc, [plus(minus(p[i], lc.B[i]), L[i]) for i in range(3)])
     Rt0 = None
     if lc.constraints == 6:  # R_i^T R R_p
         Rt0 = _matmul3([list(r) for r in zip(*lc.R, strict=True)], _matmul3(R, lc.pR))
-    state: list[Scalar] = _home_state(lc)
+    state: list[Scalar] = _home_state(lc, None if idle is None or lc.idle < 0 else idle[0])
     if lc.inline_newton:
-        for _ in range(NEWTON_ITERATIONS):
+        for _ in range(lc.iterations):
             state = _newton_step(lc, state, P0, Rt0)
     else:  # the first step inline (from the constant home configuration: its kinematics
         # and LU fold into numbers), the others calls of one step function
         state = _newton_step(lc, state, P0, Rt0)
         step = _newton_step_function(lc)
         Rflat = column([x for r in Rt0 for x in r] if Rt0 is not None else [0.0] * 9)
-        for _ in range(NEWTON_ITERATIONS - 1):
+        for _ in range(lc.iterations - 1):
             state = split(step(column(state), column(P0), Rflat))
     joints = _joints_from(lc, state)
     f = _frames(lc, joints)
@@ -378,17 +450,34 @@ def chain_kinematics(lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _ChainK
     ]
     if lc.constraints == 6:
         slacks.append(tol * tol - dot(e[3:], e[3:]))
-    inv, growth = _lu_inverse(_jacobian(lc, joints, f), lc.pivots)
+    J = _jacobian(lc, joints, f)
+    inv, growth = _lu_inverse(_free_columns(lc, J), lc.pivots)
     slacks.append(LEG_GROWTH_LIMIT - growth)
     slacks += limit_slacks(lc.size, joints)
     tw = _platform_twist(lc, L, v, w)
+    null: list[Scalar] | None = None
+    if lc.idle >= 0 and idle is not None:
+        # [J; e_idle^T]^-1: the free joints' rows J_free^-1 (first c columns) and
+        # -J_free^-1 J[:, idle] (last column, the null motion); the idle row e_last
+        c = lc.constraints
+        col = [J[i][lc.idle] for i in range(c)]
+        null_free = [mul(-1.0, x) for x in _matvec(inv, col)]
+        rows: list[list[Scalar]] = [[0.0] * c for _ in lc.joints]
+        null = [0.0] * len(lc.joints)
+        null[lc.idle] = 1.0
+        for i, j in enumerate(lc.free):
+            rows[j] = inv[i]
+            null[j] = null_free[i]
+        inv = rows
     qd = _matvec(inv, tw)
+    if null is not None and idle is not None:
+        qd = [plus(x, mul(nj, idle[1])) for x, nj in zip(qd, null, strict=True)]
     a = inv[lc.actuated]
     m = _from_frame(lc, a[:3])
     row = [*m, *cross(L, m)]
     if lc.constraints == 6:
         row = [*m, *add(row[3:], _from_frame(lc, a[3:]))]
-    return _ChainKinematics(joints, f, L, inv, qd, row, slacks)
+    return _ChainKinematics(joints, f, L, inv, qd, row, slacks, null)
 
 
 def _platform_twist(lc: _ChainConst, L: Vec, v: Vec, w: Vec) -> list[Scalar]:
@@ -437,10 +526,29 @@ def _wrench(lc: _ChainConst, L: Vec, fc: Sequence[Scalar]) -> list[Scalar]:
     return [*f, *moment]
 
 
+def _idle_inertia(joints: Sequence[JointState], null: Sequence[Scalar]) -> list[Scalar]:
+    """``M_i null`` (n,): the chain's efforts of the joint accelerations ``null`` without
+    velocity or gravity, armature included (one Newton-Euler pass)."""
+    n = len(joints)
+    Mn = newton_euler(joints, [0.0] * n, list(null), [0.0, 0.0, 0.0])
+    return [
+        plus(t, mul(J.k.armature, x)) if J.k.armature else t
+        for t, J, x in zip(Mn, joints, null, strict=True)
+    ]
+
+
 def _idm_leg(
-    lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, wd: Vec, K: Mat
+    lc: _ChainConst,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    vd: Vec,
+    wd: Vec,
+    K: Mat,
+    idle: tuple[Scalar, Scalar] | None = None,
 ) -> dict[str, list[Scalar]]:
-    ck = chain_kinematics(lc, p, R, v, w)
+    ck = chain_kinematics(lc, p, R, v, w, idle)
     A_P = add(vd, [dot(K[i], ck.L) for i in range(3)])
     acc = _to_frame(lc, A_P)
     if lc.constraints == 6:
@@ -451,6 +559,12 @@ def _idm_leg(
     tau = newton_euler(ck.joints, ck.qd, qdd, [-g[0], -g[1], -g[2]], list(g))
     terms = joint_terms(ck.joints, ck.qd, qdd)
     H = [plus(t, u) for t, u in zip(tau, terms, strict=True)]
+    sigma: Scalar = 0.0
+    if ck.null is not None:
+        # the idle acceleration: null^T H = 0 with qdd + null sigma (the reference's)
+        Mn = _idle_inertia(ck.joints, ck.null)
+        sigma = mul(-1.0, _dot_n(ck.null, H)) / _dot_n(ck.null, Mn)
+        H = [plus(h, mul(sigma, m)) for h, m in zip(H, Mn, strict=True)]
     a = lc.actuated
     Hp = [0.0 if j == a else H[j] for j in range(len(H))]
     return {
@@ -458,6 +572,7 @@ def _idm_leg(
         "wrench": _wrench(lc, ck.L, _matTvec(ck.inv, Hp)),
         "Hz": [H[a]],
         "slack": ck.slacks,
+        "sigma": [sigma],
     }
 
 
@@ -478,9 +593,15 @@ def _weld_block(A: list[list[Scalar]], L: Vec) -> list[Scalar]:
 
 
 def _ddm_leg(
-    lc: _ChainConst, p: Vec, R: Mat, v: Vec, w: Vec, gamma_k: Scalar
-) -> dict[str, list[Scalar]]:
-    ck = chain_kinematics(lc, p, R, v, w)
+    lc: _ChainConst,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    gamma_k: Scalar,
+    idle: tuple[Scalar, Scalar] | None = None,
+) -> dict[str, Any]:
+    ck = chain_kinematics(lc, p, R, v, w, idle)
     joints = ck.joints
     n = len(joints)
     g = lc.gravity
@@ -503,6 +624,26 @@ def _ddm_leg(
         b = _from_frame(lc, row[:3])
         Bm.append(b if c == 3 else [*b, *_from_frame(lc, row[3:])])
     Mq = mass_matrix(joints)
+    sigma_of = None
+    if ck.null is not None:
+        # the idle acceleration sigma = -(null^T M (K Vdot + k) + null^T h) / m eliminated
+        # (the reference's cartesian_batch): M -> M - Mn Mn^T / m, h -> h - Mn null^T h / m
+        Mn = [_dot_n(r, ck.null) for r in Mq]
+        m_inv = 1.0 / _dot_n(ck.null, Mn)
+        nh = _dot_n(ck.null, h)
+        u = _matTvec(Bm, Mn)  # B^T Mn (c,), F0: null^T M B x = u . x
+        L = ck.L
+
+        def sigma_of(acc: Sequence[Scalar]) -> Scalar:
+            """The idle acceleration at the platform's classical acceleration ``acc``."""
+            GA = add(list(acc[:3]), cross(list(acc[3:]), L))
+            if c == 6:
+                GA = [*GA, *acc[3:]]
+            x = [plus(gi, ci) for gi, ci in zip(GA, cvec, strict=True)]
+            return mul(-1.0, plus(_dot_n(u, x), nh)) * m_inv
+
+        Mq = [[minus(Mq[i][j], mul(Mn[i], Mn[j]) * m_inv) for j in range(n)] for i in range(n)]
+        h = [minus(h[i], mul(Mn[i], nh) * m_inv) for i in range(n)]
     MB = [
         [lin_comb(*((Mq[i][m], Bm[m][j]) for m in range(n))) for j in range(c)] for i in range(n)
     ]
@@ -518,7 +659,13 @@ def _ddm_leg(
     if c == 6:
         moment = add(moment, f[3:])
     block = leg_block(A0, ck.L) if c == 3 else _weld_block(A0, ck.L)
-    return {"row": ck.row, "block": block, "wrench": [*f[:3], *moment], "slack": ck.slacks}
+    return {
+        "row": ck.row,
+        "block": block,
+        "wrench": [*f[:3], *moment],
+        "slack": ck.slacks,
+        "sigma_of": sigma_of,
+    }
 
 
 def _dot_n(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
@@ -563,6 +710,129 @@ def build_chain_models(
     )
 
 
+#: The idle state input of the idle models: the six idle joints' values then rates (12,)
+#: [rad or m, /s] (entries of legs without an idle joint ignored).
+IDLE_INPUT = 12
+
+
+@dataclass(frozen=True)
+class IdleModels:
+    """The models of a robot whose legs have idle joints (R-S-S spins), the idle state an
+    input (``idle`` (12,): the idle joints' values then rates, legs without one ignored).
+
+    Attributes:
+        idm: ``(pose, twist, accel, base_parameters, idle) -> (gamma, idle_accel)``.
+        ddm: ``(pose, twist, gamma, base_parameters, idle) -> (accel, idle_accel)``.
+        idm_guarded, ddm_guarded: the same with ``aux`` between the two outputs (the
+            layout of :class:`~.leg_chain_symbolic.AuxLayout`): what gets compiled.
+        flat_idm, flat_ddm: one output (12,) ``[gamma | accel, idle_accel]`` (what the
+            exact derivatives differentiate).
+        layout: the ``aux`` layout. pivots: the IDM closure's static pivots.
+    """
+
+    idm: cs.Function
+    ddm: cs.Function
+    idm_guarded: cs.Function
+    ddm_guarded: cs.Function
+    flat_idm: cs.Function
+    flat_ddm: cs.Function
+    layout: AuxLayout
+    pivots: tuple[tuple[int, int], ...]
+    constants: ModelConstants
+
+
+def build_idle_models(
+    desc: RobotDescription, prefix: str = "stewart_idle_", inline_newton: bool = False
+) -> IdleModels:
+    """The IDM and DDM of a robot with chain legs some of which have an idle joint, the
+    idle joints' values and rates an input (:class:`IdleModels`): each leg as
+    :func:`build_chain_models`'s, with the reference's idle equations
+    (:class:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics`): the IDM's idle
+    acceleration from ``null^T H_i = 0``, the DDM's eliminated (``M - Mn Mn^T / m``) and
+    recovered from the platform's acceleration. ``inline_newton``: the Newton steps
+    written out (the operation counts) rather than calls of one step function."""
+    legs = [chain_constants(desc, k, inline_newton=inline_newton, idle=True) for k in range(6)]
+    states = kin.leg_states(
+        desc,
+        desc.home_pose[None],
+        np.zeros((1, 6)),
+        idle=kin.IdleState(kin.idle_home(desc)[None], np.zeros((1, 6))),
+    )
+    home_rows = kin.inverse_jacobian(desc, states)[0]
+    gravity = np.asarray(desc.gravity, dtype=float)
+    g_platform = (1.0 - desc.platform_gravcomp) * gravity
+    Pp = [float(x) for x in desc.platform_inertia]
+    x_pose = cs.SX.sym("pose", pose_size("matrix"))
+    x_twist, x_accel, x_gamma = (cs.SX.sym(n, 6) for n in ("twist", "accel", "gamma"))
+    x_chi = cs.SX.sym("base_parameters", 0)
+    x_idle = cs.SX.sym("idle", IDLE_INPUT)
+    p, R = pose_from_input(x_pose, "matrix")
+    tw, ac, gm, idle = split(x_twist), split(x_accel), split(x_gamma), split(x_idle)
+    w, wd = tw[3:], ac[3:]
+
+    def idle_of(lc: _ChainConst) -> tuple[Scalar, Scalar] | None:
+        return (idle[lc.index], idle[6 + lc.index]) if lc.idle >= 0 else None
+
+    # ---- IDM
+    K, vdg = idm_shared(tw, ac, g_platform)
+    ilegs = [_idm_leg(lc, p, R, tw[:3], w, ac[:3], wd, K, idle_of(lc)) for lc in legs]
+    F_p = idm_platform(R, w, wd, vdg, K, Pp)
+    rows = [lg["row"] for lg in ilegs]
+    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    Hz = [lg["Hz"][0] for lg in ilegs]
+    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
+    inv_l = 1.0 / kin.robot_size(desc)
+    fro2: Scalar = 0.0
+    for r in rows:
+        for j in range(3):
+            fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
+    det = det * inv_l**3
+    slacks = [s for lg in ilegs for s in lg["slack"]]
+    layout = AuxLayout(n_slack=len(slacks))
+    idm_aux = [*[x for r in rows for x in r], *F, *Hz, growth, det, fro2, *slacks]
+    idm_sigma = [lg["sigma"][0] for lg in ilegs]
+
+    # ---- DDM
+    dlegs = [_ddm_leg(lc, p, R, tw[:3], w, gm[lc.index], idle_of(lc)) for lc in legs]
+    Ip, hp = ddm_platform(R, w, Pp, g_platform)
+    accel, D = ddm_legs_closure(dlegs, Ip, hp)
+    ddm_sigma: list[Scalar] = [
+        0.0 if lg["sigma_of"] is None else lg["sigma_of"](accel) for lg in dlegs
+    ]
+    dslacks = [s for lg in dlegs for s in lg["slack"]]
+    ddm_aux = [*[x for lg in dlegs for x in lg["row"]], *D, *dslacks]
+
+    idm_in = [("pose", x_pose), ("twist", x_twist), ("accel", x_accel)]
+    ddm_in = [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma)]
+    tail = [("base_parameters", x_chi), ("idle", x_idle)]
+    idm_in, ddm_in = idm_in + tail, ddm_in + tail
+    sig = ("idle_accel", idm_sigma)
+    dsig = ("idle_accel", ddm_sigma)
+    return IdleModels(
+        idm=function(f"{prefix}idm", idm_in, [("gamma", gamma), sig]),
+        ddm=function(f"{prefix}ddm", ddm_in, [("accel", accel), dsig]),
+        idm_guarded=function(
+            f"{prefix}idm_guarded", idm_in, [("gamma", gamma), ("aux", idm_aux), sig]
+        ),
+        ddm_guarded=function(
+            f"{prefix}ddm_guarded", ddm_in, [("accel", accel), ("aux", ddm_aux), dsig]
+        ),
+        flat_idm=function(f"{prefix}idm_flat", idm_in, [("out", [*gamma, *idm_sigma])]),
+        flat_ddm=function(f"{prefix}ddm_flat", ddm_in, [("out", [*accel, *ddm_sigma])]),
+        layout=layout,
+        pivots=pivots,
+        constants=ModelConstants(
+            base_points=np.array(desc.base_points),
+            platform_points=np.array(desc.platform_points),
+            leg_base_rotations=np.array(desc.leg_base_rotations),
+            gravity=gravity.copy(),
+            parameter_names=(),
+            parameter_values=np.zeros(0),
+        ),
+    )
+
+
 def chain_actuator_function(desc: RobotDescription) -> cs.Function:
     """``actuators(pose, twist) -> (q_a, qdot_a)``: the six actuated joint values [m or
     rad, a revolute one in (-pi, pi] taken into its limits] and rates from the generated
@@ -578,10 +848,13 @@ def chain_actuator_function(desc: RobotDescription) -> cs.Function:
 
 __all__ = [
     "CHAIN_GENERATOR_VERSION",
+    "IDLE_INPUT",
     "LEG_GROWTH_LIMIT",
     "NEWTON_ITERATIONS",
     "RESIDUAL_TOLERANCE",
+    "IdleModels",
     "build_chain_models",
+    "build_idle_models",
     "chain_actuator_function",
     "chain_constants",
     "chain_kinematics",

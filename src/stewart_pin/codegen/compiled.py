@@ -1171,8 +1171,8 @@ def auto_env() -> str:
 def _auto_choice(robot: RobotLike) -> CompiledDynamics | None:
     if auto_env() == "pinocchio":
         return None
-    if not _compilable(robot.description):  # legs with idle joints: the reference path
-        return None
+    if not _compilable(robot.description):  # legs with idle joints: the idle-state models
+        return None  # (codegen/idle_compiled.py), which robot.py calls with idle=
     existing = _memo(robot, COMPILED_ATTR)
     if existing is not None and existing._desc is robot.description:
         if existing.kind == "compiled":
@@ -1199,8 +1199,8 @@ def _check_compilable(desc: Any) -> None:
     reason = codegen_kind(desc).not_compiled(desc)
     if reason is not None:
         raise UnsupportedArchitectureError(
-            f"robot '{desc.name}' has {reason}: no compiled models for them yet; use "
-            "backend='pinocchio' (the reference path)",
+            f"robot '{desc.name}' has {reason}: CompiledDynamics has no such input; "
+            "use the idle-state models (or backend='pinocchio', the reference path)",
             "backend",
             desc.architecture,
         )

@@ -572,9 +572,9 @@ def derivatives_backend(robot: RobotLike) -> CompiledDerivatives:
     reason = codegen_kind(robot.description).not_compiled(robot.description)
     if reason is not None:
         raise UnsupportedArchitectureError(
-            f"robot '{robot.description.name}' has {reason}: the exact "
-            "derivatives come from the compiled models, which do not take idle freedoms yet "
-            "(central differences of robot.inverse_dynamics / direct_dynamics work)",
+            f"robot '{robot.description.name}' has {reason}: its exact derivatives take "
+            "the idle state too (robot.inverse_dynamics_derivatives(..., idle=...): "
+            "stewart_pin.codegen.idle_compiled.CompiledIdleDerivatives)",
             "derivatives",
             robot.description.architecture,
         )

@@ -17,7 +17,9 @@ robot closes exactly at its home pose.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 
@@ -255,7 +257,11 @@ def mixed_chain_robot(
 
 #: The chain-leg robots the benchmark and the operation counts name (``stewart-pin bench
 #: --architectures welded-ups``): name -> description (seed 0, joint terms on).
-CHAIN_PRESETS = {"welded-ups": welded_ups, "mixed-chain": mixed_chain_robot}
+CHAIN_PRESETS: dict[str, Callable[[], RobotDescription]] = {
+    "welded-ups": welded_ups,
+    "mixed-chain": mixed_chain_robot,
+    "rss-asymmetric": partial(rss_robot, symmetric=False),  # idle freedoms: the rod spins
+}
 
 
 __all__ = [

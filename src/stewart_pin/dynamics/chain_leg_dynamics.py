@@ -267,8 +267,13 @@ class ChainDynamics:
         self.idle_legs = [k for k, leg in enumerate(self.legs.legs) if leg.idle_joint is not None]
 
     def _idle(self, idle: Any, n: int) -> kin.IdleState | None:
-        """The idle state for a batch of n states (:class:`InputError` when required and
-        missing, given to a robot without idle joints, or of the wrong shape)."""
+        return self.idle_state(idle, n)
+
+    def idle_state(self, idle: Any, n: int) -> kin.IdleState | None:
+        """The idle state for a batch of n states from ``idle`` ``(values, rates)``, each
+        (6,) or (n, 6) [rad or m, /s] (:class:`InputError` when required and missing,
+        given to a robot without idle joints, of the wrong shape or not finite); ``None``
+        for a robot without idle joints."""
         if not self.idle_legs:
             if idle is not None:
                 raise InputError(

@@ -86,6 +86,14 @@ def chain_legs_of(desc: RobotDescription) -> tuple[ChainLeg, ...]:
     return desc.chain_legs
 
 
+def idle_legs(desc: RobotDescription) -> list[int]:
+    """The legs (0-based) whose chain has an idle joint (``ChainLeg.idle_joint``); empty
+    for a robot without chain legs."""
+    if desc.chain_legs is None:
+        return []
+    return [k for k, leg in enumerate(desc.chain_legs) if leg.idle_joint is not None]
+
+
 def robot_size(desc: RobotDescription) -> float:
     """The length scale [m]: the mean platform-point distance to their centroid."""
     P = desc.platform_points
@@ -663,6 +671,7 @@ __all__ = [
     "forward_geometry",
     "home_configuration",
     "idle_home",
+    "idle_legs",
     "inverse_geometry",
     "inverse_jacobian",
     "leg_states",

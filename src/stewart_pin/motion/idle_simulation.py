@@ -61,6 +61,7 @@ def simulate_idle(
     idle: Any = None,
     forces: ForceFunction | None = None,
     dt: float = 1e-3,
+    backend: str = "auto",
 ) -> IdleSimulationResult:
     """Integrate a robot with idle freedoms (module docstring).
 
@@ -71,6 +72,10 @@ def simulate_idle(
         idle: initial idle joints' ``(values, rates)``, each (6,) (default their home
             values, at rest; a robot without idle joints refuses one: :class:`InputError`).
         forces: ``Gamma = forces(t, pose, twist)``; default zero.
+        backend: the direct model's (``robot.direct_dynamics_idle``): ``"auto"`` (the
+            compiled idle-state models where a C compiler is available), ``"compiled"``
+            or ``"pinocchio"`` (the reference); a robot without idle joints takes the
+            reference's ``direct_dynamics_idle``.
     """
     duration = check_scalar(duration, "duration", positive=True)
     dt = check_scalar(dt, "dt", positive=True)
@@ -99,8 +104,10 @@ def simulate_idle(
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         Tt, Vt = _pose(T0, y), y[6:12]
         g = check_array(force(t, Tt, Vt), (6,), "forces(t, pose, twist)")
-        state = (y[12:18], y[18:24]) if dyn.idle_legs else None  # else they stay 0
-        acc, sigma = dyn.direct_dynamics_idle(Tt, Vt, g, idle=state)
+        if dyn.idle_legs:
+            acc, sigma = robot.direct_dynamics_idle(Tt, Vt, g, (y[12:18], y[18:24]), backend)
+        else:  # they stay 0
+            acc, sigma = dyn.direct_dynamics_idle(Tt, Vt, g, idle=None)
         dy = np.concatenate(
             [Vt[:3], so3_left_jacobian_inverse(y[3:6]) @ Vt[3:], acc, y[18:24], sigma]
         )
