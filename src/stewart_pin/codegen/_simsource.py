@@ -40,6 +40,10 @@ BAIL = 1
 #: The step's end state needs forces from Python (pending in the state block).
 NEED_FORCE = 2
 
+#: Up to this ``max_condition`` the sign of det Jp^-1 comes from the determinant of the direct
+#: model's cheap condition check (``SP_STATIC_SIGN_COND`` of the C).
+STATIC_SIGN_COND = 1e8
+
 #: Force kinds of ``sp_sim.kind``.
 KIND_CONSTANT, KIND_HOLD, KIND_LINEAR, KIND_CT, KIND_EXTERNAL = 0, 1, 2, 3, 4
 
@@ -56,7 +60,8 @@ SOURCE = r"""
 #define SP_EXPORT __attribute__((visibility("default")))
 
 typedef int (*sp_ddm_fn)(const double*, const double*, const double*, const double*, double,
-                         double*, double*);
+                         double*, double*, double*);
+typedef void (*sp_act_fn)(long long, const double*, double*);
 typedef int (*sp_idm_fn)(long long, const double*, const double*, const double*,
                          const double*, double, double*, int*);
 
@@ -72,6 +77,7 @@ typedef struct {
   long long rows; double* t_out; double* P_out; double* V_out; double* A_out; double* G_out;
   long long q3sq; double* L_out;
   long long adaptive; double rtol; double atol; double h_min;
+  sp_act_fn act;
 } sp_sim;
 
 #define ST_T 0
@@ -98,6 +104,10 @@ typedef struct {
 #define SP_NEED_FORCE 2
 #define SP_MAX_AUX 16384
 #define SP_RATIO_SLACK 1e-9
+/* Up to this max_cond the determinant of the direct model's cheap condition check gives
+   the sign of det Jp^-1 (cond(S) <= max_cond / 2 there: its relative error is far below
+   1); above it, sp_det_sign's LU. */
+#define SP_STATIC_SIGN_COND 1e8
 
 static const double sp_eps = 2.220446049250313e-16;
 /* Pinocchio's TaylorSeriesExpansion precisions eps^(1/3) and eps^(1/4), computed once
@@ -292,13 +302,21 @@ static int sp_forces(const sp_sim* sim, double t, const double* T, const double*
   return 1;
 }
 
+/* The sign of det Jp^-1 of a state the direct model passed: from det, the determinant of
+   S = Jp^-T diag(1, 1, 1, 1/l, 1/l, 1/l) of its cheap condition check (non-zero when that
+   check decided), else from an LU of Jp^-1 (aux). */
+static double sp_sign_of(const sp_sim* sim, double det, const double* aux) {
+  if (det != 0.0 && sim->max_cond <= SP_STATIC_SIGN_COND) return det > 0.0 ? 1.0 : -1.0;
+  return sp_det_sign(aux + sim->jinv);
+}
+
 /* One evaluation of the chart derivative at y (around T0's rotation): pose T, forces g,
    dy = [v, dxi/dt, accel], sign of det Jp^-1. Returns 1, 0 (bail) or 2 (forces from
    Python). */
 static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* y, long long k,
                    long long r, double* held_k, double* held_g, double* aux, double* T,
                    double* dy, double* g, double* sign) {
-  double E[9];
+  double E[9], det;
   int ok, zero = y[3] == 0.0 && y[4] == 0.0 && y[5] == 0.0;
   /* At xi = 0 (a state, not a stage) exp3 is I and Jlog3 is I, exactly (Pinocchio's
      formulas at theta = eps): the pose is T0's rotation and dxi/dt is w, no rounding. */
@@ -311,14 +329,14 @@ static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* 
   }
   ok = sp_forces(sim, t, T, y + 6, k, r, held_k, held_g, g);
   if (ok != 1) return ok;
-  if (sim->ddm(T, y + 6, g, sim->chi, sim->max_cond, dy + 6, aux) != 0) return 0;
+  if (sim->ddm(T, y + 6, g, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0) return 0;
   if (zero) {
     dy[3] = y[9]; dy[4] = y[10]; dy[5] = y[11];
   } else if (!sp_dxi(E, y + 9, dy + 3)) {
     return 0;
   }
   dy[0] = y[6]; dy[1] = y[7]; dy[2] = y[8];
-  *sign = sp_det_sign(aux + sim->jinv);
+  *sign = sp_sign_of(sim, det, aux);
   return 1;
 }
 
@@ -330,7 +348,10 @@ static void sp_write_row(const sp_sim* sim, double* st) {
   memcpy(sim->V_out + 6 * m, st + ST_TWIST, 6 * sizeof(double));
   memcpy(sim->A_out + 6 * m, st + ST_DY + 6, 6 * sizeof(double));
   memcpy(sim->G_out + 6 * m, st + ST_GAMMA, 6 * sizeof(double));
-  if (sim->L_out) memcpy(sim->L_out + 6 * m, st + ST_LEN, 6 * sizeof(double));
+  if (sim->act)  /* general legs: the actuated joint values of the row's pose */
+    sim->act(1, sim->P_out + 16 * m, sim->L_out + 6 * m);
+  else if (sim->L_out)
+    memcpy(sim->L_out + 6 * m, st + ST_LEN, 6 * sizeof(double));
   st[ST_ROW] = (double)(m + 1);
 }
 
@@ -355,7 +376,7 @@ static void sp_accept(const sp_sim* sim, double* st, double t, const double* T, 
 /* Evaluate the end state (t, T1, V1) of a step; 1 accepted, 0 bail, 2 forces from Python. */
 static int sp_end_state(const sp_sim* sim, double* st, double t, const double* T1,
                         const double* V1, double* aux) {
-  double y[12], dy[12], T[16], g[6], hk = st[ST_HELD_K], hg[6], sign;
+  double y[12], dy[12], T[16], g[6], hk = st[ST_HELD_K], hg[6], sign, det;
   long long k = sp_period_index(sim, t), n1 = (long long)st[ST_N] + 1;
   int ok;
   memcpy(hg, st + ST_HELD_G, sizeof hg);
@@ -365,8 +386,9 @@ static int sp_end_state(const sp_sim* sim, double* st, double t, const double* T
   ok = sp_eval(sim, t, T1, y, k, 2 * n1, &hk, hg, aux, T, dy, g, &sign);
   if (ok == 2) {  /* forces from Python: the end state's sign and guard from a direct model
                      call with the forces held so far (Jp^-1 does not depend on them) */
-    if (sim->ddm(T, y + 6, st + ST_HELD_G, sim->chi, sim->max_cond, dy + 6, aux) != 0) return 0;
-    if (sp_det_sign(aux + sim->jinv) != st[ST_SIGN]) return 0;
+    if (sim->ddm(T, y + 6, st + ST_HELD_G, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0)
+      return 0;
+    if (sp_sign_of(sim, det, aux) != st[ST_SIGN]) return 0;
     st[ST_PENDING] = 1.0;
     st[ST_PEND_T] = t;
     memcpy(st + ST_PEND_POSE, T, 16 * sizeof(double));

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import ctypes
 import threading
+import weakref
 from collections.abc import Sequence
 from typing import Any
 
@@ -45,6 +46,7 @@ from stewart_pin.codegen.compiled import (
     model_layout,
     split_batch,
 )
+from stewart_pin.codegen.leg_chain_symbolic import AuxLayout
 from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
@@ -52,8 +54,9 @@ from stewart_pin.motion.simulation import SimulationResult, grid_times, prepare_
 from stewart_pin.protocols import RobotLike
 
 #: The simulator's compiler flags: the models' without ``-freciprocal-math`` (the divisions
-#: as written, as NumPy and Pinocchio do them).
-SIM_CFLAGS = tuple(f for f in CFLAGS if f != "-freciprocal-math")
+#: as written, as NumPy and Pinocchio do them), at ``-O3`` (a small library; no
+#: ``-march``: the cached library runs on any x86-64).
+SIM_CFLAGS = tuple("-O3" if f == "-O2" else f for f in CFLAGS if f != "-freciprocal-math")
 #: Rows of the output buffers of one C call (then Python keeps them and the loop goes on).
 CHUNK_ROWS = 4096
 
@@ -103,6 +106,7 @@ class _Sim(ctypes.Structure):
         ("rtol", ctypes.c_double),
         ("atol", ctypes.c_double),
         ("h_min", ctypes.c_double),
+        ("act", _P),
     ]
 
 
@@ -138,6 +142,18 @@ def simulator_library() -> Any:
 
 def _address(lib: Any, name: str) -> int:
     return int(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value or 0)
+
+
+_LAYOUTS: weakref.WeakKeyDictionary[CompiledDynamics, AuxLayout] = weakref.WeakKeyDictionary()
+
+
+def _layout(models: CompiledDynamics, robot: RobotLike) -> AuxLayout:
+    """The by-products' layout of ``models`` (computed once per models object: a general
+    robot's regenerates its symbolic models' key)."""
+    layout = _LAYOUTS.get(models)
+    if layout is None:
+        layout = _LAYOUTS[models] = model_layout(robot.description)
+    return layout
 
 
 def _compiled(robot: RobotLike, backend: str) -> CompiledDynamics | str:
@@ -284,14 +300,18 @@ class Stepper:
     ) -> None:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
-        layout = model_layout(robot.description)
+        layout = _layout(models, robot)
         # Output rows per call: the whole rk4 run when it is shorter than a chunk.
         self.capacity = CHUNK_ROWS if adaptive is not None else min(CHUNK_ROWS, n_grid + 1)
-        # The 6-UPS leg lengths from the direct model's q3^2 (general legs: computed by
+        # The 6-UPS leg lengths from the direct model's q3^2; general legs: the actuated
+        # joint values from the library's sp_act_batch (chain legs: computed by
         # robot.actuator_positions afterwards, as the Python loop does).
-        q3sq = codegen_kind(robot.description).leg_length_squares
-        ups = q3sq is not None
-        self._ups = ups
+        kind = codegen_kind(robot.description)
+        q3sq = kind.leg_length_squares
+        act = _address(models._lib, "sp_act_batch") if kind.compiled_actuators else 0
+        self._ups = q3sq is not None or act != 0  # the rows carry the actuator positions
+        self._models = models
+        self._act = act
         self.st = np.zeros(S.ST_SIZE)
         # Views of the state block taken once (a Python forces function's hot path).
         self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
@@ -313,6 +333,7 @@ class Stepper:
             rtol=adaptive[0] if adaptive else 0.0,
             atol=adaptive[1] if adaptive else 0.0,
             h_min=adaptive[2] if adaptive else 0.0,
+            act=act or None,
             **forces.fields,
         )
         self.sim = sim
@@ -414,6 +435,40 @@ class Stepper:
     def step(self) -> float:
         """The adaptive method's next trial step [s]."""
         return float(self.st[S.ST_H])
+
+    def det_sign(self, T: np.ndarray) -> float | None:
+        """The sign of det Jp^-1 at pose ``T`` from the compiled direct model (the
+        determinant of its cheap condition check, as the C loop takes its stages' signs),
+        or None where that check does not decide it (the caller computes it)."""
+        if self.sim.max_cond > S.STATIC_SIGN_COND:
+            return None
+        aux = np.empty(self.sim.naux)
+        out, det = np.empty(6), ctypes.c_double(0.0)
+        T = np.ascontiguousarray(T, dtype=np.float64)
+        zero = np.zeros(6)
+        flag = self._models._lib.sp_ddm_aux(
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, zero, zero)),
+            ctypes.c_void_p(self.sim.chi),
+            ctypes.c_double(self.sim.max_cond),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (out, aux)),
+            ctypes.byref(det),
+        )
+        d = det.value
+        return None if flag != 0 or d == 0.0 else (1.0 if d > 0.0 else -1.0)
+
+    def actuator_positions(self, poses: np.ndarray) -> np.ndarray | None:
+        """The actuated joint values (N, 6) of poses (N, 4, 4) as the C loop writes them
+        in its rows (the library's ``sp_act_batch``; None where the robot has none)."""
+        if not self._act:
+            return None
+        P = np.ascontiguousarray(poses, dtype=np.float64)
+        out = np.empty((P.shape[0], 6))
+        self._models._lib.sp_act_batch(
+            ctypes.c_longlong(P.shape[0]),
+            ctypes.c_void_p(P.ctypes.data),
+            ctypes.c_void_p(out.ctypes.data),
+        )
+        return out
 
     def held(self) -> tuple[int, np.ndarray] | None:
         k = self.st[S.ST_HELD_K]

@@ -693,14 +693,21 @@ class _Run:
         )
         if all(p.lengths is None for p in parts):
             L = self.robot.actuator_positions(P)
-        else:  # the compiled loop's 6-UPS leg lengths, the rest computed here
+        else:  # the compiled loop's actuator positions, the rest computed as it does
             L = np.concatenate(
                 [
-                    self.robot.actuator_positions(p.poses) if p.lengths is None else p.lengths
+                    self._actuator_positions(p.poses) if p.lengths is None else p.lengths
                     for p in parts
                 ]
             )
         return SimulationResult(t, P, V, A, G, L)
+
+    def _actuator_positions(self, poses: np.ndarray) -> np.ndarray:
+        """The actuated joint values of poses the Python loop accepted, in a result that
+        has rows of the compiled loop: computed as that loop computes its rows (the same
+        values to round-off as ``robot.actuator_positions``, without its per-call cost)."""
+        got = None if self.fast is None else self.fast.actuator_positions(poses)
+        return self.robot.actuator_positions(poses) if got is None else got
 
     def stop(self, message: str, t: float) -> SimulationError:
         """The error to stop with; the result ends with the last accepted state."""
@@ -754,7 +761,10 @@ class _Run:
         """The initial state, evaluated and recorded (once)."""
         if self.resume is None:
             assert self.T0 is not None and self.V0 is not None
-            s = self.integ.state(0.0, self.T0, self.V0)
+            # The compiled loop: the sign of det Jp^-1 as it computes its stages' (equal to
+            # the reference's wherever its check decides; else None: the reference's).
+            sign = None if self.fast is None else self.fast.det_sign(self.T0)
+            s = self.integ.state(0.0, self.T0, self.V0, sign)
             self.record(s)
             self.resume = (s, 0)
         return self.resume[0]
