@@ -125,7 +125,8 @@ class CodegenKind(Protocol):
     leg_length_squares: slice | None
     #: True: the robot's library exports ``sp_act_batch``, the actuated joint values of
     #: poses from :meth:`actuator_function`'s generated code (the compiled simulator's
-    #: output rows of general legs; the 6-UPS's come from ``q3^2``).
+    #: output rows of general legs, where the 6-UPS's come from ``q3^2``; the rows of
+    #: either that the Python loop adds to a compiled run).
     compiled_actuators: bool
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
@@ -207,7 +208,7 @@ class PaperUpsCodegen:
 
     generic_models = False
     leg_length_squares: slice | None = AUX_Q3SQ
-    compiled_actuators = False
+    compiled_actuators = True
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         return parameters

@@ -271,22 +271,27 @@ STATIC_COND = r"""
    operations in the same order, so the two paths flag alike. sp_static_cond_det also
    gives that determinant (of S: det Jp^-1 / l^3, the sign of det Jp^-1 when the check
    passes). */
+#if defined(__GNUC__)
+#define SP_UNROLL6 _Pragma("GCC unroll 6")  /* unrolled: the same operations, scheduled */
+#else
+#define SP_UNROLL6
+#endif
 static int sp_static_cond_det(const double* J, double max_cond, double* det_out) {
   double A[6][6], fro2 = 0.0, det = 1.0, r, l;
   int i, j, k, ok = 1;
-  for (i = 0; i < 6; ++i) {
-    for (j = 0; j < 6; ++j) {
+  SP_UNROLL6 for (i = 0; i < 6; ++i) {
+    SP_UNROLL6 for (j = 0; j < 6; ++j) {
       A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
       fro2 += A[i][j] * A[i][j];
     }
   }
-  for (k = 0; k < 6; ++k) {
+  SP_UNROLL6 for (k = 0; k < 6; ++k) {
     det *= A[k][k];
     r = 1.0 / A[k][k];
-    for (i = k + 1; i < 6; ++i) {
+    SP_UNROLL6 for (i = k + 1; i < 6; ++i) {
       l = A[i][k] * r;
       ok &= fabs(l) <= sp_growth_limit;
-      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+      SP_UNROLL6 for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
     }
   }
   *det_out = det;

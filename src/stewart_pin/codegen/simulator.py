@@ -308,10 +308,10 @@ class Stepper:
         # robot.actuator_positions afterwards, as the Python loop does).
         kind = codegen_kind(robot.description)
         q3sq = kind.leg_length_squares
-        act = _address(models._lib, "sp_act_batch") if kind.compiled_actuators else 0
+        self._act = kind.compiled_actuators
+        act = _address(models._lib, "sp_act_batch") if self._act and q3sq is None else 0
         self._ups = q3sq is not None or act != 0  # the rows carry the actuator positions
         self._models = models
-        self._act = act
         self.st = np.zeros(S.ST_SIZE)
         # Views of the state block taken once (a Python forces function's hot path).
         self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
@@ -457,8 +457,9 @@ class Stepper:
         return None if flag != 0 or d == 0.0 else (1.0 if d > 0.0 else -1.0)
 
     def actuator_positions(self, poses: np.ndarray) -> np.ndarray | None:
-        """The actuated joint values (N, 6) of poses (N, 4, 4) as the C loop writes them
-        in its rows (the library's ``sp_act_batch``; None where the robot has none)."""
+        """The actuated joint values (N, 6) of poses (N, 4, 4) from the library's
+        ``sp_act_batch`` (general legs: as the C loop writes them in its rows; 6-UPS: the
+        leg lengths in closed form), or None where the robot has none."""
         if not self._act:
             return None
         P = np.ascontiguousarray(poses, dtype=np.float64)
