@@ -51,6 +51,7 @@ from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.motion.simulation import SimulationResult, grid_times, prepare_run
+from stewart_pin.motion.trajectories import CoordinateMotion, FourierTrajectory, states_at
 from stewart_pin.protocols import RobotLike
 
 #: The simulator's compiler flags: the models' without ``-freciprocal-math`` (the divisions
@@ -270,11 +271,18 @@ class _Forces:
         )
 
 
+#: The ``sample`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes.
+_COORDINATE_SAMPLES = (CoordinateMotion.sample, FourierTrajectory.sample)
+
+
 def _sample(reference: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The reference's ``(T, V, A)`` at ``times``: its vectorised ``sample`` when it has
     one (the motions of :mod:`stewart_pin.motion.trajectories`), else one call per time."""
     sample = getattr(reference, "sample", None)
-    if sample is not None and times.size > 1 and np.all(np.diff(times) > 0):
+    increasing = times.size > 1 and bool(np.all(np.diff(times) > 0))
+    if increasing and getattr(type(reference), "sample", None) in _COORDINATE_SAMPLES:
+        return states_at(reference, times)  # sample()'s arrays, without its validation
+    if sample is not None and increasing:
         traj = sample(times)
         return traj.poses, traj.twists, traj.accels
     T, V, A = np.empty((times.size, 4, 4)), np.empty((times.size, 6)), np.empty((times.size, 6))
