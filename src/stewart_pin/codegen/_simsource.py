@@ -25,7 +25,10 @@ near pi. The Python loop then takes that one step (halving, locating the event, 
 and the compiled loop goes on from the next grid time. Status :data:`NEED_FORCE`: the
 step's end state starts a new control period whose forces come from a Python function; the
 pending state is kept in the state block and the next call evaluates it with the held
-forces the caller wrote there.
+forces the caller wrote there. A state block marked :data:`PENDING_START` asks for the
+initial state instead: evaluated as the Python loop's first state (forces, direct model,
+the sign of det Jp^-1 where the cheap condition check decides it, else a bail) and
+written as row 0.
 
 Built without ``-freciprocal-math`` (unlike the models): the divisions are the ones
 written, as in NumPy and Pinocchio.
@@ -39,6 +42,9 @@ DONE = 0
 BAIL = 1
 #: The step's end state needs forces from Python (pending in the state block).
 NEED_FORCE = 2
+
+#: ``st[ST_PENDING]`` asking ``sp_sim_run`` to evaluate the initial state (``begin``).
+PENDING_START = 2.0
 
 #: Up to this ``max_condition`` the sign of det Jp^-1 comes from the determinant of the direct
 #: model's cheap condition check (``SP_STATIC_SIGN_COND`` of the C).
@@ -102,6 +108,7 @@ typedef struct {
 #define SP_DONE 0
 #define SP_BAIL 1
 #define SP_NEED_FORCE 2
+#define SP_START 2.0  /* st[ST_PENDING]: the initial state to evaluate */
 #define SP_MAX_AUX 16384
 #define SP_RATIO_SLACK 1e-9
 /* Up to this max_cond the determinant of the direct model's cheap condition check gives
@@ -315,7 +322,7 @@ static double sp_sign_of(const sp_sim* sim, double det, const double* aux) {
    Python). */
 static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* y, long long k,
                    long long r, double* held_k, double* held_g, double* aux, double* T,
-                   double* dy, double* g, double* sign) {
+                   double* dy, double* g, double* sign, double* det_out) {
   double E[9], det;
   int ok, zero = y[3] == 0.0 && y[4] == 0.0 && y[5] == 0.0;
   /* At xi = 0 (a state, not a stage) exp3 is I and Jlog3 is I, exactly (Pinocchio's
@@ -337,6 +344,7 @@ static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* 
   }
   dy[0] = y[6]; dy[1] = y[7]; dy[2] = y[8];
   *sign = sp_sign_of(sim, det, aux);
+  if (det_out) *det_out = det;
   return 1;
 }
 
@@ -383,7 +391,7 @@ static int sp_end_state(const sp_sim* sim, double* st, double t, const double* T
   y[0] = T1[3]; y[1] = T1[7]; y[2] = T1[11];
   y[3] = 0.0; y[4] = 0.0; y[5] = 0.0;
   memcpy(y + 6, V1, 6 * sizeof(double));
-  ok = sp_eval(sim, t, T1, y, k, 2 * n1, &hk, hg, aux, T, dy, g, &sign);
+  ok = sp_eval(sim, t, T1, y, k, 2 * n1, &hk, hg, aux, T, dy, g, &sign, 0);
   if (ok == 2) {  /* forces from Python: the end state's sign and guard from a direct model
                      call with the forces held so far (Jp^-1 does not depend on them) */
     if (sim->ddm(T, y + 6, st + ST_HELD_G, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0)
@@ -450,7 +458,7 @@ static int sp_adaptive(const sp_sim* sim, double* st, double* aux) {
         for (l = 0; l < j; ++l) acc = acc + sp_dp_a[j][l] * K[l][i];
         y[i] = y0[i] + h * acc;
       }
-      if (sp_eval(sim, t + sp_dp_c[j] * h, T0, y, k, -1, &hk, hg, aux, T[j], K[j], g, &sgn)
+      if (sp_eval(sim, t + sp_dp_c[j] * h, T0, y, k, -1, &hk, hg, aux, T[j], K[j], g, &sgn, 0)
           != 1)
         return SP_BAIL;
       if (sgn != st[ST_SIGN]) return SP_BAIL;
@@ -503,6 +511,26 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
   int i, ok;
   if (sim->naux > SP_MAX_AUX) return SP_BAIL;
   if ((long long)st[ST_ROW] >= sim->rows) return SP_DONE;
+  if (st[ST_PENDING] == SP_START) {  /* the initial state (simulation.py's begin()) */
+    double dy[12], det;
+    double* T0 = st + ST_POSE;
+    st[ST_PENDING] = 0.0;
+    if (sim->max_cond > SP_STATIC_SIGN_COND) return SP_BAIL;
+    y[0] = T0[3]; y[1] = T0[7]; y[2] = T0[11];
+    y[3] = 0.0; y[4] = 0.0; y[5] = 0.0;
+    memcpy(y + 6, st + ST_TWIST, 6 * sizeof(double));
+    hk = -1.0;
+    memset(hg, 0, sizeof hg);
+    ok = sp_eval(sim, st[ST_T], T0, y, sp_period_index(sim, st[ST_T]), 0, &hk, hg, aux, T1, dy,
+                 g, &sign, &det);
+    if (ok != 1 || det == 0.0) return SP_BAIL;  /* the sign as the reference's: decided */
+    st[ST_SIGN] = sign;
+    sp_accept(sim, st, st[ST_T], T1, y + 6, dy, g, hk, hg, aux);
+    st[ST_N] -= 1;  /* the state of grid index 0, no step */
+    st[ST_STEPS] -= 1;
+    sp_write_row(sim, st);
+    return SP_DONE;
+  }
   if (st[ST_PENDING] != 0.0) {  /* the pending end state with the forces Python gave */
     double* Tp = st + ST_PEND_POSE;
     double dy[12];
@@ -515,7 +543,7 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
     hk = st[ST_HELD_K];
     memcpy(hg, st + ST_HELD_G, sizeof hg);
     memcpy(T1, Tp, sizeof T1);
-    ok = sp_eval(sim, st[ST_PEND_T], T1, y, k, -1, &hk, hg, aux, T2, dy, g, &sign);
+    ok = sp_eval(sim, st[ST_PEND_T], T1, y, k, -1, &hk, hg, aux, T2, dy, g, &sign, 0);
     if (ok != 1 || sign != st[ST_SIGN]) return SP_BAIL;
     sp_accept(sim, st, st[ST_PEND_T], T2, y + 6, dy, g, hk, hg, aux);
     st[ST_H] = st[ST_H_PEND];
@@ -536,15 +564,15 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
     y0[3] = 0.0; y0[4] = 0.0; y0[5] = 0.0;
     memcpy(y0 + 6, st + ST_TWIST, 6 * sizeof(double));
     for (i = 0; i < 12; ++i) y[i] = y0[i] + h / 2 * k1[i];
-    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T2, k2, g, &sgn) != 1)
+    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T2, k2, g, &sgn, 0) != 1)
       return SP_BAIL;
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i) y[i] = y0[i] + h / 2 * k2[i];
-    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T3, k3, g, &sgn) != 1)
+    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T3, k3, g, &sgn, 0) != 1)
       return SP_BAIL;
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i) y[i] = y0[i] + h * k3[i];
-    if (sp_eval(sim, target, T0, y, k, 2 * n + 2, &hk, hg, aux, T4, k4, g, &sgn) != 1)
+    if (sp_eval(sim, target, T0, y, k, 2 * n + 2, &hk, hg, aux, T4, k4, g, &sgn, 0) != 1)
       return SP_BAIL;
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i)

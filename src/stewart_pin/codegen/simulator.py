@@ -395,6 +395,29 @@ class Stepper:
         st[S.ST_N] = n
         st[S.ST_H] = h
 
+    def start(self, T: np.ndarray, V: np.ndarray) -> bool:
+        """Evaluate the initial state ``(0, T, V)`` in C as the Python loop's first state
+        (row 0; the forces, the direct model and the sign of det Jp^-1): True, or False
+        when the Python loop must (forces from a Python function, a state the guard flags,
+        a sign the cheap condition check does not decide)."""
+        if self.external:
+            return False
+        st = self.st
+        st[:] = 0.0
+        st[S.ST_POSE : S.ST_POSE + 16] = T.ravel()
+        st[S.ST_TWIST : S.ST_TWIST + 6] = V
+        st[S.ST_HELD_K] = -1.0
+        st[S.ST_H] = self.sim.dt
+        st[S.ST_PENDING] = S.PENDING_START
+        if self.run(0) != S.DONE or st[S.ST_ROW] != 1.0:
+            st[S.ST_ROW] = 0.0
+            return False
+        return True
+
+    def sign(self) -> float:
+        """The sign of det Jp^-1 of the state block's run."""
+        return float(self.st[S.ST_SIGN])
+
     def hold(self, held: tuple[int, np.ndarray] | None) -> None:
         """The forces held over control period ``held[0]``."""
         if held is None:

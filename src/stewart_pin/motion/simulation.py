@@ -761,6 +761,16 @@ class _Run:
         """The initial state, evaluated and recorded (once)."""
         if self.resume is None:
             assert self.T0 is not None and self.V0 is not None
+            if self.fast is not None and self.fast.start(self.T0, self.V0):
+                # Evaluated in C with this loop's arithmetic (forces, direct model), the
+                # sign of det Jp^-1 from the model's cheap condition check, which decides
+                # it as the reference does (else the C loop leaves it to the lines below).
+                fast = self.fast
+                s, _ = self.absorb(
+                    _State(0.0, self.T0, self.V0, np.zeros(12), np.zeros(6), fast.sign())
+                )
+                self.resume = (s, 0)
+                return s
             # The compiled loop: the sign of det Jp^-1 as it computes its stages' (equal to
             # the reference's wherever its check decides; else None: the reference's).
             sign = None if self.fast is None else self.fast.det_sign(self.T0)
