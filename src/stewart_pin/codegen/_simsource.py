@@ -19,7 +19,7 @@ Anything the Python loop would look at more closely stops the call *before* the 
 (status :data:`BAIL`), the state left at the last accepted one: a state the direct or
 inverse model's guard flags (a leg near its stroke end or a singularity, a U-joint near its
 limit, a non-positive pivot, a non-finite result: the reference checks decide), a sign of
-``det Jp^-1`` (from the model's own ``Jp^-1``) other than the step's start, a step that
+``det Jp^-1`` other than the step's start, a step that
 does not land on the grid, a controller reference sampled at another time, a rotation error
 near pi. The Python loop then takes that one step (halving, locating the event, raising),
 and the compiled loop goes on from the next grid time. Status :data:`NEED_FORCE`: the
@@ -30,8 +30,19 @@ initial state instead: evaluated as the Python loop's first state (forces, direc
 the sign of det Jp^-1 where the cheap condition check decides it, else a bail) and
 written as row 0.
 
-Built without ``-freciprocal-math`` (unlike the models): the divisions are the ones
-written, as in NumPy and Pinocchio.
+The sign of ``det Jp^-1`` of each stage and state comes from the determinant the direct
+model's guard computed anyway (``sp_ddm_aux``'s ``det``: the LU without pivoting of its
+cheap condition check, ``S = Jp^-T diag(1, 1, 1, 1/l, 1/l, 1/l)``, so the same sign):
+where that check decides, cond(S) is at most half of ``max_condition``, so for a threshold
+up to :data:`STATIC_SIGN_COND` the determinant's relative error is far below 1 and its
+sign is the one ``np.linalg.det`` gives the reference's ``Jp^-1`` (the Python loop's);
+elsewhere an LU with partial pivoting of the model's ``Jp^-1`` (as before). The 6-UPS leg
+lengths of the rows come from the model's ``q3^2``; general legs' actuated joint values
+from the robot library's ``sp_act_batch`` (:data:`._csource.ACTUATORS`: the generated
+closed forms of the reference's values, equal to round-off).
+
+Built at ``-O3`` without ``-freciprocal-math`` (unlike the models): the divisions are the
+ones written, as in NumPy and Pinocchio.
 """
 
 from __future__ import annotations

@@ -39,7 +39,13 @@ same accepted steps, their times within about 1e-9 of a step where the error con
 alone sets them (a few ulps in a stage move the error estimate, a difference of two
 solutions). Any step that meets an event or a state the compiled guard flags is taken by
 the Python loop, so events stop the run as above; ``progress`` is called after each
-chunk of C steps (up to 4096) instead of after each step.
+chunk of C steps (up to 4096) instead of after each step. The guard is still checked at
+every stage, in both loops. The compiled loop evaluates the initial state too (unless a
+Python function gives the forces), takes the signs of det Jp^-1 from the compiled direct
+model's own condition check (the reference's signs wherever it decides them, see
+:mod:`stewart_pin.codegen._simsource`; else the reference's), and the actuated joint
+positions of its rows from the robot's compiled closed forms (general legs; the 6-UPS's
+from the direct model's ``q3^2``): equal to ``robot.actuator_positions`` to round-off.
 
 Bounds (checked before the run): durations, steps, tolerances and periods finite and
 positive, no step below :data:`MIN_STEP`, at most :data:`MAX_STEPS` steps.
