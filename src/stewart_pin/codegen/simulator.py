@@ -384,7 +384,9 @@ class Stepper:
         """Start from an accepted state at grid index ``n`` (``held``: the forces held
         over the current control period; ``h``: the adaptive method's next trial step)."""
         st = self.st
+        written = st[S.ST_ROW]  # rows not handed out yet (the initial state's) stay
         st[:] = 0.0
+        st[S.ST_ROW] = written
         st[S.ST_T] = t
         st[S.ST_POSE : S.ST_POSE + 16] = T.ravel()
         st[S.ST_TWIST : S.ST_TWIST + 6] = V
@@ -413,6 +415,10 @@ class Stepper:
             st[S.ST_ROW] = 0.0
             return False
         return True
+
+    def has_rows(self) -> bool:
+        """Whether rows were written since the last :meth:`rows`."""
+        return bool(self.st[S.ST_ROW] > 0.0)
 
     def sign(self) -> float:
         """The sign of det Jp^-1 of the state block's run."""

@@ -653,6 +653,8 @@ class _Run:
     # ------------------------------------------------------------------ output
     def record(self, s: _State, final: bool = False) -> None:
         """Keep an accepted state (every ``output_dt``; always when ``final``)."""
+        if self.fast is not None and self.fast.has_rows():
+            self.absorb(s)  # the compiled loop's rows (its initial state) come first
         self.last = s
         if self.rows and self.rows[-1].t == s.t:
             return
@@ -694,11 +696,15 @@ class _Run:
             if row is not None:
                 parts.append(row)
         t, P, V, A, G = (
-            np.concatenate([getattr(p, k) for p in parts])
+            getattr(parts[0], k)
+            if len(parts) == 1
+            else np.concatenate([getattr(p, k) for p in parts])
             for k in ("times", "poses", "twists", "accels", "gammas")
         )
         if all(p.lengths is None for p in parts):
             L = self.robot.actuator_positions(P)
+        elif len(parts) == 1 and parts[0].lengths is not None:
+            L = parts[0].lengths
         else:  # the compiled loop's actuator positions, the rest computed as it does
             L = np.concatenate(
                 [
@@ -771,10 +777,12 @@ class _Run:
                 # Evaluated in C with this loop's arithmetic (forces, direct model), the
                 # sign of det Jp^-1 from the model's cheap condition check, which decides
                 # it as the reference does (else the C loop leaves it to the lines below).
+                # Its row stays in the C buffer, handed over with the next steps' rows.
                 fast = self.fast
-                s, _ = self.absorb(
-                    _State(0.0, self.T0, self.V0, np.zeros(12), np.zeros(6), fast.sign())
-                )
+                t, T, V, dy, g = fast.state()
+                s = _State(t, T, V, dy, g, fast.sign())
+                self.integ.held = fast.held()
+                self.last = self.fast_state = s
                 self.resume = (s, 0)
                 return s
             # The compiled loop: the sign of det Jp^-1 as it computes its stages' (equal to
