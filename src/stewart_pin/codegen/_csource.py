@@ -304,6 +304,23 @@ static int sp_static_cond_ok(const double* J, double max_cond) {
 }
 """
 
+#: The AVX2 copy of the direct model the simulator's ``sp_ddm_aux`` runs where the processor
+#: has AVX2 (:func:`.compiled.avx2_copy`): ``target("avx2")`` enables no FMA, so every
+#: operation rounds as in the baseline copy (tests/test_compiled_simulation.py compares
+#: them bit for bit).
+AVX2_COPY = r"""
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#define SP_DDM_AVX2 1
+#define SP_AVX2 __attribute__((target("avx2")))
+static int sp_avx2_ready = 0;  /* the processor has AVX2: set when the library is loaded */
+__attribute__((constructor)) static void sp_avx2_init(void) {
+  __builtin_cpu_init();
+  sp_avx2_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
+}
+%(code)s
+#endif
+"""
+
 #: The actuated joint values of poses (after :data:`TEMPLATE`, for the models whose kind
 #: has ``compiled_actuators``: the compiled simulator's output rows).
 ACTUATORS = r"""
@@ -595,7 +612,12 @@ SP_EXPORT int sp_ddm_aux(const double* pose, const double* twist, const double* 
   casadi_real w[%(ddm_sz_w)d + 1];
   arg[0] = pose; arg[1] = twist; arg[2] = gam; arg[3] = chi;
   res[0] = accel; res[1] = aux;
-  %(ddm)s(arg, res, iw, w, 0);
+#ifdef SP_DDM_AVX2
+  if (sp_avx2_ready)
+    sp_ddm_avx2(arg, res, iw, w, 0);
+  else
+#endif
+    %(ddm)s(arg, res, iw, w, 0);
   return sp_ddm_after_det(pose, twist, gam, accel, aux, max_cond, det);
 }
 """
