@@ -372,9 +372,10 @@ def test_the_compiled_actuator_positions_and_sign_equal_the_reference(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(name):
-    """The C loop's direct model (``sp_ddm_aux``: the AVX2 copy of the generated code where
-    the processor has AVX2, no FMA) gives the accelerations of the single-state call (the
-    baseline copy, the Python loop's) bit for bit, at random states about home."""
+    """The C loop's direct and inverse models (``sp_ddm_aux``, ``sp_idm_sim``: the AVX2
+    copies of the generated code where the processor has AVX2, no FMA) give the results
+    of the single-state calls (the baseline copies, the Python loop's) bit for bit, at
+    random states about home."""
     import ctypes
 
     robot = get_robot(name)
@@ -400,3 +401,14 @@ def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(na
         )
         assert flag == 0
         np.testing.assert_array_equal(out, robot.direct_dynamics(T, V, g, backend="compiled"))
+        A, gamma, flags = 0.5 * rng.standard_normal(6), np.empty(6), np.zeros(1, np.int32)
+        lib.sp_idm_sim(
+            ctypes.c_longlong(1),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, V, A)),
+            ctypes.c_void_p(chi),
+            ctypes.c_double(robot.max_condition),
+            ctypes.c_void_p(gamma.ctypes.data),
+            ctypes.c_void_p(flags.ctypes.data),
+        )
+        assert flags[0] == 0
+        np.testing.assert_array_equal(gamma, robot.inverse_dynamics(T, V, A, backend="compiled"))

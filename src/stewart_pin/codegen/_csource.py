@@ -310,13 +310,15 @@ static int sp_static_cond_ok(const double* J, double max_cond) {
 #: them bit for bit).
 AVX2_COPY = r"""
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
-#define SP_DDM_AVX2 1
+#ifndef SP_AVX2
 #define SP_AVX2 __attribute__((target("avx2")))
 static int sp_avx2_ready = 0;  /* the processor has AVX2: set when the library is loaded */
 __attribute__((constructor)) static void sp_avx2_init(void) {
   __builtin_cpu_init();
   sp_avx2_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
 }
+#endif
+#define %(flag)s 1
 %(code)s
 #endif
 """
@@ -577,6 +579,35 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
     res[0] = accel + 6 * s; res[1] = aux;
     %(ddm)s(arg, res, iw, w, 0);
     f = sp_ddm_after(arg[0], arg[1], arg[2], res[0], aux, max_cond);
+    flags[s] = f;
+    any |= f;
+  }
+  return any;
+}
+
+/* Inverse dynamics of n states as sp_idm_batch's scalar loop, through the AVX2 copy of
+   the generated code where the processor has it (the same roundings): the compiled
+   simulator's controller (codegen/_simsource.py). */
+SP_EXPORT int sp_idm_sim(long long n, const double* pose, const double* twist,
+                         const double* accel, const double* chi, double max_cond,
+                         double* gamma, int* flags) {
+  const casadi_real* arg[%(idm_sz_arg)d + 1];
+  casadi_real* res[%(idm_sz_res)d + 1];
+  casadi_int iw[%(idm_sz_iw)d + 1];
+  casadi_real w[%(idm_sz_w)d + 1];
+  double aux[SP_IDM_NAUX];
+  int any = 0, f;
+  long long s;
+  for (s = 0; s < n; ++s) {
+    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
+    res[0] = gamma + 6 * s; res[1] = aux;
+#ifdef SP_IDM_AVX2
+    if (sp_avx2_ready)
+      sp_idm_avx2(arg, res, iw, w, 0);
+    else
+#endif
+      %(idm)s(arg, res, iw, w, 0);
+    f = sp_idm_after(arg[0], arg[1], arg[2], res[0], aux, max_cond);
     flags[s] = f;
     any |= f;
   }

@@ -3,7 +3,7 @@
 model, forces given as data.
 
 The library is robot-independent: it calls the robot's generated models through function
-pointers (``sp_ddm_aux``, the direct model with its by-products, and ``sp_idm_batch``, the
+pointers (``sp_ddm_aux``, the direct model with its by-products, and ``sp_idm_sim``, the
 controller's inverse model, of the robots' own libraries, :mod:`._csource`). One call
 runs steps of ``simulate`` and writes one row per accepted state, with the Python
 integrator's arithmetic: the chart ``R = exp3(xi) R_n`` around each step's start;

@@ -294,7 +294,8 @@ def c_source(desc: Any) -> str:
         code, {fi.name(): "sp_idm_vec", fd.name(): "sp_ddm_vec"}, shared=frozenset({3})
     )
     defines = "".join(f"#define SP_VEC_{v[3:6].upper()} 1\n" for v in sorted(written))
-    defines += avx2_copy(code, fd.name(), "sp_ddm_avx2")
+    defines += avx2_copy(code, fd.name(), "sp_ddm_avx2", "SP_DDM_AVX2")
+    defines += avx2_copy(code, fi.name(), "sp_idm_avx2", "SP_IDM_AVX2")
     if act is not None:
         wrapper += _csource.ACTUATORS % {
             "act": act.name(),
@@ -306,12 +307,13 @@ def c_source(desc: Any) -> str:
     )
 
 
-def avx2_copy(source: str, name: str, new: str) -> str:
+def avx2_copy(source: str, name: str, new: str, flag: str) -> str:
     """The C of ``new``, a copy of the CasADi function the exported ``name`` of ``source``
     calls, compiled for AVX2 without FMA (the same operations and roundings as the
-    baseline copy, in fewer instructions: the 3-operand forms), and of ``SP_DDM_AVX2`` and
-    ``sp_avx2_ready`` (whether the processor has AVX2); "" where the function is not one
-    straight-line body (it calls sub-functions) or the compiler is not a GNU one on x86."""
+    baseline copy, in fewer instructions: the 3-operand forms), defining ``flag`` and
+    ``sp_avx2_ready`` (whether the processor has AVX2; :data:`._csource.AVX2_COPY`); ""
+    where the function is not one straight-line body (it calls sub-functions). Where the
+    compiler is not a GNU one on x86, the copy is left out by the preprocessor."""
     m = re.search(
         r"int " + re.escape(name) + r"\(const casadi_real\*\* arg[^{]*\{\s*return (casadi_f\d+)\(",
         source,
@@ -324,7 +326,7 @@ def avx2_copy(source: str, name: str, new: str) -> str:
     if body is None or re.search(r"\bcasadi_f\d+\(", body.group(0)[body.group(0).index("{") :]):
         return ""
     code = body.group(0).replace(f"static int {m.group(1)}(", f"SP_AVX2 static int {new}(", 1)
-    return _csource.AVX2_COPY % {"code": code}
+    return _csource.AVX2_COPY % {"code": code, "flag": flag}
 
 
 def actuated_positions_function(desc: Any) -> cs.Function:

@@ -257,7 +257,7 @@ class _Forces:
             V, A = Vf, Af
         self._set(
             kind=S.KIND_CT,
-            idm=_address(model._lib, "sp_idm_batch"),
+            idm=_address(model._lib, "sp_idm_sim"),
             idm_chi=int(model.base_values.ctypes.data),
             idm_max_cond=float(c.model.max_condition),
             ref_per_period=int(period is not None),
