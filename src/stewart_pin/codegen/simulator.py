@@ -248,7 +248,7 @@ class _Forces:
             rows[k[first]] = grid[first]
             times = grid[first]
         T, V, A = _sample(c.reference, times)
-        if period is not None:
+        if period is not None and first.size < rows.size:  # periods without a grid time
             full = np.full((rows.size, 4, 4), np.nan)
             full[k[first]] = T
             T = full
