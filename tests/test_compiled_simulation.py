@@ -6,7 +6,10 @@ model)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
+import pinocchio as pin
 import pytest
 from conftest import get_robot, use_compile_cache
 
@@ -302,3 +305,110 @@ def test_runs_longer_than_one_output_chunk():
     batch = simulate_batch(robot, duration, poses=[T0, T0], twists=twists, **opts)
     for got, want in zip(batch, ref, strict=True):
         _assert_same(got, want)
+
+
+@pytest.mark.parametrize("max_condition", [1e6, 1e16])
+def test_a_parallel_singularity_stops_both_loops_the_same_way(max_condition):
+    """A platform spinning freely about z crosses a parallel singularity (det Jp^-1 changes
+    sign). The C loop takes each stage's sign of det Jp^-1 from the determinant of the
+    direct model's cheap condition check (max_condition 1e6), or from an LU of Jp^-1 when
+    the threshold is too high for that determinant to decide (1e16: only the sign change
+    stops the run): both stop as the Python loop does (the reference's Jp^-1 and
+    ``np.linalg.det``), same message, time and partial result. (With the threshold at
+    1e16 the last state lies where cond(Jp^-1) ~ 2e12: the value the message quotes
+    amplifies the round-off between the two loops' states, so its digits are not
+    compared.)"""
+    d = get_robot("simulator").to_dict()
+    d["stroke"], d["gravity"] = [1.5, 4.5], [0.0, 0.0, 0.0]
+    robot = type(get_robot("simulator")).from_dict(d, max_condition=max_condition)
+    T0 = robot.home_pose
+    T0[:3, :3] = pin.exp3(np.array([0.0, 0.0, 1.45])) @ T0[:3, :3]
+    V0 = np.array([0, 0, 0, 0, 0, 2.0])
+    errors, blocks = [], []
+    for integrator in ("python", "compiled"):
+        run = prepare_run(robot, 0.2, T0, V0, dt=1e-3, backend="compiled", integrator=integrator)
+        with pytest.raises(SimulationError) as e:
+            run.go()
+        errors.append(e.value)
+        blocks.append(sum(len(r.times) for r in run.rows if isinstance(r, simulation._Block)))
+    assert blocks[0] == 0 and blocks[1] > 10
+    a, b = errors
+    assert "parallel singularity" in str(b)
+    assert ("det Jp^-1 changes sign" in str(b)) == (max_condition == 1e16)
+    quoted = re.compile(r"cond\(Jp\^-1\) = [0-9.e+]+ here")
+    assert quoted.sub("", str(a)) == quoted.sub("", str(b)) and a.time == b.time
+    assert type(a.__cause__) is type(b.__cause__)
+    _assert_same(a.result, b.result)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_compiled_actuator_positions_and_sign_equal_the_reference(name):
+    """The compiled loop's actuator positions (the library's generated ``sp_act_batch``:
+    6-UPS leg lengths [m], RUS crank angles [rad]) equal the reference closed forms of
+    ``robot.actuator_positions`` (NumPy) to 1e-12 at poses about home, and its sign of
+    det Jp^-1 (the direct model's cheap condition check) equals the sign of
+    ``np.linalg.det`` of the reference ``robot.inverse_jacobian``; above the threshold
+    where that determinant decides, it leaves the sign to the reference (None)."""
+    robot = get_robot(name)
+    rng = np.random.default_rng(11)
+    s = robot.description.stroke_mid
+    poses = []
+    for _ in range(20):
+        T = robot.home_pose.copy()
+        d = 0.02 * rng.standard_normal(6)
+        T[:3, :3] = pin.exp3(d[3:]) @ T[:3, :3]
+        T[:3, 3] += 0.5 * s * d[:3]
+        poses.append(T)
+    P = np.array(poses)
+    run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
+    got = run.fast.actuator_positions(P)
+    assert np.abs(got - robot.actuator_positions(P)).max() <= 1e-12
+    ref_signs = np.sign(np.linalg.det(robot.inverse_jacobian(P)))
+    assert [run.fast.det_sign(T) for T in P] == list(ref_signs)
+    loose = type(robot)(robot.description, max_condition=1e9, convention="description")
+    run = prepare_run(loose, 0.01, backend="compiled", integrator="compiled")
+    assert run.fast.det_sign(P[0]) is None
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(name):
+    """The C loop's direct and inverse models (``sp_ddm_aux``, ``sp_idm_sim``: the AVX2
+    copies of the generated code where the processor has AVX2, no FMA) give the results
+    of the single-state calls (the baseline copies, the Python loop's) bit for bit, at
+    random states about home."""
+    import ctypes
+
+    robot = get_robot(name)
+    g0 = _hover(robot)
+    rng = np.random.default_rng(7)
+    run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
+    lib, chi = run.fast._models._lib, run.fast.sim.chi
+    aux, out, det = np.empty(run.fast.sim.naux), np.empty(6), ctypes.c_double()
+    for _ in range(50):
+        T = robot.home_pose.copy()
+        d = 0.02 * rng.standard_normal(6)
+        T[:3, :3] = pin.exp3(d[3:]) @ T[:3, :3]
+        T[:3, 3] += 0.5 * robot.description.stroke_mid * d[:3]
+        V = 0.1 * rng.standard_normal(6)
+        g = g0 * (1.0 + 0.05 * rng.standard_normal(6))
+        flag = lib.sp_ddm_aux(
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, V, g)),
+            ctypes.c_void_p(chi),
+            ctypes.c_double(robot.max_condition),
+            ctypes.c_void_p(out.ctypes.data),
+            ctypes.c_void_p(aux.ctypes.data),
+            ctypes.byref(det),
+        )
+        assert flag == 0
+        np.testing.assert_array_equal(out, robot.direct_dynamics(T, V, g, backend="compiled"))
+        A, gamma, flags = 0.5 * rng.standard_normal(6), np.empty(6), np.zeros(1, np.int32)
+        lib.sp_idm_sim(
+            ctypes.c_longlong(1),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, V, A)),
+            ctypes.c_void_p(chi),
+            ctypes.c_double(robot.max_condition),
+            ctypes.c_void_p(gamma.ctypes.data),
+            ctypes.c_void_p(flags.ctypes.data),
+        )
+        assert flags[0] == 0
+        np.testing.assert_array_equal(gamma, robot.inverse_dynamics(T, V, A, backend="compiled"))

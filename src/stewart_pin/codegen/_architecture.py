@@ -129,6 +129,11 @@ class CodegenKind(Protocol):
     #: 6-UPS's ``q3^2``: its actuator positions come out of the compiled simulator), or
     #: ``None`` (the simulator's caller computes the actuator positions afterwards).
     leg_length_squares: slice | None
+    #: True: the robot's library exports ``sp_act_batch``, the actuated joint values of
+    #: poses from :meth:`actuator_function`'s generated code (the compiled simulator's
+    #: output rows of general legs, where the 6-UPS's come from ``q3^2``; the rows of
+    #: either that the Python loop adds to a compiled run).
+    compiled_actuators: bool
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         """The ``parameters`` variant the models are built with (or InputError)."""
@@ -209,6 +214,7 @@ class PaperUpsCodegen:
 
     generic_models = False
     leg_length_squares: slice | None = AUX_Q3SQ
+    compiled_actuators = True
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         return parameters
@@ -367,6 +373,7 @@ class LegChainCodegen:
 
     generic_models = True
     leg_length_squares: slice | None = None
+    compiled_actuators = True
 
     def model_parameters(self, desc: RobotDescription, parameters: str) -> str:
         if parameters not in ("base", "numeric"):
@@ -457,6 +464,8 @@ class LegChainCodegen:
 class ChainLegCodegen(LegChainCodegen):
     """Robots with chain legs: the models of :mod:`.chain_leg_symbolic` (the standalone C
     export too, but for legs with an idle joint: :class:`ExportError`)."""
+
+    compiled_actuators = False  # the simulator's caller computes them (the reference's)
 
     def build_models(self, desc: RobotDescription, pose: str, parameters: str) -> SymbolicModels:
         return build_chain_models(desc, pose)[0]

@@ -268,26 +268,77 @@ STATIC_COND = r"""
    accurate) and the bound passes with that determinant (cond(S) <= bound <= half the
    threshold: the reference accepts the state); else 0 (sp_check_cond decides). Cheaper
    than the pivoted LU, and the vector screen sp_v_static_cond_ok does the same
-   operations in the same order, so the two paths flag alike. */
-static int sp_static_cond_ok(const double* J, double max_cond) {
+   operations in the same order, so the two paths flag alike. sp_static_cond_det also
+   gives that determinant (of S: det Jp^-1 / l^3, the sign of det Jp^-1 when the check
+   passes). */
+#if defined(__GNUC__)
+#define SP_UNROLL6 _Pragma("GCC unroll 6")  /* unrolled: the same operations, scheduled */
+#else
+#define SP_UNROLL6
+#endif
+static int sp_static_cond_det(const double* J, double max_cond, double* det_out) {
   double A[6][6], fro2 = 0.0, det = 1.0, r, l;
   int i, j, k, ok = 1;
-  for (i = 0; i < 6; ++i) {
-    for (j = 0; j < 6; ++j) {
+  SP_UNROLL6 for (i = 0; i < 6; ++i) {
+    SP_UNROLL6 for (j = 0; j < 6; ++j) {
       A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
       fro2 += A[i][j] * A[i][j];
     }
   }
-  for (k = 0; k < 6; ++k) {
+  SP_UNROLL6 for (k = 0; k < 6; ++k) {
     det *= A[k][k];
     r = 1.0 / A[k][k];
-    for (i = k + 1; i < 6; ++i) {
+    SP_UNROLL6 for (i = k + 1; i < 6; ++i) {
       l = A[i][k] * r;
       ok &= fabs(l) <= sp_growth_limit;
-      for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+      SP_UNROLL6 for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
     }
   }
+  *det_out = det;
   return ok && sp_cond_bound(det, fro2, max_cond) == 0;
+}
+
+static int sp_static_cond_ok(const double* J, double max_cond) {
+  double det;
+  return sp_static_cond_det(J, max_cond, &det);
+}
+"""
+
+#: The AVX2 copy of the direct model the simulator's ``sp_ddm_aux`` runs where the processor
+#: has AVX2 (:func:`.compiled.avx2_copy`): ``target("avx2")`` enables no FMA, so every
+#: operation rounds as in the baseline copy (tests/test_compiled_simulation.py compares
+#: them bit for bit).
+AVX2_COPY = r"""
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#ifndef SP_AVX2
+#define SP_AVX2 __attribute__((target("avx2")))
+static int sp_avx2_ready = 0;  /* the processor has AVX2: set when the library is loaded */
+__attribute__((constructor)) static void sp_avx2_init(void) {
+  __builtin_cpu_init();
+  sp_avx2_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
+}
+#endif
+#define %(flag)s 1
+%(code)s
+#endif
+"""
+
+#: The actuated joint values of poses (after :data:`TEMPLATE`, for the models whose kind
+#: has ``compiled_actuators``: the compiled simulator's output rows).
+ACTUATORS = r"""
+/* The actuated joint values (n x 6) of poses (n x 16, row-major 0Tp): the generated
+   stewart_act, state by state (no guard: the poses are the simulator's accepted ones). */
+SP_EXPORT void sp_act_batch(long long n, const double* pose, double* out) {
+  const casadi_real* arg[%(sz_arg)d + 1];
+  casadi_real* res[%(sz_res)d + 1];
+  casadi_int iw[%(sz_iw)d + 1];
+  casadi_real w[%(sz_w)d + 1];
+  long long s;
+  for (s = 0; s < n; ++s) {
+    arg[0] = pose + 16 * s;
+    res[0] = out + 6 * s;
+    %(act)s(arg, res, iw, w, 0);
+  }
 }
 """
 
@@ -323,16 +374,27 @@ static int sp_idm_after(const double* T, const double* tw, const double* acc, do
   return f;
 }
 
-/* The guards of one direct-dynamics state after the generated code ran. */
-static int sp_ddm_after(const double* T, const double* tw, const double* gam, const double* a,
-                        const double* aux, double max_cond) {
+/* The guards of one direct-dynamics state after the generated code ran; *det: the
+   determinant of S from the cheap condition check when it decided (0.0 when the pivoted
+   LU had to). */
+static int sp_ddm_after_det(const double* T, const double* tw, const double* gam,
+                            const double* a, const double* aux, double max_cond, double* det) {
   int k, f = sp_check_inputs(T, tw, gam);
   f |= sp_check_legs(aux, SP_DDM_SLACK);
-  if (!sp_static_cond_ok(aux + %(jinv)d, max_cond))  /* the cheap screen, then the LU */
+  if (!sp_static_cond_det(aux + %(jinv)d, max_cond, det)) {  /* the cheap screen, the LU */
+    *det = 0.0;
     f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  }
   for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
   if (!sp_finite6(a)) f |= SP_NONFINITE;
   return f;
+}
+
+/* The guards of one direct-dynamics state after the generated code ran. */
+static int sp_ddm_after(const double* T, const double* tw, const double* gam, const double* a,
+                        const double* aux, double max_cond) {
+  double det;
+  return sp_ddm_after_det(T, tw, gam, a, aux, max_cond, &det);
 }
 
 #ifdef SP_WIDTH
@@ -523,6 +585,35 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   return any;
 }
 
+/* Inverse dynamics of n states as sp_idm_batch's scalar loop, through the AVX2 copy of
+   the generated code where the processor has it (the same roundings): the compiled
+   simulator's controller (codegen/_simsource.py). */
+SP_EXPORT int sp_idm_sim(long long n, const double* pose, const double* twist,
+                         const double* accel, const double* chi, double max_cond,
+                         double* gamma, int* flags) {
+  const casadi_real* arg[%(idm_sz_arg)d + 1];
+  casadi_real* res[%(idm_sz_res)d + 1];
+  casadi_int iw[%(idm_sz_iw)d + 1];
+  casadi_real w[%(idm_sz_w)d + 1];
+  double aux[SP_IDM_NAUX];
+  int any = 0, f;
+  long long s;
+  for (s = 0; s < n; ++s) {
+    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = accel + 6 * s; arg[3] = chi;
+    res[0] = gamma + 6 * s; res[1] = aux;
+#ifdef SP_IDM_AVX2
+    if (sp_avx2_ready)
+      sp_idm_avx2(arg, res, iw, w, 0);
+    else
+#endif
+      %(idm)s(arg, res, iw, w, 0);
+    f = sp_idm_after(arg[0], arg[1], arg[2], res[0], aux, max_cond);
+    flags[s] = f;
+    any |= f;
+  }
+  return any;
+}
+
 /* One state packed in one input buffer (the single-state call from Python, which passes
    the bytes of the pose (16, row-major), the twist (6) and the accel or gamma (6) in one
    read-only block): the result (6) goes to out. Returns the state's flag. */
@@ -540,17 +631,25 @@ SP_EXPORT int sp_ddm_one(const double* in, const double* chi, double max_cond, d
 
 /* One direct-dynamics state with its by-products (aux, SP_DDM_NAUX values: Jp^-1 among
    them), the scalar path of sp_ddm_batch: the compiled simulator's entry
-   (codegen/_simsource.py). Returns the state's flag. */
+   (codegen/_simsource.py), which takes the sign of det Jp^-1 from *det (the determinant
+   of S the cheap condition check computed; 0.0 when the pivoted LU decided). Returns the
+   state's flag. */
 SP_EXPORT int sp_ddm_aux(const double* pose, const double* twist, const double* gam,
-                         const double* chi, double max_cond, double* accel, double* aux) {
+                         const double* chi, double max_cond, double* accel, double* aux,
+                         double* det) {
   const casadi_real* arg[%(ddm_sz_arg)d + 1];
   casadi_real* res[%(ddm_sz_res)d + 1];
   casadi_int iw[%(ddm_sz_iw)d + 1];
   casadi_real w[%(ddm_sz_w)d + 1];
   arg[0] = pose; arg[1] = twist; arg[2] = gam; arg[3] = chi;
   res[0] = accel; res[1] = aux;
-  %(ddm)s(arg, res, iw, w, 0);
-  return sp_ddm_after(pose, twist, gam, accel, aux, max_cond);
+#ifdef SP_DDM_AVX2
+  if (sp_avx2_ready)
+    sp_ddm_avx2(arg, res, iw, w, 0);
+  else
+#endif
+    %(ddm)s(arg, res, iw, w, 0);
+  return sp_ddm_after_det(pose, twist, gam, accel, aux, max_cond, det);
 }
 """
 )

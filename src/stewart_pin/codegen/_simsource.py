@@ -3,7 +3,7 @@
 model, forces given as data.
 
 The library is robot-independent: it calls the robot's generated models through function
-pointers (``sp_ddm_aux``, the direct model with its by-products, and ``sp_idm_batch``, the
+pointers (``sp_ddm_aux``, the direct model with its by-products, and ``sp_idm_sim``, the
 controller's inverse model, of the robots' own libraries, :mod:`._csource`). One call
 runs steps of ``simulate`` and writes one row per accepted state, with the Python
 integrator's arithmetic: the chart ``R = exp3(xi) R_n`` around each step's start;
@@ -19,16 +19,30 @@ Anything the Python loop would look at more closely stops the call *before* the 
 (status :data:`BAIL`), the state left at the last accepted one: a state the direct or
 inverse model's guard flags (a leg near its stroke end or a singularity, a U-joint near its
 limit, a non-positive pivot, a non-finite result: the reference checks decide), a sign of
-``det Jp^-1`` (from the model's own ``Jp^-1``) other than the step's start, a step that
+``det Jp^-1`` other than the step's start, a step that
 does not land on the grid, a controller reference sampled at another time, a rotation error
 near pi. The Python loop then takes that one step (halving, locating the event, raising),
 and the compiled loop goes on from the next grid time. Status :data:`NEED_FORCE`: the
 step's end state starts a new control period whose forces come from a Python function; the
 pending state is kept in the state block and the next call evaluates it with the held
-forces the caller wrote there.
+forces the caller wrote there. A state block marked :data:`PENDING_START` asks for the
+initial state instead: evaluated as the Python loop's first state (forces, direct model,
+the sign of det Jp^-1 where the cheap condition check decides it, else a bail) and
+written as row 0.
 
-Built without ``-freciprocal-math`` (unlike the models): the divisions are the ones
-written, as in NumPy and Pinocchio.
+The sign of ``det Jp^-1`` of each stage and state comes from the determinant the direct
+model's guard computed anyway (``sp_ddm_aux``'s ``det``: the LU without pivoting of its
+cheap condition check, ``S = Jp^-T diag(1, 1, 1, 1/l, 1/l, 1/l)``, so the same sign):
+where that check decides, cond(S) is at most half of ``max_condition``, so for a threshold
+up to :data:`STATIC_SIGN_COND` the determinant's relative error is far below 1 and its
+sign is the one ``np.linalg.det`` gives the reference's ``Jp^-1`` (the Python loop's);
+elsewhere an LU with partial pivoting of the model's ``Jp^-1`` (as before). The 6-UPS leg
+lengths of the rows come from the model's ``q3^2``; general legs' actuated joint values
+from the robot library's ``sp_act_batch`` (:data:`._csource.ACTUATORS`: the generated
+closed forms of the reference's values, equal to round-off).
+
+Built at ``-O3`` without ``-freciprocal-math`` (unlike the models): the divisions are the
+ones written, as in NumPy and Pinocchio.
 """
 
 from __future__ import annotations
@@ -39,6 +53,13 @@ DONE = 0
 BAIL = 1
 #: The step's end state needs forces from Python (pending in the state block).
 NEED_FORCE = 2
+
+#: ``st[ST_PENDING]`` asking ``sp_sim_run`` to evaluate the initial state (``begin``).
+PENDING_START = 2.0
+
+#: Up to this ``max_condition`` the sign of det Jp^-1 comes from the determinant of the direct
+#: model's cheap condition check (``SP_STATIC_SIGN_COND`` of the C).
+STATIC_SIGN_COND = 1e8
 
 #: Force kinds of ``sp_sim.kind``.
 KIND_CONSTANT, KIND_HOLD, KIND_LINEAR, KIND_CT, KIND_EXTERNAL = 0, 1, 2, 3, 4
@@ -56,7 +77,8 @@ SOURCE = r"""
 #define SP_EXPORT __attribute__((visibility("default")))
 
 typedef int (*sp_ddm_fn)(const double*, const double*, const double*, const double*, double,
-                         double*, double*);
+                         double*, double*, double*);
+typedef void (*sp_act_fn)(long long, const double*, double*);
 typedef int (*sp_idm_fn)(long long, const double*, const double*, const double*,
                          const double*, double, double*, int*);
 
@@ -72,6 +94,7 @@ typedef struct {
   long long rows; double* t_out; double* P_out; double* V_out; double* A_out; double* G_out;
   long long q3sq; double* L_out;
   long long adaptive; double rtol; double atol; double h_min;
+  sp_act_fn act;
 } sp_sim;
 
 #define ST_T 0
@@ -96,8 +119,13 @@ typedef struct {
 #define SP_DONE 0
 #define SP_BAIL 1
 #define SP_NEED_FORCE 2
+#define SP_START 2.0  /* st[ST_PENDING]: the initial state to evaluate */
 #define SP_MAX_AUX 16384
 #define SP_RATIO_SLACK 1e-9
+/* Up to this max_cond the determinant of the direct model's cheap condition check gives
+   the sign of det Jp^-1 (cond(S) <= max_cond / 2 there: its relative error is far below
+   1); above it, sp_det_sign's LU. */
+#define SP_STATIC_SIGN_COND 1e8
 
 static const double sp_eps = 2.220446049250313e-16;
 /* Pinocchio's TaylorSeriesExpansion precisions eps^(1/3) and eps^(1/4), computed once
@@ -292,13 +320,21 @@ static int sp_forces(const sp_sim* sim, double t, const double* T, const double*
   return 1;
 }
 
+/* The sign of det Jp^-1 of a state the direct model passed: from det, the determinant of
+   S = Jp^-T diag(1, 1, 1, 1/l, 1/l, 1/l) of its cheap condition check (non-zero when that
+   check decided), else from an LU of Jp^-1 (aux). */
+static double sp_sign_of(const sp_sim* sim, double det, const double* aux) {
+  if (det != 0.0 && sim->max_cond <= SP_STATIC_SIGN_COND) return det > 0.0 ? 1.0 : -1.0;
+  return sp_det_sign(aux + sim->jinv);
+}
+
 /* One evaluation of the chart derivative at y (around T0's rotation): pose T, forces g,
    dy = [v, dxi/dt, accel], sign of det Jp^-1. Returns 1, 0 (bail) or 2 (forces from
    Python). */
 static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* y, long long k,
                    long long r, double* held_k, double* held_g, double* aux, double* T,
-                   double* dy, double* g, double* sign) {
-  double E[9];
+                   double* dy, double* g, double* sign, double* det_out) {
+  double E[9], det;
   int ok, zero = y[3] == 0.0 && y[4] == 0.0 && y[5] == 0.0;
   /* At xi = 0 (a state, not a stage) exp3 is I and Jlog3 is I, exactly (Pinocchio's
      formulas at theta = eps): the pose is T0's rotation and dxi/dt is w, no rounding. */
@@ -311,14 +347,15 @@ static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* 
   }
   ok = sp_forces(sim, t, T, y + 6, k, r, held_k, held_g, g);
   if (ok != 1) return ok;
-  if (sim->ddm(T, y + 6, g, sim->chi, sim->max_cond, dy + 6, aux) != 0) return 0;
+  if (sim->ddm(T, y + 6, g, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0) return 0;
   if (zero) {
     dy[3] = y[9]; dy[4] = y[10]; dy[5] = y[11];
   } else if (!sp_dxi(E, y + 9, dy + 3)) {
     return 0;
   }
   dy[0] = y[6]; dy[1] = y[7]; dy[2] = y[8];
-  *sign = sp_det_sign(aux + sim->jinv);
+  *sign = sp_sign_of(sim, det, aux);
+  if (det_out) *det_out = det;
   return 1;
 }
 
@@ -330,7 +367,10 @@ static void sp_write_row(const sp_sim* sim, double* st) {
   memcpy(sim->V_out + 6 * m, st + ST_TWIST, 6 * sizeof(double));
   memcpy(sim->A_out + 6 * m, st + ST_DY + 6, 6 * sizeof(double));
   memcpy(sim->G_out + 6 * m, st + ST_GAMMA, 6 * sizeof(double));
-  if (sim->L_out) memcpy(sim->L_out + 6 * m, st + ST_LEN, 6 * sizeof(double));
+  if (sim->act)  /* general legs: the actuated joint values of the row's pose */
+    sim->act(1, sim->P_out + 16 * m, sim->L_out + 6 * m);
+  else if (sim->L_out)
+    memcpy(sim->L_out + 6 * m, st + ST_LEN, 6 * sizeof(double));
   st[ST_ROW] = (double)(m + 1);
 }
 
@@ -355,18 +395,19 @@ static void sp_accept(const sp_sim* sim, double* st, double t, const double* T, 
 /* Evaluate the end state (t, T1, V1) of a step; 1 accepted, 0 bail, 2 forces from Python. */
 static int sp_end_state(const sp_sim* sim, double* st, double t, const double* T1,
                         const double* V1, double* aux) {
-  double y[12], dy[12], T[16], g[6], hk = st[ST_HELD_K], hg[6], sign;
+  double y[12], dy[12], T[16], g[6], hk = st[ST_HELD_K], hg[6], sign, det;
   long long k = sp_period_index(sim, t), n1 = (long long)st[ST_N] + 1;
   int ok;
   memcpy(hg, st + ST_HELD_G, sizeof hg);
   y[0] = T1[3]; y[1] = T1[7]; y[2] = T1[11];
   y[3] = 0.0; y[4] = 0.0; y[5] = 0.0;
   memcpy(y + 6, V1, 6 * sizeof(double));
-  ok = sp_eval(sim, t, T1, y, k, 2 * n1, &hk, hg, aux, T, dy, g, &sign);
+  ok = sp_eval(sim, t, T1, y, k, 2 * n1, &hk, hg, aux, T, dy, g, &sign, 0);
   if (ok == 2) {  /* forces from Python: the end state's sign and guard from a direct model
                      call with the forces held so far (Jp^-1 does not depend on them) */
-    if (sim->ddm(T, y + 6, st + ST_HELD_G, sim->chi, sim->max_cond, dy + 6, aux) != 0) return 0;
-    if (sp_det_sign(aux + sim->jinv) != st[ST_SIGN]) return 0;
+    if (sim->ddm(T, y + 6, st + ST_HELD_G, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0)
+      return 0;
+    if (sp_sign_of(sim, det, aux) != st[ST_SIGN]) return 0;
     st[ST_PENDING] = 1.0;
     st[ST_PEND_T] = t;
     memcpy(st + ST_PEND_POSE, T, 16 * sizeof(double));
@@ -428,7 +469,7 @@ static int sp_adaptive(const sp_sim* sim, double* st, double* aux) {
         for (l = 0; l < j; ++l) acc = acc + sp_dp_a[j][l] * K[l][i];
         y[i] = y0[i] + h * acc;
       }
-      if (sp_eval(sim, t + sp_dp_c[j] * h, T0, y, k, -1, &hk, hg, aux, T[j], K[j], g, &sgn)
+      if (sp_eval(sim, t + sp_dp_c[j] * h, T0, y, k, -1, &hk, hg, aux, T[j], K[j], g, &sgn, 0)
           != 1)
         return SP_BAIL;
       if (sgn != st[ST_SIGN]) return SP_BAIL;
@@ -481,6 +522,26 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
   int i, ok;
   if (sim->naux > SP_MAX_AUX) return SP_BAIL;
   if ((long long)st[ST_ROW] >= sim->rows) return SP_DONE;
+  if (st[ST_PENDING] == SP_START) {  /* the initial state (simulation.py's begin()) */
+    double dy[12], det;
+    double* T0 = st + ST_POSE;
+    st[ST_PENDING] = 0.0;
+    if (sim->max_cond > SP_STATIC_SIGN_COND) return SP_BAIL;
+    y[0] = T0[3]; y[1] = T0[7]; y[2] = T0[11];
+    y[3] = 0.0; y[4] = 0.0; y[5] = 0.0;
+    memcpy(y + 6, st + ST_TWIST, 6 * sizeof(double));
+    hk = -1.0;
+    memset(hg, 0, sizeof hg);
+    ok = sp_eval(sim, st[ST_T], T0, y, sp_period_index(sim, st[ST_T]), 0, &hk, hg, aux, T1, dy,
+                 g, &sign, &det);
+    if (ok != 1 || det == 0.0) return SP_BAIL;  /* the sign as the reference's: decided */
+    st[ST_SIGN] = sign;
+    sp_accept(sim, st, st[ST_T], T1, y + 6, dy, g, hk, hg, aux);
+    st[ST_N] -= 1;  /* the state of grid index 0, no step */
+    st[ST_STEPS] -= 1;
+    sp_write_row(sim, st);
+    return SP_DONE;
+  }
   if (st[ST_PENDING] != 0.0) {  /* the pending end state with the forces Python gave */
     double* Tp = st + ST_PEND_POSE;
     double dy[12];
@@ -493,7 +554,7 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
     hk = st[ST_HELD_K];
     memcpy(hg, st + ST_HELD_G, sizeof hg);
     memcpy(T1, Tp, sizeof T1);
-    ok = sp_eval(sim, st[ST_PEND_T], T1, y, k, -1, &hk, hg, aux, T2, dy, g, &sign);
+    ok = sp_eval(sim, st[ST_PEND_T], T1, y, k, -1, &hk, hg, aux, T2, dy, g, &sign, 0);
     if (ok != 1 || sign != st[ST_SIGN]) return SP_BAIL;
     sp_accept(sim, st, st[ST_PEND_T], T2, y + 6, dy, g, hk, hg, aux);
     st[ST_H] = st[ST_H_PEND];
@@ -514,15 +575,15 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
     y0[3] = 0.0; y0[4] = 0.0; y0[5] = 0.0;
     memcpy(y0 + 6, st + ST_TWIST, 6 * sizeof(double));
     for (i = 0; i < 12; ++i) y[i] = y0[i] + h / 2 * k1[i];
-    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T2, k2, g, &sgn) != 1)
+    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T2, k2, g, &sgn, 0) != 1)
       return SP_BAIL;
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i) y[i] = y0[i] + h / 2 * k2[i];
-    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T3, k3, g, &sgn) != 1)
+    if (sp_eval(sim, t + h / 2, T0, y, k, 2 * n + 1, &hk, hg, aux, T3, k3, g, &sgn, 0) != 1)
       return SP_BAIL;
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i) y[i] = y0[i] + h * k3[i];
-    if (sp_eval(sim, target, T0, y, k, 2 * n + 2, &hk, hg, aux, T4, k4, g, &sgn) != 1)
+    if (sp_eval(sim, target, T0, y, k, 2 * n + 2, &hk, hg, aux, T4, k4, g, &sgn, 0) != 1)
       return SP_BAIL;
     if (sgn != st[ST_SIGN]) return SP_BAIL;
     for (i = 0; i < 12; ++i)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import ctypes
 import threading
+import weakref
 from collections.abc import Sequence
 from typing import Any
 
@@ -45,15 +46,18 @@ from stewart_pin.codegen.compiled import (
     model_layout,
     split_batch,
 )
+from stewart_pin.codegen.leg_chain_symbolic import AuxLayout
 from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.motion.simulation import SimulationResult, grid_times, prepare_run
+from stewart_pin.motion.trajectories import CoordinateMotion, FourierTrajectory, states_at
 from stewart_pin.protocols import RobotLike
 
 #: The simulator's compiler flags: the models' without ``-freciprocal-math`` (the divisions
-#: as written, as NumPy and Pinocchio do them).
-SIM_CFLAGS = tuple(f for f in CFLAGS if f != "-freciprocal-math")
+#: as written, as NumPy and Pinocchio do them), at ``-O3`` (a small library; no
+#: ``-march``: the cached library runs on any x86-64).
+SIM_CFLAGS = tuple("-O3" if f == "-O2" else f for f in CFLAGS if f != "-freciprocal-math")
 #: Rows of the output buffers of one C call (then Python keeps them and the loop goes on).
 CHUNK_ROWS = 4096
 
@@ -103,6 +107,7 @@ class _Sim(ctypes.Structure):
         ("rtol", ctypes.c_double),
         ("atol", ctypes.c_double),
         ("h_min", ctypes.c_double),
+        ("act", _P),
     ]
 
 
@@ -138,6 +143,18 @@ def simulator_library() -> Any:
 
 def _address(lib: Any, name: str) -> int:
     return int(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value or 0)
+
+
+_LAYOUTS: weakref.WeakKeyDictionary[CompiledDynamics, AuxLayout] = weakref.WeakKeyDictionary()
+
+
+def _layout(models: CompiledDynamics, robot: RobotLike) -> AuxLayout:
+    """The by-products' layout of ``models`` (computed once per models object: a general
+    robot's regenerates its symbolic models' key)."""
+    layout = _LAYOUTS.get(models)
+    if layout is None:
+        layout = _LAYOUTS[models] = model_layout(robot.description)
+    return layout
 
 
 def _compiled(robot: RobotLike, backend: str) -> CompiledDynamics | str:
@@ -231,7 +248,7 @@ class _Forces:
             rows[k[first]] = grid[first]
             times = grid[first]
         T, V, A = _sample(c.reference, times)
-        if period is not None:
+        if period is not None and first.size < rows.size:  # periods without a grid time
             full = np.full((rows.size, 4, 4), np.nan)
             full[k[first]] = T
             T = full
@@ -240,7 +257,7 @@ class _Forces:
             V, A = Vf, Af
         self._set(
             kind=S.KIND_CT,
-            idm=_address(model._lib, "sp_idm_batch"),
+            idm=_address(model._lib, "sp_idm_sim"),
             idm_chi=int(model.base_values.ctypes.data),
             idm_max_cond=float(c.model.max_condition),
             ref_per_period=int(period is not None),
@@ -254,11 +271,18 @@ class _Forces:
         )
 
 
+#: The ``sample`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes.
+_COORDINATE_SAMPLES = (CoordinateMotion.sample, FourierTrajectory.sample)
+
+
 def _sample(reference: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The reference's ``(T, V, A)`` at ``times``: its vectorised ``sample`` when it has
     one (the motions of :mod:`stewart_pin.motion.trajectories`), else one call per time."""
     sample = getattr(reference, "sample", None)
-    if sample is not None and times.size > 1 and np.all(np.diff(times) > 0):
+    increasing = times.size > 1 and bool(np.all(np.diff(times) > 0))
+    if increasing and getattr(type(reference), "sample", None) in _COORDINATE_SAMPLES:
+        return states_at(reference, times)  # sample()'s arrays, without its validation
+    if sample is not None and increasing:
         traj = sample(times)
         return traj.poses, traj.twists, traj.accels
     T, V, A = np.empty((times.size, 4, 4)), np.empty((times.size, 6)), np.empty((times.size, 6))
@@ -284,14 +308,18 @@ class Stepper:
     ) -> None:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
-        layout = model_layout(robot.description)
+        layout = _layout(models, robot)
         # Output rows per call: the whole rk4 run when it is shorter than a chunk.
         self.capacity = CHUNK_ROWS if adaptive is not None else min(CHUNK_ROWS, n_grid + 1)
-        # The 6-UPS leg lengths from the direct model's q3^2 (general legs: computed by
+        # The 6-UPS leg lengths from the direct model's q3^2; general legs: the actuated
+        # joint values from the library's sp_act_batch (chain legs: computed by
         # robot.actuator_positions afterwards, as the Python loop does).
-        q3sq = codegen_kind(robot.description).leg_length_squares
-        ups = q3sq is not None
-        self._ups = ups
+        kind = codegen_kind(robot.description)
+        q3sq = kind.leg_length_squares
+        self._act = kind.compiled_actuators
+        act = _address(models._lib, "sp_act_batch") if self._act and q3sq is None else 0
+        self._ups = q3sq is not None or act != 0  # the rows carry the actuator positions
+        self._models = models
         self.st = np.zeros(S.ST_SIZE)
         # Views of the state block taken once (a Python forces function's hot path).
         self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
@@ -313,6 +341,7 @@ class Stepper:
             rtol=adaptive[0] if adaptive else 0.0,
             atol=adaptive[1] if adaptive else 0.0,
             h_min=adaptive[2] if adaptive else 0.0,
+            act=act or None,
             **forces.fields,
         )
         self.sim = sim
@@ -355,7 +384,9 @@ class Stepper:
         """Start from an accepted state at grid index ``n`` (``held``: the forces held
         over the current control period; ``h``: the adaptive method's next trial step)."""
         st = self.st
+        written = st[S.ST_ROW]  # rows not handed out yet (the initial state's) stay
         st[:] = 0.0
+        st[S.ST_ROW] = written
         st[S.ST_T] = t
         st[S.ST_POSE : S.ST_POSE + 16] = T.ravel()
         st[S.ST_TWIST : S.ST_TWIST + 6] = V
@@ -365,6 +396,33 @@ class Stepper:
         self.hold(held)
         st[S.ST_N] = n
         st[S.ST_H] = h
+
+    def start(self, T: np.ndarray, V: np.ndarray) -> bool:
+        """Evaluate the initial state ``(0, T, V)`` in C as the Python loop's first state
+        (row 0; the forces, the direct model and the sign of det Jp^-1): True, or False
+        when the Python loop must (forces from a Python function, a state the guard flags,
+        a sign the cheap condition check does not decide)."""
+        if self.external:
+            return False
+        st = self.st
+        st[:] = 0.0
+        st[S.ST_POSE : S.ST_POSE + 16] = T.ravel()
+        st[S.ST_TWIST : S.ST_TWIST + 6] = V
+        st[S.ST_HELD_K] = -1.0
+        st[S.ST_H] = self.sim.dt
+        st[S.ST_PENDING] = S.PENDING_START
+        if self.run(0) != S.DONE or st[S.ST_ROW] != 1.0:
+            st[S.ST_ROW] = 0.0
+            return False
+        return True
+
+    def has_rows(self) -> bool:
+        """Whether rows were written since the last :meth:`rows`."""
+        return bool(self.st[S.ST_ROW] > 0.0)
+
+    def sign(self) -> float:
+        """The sign of det Jp^-1 of the state block's run."""
+        return float(self.st[S.ST_SIGN])
 
     def hold(self, held: tuple[int, np.ndarray] | None) -> None:
         """The forces held over control period ``held[0]``."""
@@ -414,6 +472,41 @@ class Stepper:
     def step(self) -> float:
         """The adaptive method's next trial step [s]."""
         return float(self.st[S.ST_H])
+
+    def det_sign(self, T: np.ndarray) -> float | None:
+        """The sign of det Jp^-1 at pose ``T`` from the compiled direct model (the
+        determinant of its cheap condition check, as the C loop takes its stages' signs),
+        or None where that check does not decide it (the caller computes it)."""
+        if self.sim.max_cond > S.STATIC_SIGN_COND:
+            return None
+        aux = np.empty(self.sim.naux)
+        out, det = np.empty(6), ctypes.c_double(0.0)
+        T = np.ascontiguousarray(T, dtype=np.float64)
+        zero = np.zeros(6)
+        flag = self._models._lib.sp_ddm_aux(
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, zero, zero)),
+            ctypes.c_void_p(self.sim.chi),
+            ctypes.c_double(self.sim.max_cond),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (out, aux)),
+            ctypes.byref(det),
+        )
+        d = det.value
+        return None if flag != 0 or d == 0.0 else (1.0 if d > 0.0 else -1.0)
+
+    def actuator_positions(self, poses: np.ndarray) -> np.ndarray | None:
+        """The actuated joint values (N, 6) of poses (N, 4, 4) from the library's
+        ``sp_act_batch`` (general legs: as the C loop writes them in its rows; 6-UPS: the
+        leg lengths in closed form), or None where the robot has none."""
+        if not self._act:
+            return None
+        P = np.ascontiguousarray(poses, dtype=np.float64)
+        out = np.empty((P.shape[0], 6))
+        self._models._lib.sp_act_batch(
+            ctypes.c_longlong(P.shape[0]),
+            ctypes.c_void_p(P.ctypes.data),
+            ctypes.c_void_p(out.ctypes.data),
+        )
+        return out
 
     def held(self) -> tuple[int, np.ndarray] | None:
         k = self.st[S.ST_HELD_K]

@@ -39,7 +39,13 @@ same accepted steps, their times within about 1e-9 of a step where the error con
 alone sets them (a few ulps in a stage move the error estimate, a difference of two
 solutions). Any step that meets an event or a state the compiled guard flags is taken by
 the Python loop, so events stop the run as above; ``progress`` is called after each
-chunk of C steps (up to 4096) instead of after each step.
+chunk of C steps (up to 4096) instead of after each step. The guard is still checked at
+every stage, in both loops. The compiled loop evaluates the initial state too (unless a
+Python function gives the forces), takes the signs of det Jp^-1 from the compiled direct
+model's own condition check (the reference's signs wherever it decides them, see
+:mod:`stewart_pin.codegen._simsource`; else the reference's), and the actuated joint
+positions of its rows from the robot's compiled closed forms (general legs; the 6-UPS's
+from the direct model's ``q3^2``): equal to ``robot.actuator_positions`` to round-off.
 
 Bounds (checked before the run): durations, steps, tolerances and periods finite and
 positive, no step below :data:`MIN_STEP`, at most :data:`MAX_STEPS` steps.
@@ -647,6 +653,8 @@ class _Run:
     # ------------------------------------------------------------------ output
     def record(self, s: _State, final: bool = False) -> None:
         """Keep an accepted state (every ``output_dt``; always when ``final``)."""
+        if self.fast is not None and self.fast.has_rows():
+            self.absorb(s)  # the compiled loop's rows (its initial state) come first
         self.last = s
         if self.rows and self.rows[-1].t == s.t:
             return
@@ -688,19 +696,30 @@ class _Run:
             if row is not None:
                 parts.append(row)
         t, P, V, A, G = (
-            np.concatenate([getattr(p, k) for p in parts])
+            getattr(parts[0], k)
+            if len(parts) == 1
+            else np.concatenate([getattr(p, k) for p in parts])
             for k in ("times", "poses", "twists", "accels", "gammas")
         )
         if all(p.lengths is None for p in parts):
             L = self.robot.actuator_positions(P)
-        else:  # the compiled loop's 6-UPS leg lengths, the rest computed here
+        elif len(parts) == 1 and parts[0].lengths is not None:
+            L = parts[0].lengths
+        else:  # the compiled loop's actuator positions, the rest computed as it does
             L = np.concatenate(
                 [
-                    self.robot.actuator_positions(p.poses) if p.lengths is None else p.lengths
+                    self._actuator_positions(p.poses) if p.lengths is None else p.lengths
                     for p in parts
                 ]
             )
         return SimulationResult(t, P, V, A, G, L)
+
+    def _actuator_positions(self, poses: np.ndarray) -> np.ndarray:
+        """The actuated joint values of poses the Python loop accepted, in a result that
+        has rows of the compiled loop: computed as that loop computes its rows (the same
+        values to round-off as ``robot.actuator_positions``, without its per-call cost)."""
+        got = None if self.fast is None else self.fast.actuator_positions(poses)
+        return self.robot.actuator_positions(poses) if got is None else got
 
     def stop(self, message: str, t: float) -> SimulationError:
         """The error to stop with; the result ends with the last accepted state."""
@@ -754,7 +773,22 @@ class _Run:
         """The initial state, evaluated and recorded (once)."""
         if self.resume is None:
             assert self.T0 is not None and self.V0 is not None
-            s = self.integ.state(0.0, self.T0, self.V0)
+            if self.fast is not None and self.fast.start(self.T0, self.V0):
+                # Evaluated in C with this loop's arithmetic (forces, direct model), the
+                # sign of det Jp^-1 from the model's cheap condition check, which decides
+                # it as the reference does (else the C loop leaves it to the lines below).
+                # Its row stays in the C buffer, handed over with the next steps' rows.
+                fast = self.fast
+                t, T, V, dy, g = fast.state()
+                s = _State(t, T, V, dy, g, fast.sign())
+                self.integ.held = fast.held()
+                self.last = self.fast_state = s
+                self.resume = (s, 0)
+                return s
+            # The compiled loop: the sign of det Jp^-1 as it computes its stages' (equal to
+            # the reference's wherever its check decides; else None: the reference's).
+            sign = None if self.fast is None else self.fast.det_sign(self.T0)
+            s = self.integ.state(0.0, self.T0, self.V0, sign)
             self.record(s)
             self.resume = (s, 0)
         return self.resume[0]

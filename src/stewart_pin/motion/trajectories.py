@@ -206,6 +206,14 @@ def _states(
     return poses, twists, accels
 
 
+def states_at(motion: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(poses (N, 4, 4), twists (N, 6), accels (N, 6))`` of a motion given by coordinates
+    (a :class:`CoordinateMotion` or :class:`FourierTrajectory`) at validated ``times``
+    (N,) [s]: the arrays of its ``sample(times)`` (the same arithmetic) without building
+    and validating a :class:`Trajectory` (the compiled simulator's reference table)."""
+    return _states(motion.reference, *motion.coordinates(times))
+
+
 def _at(motion: Any, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One state, without building a validated :class:`Trajectory` (a controller's hot path)."""
     poses, twists, accels = _states(motion.reference, *motion.coordinates(np.array([float(t)])))
@@ -393,12 +401,8 @@ class Sinusoids(CoordinateMotion):
         t = check_array(times, (None,), "times")[:, None]
         om = 2 * np.pi * self.frequencies
         arg = om * t + self.phases
-        A = self.amplitudes
-        return (
-            A * (np.sin(arg) - np.sin(self.phases)),
-            A * om * np.cos(arg),
-            -A * om**2 * np.sin(arg),
-        )
+        A, s = self.amplitudes, np.sin(arg)
+        return (A * (s - np.sin(self.phases)), A * om * np.cos(arg), -A * om**2 * s)
 
 
 #: The length [s] of :func:`washout` at its default phases (onset, hold, washout).
