@@ -10,16 +10,23 @@ for type checkers)::
 
 A name must not be that of one of the package's own submodules (importing the submodule
 would set the package's attribute to the module): such a name is imported eagerly.
+
+:func:`lazy_module` is the same for a whole third-party module a module uses only inside
+its functions; :data:`casadi` is CasADi so, for the code generator (a robot whose compiled
+library is cached answers without importing it)::
+
+    from stewart_pin._lazy import casadi as cs
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
+import types
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["lazy_names"]
+__all__ = ["casadi", "lazy_module", "lazy_names"]
 
 
 def lazy_names(
@@ -42,3 +49,28 @@ def lazy_names(
         return sorted({*vars(sys.modules[package]), *table})
 
     return __getattr__, __dir__
+
+
+class _LazyModule(types.ModuleType):
+    """A stand-in for a module, imported on the first attribute read; the module's
+    namespace is then copied in, so that later reads are plain look-ups."""
+
+    def __getattr__(self, attr: str) -> Any:  # only for names not (yet) in the namespace
+        if attr.startswith("__") and attr.endswith("__") and attr != "__version__":
+            raise AttributeError(attr)  # copy, pickle and the like probing the stand-in
+        module = importlib.import_module(self.__name__)
+        self.__dict__.update(vars(module))
+        return getattr(module, attr)
+
+
+def lazy_module(name: str) -> Any:
+    """The module ``name`` (absolute), imported on the first read of one of its attributes
+    (the module docstring's example); nothing is imported before."""
+    return _LazyModule(name)
+
+
+if TYPE_CHECKING:
+    import casadi as casadi
+else:
+    #: CasADi, imported on first use (type checkers see the module itself).
+    casadi = lazy_module("casadi")

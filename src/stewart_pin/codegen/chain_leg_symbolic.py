@@ -40,9 +40,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import casadi as cs
 import numpy as np
 
+from stewart_pin._lazy import casadi as cs  # imported on first use
 from stewart_pin.codegen._sx_common import (
     Mat,
     Scalar,
