@@ -97,3 +97,59 @@ def test_a_cached_robot_answers_without_importing_casadi(tmp_path):
     )
     got = np.array(json.loads(gamma))
     assert np.max(np.abs(got - reference)) <= 1e-9 * np.max(np.abs(reference))
+
+
+DERIVATIVES_CALL = """
+import sys
+import numpy as np
+import stewart_pin
+from stewart_pin.codegen import derivatives
+
+if {forbid!r}:
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the symbolic models were generated")
+
+    derivatives.symbolic_models_for = forbidden
+robot = stewart_pin.StewartRobot.from_preset("simulator")
+P, V, A = robot.sample_states(1, 3)
+d = robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
+backend = derivatives.derivatives_backend(robot)
+print(backend.kind, backend.compiled_now, d.pose.tolist())
+"""
+
+
+@pytest.mark.skipif(
+    __import__("stewart_pin.codegen.compiled", fromlist=["find_compiler"]).find_compiler() is None,
+    reason="no C compiler on this machine",
+)
+def test_cached_derivatives_load_without_generating(tmp_path):
+    """A new process whose robot's derivative library is cached loads it without
+    generating the symbolic models (the first process generated and compiled them), and
+    gives the same Jacobians (bit for bit: the same library)."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([src, *sys.path]),
+        "STEWART_PIN_CACHE": str(tmp_path / "cache"),
+        "STEWART_PIN_BACKEND": "auto",
+    }
+
+    def run(forbid: bool) -> list[str]:
+        code = DERIVATIVES_CALL.format(forbid=forbid)
+        out = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+        )
+        assert out.returncode == 0, out.stderr
+        return out.stdout.split(maxsplit=2)
+
+    first = run(False)
+    assert first[:2] == ["compiled", "True"]
+    again = run(True)
+    assert again[:2] == ["compiled", "False"]
+    assert json.loads(again[2]) == json.loads(first[2])
