@@ -12,10 +12,12 @@ A name must not be that of one of the package's own submodules (importing the su
 would set the package's attribute to the module): such a name is imported eagerly.
 
 :func:`lazy_module` is the same for a whole third-party module a module uses only inside
-its functions; :data:`casadi` is CasADi so, for the code generator (a robot whose compiled
-library is cached answers without importing it)::
+its functions; :data:`casadi` and :data:`pinocchio` are CasADi and Pinocchio so, for the
+code generator and the modules a robot's construction imports (a robot whose compiled
+library is cached answers without importing either)::
 
     from stewart_pin._lazy import casadi as cs
+    from stewart_pin._lazy import pinocchio as pin
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import types
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
-__all__ = ["casadi", "lazy_module", "lazy_names"]
+__all__ = ["casadi", "lazy_module", "lazy_names", "pinocchio"]
 
 
 def lazy_names(
@@ -71,6 +73,9 @@ def lazy_module(name: str) -> Any:
 
 if TYPE_CHECKING:
     import casadi as casadi
+    import pinocchio as pinocchio
 else:
-    #: CasADi, imported on first use (type checkers see the module itself).
+    #: CasADi and Pinocchio, imported on first use (type checkers see the modules
+    #: themselves): a robot whose compiled library is cached answers without either.
     casadi = lazy_module("casadi")
+    pinocchio = lazy_module("pinocchio")
