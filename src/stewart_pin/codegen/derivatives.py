@@ -32,7 +32,9 @@ library of its own per robot (the inverse model's on construction, the direct mo
 its first call: a first use generates and compiles one model only) through
 :func:`.compiled.build_source_library` (the cache, its key, its integrity rules, lock and
 build of :mod:`.compiled`), with a batch loop in C that flags non-finite results; a library
-found in the cache is loaded without generating anything. It is compiled without
+found in the cache is loaded without generating anything. A large one (more than
+:data:`BACKGROUND_INSTRUCTIONS` instructions: chain legs) compiles in a background thread
+while CasADi's virtual machine answers (:meth:`CompiledDerivatives.wait` waits for it). It is compiled without
 optimisation (:data:`.compiled.QUICK_CFLAGS`): the first use takes seconds (about 0.7 s to
 differentiate and generate, 1.3-1.8 s to compile the 6-UPS inverse model's, announced on
 stderr) instead of 20-50 s at -O2, for calls about 2x slower
@@ -104,11 +106,19 @@ __all__ = [
 THREAD_MIN_STATES = 64
 #: States per CasADi VM call in the fallback.
 VM_CHUNK = 1024
+#: A model's Jacobians with more CasADi instructions than this are compiled in a background
+#: thread on first use while CasADi's VM answers (about 5 s of compilation at -O0 and
+#: more: chain legs; the 6-UPS and three-joint legs have 10 000 to 40 000).
+BACKGROUND_INSTRUCTIONS = 60_000
 #: Numbers per state of the compiled output: the three (6, 6) Jacobians, row-major.
 _NOUT = 108
 _NAMES = {"idm": "sp_idm_derivatives", "ddm": "sp_ddm_derivatives"}
 _OUTPUTS = {"idm": "inverse dynamics derivatives", "ddm": "direct dynamics derivatives"}
 _WARNED: set[str] = set()
+
+
+class _NotCached(Exception):
+    """A library is not in the cache (the probe of :meth:`CompiledDerivatives._library`)."""
 
 
 # ---------------------------------------------------------------------------- results
@@ -433,11 +443,13 @@ class CompiledDerivatives:
         #: Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought.
         self.kinds: dict[str, str] = {}
         self._build_lock = threading.Lock()
+        self._builders: dict[str, threading.Thread] = {}
         self._lock = threading.Lock()
         self._one_out = np.zeros(_NOUT)
         self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
         self._chi_ptr = ctypes.c_void_p(self._values.base_values.ctypes.data)
-        self.kind, self.reason, self.library, self.compiled_now = self._library("idm")
+        with self._build_lock:  # a background build's result is set after these
+            self.kind, self.reason, self.library, self.compiled_now = self._library("idm")
 
     def __repr__(self) -> str:
         return f"CompiledDerivatives({self.robot!r}, kind={self.kind!r})"
@@ -454,33 +466,99 @@ class CompiledDerivatives:
         return symbolic_derivative(symbolic_models_for(self.robot), which)[1]
 
     def _library(self, which: str) -> tuple[str, str | None, Path | None, bool]:
-        """Build (or find in the cache) and load the library of one model's Jacobians:
+        """Find in the cache (or build) and load the library of one model's Jacobians:
         ``(kind, reason, library, compiled_now)``; the VM (with one warning) when it
-        cannot be built or loaded."""
-        kind, reason, library, now = "vm", None, None, False
+        cannot be built or loaded. A library not in the cache whose function has more than
+        :data:`BACKGROUND_INSTRUCTIONS` instructions is compiled in a background thread
+        (:meth:`_compile_in_background`): the VM answers until it is loaded."""
         if self._compiler is False:
-            reason = "compiler disabled"
-        else:
-            what = "" if which == "idm" else "the direct model's "
+            return self._vm(which, "compiler disabled")
+        what = "" if which == "idm" else "the direct model's "
+        announce = f"{what}the exact derivatives of robot '{printable_name(self._desc)}'"
+        identity = library_identity(self._desc, f"derivatives {which}")
+
+        def not_cached() -> str:
+            raise _NotCached
+
+        try:
+            try:  # the cache first: nothing generated for a library found there
+                library, now = self._build(which, not_cached, announce, identity)
+                return self._compiled(which, library, now)
+            except _NotCached:
+                pass
+            flat = self._flat(which)
+            if flat.n_instructions() > BACKGROUND_INSTRUCTIONS:
+                return self._compile_in_background(which, flat, announce, identity)
+            library, now = self._build(
+                which, lambda: functions_c_source({which: flat}), announce, identity
+            )
+            return self._compiled(which, library, now)
+        except UnsafeCacheError:
+            raise
+        except (CompilationError, OSError, AttributeError) as e:
+            return self._vm(which, str(e).splitlines()[0] if str(e) else type(e).__name__)
+
+    def _build(
+        self, which: str, source_of: Any, announce: str, identity: str | None
+    ) -> tuple[Path, bool]:
+        return build_source_library(
+            source_of,
+            self._cache_dir,
+            self._compiler if isinstance(self._compiler, str) else None,
+            lambda path: self._load(which, path),
+            announce,
+            identity,
+            QUICK_CFLAGS,
+        )
+
+    def _compiled(
+        self, which: str, library: Path, now: bool
+    ) -> tuple[str, str | None, Path | None, bool]:
+        self.kinds[which] = "compiled"
+        return "compiled", None, library, now
+
+    def _vm(self, which: str, reason: str) -> tuple[str, str | None, Path | None, bool]:
+        _warn_once(reason)
+        self.kinds[which] = "vm"
+        return "vm", reason, None, False
+
+    def _compile_in_background(
+        self, which: str, flat: cs.Function, announce: str, identity: str | None
+    ) -> tuple[str, str | None, Path | None, bool]:
+        """Compile one model's library in a thread (announced on stderr like any build)
+        while CasADi's VM answers; once loaded, the calls take it (and for the inverse
+        model :attr:`kind` becomes ``"compiled"``). The thread is not a daemon: a process
+        that ends meanwhile waits for it, and the library is cached."""
+
+        def build() -> None:
             try:
-                library, now = build_source_library(
-                    lambda: functions_c_source({which: self._flat(which)}),
-                    self._cache_dir,
-                    self._compiler if isinstance(self._compiler, str) else None,
-                    lambda path: self._load(which, path),
-                    f"{what}the exact derivatives of robot '{printable_name(self._desc)}'",
-                    library_identity(self._desc, f"derivatives {which}"),
-                    QUICK_CFLAGS,
+                library, now = self._build(
+                    which,
+                    lambda: functions_c_source({which: flat}),
+                    f"{announce} in the background (CasADi's virtual machine answers meanwhile)",
+                    identity,
                 )
-                kind = "compiled"
-            except UnsafeCacheError:
-                raise
-            except (CompilationError, OSError, AttributeError) as e:
-                reason = str(e).splitlines()[0] if str(e) else type(e).__name__
-        if kind == "vm":
-            _warn_once(reason or "unknown")
-        self.kinds[which] = kind
-        return kind, reason, library, now
+            except Exception as e:  # a failed build leaves the VM, said once
+                _warn_once(str(e).splitlines()[0] if str(e) else type(e).__name__)
+                return
+            with self._build_lock:
+                if which == "idm":
+                    self.kind, self.reason = "compiled", None
+                    self.library, self.compiled_now = library, now
+                self.kinds[which] = "compiled"
+
+        thread = threading.Thread(target=build, name=f"stewart-pin-{which}-derivatives")
+        self._builders[which] = thread
+        self.kinds[which] = "vm"
+        thread.start()
+        return "vm", "compiling in the background", None, False
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the libraries compiling in the background (at most ``timeout`` seconds
+        each); whether none is still compiling."""
+        for thread in list(self._builders.values()):
+            thread.join(timeout)
+        return not any(t.is_alive() for t in self._builders.values())
 
     def _kind_of(self, which: str) -> str:
         """The kind of one model's Jacobians, its library sought on first use."""
