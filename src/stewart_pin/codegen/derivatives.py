@@ -33,8 +33,9 @@ its first call: a first use generates and compiles one model only) through
 :func:`.compiled.build_source_library` (the cache, its key, its integrity rules, lock and
 build of :mod:`.compiled`), with a batch loop in C that flags non-finite results; a library
 found in the cache is loaded without generating anything. A large one (more than
-:data:`BACKGROUND_INSTRUCTIONS` instructions: chain legs) compiles in a background thread
-while CasADi's virtual machine answers (:meth:`CompiledDerivatives.wait` waits for it). It is compiled without
+:data:`BACKGROUND_INSTRUCTIONS` instructions: chain legs) compiles in a background thread,
+started once the first call has its answer, while CasADi's virtual machine answers
+(:meth:`CompiledDerivatives.wait` waits for it). It is compiled without
 optimisation (:data:`.compiled.QUICK_CFLAGS`): the first use takes seconds (about 0.7 s to
 differentiate and generate, 1.3-1.8 s to compile the 6-UPS inverse model's, announced on
 stderr) instead of 20-50 s at -O2, for calls about 2x slower
@@ -53,6 +54,7 @@ derivatives computed, and a non-finite one raises
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import threading
@@ -547,15 +549,23 @@ class CompiledDerivatives:
                     self.library, self.compiled_now = library, now
                 self.kinds[which] = "compiled"
 
+        # started once the first call has its answer (CasADi's code generator holds the GIL)
         thread = threading.Thread(target=build, name=f"stewart-pin-{which}-derivatives")
         self._builders[which] = thread
         self.kinds[which] = "vm"
-        thread.start()
         return "vm", "compiling in the background", None, False
+
+    def _start_builds(self) -> None:
+        """Start the background builds not started yet."""
+        for thread in list(self._builders.values()):
+            if thread.ident is None:
+                with contextlib.suppress(RuntimeError):  # started meanwhile by another call
+                    thread.start()
 
     def wait(self, timeout: float | None = None) -> bool:
         """Wait for the libraries compiling in the background (at most ``timeout`` seconds
         each); whether none is still compiling."""
+        self._start_builds()
         for thread in list(self._builders.values()):
             thread.join(timeout)
         return not any(t.is_alive() for t in self._builders.values())
@@ -621,6 +631,8 @@ class CompiledDerivatives:
             any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
         else:
             any_flag = self._run_vm(which, n, T, V, X, chi, out, flags)
+            if self._builders:
+                self._start_builds()
         if any_flag:
             bad = flags != 0
             raise NumericalError(_OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), n)
