@@ -109,9 +109,10 @@ THREAD_MIN_STATES = 64
 #: States per CasADi VM call in the fallback.
 VM_CHUNK = 1024
 #: A model's Jacobians with more CasADi instructions than this are compiled in a background
-#: thread on first use while CasADi's VM answers (about 5 s of compilation at -O0 and
-#: more: chain legs; the 6-UPS and three-joint legs have 10 000 to 40 000).
-BACKGROUND_INSTRUCTIONS = 60_000
+#: thread on first use while CasADi's VM answers (about 3 s of compilation at -O0 and
+#: more: chain legs about 140 000, custom legs 41 000 to 57 000; the 6-UPS and the named
+#: three-joint legs 19 000 to 42 000).
+BACKGROUND_INSTRUCTIONS = 40_000
 #: Numbers per state of the compiled output: the three (6, 6) Jacobians, row-major.
 _NOUT = 108
 _NAMES = {"idm": "sp_idm_derivatives", "ddm": "sp_ddm_derivatives"}
