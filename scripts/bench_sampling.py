@@ -2,7 +2,8 @@
 
 Median wall-clock time [s] of ``robot.sample_states(n, seed)`` (default n = 10 000) per
 preset: the ideal 6-UPS ``simulator`` and the general legs ``ups-offset``, ``rus``,
-``pus`` and a random custom robot (``random-custom-0``), with the fraction of draws the
+``pus``, a random custom robot (``random-custom-0``) and the chain legs ``welded-ups`` and
+``mixed-chain``, with the fraction of draws the
 sampler accepted (the rest leave a limit or come too near a singularity). The aim is
 under 1 s for 10 000 states on every architecture. The robot is built (and its caches
 warmed by one small call) before timing.
@@ -14,8 +15,12 @@ from __future__ import annotations
 
 import argparse
 
-from stewart_pin import StewartRobot
-from stewart_pin.apps.bench_sections import SAMPLING_PRESETS, acceptance, sampling_seconds
+from stewart_pin.apps.bench_sections import (
+    SAMPLING_PRESETS,
+    acceptance,
+    bench_robot,
+    sampling_seconds,
+)
 
 
 def main() -> None:
@@ -27,7 +32,7 @@ def main() -> None:
     print(f"{'preset':<18}{'median [s]':>12}{'per state [us]':>16}{'accepted':>10}")
     for name in args.presets:
         med = sampling_seconds(name, args.n, args.repeats)
-        rate = acceptance(StewartRobot.from_preset(name), min(args.n, 2000))
+        rate = acceptance(bench_robot(name), min(args.n, 2000))
         print(f"{name:<18}{med:>12.3f}{med / args.n * 1e6:>16.1f}{rate:>10.0%}")
 
 

@@ -53,7 +53,7 @@ def main() -> None:
             met = "met" if (f["median_s"] or 0.0) < aim else "NOT met"
             verdict = f"  aim < {aim:.1f} s: {met}"
         print(
-            f"  {label:45s} {f['median_s']:6.3f} s (min {f['min_s']:.3f}, CPU "
+            f"  {label:62s} {f['median_s']:6.3f} s (min {f['min_s']:.3f}, CPU "
             f"{f['cpu_median_s']:.3f}){verdict}"
         )
     if a.json:

@@ -10,16 +10,25 @@ for type checkers)::
 
 A name must not be that of one of the package's own submodules (importing the submodule
 would set the package's attribute to the module): such a name is imported eagerly.
+
+:func:`lazy_module` is the same for a whole third-party module a module uses only inside
+its functions; :data:`casadi` and :data:`pinocchio` are CasADi and Pinocchio so, for the
+code generator and the modules a robot's construction imports (a robot whose compiled
+library is cached answers without importing either)::
+
+    from stewart_pin._lazy import casadi as cs
+    from stewart_pin._lazy import pinocchio as pin
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
+import types
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["lazy_names"]
+__all__ = ["casadi", "lazy_module", "lazy_names", "pinocchio"]
 
 
 def lazy_names(
@@ -42,3 +51,31 @@ def lazy_names(
         return sorted({*vars(sys.modules[package]), *table})
 
     return __getattr__, __dir__
+
+
+class _LazyModule(types.ModuleType):
+    """A stand-in for a module, imported on the first attribute read; the module's
+    namespace is then copied in, so that later reads are plain look-ups."""
+
+    def __getattr__(self, attr: str) -> Any:  # only for names not (yet) in the namespace
+        if attr.startswith("__") and attr.endswith("__") and attr != "__version__":
+            raise AttributeError(attr)  # copy, pickle and the like probing the stand-in
+        module = importlib.import_module(self.__name__)
+        self.__dict__.update(vars(module))
+        return getattr(module, attr)
+
+
+def lazy_module(name: str) -> Any:
+    """The module ``name`` (absolute), imported on the first read of one of its attributes
+    (the module docstring's example); nothing is imported before."""
+    return _LazyModule(name)
+
+
+if TYPE_CHECKING:
+    import casadi as casadi
+    import pinocchio as pinocchio
+else:
+    #: CasADi and Pinocchio, imported on first use (type checkers see the modules
+    #: themselves): a robot whose compiled library is cached answers without either.
+    casadi = lazy_module("casadi")
+    pinocchio = lazy_module("pinocchio")

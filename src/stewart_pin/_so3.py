@@ -127,10 +127,38 @@ def so3_left_jacobian_inverse(xi: np.ndarray) -> np.ndarray:
     return pin.Jlog3(pin.exp3(xi)).T
 
 
+#: Past this rotation angle [rad] :func:`so3_log` takes the axis from the symmetric part
+#: of R (the antisymmetric part ``sin t a^`` vanishes at pi).
+_LOG_SYMMETRIC_ANGLE = 2.0
+
+
 def so3_log(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors (N, 3) [rad] of rotation matrices R (N, 3, 3) (``pin.log3``)."""
-    log3 = _pin().log3
-    return np.array([log3(r) for r in R]).reshape(-1, 3)
+    """Rotation vectors (N, 3) [rad], angles in [0, pi], of rotation matrices R (N, 3, 3)
+    (``pin.log3``, vectorised over the batch).
+
+    With ``v = vee(R - R^T) / 2 = sin t a`` and ``c = (tr R - 1) / 2 = cos t``:
+    ``t = atan2(|v|, c)`` and ``r = t v / |v|`` (``r = v`` at ``|v| = 0``, t = 0); past
+    :data:`_LOG_SYMMETRIC_ANGLE` the axis comes from ``(R + R^T) / 2 - c I = (1 - c) a a^T``
+    (its largest diagonal entry's column), signed along v."""
+    R = np.asarray(R, dtype=float).reshape(-1, 3, 3)
+    v = 0.5 * np.stack(
+        [R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=-1
+    )
+    c = 0.5 * (R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0)
+    s = np.sqrt(np.einsum("ni,ni->n", v, v))
+    t = np.arctan2(s, c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = v * np.where(s > 0.0, t / np.where(s > 0.0, s, 1.0), 1.0)[:, None]
+    wide = np.flatnonzero(t > _LOG_SYMMETRIC_ANGLE)
+    if wide.size:
+        Rw, cw = R[wide], c[wide]
+        B = 0.5 * (Rw + np.swapaxes(Rw, 1, 2)) - cw[:, None, None] * np.eye(3)
+        k = np.argmax(np.diagonal(B, axis1=1, axis2=2), axis=1)
+        col = B[np.arange(wide.size), :, k]  # (1 - c) a_k a
+        axis = col / np.linalg.norm(col, axis=1)[:, None]
+        sign = np.where(np.einsum("ni,ni->n", axis, v[wide]) < 0.0, -1.0, 1.0)
+        out[wide] = (sign * t[wide])[:, None] * axis
+    return out
 
 
 # ------------------------------------------------------------------------- quaternions

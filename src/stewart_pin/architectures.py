@@ -24,12 +24,13 @@ and pickles as before.
 
 from __future__ import annotations
 
-from typing import Any, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
+from stewart_pin._lazy import lazy_module
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._typing import (
     Accels,
     ArrayLike,
@@ -61,7 +62,7 @@ from stewart_pin.exceptions import (
     StewartPinError,
     UnsupportedArchitectureError,
 )
-from stewart_pin.kinematics import chain_legs, geometry, leg_chains, workspace
+from stewart_pin.kinematics import chain_legs, geometry, leg_chains
 from stewart_pin.kinematics import jacobians as kinematics
 from stewart_pin.kinematics.forward_geometry import forward_geometry
 from stewart_pin.kinematics.jacobians import leg_state
@@ -73,6 +74,11 @@ from stewart_pin.models.pinocchio_models import (
     build_legs_model,
     build_tree,
 )
+
+if TYPE_CHECKING:
+    from stewart_pin.kinematics import workspace
+else:  # the sampling (Pinocchio's exponential) on first use
+    workspace = lazy_module("stewart_pin.kinematics.workspace")
 
 __all__ = [
     "ChainLegPath",

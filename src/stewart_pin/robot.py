@@ -37,9 +37,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_poses, check_scalar, check_states
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._typing import (
     Accels,
     ArrayLike,

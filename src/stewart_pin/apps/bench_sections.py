@@ -140,6 +140,16 @@ def payload_rows(
 # --- the compiled calls and batches (scripts/bench_compiled_calls.py) -----------------
 
 
+def bench_robot(name: str) -> StewartRobot:
+    """The robot of a preset name: :func:`StewartRobot.from_preset`'s, or a chain-leg
+    preset (``welded-ups``, ``mixed-chain``:
+    :data:`~stewart_pin.description.chain_leg_presets.CHAIN_PRESETS`)."""
+    from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
+
+    chain = CHAIN_PRESETS.get(name)
+    return StewartRobot(chain()) if chain else StewartRobot.from_preset(name)
+
+
 def raw_call(
     backend: object, which: str, n: int, T: np.ndarray, V: np.ndarray, X: np.ndarray
 ) -> tuple[object, tuple[object, ...]]:
@@ -179,10 +189,8 @@ def compiled_call_rows(
     import ctypes
 
     from stewart_pin.codegen import CompiledDynamics, compiled_backend
-    from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
 
-    chain = CHAIN_PRESETS.get(preset)  # a chain-leg robot (welded-ups, mixed-chain)
-    robot = StewartRobot(chain()) if chain else StewartRobot.from_preset(preset)
+    robot = bench_robot(preset)
     big = max(batches)
     poses, twists, accels = robot.sample_states(min(2000, big), 0)  # any architecture
     idx = np.arange(big) % poses.shape[0]
@@ -238,13 +246,21 @@ def compiled_call_rows(
 
 # --- state sampling (scripts/bench_sampling.py) ---------------------------------------
 
-SAMPLING_PRESETS = ("simulator", "ups-offset", "rus", "pus", "random-custom-0")
+SAMPLING_PRESETS = (
+    "simulator",
+    "ups-offset",
+    "rus",
+    "pus",
+    "random-custom-0",
+    "welded-ups",
+    "mixed-chain",
+)
 
 
 def sampling_seconds(name: str, n: int, repeats: int) -> float:
     """Median [s] of ``robot.sample_states(n, seed)`` over the seeds 0 to ``repeats - 1``
     (the robot built and warmed by a small call before timing)."""
-    robot = StewartRobot.from_preset(name)
+    robot = bench_robot(name)
     robot.sample_states(10, 0)  # warm-up: the robot's cached views and constants
     times = []
     for seed in range(repeats):
@@ -289,13 +305,19 @@ STARTUP_CASES = (
 )
 
 
-def environment(cache: str) -> dict[str, str]:
+def environment(cache: str, pycache: str | None = None) -> dict[str, str]:
     """The fresh processes' environment: this checkout's ``src`` first, ``cache`` as the
-    library cache, the default backend ``auto``."""
+    library cache, the default backend ``auto``; with ``pycache``, Python's bytecode cache
+    there (``PYTHONPYCACHEPREFIX``, ``PYTHONDONTWRITEBYTECODE`` unset): the package's
+    modules are then compiled once, as an installed package's are, instead of in every
+    process when bytecode is not written (about 0.3 s of each new process here)."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(SRC), env.get("PYTHONPATH")]))
     env["STEWART_PIN_CACHE"] = cache
     env["STEWART_PIN_BACKEND"] = "auto"
+    if pycache is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = pycache
     return env
 
 
@@ -314,19 +336,30 @@ def timed(args: list[str], env: dict[str, str]) -> tuple[float, float]:
 def startup_figures(runs: int, preset: str) -> dict[str, dict[str, float | None]]:
     """Per case (:data:`STARTUP_CASES` and the first call on a cached ``preset``), the
     median, minimum and median CPU seconds of ``runs`` fresh processes, and its aim [s]; the
-    cache a temporary folder filled once before timing."""
+    cache a temporary folder filled once before timing. The processes keep Python's
+    bytecode in a temporary folder (:func:`environment`), filled by a first, untimed run of
+    each case, as an installed package has it; the first call is also timed without it
+    (every module of the package compiled in each process: a checkout run with
+    ``PYTHONDONTWRITEBYTECODE``)."""
     with tempfile.TemporaryDirectory(prefix="stewart-pin-startup-") as tmp:
         cache = os.path.join(tmp, "cache")
-        env = environment(cache)
+        env = environment(cache, pycache=os.path.join(tmp, "pycache"))
+        bare = environment(cache)
+        bare["PYTHONDONTWRITEBYTECODE"] = "1"
         first = FIRST_CALL.format(preset=preset)
         # fill the cache (compiles once, not timed): the build's own process
         fill = first.replace("and not backend.compiled_now", "")
         subprocess.run([sys.executable, "-c", fill], env=env, check=True, capture_output=True)
-        cases = [*STARTUP_CASES, (f"first call on a cached robot ({preset})", ["-c", first], 0.5)]
+        label = f"first call on a cached robot ({preset})"
+        cases = [
+            *((*case, env) for case in STARTUP_CASES),
+            (label, ["-c", first], 0.5, env),
+            (f"{label}, no bytecode cache", ["-c", first], None, bare),
+        ]
         out: dict[str, dict[str, float | None]] = {}
-        for label, args, aim in cases:
-            timed(args, env)  # warm the file-system cache
-            wall, cpu = zip(*(timed(args, env) for _ in range(runs)), strict=True)
+        for label, args, aim, case_env in cases:
+            timed(args, case_env)  # warm the file-system and bytecode caches
+            wall, cpu = zip(*(timed(args, case_env) for _ in range(runs)), strict=True)
             out[label] = {
                 "median_s": statistics.median(wall),
                 "min_s": min(wall),
@@ -338,17 +371,27 @@ def startup_figures(runs: int, preset: str) -> dict[str, dict[str, float | None]
 
 # --- fresh processes: first use of the derivatives (scripts/bench_derivatives.py) -----
 
-#: The presets timed by ``--first-use``: every named preset (the three ideal 6-UPS share
-#: one generator, so ``paper`` stands for ``desktop`` too) and every leg preset.
-FIRST_USE_PRESETS = ("simulator", "desktop", "paper", "ups-offset", "rus", "pus")
+#: The presets timed by ``--first-use``: every named preset, every leg preset, a random
+#: robot with custom legs and the chain-leg presets.
+FIRST_USE_PRESETS = (
+    "simulator",
+    "desktop",
+    "paper",
+    "ups-offset",
+    "rus",
+    "pus",
+    "random-custom-0",
+    "welded-ups",
+    "mixed-chain",
+)
 #: What runs in the new process: a value call first (its library cached by an earlier
 #: process, as it stands after any use of the robot), then the timed first derivatives
 #: call (``sys.argv[2]``: "time"; else only the value call, to fill the cache).
 _FIRST_USE = """
 import sys, time
-from stewart_pin import StewartRobot
+from stewart_pin.apps.bench_sections import bench_robot
 from stewart_pin.codegen import compiled
-robot = StewartRobot.from_preset(sys.argv[1])
+robot = bench_robot(sys.argv[1])
 P, V, A = robot.sample_states(1, 0)
 robot.inverse_dynamics(P[0], V[0], A[0], backend="compiled")
 if sys.argv[2] != "time":

@@ -24,9 +24,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-import casadi as cs
 import numpy as np
 
+from stewart_pin._lazy import casadi as cs  # imported on first use
 from stewart_pin.codegen import _csource
 from stewart_pin.codegen._resolution import (
     ChainReferenceResults,

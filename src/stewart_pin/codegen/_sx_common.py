@@ -14,9 +14,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, cast
 
-import casadi as cs
 import numpy as np
 
+from stewart_pin._lazy import casadi as cs  # imported on first use
 from stewart_pin._so3 import rotation_rows_from_quaternion_xyzw
 from stewart_pin.exceptions import InputError
 

@@ -42,9 +42,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import casadi as cs
 import numpy as np
 
+from stewart_pin._lazy import casadi as cs  # imported on first use
 from stewart_pin.codegen._sx_common import (
     Mat,
     ModelConstants,

@@ -81,14 +81,13 @@ import threading
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import casadi as cs
 import numpy as np
 
 from stewart_pin._checks import ROTATION_TOLERANCE, check_array, check_states
+from stewart_pin._lazy import casadi as cs  # imported on first use
 from stewart_pin.codegen import _csource, _simd
 from stewart_pin.codegen._architecture import UPS_AUX_LAYOUT as UPS_AUX_LAYOUT  # its old home
 from stewart_pin.codegen._architecture import codegen_kind, generate_models
@@ -111,6 +110,9 @@ from stewart_pin.kinematics.jacobians import (
     scaled_inverse_jacobian,
 )
 from stewart_pin.protocols import RobotLike
+
+if TYPE_CHECKING:
+    from concurrent.futures import ThreadPoolExecutor
 
 try:  # POSIX
     import fcntl
@@ -746,6 +748,8 @@ def _pool(threads: int) -> ThreadPoolExecutor:
     with _POOLS_LOCK:
         pool = _POOLS.get(threads)
         if pool is None:
+            from concurrent.futures import ThreadPoolExecutor  # on first use: start-up
+
             pool = ThreadPoolExecutor(threads - 1, thread_name_prefix="stewart-pin-c")
             _POOLS[threads] = pool
         return pool

@@ -27,12 +27,18 @@ takes any :class:`~.symbolic.SymbolicModels` whose ``idm`` / ``ddm`` have the si
 ``(pose (16, row-major 0Tp), twist (6), accel | gamma (6), base_parameters) -> (6)``.
 Which robots have such models is decided in one place, :func:`symbolic_models_for`.
 
-Compiled. :class:`CompiledDerivatives` compiles the two Jacobian functions into one shared
-library per robot through :func:`.compiled.build_source_library` (the cache, its key, its
-integrity rules, lock and build of :mod:`.compiled`), with a batch loop in C that flags
-non-finite results. It is compiled without optimisation (:data:`.compiled.QUICK_CFLAGS`):
-the first use takes seconds (about 1.5 s to differentiate and generate, 2.5-3.5 s to
-compile, announced on stderr) instead of 20-50 s at -O2, for calls about 2x slower
+Compiled. :class:`CompiledDerivatives` compiles each Jacobian function into a shared
+library of its own per robot (the inverse model's on construction, the direct model's on
+its first call: a first use generates and compiles one model only) through
+:func:`.compiled.build_source_library` (the cache, its key, its integrity rules, lock and
+build of :mod:`.compiled`), with a batch loop in C that flags non-finite results; a library
+found in the cache is loaded without generating anything. A large one (more than
+:data:`BACKGROUND_INSTRUCTIONS` instructions: chain legs) compiles in a background thread,
+started once the first call has its answer, while CasADi's virtual machine answers
+(:meth:`CompiledDerivatives.wait` waits for it). It is compiled without
+optimisation (:data:`.compiled.QUICK_CFLAGS`): the first use takes seconds (about 0.7 s to
+differentiate and generate, 1.3-1.8 s to compile the 6-UPS inverse model's, announced on
+stderr) instead of 20-50 s at -O2, for calls about 2x slower
 (``scripts/bench_derivatives.py --first-use`` measures both). It runs batches on
 :attr:`CompiledDerivatives.threads` threads (the process-wide pool of :mod:`.compiled`).
 Without a C compiler it evaluates the same functions in CasADi's virtual machine, with one
@@ -48,7 +54,9 @@ derivatives computed, and a non-finite one raises
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import functools
 import threading
 import warnings
 import weakref
@@ -87,8 +95,10 @@ __all__ = [
     "SymbolicDerivatives",
     "derivatives_backend",
     "derivatives_c_source",
+    "functions_c_source",
     "perturbed_pose",
     "symbolic_actuators_for",
+    "symbolic_derivative",
     "symbolic_derivatives",
     "symbolic_models_for",
 ]
@@ -98,11 +108,20 @@ __all__ = [
 THREAD_MIN_STATES = 64
 #: States per CasADi VM call in the fallback.
 VM_CHUNK = 1024
+#: A model's Jacobians with more CasADi instructions than this are compiled in a background
+#: thread on first use while CasADi's VM answers (about 3 s of compilation at -O0 and
+#: more: chain legs about 140 000, custom legs 41 000 to 57 000; the 6-UPS and the named
+#: three-joint legs 19 000 to 42 000).
+BACKGROUND_INSTRUCTIONS = 40_000
 #: Numbers per state of the compiled output: the three (6, 6) Jacobians, row-major.
 _NOUT = 108
 _NAMES = {"idm": "sp_idm_derivatives", "ddm": "sp_ddm_derivatives"}
 _OUTPUTS = {"idm": "inverse dynamics derivatives", "ddm": "direct dynamics derivatives"}
 _WARNED: set[str] = set()
+
+
+class _NotCached(Exception):
+    """A library is not in the cache (the probe of :meth:`CompiledDerivatives._library`)."""
 
 
 # ---------------------------------------------------------------------------- results
@@ -194,31 +213,39 @@ def _jacobians(model: cs.Function, name: str) -> tuple[cs.Function, cs.Function]
     blocks = [J[:, 6 * k : 6 * k + 6] for k in range(3)]
     out_names = ["d_pose", "d_twist", f"d_{names[2]}"]
     flat = cs.cse(cs.vertcat(*[cs.vec(b.T) for b in blocks]))  # row-major blocks
-    split = cs.cse(blocks)
+    # the matrices from the flat entries (one elimination of common sub-expressions)
+    split = [cs.reshape(flat[36 * k : 36 * k + 36], 6, 6).T for k in range(3)]
     return (
         cs.Function(f"{name}_matrices", x, split, names, out_names),
         cs.Function(name, x, [flat], names, ["derivatives"]),
     )
 
 
-_SYMBOLIC: dict[int, SymbolicDerivatives] = {}
-_SYMBOLIC_SIZE = 16
+_SYMBOLIC: dict[tuple[int, str], tuple[SymbolicModels, cs.Function, cs.Function]] = {}
+_SYMBOLIC_SIZE = 32
+
+
+def symbolic_derivative(models: SymbolicModels, which: str) -> tuple[cs.Function, cs.Function]:
+    """The Jacobians of one of ``models``' functions (``which``: ``"idm"`` or ``"ddm"``)
+    as :class:`SymbolicDerivatives` has them (the matrices, then the flat output), built
+    once per models object and model: a first use builds only the model it needs."""
+    key = (id(models), which)
+    found = _SYMBOLIC.get(key)
+    if found is not None and found[0] is models:
+        return found[1], found[2]
+    if len(_SYMBOLIC) >= _SYMBOLIC_SIZE:
+        _SYMBOLIC.pop(next(iter(_SYMBOLIC)))
+    matrices, flat = _jacobians(models.idm if which == "idm" else models.ddm, _NAMES[which])
+    _SYMBOLIC[key] = (models, matrices, flat)
+    return matrices, flat
 
 
 def symbolic_derivatives(models: SymbolicModels) -> SymbolicDerivatives:
     """The Jacobians of ``models`` (any architecture's, with a matrix pose input), built
-    once per models object."""
-    key = id(models)
-    found = _SYMBOLIC.get(key)
-    if found is not None and found.models is models:
-        return found
-    if len(_SYMBOLIC) >= _SYMBOLIC_SIZE:
-        _SYMBOLIC.pop(next(iter(_SYMBOLIC)))
-    idm, idm_flat = _jacobians(models.idm, _NAMES["idm"])
-    ddm, ddm_flat = _jacobians(models.ddm, _NAMES["ddm"])
-    result = SymbolicDerivatives(idm, ddm, idm_flat, ddm_flat, models)
-    _SYMBOLIC[key] = result
-    return result
+    once per models object (:func:`symbolic_derivative`)."""
+    idm, idm_flat = symbolic_derivative(models, "idm")
+    ddm, ddm_flat = symbolic_derivative(models, "ddm")
+    return SymbolicDerivatives(idm, ddm, idm_flat, ddm_flat, models)
 
 
 def symbolic_models_for(robot: RobotLike, coulomb_smoothing: float = 0.0) -> SymbolicModels:
@@ -287,22 +314,17 @@ SP_EXPORT int NAME(long long n, const double* pose, const double* twist,        
   return any;                                                                            \
 }
 
-SP_DERIVATIVE_BATCH(sp_idm_derivatives_batch, %(idm)s, %(idm_sz_arg)d, %(idm_sz_res)d,
-                    %(idm_sz_iw)d, %(idm_sz_w)d)
-SP_DERIVATIVE_BATCH(sp_ddm_derivatives_batch, %(ddm)s, %(ddm_sz_arg)d, %(ddm_sz_res)d,
-                    %(ddm_sz_iw)d, %(ddm_sz_w)d)
+"""
+#: One model's batch loop and single-state entry (``which``: ``idm`` or ``ddm``).
+_ENTRIES = r"""
+SP_DERIVATIVE_BATCH(sp_%(which)s_derivatives_batch, %(fn)s, %(sz_arg)d, %(sz_res)d,
+                    %(sz_iw)d, %(sz_w)d)
 
 /* One state packed in one read-only block (pose 16 row-major, twist 6, x 6): the
    single-state call from Python, as compiled.py's sp_idm_one. Returns the state's flag. */
-SP_EXPORT int sp_idm_derivatives_one(const double* in, const double* chi, double* out) {
+SP_EXPORT int sp_%(which)s_derivatives_one(const double* in, const double* chi, double* out) {
   int f;
-  sp_idm_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
-  return f;
-}
-
-SP_EXPORT int sp_ddm_derivatives_one(const double* in, const double* chi, double* out) {
-  int f;
-  sp_ddm_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
+  sp_%(which)s_derivatives_batch(1, in, in + 16, in + 22, chi, out, &f);
   return f;
 }
 """
@@ -311,21 +333,33 @@ SP_EXPORT int sp_ddm_derivatives_one(const double* in, const double* chi, double
 def derivatives_c_source(derivs: SymbolicDerivatives) -> str:
     """The C source of a robot's derivative library: CasADi's code of ``idm_flat`` and
     ``ddm_flat`` and the batch loops above (numbers only: no text from a description)."""
+    return functions_c_source({"idm": derivs.idm_flat, "ddm": derivs.ddm_flat})
+
+
+def functions_c_source(flat: dict[str, cs.Function]) -> str:
+    """The C source of the flat Jacobian functions ``flat`` (``"idm"`` / ``"ddm"`` -> the
+    function): CasADi's code and each one's batch loop and single-state entry (the
+    library of one model holds one)."""
     cg = cs.CodeGenerator(
         "stewart_derivatives.c",
         {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
     )
-    fi, fd = derivs.idm_flat, derivs.ddm_flat
-    cg.add(fi)
-    cg.add(fd)
-    wrapper = _TEMPLATE % {
-        "nout": _NOUT,
-        "idm": fi.name(),
-        "ddm": fd.name(),
-        **{f"idm_sz_{k}": getattr(fi, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
-        **{f"ddm_sz_{k}": getattr(fd, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
-    }
-    return f"/* Generated by stewart-pin (codegen/derivatives.py). */\n{cg.dump()}\n{wrapper}"
+    for f in flat.values():
+        cg.add(f)
+    entries = "".join(
+        _ENTRIES
+        % {
+            "which": which,
+            "fn": f.name(),
+            **{f"sz_{k}": getattr(f, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
+        }
+        for which, f in flat.items()
+    )
+    wrapper = _TEMPLATE % {"nout": _NOUT}
+    return (
+        f"/* Generated by stewart-pin (codegen/derivatives.py). */\n{cg.dump()}\n{wrapper}"
+        f"{entries}"
+    )
 
 
 # ---------------------------------------------------------------------------- backend
@@ -380,9 +414,15 @@ class CompiledDerivatives:
     Errors: those of the value models for the state, then
     :class:`~stewart_pin.exceptions.NumericalError` for a non-finite derivative.
 
+    Each model's Jacobians are a library of their own, generated and compiled on the first
+    call that needs them (the inverse model's on construction, the direct model's on the
+    first ``direct_dynamics_derivatives``): a first use waits for one model only. A
+    library found in the cache is loaded without generating anything.
+
     Attributes:
         kind: ``"compiled"`` or ``"vm"``; reason: why the VM is used. library: the shared
-        library's path; compiled_now: whether this construction compiled it. threads.
+        library's path; compiled_now: whether this construction compiled it (the inverse
+        model's library; :attr:`kinds` has each model's kind). threads.
     """
 
     def __init__(
@@ -393,62 +433,164 @@ class CompiledDerivatives:
         threads: int | None = None,
     ) -> None:
         self.robot = robot
-        self.symbolic = symbolic_derivatives(symbolic_models_for(robot))
         if cache_dir is None and compiler is None and threads is None:
             self._values = compiled_backend(robot)
         else:
             self._values = CompiledDynamics(robot, cache_dir, compiler, threads)
         self.threads: int = self._values.threads  # checked there
         self._desc = robot.description
-        self.kind, self.reason = "vm", None
-        self.library: Path | None = None
-        self.compiled_now = False
-        if compiler is False:
-            self.reason = "compiler disabled"
-        else:
-            try:
-                self.library, self.compiled_now = build_source_library(
-                    lambda: derivatives_c_source(self.symbolic),
-                    cache_dir,
-                    compiler if isinstance(compiler, str) else None,
-                    self._load,
-                    f"the exact derivatives of robot '{printable_name(self._desc)}'",
-                    library_identity(robot.description, "derivatives"),
-                    QUICK_CFLAGS,
-                )
-                self.kind = "compiled"
-            except UnsafeCacheError:
-                raise
-            except (CompilationError, OSError, AttributeError) as e:
-                self.reason = str(e).splitlines()[0] if str(e) else type(e).__name__
-        if self.kind == "vm":
-            _warn_once(self.reason or "unknown")
-
-    def __repr__(self) -> str:
-        return f"CompiledDerivatives({self.robot!r}, kind={self.kind!r})"
-
-    def _load(self, path: Path) -> None:
-        lib = ctypes.CDLL(str(path))
-        argtypes: list[Any] = [ctypes.c_longlong, *[ctypes.c_void_p] * 6]
-        self._c = {}
-        for which in ("idm", "ddm"):
-            fn = lib[f"{_NAMES[which]}_batch"]
-            fn.argtypes = argtypes
-            fn.restype = ctypes.c_int
-            self._c[which] = fn
-        self._lib = lib
-        # The single-state entries without argument types (the fastest ctypes call): a
-        # bytes block and prepared pointers; the result buffer's address taken once, a lock
-        # making it safe across threads (as compiled.py does).
-        self._c_one = {}
-        for which in ("idm", "ddm"):
-            one = lib[f"{_NAMES[which]}_one"]
-            one.restype = ctypes.c_int
-            self._c_one[which] = one
+        self._cache_dir, self._compiler = cache_dir, compiler
+        self._c: dict[str, Any] = {}
+        self._c_one: dict[str, Any] = {}
+        self._libs: dict[str, Any] = {}
+        #: Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought.
+        self.kinds: dict[str, str] = {}
+        self._build_lock = threading.Lock()
+        self._builders: dict[str, threading.Thread] = {}
         self._lock = threading.Lock()
         self._one_out = np.zeros(_NOUT)
         self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
         self._chi_ptr = ctypes.c_void_p(self._values.base_values.ctypes.data)
+        with self._build_lock:  # a background build's result is set after these
+            self.kind, self.reason, self.library, self.compiled_now = self._library("idm")
+
+    def __repr__(self) -> str:
+        return f"CompiledDerivatives({self.robot!r}, kind={self.kind!r})"
+
+    @functools.cached_property
+    def symbolic(self) -> SymbolicDerivatives:
+        """Both models' Jacobians as CasADi functions (generated on first use)."""
+        return symbolic_derivatives(symbolic_models_for(self.robot))
+
+    def _flat(self, which: str) -> cs.Function:
+        """The flat Jacobian function of one model (generated on first use)."""
+        if "symbolic" in self.__dict__:
+            return self.symbolic.idm_flat if which == "idm" else self.symbolic.ddm_flat
+        return symbolic_derivative(symbolic_models_for(self.robot), which)[1]
+
+    def _library(self, which: str) -> tuple[str, str | None, Path | None, bool]:
+        """Find in the cache (or build) and load the library of one model's Jacobians:
+        ``(kind, reason, library, compiled_now)``; the VM (with one warning) when it
+        cannot be built or loaded. A library not in the cache whose function has more than
+        :data:`BACKGROUND_INSTRUCTIONS` instructions is compiled in a background thread
+        (:meth:`_compile_in_background`): the VM answers until it is loaded."""
+        if self._compiler is False:
+            return self._vm(which, "compiler disabled")
+        what = "" if which == "idm" else "the direct model's "
+        announce = f"{what}the exact derivatives of robot '{printable_name(self._desc)}'"
+        identity = library_identity(self._desc, f"derivatives {which}")
+
+        def not_cached() -> str:
+            raise _NotCached
+
+        try:
+            try:  # the cache first: nothing generated for a library found there
+                library, now = self._build(which, not_cached, announce, identity)
+                return self._compiled(which, library, now)
+            except _NotCached:
+                pass
+            flat = self._flat(which)
+            if flat.n_instructions() > BACKGROUND_INSTRUCTIONS:
+                return self._compile_in_background(which, flat, announce, identity)
+            library, now = self._build(
+                which, lambda: functions_c_source({which: flat}), announce, identity
+            )
+            return self._compiled(which, library, now)
+        except UnsafeCacheError:
+            raise
+        except (CompilationError, OSError, AttributeError) as e:
+            return self._vm(which, str(e).splitlines()[0] if str(e) else type(e).__name__)
+
+    def _build(
+        self, which: str, source_of: Any, announce: str, identity: str | None
+    ) -> tuple[Path, bool]:
+        return build_source_library(
+            source_of,
+            self._cache_dir,
+            self._compiler if isinstance(self._compiler, str) else None,
+            lambda path: self._load(which, path),
+            announce,
+            identity,
+            QUICK_CFLAGS,
+        )
+
+    def _compiled(
+        self, which: str, library: Path, now: bool
+    ) -> tuple[str, str | None, Path | None, bool]:
+        self.kinds[which] = "compiled"
+        return "compiled", None, library, now
+
+    def _vm(self, which: str, reason: str) -> tuple[str, str | None, Path | None, bool]:
+        _warn_once(reason)
+        self.kinds[which] = "vm"
+        return "vm", reason, None, False
+
+    def _compile_in_background(
+        self, which: str, flat: cs.Function, announce: str, identity: str | None
+    ) -> tuple[str, str | None, Path | None, bool]:
+        """Compile one model's library in a thread (announced on stderr like any build)
+        while CasADi's VM answers; once loaded, the calls take it (and for the inverse
+        model :attr:`kind` becomes ``"compiled"``). The thread is not a daemon: a process
+        that ends meanwhile waits for it, and the library is cached."""
+
+        def build() -> None:
+            try:
+                library, now = self._build(
+                    which,
+                    lambda: functions_c_source({which: flat}),
+                    f"{announce} in the background (CasADi's virtual machine answers meanwhile)",
+                    identity,
+                )
+            except Exception as e:  # a failed build leaves the VM, said once
+                _warn_once(str(e).splitlines()[0] if str(e) else type(e).__name__)
+                return
+            with self._build_lock:
+                if which == "idm":
+                    self.kind, self.reason = "compiled", None
+                    self.library, self.compiled_now = library, now
+                self.kinds[which] = "compiled"
+
+        # started once the first call has its answer (CasADi's code generator holds the GIL)
+        thread = threading.Thread(target=build, name=f"stewart-pin-{which}-derivatives")
+        self._builders[which] = thread
+        self.kinds[which] = "vm"
+        return "vm", "compiling in the background", None, False
+
+    def _start_builds(self) -> None:
+        """Start the background builds not started yet."""
+        for thread in list(self._builders.values()):
+            if thread.ident is None:
+                with contextlib.suppress(RuntimeError):  # started meanwhile by another call
+                    thread.start()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the libraries compiling in the background (at most ``timeout`` seconds
+        each); whether none is still compiling."""
+        self._start_builds()
+        for thread in list(self._builders.values()):
+            thread.join(timeout)
+        return not any(t.is_alive() for t in self._builders.values())
+
+    def _kind_of(self, which: str) -> str:
+        """The kind of one model's Jacobians, its library sought on first use."""
+        kind = self.kinds.get(which)
+        if kind is None:
+            with self._build_lock:
+                kind = self.kinds.get(which) or self._library(which)[0]
+        return kind
+
+    def _load(self, which: str, path: Path) -> None:
+        lib = ctypes.CDLL(str(path))
+        argtypes: list[Any] = [ctypes.c_longlong, *[ctypes.c_void_p] * 6]
+        fn = lib[f"{_NAMES[which]}_batch"]
+        fn.argtypes = argtypes
+        fn.restype = ctypes.c_int
+        # The single-state entry without argument types (the fastest ctypes call): a bytes
+        # block and prepared pointers; the result buffer's address taken once, a lock
+        # making it safe across threads (as compiled.py does).
+        one = lib[f"{_NAMES[which]}_one"]
+        one.restype = ctypes.c_int
+        self._libs[which], self._c[which], self._c_one[which] = lib, fn, one
 
     # ------------------------------------------------------------------ public API
     def inverse_dynamics_derivatives(
@@ -474,21 +616,24 @@ class CompiledDerivatives:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The three Jacobians of a state or batch the value model has accepted."""
         chi = self._values.checked_base_values(base_values)
+        kind = self.kinds.get(which) or self._kind_of(which)
         arrays = _native(pose, twist, x)  # already checked by the value model
         if arrays is None:
             batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
         else:
             batched, T, V, X = arrays
-            if not batched and self.kind == "compiled":
+            if not batched and kind == "compiled":
                 return self._run_one(which, T, V, X, base_values, chi)
         T, V, X = (np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X))
         n = T.size // 16
         out = np.empty((n, _NOUT))
         flags = np.zeros(n, dtype=np.int32)
-        if self.kind == "compiled":
+        if kind == "compiled":
             any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
         else:
             any_flag = self._run_vm(which, n, T, V, X, chi, out, flags)
+            if self._builders:
+                self._start_builds()
         if any_flag:
             bad = flags != 0
             raise NumericalError(_OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), n)
@@ -552,7 +697,7 @@ class CompiledDerivatives:
         out: np.ndarray,
         flags: np.ndarray,
     ) -> int:
-        f = self.symbolic.idm_flat if which == "idm" else self.symbolic.ddm_flat
+        f = self._flat(which)
         T2 = T.reshape(n, 16)
         V2, X2 = V.reshape(n, 6), X.reshape(n, 6)
         for s in range(0, n, VM_CHUNK):

@@ -28,9 +28,9 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, check_poses, check_states
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.chain_leg import ChainLeg
 from stewart_pin.description.inertia import KHALIL_NAMES, PIN_TO_KHALIL

@@ -37,9 +37,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_poses, check_states
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin.description.leg_architecture import JointDynamics, coulomb_sign
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.dynamics.closed_loop import (

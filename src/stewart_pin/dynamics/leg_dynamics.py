@@ -9,8 +9,8 @@ force vector leg i needs to follow ``(q_i, qdot_i, qddot_i)`` on its own, gravit
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._typing import FloatArray, JointValues
 from stewart_pin.description import RobotDescription
 from stewart_pin.models.pinocchio_models import build_legs_model

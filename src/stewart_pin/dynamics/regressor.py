@@ -59,9 +59,9 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._so3 import cross
 from stewart_pin._typing import Accels, FloatArray, JointValues, Poses, Twists
 from stewart_pin.description import RobotDescription

@@ -69,6 +69,7 @@ body with ``pos`` and ``axis`` such that MuJoCo's sequential joint motion is the
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 import xml.etree.ElementTree as ET
@@ -78,9 +79,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._io import write_text_atomic
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._safe import check_xml_text
 from stewart_pin._so3 import quaternion_wxyz_from_rotation
 from stewart_pin.description import RobotDescription
@@ -129,7 +130,12 @@ __all__ = [
     "write_mjcf",
 ]
 
-_R_X90 = pin.rpy.rpyToMatrix(np.pi / 2, 0.0, 0.0)
+
+@functools.cache
+def _r_x90() -> np.ndarray:
+    """``Rx(pi / 2)`` (Pinocchio's ``rpyToMatrix``; on first use: importing stays light)."""
+    return np.asarray(pin.rpy.rpyToMatrix(np.pi / 2, 0.0, 0.0))
+
 
 #: ``solref`` of the six loop constraints: a time constant far below any step, which
 #: MuJoCo (flag ``refsafe``, on by default) raises to two steps (4 ms at its default 2 ms
@@ -403,7 +409,7 @@ def _leg(
         carried.append(j)
         if not has_body[j]:
             continue
-        fixed = [desc.leg_base_rotations[k] if n == 0 else _R_X90 for n in carried]
+        fixed = [desc.leg_base_rotations[k] if n == 0 else _r_x90() for n in carried]
         pos = desc.base_points[k] if carried[0] == 0 else None
         X = np.linalg.multi_dot([np.eye(3), *fixed])
         body = mjcf_body(parent, leg_link(i, j + 1), pos, fixed[0] if len(fixed) == 1 else X)
@@ -417,7 +423,9 @@ def _leg(
         if j == 1:
             # The cylinder body runs along -y2 (the leg direction in frame 2i) from B_i.
             size = (vs.cylinder_radius, vs.body_length / 2)
-            mjcf_geom(body, "cylinder", "cylinder", size, (0.0, -vs.body_length / 2, 0.0), _R_X90)
+            mjcf_geom(
+                body, "cylinder", "cylinder", size, (0.0, -vs.body_length / 2, 0.0), _r_x90()
+            )
         if j == 2:
             size = (vs.rod_radius, vs.rod_length / 2)
             mjcf_geom(body, "cylinder", "rod", size, (0.0, 0.0, -vs.rod_length / 2))

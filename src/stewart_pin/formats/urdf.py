@@ -61,10 +61,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import check_array, decode_utf8
 from stewart_pin._io import write_text_atomic
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._safe import check_xml_text
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import FileFormatError, InputError

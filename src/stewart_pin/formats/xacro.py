@@ -46,9 +46,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._io import write_text_atomic
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._safe import check_xml_text, yaml_quoted
 from stewart_pin.description.inertia import urdf_inertial_from_khalil
 from stewart_pin.exceptions import InputTypeError

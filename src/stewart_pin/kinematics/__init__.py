@@ -13,6 +13,10 @@ Reads a :class:`~stewart_pin.description.RobotDescription`; knows no Pinocchio m
 and no dynamics.
 """
 
+from typing import TYPE_CHECKING
+
+from stewart_pin._lazy import lazy_names
+
 from .forward_geometry import forward_geometry
 from .geometry import inverse_geometry, inverse_geometry_batch, leg_lengths
 from .jacobians import (
@@ -24,7 +28,18 @@ from .jacobians import (
     jacobian,
     leg_state,
 )
-from .workspace import sample_poses, sample_states
+
+if TYPE_CHECKING:
+    from .workspace import sample_poses, sample_states
+
+# the sampling (Pinocchio's exponential) on first use: the geometry imports light
+__getattr__, __dir__ = lazy_names(
+    __name__,
+    {
+        "sample_poses": "stewart_pin.kinematics.workspace",
+        "sample_states": "stewart_pin.kinematics.workspace",
+    },
+)
 
 __all__ = [
     "MAX_CONDITION",

@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-import pinocchio as pin
 
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin._typing import FloatArray
 from stewart_pin.exceptions import ConvergenceError, SingularityError
 

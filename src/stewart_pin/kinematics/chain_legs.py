@@ -116,29 +116,41 @@ class ChainFrames:
     tip: np.ndarray
 
 
-def _mdh_batch(alpha: float, d: float, theta: Any, r: Any, N: int) -> np.ndarray:
-    """``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` (N, 4, 4) for theta, r (N,) or scalars."""
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    ct, st = np.cos(theta), np.sin(theta)
-    T = np.zeros((N, 4, 4))
-    T[:, 0, 0], T[:, 0, 1], T[:, 0, 3] = ct, -st, d
-    T[:, 1, 0], T[:, 1, 1], T[:, 1, 2], T[:, 1, 3] = ca * st, ca * ct, -sa, -r * sa
-    T[:, 2, 0], T[:, 2, 1], T[:, 2, 2], T[:, 2, 3] = sa * st, sa * ct, ca, r * ca
-    T[:, 3, 3] = 1.0
-    return T
-
-
 def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
-    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n)."""
+    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n).
+
+    Each joint's ``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` is applied to the frame's axes and
+    origin, (N, 3) arrays each: ``y, z`` turned by alpha about x, ``O += d x``, ``x, y``
+    turned by theta about z, ``O += r z``."""
     N, n = q.shape
-    T: np.ndarray = T0  # (4, 4), then (N, 4, 4)
+    x, y, z = (np.broadcast_to(T0[:3, k], (N, 3)) for k in range(3))
+    o = np.broadcast_to(T0[:3, 3], (N, 3))
     origins, axes = np.empty((N, n, 3)), np.empty((N, n, 3))
     for j, joint in enumerate(leg.joints):
-        theta = joint.theta + q[:, j] if joint.revolute else joint.theta
-        r = joint.r if joint.revolute else joint.r + q[:, j]
-        T = T @ _mdh_batch(joint.alpha, joint.d, theta, r, N)
-        origins[:, j], axes[:, j] = T[:, :3, 3], T[:, :3, 2]
-    return ChainFrames(origins, axes, T @ leg.attachment())
+        ca, sa = math.cos(joint.alpha), math.sin(joint.alpha)
+        if joint.d != 0.0:
+            o = o + joint.d * x
+        if sa != 0.0 or ca != 1.0:
+            y, z = ca * y + sa * z, ca * z - sa * y
+        ct: Any
+        st: Any
+        r: Any
+        if joint.revolute:
+            theta = joint.theta + q[:, j]
+            ct, st, r = np.cos(theta)[:, None], np.sin(theta)[:, None], joint.r
+        else:
+            ct, st = math.cos(joint.theta), math.sin(joint.theta)
+            r = (joint.r + q[:, j])[:, None]
+        x, y = ct * x + st * y, ct * y - st * x
+        o = o + r * z
+        origins[:, j], axes[:, j] = o, z
+    A = leg.attachment()
+    tip = np.zeros((N, 4, 4))
+    for k in range(3):
+        tip[:, :3, k] = A[0, k] * x + A[1, k] * y + A[2, k] * z
+    tip[:, :3, 3] = o + A[0, 3] * x + A[1, 3] * y + A[2, 3] * z
+    tip[:, 3, 3] = 1.0
+    return ChainFrames(origins, axes, tip)
 
 
 def chain_jacobian(leg: ChainLeg, frames: ChainFrames) -> np.ndarray:

@@ -19,8 +19,8 @@ body its Khalil parameters (:func:`~stewart_pin.description.inertia.pin_inertia_
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.inertia import pin_inertia_from_khalil
 from stewart_pin.kinematics import chain_legs as kin

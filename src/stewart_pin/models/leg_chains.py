@@ -27,8 +27,8 @@ import warnings
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin.description.inertia import pin_inertia_from_khalil
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.models.pinocchio_models import (

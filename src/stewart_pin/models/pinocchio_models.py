@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from stewart_pin._checks import decode_utf8
+from stewart_pin._lazy import pinocchio as pin  # imported on first use
 from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import FileFormatError
 from stewart_pin.formats.urdf import (
