@@ -89,20 +89,20 @@ def parameter_robot(request: pytest.FixtureRequest) -> StewartRobot:
     return StewartRobot.from_preset(request.param)
 
 
-def fresh_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """Body of a module's autouse ``cache_dir`` fixture: the compiled backends of the
-    module build into a fresh cache folder (the environment variable set meanwhile)."""
-    path = tmp_path_factory.mktemp("stewart-pin-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(compiled_module.CACHE_ENV, str(path))
-        yield path
-
-
 @pytest.fixture(scope="session")
 def shared_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """One fresh cache folder for the session's compiled general-leg robots (each build
-    takes seconds: the modules that compile the same robots share it)."""
+    """One fresh cache folder for the session's compiled libraries (each build takes
+    seconds, and the cache key is the description: the modules that compile the same
+    robot share one build). Tests of the cache's own rules use folders of their own."""
     return tmp_path_factory.mktemp("stewart-pin-shared-cache")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def session_compile_cache(shared_compile_cache: Path) -> Iterator[Path]:
+    """Every compiled library of the session builds into :func:`shared_compile_cache`
+    (never into the user's ``~/.cache/stewart-pin``): the modules that set no cache
+    folder share the builds too."""
+    yield from use_compile_cache(shared_compile_cache)
 
 
 def use_compile_cache(path: Path) -> Iterator[Path]:

@@ -220,14 +220,17 @@ def test_simulate_the_controller_identification_and_the_cli_take_auto(auto, caps
     assert len(_compiling_lines(capsys.readouterr().err)) == 1  # pus: built here, on first use
 
 
-def test_a_robot_keeps_its_backend_and_is_still_pickled_and_freed(auto):
+def test_a_robot_keeps_its_backend_and_is_still_pickled_and_freed(
+    auto, monkeypatch, shared_compile_cache
+):
     """The compiled backend lives on its robot: a pickled robot leaves it out (and finds
     the library again), a dropped robot is freed with it (no process-wide registry keeps
-    it alive)."""
+    it alive). (No first build under test here: the session's shared cache.)"""
     import gc
     import pickle
     import weakref
 
+    monkeypatch.setenv(CACHE_ENV, str(shared_compile_cache))
     robot = StewartRobot.from_preset("pus")
     P, V, A = _states(robot, 3)
     G = robot.inverse_dynamics(P, V, A)

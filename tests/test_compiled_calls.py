@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import fresh_compile_cache, get_robot
+from conftest import get_robot, use_compile_cache
 from helpers import rel_error
 
 from stewart_pin import StewartRobot
@@ -22,8 +22,9 @@ TOL = 1e-10  # relative to the largest value of the batch (as in test_codegen.py
 
 
 @pytest.fixture(scope="module", autouse=True)
-def cache_dir(tmp_path_factory: pytest.TempPathFactory):
-    yield from fresh_compile_cache(tmp_path_factory)
+def cache_dir(shared_compile_cache):
+    """The session's shared cache folder (the same robots compile once for the suite)."""
+    yield from use_compile_cache(shared_compile_cache)
 
 
 def test_threaded_batch_matches_reference_and_one_thread() -> None:

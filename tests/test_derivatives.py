@@ -29,7 +29,7 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import fresh_compile_cache, get_robot
+from conftest import get_robot, use_compile_cache
 
 from stewart_pin import StewartRobot
 from stewart_pin.check.constrained_dynamics import (
@@ -60,8 +60,9 @@ VM_ROBOTS = ("paper", "random-1")
 
 
 @pytest.fixture(scope="module", autouse=True)
-def cache_dir(tmp_path_factory: pytest.TempPathFactory):
-    yield from fresh_compile_cache(tmp_path_factory)
+def cache_dir(shared_compile_cache):
+    """The session's shared cache folder (the same robots compile once for the suite)."""
+    yield from use_compile_cache(shared_compile_cache)
 
 
 def _vm(robot: StewartRobot) -> CompiledDerivatives:

@@ -287,16 +287,32 @@ def test_simulate_with_a_model_error_on_general_legs(tmp_path, capsys):
 
 
 def test_bench_preset_times_a_general_robot(tmp_path, capsys, shared_compile_cache, monkeypatch):
+    """``bench --preset rus``: the main table's rows of every path (reference, compiled,
+    MuJoCo), the simulation rows and the operation counts of a general robot. The
+    sections (payload, first use in a new process, start-up, sampling, batches) are run
+    and checked by test_cli.py's JSON test: here they are replaced by a record of the
+    preset they are given; the default-backend rows on the cheap ``simulator`` (the
+    suite runs the reference path, 1000 calls per single-state row)."""
     import json
 
+    from stewart_pin.apps import bench_sections
     from stewart_pin.codegen import compiled as compiled_module
 
     monkeypatch.setenv(compiled_module.CACHE_ENV, str(shared_compile_cache))
+    given: list[str] = []
+    monkeypatch.setattr(
+        bench_sections, "bench_sections", lambda preset, *a: given.append(preset) or {}
+    )
     path = tmp_path / "bench.json"
-    args = ["bench", "--preset", "rus", "--architectures", "rus", "--quick", "--batch", "20"]
-    assert main([*args, "--repeats", "2", "--json", str(path)]) == 0
+    args = ["bench", "--preset", "rus", "--architectures", "simulator", "--quick", "--batch", "20"]
+    assert main([*args, "--repeats", "2", "--json", str(path), "--no-progress"]) == 0
+    assert given == ["rus"]
     data = json.loads(path.read_text())
     rows = data["median_us_per_state"]
     assert "constrained inverse dynamics (reference path)" in rows
+    assert any(k.startswith("compiled IDM single") for k in rows)
+    assert "compiled DDM batch 100" in rows
     assert all(t > 0 for t in rows.values())
     assert set(data["operation_counts"]["IDM"]) == {"numeric", "critical_path"}
+    sim = data["simulation"]["rus"]["median_us_per_step"]
+    assert sim and all(np.isfinite(v) and v > 0 for v in sim.values())

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import fresh_compile_cache
+from conftest import use_compile_cache
 from helpers import backends_agree_or_raise_the_same_named_error
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -38,8 +38,9 @@ _ROBOTS: dict[int, tuple[StewartRobot, CompiledDynamics, float]] = {}
 
 
 @pytest.fixture(scope="module", autouse=True)
-def cache_dir(tmp_path_factory: pytest.TempPathFactory):
-    yield from fresh_compile_cache(tmp_path_factory)
+def cache_dir(shared_compile_cache):
+    """The session's shared cache folder (the same robots compile once for the suite)."""
+    yield from use_compile_cache(shared_compile_cache)
     _ROBOTS.clear()
 
 

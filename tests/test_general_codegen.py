@@ -25,6 +25,7 @@ Tolerances (relative to the largest value of the batch, :func:`helpers.rel_error
 from __future__ import annotations
 
 import math
+import shutil
 import warnings
 from dataclasses import replace
 
@@ -355,10 +356,13 @@ def test_general_source_holds_no_text_of_the_description(tmp_path):
 def test_general_library_in_another_geometrys_folder_is_rebuilt(tmp_path):
     """The cache's integrity rules hold for general robots: a library replaced by another
     robot's is rebuilt (with a warning), never loaded."""
-    # Built without loading them: a file this process has mapped is never tampered with.
-    a, _ = build_library(get_robot("pus").description, tmp_path)
-    b, _ = build_library(get_robot("rus").description, tmp_path)
-    assert a != b
+    # Built (or found) in the session's cache, pus's folder copied into a cache of its
+    # own: a file this process has mapped is never tampered with.
+    pus, _ = build_library(get_robot("pus").description)
+    b, _ = build_library(get_robot("rus").description)
+    shutil.copytree(pus.parent, tmp_path / pus.parent.name)
+    a = tmp_path / pus.parent.name / pus.name
+    assert a.read_bytes() != b.read_bytes()
     a.write_bytes(b.read_bytes())
     with pytest.warns(RuntimeWarning, match="does not match its manifest"):
         again = CompiledDynamics(get_robot("pus"), cache_dir=tmp_path)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import fresh_compile_cache
+from conftest import use_compile_cache
 
 from stewart_pin import StewartRobot
 from stewart_pin.check.constrained_dynamics import (
@@ -49,9 +49,9 @@ N_STATES = 8  # twists and accelerations per pose
 
 
 @pytest.fixture(scope="module", autouse=True)
-def cache_dir(tmp_path_factory: pytest.TempPathFactory):
-    """The libraries of this module compile into a fresh cache folder."""
-    yield from fresh_compile_cache(tmp_path_factory)
+def cache_dir(shared_compile_cache):
+    """The session's shared cache folder (the same robots compile once for the suite)."""
+    yield from use_compile_cache(shared_compile_cache)
 
 
 # ---------------------------------------------------------------------------- helpers

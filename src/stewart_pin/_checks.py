@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import numbers
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -420,3 +420,36 @@ def freeze_fields(obj: Any, values: dict[str, Any]) -> None:
         value = np.array(value)
         value.flags.writeable = False
         object.__setattr__(obj, key, value)
+
+
+Item = TypeVar("Item")
+#: Counts spelled out in the messages of :func:`check_items`.
+_COUNT_WORDS = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five", 6: "six"}
+
+
+def check_items(
+    value: Any,
+    kind: type[Item],
+    count: int | None,
+    nouns: tuple[str, str, str],
+    error: Callable[[str], Exception],
+) -> tuple[Item, ...]:
+    """``value``, a sequence of exactly ``count`` instances of ``kind`` (``None``: one or
+    more), as a tuple; else ``error(message)`` is raised.
+
+    ``nouns`` are the message's ``(whole, form, items)``, as in "a leg must be a chain of
+    exactly three 1-dof joints (Joint)". A string, bytes, a dict or a single ``kind`` is
+    refused; the message gives what was received: its type, or the count and types of
+    the items.
+    """
+    whole, form, items = nouns
+    how_many = "one or more" if count is None else f"exactly {_COUNT_WORDS.get(count, count)}"
+    wanted = f"{whole} must be a {form} of {how_many} {items} ({kind.__name__})"
+    if isinstance(value, (str, bytes, dict, kind)) or not isinstance(value, Sequence):
+        raise error(f"{wanted} in a list or tuple, got a {type(value).__name__}")
+    out = tuple(value)
+    if (not out if count is None else len(out) != count) or not all(
+        isinstance(x, kind) for x in out
+    ):
+        raise error(f"{wanted}, got {len(out)} item(s) of types {[type(x).__name__ for x in out]}")
+    return out

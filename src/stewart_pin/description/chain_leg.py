@@ -31,13 +31,12 @@ freedoms. The others are refused with :class:`~stewart_pin.exceptions.LegMobilit
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array, project_rotation
+from stewart_pin._checks import check_array, check_items, project_rotation
 from stewart_pin.description.inertia import check_physical
 from stewart_pin.description.leg_architecture import Joint, LegArchitecture
 from stewart_pin.exceptions import (
@@ -93,21 +92,13 @@ class ChainLeg:
     gravcomp: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        joints = self.joints
-        if isinstance(joints, Joint) or not isinstance(joints, Sequence):
-            raise ArchitectureError(
-                f"a chain leg is a sequence of 1-dof joints, got {type(joints).__name__}",
-                "joints",
-                joints,
-            )
-        joints = tuple(joints)
-        if not joints or not all(isinstance(j, Joint) for j in joints):
-            raise ArchitectureError(
-                "a chain leg needs at least one 1-dof joint (Joint), got "
-                f"{[type(j).__name__ for j in joints]}",
-                "joints",
-                joints,
-            )
+        joints = check_items(
+            self.joints,
+            Joint,
+            None,
+            ("a chain leg", "chain", "1-dof joints"),
+            lambda message: ArchitectureError(message, "joints", self.joints),
+        )
         object.__setattr__(self, "joints", joints)
         n = len(joints)
         if self.closure not in CLOSURES:
@@ -277,20 +268,13 @@ class ChainLeg:
 def check_chain_legs(value: Any) -> tuple[ChainLeg, ...]:
     """Six :class:`ChainLeg`, each with as many joints as constraints
     (:class:`ArchitectureError`, :class:`LegMobilityError` otherwise)."""
-    if isinstance(value, (str, bytes, dict, ChainLeg)) or not isinstance(value, Sequence):
-        raise ArchitectureError(
-            f"chain_legs must be a list of six ChainLeg, got {type(value).__name__}",
-            "chain_legs",
-            value,
-        )
-    legs = tuple(value)
-    if len(legs) != 6 or not all(isinstance(leg, ChainLeg) for leg in legs):
-        raise ArchitectureError(
-            f"chain_legs must list six ChainLeg (one per leg), got {len(legs)} item(s) of "
-            f"types {[type(leg).__name__ for leg in legs]}",
-            "chain_legs",
-            value,
-        )
+    legs = check_items(
+        value,
+        ChainLeg,
+        6,
+        ("chain_legs", "list", "legs"),
+        lambda message: ArchitectureError(message, "chain_legs", value),
+    )
     for i, leg in enumerate(legs):
         leg.check_mobility(i + 1)
     return legs

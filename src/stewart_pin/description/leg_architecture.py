@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from stewart_pin._checks import check_array
+from stewart_pin._checks import check_array, check_items
 from stewart_pin.exceptions import (
     ArchitectureError,
     InputError,
@@ -350,21 +350,13 @@ class LegArchitecture:
     guess: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
-        joints = self.joints
-        if isinstance(joints, Joint) or not isinstance(joints, Sequence):
-            raise ArchitectureError(
-                f"a leg is a sequence of three 1-dof joints, got {type(joints).__name__}",
-                "joints",
-                joints,
-            )
-        joints = tuple(joints)
-        if len(joints) != 3 or not all(isinstance(j, Joint) for j in joints):
-            raise ArchitectureError(
-                f"a leg must be a chain of exactly three 1-dof joints (Joint), got "
-                f"{len(joints)} item(s) of types {[type(j).__name__ for j in joints]}",
-                "joints",
-                joints,
-            )
+        joints = check_items(
+            self.joints,
+            Joint,
+            3,
+            ("a leg", "chain", "1-dof joints"),
+            lambda message: ArchitectureError(message, "joints", self.joints),
+        )
         object.__setattr__(self, "joints", joints)
         a = self.actuated
         if isinstance(a, bool) or not isinstance(a, (int, np.integer)) or a not in (1, 2, 3):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -170,25 +171,29 @@ def sample_states(
     and classical accelerations drawn uniformly (linear parts up to ``speed`` [m/s],
     default the mid-stroke per second, and ``speed`` per second; angular parts up to
     ``angular_speed`` [rad/s] and that per second)."""
-    rng = _rng(rng)
-    poses = sample_poses(desc, n, rng, **pose_kwargs)
-    return poses, *_motion(desc, n, rng, speed, angular_speed)
+    draw = partial(sample_poses, desc, n, **pose_kwargs)
+    return _states(desc, n, rng, speed, angular_speed, draw)
 
 
-def _motion(
+def _states(
     desc: RobotDescription,
     n: int,
-    rng: np.random.Generator,
+    rng: np.random.Generator | int | None,
     speed: float | None,
     angular_speed: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Random twists and accelerations (n, 6) for :func:`sample_states`."""
+    draw_poses: Callable[[np.random.Generator], np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The body of :func:`sample_states` and its twins for general and chain legs:
+    ``draw_poses(rng)`` (the legs' own pose sampler, (n, 4, 4)), then random twists and
+    accelerations (n, 6) from the same generator."""
+    rng = _rng(rng)
+    poses = draw_poses(rng)
     s = desc.stroke_mid if speed is None else _range(speed, "speed", "m/s")
     angular_speed = _range(angular_speed, "angular_speed", "rad/s")
     scale = np.array([s, s, s, angular_speed, angular_speed, angular_speed])
     twists = rng.uniform(-1, 1, (n, 6)) * scale
     accels = rng.uniform(-1, 1, (n, 6)) * scale * 3.0
-    return twists, accels
+    return poses, twists, accels
 
 
 # ---------------------------------------------------------------------------- general legs
@@ -230,9 +235,8 @@ def sample_general_states(
     **pose_kwargs: Any,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`sample_states` for general legs (:func:`sample_general_poses`)."""
-    rng = _rng(rng)
-    poses = sample_general_poses(desc, robot, n, rng, **pose_kwargs)
-    return poses, *_motion(desc, n, rng, speed, angular_speed)
+    draw = partial(sample_general_poses, desc, robot, n, **pose_kwargs)
+    return _states(desc, n, rng, speed, angular_speed, draw)
 
 
 def sample_chain_poses(
@@ -267,6 +271,5 @@ def sample_chain_states(
     **pose_kwargs: Any,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`sample_states` for chain legs (:func:`sample_chain_poses`)."""
-    rng = _rng(rng)
-    poses = sample_chain_poses(desc, n, rng, **pose_kwargs)
-    return poses, *_motion(desc, n, rng, speed, angular_speed)
+    draw = partial(sample_chain_poses, desc, n, **pose_kwargs)
+    return _states(desc, n, rng, speed, angular_speed, draw)
