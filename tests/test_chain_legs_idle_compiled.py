@@ -316,3 +316,132 @@ def test_the_generated_models_match_mujocos_kkt_with_spinning_rods() -> None:
         )
         assert _rel(gamma[n], ref) <= TOL
         assert _rel(sigma[n], ref_sigma) <= TOL
+
+
+# ---------------------------------------------------------------------------- first use
+def _small_jacobian(model, name):  # type: ignore[no-untyped-def]
+    """A stand-in of ``_jacobian_function`` with its signature and output size (a few
+    thousand instructions: compiled in a fraction of a second), to check the libraries'
+    orchestration and C wiring: ``M @ sin(z)``, z = [pose, twist, x, idle] (40,)."""
+    import casadi as cs
+
+    x = [cs.SX.sym(model.name_in(k), model.size1_in(k)) for k in range(5)]
+    z = cs.vertcat(x[0], x[1], x[2], x[4])
+    out = cs.mtimes(cs.DM(_STUB_M), cs.sin(z))
+    return cs.Function(name, x, [out], [model.name_in(k) for k in range(5)], ["d"])
+
+
+_STUB_M = np.random.default_rng(3).normal(size=(12 * 30, 40))
+
+
+def _stub_blocks(T, V, X, idle):  # type: ignore[no-untyped-def]
+    """The stand-in's five (N, 12, 6) blocks, by NumPy."""
+    z = np.concatenate([T.reshape(len(T), 16), V, X, idle[0], idle[1]], axis=1)
+    J = (np.sin(z) @ _STUB_M.T).reshape(len(T), 12, 30)
+    return [J[:, :, 6 * k : 6 * k + 6] for k in range(5)]
+
+
+def test_idle_derivative_libraries_one_per_model_background_then_cached(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    """The first use of :class:`CompiledIdleDerivatives` is :class:`CompiledDerivatives`'
+    (the Jacobian function replaced by a small stand-in, the real one being a 45 s
+    compile): past the background threshold (lowered to 0) the inverse model's library
+    compiles in a thread, announced on stderr, while the VM answers; the direct model's
+    is sought on its first call only (threshold raised: compiled at once); a new backend
+    loads both from the cache without generating anything. Every answer (VM, library,
+    batch of 3 split over the C loop's pointers, one state) equals NumPy's evaluation of
+    the stand-in to 1e-12 relative."""
+    from stewart_pin.codegen import derivatives
+
+    if compiled_module.find_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    robot, fast = asymmetric
+    monkeypatch.setattr(idle_compiled, "_jacobian_function", _small_jacobian)
+    monkeypatch.setattr(derivatives, "BACKGROUND_INSTRUCTIONS", 0)
+    T, V, A = robot.sample_states(3, rng=11)
+    idle = _idle(robot, 3, 12)
+    want = _stub_blocks(T, V, A, idle)
+
+    def same(d, want, n=None):  # type: ignore[no-untyped-def]
+        third = d.accel if d.accel.shape[-2:] == (12, 6) else d.gamma  # the Jacobian
+        got = (d.pose, d.twist, third, d.idle_values, d.idle_rates)
+        for g, w in zip(got, want, strict=True):
+            w = w if n is None else w[n]
+            assert g.shape == w.shape
+            assert np.abs(g - w).max() <= 1e-12 * np.abs(w).max()
+
+    exact = CompiledIdleDerivatives(robot, fast, cache_dir=tmp_path)
+    assert exact.reason == "compiling in the background" and exact.kinds == {"idm": "vm"}
+    first = exact.inverse_dynamics_derivatives(T, V, A, idle)
+    same(first, want)
+    assert exact.wait(120)
+    assert exact.kind == "compiled" and exact.compiled_now and exact.library is not None
+    assert "ddm" not in exact.kinds  # the direct model's library not sought yet
+    err = capfd.readouterr().err
+    assert "exact derivatives with idle freedoms of robot" in err and "in the background" in err
+    again = exact.inverse_dynamics_derivatives(T, V, A, idle)
+    same(again, want)
+    one = exact.inverse_dynamics_derivatives(T[1], V[1], A[1], (idle[0][1], idle[1][1]))
+    same(one, want, 1)
+
+    monkeypatch.setattr(derivatives, "BACKGROUND_INSTRUCTIONS", 10**9)  # compiled at once
+    gamma = fast.inverse_dynamics(T, V, A, idle)[0]
+    want_d = _stub_blocks(T, V, gamma, idle)
+    d = exact.direct_dynamics_derivatives(T, V, gamma, idle)
+    assert exact.kinds == {"idm": "compiled", "ddm": "compiled"}
+    assert "the direct model's exact derivatives" in capfd.readouterr().err
+    same(d, want_d)
+
+    def forbidden(*args):  # type: ignore[no-untyped-def]
+        raise AssertionError("the Jacobian function was generated")
+
+    monkeypatch.setattr(idle_compiled, "_jacobian_function", forbidden)
+    cached = CompiledIdleDerivatives(robot, fast, cache_dir=tmp_path)
+    assert cached.kind == "compiled" and not cached.compiled_now
+    same(cached.inverse_dynamics_derivatives(T, V, A, idle), want)
+    d = cached.direct_dynamics_derivatives(T, V, gamma, idle)
+    assert cached.kinds["ddm"] == "compiled" and not capfd.readouterr().err
+    same(d, want_d)
+
+
+def test_idle_derivatives_first_use_answers_from_the_vm_announced(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+    tmp_path: Path,
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    """The real Jacobians (63 000 instructions for the inverse model: past the background
+    threshold) on first use: the constructor compiles nothing in the foreground, the
+    build is announced on stderr and the first call answers from CasADi's VM. A stub
+    compiler that fails at once stands in for the 45 s compile: the build fails in its
+    thread (one warning), :meth:`wait` returns, and the VM keeps answering. The answer's
+    acceleration and idle-rate Jacobians equal central differences (h = 1e-6) of the
+    reference path to 1e-6 relative (test_exact_derivatives_match_central_differences
+    checks every block)."""
+    robot, fast = asymmetric
+    stub = tmp_path / "failing-cc"
+    stub.write_text("#!/bin/sh\nexit 1\n")
+    stub.chmod(0o755)
+    exact = CompiledIdleDerivatives(robot, fast, compiler=str(stub), cache_dir=tmp_path / "c")
+    assert exact.reason == "compiling in the background"
+    T, V, A = (x[0] for x in robot.sample_states(1, rng=13))
+    s, sd = (x[0] for x in _idle(robot, 1, 14))
+    with pytest.warns(RuntimeWarning, match="idle derivatives unavailable"):
+        d = exact.inverse_dynamics_derivatives(T, V, A, (s, sd))
+        assert exact.wait(60)
+    assert exact.kind == "vm" and exact.kinds == {"idm": "vm"}
+    err = capfd.readouterr().err
+    assert "exact derivatives with idle freedoms of robot" in err and "in the background" in err
+
+    def ref_idm(T, V, X, idle):  # type: ignore[no-untyped-def]
+        return robot.inverse_dynamics_idle(T, V, X, idle, backend="pinocchio")
+
+    fd = _central(ref_idm, T, V, A, (s, sd))
+    for x, y in zip((d.accel, d.idle_rates), (fd[2], fd[4]), strict=True):
+        for rows in (slice(0, 6), slice(6, 12)):
+            assert np.abs(x[rows] - y[rows]).max() <= 1e-6 * np.abs(y[rows]).max()
+    again = exact.inverse_dynamics_derivatives(T, V, A, (s, sd))
+    assert np.array_equal(again.pose, d.pose)

@@ -372,7 +372,8 @@ def startup_figures(runs: int, preset: str) -> dict[str, dict[str, float | None]
 # --- fresh processes: first use of the derivatives (scripts/bench_derivatives.py) -----
 
 #: The presets timed by ``--first-use``: every named preset, every leg preset, a random
-#: robot with custom legs and the chain-leg presets.
+#: robot with custom legs and the chain-leg presets (``rss-asymmetric``: idle freedoms, its
+#: calls given the idle state at home and at rest).
 FIRST_USE_PRESETS = (
     "simulator",
     "desktop",
@@ -383,6 +384,7 @@ FIRST_USE_PRESETS = (
     "random-custom-0",
     "welded-ups",
     "mixed-chain",
+    "rss-asymmetric",
 )
 #: What runs in the new process: a value call first (its library cached by an earlier
 #: process, as it stands after any use of the robot), then the timed first derivatives
@@ -391,9 +393,15 @@ _FIRST_USE = """
 import sys, time
 from stewart_pin.apps.bench_sections import bench_robot
 from stewart_pin.codegen import compiled
+from stewart_pin.kinematics import chain_legs
 robot = bench_robot(sys.argv[1])
 P, V, A = robot.sample_states(1, 0)
-robot.inverse_dynamics(P[0], V[0], A[0], backend="compiled")
+kw = {}
+if chain_legs.idle_legs(robot.description):  # idle freedoms: the idle state at home, at rest
+    kw["idle"] = (chain_legs.idle_home(robot.description), V[0] * 0.0)
+    robot.inverse_dynamics_idle(P[0], V[0], A[0], kw["idle"], backend="compiled")
+else:
+    robot.inverse_dynamics(P[0], V[0], A[0], backend="compiled")
 if sys.argv[2] != "time":
     sys.exit(0)
 calls = []
@@ -406,10 +414,10 @@ def timed(*args, **kwargs):
         calls.append(time.perf_counter() - t)
 compiled._compile = timed
 t = time.perf_counter()
-robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
+robot.inverse_dynamics_derivatives(P[0], V[0], A[0], **kw)
 total = time.perf_counter() - t
 t = time.perf_counter()
-robot.inverse_dynamics_derivatives(P[0], V[0], A[0])
+robot.inverse_dynamics_derivatives(P[0], V[0], A[0], **kw)
 print(total, sum(calls), time.perf_counter() - t)
 """
 

@@ -60,6 +60,7 @@ import functools
 import threading
 import warnings
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -92,6 +93,8 @@ __all__ = [
     "CompiledDerivatives",
     "DirectDynamicsDerivatives",
     "InverseDynamicsDerivatives",
+    "LibraryStatus",
+    "ModelLibraries",
     "SymbolicDerivatives",
     "derivatives_backend",
     "derivatives_c_source",
@@ -121,7 +124,7 @@ _WARNED: set[str] = set()
 
 
 class _NotCached(Exception):
-    """A library is not in the cache (the probe of :meth:`CompiledDerivatives._library`)."""
+    """A library is not in the cache (the probe of :meth:`ModelLibraries.seek`)."""
 
 
 # ---------------------------------------------------------------------------- results
@@ -390,6 +393,169 @@ def _native(pose: Any, twist: Any, x: Any) -> tuple[bool, Any, Any, Any] | None:
     return None
 
 
+@dataclass(frozen=True)
+class LibraryStatus:
+    """Where one model's Jacobians run: ``kind`` (``"compiled"`` or ``"vm"``), ``reason``
+    (why the VM), ``library`` (the shared library's path) and ``compiled_now`` (whether
+    this process compiled it)."""
+
+    kind: str
+    reason: str | None = None
+    library: Path | None = None
+    compiled_now: bool = False
+
+
+class ModelLibraries:
+    """One shared library per model (``"idm"``, ``"ddm"``) of a robot's exact derivatives,
+    sought on the first call that needs it: the first use of :class:`CompiledDerivatives`
+    and of :class:`~.idle_compiled.CompiledIdleDerivatives`.
+
+    A library found in the cache is loaded without generating anything (the cache is probed
+    by the library's identity, :func:`~._identity.library_identity`). Otherwise the model's
+    flat Jacobian function is generated; one with more than :data:`BACKGROUND_INSTRUCTIONS`
+    instructions is compiled in a background thread (announced on stderr; not a daemon: a
+    process that ends meanwhile waits for it and the library is cached), started by
+    :meth:`start_builds` once the first call has its answer, while CasADi's virtual machine
+    answers; a smaller one is compiled at once. The libraries are compiled without
+    optimisation (:data:`.compiled.QUICK_CFLAGS`). The VM is used (``warn`` told the reason
+    once) when a library cannot be built or loaded, or ``compiler`` is False.
+
+    Args:
+        desc: the robot's description (its identity keys the cache).
+        library_name: the library's name in that identity (``"derivatives"``); the model's
+            name is appended.
+        subject: what is compiled, for the announcement (``"the exact derivatives"``).
+        flat: ``flat(which)``: the model's flat Jacobian function (generated on first need).
+        source: ``source(which, function)``: the C source of a library of that function.
+        load: ``load(which, path)``: loads a built library.
+        warn: ``warn(reason)``: the VM's warning.
+        cache_dir, compiler: as for :class:`~.compiled.CompiledDynamics`.
+
+    Attributes:
+        status: each sought model's :class:`LibraryStatus`.
+    """
+
+    def __init__(
+        self,
+        desc: Any,
+        library_name: str,
+        subject: str,
+        flat: Callable[[str], cs.Function],
+        source: Callable[[str, cs.Function], str],
+        load: Callable[[str, Path], None],
+        warn: Callable[[str], None],
+        cache_dir: str | Path | None = None,
+        compiler: str | bool | None = None,
+    ) -> None:
+        self._desc, self._library_name, self._subject = desc, library_name, subject
+        self._flat, self._source, self._load, self._warn = flat, source, load, warn
+        self._cache_dir, self._compiler = cache_dir, compiler
+        self.status: dict[str, LibraryStatus] = {}
+        self.lock = threading.Lock()  # held while a library is sought or a status set
+        self._builders: dict[str, threading.Thread] = {}
+
+    def kind(self, which: str) -> str:
+        """The kind of one model's Jacobians, its library sought on first use."""
+        found = self.status.get(which)
+        if found is None:
+            with self.lock:
+                found = self.status.get(which) or self.seek(which)
+        return found.kind
+
+    def seek(self, which: str) -> LibraryStatus:
+        """Find in the cache (or build, or start building) and load the library of one
+        model's Jacobians (the caller holds :attr:`lock`)."""
+        if self._compiler is False:
+            return self._vm(which, "compiler disabled")
+        what = "" if which == "idm" else "the direct model's "
+        subject = self._subject if which == "idm" else self._subject.removeprefix("the ")
+        announce = f"{what}{subject} of robot '{printable_name(self._desc)}'"
+        identity = library_identity(self._desc, f"{self._library_name} {which}")
+
+        def not_cached() -> str:
+            raise _NotCached
+
+        try:
+            try:  # the cache first: nothing generated for a library found there
+                return self._done(which, *self._build(which, not_cached, announce, identity))
+            except _NotCached:
+                pass
+            flat = self._flat(which)
+            if flat.n_instructions() > BACKGROUND_INSTRUCTIONS:
+                return self._in_background(which, flat, announce, identity)
+            library, now = self._build(
+                which, lambda: self._source(which, flat), announce, identity
+            )
+            return self._done(which, library, now)
+        except UnsafeCacheError:
+            raise
+        except (CompilationError, OSError, AttributeError) as e:
+            return self._vm(which, str(e).splitlines()[0] if str(e) else type(e).__name__)
+
+    def _build(
+        self, which: str, source_of: Callable[[], str], announce: str, identity: str | None
+    ) -> tuple[Path, bool]:
+        return build_source_library(
+            source_of,
+            self._cache_dir,
+            self._compiler if isinstance(self._compiler, str) else None,
+            lambda path: self._load(which, path),
+            announce,
+            identity,
+            QUICK_CFLAGS,
+        )
+
+    def _done(self, which: str, library: Path, now: bool) -> LibraryStatus:
+        self.status[which] = LibraryStatus("compiled", None, library, now)
+        return self.status[which]
+
+    def _vm(self, which: str, reason: str) -> LibraryStatus:
+        self._warn(reason)
+        self.status[which] = LibraryStatus("vm", reason)
+        return self.status[which]
+
+    def _in_background(
+        self, which: str, flat: cs.Function, announce: str, identity: str | None
+    ) -> LibraryStatus:
+        """Prepare the thread that compiles one model's library (announced on stderr like
+        any build) while the VM answers; once loaded, the model's status is compiled."""
+
+        def build() -> None:
+            try:
+                library, now = self._build(
+                    which,
+                    lambda: self._source(which, flat),
+                    f"{announce} in the background (CasADi's virtual machine answers meanwhile)",
+                    identity,
+                )
+            except Exception as e:  # a failed build leaves the VM, said once
+                self._warn(str(e).splitlines()[0] if str(e) else type(e).__name__)
+                return
+            with self.lock:
+                self._done(which, library, now)
+
+        # started once the first call has its answer (CasADi's code generator holds the GIL)
+        thread = threading.Thread(target=build, name=f"stewart-pin-{which}-derivatives")
+        self._builders[which] = thread
+        self.status[which] = LibraryStatus("vm", "compiling in the background")
+        return self.status[which]
+
+    def start_builds(self) -> None:
+        """Start the background builds not started yet."""
+        for thread in list(self._builders.values()):
+            if thread.ident is None:
+                with contextlib.suppress(RuntimeError):  # started meanwhile by another call
+                    thread.start()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the libraries compiling in the background (at most ``timeout`` seconds
+        each); whether none is still compiling."""
+        self.start_builds()
+        for thread in list(self._builders.values()):
+            thread.join(timeout)
+        return not any(t.is_alive() for t in self._builders.values())
+
+
 class CompiledDerivatives:
     """The exact derivatives of a robot's inverse and direct models, compiled to C (or in
     CasADi's virtual machine).
@@ -417,12 +583,13 @@ class CompiledDerivatives:
     Each model's Jacobians are a library of their own, generated and compiled on the first
     call that needs them (the inverse model's on construction, the direct model's on the
     first ``direct_dynamics_derivatives``): a first use waits for one model only. A
-    library found in the cache is loaded without generating anything.
+    library found in the cache is loaded without generating anything; a large one compiles
+    in the background while CasADi's VM answers (:class:`ModelLibraries`, :meth:`wait`).
+    :attr:`kind`, :attr:`reason`, :attr:`library` and :attr:`compiled_now` are the inverse
+    model's (:attr:`kinds` has each model's kind).
 
     Attributes:
-        kind: ``"compiled"`` or ``"vm"``; reason: why the VM is used. library: the shared
-        library's path; compiled_now: whether this construction compiled it (the inverse
-        model's library; :attr:`kinds` has each model's kind). threads.
+        threads: the threads of a batch.
     """
 
     def __init__(
@@ -443,19 +610,51 @@ class CompiledDerivatives:
         self._c: dict[str, Any] = {}
         self._c_one: dict[str, Any] = {}
         self._libs: dict[str, Any] = {}
-        #: Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought.
-        self.kinds: dict[str, str] = {}
-        self._build_lock = threading.Lock()
-        self._builders: dict[str, threading.Thread] = {}
         self._lock = threading.Lock()
         self._one_out = np.zeros(_NOUT)
         self._one_out_ptr = ctypes.c_void_p(self._one_out.ctypes.data)
         self._chi_ptr = ctypes.c_void_p(self._values.base_values.ctypes.data)
-        with self._build_lock:  # a background build's result is set after these
-            self.kind, self.reason, self.library, self.compiled_now = self._library("idm")
+        self._models = ModelLibraries(
+            self._desc,
+            "derivatives",
+            "the exact derivatives",
+            self._flat,
+            lambda which, flat: functions_c_source({which: flat}),
+            self._load,
+            _warn_once,
+            cache_dir,
+            compiler,
+        )
+        with self._models.lock:  # a background build's result is set after this
+            self._models.seek("idm")
 
     def __repr__(self) -> str:
         return f"CompiledDerivatives({self.robot!r}, kind={self.kind!r})"
+
+    @property
+    def kinds(self) -> dict[str, str]:
+        """Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought."""
+        return {which: st.kind for which, st in self._models.status.items()}
+
+    @property
+    def kind(self) -> str:
+        """The inverse model's kind: ``"compiled"`` or ``"vm"``."""
+        return self._models.status["idm"].kind
+
+    @property
+    def reason(self) -> str | None:
+        """Why the inverse model's Jacobians run in the VM (None when compiled)."""
+        return self._models.status["idm"].reason
+
+    @property
+    def library(self) -> Path | None:
+        """The inverse model's library (None in the VM)."""
+        return self._models.status["idm"].library
+
+    @property
+    def compiled_now(self) -> bool:
+        """Whether this process compiled the inverse model's library."""
+        return self._models.status["idm"].compiled_now
 
     @functools.cached_property
     def symbolic(self) -> SymbolicDerivatives:
@@ -468,116 +667,10 @@ class CompiledDerivatives:
             return self.symbolic.idm_flat if which == "idm" else self.symbolic.ddm_flat
         return symbolic_derivative(symbolic_models_for(self.robot), which)[1]
 
-    def _library(self, which: str) -> tuple[str, str | None, Path | None, bool]:
-        """Find in the cache (or build) and load the library of one model's Jacobians:
-        ``(kind, reason, library, compiled_now)``; the VM (with one warning) when it
-        cannot be built or loaded. A library not in the cache whose function has more than
-        :data:`BACKGROUND_INSTRUCTIONS` instructions is compiled in a background thread
-        (:meth:`_compile_in_background`): the VM answers until it is loaded."""
-        if self._compiler is False:
-            return self._vm(which, "compiler disabled")
-        what = "" if which == "idm" else "the direct model's "
-        announce = f"{what}the exact derivatives of robot '{printable_name(self._desc)}'"
-        identity = library_identity(self._desc, f"derivatives {which}")
-
-        def not_cached() -> str:
-            raise _NotCached
-
-        try:
-            try:  # the cache first: nothing generated for a library found there
-                library, now = self._build(which, not_cached, announce, identity)
-                return self._compiled(which, library, now)
-            except _NotCached:
-                pass
-            flat = self._flat(which)
-            if flat.n_instructions() > BACKGROUND_INSTRUCTIONS:
-                return self._compile_in_background(which, flat, announce, identity)
-            library, now = self._build(
-                which, lambda: functions_c_source({which: flat}), announce, identity
-            )
-            return self._compiled(which, library, now)
-        except UnsafeCacheError:
-            raise
-        except (CompilationError, OSError, AttributeError) as e:
-            return self._vm(which, str(e).splitlines()[0] if str(e) else type(e).__name__)
-
-    def _build(
-        self, which: str, source_of: Any, announce: str, identity: str | None
-    ) -> tuple[Path, bool]:
-        return build_source_library(
-            source_of,
-            self._cache_dir,
-            self._compiler if isinstance(self._compiler, str) else None,
-            lambda path: self._load(which, path),
-            announce,
-            identity,
-            QUICK_CFLAGS,
-        )
-
-    def _compiled(
-        self, which: str, library: Path, now: bool
-    ) -> tuple[str, str | None, Path | None, bool]:
-        self.kinds[which] = "compiled"
-        return "compiled", None, library, now
-
-    def _vm(self, which: str, reason: str) -> tuple[str, str | None, Path | None, bool]:
-        _warn_once(reason)
-        self.kinds[which] = "vm"
-        return "vm", reason, None, False
-
-    def _compile_in_background(
-        self, which: str, flat: cs.Function, announce: str, identity: str | None
-    ) -> tuple[str, str | None, Path | None, bool]:
-        """Compile one model's library in a thread (announced on stderr like any build)
-        while CasADi's VM answers; once loaded, the calls take it (and for the inverse
-        model :attr:`kind` becomes ``"compiled"``). The thread is not a daemon: a process
-        that ends meanwhile waits for it, and the library is cached."""
-
-        def build() -> None:
-            try:
-                library, now = self._build(
-                    which,
-                    lambda: functions_c_source({which: flat}),
-                    f"{announce} in the background (CasADi's virtual machine answers meanwhile)",
-                    identity,
-                )
-            except Exception as e:  # a failed build leaves the VM, said once
-                _warn_once(str(e).splitlines()[0] if str(e) else type(e).__name__)
-                return
-            with self._build_lock:
-                if which == "idm":
-                    self.kind, self.reason = "compiled", None
-                    self.library, self.compiled_now = library, now
-                self.kinds[which] = "compiled"
-
-        # started once the first call has its answer (CasADi's code generator holds the GIL)
-        thread = threading.Thread(target=build, name=f"stewart-pin-{which}-derivatives")
-        self._builders[which] = thread
-        self.kinds[which] = "vm"
-        return "vm", "compiling in the background", None, False
-
-    def _start_builds(self) -> None:
-        """Start the background builds not started yet."""
-        for thread in list(self._builders.values()):
-            if thread.ident is None:
-                with contextlib.suppress(RuntimeError):  # started meanwhile by another call
-                    thread.start()
-
     def wait(self, timeout: float | None = None) -> bool:
         """Wait for the libraries compiling in the background (at most ``timeout`` seconds
         each); whether none is still compiling."""
-        self._start_builds()
-        for thread in list(self._builders.values()):
-            thread.join(timeout)
-        return not any(t.is_alive() for t in self._builders.values())
-
-    def _kind_of(self, which: str) -> str:
-        """The kind of one model's Jacobians, its library sought on first use."""
-        kind = self.kinds.get(which)
-        if kind is None:
-            with self._build_lock:
-                kind = self.kinds.get(which) or self._library(which)[0]
-        return kind
+        return self._models.wait(timeout)
 
     def _load(self, which: str, path: Path) -> None:
         lib = ctypes.CDLL(str(path))
@@ -616,7 +709,8 @@ class CompiledDerivatives:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The three Jacobians of a state or batch the value model has accepted."""
         chi = self._values.checked_base_values(base_values)
-        kind = self.kinds.get(which) or self._kind_of(which)
+        st = self._models.status.get(which)
+        kind = st.kind if st is not None else self._models.kind(which)
         arrays = _native(pose, twist, x)  # already checked by the value model
         if arrays is None:
             batched, T, V, X = check_states(pose, (twist, "twist"), (x, name))
@@ -632,8 +726,7 @@ class CompiledDerivatives:
             any_flag = self._call_batch(which, n, T, V, X, chi, out, flags)
         else:
             any_flag = self._run_vm(which, n, T, V, X, chi, out, flags)
-            if self._builders:
-                self._start_builds()
+            self._models.start_builds()
         if any_flag:
             bad = flags != 0
             raise NumericalError(_OUTPUTS[which], int(np.argmax(bad)), int(bad.sum()), n)
