@@ -228,7 +228,10 @@ def test_bench_writes_json(tmp_path, capsys):
     first = sections["derivatives first use"]["median"]
     assert "desktop: first inverse_dynamics_derivatives call" in first
     assert "import stewart_pin" in sections["start-up"]["median"]
-    assert len(sections["sampling"]["median"]) == 5
+    from stewart_pin.apps.bench_sections import SAMPLING_PRESETS
+
+    sampled = {k.split(":")[0] for k in sections["sampling"]["median"]}
+    assert sampled == set(SAMPLING_PRESETS) and {"rus", "welded-ups"} <= sampled
     assert "payload robot, inverse, compiled, one state" in sections["payload"]["median"]
     assert any(k.startswith("IDM batch 50, per state") for k in sections["batches"]["median"])
     sim = data["simulation"]["desktop"]

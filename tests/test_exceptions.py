@@ -35,6 +35,7 @@ PRIVATE_SIGNALS = {
     "stewart_pin.motion.simulation._Failure",
     "stewart_pin.motion.simulation._CallbackError",
     "stewart_pin.motion.simulation._Located",
+    "stewart_pin.codegen.derivatives._NotCached",
 }
 
 #: Standard exceptions library code must not raise for bad input or a failure a user can
