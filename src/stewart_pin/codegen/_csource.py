@@ -40,7 +40,10 @@ than ``SP_WIDTH``) take the scalar function. The flags and results equal the sca
 path's (tests/test_compiled_calls.py).
 
 ``sp_ddm_aux`` runs one direct-dynamics state and returns its by-products too (the
-compiled simulator, :mod:`._simsource`, reads ``Jp^-1`` there).
+compiled simulator, :mod:`._simsource`, reads ``Jp^-1`` there). It and ``sp_idm_sim`` (the
+simulator's computed-torque controller) run the AVX2+FMA copy of the generated code
+(:data:`AVX2_COPY`) where the processor has both: results within a few units in the last
+place of the batch and single-state calls', which never take it.
 
 ``sp_idm_one`` / ``sp_ddm_one`` run one state packed in one read-only input block (the
 single-state call from Python passes the bytes of its three arrays, no numpy buffer
@@ -304,18 +307,22 @@ static int sp_static_cond_ok(const double* J, double max_cond) {
 }
 """
 
-#: The AVX2 copy of the direct model the simulator's ``sp_ddm_aux`` runs where the processor
-#: has AVX2 (:func:`.compiled.avx2_copy`): ``target("avx2")`` enables no FMA, so every
-#: operation rounds as in the baseline copy (tests/test_compiled_simulation.py compares
-#: them bit for bit).
+#: The AVX2+FMA copy of a generated model the simulator runs (``sp_ddm_aux``, ``sp_idm_sim``)
+#: where the processor has both AVX2 and FMA (:func:`.compiled.avx2_copy`): compiled with
+#: ``target("avx2,fma")`` and contraction allowed (GCC's default in GNU C,
+#: ``-ffp-contract=fast``; Clang's through the pragma the copy opens with), so a product
+#: and a sum may round once instead of twice: the results differ from the baseline copy's
+#: (the batch and single-state calls') by a few units in the last place
+#: (tests/test_compiled_simulation.py bounds the difference at 1e-13 relative, and the
+#: simulator's trajectories stay within 1e-10 of the Python loop's).
 AVX2_COPY = r"""
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
 #ifndef SP_AVX2
-#define SP_AVX2 __attribute__((target("avx2")))
-static int sp_avx2_ready = 0;  /* the processor has AVX2: set when the library is loaded */
+#define SP_AVX2 __attribute__((target("avx2,fma")))
+static int sp_avx2_ready = 0;  /* the processor has AVX2 and FMA: set when loaded */
 __attribute__((constructor)) static void sp_avx2_init(void) {
   __builtin_cpu_init();
-  sp_avx2_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
+  sp_avx2_ready = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? 1 : 0;
 }
 #endif
 #define %(flag)s 1
@@ -585,9 +592,9 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   return any;
 }
 
-/* Inverse dynamics of n states as sp_idm_batch's scalar loop, through the AVX2 copy of
-   the generated code where the processor has it (the same roundings): the compiled
-   simulator's controller (codegen/_simsource.py). */
+/* Inverse dynamics of n states as sp_idm_batch's scalar loop, through the AVX2+FMA copy
+   of the generated code where the processor has both (within a few units in the last
+   place of the baseline's): the compiled simulator's controller (codegen/_simsource.py). */
 SP_EXPORT int sp_idm_sim(long long n, const double* pose, const double* twist,
                          const double* accel, const double* chi, double max_cond,
                          double* gamma, int* flags) {
