@@ -328,7 +328,9 @@ def avx2_copy(source: str, name: str, new: str, flag: str) -> str:
         return ""
     code = body.group(0).replace(f"static int {m.group(1)}(", f"SP_AVX2 static int {new}(", 1)
     brace = code.index("{") + 1  # Clang contracts within a statement only, unless told
-    code = f"{code[:brace]}\n#ifdef __clang__\n#pragma clang fp contract(fast)\n#endif{code[brace:]}"
+    code = (
+        f"{code[:brace]}\n#ifdef __clang__\n#pragma clang fp contract(fast)\n#endif{code[brace:]}"
+    )
     return _csource.AVX2_COPY % {"code": code, "flag": flag}
 
 
