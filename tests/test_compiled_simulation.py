@@ -370,12 +370,22 @@ def test_the_compiled_actuator_positions_and_sign_equal_the_reference(name):
     assert run.fast.det_sign(P[0]) is None
 
 
+def _close_1e13(got: np.ndarray, ref: np.ndarray) -> None:
+    """Each output within 1e-13 of the reference, relative to max(|reference|, 1)."""
+    err = np.abs(got - ref) / np.maximum(np.abs(ref), 1.0)
+    assert err.max() <= 1e-13, (err.max(), got, ref)
+
+
 @pytest.mark.parametrize("name", ROBOTS)
-def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(name):
-    """The C loop's direct and inverse models (``sp_ddm_aux``, ``sp_idm_sim``: the AVX2
-    copies of the generated code where the processor has AVX2, no FMA) give the results
-    of the single-state calls (the baseline copies, the Python loop's) bit for bit, at
-    random states about home."""
+def test_the_simulators_models_equal_the_single_state_calls_to_1e_13(name):
+    """The C loop's direct and inverse models (``sp_ddm_aux``, ``sp_idm_sim``: the AVX2+FMA
+    copies of the generated code where the processor has both, contraction allowed) give
+    the results of the single-state calls (the baseline copies, the Python loop's) to
+    1e-13 relative per output (to the output's size, or to 1 for outputs under 1: the
+    accelerations [m/s^2, rad/s^2] and forces [N, N m] at these states are of order 1 to
+    1e3), at random states about home. Rounding once instead of twice moves a result by a
+    few units in the last place; a wrong copy (another function, a lost term) moves it by
+    far more."""
     import ctypes
 
     robot = get_robot(name)
@@ -400,7 +410,7 @@ def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(na
             ctypes.byref(det),
         )
         assert flag == 0
-        np.testing.assert_array_equal(out, robot.direct_dynamics(T, V, g, backend="compiled"))
+        _close_1e13(out, robot.direct_dynamics(T, V, g, backend="compiled"))
         A, gamma, flags = 0.5 * rng.standard_normal(6), np.empty(6), np.zeros(1, np.int32)
         lib.sp_idm_sim(
             ctypes.c_longlong(1),
@@ -411,4 +421,64 @@ def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(na
             ctypes.c_void_p(flags.ctypes.data),
         )
         assert flags[0] == 0
-        np.testing.assert_array_equal(gamma, robot.inverse_dynamics(T, V, A, backend="compiled"))
+        _close_1e13(gamma, robot.inverse_dynamics(T, V, A, backend="compiled"))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_simulators_guard_flags_states_as_the_batch_guard(name):
+    """``sp_ddm_aux``'s guard (on AVX2+FMA processors its own copy: the input check
+    without early exits, the cheap condition check summing ``||S||_F^2`` by columns)
+    flags (or passes) every state the batch loop's scalar guard (``sp_ddm_batch``) does
+    (the INPUT flag alike), at states
+    from well inside to beyond the stroke ends and the condition threshold, with
+    non-orthonormal rotations and non-finite inputs among them; where it passes, the sign
+    of its determinant is that of ``np.linalg.det`` of the reference's ``Jp^-1``."""
+    import ctypes
+
+    robot = get_robot(name)
+    g0 = _hover(robot)
+    rng = np.random.default_rng(11)
+    run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
+    lib, chi = run.fast._models._lib, run.fast.sim.chi
+    aux, out, det = np.empty(run.fast.sim.naux), np.empty(6), ctypes.c_double()
+    seen = set()
+    for i in range(400):
+        T = robot.home_pose.copy()
+        d = (0.02 if i % 2 else 0.4) * rng.standard_normal(6)
+        T[:3, :3] = pin.exp3(d[3:]) @ T[:3, :3]
+        T[:3, 3] += robot.description.stroke_mid * d[:3]
+        V = 0.1 * rng.standard_normal(6)
+        g = g0 * (1.0 + 0.05 * rng.standard_normal(6))
+        if i % 50 == 3:
+            T[0, 0] += 1e-5  # not a rotation within the tolerance
+        if i % 50 == 7:
+            V[2] = np.nan
+        if i % 50 == 9:
+            g[4] = np.inf
+        flag = lib.sp_ddm_aux(
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, V, g)),
+            ctypes.c_void_p(chi),
+            ctypes.c_double(robot.max_condition),
+            ctypes.c_void_p(out.ctypes.data),
+            ctypes.c_void_p(aux.ctypes.data),
+            ctypes.byref(det),
+        )
+        flags = np.zeros(1, np.int32)
+        lib.sp_ddm_batch(
+            ctypes.c_longlong(1),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (T, V, g)),
+            ctypes.c_void_p(chi),
+            ctypes.c_double(robot.max_condition),
+            ctypes.c_void_p(np.empty(6).ctypes.data),
+            ctypes.c_void_p(flags.ctypes.data),
+        )
+        # The C loop reads only whether a state is flagged; beyond a first flag (a leg
+        # out of reach) the generated values are meaningless and FMA may change which
+        # further flags they raise, so the INPUT flag and flagged or not are compared.
+        assert (flag == 0) == (flags[0] == 0), (i, flag, flags[0])
+        assert flag & 1 == flags[0] & 1, (i, flag, flags[0])
+        seen.add(int(flag))
+        if flag == 0 and det.value != 0.0:
+            ref = np.linalg.det(robot.inverse_jacobian(T))
+            assert np.sign(det.value) == np.sign(ref)
+    assert 0 in seen and 1 in seen and len(seen) >= 3, seen  # accepted, INPUT and others

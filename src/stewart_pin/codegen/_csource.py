@@ -40,7 +40,10 @@ than ``SP_WIDTH``) take the scalar function. The flags and results equal the sca
 path's (tests/test_compiled_calls.py).
 
 ``sp_ddm_aux`` runs one direct-dynamics state and returns its by-products too (the
-compiled simulator, :mod:`._simsource`, reads ``Jp^-1`` there).
+compiled simulator, :mod:`._simsource`, reads ``Jp^-1`` there). It and ``sp_idm_sim`` (the
+simulator's computed-torque controller) run the AVX2+FMA copy of the generated code
+(:data:`AVX2_COPY`) where the processor has both: results within a few units in the last
+place of the batch and single-state calls', which never take it.
 
 ``sp_idm_one`` / ``sp_ddm_one`` run one state packed in one read-only input block (the
 single-state call from Python passes the bytes of its three arrays, no numpy buffer
@@ -304,18 +307,22 @@ static int sp_static_cond_ok(const double* J, double max_cond) {
 }
 """
 
-#: The AVX2 copy of the direct model the simulator's ``sp_ddm_aux`` runs where the processor
-#: has AVX2 (:func:`.compiled.avx2_copy`): ``target("avx2")`` enables no FMA, so every
-#: operation rounds as in the baseline copy (tests/test_compiled_simulation.py compares
-#: them bit for bit).
+#: The AVX2+FMA copy of a generated model the simulator runs (``sp_ddm_aux``, ``sp_idm_sim``)
+#: where the processor has both AVX2 and FMA (:func:`.compiled.avx2_copy`): compiled with
+#: ``target("avx2,fma")`` and contraction allowed (GCC's default in GNU C,
+#: ``-ffp-contract=fast``; Clang's through the pragma the copy opens with), so a product
+#: and a sum may round once instead of twice: the results differ from the baseline copy's
+#: (the batch and single-state calls') by a few units in the last place
+#: (tests/test_compiled_simulation.py bounds the difference at 1e-13 relative, and the
+#: simulator's trajectories stay within 1e-10 of the Python loop's).
 AVX2_COPY = r"""
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
 #ifndef SP_AVX2
-#define SP_AVX2 __attribute__((target("avx2")))
-static int sp_avx2_ready = 0;  /* the processor has AVX2: set when the library is loaded */
+#define SP_AVX2 __attribute__((target("avx2,fma")))
+static int sp_avx2_ready = 0;  /* the processor has AVX2 and FMA: set when loaded */
 __attribute__((constructor)) static void sp_avx2_init(void) {
   __builtin_cpu_init();
-  sp_avx2_ready = __builtin_cpu_supports("avx2") ? 1 : 0;
+  sp_avx2_ready = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? 1 : 0;
 }
 #endif
 #define %(flag)s 1
@@ -396,6 +403,76 @@ static int sp_ddm_after(const double* T, const double* tw, const double* gam, co
   double det;
   return sp_ddm_after_det(T, tw, gam, a, aux, max_cond, &det);
 }
+
+#ifdef SP_DDM_AVX2
+/* ---- the compiled simulator's guard (sp_ddm_aux where the AVX2+FMA copy runs) ---- */
+/* sp_check_inputs's decision without its early exits (the same tests: |x| <= DBL_MAX iff
+   x is finite, then each orthogonality error within the tolerance, the pose's entries
+   finite by then). */
+static int sp_check_inputs_flat(const double* T, const double* x, const double* y) {
+  const double big = 1.7976931348623157e308;
+  int ok = 1, i, j, k;
+  double det;
+  for (k = 0; k < 16; ++k) ok &= fabs(T[k]) <= big;
+  for (k = 0; k < 6; ++k) ok &= (fabs(x[k]) <= big) & (fabs(y[k]) <= big);
+  ok &= (T[12] == 0.0) & (T[13] == 0.0) & (T[14] == 0.0) & (T[15] == 1.0);
+  if (!ok) return SP_INPUT;
+  for (i = 0; i < 3; ++i) {
+    for (j = i; j < 3; ++j) {
+      double s = T[i] * T[j] + T[4 + i] * T[4 + j] + T[8 + i] * T[8 + j];
+      ok &= fabs(s - (i == j ? 1.0 : 0.0)) <= sp_rotation_tol;
+    }
+  }
+  det = T[0] * (T[5] * T[10] - T[6] * T[9]) - T[1] * (T[4] * T[10] - T[6] * T[8])
+      + T[2] * (T[4] * T[9] - T[5] * T[8]);
+  ok &= det > 0.0;
+  return ok ? 0 : SP_INPUT;
+}
+
+/* sp_static_cond_det with ||S||_F^2 summed by columns (six short chains, not one of 36
+   additions), compiled for AVX2+FMA: the same test up to rounding. Where it passes,
+   cond(S) <= half the threshold (to rounding): the reference accepts the state, as the
+   Python loop's guard (or the reference checks it defers to) does; where it fails, the
+   pivoted LU decides as there. The determinant's sign is det Jp^-1's as well. */
+SP_AVX2 static int sp_static_cond_sim(const double* J, double max_cond, double* det_out) {
+  double A[6][6], f[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, fro2, det = 1.0, r, l;
+  int i, j, k, ok = 1;
+  SP_UNROLL6 for (i = 0; i < 6; ++i) {
+    SP_UNROLL6 for (j = 0; j < 6; ++j) {
+      A[i][j] = i < 3 ? J[6 * j + i] : J[6 * j + i] * sp_inv_length;
+      f[j] += A[i][j] * A[i][j];
+    }
+  }
+  fro2 = ((f[0] + f[1]) + (f[2] + f[3])) + (f[4] + f[5]);
+  SP_UNROLL6 for (k = 0; k < 6; ++k) {
+    det *= A[k][k];
+    r = 1.0 / A[k][k];
+    SP_UNROLL6 for (i = k + 1; i < 6; ++i) {
+      l = A[i][k] * r;
+      ok &= fabs(l) <= sp_growth_limit;
+      SP_UNROLL6 for (j = k + 1; j < 6; ++j) A[i][j] -= l * A[k][j];
+    }
+  }
+  *det_out = det;
+  return ok && sp_cond_bound(det, fro2, max_cond) == 0;
+}
+
+/* sp_ddm_after_det through the two functions above (the same flags but at the rounding
+   margins of the cheap screen, where the reference accepts either way). */
+SP_AVX2 static int sp_ddm_after_sim(const double* T, const double* tw, const double* gam,
+                                    const double* a, const double* aux, double max_cond,
+                                    double* det) {
+  int k, f = sp_check_inputs_flat(T, tw, gam);
+  f |= sp_check_legs(aux, SP_DDM_SLACK);
+  if (!sp_static_cond_sim(aux + %(jinv)d, max_cond, det)) {
+    *det = 0.0;
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  }
+  for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
+  if (!sp_finite6(a)) f |= SP_NONFINITE;
+  return f;
+}
+#endif
 
 #ifdef SP_WIDTH
 /* ---- the vector screens: the lanes (all ones) whose scalar guard would return 0 ---- */
@@ -585,9 +662,9 @@ SP_EXPORT int sp_ddm_batch(long long n, const double* pose, const double* twist,
   return any;
 }
 
-/* Inverse dynamics of n states as sp_idm_batch's scalar loop, through the AVX2 copy of
-   the generated code where the processor has it (the same roundings): the compiled
-   simulator's controller (codegen/_simsource.py). */
+/* Inverse dynamics of n states as sp_idm_batch's scalar loop, through the AVX2+FMA copy
+   of the generated code where the processor has both (within a few units in the last
+   place of the baseline's): the compiled simulator's controller (codegen/_simsource.py). */
 SP_EXPORT int sp_idm_sim(long long n, const double* pose, const double* twist,
                          const double* accel, const double* chi, double max_cond,
                          double* gamma, int* flags) {
@@ -630,10 +707,11 @@ SP_EXPORT int sp_ddm_one(const double* in, const double* chi, double max_cond, d
 }
 
 /* One direct-dynamics state with its by-products (aux, SP_DDM_NAUX values: Jp^-1 among
-   them), the scalar path of sp_ddm_batch: the compiled simulator's entry
-   (codegen/_simsource.py), which takes the sign of det Jp^-1 from *det (the determinant
-   of S the cheap condition check computed; 0.0 when the pivoted LU decided). Returns the
-   state's flag. */
+   them): the compiled simulator's entry (codegen/_simsource.py), which takes the sign of
+   det Jp^-1 from *det (the determinant of S the cheap condition check computed; 0.0 when
+   the pivoted LU decided). The scalar path of sp_ddm_batch, or where the processor has
+   AVX2 and FMA the AVX2+FMA copy of the model and sp_ddm_after_sim (results within a few
+   units in the last place). Returns the state's flag. */
 SP_EXPORT int sp_ddm_aux(const double* pose, const double* twist, const double* gam,
                          const double* chi, double max_cond, double* accel, double* aux,
                          double* det) {
@@ -644,11 +722,12 @@ SP_EXPORT int sp_ddm_aux(const double* pose, const double* twist, const double* 
   arg[0] = pose; arg[1] = twist; arg[2] = gam; arg[3] = chi;
   res[0] = accel; res[1] = aux;
 #ifdef SP_DDM_AVX2
-  if (sp_avx2_ready)
+  if (sp_avx2_ready) {
     sp_ddm_avx2(arg, res, iw, w, 0);
-  else
+    return sp_ddm_after_sim(pose, twist, gam, accel, aux, max_cond, det);
+  }
 #endif
-    %(ddm)s(arg, res, iw, w, 0);
+  %(ddm)s(arg, res, iw, w, 0);
   return sp_ddm_after_det(pose, twist, gam, accel, aux, max_cond, det);
 }
 """

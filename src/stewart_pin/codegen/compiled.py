@@ -311,11 +311,12 @@ def c_source(desc: Any) -> str:
 
 def avx2_copy(source: str, name: str, new: str, flag: str) -> str:
     """The C of ``new``, a copy of the CasADi function the exported ``name`` of ``source``
-    calls, compiled for AVX2 without FMA (the same operations and roundings as the
-    baseline copy, in fewer instructions: the 3-operand forms), defining ``flag`` and
-    ``sp_avx2_ready`` (whether the processor has AVX2; :data:`._csource.AVX2_COPY`); ""
-    where the function is not one straight-line body (it calls sub-functions). Where the
-    compiler is not a GNU one on x86, the copy is left out by the preprocessor."""
+    calls, compiled for AVX2 and FMA with contraction allowed (a product and a sum may
+    round once: results within a few units in the last place of the baseline copy's, in
+    fewer instructions), defining ``flag`` and ``sp_avx2_ready`` (whether the processor
+    has AVX2 and FMA; :data:`._csource.AVX2_COPY`); "" where the function is not one
+    straight-line body (it calls sub-functions). Where the compiler is not a GNU one on
+    x86, the copy is left out by the preprocessor."""
     m = re.search(
         r"int " + re.escape(name) + r"\(const casadi_real\*\* arg[^{]*\{\s*return (casadi_f\d+)\(",
         source,
@@ -328,6 +329,10 @@ def avx2_copy(source: str, name: str, new: str, flag: str) -> str:
     if body is None or re.search(r"\bcasadi_f\d+\(", body.group(0)[body.group(0).index("{") :]):
         return ""
     code = body.group(0).replace(f"static int {m.group(1)}(", f"SP_AVX2 static int {new}(", 1)
+    brace = code.index("{") + 1  # Clang contracts within a statement only, unless told
+    code = (
+        f"{code[:brace]}\n#ifdef __clang__\n#pragma clang fp contract(fast)\n#endif{code[brace:]}"
+    )
     return _csource.AVX2_COPY % {"code": code, "flag": flag}
 
 
