@@ -27,7 +27,7 @@ from stewart_pin.codegen import idle_compiled
 from stewart_pin.codegen.idle_compiled import CompiledIdleDerivatives, CompiledIdleDynamics
 from stewart_pin.description.chain_leg_presets import rss_robot, welded_ups
 from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
-from stewart_pin.exceptions import InputError, LegReachError
+from stewart_pin.exceptions import InputError, LegReachError, NumericalError
 from stewart_pin.kinematics import chain_legs
 
 #: Relative agreement with the constrained tree. The tree is evaluated at the legs'
@@ -316,3 +316,29 @@ def test_the_generated_models_match_mujocos_kkt_with_spinning_rods() -> None:
         )
         assert _rel(gamma[n], ref) <= TOL
         assert _rel(sigma[n], ref_sigma) <= TOL
+
+
+def test_outputs_that_overflow_are_numerical_errors_without_warnings(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """Finite inputs whose results overflow (a 1e160 twist: its squares overflow in the
+    legs' kinematics): NumericalError on every backend and entry, and no RuntimeWarning
+    escapes (the reference path's overflow is checked, as ``quiet_overflow`` does for the
+    robots without idle joints)."""
+    robot, _ = asymmetric
+    H, zero = robot.description.home_pose, np.zeros(6)
+    idle = (chain_legs.idle_home(robot.description), zero)
+    huge = np.full(6, 1e160)
+    for backend in ("pinocchio", "compiled"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no RuntimeWarning escapes either
+            with pytest.raises(NumericalError, match="Gamma is not finite"):
+                robot.inverse_dynamics_idle(H, huge, zero, idle, backend=backend)
+            with pytest.raises(NumericalError, match="acceleration is not finite"):
+                robot.direct_dynamics_idle(H, huge, zero, idle, backend=backend)
+            with pytest.raises(NumericalError, match="Gamma is not finite"):
+                robot.inverse_dynamics(H, huge, zero, backend=backend, idle=idle)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(NumericalError, match="Gamma is not finite"):
+            robot.inverse_dynamics(H, huge, zero, details=True, idle=idle)
