@@ -342,3 +342,48 @@ def test_outputs_that_overflow_are_numerical_errors_without_warnings(
         warnings.simplefilter("error")
         with pytest.raises(NumericalError, match="Gamma is not finite"):
             robot.inverse_dynamics(H, huge, zero, details=True, idle=idle)
+
+
+@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
+def test_facade_derivatives_speak_the_robots_actuator_convention(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """``robot.*_dynamics_derivatives(..., idle=)`` of a robot whose actuator convention
+    flips three actuators (as an imported file's axes would): the efforts' rows and the
+    ``gamma`` columns in the robot's convention, against central differences (h = 1e-6,
+    1e-6 relative: their truncation and rounding) of the facade's reference path in that
+    convention (``backend="pinocchio"``), plus the differences' rounding (1e-9 of the
+    values' scale: eps |f| / h is 1e-10 of it). The derivatives run in the VM (the compiled
+    library's functions) to keep the test free of a compile."""
+    from dataclasses import replace as dc_replace
+
+    base, fast = asymmetric
+    robot = StewartRobot(base.description)
+    signs = np.array([1.0, -1.0, 1.0, -1.0, -1.0, 1.0])
+    robot._set_convention(dc_replace(robot.actuator_convention, name="file", signs=signs))
+    assert robot._actuators is not None
+    idle_compiled._DERIVATIVES[robot] = CompiledIdleDerivatives(robot, fast, compiler=False)
+    T, V, A = (x[0] for x in robot.sample_states(1, rng=3))
+    s, sd = (x[0] for x in _idle(robot, 1, 8))
+
+    def ref_idm(T, V, X, idle):  # type: ignore[no-untyped-def]
+        return robot.inverse_dynamics_idle(T, V, X, idle, backend="pinocchio")
+
+    def ref_ddm(T, V, X, idle):  # type: ignore[no-untyped-def]
+        return robot.direct_dynamics_idle(T, V, X, idle, backend="pinocchio")
+
+    d = robot.inverse_dynamics_derivatives(T, V, A, idle=(s, sd))
+    assert isinstance(d, idle_compiled.IdleInverseDerivatives)
+    gamma, _ = ref_idm(T, V, A, (s, sd))
+    assert _rel(d.gamma, gamma) <= TOL
+    fd = _central(ref_idm, T, V, A, (s, sd))
+    noise = 1e-9 * np.abs(gamma).max()
+    for x, y in zip((d.pose, d.twist, d.accel, d.idle_values, d.idle_rates), fd, strict=True):
+        assert np.abs(x[:6] - y[:6]).max() <= 1e-6 * np.abs(y[:6]).max() + noise
+    g = robot.direct_dynamics_derivatives(T, V, gamma, idle=(s, sd))
+    assert isinstance(g, idle_compiled.IdleDirectDerivatives)
+    assert _rel(g.accel, A) <= TOL
+    fd = _central(ref_ddm, T, V, gamma, (s, sd))
+    noise = 1e-9 * np.abs(A).max()
+    for x, y in zip((g.pose, g.twist, g.gamma, g.idle_values, g.idle_rates), fd, strict=True):
+        assert np.abs(x[:6] - y[:6]).max() <= 1e-6 * np.abs(y[:6]).max() + noise
