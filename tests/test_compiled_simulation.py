@@ -375,10 +375,16 @@ def test_the_simulators_direct_model_equals_the_single_state_call_bit_for_bit(na
     """The C loop's direct and inverse models (``sp_ddm_aux``, ``sp_idm_sim``: the AVX2
     copies of the generated code where the processor has AVX2, no FMA) give the results
     of the single-state calls (the baseline copies, the Python loop's) bit for bit, at
-    random states about home."""
+    random states about home. The library's source holds both AVX2 copies (else the
+    comparison would be of the baseline copies with themselves)."""
     import ctypes
 
+    from stewart_pin.codegen.compiled import c_source
+
     robot = get_robot(name)
+    source = c_source(robot.description)
+    for copy in ("sp_ddm_avx2", "sp_idm_avx2"):
+        assert f"SP_AVX2 static int {copy}(" in source and f"{copy}(arg, res" in source
     g0 = _hover(robot)
     rng = np.random.default_rng(7)
     run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
