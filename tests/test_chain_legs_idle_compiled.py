@@ -387,3 +387,57 @@ def test_facade_derivatives_speak_the_robots_actuator_convention(
     noise = 1e-9 * np.abs(A).max()
     for x, y in zip((g.pose, g.twist, g.gamma, g.idle_values, g.idle_rates), fd, strict=True):
         assert np.abs(x[:6] - y[:6]).max() <= 1e-6 * np.abs(y[:6]).max() + noise
+
+
+def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """Along a direction from home, just past the last pose the 12 unrolled Newton steps
+    solve (a leg near full stretch: Newton converges slowly there), the guard flags the
+    state (GEOMETRY: the leg's residual above its slack) although the reference's
+    continuation solves it; the compiled models then return the reference's numbers
+    (1e-12: its leg solutions from another start), not the unrolled Newton's (which
+    differ from them by ~1e-9 there)."""
+    from stewart_pin._so3 import so3_exp as exp3
+
+    robot, fast = asymmetric
+    H = robot.description.home_pose
+    size = chain_legs.robot_size(robot.description)
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=6)
+    d[3:] *= 1.5
+    spin = chain_legs.idle_home(robot.description) + rng.uniform(-2.0, 2.0, 6)
+    idle = (spin[None], np.zeros((1, 6)))
+    zero = np.zeros((1, 6))
+
+    def pose(s: float) -> np.ndarray:
+        T = H.copy()
+        T[:3, 3] += s * d[:3] * size
+        T[:3, :3] = exp3((s * d[3:])[None])[0] @ H[:3, :3]
+        return T
+
+    def flag(s: float) -> int:
+        inp = idle_compiled._inputs(fast._reference, pose(s)[None], zero, zero, "accel", idle)
+        out, sig, f = np.empty((1, 6)), np.empty((1, 6)), np.zeros(1, np.int32)
+        fast._call_batch("idm", inp, robot.max_condition, out, sig, f)
+        return int(f[0])
+
+    lo, hi = 0.0, 1.0
+    while flag(hi) == 0:
+        hi *= 2.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if flag(mid) == 0 else (lo, mid)
+    T = pose(hi * (1.0 + 1e-9))
+    assert flag(hi * (1.0 + 1e-9)) == 2  # GEOMETRY only
+    models = idle_compiled.idle_models(robot.description)
+    lay = models.layout
+    args = (T.reshape(16), zero[0], zero[0], np.zeros(0), np.concatenate([spin, zero[0]]))
+    aux = np.array(models.idm_guarded(*args)[1]).ravel()
+    slacks = aux[lay.idm_slack : lay.idm_slack + lay.n_slack].reshape(6, -1)
+    assert np.any(slacks[:, 0] <= 0.0)  # a leg's Newton residual, not a limit
+    flat = np.array(models.flat_idm(*args)).ravel()
+    ref = robot.inverse_dynamics_idle(T, zero[0], zero[0], (spin, zero[0]), backend="pinocchio")
+    got = robot.inverse_dynamics_idle(T, zero[0], zero[0], (spin, zero[0]), backend="compiled")
+    assert _rel(got[0], ref[0]) <= 1e-12 and _rel(got[1], ref[1]) <= 1e-12
+    assert _rel(flat[:6], ref[0]) > 1e-11  # what the guard kept out
