@@ -27,7 +27,7 @@ from stewart_pin.codegen import idle_compiled
 from stewart_pin.codegen.idle_compiled import CompiledIdleDerivatives, CompiledIdleDynamics
 from stewart_pin.description.chain_leg_presets import rss_robot, welded_ups
 from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
-from stewart_pin.exceptions import InputError, LegReachError
+from stewart_pin.exceptions import InputError, LegReachError, NumericalError
 from stewart_pin.kinematics import chain_legs
 
 #: Relative agreement with the constrained tree. The tree is evaluated at the legs'
@@ -445,3 +445,128 @@ def test_idle_derivatives_first_use_answers_from_the_vm_announced(
             assert np.abs(x[rows] - y[rows]).max() <= 1e-6 * np.abs(y[rows]).max()
     again = exact.inverse_dynamics_derivatives(T, V, A, (s, sd))
     assert np.array_equal(again.pose, d.pose)
+
+
+def test_outputs_that_overflow_are_numerical_errors_without_warnings(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """Finite inputs whose results overflow (a 1e160 twist: its squares overflow in the
+    legs' kinematics): NumericalError on every backend and entry, and no RuntimeWarning
+    escapes (the reference path's overflow is checked, as ``quiet_overflow`` does for the
+    robots without idle joints)."""
+    robot, _ = asymmetric
+    H, zero = robot.description.home_pose, np.zeros(6)
+    idle = (chain_legs.idle_home(robot.description), zero)
+    huge = np.full(6, 1e160)
+    for backend in ("pinocchio", "compiled"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no RuntimeWarning escapes either
+            with pytest.raises(NumericalError, match="Gamma is not finite"):
+                robot.inverse_dynamics_idle(H, huge, zero, idle, backend=backend)
+            with pytest.raises(NumericalError, match="acceleration is not finite"):
+                robot.direct_dynamics_idle(H, huge, zero, idle, backend=backend)
+            with pytest.raises(NumericalError, match="Gamma is not finite"):
+                robot.inverse_dynamics(H, huge, zero, backend=backend, idle=idle)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(NumericalError, match="Gamma is not finite"):
+            robot.inverse_dynamics(H, huge, zero, details=True, idle=idle)
+
+
+@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
+def test_facade_derivatives_speak_the_robots_actuator_convention(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """``robot.*_dynamics_derivatives(..., idle=)`` of a robot whose actuator convention
+    flips three actuators (as an imported file's axes would): the efforts' rows and the
+    ``gamma`` columns in the robot's convention, against central differences (h = 1e-6,
+    1e-6 relative: their truncation and rounding) of the facade's reference path in that
+    convention (``backend="pinocchio"``), plus the differences' rounding (1e-9 of the
+    values' scale: eps |f| / h is 1e-10 of it). The derivatives run in the VM (the compiled
+    library's functions) to keep the test free of a compile."""
+    from dataclasses import replace as dc_replace
+
+    base, fast = asymmetric
+    robot = StewartRobot(base.description)
+    signs = np.array([1.0, -1.0, 1.0, -1.0, -1.0, 1.0])
+    robot._set_convention(dc_replace(robot.actuator_convention, name="file", signs=signs))
+    assert robot._actuators is not None
+    idle_compiled._DERIVATIVES[robot] = CompiledIdleDerivatives(robot, fast, compiler=False)
+    T, V, A = (x[0] for x in robot.sample_states(1, rng=3))
+    s, sd = (x[0] for x in _idle(robot, 1, 8))
+
+    def ref_idm(T, V, X, idle):  # type: ignore[no-untyped-def]
+        return robot.inverse_dynamics_idle(T, V, X, idle, backend="pinocchio")
+
+    def ref_ddm(T, V, X, idle):  # type: ignore[no-untyped-def]
+        return robot.direct_dynamics_idle(T, V, X, idle, backend="pinocchio")
+
+    d = robot.inverse_dynamics_derivatives(T, V, A, idle=(s, sd))
+    assert isinstance(d, idle_compiled.IdleInverseDerivatives)
+    gamma, _ = ref_idm(T, V, A, (s, sd))
+    assert _rel(d.gamma, gamma) <= TOL
+    fd = _central(ref_idm, T, V, A, (s, sd))
+    noise = 1e-9 * np.abs(gamma).max()
+    for x, y in zip((d.pose, d.twist, d.accel, d.idle_values, d.idle_rates), fd, strict=True):
+        assert np.abs(x[:6] - y[:6]).max() <= 1e-6 * np.abs(y[:6]).max() + noise
+    g = robot.direct_dynamics_derivatives(T, V, gamma, idle=(s, sd))
+    assert isinstance(g, idle_compiled.IdleDirectDerivatives)
+    assert _rel(g.accel, A) <= TOL
+    fd = _central(ref_ddm, T, V, gamma, (s, sd))
+    noise = 1e-9 * np.abs(A).max()
+    for x, y in zip((g.pose, g.twist, g.gamma, g.idle_values, g.idle_rates), fd, strict=True):
+        assert np.abs(x[:6] - y[:6]).max() <= 1e-6 * np.abs(y[:6]).max() + noise
+
+
+def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """Along a direction from home, just past the last pose the 12 unrolled Newton steps
+    solve (a leg near full stretch: Newton converges slowly there), the guard flags the
+    state (GEOMETRY: the leg's residual above its slack) although the reference's
+    continuation solves it; the compiled models then return the reference's numbers
+    (1e-12: its leg solutions from another start), not the unrolled Newton's (which
+    differ from them by ~1e-9 there)."""
+    from stewart_pin._so3 import so3_exp as exp3
+
+    robot, fast = asymmetric
+    H = robot.description.home_pose
+    size = chain_legs.robot_size(robot.description)
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=6)
+    d[3:] *= 1.5
+    spin = chain_legs.idle_home(robot.description) + rng.uniform(-2.0, 2.0, 6)
+    idle = (spin[None], np.zeros((1, 6)))
+    zero = np.zeros((1, 6))
+
+    def pose(s: float) -> np.ndarray:
+        T = H.copy()
+        T[:3, 3] += s * d[:3] * size
+        T[:3, :3] = exp3((s * d[3:])[None])[0] @ H[:3, :3]
+        return T
+
+    def flag(s: float) -> int:
+        inp = idle_compiled._inputs(fast._reference, pose(s)[None], zero, zero, "accel", idle)
+        out, sig, f = np.empty((1, 6)), np.empty((1, 6)), np.zeros(1, np.int32)
+        fast._call_batch("idm", inp, robot.max_condition, out, sig, f)
+        return int(f[0])
+
+    lo, hi = 0.0, 1.0
+    while flag(hi) == 0:
+        hi *= 2.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if flag(mid) == 0 else (lo, mid)
+    T = pose(hi * (1.0 + 1e-9))
+    assert flag(hi * (1.0 + 1e-9)) == 2  # GEOMETRY only
+    models = idle_compiled.idle_models(robot.description)
+    lay = models.layout
+    args = (T.reshape(16), zero[0], zero[0], np.zeros(0), np.concatenate([spin, zero[0]]))
+    aux = np.array(models.idm_guarded(*args)[1]).ravel()
+    slacks = aux[lay.idm_slack : lay.idm_slack + lay.n_slack].reshape(6, -1)
+    assert np.any(slacks[:, 0] <= 0.0)  # a leg's Newton residual, not a limit
+    flat = np.array(models.flat_idm(*args)).ravel()
+    ref = robot.inverse_dynamics_idle(T, zero[0], zero[0], (spin, zero[0]), backend="pinocchio")
+    got = robot.inverse_dynamics_idle(T, zero[0], zero[0], (spin, zero[0]), backend="compiled")
+    assert _rel(got[0], ref[0]) <= 1e-12 and _rel(got[1], ref[1]) <= 1e-12
+    assert _rel(flat[:6], ref[0]) > 1e-11  # what the guard kept out

@@ -388,7 +388,12 @@ def test_the_simulators_models_equal_the_single_state_calls_to_1e_13(name):
     far more."""
     import ctypes
 
+    from stewart_pin.codegen.compiled import c_source
+
     robot = get_robot(name)
+    source = c_source(robot.description)
+    for copy in ("sp_ddm_avx2", "sp_idm_avx2"):
+        assert f"SP_AVX2 static int {copy}(" in source and f"{copy}(arg, res" in source
     g0 = _hover(robot)
     rng = np.random.default_rng(7)
     run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")

@@ -51,7 +51,7 @@ from stewart_pin._typing import (
     Poses,
     Twists,
 )
-from stewart_pin.architectures import reference_path
+from stewart_pin.architectures import quiet_overflow, reference_path
 from stewart_pin.description import RobotDescription
 from stewart_pin.description.actuator_convention import ActuatorConvention
 from stewart_pin.description.leg_chain_hexapod import GeneralHexapod, general_from_description
@@ -963,17 +963,20 @@ class _IdleReference:
         self, pose: Any, twist: Any, accel: Any, idle: Any
     ) -> tuple[np.ndarray, np.ndarray]:
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        r = self._dyn.inverse_batch(T, V, A, idle)
+        with quiet_overflow():  # overflow: NumericalError below
+            r = self._dyn.inverse_batch(T, V, A, idle)
         gamma = check_finite(r.gamma, "inverse dynamics Gamma")
         return (gamma, r.idle_accel) if batched else (gamma[0], r.idle_accel[0])
 
     def details(self, pose: Any, twist: Any, accel: Any, idle: Any) -> ChainInverseDynamics:
-        return self._dyn.inverse_dynamics(pose, twist, accel, details=True, idle=idle)
+        with quiet_overflow():  # overflow: the reference's NumericalError
+            return self._dyn.inverse_dynamics(pose, twist, accel, details=True, idle=idle)
 
     def direct_dynamics(
         self, pose: Any, twist: Any, gamma: Any, idle: Any
     ) -> tuple[np.ndarray, np.ndarray]:
-        return self._dyn.direct_dynamics_idle(pose, twist, gamma, idle)
+        with quiet_overflow():  # overflow: the reference's NumericalError
+            return self._dyn.direct_dynamics_idle(pose, twist, gamma, idle)
 
 
 #: The backends of the dynamic models: ``"auto"`` is the default (compiled where a C
