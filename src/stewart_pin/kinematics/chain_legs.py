@@ -241,15 +241,25 @@ def newton(
     step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)[free]
     q = q.copy()
     done = np.zeros(q.shape[0], bool)
+    # Only the states not yet converged are evaluated and stepped (the others keep their
+    # q, so their residual would stay under tol): each state's arithmetic is that of the
+    # whole batch's, row by row.
+    active = np.arange(q.shape[0])
     for _ in range(NEWTON_MAX_ITERATIONS):
-        frames = chain_frames(leg, T0, q)
-        e = _residual(leg, frames.tip, target)
+        qa = q[active]
+        frames = chain_frames(leg, T0, qa)
+        e = _residual(leg, frames.tip, target[active])
         err = np.linalg.norm(e[:, :3], axis=1) / size
         if leg.constraints == 6:
             err = np.maximum(err, np.linalg.norm(e[:, 3:], axis=1))
-        done = err <= tol
-        if np.all(done):
+        converged = err <= tol
+        done[active] = converged
+        if np.all(converged):
             break
+        if np.any(converged):
+            keep = ~converged
+            active, qa, e = active[keep], qa[keep], e[keep]
+            frames = ChainFrames(frames.origins[keep], frames.axes[keep], frames.tip[keep])
         J = chain_jacobian(leg, frames)[:, :, free]
         with np.errstate(all="ignore"):
             try:
@@ -259,9 +269,9 @@ def newton(
         dq = np.where(np.isfinite(dq), dq, 0.0)
         scale = np.max(np.abs(dq) / step_cap, axis=1)
         dq = dq / np.maximum(scale, 1.0)[:, None]
-        step = np.zeros_like(q)
+        step = np.zeros_like(qa)
         step[:, free] = dq
-        q = np.where(done[:, None], q, q + step)
+        q[active] = qa + step
     return q, done
 
 
