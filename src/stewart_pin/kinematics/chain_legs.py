@@ -116,16 +116,16 @@ class ChainFrames:
     tip: np.ndarray
 
 
-def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
-    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n).
-
-    Each joint's ``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` is applied to the frame's axes and
-    origin, (N, 3) arrays each: ``y, z`` turned by alpha about x, ``O += d x``, ``x, y``
-    turned by theta about z, ``O += r z``."""
-    N, n = q.shape
-    x, y, z = (np.broadcast_to(T0[:3, k], (N, 3)) for k in range(3))
-    o = np.broadcast_to(T0[:3, 3], (N, 3))
-    origins, axes = np.empty((N, n, 3)), np.empty((N, n, 3))
+def _frames_soa(
+    leg: ChainLeg, T0: np.ndarray, q: np.ndarray
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    """:func:`chain_frames`'s arithmetic on (3, N) arrays (one row per component, so that
+    numpy's loops run over the N states): each joint's origin and z axis, and the tip
+    (4, 3, N) (its x, y, z axes and origin)."""
+    N = q.shape[0]
+    x, y, z = (np.broadcast_to(T0[:3, k, None], (3, N)) for k in range(3))
+    o = np.broadcast_to(T0[:3, 3, None], (3, N))
+    origins, axes = [], []
     for j, joint in enumerate(leg.joints):
         ca, sa = math.cos(joint.alpha), math.sin(joint.alpha)
         if joint.d != 0.0:
@@ -137,20 +137,67 @@ def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
         r: Any
         if joint.revolute:
             theta = joint.theta + q[:, j]
-            ct, st, r = np.cos(theta)[:, None], np.sin(theta)[:, None], joint.r
+            ct, st, r = np.cos(theta), np.sin(theta), joint.r
         else:
             ct, st = math.cos(joint.theta), math.sin(joint.theta)
-            r = (joint.r + q[:, j])[:, None]
+            r = joint.r + q[:, j]
         x, y = ct * x + st * y, ct * y - st * x
         o = o + r * z
-        origins[:, j], axes[:, j] = o, z
+        origins.append(o)
+        axes.append(z)
     A = leg.attachment()
-    tip = np.zeros((N, 4, 4))
+    tip = np.empty((4, 3, N))
     for k in range(3):
-        tip[:, :3, k] = A[0, k] * x + A[1, k] * y + A[2, k] * z
-    tip[:, :3, 3] = o + A[0, 3] * x + A[1, 3] * y + A[2, 3] * z
-    tip[:, 3, 3] = 1.0
-    return ChainFrames(origins, axes, tip)
+        tip[k] = A[0, k] * x + A[1, k] * y + A[2, k] * z
+    tip[3] = o + A[0, 3] * x + A[1, 3] * y + A[2, 3] * z
+    return origins, axes, tip
+
+
+def _tip_matrix(tip: np.ndarray) -> np.ndarray:
+    """The tip (4, 3, N) of :func:`_frames_soa` as frames (N, 4, 4)."""
+    out = np.zeros((tip.shape[2], 4, 4))
+    out[:, :3, :] = np.moveaxis(tip, 2, 0).swapaxes(1, 2)
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
+    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n).
+
+    Each joint's ``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` is applied to the frame's axes and
+    origin, (3, N) arrays each: ``y, z`` turned by alpha about x, ``O += d x``, ``x, y``
+    turned by theta about z, ``O += r z``."""
+    origins, axes, tip = _frames_soa(leg, T0, q)
+    shape = (q.shape[0], q.shape[1], 3)
+    O = np.stack(origins, axis=2).transpose(1, 2, 0) if origins else np.empty(shape)
+    Z = np.stack(axes, axis=2).transpose(1, 2, 0) if axes else np.empty(shape)
+    return ChainFrames(np.ascontiguousarray(O), np.ascontiguousarray(Z), _tip_matrix(tip))
+
+
+def _newton_jacobian(
+    leg: ChainLeg,
+    origins: list[np.ndarray],
+    axes: list[np.ndarray],
+    P: np.ndarray,
+    free: np.ndarray,
+) -> np.ndarray:
+    """:func:`chain_jacobian`'s free columns (N, c, n_free) from :func:`_frames_soa`'s
+    frames (the attachment point P (3, N)), with the same arithmetic."""
+    c = leg.constraints
+    cols = [j for j in range(leg.n_joints) if free[j]]
+    out = np.zeros((c, len(cols), P.shape[1]))
+    for m, j in enumerate(cols):
+        z = axes[j]
+        if leg.revolute[j]:
+            d = P - origins[j]
+            out[0, m] = z[1] * d[2] - z[2] * d[1]
+            out[1, m] = z[2] * d[0] - z[0] * d[2]
+            out[2, m] = z[0] * d[1] - z[1] * d[0]
+            if c == 6:
+                out[3:, m] = z
+        else:
+            out[:3, m] = z
+    return out.transpose(2, 0, 1)
 
 
 def chain_jacobian(leg: ChainLeg, frames: ChainFrames) -> np.ndarray:
@@ -247,8 +294,8 @@ def newton(
     active = np.arange(q.shape[0])
     for _ in range(NEWTON_MAX_ITERATIONS):
         qa = q[active]
-        frames = chain_frames(leg, T0, qa)
-        e = _residual(leg, frames.tip, target[active])
+        origins, axes, tip = _frames_soa(leg, T0, qa)
+        e = _residual(leg, _tip_matrix(tip), target[active])
         err = np.linalg.norm(e[:, :3], axis=1) / size
         if leg.constraints == 6:
             err = np.maximum(err, np.linalg.norm(e[:, 3:], axis=1))
@@ -259,8 +306,10 @@ def newton(
         if np.any(converged):
             keep = ~converged
             active, qa, e = active[keep], qa[keep], e[keep]
-            frames = ChainFrames(frames.origins[keep], frames.axes[keep], frames.tip[keep])
-        J = chain_jacobian(leg, frames)[:, :, free]
+            origins = [o[:, keep] for o in origins]
+            axes = [z[:, keep] for z in axes]
+            tip = tip[:, :, keep]
+        J = _newton_jacobian(leg, origins, axes, tip[3], free)
         with np.errstate(all="ignore"):
             try:
                 dq = np.linalg.solve(J, e[..., None])[..., 0]
