@@ -453,9 +453,25 @@ def solve_legs(
     is fewer steps away: a trajectory's, a simulation's), revolute ones in (-pi, pi], and
     ``reached`` (N, 6) bool; the idle joints at ``idle_q`` (N, 6) (``None``: their home
     values), reached along the same continuation."""
+    out, reached, _ = _solve_legs(desc, T, idle_q, None)
+    return out, reached
+
+
+def _solve_legs(
+    desc: RobotDescription,
+    T: np.ndarray,
+    idle_q: np.ndarray | None,
+    keep: Callable[[int, np.ndarray], np.ndarray] | None,
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """:func:`solve_legs`, and ``alive`` (N,) bool; with ``keep``, leg by leg, a pose one
+    leg does not reach or whose joint values ``q`` (M, n_k) fail ``keep(k, q)`` (M,)
+    bool is not solved for the next legs (its values NaN, ``reached`` False, ``alive``
+    False; the last pose is solved for every leg: it decides :data:`_LAST`). Each
+    pose's arithmetic is that of :func:`solve_legs`."""
     legs = chain_legs_of(desc)
     H, start, q_start = desc.home_pose, idle_home(desc), home_configuration(desc)
-    idle_q = np.broadcast_to(start, (T.shape[0], 6)) if idle_q is None else idle_q
+    N = T.shape[0]
+    idle_q = np.broadcast_to(start, (N, 6)) if idle_q is None else idle_q
     has_idle = np.array([leg.idle_joint is not None for leg in legs])
 
     def steps_from(H: np.ndarray, start: np.ndarray) -> int:
@@ -468,24 +484,35 @@ def solve_legs(
         steps_last = steps_from(last[0], last[1])
         if steps_last < steps:
             H, start, q_start, steps = last[0], last[1], last[2], steps_last
-    out, reached = [], np.ones((T.shape[0], 6), bool)
+    # the continuation's poses, shared by the legs
+    path = [_interpolate(H, T, s / steps) for s in range(1, steps)] + [T]
+    out, reached = [], np.zeros((N, 6), bool)
+    alive = np.ones(N, bool)
+    rows = np.arange(N)
     for k, q0 in enumerate(q_start):
-        q = np.broadcast_to(q0, (T.shape[0], q0.size)).copy()
-        ok = np.ones(T.shape[0], bool)
+        q = np.broadcast_to(q0, (rows.size, q0.size)).copy()
+        ok = np.ones(rows.size, bool)
         idle = legs[k].idle_joint
         for s in range(1, steps + 1):
-            Ts = T if s == steps else _interpolate(H, T, s / steps)
+            Ts = path[s - 1] if rows.size == N else path[s - 1][rows]
             if idle is not None:
-                q[:, idle - 1] = start[k] + s / steps * (idle_q[:, k] - start[k])
+                q[:, idle - 1] = start[k] + s / steps * (idle_q[rows, k] - start[k])
             # the intermediate poses only guide the branch: a loose tolerance
             tol = NEWTON_TOLERANCE if s == steps else CONTINUATION_TOLERANCE
             q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q, tol)
-        rev = chain_legs_of(desc)[k].revolute
-        out.append(np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q))
-        reached[:, k] = ok
+        rev = legs[k].revolute
+        q = np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+        full = np.full((N, q0.size), np.nan)
+        full[rows] = q
+        out.append(full)
+        reached[rows, k] = ok
+        if keep is not None:
+            good = ok & keep(k, q)
+            alive[rows[~good]] = False
+            rows = rows[good | (rows == N - 1)]
     if np.all(reached[-1]):
         _LAST[desc] = (T[-1].copy(), np.array(idle_q[-1]), [q[-1].copy() for q in out])
-    return out, reached
+    return out, reached, alive & reached.all(axis=1)
 
 
 #: The last state solved per description: ``(pose (4, 4), idle values (6,), the legs'
@@ -538,25 +565,46 @@ def padded(qs: list[np.ndarray]) -> np.ndarray:
 
 def admissible_poses(desc: RobotDescription, T: np.ndarray, max_condition: float) -> np.ndarray:
     """(N,) bool: every leg reaches its attachment inside its joint limits, no leg
-    Jacobian is singular, and ``Jp^-1``'s condition number is within ``max_condition``."""
-    qs, reached = solve_legs(desc, T)
-    ok = np.asarray(reached.all(axis=1))
-    rows = np.zeros((T.shape[0], 6, 6))
-    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), qs, strict=True)):
+    Jacobian is singular, and ``Jp^-1``'s condition number is within ``max_condition``.
+
+    A pose that one leg rejects is not solved for the next legs (:func:`_solve_legs`).
+    The rank test ``s_min > RANK_TOLERANCE s_max`` on each leg's (square) Jacobian is
+    decided by the bound ``s_min / s_max >= 1 / (|J|_F |J^-1|_F)`` where that bound
+    passes twice the tolerance, by the singular values elsewhere."""
+    legs = chain_legs_of(desc)
+
+    def inside(k: int, q: np.ndarray) -> np.ndarray:
+        leg = legs[k]
         lim = leg.limits
         turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
         qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
-        inside = turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1]))
-        ok &= inside.all(axis=1)
-        frames = chain_frames(leg, leg_base_pose(desc, k), q)
-        J = _square(leg, chain_jacobian(leg, frames))
+        return np.all(turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1])), axis=1)
+
+    qs, _, ok = _solve_legs(desc, T, None, inside)
+    rows = np.zeros((T.shape[0], 6, 6))
+    for k, (leg, q) in enumerate(zip(legs, qs, strict=True)):
+        idx = np.flatnonzero(ok)
+        if idx.size == 0:
+            break
+        J = _square(leg, chain_jacobian(leg, chain_frames(leg, leg_base_pose(desc, k), q[idx])))
         with np.errstate(all="ignore"):
-            s = np.linalg.svd(J, compute_uv=False)
-            ok &= s[:, -1] > RANK_TOLERANCE * s[:, 0]
-            J_safe = np.where(ok[:, None, None], J, np.eye(leg.n_joints))
-            G = platform_map(leg, T[:, :3, :3] @ desc.platform_points[k])
-            J_inv = np.linalg.inv(J_safe)[:, :, : leg.constraints]
-            rows[:, k] = (J_inv @ G)[:, leg.actuated - 1]
+            try:
+                J_inv = np.linalg.inv(J)
+            except np.linalg.LinAlgError:  # an exactly singular one: the singular values
+                J_inv = np.full(J.shape, np.nan)
+            bound = 1.0 / (np.linalg.norm(J, axis=(1, 2)) * np.linalg.norm(J_inv, axis=(1, 2)))
+            clear = bound > 2.0 * RANK_TOLERANCE
+            unclear = np.flatnonzero(~clear)
+            if unclear.size:
+                s = np.linalg.svd(J[unclear], compute_uv=False)
+                regular = s[:, -1] > RANK_TOLERANCE * s[:, 0]
+                clear[unclear] = regular
+                fine = unclear[regular]
+                if fine.size:
+                    J_inv[fine] = np.linalg.inv(J[fine])
+            ok[idx] = clear
+            G = platform_map(leg, T[idx, :3, :3] @ desc.platform_points[k])
+            rows[idx, k] = (J_inv[:, :, : leg.constraints] @ G)[:, leg.actuated - 1]
     if np.any(ok):
         ok[ok] = condition_number(desc, rows[ok]) <= max_condition
     return ok
