@@ -453,21 +453,20 @@ def solve_legs(
     is fewer steps away: a trajectory's, a simulation's), revolute ones in (-pi, pi], and
     ``reached`` (N, 6) bool; the idle joints at ``idle_q`` (N, 6) (``None``: their home
     values), reached along the same continuation."""
-    out, reached, _ = _solve_legs(desc, T, idle_q, None)
+    out, reached, _ = _solve_legs(desc, T, idle_q, False)
     return out, reached
 
 
 def _solve_legs(
-    desc: RobotDescription,
-    T: np.ndarray,
-    idle_q: np.ndarray | None,
-    keep: Callable[[int, np.ndarray], np.ndarray] | None,
+    desc: RobotDescription, T: np.ndarray, idle_q: np.ndarray | None, prune: bool
 ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-    """:func:`solve_legs`, and ``alive`` (N,) bool; with ``keep``, leg by leg, a pose one
-    leg does not reach or whose joint values ``q`` (M, n_k) fail ``keep(k, q)`` (M,)
-    bool is not solved for the next legs (its values NaN, ``reached`` False, ``alive``
-    False; the last pose is solved for every leg: it decides :data:`_LAST`). Each
-    pose's arithmetic is that of :func:`solve_legs`."""
+    """:func:`solve_legs`, and ``alive`` (N,) bool: every leg reached, inside its limits.
+
+    With ``prune``, leg by leg, a pose whose attachment lies outside the leg's reach
+    within its limits (:func:`_reach`), or that one leg does not reach or leaves its
+    limits, is not solved for the next legs (its values NaN, ``reached`` False, ``alive``
+    False; the last pose is solved for every leg: it decides :data:`_LAST`). Each pose
+    solved has the arithmetic of :func:`solve_legs`."""
     legs = chain_legs_of(desc)
     H, start, q_start = desc.home_pose, idle_home(desc), home_configuration(desc)
     N = T.shape[0]
@@ -490,6 +489,13 @@ def _solve_legs(
     alive = np.ones(N, bool)
     rows = np.arange(N)
     for k, q0 in enumerate(q_start):
+        if prune:
+            lo, hi = _reach(legs[k], robot_size(desc))
+            P = attachment_targets(desc, k, T[rows])[:, :3, 3]
+            dist = np.linalg.norm(P - desc.base_points[k], axis=1)
+            far = ((dist < lo) | (dist > hi)) & (rows != N - 1)
+            alive[rows[far]] = False
+            rows = rows[~far]
         q = np.broadcast_to(q0, (rows.size, q0.size)).copy()
         ok = np.ones(rows.size, bool)
         idle = legs[k].idle_joint
@@ -506,13 +512,50 @@ def _solve_legs(
         full[rows] = q
         out.append(full)
         reached[rows, k] = ok
-        if keep is not None:
-            good = ok & keep(k, q)
+        if prune:
+            good = ok & _inside(legs[k], q)
             alive[rows[~good]] = False
             rows = rows[good | (rows == N - 1)]
     if np.all(reached[-1]):
         _LAST[desc] = (T[-1].copy(), np.array(idle_q[-1]), [q[-1].copy() for q in out])
-    return out, reached, alive & reached.all(axis=1)
+    alive &= reached.all(axis=1)
+    for leg, q in zip(legs, out, strict=True):
+        alive[alive] = _inside(leg, q[alive])
+    return out, reached, alive
+
+
+def _inside(leg: ChainLeg, q: np.ndarray) -> np.ndarray:
+    """(M,) bool: the joint values q (M, n), revolute ones taken modulo 2 pi, are inside
+    the leg's limits (a full turn limits nothing)."""
+    lim = leg.limits
+    turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
+    qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
+    return np.all(turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1])), axis=1)
+
+
+def _reach(leg: ChainLeg, size: float) -> tuple[float, float]:
+    """``(lo, hi)`` [m]: bounds on the distance from the leg's frame 0 origin to its
+    attachment over joint values inside the limits (revolute joints: any angle), widened
+    by ``1e-9 (hi + size)``.
+
+    The attachment is frame 0's origin plus the segments ``d_j x`` and ``(r_j + q_j) z``
+    of each joint and the attachment's offset, of lengths within ``[l_min, l_max]``
+    each: the distance lies within ``[max(l_min) - (sum(l_max) - l_max of that one),
+    sum(l_max)]`` (a pose Newton reaches inside the limits, to its tolerance, is inside
+    the bounds)."""
+    segments = [(float(np.linalg.norm(leg.attachment()[:3, 3])),) * 2]
+    for joint in leg.joints:
+        segments.append((abs(joint.d), abs(joint.d)))
+        if joint.revolute:
+            segments.append((abs(joint.r), abs(joint.r)))
+        else:
+            a, b = joint.r + joint.lower, joint.r + joint.upper
+            low = 0.0 if a <= 0.0 <= b else min(abs(a), abs(b))
+            segments.append((low, max(abs(a), abs(b))))
+    hi = sum(s[1] for s in segments)
+    lo = max(s[0] - (hi - s[1]) for s in segments)
+    margin = 1e-9 * (hi + size) if math.isfinite(hi) else 0.0
+    return lo - margin, hi + margin
 
 
 #: The last state solved per description: ``(pose (4, 4), idle values (6,), the legs'
@@ -572,15 +615,7 @@ def admissible_poses(desc: RobotDescription, T: np.ndarray, max_condition: float
     decided by the bound ``s_min / s_max >= 1 / (|J|_F |J^-1|_F)`` where that bound
     passes twice the tolerance, by the singular values elsewhere."""
     legs = chain_legs_of(desc)
-
-    def inside(k: int, q: np.ndarray) -> np.ndarray:
-        leg = legs[k]
-        lim = leg.limits
-        turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
-        qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
-        return np.all(turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1])), axis=1)
-
-    qs, _, ok = _solve_legs(desc, T, None, inside)
+    qs, _, ok = _solve_legs(desc, T, None, True)
     rows = np.zeros((T.shape[0], 6, 6))
     for k, (leg, q) in enumerate(zip(legs, qs, strict=True)):
         idx = np.flatnonzero(ok)
