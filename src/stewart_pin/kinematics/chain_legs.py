@@ -65,6 +65,8 @@ CONTINUATION_TRANSLATION = 0.25
 CONTINUATION_ROTATION = 0.25
 #: Newton's tolerance at the continuation's intermediate poses.
 CONTINUATION_TOLERANCE = 1e-6
+#: States per block of Newton's batch (its temporaries stay in the cache).
+NEWTON_BLOCK = 100000
 #: Singular values of a leg's Jacobian under this fraction of its largest: rank-deficient.
 RANK_TOLERANCE = 1e-9
 
@@ -117,15 +119,16 @@ class ChainFrames:
 
 
 def _frames_soa(
-    leg: ChainLeg, T0: np.ndarray, q: np.ndarray
+    leg: ChainLeg, T0: np.ndarray, q: np.ndarray, A: np.ndarray | None = None
 ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
     """:func:`chain_frames`'s arithmetic on (3, N) arrays (one row per component, so that
     numpy's loops run over the N states): each joint's origin and z axis, and the tip
-    (4, 3, N) (its x, y, z axes and origin)."""
+    (4, 3, N) (its x, y, z axes and origin). ``T0`` (4, 4) or one per state (4, 4, N);
+    ``A`` the attachment (4, 4) or (4, 4, N) (default ``leg.attachment()``)."""
     N = q.shape[0]
     # (3, 1) until the first joint variable: broadcast over the states after
-    x, y, z = (T0[:3, k, None] for k in range(3))
-    o = T0[:3, 3, None]
+    x, y, z = (T0[:3, k, None] if T0.ndim == 2 else T0[:3, k] for k in range(3))
+    o = T0[:3, 3, None] if T0.ndim == 2 else T0[:3, 3]
     origins, axes = [], []
     for j, joint in enumerate(leg.joints):
         ca, sa = math.cos(joint.alpha), math.sin(joint.alpha)
@@ -146,7 +149,7 @@ def _frames_soa(
         o = o + r * z
         origins.append(np.broadcast_to(o, (3, N)))
         axes.append(np.broadcast_to(z, (3, N)))
-    A = leg.attachment()
+    A = leg.attachment() if A is None else A
     tip = np.empty((4, 3, N))
     for k in range(3):
         tip[k] = A[0, k] * x + A[1, k] * y + A[2, k] * z
@@ -289,8 +292,36 @@ def newton(
     joint kept at its value, to ``tol`` (relative position, rad); returns ``(q, converged
     (N,) bool)``."""
     leg = chain_legs_of(desc)[k]
-    T0 = leg_base_pose(desc, k)
-    size = robot_size(desc)
+    return _newton(leg, leg_base_pose(desc, k), None, robot_size(desc), target, q, tol)
+
+
+def _newton(
+    leg: ChainLeg,
+    T0: np.ndarray,
+    A: np.ndarray | None,
+    size: float,
+    target: np.ndarray,
+    q: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`newton` on ``leg``'s joints with frame 0 at ``T0`` (4, 4) or one per state
+    (4, 4, N), the attachment ``A`` (4, 4, N) per state (``None``: the leg's): several
+    legs of the same joints solved as one batch."""
+    per_state = T0.ndim == 3
+    if q.shape[0] > NEWTON_BLOCK:  # each state's arithmetic is its own
+        parts = [
+            _newton(
+                leg,
+                T0[:, :, i : i + NEWTON_BLOCK] if per_state else T0,
+                None if A is None else A[:, :, i : i + NEWTON_BLOCK],
+                size,
+                target[i : i + NEWTON_BLOCK],
+                q[i : i + NEWTON_BLOCK],
+                tol,
+            )
+            for i in range(0, q.shape[0], NEWTON_BLOCK)
+        ]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     free = np.array([j + 1 != leg.idle_joint for j in range(leg.n_joints)])
     step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)[free]
     q = q.copy()
@@ -301,7 +332,12 @@ def newton(
     active = np.arange(q.shape[0])
     for _ in range(NEWTON_MAX_ITERATIONS):
         qa = q[active]
-        origins, axes, tip = _frames_soa(leg, T0, qa)
+        if per_state:
+            origins, axes, tip = _frames_soa(
+                leg, T0[:, :, active], qa, None if A is None else A[:, :, active]
+            )
+        else:
+            origins, axes, tip = _frames_soa(leg, T0, qa, A)
         e = _residual(leg, _tip_matrix(tip), target[active])
         err = _norm3(e[:, :3]) / size
         if leg.constraints == 6:
@@ -469,11 +505,13 @@ def _solve_legs(
 ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """:func:`solve_legs`, and ``alive`` (N,) bool: every leg reached, inside its limits.
 
-    With ``prune``, leg by leg, a pose whose attachment lies outside the leg's reach
-    within its limits (:func:`_reach`), or that one leg does not reach or leaves its
-    limits, is not solved for the next legs (its values NaN, ``reached`` False, ``alive``
-    False; the last pose is solved for every leg: it decides :data:`_LAST`). Each pose
-    solved has the arithmetic of :func:`solve_legs`."""
+    The legs of the same joints (:func:`_leg_groups`) are solved as one batch. With
+    ``prune``, a pose whose attachment lies outside a leg's reach within its limits
+    (:func:`_reach`) is solved for no leg, and a pose that one group of legs does not
+    reach or puts outside its limits is not solved for the next groups (its values NaN,
+    ``reached`` False, ``alive`` False; the last pose is solved for every leg: it
+    decides :data:`_LAST`). Each pose and leg solved has the arithmetic of one leg's
+    Newton alone (:func:`newton`)."""
     legs = chain_legs_of(desc)
     H, start, q_start = desc.home_pose, idle_home(desc), home_configuration(desc)
     N = T.shape[0]
@@ -492,35 +530,43 @@ def _solve_legs(
             H, start, q_start, steps = last[0], last[1], last[2], steps_last
     # the continuation's poses, shared by the legs
     path = [_interpolate(H, T, s / steps) for s in range(1, steps)] + [T]
-    out, reached = [], np.zeros((N, 6), bool)
+    out = [np.full((N, leg.n_joints), np.nan) for leg in legs]
+    reached = np.zeros((N, 6), bool)
     alive = np.ones(N, bool)
-    rows = np.arange(N)
-    for k, q0 in enumerate(q_start):
-        if prune:
-            lo, hi = _reach(legs[k], robot_size(desc))
-            P = attachment_targets(desc, k, T[rows])[:, :3, 3]
+    size = robot_size(desc)
+    if prune:  # outside a leg's reach: rejected before any Newton
+        for k, leg in enumerate(legs):
+            lo, hi = _reach(leg, size)
+            P = attachment_targets(desc, k, T)[:, :3, 3]
             dist = np.linalg.norm(P - desc.base_points[k], axis=1)
-            far = ((dist < lo) | (dist > hi)) & (rows != N - 1)
-            alive[rows[far]] = False
-            rows = rows[~far]
-        q = np.broadcast_to(q0, (rows.size, q0.size)).copy()
-        ok = np.ones(rows.size, bool)
-        idle = legs[k].idle_joint
+            alive &= (dist >= lo) & (dist <= hi)
+        alive[-1] = True
+    rows = np.flatnonzero(alive)
+    for group in _leg_groups(legs):
+        leg, M = legs[group[0]], rows.size
+        q = np.concatenate([np.broadcast_to(q_start[k], (M, leg.n_joints)) for k in group])
+        T0 = np.repeat(np.stack([leg_base_pose(desc, k) for k in group], axis=2), M, axis=2)
+        A = np.repeat(np.stack([legs[k].attachment() for k in group], axis=2), M, axis=2)
+        idle = leg.idle_joint
         for s in range(1, steps + 1):
-            Ts = path[s - 1] if rows.size == N else path[s - 1][rows]
+            Ts = path[s - 1] if M == N else path[s - 1][rows]
             if idle is not None:
-                q[:, idle - 1] = start[k] + s / steps * (idle_q[rows, k] - start[k])
+                q[:, idle - 1] = np.concatenate(
+                    [start[k] + s / steps * (idle_q[rows, k] - start[k]) for k in group]
+                )
             # the intermediate poses only guide the branch: a loose tolerance
             tol = NEWTON_TOLERANCE if s == steps else CONTINUATION_TOLERANCE
-            q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q, tol)
-        rev = legs[k].revolute
-        q = np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
-        full = np.full((N, q0.size), np.nan)
-        full[rows] = q
-        out.append(full)
-        reached[rows, k] = ok
+            target = np.concatenate([attachment_targets(desc, k, Ts) for k in group])
+            q, ok = _newton(leg, T0, A, size, target, q, tol)
+        q = np.where(leg.revolute, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+        good = np.ones(M, bool)
+        for m, k in enumerate(group):
+            qk, okk = q[m * M : (m + 1) * M], ok[m * M : (m + 1) * M]
+            out[k][rows] = qk
+            reached[rows, k] = okk
+            if prune:
+                good &= okk & _inside(legs[k], qk)
         if prune:
-            good = ok & _inside(legs[k], q)
             alive[rows[~good]] = False
             rows = rows[good | (rows == N - 1)]
     if np.all(reached[-1]):
@@ -529,6 +575,20 @@ def _solve_legs(
     for leg, q in zip(legs, out, strict=True):
         alive[alive] = _inside(leg, q[alive])
     return out, reached, alive
+
+
+def _leg_groups(legs: tuple[ChainLeg, ...]) -> list[list[int]]:
+    """The legs (0-based) grouped by their joints (MDH parameters and kinds), idle joint
+    and closure, in order of first appearance: each group is solved as one batch."""
+    groups: dict[tuple[Any, ...], list[int]] = {}
+    for k, leg in enumerate(legs):
+        key = (
+            tuple((j.alpha, j.d, j.theta, j.r, j.revolute) for j in leg.joints),
+            leg.idle_joint,
+            leg.constraints,
+        )
+        groups.setdefault(key, []).append(k)
+    return list(groups.values())
 
 
 def _inside(leg: ChainLeg, q: np.ndarray) -> np.ndarray:
