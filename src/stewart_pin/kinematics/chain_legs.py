@@ -328,27 +328,35 @@ def _newton(
     done = np.zeros(q.shape[0], bool)
     # Only the states not yet converged are evaluated and stepped (the others keep their
     # q, so their residual would stay under tol): each state's arithmetic is that of the
-    # whole batch's, row by row.
+    # whole batch's, row by row. The not-converged states' q, base poses, attachments
+    # and targets are kept compact, ``active`` their rows.
     active = np.arange(q.shape[0])
+    qa, Ta = q, target
+    T0a = T0
+    Aa = A
     for _ in range(NEWTON_MAX_ITERATIONS):
-        qa = q[active]
-        if per_state:
-            origins, axes, tip = _frames_soa(
-                leg, T0[:, :, active], qa, None if A is None else A[:, :, active]
-            )
+        origins, axes, tip = _frames_soa(leg, T0a, qa, Aa)
+        if leg.constraints == 3:
+            e = Ta[:, :3, 3] - tip[3].T
         else:
-            origins, axes, tip = _frames_soa(leg, T0, qa, A)
-        e = _residual(leg, _tip_matrix(tip), target[active])
+            e = _residual(leg, _tip_matrix(tip), Ta)
         err = _norm3(e[:, :3]) / size
         if leg.constraints == 6:
             err = np.maximum(err, _norm3(e[:, 3:]))
         converged = err <= tol
-        done[active] = converged
         if np.all(converged):
-            break
+            done[active] = True
+            q[active] = qa
+            return q, done
         if np.any(converged):
+            done[active[converged]] = True
+            q[active[converged]] = qa[converged]
             keep = ~converged
-            active, qa, e = active[keep], qa[keep], e[keep]
+            active, qa, e, Ta = active[keep], qa[keep], e[keep], Ta[keep]
+            if per_state:
+                T0a = T0a[:, :, keep]
+            if Aa is not None:
+                Aa = Aa[:, :, keep]
             origins = [o[:, keep] for o in origins]
             axes = [z[:, keep] for z in axes]
             tip = tip[:, :, keep]
@@ -363,7 +371,8 @@ def _newton(
         dq = dq / np.maximum(scale, 1.0)[:, None]
         step = np.zeros_like(qa)
         step[:, free] = dq
-        q[active] = qa + step
+        qa = qa + step
+    q[active] = qa
     return q, done
 
 
