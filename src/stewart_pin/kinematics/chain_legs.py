@@ -20,7 +20,9 @@ rotation vector ``log(R_target R^T)`` in F0), continued from the leg's configura
 home pose (found from its ``guess``) along the straight path from the home pose to the
 target (position linearly, orientation along the geodesic): the configuration reached is
 on the assembly branch of the home pose. Revolute joints are then taken modulo 2 pi into
-their limits (a full-turn range limits nothing). Per-leg loops, numpy over the batch.
+their limits (a full-turn range limits nothing). Legs of the same joints are solved as
+one batch, numpy over the states (on (3, N) arrays), Newton stepping only the states
+not yet converged.
 """
 
 from __future__ import annotations
