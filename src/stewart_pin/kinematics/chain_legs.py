@@ -20,7 +20,9 @@ rotation vector ``log(R_target R^T)`` in F0), continued from the leg's configura
 home pose (found from its ``guess``) along the straight path from the home pose to the
 target (position linearly, orientation along the geodesic): the configuration reached is
 on the assembly branch of the home pose. Revolute joints are then taken modulo 2 pi into
-their limits (a full-turn range limits nothing). Per-leg loops, numpy over the batch.
+their limits (a full-turn range limits nothing). Legs of the same joints are solved as
+one batch, numpy over the states (on (3, N) arrays), Newton stepping only the states
+not yet converged.
 """
 
 from __future__ import annotations
@@ -65,6 +67,8 @@ CONTINUATION_TRANSLATION = 0.25
 CONTINUATION_ROTATION = 0.25
 #: Newton's tolerance at the continuation's intermediate poses.
 CONTINUATION_TOLERANCE = 1e-6
+#: States per block of Newton's batch (its temporaries stay in the cache).
+NEWTON_BLOCK = 100000
 #: Singular values of a leg's Jacobian under this fraction of its largest: rank-deficient.
 RANK_TOLERANCE = 1e-9
 
@@ -116,16 +120,18 @@ class ChainFrames:
     tip: np.ndarray
 
 
-def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
-    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n).
-
-    Each joint's ``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` is applied to the frame's axes and
-    origin, (N, 3) arrays each: ``y, z`` turned by alpha about x, ``O += d x``, ``x, y``
-    turned by theta about z, ``O += r z``."""
-    N, n = q.shape
-    x, y, z = (np.broadcast_to(T0[:3, k], (N, 3)) for k in range(3))
-    o = np.broadcast_to(T0[:3, 3], (N, 3))
-    origins, axes = np.empty((N, n, 3)), np.empty((N, n, 3))
+def _frames_soa(
+    leg: ChainLeg, T0: np.ndarray, q: np.ndarray, A: np.ndarray | None = None
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    """:func:`chain_frames`'s arithmetic on (3, N) arrays (one row per component, so that
+    numpy's loops run over the N states): each joint's origin and z axis, and the tip
+    (4, 3, N) (its x, y, z axes and origin). ``T0`` (4, 4) or one per state (4, 4, N);
+    ``A`` the attachment (4, 4) or (4, 4, N) (default ``leg.attachment()``)."""
+    N = q.shape[0]
+    # (3, 1) until the first joint variable: broadcast over the states after
+    x, y, z = (T0[:3, k, None] if T0.ndim == 2 else T0[:3, k] for k in range(3))
+    o = T0[:3, 3, None] if T0.ndim == 2 else T0[:3, 3]
+    origins, axes = [], []
     for j, joint in enumerate(leg.joints):
         ca, sa = math.cos(joint.alpha), math.sin(joint.alpha)
         if joint.d != 0.0:
@@ -137,20 +143,67 @@ def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
         r: Any
         if joint.revolute:
             theta = joint.theta + q[:, j]
-            ct, st, r = np.cos(theta)[:, None], np.sin(theta)[:, None], joint.r
+            ct, st, r = np.cos(theta), np.sin(theta), joint.r
         else:
             ct, st = math.cos(joint.theta), math.sin(joint.theta)
-            r = (joint.r + q[:, j])[:, None]
+            r = joint.r + q[:, j]
         x, y = ct * x + st * y, ct * y - st * x
         o = o + r * z
-        origins[:, j], axes[:, j] = o, z
-    A = leg.attachment()
-    tip = np.zeros((N, 4, 4))
+        origins.append(np.broadcast_to(o, (3, N)))
+        axes.append(np.broadcast_to(z, (3, N)))
+    A = leg.attachment() if A is None else A
+    tip = np.empty((4, 3, N))
     for k in range(3):
-        tip[:, :3, k] = A[0, k] * x + A[1, k] * y + A[2, k] * z
-    tip[:, :3, 3] = o + A[0, 3] * x + A[1, 3] * y + A[2, 3] * z
-    tip[:, 3, 3] = 1.0
-    return ChainFrames(origins, axes, tip)
+        tip[k] = A[0, k] * x + A[1, k] * y + A[2, k] * z
+    tip[3] = o + A[0, 3] * x + A[1, 3] * y + A[2, 3] * z
+    return origins, axes, tip
+
+
+def _tip_matrix(tip: np.ndarray) -> np.ndarray:
+    """The tip (4, 3, N) of :func:`_frames_soa` as frames (N, 4, 4)."""
+    out = np.zeros((tip.shape[2], 4, 4))
+    out[:, :3, :] = np.moveaxis(tip, 2, 0).swapaxes(1, 2)
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def chain_frames(leg: ChainLeg, T0: np.ndarray, q: np.ndarray) -> ChainFrames:
+    """Frames of ``leg`` (frame 0 at ``T0`` (4, 4) in F0) at joint values q (N, n).
+
+    Each joint's ``Rx(alpha) Tx(d) Rz(theta) Tz(r)`` is applied to the frame's axes and
+    origin, (3, N) arrays each: ``y, z`` turned by alpha about x, ``O += d x``, ``x, y``
+    turned by theta about z, ``O += r z``."""
+    origins, axes, tip = _frames_soa(leg, T0, q)
+    shape = (q.shape[0], q.shape[1], 3)
+    O = np.stack(origins, axis=2).transpose(1, 2, 0) if origins else np.empty(shape)
+    Z = np.stack(axes, axis=2).transpose(1, 2, 0) if axes else np.empty(shape)
+    return ChainFrames(np.ascontiguousarray(O), np.ascontiguousarray(Z), _tip_matrix(tip))
+
+
+def _newton_jacobian(
+    leg: ChainLeg,
+    origins: list[np.ndarray],
+    axes: list[np.ndarray],
+    P: np.ndarray,
+    free: np.ndarray,
+) -> np.ndarray:
+    """:func:`chain_jacobian`'s free columns (N, c, n_free) from :func:`_frames_soa`'s
+    frames (the attachment point P (3, N)), with the same arithmetic."""
+    c = leg.constraints
+    cols = [j for j in range(leg.n_joints) if free[j]]
+    out = np.zeros((c, len(cols), P.shape[1]))
+    for m, j in enumerate(cols):
+        z = axes[j]
+        if leg.revolute[j]:
+            d = P - origins[j]
+            out[0, m] = z[1] * d[2] - z[2] * d[1]
+            out[1, m] = z[2] * d[0] - z[0] * d[2]
+            out[2, m] = z[0] * d[1] - z[1] * d[0]
+            if c == 6:
+                out[3:, m] = z
+        else:
+            out[:3, m] = z
+    return out.transpose(2, 0, 1)
 
 
 def chain_jacobian(leg: ChainLeg, frames: ChainFrames) -> np.ndarray:
@@ -224,6 +277,12 @@ def leg_base_pose(desc: RobotDescription, k: int) -> np.ndarray:
     return T0
 
 
+def _norm3(v: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(v, axis=1)`` of v (N, 3), the same sums in the same order (faster
+    than a reduction over the short axis)."""
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+
+
 def newton(
     desc: RobotDescription,
     k: int,
@@ -235,22 +294,75 @@ def newton(
     joint kept at its value, to ``tol`` (relative position, rad); returns ``(q, converged
     (N,) bool)``."""
     leg = chain_legs_of(desc)[k]
-    T0 = leg_base_pose(desc, k)
-    size = robot_size(desc)
+    return _newton(leg, leg_base_pose(desc, k), None, robot_size(desc), target, q, tol)
+
+
+def _newton(
+    leg: ChainLeg,
+    T0: np.ndarray,
+    A: np.ndarray | None,
+    size: float,
+    target: np.ndarray,
+    q: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`newton` on ``leg``'s joints with frame 0 at ``T0`` (4, 4) or one per state
+    (4, 4, N), the attachment ``A`` (4, 4, N) per state (``None``: the leg's): several
+    legs of the same joints solved as one batch."""
+    per_state = T0.ndim == 3
+    if q.shape[0] > NEWTON_BLOCK:  # each state's arithmetic is its own
+        parts = [
+            _newton(
+                leg,
+                T0[:, :, i : i + NEWTON_BLOCK] if per_state else T0,
+                None if A is None else A[:, :, i : i + NEWTON_BLOCK],
+                size,
+                target[i : i + NEWTON_BLOCK],
+                q[i : i + NEWTON_BLOCK],
+                tol,
+            )
+            for i in range(0, q.shape[0], NEWTON_BLOCK)
+        ]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     free = np.array([j + 1 != leg.idle_joint for j in range(leg.n_joints)])
     step_cap = np.where(leg.revolute, MAX_STEP, MAX_STEP * size)[free]
     q = q.copy()
     done = np.zeros(q.shape[0], bool)
+    # Only the states not yet converged are evaluated and stepped (the others keep their
+    # q, so their residual would stay under tol): each state's arithmetic is that of the
+    # whole batch's, row by row. The not-converged states' q, base poses, attachments
+    # and targets are kept compact, ``active`` their rows.
+    active = np.arange(q.shape[0])
+    qa, Ta = q, target
+    T0a = T0
+    Aa = A
     for _ in range(NEWTON_MAX_ITERATIONS):
-        frames = chain_frames(leg, T0, q)
-        e = _residual(leg, frames.tip, target)
-        err = np.linalg.norm(e[:, :3], axis=1) / size
+        origins, axes, tip = _frames_soa(leg, T0a, qa, Aa)
+        if leg.constraints == 3:
+            e = Ta[:, :3, 3] - tip[3].T
+        else:
+            e = _residual(leg, _tip_matrix(tip), Ta)
+        err = _norm3(e[:, :3]) / size
         if leg.constraints == 6:
-            err = np.maximum(err, np.linalg.norm(e[:, 3:], axis=1))
-        done = err <= tol
-        if np.all(done):
-            break
-        J = chain_jacobian(leg, frames)[:, :, free]
+            err = np.maximum(err, _norm3(e[:, 3:]))
+        converged = err <= tol
+        if np.all(converged):
+            done[active] = True
+            q[active] = qa
+            return q, done
+        if np.any(converged):
+            done[active[converged]] = True
+            q[active[converged]] = qa[converged]
+            keep = ~converged
+            active, qa, e, Ta = active[keep], qa[keep], e[keep], Ta[keep]
+            if per_state:
+                T0a = T0a[:, :, keep]
+            if Aa is not None:
+                Aa = Aa[:, :, keep]
+            origins = [o[:, keep] for o in origins]
+            axes = [z[:, keep] for z in axes]
+            tip = tip[:, :, keep]
+        J = _newton_jacobian(leg, origins, axes, tip[3], free)
         with np.errstate(all="ignore"):
             try:
                 dq = np.linalg.solve(J, e[..., None])[..., 0]
@@ -259,9 +371,10 @@ def newton(
         dq = np.where(np.isfinite(dq), dq, 0.0)
         scale = np.max(np.abs(dq) / step_cap, axis=1)
         dq = dq / np.maximum(scale, 1.0)[:, None]
-        step = np.zeros_like(q)
+        step = np.zeros_like(qa)
         step[:, free] = dq
-        q = np.where(done[:, None], q, q + step)
+        qa = qa + step
+    q[active] = qa
     return q, done
 
 
@@ -394,9 +507,26 @@ def solve_legs(
     is fewer steps away: a trajectory's, a simulation's), revolute ones in (-pi, pi], and
     ``reached`` (N, 6) bool; the idle joints at ``idle_q`` (N, 6) (``None``: their home
     values), reached along the same continuation."""
+    out, reached, _ = _solve_legs(desc, T, idle_q, False)
+    return out, reached
+
+
+def _solve_legs(
+    desc: RobotDescription, T: np.ndarray, idle_q: np.ndarray | None, prune: bool
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """:func:`solve_legs`, and ``alive`` (N,) bool: every leg reached, inside its limits.
+
+    The legs of the same joints (:func:`_leg_groups`) are solved as one batch. With
+    ``prune``, a pose whose attachment lies outside a leg's reach within its limits
+    (:func:`_reach`) is solved for no leg, and a pose that one group of legs does not
+    reach or puts outside its limits is not solved for the next groups (its values NaN,
+    ``reached`` False, ``alive`` False; the last pose is solved for every leg: it
+    decides :data:`_LAST`). Each pose and leg solved has the arithmetic of one leg's
+    Newton alone (:func:`newton`)."""
     legs = chain_legs_of(desc)
     H, start, q_start = desc.home_pose, idle_home(desc), home_configuration(desc)
-    idle_q = np.broadcast_to(start, (T.shape[0], 6)) if idle_q is None else idle_q
+    N = T.shape[0]
+    idle_q = np.broadcast_to(start, (N, 6)) if idle_q is None else idle_q
     has_idle = np.array([leg.idle_joint is not None for leg in legs])
 
     def steps_from(H: np.ndarray, start: np.ndarray) -> int:
@@ -409,24 +539,101 @@ def solve_legs(
         steps_last = steps_from(last[0], last[1])
         if steps_last < steps:
             H, start, q_start, steps = last[0], last[1], last[2], steps_last
-    out, reached = [], np.ones((T.shape[0], 6), bool)
-    for k, q0 in enumerate(q_start):
-        q = np.broadcast_to(q0, (T.shape[0], q0.size)).copy()
-        ok = np.ones(T.shape[0], bool)
-        idle = legs[k].idle_joint
+    # the continuation's poses, shared by the legs
+    path = [_interpolate(H, T, s / steps) for s in range(1, steps)] + [T]
+    out = [np.full((N, leg.n_joints), np.nan) for leg in legs]
+    reached = np.zeros((N, 6), bool)
+    alive = np.ones(N, bool)
+    size = robot_size(desc)
+    if prune:  # outside a leg's reach: rejected before any Newton
+        for k, leg in enumerate(legs):
+            lo, hi = _reach(leg, size)
+            P = attachment_targets(desc, k, T)[:, :3, 3]
+            dist = np.linalg.norm(P - desc.base_points[k], axis=1)
+            alive &= (dist >= lo) & (dist <= hi)
+        alive[-1] = True
+    rows = np.flatnonzero(alive)
+    for group in _leg_groups(legs):
+        leg, M = legs[group[0]], rows.size
+        q = np.concatenate([np.broadcast_to(q_start[k], (M, leg.n_joints)) for k in group])
+        T0 = np.repeat(np.stack([leg_base_pose(desc, k) for k in group], axis=2), M, axis=2)
+        A = np.repeat(np.stack([legs[k].attachment() for k in group], axis=2), M, axis=2)
+        idle = leg.idle_joint
         for s in range(1, steps + 1):
-            Ts = T if s == steps else _interpolate(H, T, s / steps)
+            Ts = path[s - 1] if M == N else path[s - 1][rows]
             if idle is not None:
-                q[:, idle - 1] = start[k] + s / steps * (idle_q[:, k] - start[k])
+                q[:, idle - 1] = np.concatenate(
+                    [start[k] + s / steps * (idle_q[rows, k] - start[k]) for k in group]
+                )
             # the intermediate poses only guide the branch: a loose tolerance
             tol = NEWTON_TOLERANCE if s == steps else CONTINUATION_TOLERANCE
-            q, ok = newton(desc, k, attachment_targets(desc, k, Ts), q, tol)
-        rev = chain_legs_of(desc)[k].revolute
-        out.append(np.where(rev, np.mod(q + math.pi, 2 * math.pi) - math.pi, q))
-        reached[:, k] = ok
+            target = np.concatenate([attachment_targets(desc, k, Ts) for k in group])
+            q, ok = _newton(leg, T0, A, size, target, q, tol)
+        q = np.where(leg.revolute, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+        good = np.ones(M, bool)
+        for m, k in enumerate(group):
+            qk, okk = q[m * M : (m + 1) * M], ok[m * M : (m + 1) * M]
+            out[k][rows] = qk
+            reached[rows, k] = okk
+            if prune:
+                good &= okk & _inside(legs[k], qk)
+        if prune:
+            alive[rows[~good]] = False
+            rows = rows[good | (rows == N - 1)]
     if np.all(reached[-1]):
         _LAST[desc] = (T[-1].copy(), np.array(idle_q[-1]), [q[-1].copy() for q in out])
-    return out, reached
+    alive &= reached.all(axis=1)
+    for leg, q in zip(legs, out, strict=True):
+        alive[alive] = _inside(leg, q[alive])
+    return out, reached, alive
+
+
+def _leg_groups(legs: tuple[ChainLeg, ...]) -> list[list[int]]:
+    """The legs (0-based) grouped by their joints (MDH parameters and kinds), idle joint
+    and closure, in order of first appearance: each group is solved as one batch."""
+    groups: dict[tuple[Any, ...], list[int]] = {}
+    for k, leg in enumerate(legs):
+        key = (
+            tuple((j.alpha, j.d, j.theta, j.r, j.revolute) for j in leg.joints),
+            leg.idle_joint,
+            leg.constraints,
+        )
+        groups.setdefault(key, []).append(k)
+    return list(groups.values())
+
+
+def _inside(leg: ChainLeg, q: np.ndarray) -> np.ndarray:
+    """(M,) bool: the joint values q (M, n), revolute ones taken modulo 2 pi, are inside
+    the leg's limits (a full turn limits nothing)."""
+    lim = leg.limits
+    turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
+    qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
+    return np.all(turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1])), axis=1)
+
+
+def _reach(leg: ChainLeg, size: float) -> tuple[float, float]:
+    """``(lo, hi)`` [m]: bounds on the distance from the leg's frame 0 origin to its
+    attachment over joint values inside the limits (revolute joints: any angle), widened
+    by ``1e-9 (hi + size)``.
+
+    The attachment is frame 0's origin plus the segments ``d_j x`` and ``(r_j + q_j) z``
+    of each joint and the attachment's offset, of lengths within ``[l_min, l_max]``
+    each: the distance lies within ``[max(l_min) - (sum(l_max) - l_max of that one),
+    sum(l_max)]`` (a pose Newton reaches inside the limits, to its tolerance, is inside
+    the bounds)."""
+    segments = [(float(np.linalg.norm(leg.attachment()[:3, 3])),) * 2]
+    for joint in leg.joints:
+        segments.append((abs(joint.d), abs(joint.d)))
+        if joint.revolute:
+            segments.append((abs(joint.r), abs(joint.r)))
+        else:
+            a, b = joint.r + joint.lower, joint.r + joint.upper
+            low = 0.0 if a <= 0.0 <= b else min(abs(a), abs(b))
+            segments.append((low, max(abs(a), abs(b))))
+    hi = sum(s[1] for s in segments)
+    lo = max(s[0] - (hi - s[1]) for s in segments)
+    margin = 1e-9 * (hi + size) if math.isfinite(hi) else 0.0
+    return lo - margin, hi + margin
 
 
 #: The last state solved per description: ``(pose (4, 4), idle values (6,), the legs'
@@ -479,25 +686,38 @@ def padded(qs: list[np.ndarray]) -> np.ndarray:
 
 def admissible_poses(desc: RobotDescription, T: np.ndarray, max_condition: float) -> np.ndarray:
     """(N,) bool: every leg reaches its attachment inside its joint limits, no leg
-    Jacobian is singular, and ``Jp^-1``'s condition number is within ``max_condition``."""
-    qs, reached = solve_legs(desc, T)
-    ok = np.asarray(reached.all(axis=1))
+    Jacobian is singular, and ``Jp^-1``'s condition number is within ``max_condition``.
+
+    A pose that one leg rejects is not solved for the next legs (:func:`_solve_legs`).
+    The rank test ``s_min > RANK_TOLERANCE s_max`` on each leg's (square) Jacobian is
+    decided by the bound ``s_min / s_max >= 1 / (|J|_F |J^-1|_F)`` where that bound
+    passes twice the tolerance, by the singular values elsewhere."""
+    legs = chain_legs_of(desc)
+    qs, _, ok = _solve_legs(desc, T, None, True)
     rows = np.zeros((T.shape[0], 6, 6))
-    for k, (leg, q) in enumerate(zip(chain_legs_of(desc), qs, strict=True)):
-        lim = leg.limits
-        turn = leg.revolute & full_turn(lim[:, 0], lim[:, 1])
-        qw = wrap_into_limits(q, leg.revolute, lim[:, 0], lim[:, 1])
-        inside = turn | ((qw >= lim[:, 0]) & (qw <= lim[:, 1]))
-        ok &= inside.all(axis=1)
-        frames = chain_frames(leg, leg_base_pose(desc, k), q)
-        J = _square(leg, chain_jacobian(leg, frames))
+    for k, (leg, q) in enumerate(zip(legs, qs, strict=True)):
+        idx = np.flatnonzero(ok)
+        if idx.size == 0:
+            break
+        J = _square(leg, chain_jacobian(leg, chain_frames(leg, leg_base_pose(desc, k), q[idx])))
         with np.errstate(all="ignore"):
-            s = np.linalg.svd(J, compute_uv=False)
-            ok &= s[:, -1] > RANK_TOLERANCE * s[:, 0]
-            J_safe = np.where(ok[:, None, None], J, np.eye(leg.n_joints))
-            G = platform_map(leg, T[:, :3, :3] @ desc.platform_points[k])
-            J_inv = np.linalg.inv(J_safe)[:, :, : leg.constraints]
-            rows[:, k] = (J_inv @ G)[:, leg.actuated - 1]
+            try:
+                J_inv = np.linalg.inv(J)
+            except np.linalg.LinAlgError:  # an exactly singular one: the singular values
+                J_inv = np.full(J.shape, np.nan)
+            bound = 1.0 / (np.linalg.norm(J, axis=(1, 2)) * np.linalg.norm(J_inv, axis=(1, 2)))
+            clear = bound > 2.0 * RANK_TOLERANCE
+            unclear = np.flatnonzero(~clear)
+            if unclear.size:
+                s = np.linalg.svd(J[unclear], compute_uv=False)
+                regular = s[:, -1] > RANK_TOLERANCE * s[:, 0]
+                clear[unclear] = regular
+                fine = unclear[regular]
+                if fine.size:
+                    J_inv[fine] = np.linalg.inv(J[fine])
+            ok[idx] = clear
+            G = platform_map(leg, T[idx, :3, :3] @ desc.platform_points[k])
+            rows[idx, k] = (J_inv[:, :, : leg.constraints] @ G)[:, leg.actuated - 1]
     if np.any(ok):
         ok[ok] = condition_number(desc, rows[ok]) <= max_condition
     return ok
