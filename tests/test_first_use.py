@@ -191,3 +191,20 @@ def test_a_large_derivative_library_compiles_in_the_background(tmp_path, monkeyp
         down = robot.inverse_dynamics(P, V, A - step, backend="pinocchio")
         column = (up - down) / (2 * h)
         assert np.max(np.abs(first.accel[:, :, j] - column)) <= 1e-7 * np.max(np.abs(column))
+
+
+def test_a_lazy_module_reads_the_modules_names_at_each_use(monkeypatch):
+    """A stand-in (``_lazy.lazy_module``) gives the module's attribute as it is when read,
+    not a copy taken at first use: a name rebound later (by the module itself, or replaced
+    by a test) is what callers through the stand-in get."""
+    from stewart_pin._lazy import lazy_module
+    from stewart_pin.kinematics import workspace
+
+    stand_in = lazy_module("stewart_pin.kinematics.workspace")
+    assert stand_in.sample_states is workspace.sample_states  # imported on this first read
+
+    def replaced(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("not called")
+
+    monkeypatch.setattr(workspace, "sample_states", replaced)
+    assert stand_in.sample_states is replaced

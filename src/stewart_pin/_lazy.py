@@ -54,14 +54,16 @@ def lazy_names(
 
 
 class _LazyModule(types.ModuleType):
-    """A stand-in for a module, imported on the first attribute read; the module's
-    namespace is then copied in, so that later reads are plain look-ups."""
+    """A stand-in for a module, imported on the first attribute read. Every read is the
+    module's attribute at that moment (nothing is copied: a name the module rebinds later,
+    or a test replaces, is what the stand-in gives)."""
 
-    def __getattr__(self, attr: str) -> Any:  # only for names not (yet) in the namespace
+    def __getattr__(self, attr: str) -> Any:  # every name: the stand-in holds none
         if attr.startswith("__") and attr.endswith("__") and attr != "__version__":
             raise AttributeError(attr)  # copy, pickle and the like probing the stand-in
-        module = importlib.import_module(self.__name__)
-        self.__dict__.update(vars(module))
+        module = sys.modules.get(self.__name__)
+        if module is None:
+            module = importlib.import_module(self.__name__)
         return getattr(module, attr)
 
 
