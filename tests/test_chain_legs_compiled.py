@@ -22,7 +22,7 @@ from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.codegen.chain_leg_symbolic import NEWTON_ITERATIONS, build_chain_models
 from stewart_pin.codegen.derivatives import CompiledDerivatives
 from stewart_pin.description.chain_leg_presets import mixed_chain_robot, welded_ups
-from stewart_pin.exceptions import LegJointLimitError
+from stewart_pin.exceptions import LegJointLimitError, NumericalError
 from stewart_pin.kinematics import chain_legs
 
 TOL = 1e-10  # relative agreement with the constrained tree
@@ -181,6 +181,37 @@ def test_exact_derivatives_match_central_differences() -> None:
     g = exact.direct_dynamics_derivatives(T, V, d.gamma)
     fd = _central(partial(robot.direct_dynamics, backend="pinocchio"), T, V, d.gamma)
     for x, y in zip((g.pose, g.twist, g.gamma), fd, strict=True):
+        assert np.abs(x - y).max() <= 1e-6 * np.abs(y).max()
+
+
+@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
+def test_exact_derivatives_refuse_a_state_the_unrolled_newton_has_not_solved() -> None:
+    """At a state the 7 unrolled Newton steps from home do not solve (the legs' residual
+    slacks negative: its values come from the reference path), the Jacobians of the
+    unrolled model are not the true ones (off by 4 times their size from central
+    differences of the reference here; asserted: by more than 1e-3); the derivative call
+    raises NumericalError naming the state (the whole batch call: one refused state
+    refuses the call), and an ordinary state alone still matches central differences of
+    the reference path (1e-6)."""
+    robot = StewartRobot(welded_ups())
+    T, V, A = _far(robot)
+    T0, V0, A0 = (x[0] for x in robot.sample_states(1, rng=2))
+    exact = CompiledDerivatives(robot, compiler=False)  # the VM: nothing to compile
+    fd = _central(partial(robot.inverse_dynamics, backend="pinocchio"), T, V, A)
+    unrolled = np.array(exact._flat("idm")(T.reshape(16), V, A, np.zeros(0))).reshape(3, 6, 6)
+    assert np.abs(unrolled[0] - fd[0]).max() > 1e-3 * np.abs(fd[0]).max()  # what it refuses
+    Ts, Vs, As = np.stack([T0, T]), np.stack([V0, V]), np.stack([A0, A])
+    with pytest.raises(NumericalError, match=r"did not converge at state 1 .*1 of 2 states"):
+        exact.inverse_dynamics_derivatives(Ts, Vs, As)
+    with pytest.raises(NumericalError, match="did not converge at state 0") as err:
+        exact.inverse_dynamics_derivatives(T, V, A)
+    assert err.value.index == 0 and "unrolled model would be inexact" in str(err.value)
+    G = robot.inverse_dynamics(Ts, Vs, As, backend="pinocchio")
+    with pytest.raises(NumericalError, match="did not converge at state 1"):
+        exact.direct_dynamics_derivatives(Ts, Vs, G)
+    d = exact.inverse_dynamics_derivatives(T0, V0, A0)
+    fd = _central(partial(robot.inverse_dynamics, backend="pinocchio"), T0, V0, A0)
+    for x, y in zip((d.pose, d.twist, d.accel), fd, strict=True):
         assert np.abs(x - y).max() <= 1e-6 * np.abs(y).max()
 
 

@@ -518,18 +518,12 @@ def test_facade_derivatives_speak_the_robots_actuator_convention(
         assert np.abs(x[:6] - y[:6]).max() <= 1e-6 * np.abs(y[:6]).max() + noise
 
 
-def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference(
-    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
-) -> None:
-    """Along a direction from home, just past the last pose the 12 unrolled Newton steps
-    solve (a leg near full stretch: Newton converges slowly there), the guard flags the
-    state (GEOMETRY: the leg's residual above its slack) although the reference's
-    continuation solves it; the compiled models then return the reference's numbers
-    (1e-12: its leg solutions from another start), not the unrolled Newton's (which
-    differ from them by ~1e-9 there)."""
-    from stewart_pin._so3 import so3_exp as exp3
-
-    robot, fast = asymmetric
+def _edge(
+    robot: StewartRobot, fast: CompiledIdleDynamics
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(T, spin, zero)``: just past the last pose along a direction from home that the
+    12 unrolled Newton steps solve (found by bisection on the compiled guard's flag; a leg
+    near full stretch, where Newton converges slowly), the spins and a zero (1, 6)."""
     H = robot.description.home_pose
     size = chain_legs.robot_size(robot.description)
     rng = np.random.default_rng(5)
@@ -542,7 +536,7 @@ def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference
     def pose(s: float) -> np.ndarray:
         T = H.copy()
         T[:3, 3] += s * d[:3] * size
-        T[:3, :3] = exp3((s * d[3:])[None])[0] @ H[:3, :3]
+        T[:3, :3] = so3_exp((s * d[3:])[None])[0] @ H[:3, :3]
         return T
 
     def flag(s: float) -> int:
@@ -557,8 +551,21 @@ def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference
     for _ in range(30):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if flag(mid) == 0 else (lo, mid)
-    T = pose(hi * (1.0 + 1e-9))
     assert flag(hi * (1.0 + 1e-9)) == 2  # GEOMETRY only
+    return pose(hi * (1.0 + 1e-9)), spin, zero
+
+
+def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """Along a direction from home, just past the last pose the 12 unrolled Newton steps
+    solve (a leg near full stretch: Newton converges slowly there), the guard flags the
+    state (GEOMETRY: the leg's residual above its slack) although the reference's
+    continuation solves it; the compiled models then return the reference's numbers
+    (1e-12: its leg solutions from another start), not the unrolled Newton's (which
+    differ from them by ~1e-9 there)."""
+    robot, fast = asymmetric
+    T, spin, zero = _edge(robot, fast)
     models = idle_compiled.idle_models(robot.description)
     lay = models.layout
     args = (T.reshape(16), zero[0], zero[0], np.zeros(0), np.concatenate([spin, zero[0]]))
@@ -570,3 +577,39 @@ def test_a_state_the_unrolled_newton_does_not_solve_is_computed_by_the_reference
     got = robot.inverse_dynamics_idle(T, zero[0], zero[0], (spin, zero[0]), backend="compiled")
     assert _rel(got[0], ref[0]) <= 1e-12 and _rel(got[1], ref[1]) <= 1e-12
     assert _rel(flat[:6], ref[0]) > 1e-11  # what the guard kept out
+
+
+@pytest.mark.filterwarnings("ignore:stewart-pin compiled:RuntimeWarning")  # the VM, on purpose
+def test_exact_derivatives_refuse_a_state_the_unrolled_newton_does_not_solve(
+    asymmetric: tuple[StewartRobot, CompiledIdleDynamics],
+) -> None:
+    """At :func:`_edge`'s state (a leg's Newton residual slack negative after the 12
+    unrolled steps; its values come from the reference) the Jacobians of the unrolled
+    model are not the converged solution's: the derivative calls raise NumericalError
+    naming the state (batch semantics: the whole call raises), found with the compiled
+    value guard (the Jacobians in the VM); an ordinary state alone still matches central
+    differences of the reference path (1e-6 relative)."""
+    robot, fast = asymmetric
+    T, spin, zero = _edge(robot, fast)
+    exact = CompiledIdleDerivatives(robot, fast, compiler=False)
+    T0, V0, A0 = (x[0] for x in robot.sample_states(1, rng=8))
+    s0, sd0 = (x[0] for x in _idle(robot, 1, 5))
+    Ts, Vs, As = np.stack([T0, T]), np.stack([V0, zero[0]]), np.stack([A0, zero[0]])
+    idle = (np.stack([s0, spin]), np.stack([sd0, zero[0]]))
+    with pytest.raises(NumericalError, match=r"did not converge at state 1 \(leg"):
+        exact.inverse_dynamics_derivatives(Ts, Vs, As, idle)
+    with pytest.raises(NumericalError, match=r"did not converge at state 0 \(leg") as err:
+        exact.inverse_dynamics_derivatives(T, zero[0], zero[0], (spin, zero[0]))
+    assert err.value.index == 0
+    G = robot.inverse_dynamics_idle(Ts, Vs, As, idle, backend="pinocchio")[0]
+    with pytest.raises(NumericalError, match="did not converge at state 1"):
+        exact.direct_dynamics_derivatives(Ts, Vs, G, idle)
+
+    def ref_idm(T, V, X, idle):  # type: ignore[no-untyped-def]
+        return robot.inverse_dynamics_idle(T, V, X, idle, backend="pinocchio")
+
+    d = exact.inverse_dynamics_derivatives(T0, V0, A0, (s0, sd0))
+    fd = _central(ref_idm, T0, V0, A0, (s0, sd0))
+    for x, y in zip((d.pose, d.twist, d.accel, d.idle_values, d.idle_rates), fd, strict=True):
+        for rows in (slice(0, 6), slice(6, 12)):
+            assert np.abs(x[rows] - y[rows]).max() <= 1e-6 * np.abs(y[rows]).max()

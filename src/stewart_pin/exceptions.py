@@ -330,6 +330,10 @@ class NumericalError(StewartPinError, ArithmeticError):
             state, ``None`` when unknown.
         n_bad: how many states are not finite (``None`` when unknown).
         n_states: the number of states computed (``None`` when unknown).
+
+    ``message`` (keyword) replaces the overflow's text when the number is refused for
+    another reason: the exact derivatives at a state where the legs' unrolled Newton steps
+    from home did not converge (:mod:`stewart_pin.codegen.derivatives`).
     """
 
     def __init__(
@@ -338,7 +342,12 @@ class NumericalError(StewartPinError, ArithmeticError):
         index: int | None = 0,
         n_bad: int | None = None,
         n_states: int | None = None,
+        message: str | None = None,
     ) -> None:
+        if message is not None:  # not an overflow: the caller's account of the number
+            super().__init__(message)
+            self.output, self.index, self.n_bad, self.n_states = output, index, n_bad, n_states
+            return
         where = "" if index is None else f" at state {index}"
         count = (
             ""

@@ -343,6 +343,9 @@ class SymbolicModels:
             values baked in; always for general legs, whose ``base_parameters`` input is
             empty).
         constants: the numbers baked in. pivots: the static LU pivots of the IDM.
+        residual_slacks: the slacks (offsets from the first slack of ``aux``) that are a
+            leg's Newton residual after the unrolled steps from home, each with its leg
+            (1..6); empty for legs in closed form.
 
     Inputs ``twist`` = ``[v, w]`` of O_p in F0 [m/s, rad/s], ``accel`` classical
     ``[dv/dt, dw/dt]`` in F0, ``gamma`` the actuator forces [N], ``base_parameters`` (88,)
@@ -359,6 +362,7 @@ class SymbolicModels:
     parameters: str
     constants: ModelConstants
     pivots: tuple[tuple[int, int], ...]
+    residual_slacks: tuple[tuple[int, int], ...] = ()
 
 
 def function(

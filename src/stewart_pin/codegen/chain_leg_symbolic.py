@@ -86,6 +86,7 @@ from stewart_pin.codegen.leg_chain_symbolic import (
     newton_euler,
     plus,
     prismatic,
+    residual_slacks,
     revolute,
     scaled,
     snap,
@@ -547,7 +548,7 @@ def _idm_leg(
     wd: Vec,
     K: Mat,
     idle: tuple[Scalar, Scalar] | None = None,
-) -> dict[str, list[Scalar]]:
+) -> dict[str, Any]:
     ck = chain_kinematics(lc, p, R, v, w, idle)
     A_P = add(vd, [dot(K[i], ck.L) for i in range(3)])
     acc = _to_frame(lc, A_P)
@@ -572,6 +573,7 @@ def _idm_leg(
         "wrench": _wrench(lc, ck.L, _matTvec(ck.inv, Hp)),
         "Hz": [H[a]],
         "slack": ck.slacks,
+        "residual": 2 if lc.constraints == 6 else 1,  # chain_kinematics: the first slacks
         "sigma": [sigma],
     }
 
@@ -796,7 +798,7 @@ def build_idle_models(
             fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
     det = det * inv_l**3
     slacks = [s for lg in ilegs for s in lg["slack"]]
-    layout = AuxLayout(n_slack=len(slacks))
+    layout = AuxLayout(n_slack=len(slacks), residual=residual_slacks(ilegs))
     idm_aux = [*[x for r in rows for x in r], *F, *Hz, growth, det, fro2, *slacks]
     idm_sigma = [lg["sigma"][0] for lg in ilegs]
 

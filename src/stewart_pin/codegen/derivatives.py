@@ -70,6 +70,7 @@ import numpy as np
 
 from stewart_pin._checks import check_states
 from stewart_pin.codegen._architecture import codegen_kind, generate_models
+from stewart_pin.codegen._csource import FLAG_NAMES
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen._sx_common import SymbolicModels
 from stewart_pin.codegen.compiled import (
@@ -77,6 +78,7 @@ from stewart_pin.codegen.compiled import (
     CompiledDynamics,
     build_source_library,
     compiled_backend,
+    model_layout,
     printable_name,
     split_batch,
 )
@@ -99,6 +101,7 @@ __all__ = [
     "derivatives_backend",
     "derivatives_c_source",
     "functions_c_source",
+    "newton_not_converged",
     "perturbed_pose",
     "symbolic_actuators_for",
     "symbolic_derivative",
@@ -118,6 +121,53 @@ VM_CHUNK = 1024
 BACKGROUND_INSTRUCTIONS = 40_000
 #: Numbers per state of the compiled output: the three (6, 6) Jacobians, row-major.
 _NOUT = 108
+_GEOMETRY = FLAG_NAMES["GEOMETRY"]
+
+
+def newton_not_converged(
+    output: str,
+    residual: tuple[tuple[int, int], ...],
+    slacks: np.ndarray,
+    index: np.ndarray,
+    n_states: int,
+) -> NumericalError | None:
+    """The error for the exact derivatives at states where a leg's unrolled Newton steps
+    from home did not converge, or None.
+
+    Args:
+        output: what was asked (``"inverse dynamics derivatives"``).
+        residual: the Newton residuals among the slacks, ``(offset, leg)``
+            (:attr:`~.leg_chain_symbolic.AuxLayout.residual`).
+        slacks: (m, n_slack) the guarded value model's slacks at ``m`` states.
+        index: (m,) those states' indices in the call's batch.
+        n_states: the states of the call.
+    """
+    if not residual or not len(index):
+        return None
+    cols = [c for c, _ in residual]
+    with np.errstate(invalid="ignore"):
+        bad = ~(slacks[:, cols] > 0.0)  # NaN: not converged either
+    rows = np.flatnonzero(bad.any(axis=1))
+    if not rows.size:
+        return None
+    first = rows[np.argmin(index[rows])]
+    state = int(index[first])
+    found = sorted({residual[c][1] for c in np.flatnonzero(bad[first])})
+    legs = ("leg " if len(found) == 1 else "legs ") + ", ".join(map(str, found))
+    return NumericalError(
+        output,
+        state,
+        int(rows.size),
+        n_states,
+        message=(
+            f"{output}: the legs' Newton steps from home did not converge at state {state} "
+            f"({legs}; {rows.size} of {n_states} states): the exact derivatives of the "
+            "unrolled model would be inexact there (a pose near the edge of the legs' reach "
+            "or far from home; its values come from the reference path)"
+        ),
+    )
+
+
 _NAMES = {"idm": "sp_idm_derivatives", "ddm": "sp_ddm_derivatives"}
 _OUTPUTS = {"idm": "inverse dynamics derivatives", "ddm": "direct dynamics derivatives"}
 _WARNED: set[str] = set()
@@ -720,6 +770,7 @@ class CompiledDerivatives:
                 return self._run_one(which, T, V, X, base_values, chi)
         T, V, X = (np.ascontiguousarray(a, dtype=np.float64) for a in (T, V, X))
         n = T.size // 16
+        self._check_newton(which, n, T, V, X, chi)
         out = np.empty((n, _NOUT))
         flags = np.zeros(n, dtype=np.int32)
         if kind == "compiled":
@@ -745,6 +796,7 @@ class CompiledDerivatives:
         chi: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One state of native float64 arrays through the single-state entry."""
+        self._check_newton(which, 1, T, V, X, chi)
         chi_ptr = self._chi_ptr if base_values is None else ctypes.c_void_p(chi.ctypes.data)
         block = T.tobytes() + V.tobytes() + X.tobytes()  # float64, C order
         with self._lock:
@@ -754,6 +806,41 @@ class CompiledDerivatives:
             raise NumericalError(_OUTPUTS[which], 0, 1, 1)
         blocks = out.reshape(3, 6, 6)
         return blocks[0], blocks[1], blocks[2]
+
+    @functools.cached_property
+    def _layout(self) -> Any:
+        return model_layout(self._desc)
+
+    def _check_newton(
+        self, which: str, n: int, T: np.ndarray, V: np.ndarray, X: np.ndarray, chi: np.ndarray
+    ) -> None:
+        """Raise :func:`newton_not_converged`'s error when a leg's unrolled Newton steps
+        from home did not converge at one of the ``n`` states (their Jacobians are the
+        unrolled model's, not the converged solution's): the states the value guard flags
+        (GEOMETRY; all of them in the VM) through the guarded value model in CasADi's VM,
+        their Newton residual slacks read (a joint limit's or another slack: the
+        Jacobians stand, as today)."""
+        layout = self._layout
+        if not layout.residual:
+            return
+        T, V, X = T.reshape(n, 16), V.reshape(n, 6), X.reshape(n, 6)
+        if self._values.kind == "compiled":
+            out, flags = np.empty((n, 6)), np.empty(n, dtype=np.int32)
+            if not self._values._call_batch(which, n, T, V, X, chi, out, flags) & _GEOMETRY:
+                return
+            index = np.flatnonzero(flags & _GEOMETRY)
+        else:
+            index = np.arange(n)
+        f = self._values._vm_function(which)
+        start = layout.idm_slack if which == "idm" else layout.ddm_slack
+        slacks = np.empty((index.size, layout.n_slack))
+        for s in range(0, index.size, VM_CHUNK):
+            k = index[s : s + VM_CHUNK]
+            aux = np.array(f(T[k].T, V[k].T, X[k].T, chi)[1]).T
+            slacks[s : s + k.size] = aux[:, start : start + layout.n_slack]
+        error = newton_not_converged(_OUTPUTS[which], layout.residual, slacks, index, n)
+        if error is not None:
+            raise error
 
     def _call_batch(
         self,

@@ -55,7 +55,11 @@ from stewart_pin.codegen.compiled import (
     split_batch,
     warn_reference,
 )
-from stewart_pin.codegen.derivatives import ModelLibraries, perturbed_pose
+from stewart_pin.codegen.derivatives import (
+    ModelLibraries,
+    newton_not_converged,
+    perturbed_pose,
+)
 from stewart_pin.dynamics.chain_leg_dynamics import ChainDynamics
 from stewart_pin.exceptions import (
     CompilationError,
@@ -88,6 +92,7 @@ THREAD_MIN_STATES = 256
 VM_CHUNK = 1024
 _FLAGS = _csource.FLAG_NAMES
 _REPIVOTED, _COND = _FLAGS["REPIVOTED"], _FLAGS["COND"]
+_GEOMETRY = _FLAGS["GEOMETRY"]
 _NAMES = {"idm": "inverse dynamics", "ddm": "direct dynamics"}
 _WARNED: set[str] = set()
 
@@ -818,6 +823,7 @@ class CompiledIdleDerivatives:
         name = "accel" if which == "idm" else "gamma"
         inp = _inputs(self._values._reference, pose, twist, x, name, idle)
         n = inp.T.shape[0]
+        self._check_newton(which, inp)
         out = np.empty((n, _NOUT))
         flags = np.zeros(n, dtype=np.int32)
         chi = np.zeros(1)
@@ -857,6 +863,40 @@ class CompiledIdleDerivatives:
         J = out.reshape(n, 12, 30)
         blocks = [J[:, :, 6 * k : 6 * k + 6] for k in range(5)]
         return [b if inp.batched else b[0] for b in blocks]
+
+    def _check_newton(self, which: str, inp: _Inputs) -> None:
+        """Raise :func:`~.derivatives.newton_not_converged`'s error when a leg's 12
+        unrolled Newton steps from home did not converge at one of the states (their
+        Jacobians are the unrolled model's): the states the value guard flags (GEOMETRY;
+        all of them in the VM) through the guarded value model in CasADi's VM, their
+        Newton residual slacks read (a joint limit's or another slack: the Jacobians
+        stand, as before)."""
+        models = idle_models(self._desc)
+        layout = models.layout
+        if not layout.residual:
+            return
+        n = inp.T.shape[0]
+        if self._values.kind == "compiled":
+            out, sigma = np.empty((n, 6)), np.empty((n, 6))
+            flags = np.zeros(n, dtype=np.int32)
+            max_cond = self.robot.max_condition
+            if not self._values._call_batch(which, inp, max_cond, out, sigma, flags) & _GEOMETRY:
+                return
+            index = np.flatnonzero(flags & _GEOMETRY)
+        else:
+            index = np.arange(n)
+        f = models.idm_guarded if which == "idm" else models.ddm_guarded
+        start = layout.idm_slack if which == "idm" else layout.ddm_slack
+        slacks = np.empty((index.size, layout.n_slack))
+        T = inp.T.reshape(n, 16)
+        for s in range(0, index.size, VM_CHUNK):
+            k = index[s : s + VM_CHUNK]
+            aux = np.array(f(T[k].T, inp.V[k].T, inp.X[k].T, np.zeros(0), inp.idle[k].T)[1]).T
+            slacks[s : s + k.size] = aux[:, start : start + layout.n_slack]
+        output = f"{_NAMES[which]} derivatives (idle state)"
+        error = newton_not_converged(output, layout.residual, slacks, index, n)
+        if error is not None:
+            raise error
 
 
 _DERIVATIVES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

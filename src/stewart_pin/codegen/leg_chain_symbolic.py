@@ -117,8 +117,11 @@ class AuxLayout:
     IDM ``idm_f`` (6: the wrench ``Jp^T`` maps), ``idm_hz`` (6: the actuated joints' own
     efforts), ``growth``, ``det``, ``fro2`` (as :mod:`.symbolic`); for the DDM ``ddm_d``
     (6: the ``L D L^T`` pivots). Then ``n_slack`` slacks from ``idm_slack`` /
-    ``ddm_slack``. (:data:`stewart_pin.codegen.compiled.UPS_AUX_LAYOUT` is the paper's
-    6-UPS models', whose leg checks read ``q3^2`` and ``rho^2`` instead of slacks.)"""
+    ``ddm_slack``; ``residual``: those of them (offsets from the first) that are a leg's
+    Newton residual after the unrolled steps from home, each with its leg (1..6)
+    (:func:`residual_slacks`). (:data:`stewart_pin.codegen.compiled.UPS_AUX_LAYOUT` is
+    the paper's 6-UPS models', whose leg checks read ``q3^2`` and ``rho^2`` instead of
+    slacks.)"""
 
     jinv: int = 0
     idm_f: int = 36
@@ -130,6 +133,7 @@ class AuxLayout:
     ddm_d: int = 36
     ddm_slack: int = 42
     n_slack: int = 0
+    residual: tuple[tuple[int, int], ...] = ()
 
     @property
     def idm_size(self) -> int:
@@ -843,9 +847,7 @@ def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Sca
     return [tau[j] + terms[j] for j in range(3)], qdd
 
 
-def _idm_leg(
-    lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat
-) -> dict[str, list[Scalar]]:
+def _idm_leg(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat) -> dict[str, Any]:
     kin = leg_kinematics(lc, p, R, v, w)
     A_P = add(vd, [dot(K[i], kin.L) for i in range(3)])
     H, _ = _leg_torques(lc, kin, A_P)
@@ -857,6 +859,7 @@ def _idm_leg(
         "wrench": [*f, *cross(kin.L, f)],
         "Hz": [H[a]],
         "slack": kin.slacks,
+        "residual": 1 if lc.name == "custom" else 0,  # _newton's slack: the first
     }
 
 
@@ -988,8 +991,24 @@ def _stages(
 
 
 def aux_layout(models: SymbolicModels) -> AuxLayout:
-    """The :class:`AuxLayout` of general-leg models (their number of slacks)."""
-    return AuxLayout(n_slack=models.idm_guarded.size1_out(1) - AuxLayout().idm_slack)
+    """The :class:`AuxLayout` of general-leg models (their number of slacks and the Newton
+    residuals among them)."""
+    return AuxLayout(
+        n_slack=models.idm_guarded.size1_out(1) - AuxLayout().idm_slack,
+        residual=models.residual_slacks,
+    )
+
+
+def residual_slacks(legs: Sequence[dict[str, Any]]) -> tuple[tuple[int, int], ...]:
+    """The Newton residuals among the slacks of the IDM's six legs (``legs`` in leg order,
+    each with its ``"slack"`` list and, first in it, ``"residual"`` of them): their offsets
+    from the first slack, each with its leg (1..6)."""
+    out: list[tuple[int, int]] = []
+    at = 0
+    for k, lg in enumerate(legs):
+        out += [(at + j, k + 1) for j in range(lg.get("residual", 0))]
+        at += len(lg["slack"])
+    return tuple(out)
 
 
 def general_robot(desc: RobotDescription | GeneralHexapod) -> GeneralHexapod:
@@ -1068,7 +1087,7 @@ def assemble_models(
             fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
     det = det * inv_l**3
     slacks = [s for lg in ilegs for s in lg["slack"]]
-    layout = AuxLayout(n_slack=len(slacks))
+    layout = AuxLayout(n_slack=len(slacks), residual=residual_slacks(ilegs))
     jinv = [x for r in rows for x in r]
     idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
 
@@ -1112,6 +1131,7 @@ def assemble_models(
         "numeric",
         constants,
         pivots,
+        layout.residual,
     )
     return models, layout
 
