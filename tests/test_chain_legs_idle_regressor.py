@@ -147,3 +147,40 @@ def test_identification_from_states_recovers_the_base_parameters(rss: StewartRob
         identify(rss, m, bp)
     with pytest.raises(InputError, match="idle values"):
         identify(rss, m, bp, idle=(spin[:3], rate, res.idle_accel))
+
+
+def test_the_spin_equations_vanish_with_the_trees_spin_accelerations(rss: StewartRobot) -> None:
+    T, V, A = rss.sample_states(3, rng=6)
+    spin, rate = _spin(3, seed=14)
+    _, sigma = _tree(rss, T, V, A, spin, rate)
+    chi = standard_parameters(rss.description)
+    S = rss.chain_dynamics.spin_regressor(T, V, A, idle=(spin, rate, sigma))
+    scale = np.abs(S * chi).max()  # the largest single term of the spin equations
+    assert np.abs(S @ chi).max() <= TOL * scale
+    # other spin accelerations break them, leg by leg
+    wrong = sigma + np.eye(6)[2]
+    bad = rss.chain_dynamics.spin_regressor(T, V, A, idle=(spin, rate, wrong)) @ chi
+    assert (
+        np.abs(bad[:, 2]).min() > 1e-6 * scale
+        and np.abs(bad[:, [0, 1, 3, 4, 5]]).max() <= TOL * scale
+    )
+    # the idle joints' own terms: zero columns of W, seen by the spin equations only
+    from stewart_pin.dynamics.regressor import standard_parameter_names
+
+    names = standard_parameter_names(rss.description)
+    spin_terms = [
+        k
+        for k, x in enumerate(names)
+        if x[:2] in ("IA", "FV", "FC", "K_", "OF") and x.endswith("_4")
+    ]
+    assert len(spin_terms) == 30
+    W = rss.regressor(T, V, A, idle=(spin, rate, sigma))
+    assert not np.any(W[..., spin_terms])
+    assert np.all(
+        np.abs(S[..., spin_terms]).max(axis=(0, 1))[[0, 1, 3, 4]] > 0
+    )  # IA FV K OF leg 1 (FC: sign)
+    with pytest.raises(InputError, match="no spin equations"):
+        other = StewartRobot(mixed_chain_robot(seed=2))
+        other.chain_dynamics.spin_regressor(
+            other.description.home_pose, np.zeros(6), np.zeros(6), None
+        )

@@ -505,15 +505,38 @@ class ChainDynamics:
         ``qddot = qddot_particular + null sigma`` (as in :meth:`inverse_batch`) and Gamma
         is linear in ``chi``; ``W chi`` is the inverse model's Gamma when ``sigma`` is the
         one it returns. The spin joints' own equations ``null^T H_i = 0`` are not rows of
-        ``W``."""
+        ``W`` (:meth:`spin_regressor_batch`)."""
         idle_state = self.idle_regressor_state(idle, T.shape[0])
         legs, J_inv = self.states(T, V, A, idle_state)
         N = T.shape[0]
-        khalil = PIN_TO_KHALIL
         leg_cols, term_cols = [], []
+        for s, (Y, terms) in zip(legs, self._joint_regressors(legs), strict=True):
+            KT = np.swapaxes(s.KG, 1, 2)  # (N, 6, n)
+            leg_cols.append(KT @ Y)
+            term_cols.append(KT @ terms)
+        platform = np.empty((N, 6, 10))
+        for j in range(10):
+            unit = SimpleNamespace(
+                platform_inertia=np.eye(10)[j],
+                gravity=self.desc.gravity,
+                platform_gravcomp=self.desc.platform_gravcomp,
+            )
+            plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
+            platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
+        columns = np.concatenate([*leg_cols, platform, *term_cols], axis=2)
+        return np.linalg.solve(np.swapaxes(J_inv, 1, 2), columns)
+
+    def _joint_regressors(
+        self, legs: list[kin.ChainLegState]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each leg's joint efforts ``H_i`` per parameter: its links' (N, n, 10 n)
+        (Pinocchio's ``computeJointTorqueRegressor``, Khalil's order, each link's gravity
+        columns scaled by ``1 - c_j``) and its joint terms' (N, n, 5 n)."""
+        khalil = PIN_TO_KHALIL
+        out = []
         for k, s in enumerate(legs):
             model, data = self.legs.models[k], self.legs.datas[k]
-            n = s.q.shape[1]
+            N, n = s.q.shape
             cols = np.concatenate([10 * j + khalil for j in range(n)])
             # each link's gravity columns (the regressor at rest) scaled by 1 - c_j: its
             # weight (1 - c_j) m_j g (the efforts stay linear in the same parameters)
@@ -538,20 +561,43 @@ class ChainDynamics:
                     ],
                     axis=1,
                 )
-            KT = np.swapaxes(s.KG, 1, 2)  # (N, 6, n)
-            leg_cols.append(KT @ Y)
-            term_cols.append(KT @ terms)
-        platform = np.empty((N, 6, 10))
-        for j in range(10):
-            unit = SimpleNamespace(
-                platform_inertia=np.eye(10)[j],
-                gravity=self.desc.gravity,
-                platform_gravcomp=self.desc.platform_gravcomp,
+            out.append((Y, terms))
+        return out
+
+    def spin_regressor_batch(
+        self, T: np.ndarray, V: np.ndarray, A: np.ndarray, idle: Any
+    ) -> np.ndarray:
+        """The idle joints' own equations ``S chi = 0`` (N, 6, n_p), columns as
+        :meth:`regressor_batch`'s: row i is ``null_i^T H_i`` per parameter (``null_i``
+        leg i's idle motion, :meth:`inverse_batch`), zero for a leg without an idle joint.
+        With ``idle=(values, rates, accelerations)`` (:meth:`idle_regressor_state`),
+        ``S chi = 0`` when the accelerations are the spins' true ones; stacked with ``W``
+        (with zero measured values) they make the idle joints' own terms ``IA FV FC K OF``
+        identifiable, whose columns of ``W`` are zero. Refused (:class:`InputError`) on a
+        robot without idle joints."""
+        if not self.idle_legs:
+            raise InputError(
+                f"robot '{self.desc.name}' has no idle joints (ChainLeg.idle_joint): it has "
+                "no spin equations"
             )
-            plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
-            platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
-        columns = np.concatenate([*leg_cols, platform, *term_cols], axis=2)
-        return np.linalg.solve(np.swapaxes(J_inv, 1, 2), columns)
+        idle_state = self.idle_regressor_state(idle, T.shape[0])
+        legs, _ = self.states(T, V, A, idle_state)
+        n_links = sum(s.q.shape[1] for s in legs)
+        S = np.zeros((T.shape[0], 6, 10 * n_links + 10 + 5 * n_links))
+        link, term = 0, 10 * n_links + 10
+        for k, (s, (Y, terms)) in enumerate(zip(legs, self._joint_regressors(legs), strict=True)):
+            n = s.q.shape[1]
+            if s.null is not None:
+                S[:, k, link : link + 10 * n] = np.einsum("ni,nic->nc", s.null, Y)
+                S[:, k, term : term + 5 * n] = np.einsum("ni,nic->nc", s.null, terms)
+            link, term = link + 10 * n, term + 5 * n
+        return S
+
+    def spin_regressor(self, pose: Any, twist: Any, accel: Any, idle: Any) -> np.ndarray:
+        """:meth:`spin_regressor_batch` for one state (6, n_p) or a batch (N, 6, n_p)."""
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        S = self.spin_regressor_batch(T, V, A, idle)
+        return S if batched else S[0]
 
     def regressor(self, pose: Any, twist: Any, accel: Any, idle: Any = None) -> np.ndarray:
         """:meth:`regressor_batch` for one state (6, n_p) or a batch (N, 6, n_p)."""
