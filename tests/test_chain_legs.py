@@ -372,9 +372,9 @@ def test_the_regressor_matches_the_tree_and_gives_the_inverse_model(
         assert np.abs(W[n] - ref).max() <= TOL * np.abs(ref).max()
 
 
-def test_legs_with_idle_joints_have_no_regressor() -> None:
+def test_legs_with_idle_joints_need_the_spin_state_for_their_regressor() -> None:
     r = StewartRobot(rss_robot())
-    with pytest.raises(UnsupportedArchitectureError, match="not linear"):
+    with pytest.raises(InputError, match=r"idle=\(values, rates, accelerations\)"):
         r.regressor(r.description.home_pose, np.zeros(6), np.zeros(6))
 
 

@@ -87,9 +87,12 @@ class RobotLike(Protocol):
         """Classical platform acceleration in F0, (6,) or (N, 6)."""
         ...
 
-    def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
+    def regressor(
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike, idle: Any = None
+    ) -> FloatArray:
         """The dynamic regressor ``W``, (6, n) or (N, 6, n): n = 190 standard parameters for
-        the ideal 6-UPS robot, 280 for general legs (their joint terms included)."""
+        the ideal 6-UPS robot, 280 for general legs (their joint terms included); ``idle``:
+        the idle joints' ``(values, rates, accelerations)`` of a robot with idle freedoms."""
         ...
 
     def forward_geometry(self, lengths: ArrayLike, guess: ArrayLike = None) -> Pose:

@@ -882,7 +882,9 @@ class StewartRobot:
         legs = self.general.legs
         return np.array([leg.joints[leg.actuated - 1].dynamics.transmission_ratio for leg in legs])
 
-    def regressor(self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike) -> FloatArray:
+    def regressor(
+        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike, idle: Any = None
+    ) -> FloatArray:
         """The dynamic regressor ``W`` with ``Gamma = W chi``: (6, n) or (N, 6, n).
 
         Columns: leg 1 link 1 (10, Khalil order), leg 1 link 2, ..., leg 6 link 3, platform
@@ -891,9 +893,27 @@ class StewartRobot:
         :meth:`inverse_dynamics`). Names in
         :func:`stewart_pin.dynamics.regressor.standard_parameter_names`. Rows in the
         robot's :attr:`actuator_convention` (``W chi`` is :meth:`inverse_dynamics`).
+
+        Chain legs with idle joints (an R-S-S rod's spin, ``ChainLeg.idle_joint``):
+        ``idle=(values, rates, accelerations)``, each (6,) or (N, 6) [rad or m, /s,
+        /s^2], required there and refused elsewhere (:class:`InputError`). With the spin
+        accelerations given (measured, or a simulation's:
+        :func:`~stewart_pin.motion.idle_simulation.simulate_idle`), Gamma is linear in the
+        parameters: ``W chi`` is :meth:`inverse_dynamics_idle`'s Gamma when they are the
+        spin accelerations it returns
+        (:meth:`~stewart_pin.dynamics.chain_leg_dynamics.ChainDynamics.regressor_batch`).
         """
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        W = self._kind.regressor(self, T, V, A)
+        if idle is None and not leg_chains_idle(self.description):
+            W = self._kind.regressor(self, T, V, A)
+        else:  # idle given or required: the chain legs' regressor checks it
+            if not self.description.has_chain_legs:
+                raise InputError(
+                    f"robot '{self.name}' has no idle joints (ChainLeg.idle_joint): give "
+                    "idle=None (its state is the pose and twist only)"
+                )
+            with quiet_overflow():
+                W = check_finite(self.chain_dynamics.regressor_batch(T, V, A, idle), "regressor")
         if self._actuators is not None:
             W = self._actuators.rows(W)
         return W if batched else W[0]

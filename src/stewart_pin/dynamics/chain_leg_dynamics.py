@@ -41,7 +41,7 @@ from stewart_pin.dynamics.closed_loop import (
     platform_energy,
     platform_terms,
 )
-from stewart_pin.exceptions import InputError, UnsupportedArchitectureError
+from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics import chain_legs as kin
 from stewart_pin.kinematics.jacobians import MAX_CONDITION
 from stewart_pin.models.chain_legs import build_chain_leg
@@ -447,29 +447,96 @@ class ChainDynamics:
         )
         return p if batched else float(p[0])
 
-    def regressor_batch(self, T: np.ndarray, V: np.ndarray, A: np.ndarray) -> np.ndarray:
+    def idle_regressor_state(self, idle: Any, n: int) -> kin.IdleState | None:
+        """The idle state of the regressor for n states from ``idle`` ``(values, rates,
+        accelerations)``, each (6,) or (n, 6) [rad or m, /s, /s^2]: with the spin
+        accelerations given, each idle leg's joint accelerations are known and the efforts
+        are linear in the parameters. :class:`InputError` when required and missing, given
+        to a robot without idle joints, not three arrays, of the wrong shape or not
+        finite; ``None`` for a robot without idle joints."""
+        if not self.idle_legs:
+            return self.idle_state(idle, n)  # None, or the refusal of a given one
+        if idle is None:
+            legs = ", ".join(
+                f"leg {k + 1} joint {self.legs.legs[k].idle_joint}" for k in self.idle_legs
+            )
+            raise InputError(
+                f"robot '{self.desc.name}' has idle freedoms ({legs}): its regressor needs "
+                "their state, idle=(values, rates, accelerations), each (6,) or (N, 6) "
+                "[rad or m, /s, /s^2] (the spin accelerations given make the efforts "
+                "linear in the parameters)"
+            )
+        try:
+            values, rates, accels = idle
+        except (TypeError, ValueError) as e:
+            raise InputError(
+                "idle must be (values, rates, accelerations) for the regressor, each (6,) "
+                "or (N, 6)"
+            ) from e
+        out = []
+        for name, x in (
+            ("idle values", values),
+            ("idle rates", rates),
+            ("idle accelerations", accels),
+        ):
+            try:
+                a = np.asarray(x, dtype=float)
+            except (TypeError, ValueError) as e:
+                raise InputError(f"{name} must be numbers, (6,) or (N, 6)") from e
+            a = np.broadcast_to(a, (n, 6)) if a.shape == (6,) else check_array(a, (n, 6), name)
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"{name} must be finite")
+            out.append(np.array(a))
+        return kin.IdleState(out[0], out[1], out[2])
+
+    def regressor_batch(
+        self, T: np.ndarray, V: np.ndarray, A: np.ndarray, idle: Any = None
+    ) -> np.ndarray:
         """The regressor ``W`` (N, 6, n_p) with ``Gamma = W chi`` (:func:`chain_parameters`
         gives ``chi`` and its names): per leg link its 10 parameters (Pinocchio's
         ``computeJointTorqueRegressor`` on the leg's chain, Khalil's order), the
         platform's 10 (``F_p`` is linear in them), per leg joint ``IA FV FC K OF``
         (``[qddot, qdot, sign(qdot), q, 1]``); each leg's columns through ``K_i^T``, then
-        ``Jp^T``. Legs with an idle joint: :class:`UnsupportedArchitectureError` (their
-        spin acceleration, hence Gamma, is not linear in the parameters)."""
-        if self.idle_legs:
-            raise UnsupportedArchitectureError(
-                f"robot '{self.desc.name}' has idle joints: its efforts are not linear in "
-                "the inertial parameters (the spin accelerations depend on them), so it has "
-                "no regressor",
-                "regressor",
-                self.desc.architecture,
-            )
-        legs, J_inv = self.states(T, V, A)
+        ``Jp^T``.
+
+        Legs with an idle joint: ``idle=(values, rates, accelerations)`` (each (6,) or
+        (N, 6), :meth:`idle_regressor_state`), required. With the spin accelerations
+        ``sigma`` given (measured, or a simulation's), each leg's joint accelerations are
+        ``qddot = qddot_particular + null sigma`` (as in :meth:`inverse_batch`) and Gamma
+        is linear in ``chi``; ``W chi`` is the inverse model's Gamma when ``sigma`` is the
+        one it returns. The spin joints' own equations ``null^T H_i = 0`` are not rows of
+        ``W`` (:meth:`spin_regressor_batch`)."""
+        idle_state = self.idle_regressor_state(idle, T.shape[0])
+        legs, J_inv = self.states(T, V, A, idle_state)
         N = T.shape[0]
-        khalil = PIN_TO_KHALIL
         leg_cols, term_cols = [], []
+        for s, (Y, terms) in zip(legs, self._joint_regressors(legs), strict=True):
+            KT = np.swapaxes(s.KG, 1, 2)  # (N, 6, n)
+            leg_cols.append(KT @ Y)
+            term_cols.append(KT @ terms)
+        platform = np.empty((N, 6, 10))
+        for j in range(10):
+            unit = SimpleNamespace(
+                platform_inertia=np.eye(10)[j],
+                gravity=self.desc.gravity,
+                platform_gravcomp=self.desc.platform_gravcomp,
+            )
+            plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
+            platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
+        columns = np.concatenate([*leg_cols, platform, *term_cols], axis=2)
+        return np.linalg.solve(np.swapaxes(J_inv, 1, 2), columns)
+
+    def _joint_regressors(
+        self, legs: list[kin.ChainLegState]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each leg's joint efforts ``H_i`` per parameter: its links' (N, n, 10 n)
+        (Pinocchio's ``computeJointTorqueRegressor``, Khalil's order, each link's gravity
+        columns scaled by ``1 - c_j``) and its joint terms' (N, n, 5 n)."""
+        khalil = PIN_TO_KHALIL
+        out = []
         for k, s in enumerate(legs):
             model, data = self.legs.models[k], self.legs.datas[k]
-            n = s.q.shape[1]
+            N, n = s.q.shape
             cols = np.concatenate([10 * j + khalil for j in range(n)])
             # each link's gravity columns (the regressor at rest) scaled by 1 - c_j: its
             # weight (1 - c_j) m_j g (the efforts stay linear in the same parameters)
@@ -494,25 +561,48 @@ class ChainDynamics:
                     ],
                     axis=1,
                 )
-            KT = np.swapaxes(s.KG, 1, 2)  # (N, 6, n)
-            leg_cols.append(KT @ Y)
-            term_cols.append(KT @ terms)
-        platform = np.empty((N, 6, 10))
-        for j in range(10):
-            unit = SimpleNamespace(
-                platform_inertia=np.eye(10)[j],
-                gravity=self.desc.gravity,
-                platform_gravcomp=self.desc.platform_gravcomp,
-            )
-            plat = platform_terms(unit, T, V)  # type: ignore[arg-type] # duck-typed
-            platform[:, :, j] = _vec(plat.inertia, A) + plat.bias
-        columns = np.concatenate([*leg_cols, platform, *term_cols], axis=2)
-        return np.linalg.solve(np.swapaxes(J_inv, 1, 2), columns)
+            out.append((Y, terms))
+        return out
 
-    def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
+    def spin_regressor_batch(
+        self, T: np.ndarray, V: np.ndarray, A: np.ndarray, idle: Any
+    ) -> np.ndarray:
+        """The idle joints' own equations ``S chi = 0`` (N, 6, n_p), columns as
+        :meth:`regressor_batch`'s: row i is ``null_i^T H_i`` per parameter (``null_i``
+        leg i's idle motion, :meth:`inverse_batch`), zero for a leg without an idle joint.
+        With ``idle=(values, rates, accelerations)`` (:meth:`idle_regressor_state`),
+        ``S chi = 0`` when the accelerations are the spins' true ones; stacked with ``W``
+        (with zero measured values) they make the idle joints' own terms ``IA FV FC K OF``
+        identifiable, whose columns of ``W`` are zero. Refused (:class:`InputError`) on a
+        robot without idle joints."""
+        if not self.idle_legs:
+            raise InputError(
+                f"robot '{self.desc.name}' has no idle joints (ChainLeg.idle_joint): it has "
+                "no spin equations"
+            )
+        idle_state = self.idle_regressor_state(idle, T.shape[0])
+        legs, _ = self.states(T, V, A, idle_state)
+        n_links = sum(s.q.shape[1] for s in legs)
+        S = np.zeros((T.shape[0], 6, 10 * n_links + 10 + 5 * n_links))
+        link, term = 0, 10 * n_links + 10
+        for k, (s, (Y, terms)) in enumerate(zip(legs, self._joint_regressors(legs), strict=True)):
+            n = s.q.shape[1]
+            if s.null is not None:
+                S[:, k, link : link + 10 * n] = np.einsum("ni,nic->nc", s.null, Y)
+                S[:, k, term : term + 5 * n] = np.einsum("ni,nic->nc", s.null, terms)
+            link, term = link + 10 * n, term + 5 * n
+        return S
+
+    def spin_regressor(self, pose: Any, twist: Any, accel: Any, idle: Any) -> np.ndarray:
+        """:meth:`spin_regressor_batch` for one state (6, n_p) or a batch (N, 6, n_p)."""
+        batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
+        S = self.spin_regressor_batch(T, V, A, idle)
+        return S if batched else S[0]
+
+    def regressor(self, pose: Any, twist: Any, accel: Any, idle: Any = None) -> np.ndarray:
         """:meth:`regressor_batch` for one state (6, n_p) or a batch (N, 6, n_p)."""
         batched, T, V, A = check_states(pose, (twist, "twist"), (accel, "accel"))
-        W = self.regressor_batch(T, V, A)
+        W = self.regressor_batch(T, V, A, idle)
         return W if batched else W[0]
 
     def gravity_compensation(self, pose: Any, idle: Any = None) -> np.ndarray:

@@ -54,6 +54,7 @@ from stewart_pin.exceptions import (
     InputError,
     UnsupportedArchitectureError,
 )
+from stewart_pin.kinematics.chain_legs import idle_legs
 from stewart_pin.parameters.leg_chain_base import general_grouping, uncovered_legs
 from stewart_pin.protocols import RobotLike
 
@@ -139,11 +140,15 @@ class BaseParameters:
         """The base regressor ``W_b`` from the full one (..., 6, n) -> (..., 6, nb)."""
         return np.asarray(W)[..., self.kept]
 
-    def regressor(self, pose: Any, twist: Any, accel: Any) -> np.ndarray:
-        """The base regressor ``W_b`` with ``Gamma = W_b chi_b``: (6, nb) or (N, 6, nb)."""
+    def regressor(self, pose: Any, twist: Any, accel: Any, idle: Any = None) -> np.ndarray:
+        """The base regressor ``W_b`` with ``Gamma = W_b chi_b``: (6, nb) or (N, 6, nb)
+        (``idle``: the idle joints' ``(values, rates, accelerations)`` of a robot with
+        idle freedoms, :meth:`~stewart_pin.StewartRobot.regressor`)."""
         if self.robot is None:
             raise InputError("these base parameters are bound to no robot")
-        return self.reduce(self.robot.regressor(pose, twist, accel))
+        if idle is None:
+            return self.reduce(self.robot.regressor(pose, twist, accel))
+        return self.reduce(self.robot.regressor(pose, twist, accel, idle=idle))
 
     def table(self) -> str:
         """A readable table: name, value, and the grouping relation."""
@@ -437,8 +442,31 @@ def stacked_regressor(robot: RobotLike, n_states: int = 60, seed: int = 0) -> np
     if n_states < 1:
         raise InputError(f"n_states must be an integer >= 1, got {n_states}")
     poses, twists, accels = robot.sample_states(n_states, seed)
-    W = robot.regressor(poses, twists, accels)
+    idle = random_idle_state(robot.description, n_states, seed)
+    if idle is None:
+        W = robot.regressor(poses, twists, accels)
+    else:
+        W = robot.regressor(poses, twists, accels, idle=idle)
     return W.reshape(-1, W.shape[-1])
+
+
+def random_idle_state(
+    desc: RobotDescription, n: int, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Random idle joints' ``(values, rates, accelerations)``, each (n, 6), for a robot
+    with idle freedoms (chain legs with ``idle_joint``: an R-S-S rod's spin), ``None``
+    for another: values uniform in [-pi, pi) [rad], rates in [-5, 5] [1/s],
+    accelerations in [-50, 50] [1/s^2] (rad or m per unit time), from ``seed``. The spin
+    accelerations are given, so the efforts are linear in the parameters; random ones
+    excite the spin's inertia independently of the platform's motion."""
+    if not idle_legs(desc):
+        return None
+    rng = np.random.default_rng([int(seed), 7_101])
+    return (
+        rng.uniform(-math.pi, math.pi, (n, 6)),
+        rng.uniform(-5.0, 5.0, (n, 6)),
+        rng.uniform(-50.0, 50.0, (n, 6)),
+    )
 
 
 #: Powers of the characteristic length that make each of a body's 10 regressor columns

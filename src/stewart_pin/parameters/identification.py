@@ -715,9 +715,10 @@ class IdentificationResult:
         denom = np.where(np.abs(true) > atol, np.abs(true), big if big > 0 else 1.0)
         return (self.estimate - true) / denom
 
-    def predict(self, poses: Any, twists: Any, accels: Any) -> np.ndarray:
-        """Actuator forces ``W_b chi_b`` from the estimate [N]: (6,) or (N, 6)."""
-        return self.base.regressor(poses, twists, accels) @ self.estimate
+    def predict(self, poses: Any, twists: Any, accels: Any, idle: Any = None) -> np.ndarray:
+        """Actuator forces ``W_b chi_b`` from the estimate [N]: (6,) or (N, 6) (``idle``:
+        a robot with idle freedoms, :func:`identify`)."""
+        return self.base.regressor(poses, twists, accels, idle) @ self.estimate
 
     def report(
         self,
@@ -795,11 +796,29 @@ class IdentificationResult:
         return lines + wrap.wrap(POOR_IDENTIFICATION_ADVICE)
 
 
+def _idle_rows(idle: Any, n: int, sl: slice) -> Any:
+    """The samples ``sl`` of an idle state ``(values, rates, accelerations)``, each
+    (n, 6) (:class:`InputError` otherwise, naming it); ``None`` stays ``None``."""
+    if idle is None:
+        return None
+    try:
+        parts = tuple(idle)
+    except TypeError as e:
+        raise InputError("idle must be (values, rates, accelerations), each (N, 6)") from e
+    if len(parts) != 3:
+        raise InputError(
+            f"idle must be (values, rates, accelerations), each (N, 6); got {len(parts)} items"
+        )
+    names = ("idle values", "idle rates", "idle accelerations")
+    return tuple(check_array(x, (n, 6), name)[sl] for x, name in zip(parts, names, strict=True))
+
+
 def identify(
     robot: RobotLike,
     measurements: Measurements,
     base: BaseParameters | None = None,
     weighted: bool = True,
+    idle: Any = None,
 ) -> IdentificationResult:
     """Estimate the base parameters from measurements.
 
@@ -824,17 +843,27 @@ def identify(
         measurements: the samples.
         base: the base parameters to identify (default the analytic 88 of ``robot``).
         weighted: weighted (default) or ordinary least squares.
+        idle: a robot with idle freedoms (chain legs with ``idle_joint``, an R-S-S rod's
+            spin): the idle joints' ``(values, rates, accelerations)`` of every sample,
+            each (N, 6) [rad or m, /s, /s^2] (measured, or a simulation's:
+            :func:`~stewart_pin.motion.idle_simulation.simulate_idle`); with them given
+            the efforts are linear in the parameters
+            (:meth:`~stewart_pin.StewartRobot.regressor`). Required there, refused
+            elsewhere (:class:`~stewart_pin.exceptions.InputError`). The spin joints' own
+            equations (``null^T H_i = 0``, no measured effort) are not stacked.
 
     Raises:
         IdentificationError: fewer than ``nb + 1`` equations, or a stacked base regressor
             of rank below nb (the trajectory does not excite every base parameter).
+        InputError: ``idle`` missing, given to a robot without idle joints, or not three
+            (N, 6) arrays.
     """
     base = _base_of(robot, base)
     m = measurements
     acc = StackedLeastSquares(len(base), base.names)
     for k in range(0, len(m), IDENTIFY_CHUNK):
         sl = slice(k, k + IDENTIFY_CHUNK)
-        W = base.reduce(robot.regressor(m.poses[sl], m.twists[sl], m.accels[sl]))
+        W = base.regressor(m.poses[sl], m.twists[sl], m.accels[sl], _idle_rows(idle, len(m), sl))
         acc.add(W, m.gammas[sl])
     return _result(acc.solve(weighted=bool(weighted)), base, bool(weighted))
 
@@ -862,13 +891,15 @@ def _result(
 
 
 def validation_error(
-    result: IdentificationResult, robot: RobotLike, measurements: Measurements
+    result: IdentificationResult, robot: RobotLike, measurements: Measurements, idle: Any = None
 ) -> float:
     """The relative RMS force prediction error on ``measurements`` (another trajectory):
     ``|Gamma_measured - Gamma_predicted| / |Gamma_measured|`` over all samples and
-    actuators (Frobenius norms), a fraction."""
+    actuators (Frobenius norms), a fraction (``idle``: a robot with idle freedoms, the
+    samples' idle state as in :func:`identify`)."""
     m = measurements
-    predicted = result.base.reduce(robot.regressor(m.poses, m.twists, m.accels)) @ result.estimate
+    W = robot.regressor(m.poses, m.twists, m.accels, idle=_idle_rows(idle, len(m), slice(None)))
+    predicted = result.base.reduce(W) @ result.estimate
     denom = float(np.linalg.norm(m.gammas))
     if denom == 0:
         raise InputError("the measured forces are all zero: the relative error is undefined")
