@@ -566,3 +566,34 @@ def test_the_tree_check_builds_its_placements_and_inertias_itself(
     for n in range(2):
         ref = tree.inverse_one(T[n], V[n], A[n], q_legs[n])
         assert np.abs(gamma[n] - ref).max() <= TOL * np.abs(ref).max()
+
+
+@pytest.mark.parametrize("make", [welded_ups, mixed_chain_robot, rss_robot])
+def test_a_pose_solves_the_same_alone_and_in_any_batch(make) -> None:
+    """Each pose's continuation from home takes its own number of sub-steps: its legs'
+    joint values and ``reached`` are bit-identical whether it is solved alone or with
+    poses farther from home (which need more sub-steps) in its batch."""
+    desc = make()
+    size = chain_legs.robot_size(desc)
+    rng = np.random.default_rng(3)
+    T = np.tile(desc.home_pose, (60, 1, 1))
+    T[:, :3, 3] += rng.uniform(-0.3 * size, 0.3 * size, (60, 3))
+    T[:, :3, :3] = so3_exp(rng.uniform(-0.6, 0.6, (60, 3))) @ desc.home_pose[:3, :3]
+    # sub-steps from home (module constants): a fraction of the size, an angle
+    H = desc.home_pose
+    dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / size
+    da = np.array([np.linalg.norm(pin.log3(R @ H[:3, :3].T)) for R in T[:, :3, :3]])
+    ratio = np.maximum(
+        dp / chain_legs.CONTINUATION_TRANSLATION, da / chain_legs.CONTINUATION_ROTATION
+    )
+    steps = np.maximum(np.ceil(ratio), 1)
+    assert steps.min() < steps.max()  # the batch mixes poses of different counts
+    chain_legs._LAST.pop(desc, None)  # the continuation from the home pose in every call
+    qs, reached = chain_legs.solve_legs(desc, T)
+    for n in np.flatnonzero(steps < steps.max()):
+        chain_legs._LAST.pop(desc, None)
+        q1, r1 = chain_legs.solve_legs(desc, T[n : n + 1])
+        np.testing.assert_array_equal(r1[0], reached[n])
+        for k in range(6):
+            np.testing.assert_array_equal(q1[k][0], qs[k][n])
+    chain_legs._LAST.pop(desc, None)

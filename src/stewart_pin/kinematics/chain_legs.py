@@ -480,14 +480,16 @@ def check_limits_of(desc: RobotDescription, k: int, q: np.ndarray) -> np.ndarray
 
 def _continuation_steps(
     desc: RobotDescription, H: np.ndarray, T: np.ndarray, idle_step: np.ndarray
-) -> int:
-    """Sub-steps of the continuation from pose H (4, 4) to the poses T (N, 4, 4), the idle
-    joints moving by ``idle_step`` (N,) [rad or m]."""
+) -> np.ndarray:
+    """(N,) int: each pose's sub-steps of the continuation from pose H (4, 4) to the poses
+    T (N, 4, 4), the idle joints moving by ``idle_step`` (N,) [rad or m] (1 where not
+    finite)."""
     dp = np.linalg.norm(T[:, :3, 3] - H[:3, 3], axis=1) / robot_size(desc)
     da = np.linalg.norm(so3_log(T[:, :3, :3] @ H[:3, :3].T), axis=1)
     da = np.maximum(da, idle_step)
-    worst = float(np.max(np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION)))
-    return max(1, math.ceil(worst)) if math.isfinite(worst) else 1
+    worst = np.maximum(dp / CONTINUATION_TRANSLATION, da / CONTINUATION_ROTATION)
+    worst = np.where(np.isfinite(worst), worst, 1.0)
+    return np.maximum(np.ceil(worst), 1).astype(int)
 
 
 def idle_home(desc: RobotDescription) -> np.ndarray:
@@ -504,7 +506,8 @@ def solve_legs(
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """Each leg's joint values (N, n_i) at poses T (N, 4, 4) by the continuation from the
     home configuration (or from the last configuration solved, :data:`_LAST`, when that
-    is fewer steps away: a trajectory's, a simulation's), revolute ones in (-pi, pi], and
+    is fewer steps away for the batch: a trajectory's, a simulation's), each pose in its
+    own number of sub-steps (:func:`_continuation_steps`), revolute ones in (-pi, pi], and
     ``reached`` (N, 6) bool; the idle joints at ``idle_q`` (N, 6) (``None``: their home
     values), reached along the same continuation."""
     out, reached, _ = _solve_legs(desc, T, idle_q, False)
@@ -529,18 +532,24 @@ def _solve_legs(
     idle_q = np.broadcast_to(start, (N, 6)) if idle_q is None else idle_q
     has_idle = np.array([leg.idle_joint is not None for leg in legs])
 
-    def steps_from(H: np.ndarray, start: np.ndarray) -> int:
+    def steps_from(H: np.ndarray, start: np.ndarray) -> np.ndarray:
         change = np.abs(np.where(has_idle, idle_q - start, 0.0)).max(axis=1)
         return _continuation_steps(desc, H, T, change)
 
     steps = steps_from(H, start)
     last = _LAST.get(desc)
-    if last is not None and steps > 1:
+    if last is not None and steps.max() > 1:
         steps_last = steps_from(last[0], last[1])
-        if steps_last < steps:
+        if steps_last.max() < steps.max():
             H, start, q_start, steps = last[0], last[1], last[2], steps_last
-    # the continuation's poses, shared by the legs
-    path = [_interpolate(H, T, s / steps) for s in range(1, steps)] + [T]
+    # Each pose's own number of sub-steps (its result does not depend on the other poses
+    # of the batch); the poses of the same number are solved as one batch, their
+    # continuation's poses shared by the legs.
+    counts = {int(c): np.flatnonzero(steps == c) for c in np.unique(steps)}
+    paths = {
+        c: [_interpolate(H, T[idx], s / c) for s in range(1, c)] + [T[idx]]
+        for c, idx in counts.items()
+    }
     out = [np.full((N, leg.n_joints), np.nan) for leg in legs]
     reached = np.zeros((N, 6), bool)
     alive = np.ones(N, bool)
@@ -552,34 +561,36 @@ def _solve_legs(
             dist = np.linalg.norm(P - desc.base_points[k], axis=1)
             alive &= (dist >= lo) & (dist <= hi)
         alive[-1] = True
-    rows = np.flatnonzero(alive)
     for group in _leg_groups(legs):
-        leg, M = legs[group[0]], rows.size
-        q = np.concatenate([np.broadcast_to(q_start[k], (M, leg.n_joints)) for k in group])
-        T0 = np.repeat(np.stack([leg_base_pose(desc, k) for k in group], axis=2), M, axis=2)
-        A = np.repeat(np.stack([legs[k].attachment() for k in group], axis=2), M, axis=2)
-        idle = leg.idle_joint
-        for s in range(1, steps + 1):
-            Ts = path[s - 1] if M == N else path[s - 1][rows]
-            if idle is not None:
-                q[:, idle - 1] = np.concatenate(
-                    [start[k] + s / steps * (idle_q[rows, k] - start[k]) for k in group]
-                )
-            # the intermediate poses only guide the branch: a loose tolerance
-            tol = NEWTON_TOLERANCE if s == steps else CONTINUATION_TOLERANCE
-            target = np.concatenate([attachment_targets(desc, k, Ts) for k in group])
-            q, ok = _newton(leg, T0, A, size, target, q, tol)
-        q = np.where(leg.revolute, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
-        good = np.ones(M, bool)
-        for m, k in enumerate(group):
-            qk, okk = q[m * M : (m + 1) * M], ok[m * M : (m + 1) * M]
-            out[k][rows] = qk
-            reached[rows, k] = okk
+        leg, idle = legs[group[0]], legs[group[0]].idle_joint
+        for c, idx in counts.items():
+            sel = np.flatnonzero(alive[idx])  # the alive poses of count c, within idx
+            rows, M = idx[sel], sel.size
+            if M == 0:
+                continue
+            q = np.concatenate([np.broadcast_to(q_start[k], (M, leg.n_joints)) for k in group])
+            T0 = np.repeat(np.stack([leg_base_pose(desc, k) for k in group], axis=2), M, axis=2)
+            A = np.repeat(np.stack([legs[k].attachment() for k in group], axis=2), M, axis=2)
+            for s in range(1, c + 1):
+                Ts = paths[c][s - 1] if M == idx.size else paths[c][s - 1][sel]
+                if idle is not None:
+                    q[:, idle - 1] = np.concatenate(
+                        [start[k] + s / c * (idle_q[rows, k] - start[k]) for k in group]
+                    )
+                # the intermediate poses only guide the branch: a loose tolerance
+                tol = NEWTON_TOLERANCE if s == c else CONTINUATION_TOLERANCE
+                target = np.concatenate([attachment_targets(desc, k, Ts) for k in group])
+                q, ok = _newton(leg, T0, A, size, target, q, tol)
+            q = np.where(leg.revolute, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+            good = np.ones(M, bool)
+            for m, k in enumerate(group):
+                qk, okk = q[m * M : (m + 1) * M], ok[m * M : (m + 1) * M]
+                out[k][rows] = qk
+                reached[rows, k] = okk
+                if prune:
+                    good &= okk & _inside(legs[k], qk)
             if prune:
-                good &= okk & _inside(legs[k], qk)
-        if prune:
-            alive[rows[~good]] = False
-            rows = rows[good | (rows == N - 1)]
+                alive[rows[~good & (rows != N - 1)]] = False
     if np.all(reached[-1]):
         _LAST[desc] = (T[-1].copy(), np.array(idle_q[-1]), [q[-1].copy() for q in out])
     alive &= reached.all(axis=1)
