@@ -23,7 +23,7 @@ from conftest import use_compile_cache
 
 from stewart_pin import StewartRobot
 from stewart_pin.check.chain_legs_tree import ChainTreeSolver
-from stewart_pin.description.chain_leg_presets import rss_robot
+from stewart_pin.description.chain_leg_presets import rss_robot, welded_ups
 from stewart_pin.exceptions import InputError
 from stewart_pin.kinematics import chain_legs
 from stewart_pin.motion.control import ComputedTorqueController, tracking_errors
@@ -175,6 +175,18 @@ def test_simulate_idle_passes_the_spin_state_to_four_argument_functions_only(
         and takes_idle(ComputedTorqueController(robot, lambda t: (None, None, None)))
     )
     assert not takes_idle(three) and not takes_idle(lambda t, T, V, *, idle: 0)
+
+
+def test_a_robot_without_idle_joints_passes_none_to_four_argument_functions() -> None:
+    robot = StewartRobot(welded_ups(seed=1))  # chain legs welded, no idle joint
+    seen: list[Any] = []
+
+    def four(t: float, T: np.ndarray, V: np.ndarray, idle: Any) -> np.ndarray:
+        seen.append(idle)
+        return np.zeros(6)
+
+    simulate_idle(robot, 0.002, forces=four, dt=DT, backend="pinocchio")
+    assert seen == [None] * 9  # two RK4 steps and the last sample
 
 
 def test_bad_idle_states_to_the_controller_raise_input_errors(
