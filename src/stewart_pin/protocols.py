@@ -76,9 +76,16 @@ class RobotLike(Protocol):
         ...
 
     def inverse_dynamics(
-        self, pose: ArrayLike, twist: ArrayLike, accel: ArrayLike, *, backend: str = ...
+        self,
+        pose: ArrayLike,
+        twist: ArrayLike,
+        accel: ArrayLike,
+        *,
+        backend: str = ...,
+        idle: Any = ...,
     ) -> Forces:
-        """Actuator forces Gamma [N], (6,) or (N, 6)."""
+        """Actuator forces Gamma [N], (6,) or (N, 6); ``idle``: the idle joints'
+        ``(values, rates)`` of a robot with idle freedoms."""
         ...
 
     def direct_dynamics(

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -51,7 +52,8 @@ def check_backend(robot: RobotLike, backend: str, what: str) -> None:
 
 @dataclass
 class ComputedTorqueController:
-    """Inverse dynamic model plus PD on the pose error; call it as ``forces(t, T, V)``.
+    """Inverse dynamic model plus PD on the pose error; call it as ``forces(t, T, V)`` (or
+    ``forces(t, T, V, idle)`` on a robot whose legs have idle freedoms).
 
     Args:
         model: the :class:`~stewart_pin.StewartRobot` whose inverse model the controller
@@ -79,9 +81,34 @@ class ComputedTorqueController:
         T_ref, V_ref, A_ref = self.reference(t)
         return A_ref + self.kd * (V_ref - V) + self.kp * pose_error(T_ref, T)
 
-    def __call__(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
-        """Actuator forces Gamma (6,) [N] at time ``t`` [s] for the measured state."""
-        return self.model.inverse_dynamics(T, V, self.command(t, T, V), backend=self.backend)
+    def __call__(self, t: float, T: np.ndarray, V: np.ndarray, idle: Any = None) -> np.ndarray:
+        """Actuator forces Gamma (6,) [N] at time ``t`` [s] for the measured state.
+
+        Args:
+            t: time [s]; T: the measured pose 0Tp (4, 4); V: the measured twist ``[v, w]``
+                (6,) in F0 [m/s, rad/s].
+            idle: a robot whose legs have idle freedoms (``ChainLeg.idle_joint``, an
+                R-S-S rod's spin): the measured idle joints' ``(values, rates)``, each (6,)
+                [rad or m, /s], part of its state (the model's inverse dynamics requires it
+                there and refuses it elsewhere: :class:`InputError`). The spins are passive:
+                ``A_cmd`` is unchanged and the inverse model at the measured spin state
+                gives the efforts (:func:`stewart_pin.motion.idle_simulation.simulate_idle`
+                passes it).
+        """
+        A_cmd = self.command(t, T, V)
+        if idle is None:
+            return self.model.inverse_dynamics(T, V, A_cmd, backend=self.backend)
+        if not isinstance(idle, tuple | list) or len(idle) != 2:
+            raise InputError(
+                "the computed-torque controller: idle must be the idle joints' "
+                f"(values, rates), each (6,); got {type(idle).__name__}"
+                + (f" of length {len(idle)}" if isinstance(idle, tuple | list) else "")
+            )
+        spin = tuple(
+            check_array(x, (6,), f"the computed-torque controller's idle {name}")
+            for x, name in zip(idle, ("values", "rates"), strict=True)
+        )
+        return self.model.inverse_dynamics(T, V, A_cmd, backend=self.backend, idle=spin)
 
 
 def tracking_errors(

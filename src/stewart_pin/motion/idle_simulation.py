@@ -13,9 +13,10 @@ singularity met stops the run with the error of the model).
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -26,6 +27,11 @@ from stewart_pin.kinematics.chain_legs import idle_home
 
 #: ``Gamma = forces(t, pose, twist)`` [N or N m], joint side.
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
+#: ``Gamma = forces(t, pose, twist, idle)``: also sees the idle joints' state
+#: ``idle = (values, rates)``, each (6,) (``None`` on a robot without idle joints).
+IdleForceFunction = Callable[
+    [float, np.ndarray, np.ndarray, "tuple[np.ndarray, np.ndarray] | None"], np.ndarray
+]
 #: Most steps of one run.
 MAX_STEPS = 1_000_000
 
@@ -53,13 +59,33 @@ def _pose(T0: np.ndarray, y: np.ndarray) -> np.ndarray:
     return T
 
 
+def takes_idle(forces: Callable[..., Any]) -> bool:
+    """Whether ``forces`` accepts the idle state as a fourth positional argument (the rule of
+    :func:`simulate_idle`: its signature binds four positional arguments)."""
+    try:
+        inspect.signature(forces).bind(0.0, None, None, None)
+    except (TypeError, ValueError):  # refuses four, or no signature to read
+        return False
+    return True
+
+
+def _four_arguments(forces: ForceFunction | IdleForceFunction | None) -> IdleForceFunction:
+    """``forces`` as a function of ``(t, pose, twist, idle)`` (:func:`takes_idle`)."""
+    if forces is None:
+        return lambda t, T, V, idle: np.zeros(6)
+    if takes_idle(forces):
+        return cast(IdleForceFunction, forces)
+    three = cast(ForceFunction, forces)
+    return lambda t, T, V, idle: three(t, T, V)
+
+
 def simulate_idle(
     robot: Any,
     duration: float,
     pose: Any = None,
     twist: Any = None,
     idle: Any = None,
-    forces: ForceFunction | None = None,
+    forces: ForceFunction | IdleForceFunction | None = None,
     dt: float = 1e-3,
     backend: str = "auto",
 ) -> IdleSimulationResult:
@@ -71,7 +97,15 @@ def simulate_idle(
         pose: initial 0Tp (default the home pose); twist: initial ``[v, w]`` (default 0).
         idle: initial idle joints' ``(values, rates)``, each (6,) (default their home
             values, at rest; a robot without idle joints refuses one: :class:`InputError`).
-        forces: ``Gamma = forces(t, pose, twist)``; default zero.
+        forces: ``Gamma = forces(t, pose, twist)`` or ``forces(t, pose, twist, idle)``;
+            default zero. The rule: a function whose signature binds four positional
+            arguments (``inspect.signature(forces).bind(t, pose, twist, idle)`` succeeds:
+            a fourth parameter, with or without a default, or ``*args``) receives the
+            idle joints' state ``idle = (values, rates)``, each (6,), at every
+            evaluation (``None`` on a robot without idle joints); any other (or one
+            without an introspectable signature) is called with three. A
+            :class:`~stewart_pin.motion.control.ComputedTorqueController` takes four:
+            its inverse model then runs at the simulated spin state.
         backend: the direct model's (``robot.direct_dynamics_idle``): ``"auto"`` (the
             compiled idle-state models where a C compiler is available), ``"compiled"``
             or ``"pinocchio"`` (the reference); a robot without idle joints takes the
@@ -97,13 +131,14 @@ def simulate_idle(
             check_array(x, (6,), name)
             for x, name in zip(idle, ("idle values", "idle rates"), strict=True)
         )
-    force = (lambda t, T, V: np.zeros(6)) if forces is None else forces
+    force = _four_arguments(forces)
+    idle_of = (lambda y: (y[12:18], y[18:24])) if dyn.idle_legs else (lambda y: None)
 
     def f(
         t: float, T0: np.ndarray, y: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         Tt, Vt = _pose(T0, y), y[6:12]
-        g = check_array(force(t, Tt, Vt), (6,), "forces(t, pose, twist)")
+        g = check_array(force(t, Tt, Vt, idle_of(y)), (6,), "forces(t, pose, twist)")
         if dyn.idle_legs:
             acc, sigma = robot.direct_dynamics_idle(Tt, Vt, g, (y[12:18], y[18:24]), backend)
         else:  # they stay 0
@@ -132,4 +167,10 @@ def simulate_idle(
     return IdleSimulationResult(*(np.array(c) for c in cols))
 
 
-__all__ = ["IdleSimulationResult", "simulate_idle"]
+__all__ = [
+    "ForceFunction",
+    "IdleForceFunction",
+    "IdleSimulationResult",
+    "simulate_idle",
+    "takes_idle",
+]

@@ -222,7 +222,12 @@ class PayloadComputedTorque(ComputedTorqueController):
     model: Any
     joints: JointMotion | None = None
 
-    def __call__(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
+    def __call__(self, t: float, T: np.ndarray, V: np.ndarray, idle: Any = None) -> np.ndarray:
+        if idle is not None:
+            raise InputError(
+                "PayloadComputedTorque takes no idle state: a payload on a robot whose legs "
+                "have idle freedoms is not modelled"
+            )
         if self.joints is None:
             raise InputError("PayloadComputedTorque needs the payload's joints (a JointMotion)")
         q, qd, qdd = self.joints(t)
