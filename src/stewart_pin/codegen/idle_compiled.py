@@ -116,7 +116,8 @@ def has_idle_joints(desc: Any) -> bool:
 
 
 # ---------------------------------------------------------------------------- C source
-_LOOPS = r"""
+_LOOPS = (
+    r"""
 /* ---- stewart-pin: batch loops of the idle models (see codegen/idle_compiled.py) ---- */
 #ifndef SP_EXPORT
 #define SP_EXPORT __attribute__((visibility("default")))
@@ -135,14 +136,9 @@ static int sp_idm_after(const double* T, const double* tw, const double* acc, do
                         const double* sigma, const double* aux, double max_cond) {
   double y[6];
   int k, f = sp_check_inputs(T, tw, acc);
-  f |= sp_check_legs(aux, %(idm_slack)d);
-  if (!(aux[%(growth)d] <= sp_growth_limit)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
-    for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
-  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-  }
-  if (!sp_finite6(g) || !sp_finite6(sigma)) f |= SP_NONFINITE;
+"""
+    + _csource.IDM_GUARDS
+    + r"""  if (!sp_finite6(g) || !sp_finite6(sigma)) f |= SP_NONFINITE;
   return f;
 }
 
@@ -206,6 +202,7 @@ SP_EXPORT int sp_idle_ddm_one(const double* in, const double* chi, double max_co
   return f;
 }
 """
+)
 
 
 def idle_c_source(desc: Any) -> str:
@@ -229,15 +226,7 @@ def idle_c_source(desc: Any) -> str:
     loops = _LOOPS % {
         "idm_naux": layout.idm_size,
         "ddm_naux": layout.ddm_size,
-        "idm_slack": layout.idm_slack,
-        "ddm_slack": layout.ddm_slack,
-        "jinv": layout.jinv,
-        "idm_f": layout.idm_f,
-        "idm_hz": layout.idm_hz,
-        "ddm_d": layout.ddm_d,
-        "growth": layout.growth,
-        "det": layout.det,
-        "fro2": layout.fro2,
+        **_csource.layout_numbers(layout),
         "n_idle": IDLE_INPUT,
         "idm": fi.name(),
         "ddm": fd.name(),
