@@ -97,6 +97,7 @@ __all__ = [
     "InverseDynamicsDerivatives",
     "LibraryStatus",
     "ModelLibraries",
+    "ModelLibrariesOwner",
     "SymbolicDerivatives",
     "derivatives_backend",
     "derivatives_c_source",
@@ -609,7 +610,45 @@ class ModelLibraries:
         return not any(t.is_alive() for t in self._builders.values())
 
 
-class CompiledDerivatives:
+class ModelLibrariesOwner:
+    """What a backend whose Jacobians are a :class:`ModelLibraries` (``self._models``)
+    says of them: :attr:`kinds`, the inverse model's :attr:`kind`, :attr:`reason`,
+    :attr:`library` and :attr:`compiled_now`, and :meth:`wait`."""
+
+    _models: ModelLibraries
+
+    @property
+    def kinds(self) -> dict[str, str]:
+        """Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought."""
+        return {which: st.kind for which, st in self._models.status.items()}
+
+    @property
+    def kind(self) -> str:
+        """The inverse model's kind: ``"compiled"`` or ``"vm"``."""
+        return self._models.status["idm"].kind
+
+    @property
+    def reason(self) -> str | None:
+        """Why the inverse model's Jacobians run in the VM (None when compiled)."""
+        return self._models.status["idm"].reason
+
+    @property
+    def library(self) -> Path | None:
+        """The inverse model's library (None in the VM)."""
+        return self._models.status["idm"].library
+
+    @property
+    def compiled_now(self) -> bool:
+        """Whether this process compiled the inverse model's library."""
+        return self._models.status["idm"].compiled_now
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the libraries compiling in the background (at most ``timeout`` seconds
+        each); whether none is still compiling."""
+        return self._models.wait(timeout)
+
+
+class CompiledDerivatives(ModelLibrariesOwner):
     """The exact derivatives of a robot's inverse and direct models, compiled to C (or in
     CasADi's virtual machine).
 
@@ -684,31 +723,6 @@ class CompiledDerivatives:
     def __repr__(self) -> str:
         return f"CompiledDerivatives({self.robot!r}, kind={self.kind!r})"
 
-    @property
-    def kinds(self) -> dict[str, str]:
-        """Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought."""
-        return {which: st.kind for which, st in self._models.status.items()}
-
-    @property
-    def kind(self) -> str:
-        """The inverse model's kind: ``"compiled"`` or ``"vm"``."""
-        return self._models.status["idm"].kind
-
-    @property
-    def reason(self) -> str | None:
-        """Why the inverse model's Jacobians run in the VM (None when compiled)."""
-        return self._models.status["idm"].reason
-
-    @property
-    def library(self) -> Path | None:
-        """The inverse model's library (None in the VM)."""
-        return self._models.status["idm"].library
-
-    @property
-    def compiled_now(self) -> bool:
-        """Whether this process compiled the inverse model's library."""
-        return self._models.status["idm"].compiled_now
-
     @functools.cached_property
     def symbolic(self) -> SymbolicDerivatives:
         """Both models' Jacobians as CasADi functions (generated on first use)."""
@@ -719,11 +733,6 @@ class CompiledDerivatives:
         if "symbolic" in self.__dict__:
             return self.symbolic.idm_flat if which == "idm" else self.symbolic.ddm_flat
         return symbolic_derivative(symbolic_models_for(self.robot), which)[1]
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Wait for the libraries compiling in the background (at most ``timeout`` seconds
-        each); whether none is still compiling."""
-        return self._models.wait(timeout)
 
     def _load(self, which: str, path: Path) -> None:
         lib = ctypes.CDLL(str(path))
