@@ -58,6 +58,8 @@ raises exactly what the reference path raises.
 
 from __future__ import annotations
 
+from typing import Any
+
 FLAG_NAMES = {
     "INPUT": 1,
     "GEOMETRY": 2,
@@ -349,6 +351,40 @@ SP_EXPORT void sp_act_batch(long long n, const double* pose, double* out) {
 }
 """
 
+#: The inverse model's guards of one state after the generated code ran (C, the %-keys of
+#: the model layout ``idm_slack``, ``growth``, ``jinv``, ``idm_f``, ``idm_hz``, ``det``,
+#: ``fro2``): with ``f`` the flag so far, ``aux`` the state's by-products, ``g`` its Gamma
+#: (6), ``y`` a scratch (6) and ``k`` an int, the leg and condition flags ORed into ``f``
+#: and a repivoted state's Gamma solved again (the hexapod's, the payload's and the idle
+#: models' guards).
+IDM_GUARDS = r"""  f |= sp_check_legs(aux, %(idm_slack)d);
+  if (!(aux[%(growth)d] <= sp_growth_limit)) {
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
+    for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
+  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
+    /* the static LU's determinant bound passed half the threshold: the tighter one */
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  }
+"""
+
+
+def layout_numbers(layout: Any) -> dict[str, int]:
+    """The %-keys of :data:`IDM_GUARDS` and the direct model's guards from a model's
+    by-product layout (an :class:`~.leg_chain_symbolic.AuxLayout`): the slacks, the
+    offsets ``jinv``, ``idm_f``, ``idm_hz``, ``ddm_d``, ``growth``, ``det``, ``fro2``."""
+    return {
+        "idm_slack": layout.idm_slack,
+        "ddm_slack": layout.ddm_slack,
+        "jinv": layout.jinv,
+        "idm_f": layout.idm_f,
+        "idm_hz": layout.idm_hz,
+        "ddm_d": layout.ddm_d,
+        "growth": layout.growth,
+        "det": layout.det,
+        "fro2": layout.fro2,
+    }
+
+
 TEMPLATE = (
     GUARDS
     + STATIC_COND
@@ -369,15 +405,9 @@ static int sp_idm_after(const double* T, const double* tw, const double* acc, do
                         const double* aux, double max_cond) {
   double y[6];
   int k, f = sp_check_inputs(T, tw, acc);
-  f |= sp_check_legs(aux, SP_IDM_SLACK);
-  if (!(aux[%(growth)d] <= sp_growth_limit)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
-    for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
-  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
-    /* the static LU's determinant bound passed half the threshold: the tighter one */
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-  }
-  if (!sp_finite6(g)) f |= SP_NONFINITE;
+"""
+    + IDM_GUARDS
+    + r"""  if (!sp_finite6(g)) f |= SP_NONFINITE;
   return f;
 }
 

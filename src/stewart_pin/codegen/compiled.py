@@ -277,15 +277,7 @@ def c_source(desc: Any) -> str:
         "inv_length": 1.0 / singularity_length(desc),
         "idm_naux": layout.idm_size,
         "ddm_naux": layout.ddm_size,
-        "idm_slack": layout.idm_slack,
-        "ddm_slack": layout.ddm_slack,
-        "jinv": layout.jinv,
-        "idm_f": layout.idm_f,
-        "idm_hz": layout.idm_hz,
-        "ddm_d": layout.ddm_d,
-        "growth": layout.growth,
-        "det": layout.det,
-        "fro2": layout.fro2,
+        **_csource.layout_numbers(layout),
         "idm": fi.name(),
         "ddm": fd.name(),
         **{f"idm_sz_{k}": getattr(fi, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
@@ -760,15 +752,43 @@ def _pool(threads: int) -> ThreadPoolExecutor:
         return pool
 
 
-def _warn_once(reason: str) -> None:
-    if reason not in _WARNED:
-        _WARNED.add(reason)
+def warn_vm_once(what: str, reason: str, warned: set[str], stacklevel: int) -> None:
+    """Warn once per ``reason`` (remembered in ``warned``, the calling module's set) that
+    the compiled ``what`` is unavailable and CasADi's VM answers instead; ``stacklevel``
+    as for :func:`warnings.warn` (1: this function)."""
+    if reason not in warned:
+        warned.add(reason)
         warnings.warn(
-            f"stewart-pin compiled backend unavailable ({reason}); using CasADi's virtual "
+            f"stewart-pin compiled {what} unavailable ({reason}); using CasADi's virtual "
             "machine instead (same results, slower)",
             RuntimeWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
+
+
+def build_or_vm(
+    build: Callable[[str | None], tuple[Path, bool]],
+    compiler: str | bool | None,
+    vm_fallback: bool,
+) -> tuple[str, str | None, Path | None, bool]:
+    """``(kind, reason, library, compiled_now)`` of a backend whose library ``build(cc)``
+    builds (``cc``: the compiler named by ``compiler``, or None to find one):
+    ``("compiled", None, path, compiled_now)``, or ``("vm", reason, None, False)`` when
+    ``compiler`` is False or the build fails and ``vm_fallback`` is set (unset: a
+    :class:`CompilationError`). An :class:`UnsafeCacheError` always propagates."""
+    if compiler is False:
+        return "vm", "compiler disabled", None, False
+    try:
+        library, compiled_now = build(compiler if isinstance(compiler, str) else None)
+    except UnsafeCacheError:
+        raise
+    except (CompilationError, OSError, AttributeError) as e:
+        if not vm_fallback:
+            if isinstance(e, CompilationError):
+                raise
+            raise CompilationError(str(e) or type(e).__name__) from e
+        return "vm", str(e).splitlines()[0] if str(e) else type(e).__name__, None, False
+    return "compiled", None, library, compiled_now
 
 
 _F64 = np.dtype(np.float64)
@@ -860,32 +880,15 @@ class CompiledDynamics:
         self.base_values.flags.writeable = False
         self._length = singularity_length(desc)
         self._resolution = kind.resolution(desc)
-        self.kind, self.reason = "vm", None
-        self.library: Path | None = None
-        self.compiled_now = False
         self._vm_idm = self._vm_ddm = None
-        if compiler is False:
-            self.reason = "compiler disabled"
-        else:
-            try:
-                self.library, self.compiled_now = build_library(
-                    desc,
-                    cache_dir,
-                    compiler if isinstance(compiler, str) else None,
-                    self._load,
-                    announce,
-                )
-                self.kind = "compiled"
-            except UnsafeCacheError:
-                raise
-            except (CompilationError, OSError, AttributeError) as e:
-                if not vm_fallback:
-                    if isinstance(e, CompilationError):
-                        raise
-                    raise CompilationError(str(e) or type(e).__name__) from e
-                self.reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        self.library: Path | None
+        self.kind, self.reason, self.library, self.compiled_now = build_or_vm(
+            lambda cc: build_library(desc, cache_dir, cc, self._load, announce),
+            compiler,
+            vm_fallback,
+        )
         if self.kind == "vm":
-            _warn_once(self.reason or "unknown")
+            warn_vm_once("backend", self.reason or "unknown", _WARNED, stacklevel=3)
 
     def __repr__(self) -> str:
         return f"CompiledDynamics({self.robot!r}, kind={self.kind!r})"

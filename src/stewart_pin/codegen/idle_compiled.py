@@ -31,7 +31,6 @@ from __future__ import annotations
 import ctypes
 import math
 import threading
-import warnings
 import weakref
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +46,7 @@ from stewart_pin.codegen.chain_leg_symbolic import IDLE_INPUT, IdleModels, build
 from stewart_pin.codegen.compiled import (
     CFLAGS,
     auto_env,
+    build_or_vm,
     build_source_library,
     default_threads,
     find_compiler,
@@ -54,9 +54,12 @@ from stewart_pin.codegen.compiled import (
     printable_name,
     split_batch,
     warn_reference,
+    warn_vm_once,
 )
 from stewart_pin.codegen.derivatives import (
     ModelLibraries,
+    ModelLibrariesOwner,
+    derivative_batch_c,
     newton_not_converged,
     perturbed_pose,
 )
@@ -114,7 +117,8 @@ def has_idle_joints(desc: Any) -> bool:
 
 
 # ---------------------------------------------------------------------------- C source
-_LOOPS = r"""
+_LOOPS = (
+    r"""
 /* ---- stewart-pin: batch loops of the idle models (see codegen/idle_compiled.py) ---- */
 #ifndef SP_EXPORT
 #define SP_EXPORT __attribute__((visibility("default")))
@@ -133,14 +137,9 @@ static int sp_idm_after(const double* T, const double* tw, const double* acc, do
                         const double* sigma, const double* aux, double max_cond) {
   double y[6];
   int k, f = sp_check_inputs(T, tw, acc);
-  f |= sp_check_legs(aux, %(idm_slack)d);
-  if (!(aux[%(growth)d] <= sp_growth_limit)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, y) | SP_REPIVOTED;
-    for (k = 0; k < 6; ++k) g[k] = aux[%(idm_hz)d + k] + y[k];
-  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-  }
-  if (!sp_finite6(g) || !sp_finite6(sigma)) f |= SP_NONFINITE;
+"""
+    + _csource.IDM_GUARDS
+    + r"""  if (!sp_finite6(g) || !sp_finite6(sigma)) f |= SP_NONFINITE;
   return f;
 }
 
@@ -204,6 +203,7 @@ SP_EXPORT int sp_idle_ddm_one(const double* in, const double* chi, double max_co
   return f;
 }
 """
+)
 
 
 def idle_c_source(desc: Any) -> str:
@@ -227,15 +227,7 @@ def idle_c_source(desc: Any) -> str:
     loops = _LOOPS % {
         "idm_naux": layout.idm_size,
         "ddm_naux": layout.ddm_size,
-        "idm_slack": layout.idm_slack,
-        "ddm_slack": layout.ddm_slack,
-        "jinv": layout.jinv,
-        "idm_f": layout.idm_f,
-        "idm_hz": layout.idm_hz,
-        "ddm_d": layout.ddm_d,
-        "growth": layout.growth,
-        "det": layout.det,
-        "fro2": layout.fro2,
+        **_csource.layout_numbers(layout),
         "n_idle": IDLE_INPUT,
         "idm": fi.name(),
         "ddm": fd.name(),
@@ -251,17 +243,6 @@ def _csource_rotation_tol() -> float:
     from stewart_pin._checks import ROTATION_TOLERANCE
 
     return ROTATION_TOLERANCE * (1.0 - 1e-3)
-
-
-def _warn_once(what: str, reason: str) -> None:
-    if reason not in _WARNED:
-        _WARNED.add(reason)
-        warnings.warn(
-            f"stewart-pin compiled {what} unavailable ({reason}); using CasADi's virtual "
-            "machine instead (same results, slower)",
-            RuntimeWarning,
-            stacklevel=4,
-        )
 
 
 # ---------------------------------------------------------------------------- inputs
@@ -350,34 +331,23 @@ class CompiledIdleDynamics:
         self.threads = default_threads() if threads is None else positive_threads(threads)
         self._reference = ChainDynamics(desc, check_limits=True)
         self._length = chain_legs.robot_size(desc)
-        self.kind, self.reason = "vm", None
-        self.library: Path | None = None
-        self.compiled_now = False
-        if compiler is False:
-            self.reason = "compiler disabled"
-        else:
-            what = f"the idle-state models of robot '{printable_name(desc)}'" if announce else None
-            try:
-                self.library, self.compiled_now = build_source_library(
-                    lambda: idle_c_source(desc),
-                    cache_dir,
-                    compiler if isinstance(compiler, str) else None,
-                    self._load,
-                    what,
-                    library_identity(desc, "idle-models"),
-                    CFLAGS,
-                )
-                self.kind = "compiled"
-            except UnsafeCacheError:
-                raise
-            except (CompilationError, OSError, AttributeError) as e:
-                if not vm_fallback:
-                    if isinstance(e, CompilationError):
-                        raise
-                    raise CompilationError(str(e) or type(e).__name__) from e
-                self.reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        what = f"the idle-state models of robot '{printable_name(desc)}'" if announce else None
+        self.library: Path | None
+        self.kind, self.reason, self.library, self.compiled_now = build_or_vm(
+            lambda cc: build_source_library(
+                lambda: idle_c_source(desc),
+                cache_dir,
+                cc,
+                self._load,
+                what,
+                library_identity(desc, "idle-models"),
+                CFLAGS,
+            ),
+            compiler,
+            vm_fallback,
+        )
         if self.kind == "vm":
-            _warn_once("idle models", self.reason or "unknown")
+            warn_vm_once("idle models", self.reason or "unknown", _WARNED, stacklevel=4)
 
     def __repr__(self) -> str:
         return f"CompiledIdleDynamics({self.robot!r}, kind={self.kind!r})"
@@ -652,35 +622,11 @@ def _jacobian_function(model: cs.Function, name: str) -> cs.Function:
     return cs.Function(name, x, [flat], [model.name_in(k) for k in range(5)], ["d"])
 
 
-_DERIV_LOOPS = r"""
-#include <math.h>
-#ifndef SP_EXPORT
-#define SP_EXPORT __attribute__((visibility("default")))
-#endif
-#define SP_NOUT %(nout)d
-#define SP_DBATCH(NAME, FN, SZ_ARG, SZ_RES, SZ_IW, SZ_W)                                  \
-SP_EXPORT int NAME(long long n, const double* pose, const double* twist, const double* x, \
-                   const double* idle, const double* chi, double* out, int* flags) {      \
-  const casadi_real* arg[SZ_ARG + 1];                                                     \
-  casadi_real* res[SZ_RES + 1];                                                           \
-  casadi_int iw[SZ_IW + 1];                                                               \
-  casadi_real w[SZ_W + 1];                                                                \
-  int any = 0, k, f;                                                                      \
-  long long s;                                                                            \
-  for (s = 0; s < n; ++s) {                                                               \
-    double* o = out + (long long)SP_NOUT * s;                                             \
-    arg[0] = pose + 16 * s; arg[1] = twist + 6 * s; arg[2] = x + 6 * s; arg[3] = chi;     \
-    arg[4] = idle + %(n_idle)d * s;                                                       \
-    res[0] = o;                                                                           \
-    FN(arg, res, iw, w, 0);                                                               \
-    f = 0;                                                                                \
-    for (k = 0; k < SP_NOUT; ++k) if (!isfinite(o[k])) { f = 32; break; }                 \
-    flags[s] = f;                                                                         \
-    any |= f;                                                                             \
-  }                                                                                       \
-  return any;                                                                             \
-}
-SP_DBATCH(sp_idle_%(which)s_derivatives, %(fn)s, %(sz_arg)d, %(sz_res)d, %(sz_iw)d, %(sz_w)d)
+#: One model's batch loop (``which``: ``idm`` or ``ddm``), after
+#: :func:`~.derivatives.derivative_batch_c`'s macro.
+_DERIV_ENTRY = r"""
+SP_DERIVATIVE_BATCH(sp_idle_%(which)s_derivatives, %(fn)s, %(sz_arg)d, %(sz_res)d, %(sz_iw)d,
+                    %(sz_w)d)
 """
 
 
@@ -693,9 +639,7 @@ def idle_derivatives_c_source(which: str, function: cs.Function) -> str:
         {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
     )
     cg.add(function)
-    loops = _DERIV_LOOPS % {
-        "nout": _NOUT,
-        "n_idle": IDLE_INPUT,
+    loops = derivative_batch_c(_NOUT, IDLE_INPUT) + _DERIV_ENTRY % {
         "which": which,
         "fn": function.name(),
         **{f"sz_{k}": getattr(function, f"sz_{k}")() for k in ("arg", "res", "iw", "w")},
@@ -703,7 +647,7 @@ def idle_derivatives_c_source(which: str, function: cs.Function) -> str:
     return f"/* Generated by stewart-pin (codegen/idle_compiled.py). */\n{cg.dump()}\n{loops}"
 
 
-class CompiledIdleDerivatives:
+class CompiledIdleDerivatives(ModelLibrariesOwner):
     """The exact Jacobians of :class:`CompiledIdleDynamics`'s models, compiled (or in
     CasADi's VM; ``compiler=False``: the VM, nothing compiled). Each call first evaluates
     the values with the compiled idle models (which raise what the reference raises for
@@ -750,7 +694,7 @@ class CompiledIdleDerivatives:
             self._flat,
             idle_derivatives_c_source,
             self._load,
-            lambda reason: _warn_once("idle derivatives", reason),
+            lambda reason: warn_vm_once("idle derivatives", reason, _WARNED, stacklevel=4),
             cache_dir,
             compiler,
         )
@@ -759,36 +703,6 @@ class CompiledIdleDerivatives:
 
     def __repr__(self) -> str:
         return f"CompiledIdleDerivatives({self.robot!r}, kind={self.kind!r})"
-
-    @property
-    def kinds(self) -> dict[str, str]:
-        """Each model's kind (``"compiled"`` / ``"vm"``), once its library was sought."""
-        return {which: st.kind for which, st in self._models.status.items()}
-
-    @property
-    def kind(self) -> str:
-        """The inverse model's kind: ``"compiled"`` or ``"vm"``."""
-        return self._models.status["idm"].kind
-
-    @property
-    def reason(self) -> str | None:
-        """Why the inverse model's Jacobians run in the VM (None when compiled)."""
-        return self._models.status["idm"].reason
-
-    @property
-    def library(self) -> Path | None:
-        """The inverse model's library (None in the VM)."""
-        return self._models.status["idm"].library
-
-    @property
-    def compiled_now(self) -> bool:
-        """Whether this process compiled the inverse model's library."""
-        return self._models.status["idm"].compiled_now
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Wait for the libraries compiling in the background (at most ``timeout`` seconds
-        each); whether none is still compiling."""
-        return self._models.wait(timeout)
 
     def _flat(self, which: str) -> cs.Function:
         """One model's flat Jacobian function, generated on first use."""

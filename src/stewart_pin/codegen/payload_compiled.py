@@ -107,16 +107,11 @@ static int sp_finite_n(const double* x, int n) {
    aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */
 static int sp_pidm_after(const double** arg, double* o, const double* aux,
                          double max_cond) {
-  double z[6];
+  double y[6], *g = o;  /* Gamma: o's first six */
   int k, f = sp_check_inputs(arg[0], arg[1], arg[2]) | sp_arm_inputs(arg[3], arg[4], arg[5]);
-  f |= sp_check_legs(aux, %(idm_slack)d);
-  if (!(aux[%(growth)d] <= sp_growth_limit)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, aux + %(idm_f)d, z) | SP_REPIVOTED;
-    for (k = 0; k < 6; ++k) o[k] = aux[%(idm_hz)d + k] + z[k];
-  } else if (sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond)) {
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-  }
-  if (!sp_finite_n(o, SP_NOUT)) f |= SP_NONFINITE;
+"""
+    + _csource.IDM_GUARDS
+    + r"""  if (!sp_finite_n(o, SP_NOUT)) f |= SP_NONFINITE;
   return f;
 }
 
@@ -303,16 +298,8 @@ def payload_c_source(
         "idm_naux": m.idm.size1_out(1),
         "ddm_naux": m.ddm.size1_out(1),
         "pddm_naux": m.pddm.size1_out(1),
-        "idm_slack": lay.idm_slack,
-        "ddm_slack": lay.ddm_slack,
+        **_csource.layout_numbers(lay),
         "ddm_size": lay.ddm_size,
-        "jinv": lay.jinv,
-        "idm_f": lay.idm_f,
-        "idm_hz": lay.idm_hz,
-        "ddm_d": lay.ddm_d,
-        "growth": lay.growth,
-        "det": lay.det,
-        "fro2": lay.fro2,
         **_sizes("idm", m.idm),
         **_sizes("ddm", m.ddm),
         **_sizes("pddm", m.pddm),
