@@ -675,19 +675,12 @@ def _dot_n(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
 
 
 # ---------------------------------------------------------------------------- assembly
-# The legs' outputs for the assembled models and their stage functions: every entry is a
-# list of scalars (the idle models' spin terms, ``sigma`` / ``sigma_of``, are read by
-# :func:`build_idle_models` from ``_idm_leg`` / ``_ddm_leg`` themselves).
 def _idm_leg_stage(lc: _ChainConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
-    out = _idm_leg(lc, p, R, t[:3], t[3:], a[:3], a[3:], K)
-    del out["sigma"]
-    return out
+    return _idm_leg(lc, p, R, t[:3], t[3:], a[:3], a[3:], K)
 
 
 def _ddm_leg_stage(lc: _ChainConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
-    out = _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
-    del out["sigma_of"]
-    return out
+    return _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
 
 
 def build_chain_models(

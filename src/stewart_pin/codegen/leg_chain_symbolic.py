@@ -929,6 +929,18 @@ def _ddm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> d
     return _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
 
 
+#: Entries of a leg's outputs that describe them rather than being outputs: how many of
+#: its slacks are Newton residuals (``"residual"``), the idle models' spin terms
+#: (``"sigma"``, ``"sigma_of"``, read by the chain legs' idle generator).
+LEG_METADATA = ("residual", "sigma", "sigma_of")
+
+
+def leg_stage_outputs(outputs: dict[str, Any]) -> dict[str, Any]:
+    """A leg's outputs as a stage function's (lists of scalars): without
+    :data:`LEG_METADATA`."""
+    return {k: v for k, v in outputs.items() if k not in LEG_METADATA}
+
+
 def _stages(
     legs: Sequence[Any],
     pose: str,
@@ -955,7 +967,9 @@ def _stages(
             stage_function(
                 f"idm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("accel", 6), ("K", 9)],
-                lambda ps, t, a, Kf, lc=lc: idm_leg(lc, *pose_of(ps), t, a, mat3(Kf)),
+                lambda ps, t, a, Kf, lc=lc: leg_stage_outputs(
+                    idm_leg(lc, *pose_of(ps), t, a, mat3(Kf))
+                ),
             )
             for lc in legs
         ),
@@ -974,7 +988,7 @@ def _stages(
             stage_function(
                 f"ddm_leg{lc.index + 1}",
                 [("pose", npose), ("twist", 6), ("gamma", 1)],
-                lambda ps, t, gk, lc=lc: ddm_leg(lc, *pose_of(ps), t, gk[0]),
+                lambda ps, t, gk, lc=lc: leg_stage_outputs(ddm_leg(lc, *pose_of(ps), t, gk[0])),
             )
             for lc in legs
         ),
