@@ -55,10 +55,8 @@ from stewart_pin.codegen._sx_common import (
     ddm_legs_closure,
     ddm_platform,
     function,
-    idm_closure,
     idm_platform,
     idm_shared,
-    is_zero,
     lu_solve,
     mat3,
     pivot_order,
@@ -75,6 +73,7 @@ from stewart_pin.codegen.leg_chain_symbolic import (
     assemble_models,
     cross,
     dot,
+    idm_closure_and_aux,
     joint_constants,
     joint_terms,
     leg_block,
@@ -86,7 +85,6 @@ from stewart_pin.codegen.leg_chain_symbolic import (
     newton_euler,
     plus,
     prismatic,
-    residual_slacks,
     revolute,
     scaled,
     snap,
@@ -779,20 +777,8 @@ def build_idle_models(
     K, vdg = idm_shared(tw, ac, g_platform)
     ilegs = [_idm_leg(lc, p, R, tw[:3], w, ac[:3], wd, K, idle_of(lc)) for lc in legs]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
-    rows = [lg["row"] for lg in ilegs]
-    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
-    pivots = tuple(pivot_order(home_rows.T, nonzero))
-    Hz = [lg["Hz"][0] for lg in ilegs]
-    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
     inv_l = 1.0 / kin.robot_size(desc)
-    fro2: Scalar = 0.0
-    for r in rows:
-        for j in range(3):
-            fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
-    det = det * inv_l**3
-    slacks = [s for lg in ilegs for s in lg["slack"]]
-    layout = AuxLayout(n_slack=len(slacks), residual=residual_slacks(ilegs))
-    idm_aux = [*[x for r in rows for x in r], *F, *Hz, growth, det, fro2, *slacks]
+    gamma, idm_aux, layout, pivots = idm_closure_and_aux(ilegs, F_p, home_rows, inv_l)
     idm_sigma = [lg["sigma"][0] for lg in ilegs]
 
     # ---- DDM

@@ -1054,6 +1054,32 @@ def build_general_models(
     return assemble_models(robot, legs, home_rows, robot.size, pose, prefix, stages)
 
 
+def idm_closure_and_aux(
+    ilegs: Sequence[dict[str, Any]], F_p: list[Scalar], home_rows: np.ndarray, inv_l: float
+) -> tuple[list[Scalar], list[Scalar], AuxLayout, tuple[tuple[int, int], ...]]:
+    """The IDM's closure from the six legs' outputs (``row``, ``wrench``, ``Hz``,
+    ``slack``, in leg order) and the platform's wrench ``F_p``, with the static pivots of
+    ``home_rows`` (6, 6) ``Jp^-1`` at home: ``(gamma, aux, layout, pivots)``, ``aux`` the
+    guard's inputs of :class:`AuxLayout` (``Jp^-1`` row-major, ``F``, ``Hz``, the pivot
+    growth, det and squared Frobenius norm of ``Jp^-1`` scaled by ``inv_l`` = 1 / the
+    singularity measure's length [1/m], the legs' slacks). Shared by the three-joint and the
+    chain-leg generators (the idle models too)."""
+    rows = [lg["row"] for lg in ilegs]
+    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    Hz = [lg["Hz"][0] for lg in ilegs]
+    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
+    fro2: Scalar = 0.0
+    for r in rows:
+        for j in range(3):
+            fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
+    det = det * inv_l**3
+    slacks = [s for lg in ilegs for s in lg["slack"]]
+    layout = AuxLayout(n_slack=len(slacks), residual=residual_slacks(ilegs))
+    aux = [*[x for r in rows for x in r], *F, *Hz, growth, det, fro2, *slacks]
+    return gamma, aux, layout, pivots
+
+
 def assemble_models(
     robot: Any,
     legs: Sequence[Any],
@@ -1090,20 +1116,7 @@ def assemble_models(
     K, vdg = idm_shared(tw, ac, g_platform)
     ilegs = [idm_leg(lc, p, R, tw, ac, K) for lc in legs]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
-    rows = [lg["row"] for lg in ilegs]
-    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
-    pivots = tuple(pivot_order(home_rows.T, nonzero))
-    Hz = [lg["Hz"][0] for lg in ilegs]
-    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
-    fro2: Scalar = 0.0
-    for r in rows:
-        for j in range(3):
-            fro2 = fro2 + r[j] * r[j] + r[3 + j] * r[3 + j] * (inv_l * inv_l)
-    det = det * inv_l**3
-    slacks = [s for lg in ilegs for s in lg["slack"]]
-    layout = AuxLayout(n_slack=len(slacks), residual=residual_slacks(ilegs))
-    jinv = [x for r in rows for x in r]
-    idm_aux = [*jinv, *F, *Hz, growth, det, fro2, *slacks]
+    gamma, idm_aux, layout, pivots = idm_closure_and_aux(ilegs, F_p, home_rows, inv_l)
 
     # ---- DDM
     dlegs = [ddm_leg(lc, p, R, tw, gm[k]) for k, lc in enumerate(legs)]
