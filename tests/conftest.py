@@ -93,8 +93,15 @@ def parameter_robot(request: pytest.FixtureRequest) -> StewartRobot:
 def shared_compile_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One fresh cache folder for the session's compiled libraries (each build takes
     seconds, and the cache key is the description: the modules that compile the same
-    robot share one build). Tests of the cache's own rules use folders of their own."""
-    return tmp_path_factory.mktemp("stewart-pin-shared-cache")
+    robot share one build). Under pytest-xdist the workers share it too (the folder of
+    the run, beside the workers' own: the cache's lock on each key folder makes a second
+    worker wait for the first one's build and load it). Tests of the cache's own rules use
+    folders of their own."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:  # one process
+        return tmp_path_factory.mktemp("stewart-pin-shared-cache")
+    path = tmp_path_factory.getbasetemp().parent / "stewart-pin-shared-cache"
+    path.mkdir(mode=0o700, exist_ok=True)
+    return path
 
 
 @pytest.fixture(scope="session", autouse=True)
