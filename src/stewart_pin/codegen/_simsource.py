@@ -103,6 +103,7 @@ typedef struct {
   long long adaptive; double rtol; double atol; double h_min;
   sp_act_fn act;
   long long ref_kind; const double* ref_pose; long long ref_n; const double* ref_data;
+  long long ref_id;
 } sp_sim;
 
 #define ST_T 0
@@ -410,6 +411,10 @@ SP_EXPORT void sp_ref_eval(const sp_sim* sim, double t, double* T, double* V, do
   }
 }
 
+/* The reference's last evaluation on this thread: (T, V, A) of run ref_id at time t. */
+static __thread long long sp_ref_last_id = 0;
+static __thread double sp_ref_last_t = 0.0, sp_ref_last[28];
+
 /* The computed-torque law of motion/control.py, the reference evaluated at t (or, a
    reference sampled before the run, its row r, which must be t's):
    Gamma = IDM(T, V, A_ref + kd (V_ref - V) + kp [p_ref - p; log3(R_ref R^T)]). */
@@ -418,7 +423,16 @@ static int sp_ct(const sp_sim* sim, long long r, double t, const double* T, cons
   const double *Tr, *Vr, *Ar;
   double E[9], e[6], th, sc[2], A[6], Tb[16], Vb[6], Ab[6];
   int i, j, flag;
-  if (sim->ref_kind != SP_REF_TABLE) {
+  if (sim->ref_kind != SP_REF_TABLE && sim->ref_id > 0) {
+    /* rk4 asks twice at t + h/2 and twice at t + h: this thread's last evaluation, kept
+       with the run's reference id (unique in the process) and its time */
+    if (sp_ref_last_id != sim->ref_id || sp_ref_last_t != t) {
+      sp_ref_eval(sim, t, sp_ref_last, sp_ref_last + 16, sp_ref_last + 22);
+      sp_ref_last_id = sim->ref_id;
+      sp_ref_last_t = t;
+    }
+    Tr = sp_ref_last; Vr = sp_ref_last + 16; Ar = sp_ref_last + 22;
+  } else if (sim->ref_kind != SP_REF_TABLE) {
     sp_ref_eval(sim, t, Tb, Vb, Ab);
     Tr = Tb; Vr = Vb; Ar = Ab;
   } else {

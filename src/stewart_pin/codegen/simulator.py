@@ -30,6 +30,7 @@ function pointers): it is compiled once per machine into the cache of
 from __future__ import annotations
 
 import ctypes
+import itertools
 import threading
 import weakref
 from collections.abc import Sequence
@@ -70,6 +71,9 @@ CHUNK_ROWS = 4096
 _LIB: list[Any] = []
 _LIB_LOCK = threading.Lock()
 _P = ctypes.c_void_p
+#: Ids of the references evaluated in C, unique in the process (``sp_sim.ref_id``: the key
+#: of a thread's last evaluation in the C loop).
+_REF_IDS = itertools.count(1)
 
 
 class _Sim(ctypes.Structure):
@@ -118,6 +122,7 @@ class _Sim(ctypes.Structure):
         ("ref_pose", _P),
         ("ref_n", ctypes.c_longlong),
         ("ref_data", _P),
+        ("ref_id", ctypes.c_longlong),
     ]
 
 
@@ -260,6 +265,7 @@ class _Forces:
                 ref_pose=self._arr(c.reference.reference),
                 ref_n=ref_n,
                 ref_data=self._arr(values),
+                ref_id=next(_REF_IDS),
             )
             return
         grid = grid_times(dt, duration, n_grid)
