@@ -190,8 +190,8 @@ def _assert_same_path(got, ref, smooth: bool) -> None:
 def _c_reference(motion, times):
     """``(T, V, A)`` of ``motion`` at ``times`` from the simulator library's ``sp_ref_eval``
     (the reference the C loop evaluates at its stage times)."""
-    kind, n, data = simulator._reference_data(motion)
-    pose = np.ascontiguousarray(motion.reference, dtype=np.float64)
+    kind, n, data, pose = simulator._reference_data(motion)
+    pose = np.ascontiguousarray(pose, dtype=np.float64)
     sim = simulator._Sim(
         ref_kind=kind, ref_pose=pose.ctypes.data, ref_n=n, ref_data=data.ctypes.data
     )

@@ -20,8 +20,9 @@ Anything the Python loop would look at more closely stops the call *before* the 
 inverse model's guard flags (a leg near its stroke end or a singularity, a U-joint near its
 limit, a non-positive pivot, a non-finite result: the reference checks decide), a sign of
 ``det Jp^-1`` other than the step's start, a step that
-does not land on the grid, a controller reference sampled at another time, a rotation error
-near pi. The Python loop then takes that one step (halving, locating the event, raising),
+does not land on the grid, a controller reference sampled before the run at another time
+(a reference evaluated here, ``sp_ref_eval``, is evaluated at the time asked), a rotation
+error near pi. The Python loop then takes that one step (halving, locating the event, raising),
 and the compiled loop goes on from the next grid time. Status :data:`NEED_FORCE`: the
 step's end state starts a new control period whose forces come from a Python function; the
 pending state is kept in the state block and the next call evaluates it with the held

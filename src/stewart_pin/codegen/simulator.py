@@ -11,9 +11,16 @@ forces that are
 - ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
   or interpolated table), computed in C;
 - a :class:`~stewart_pin.motion.control.ComputedTorqueController` whose model's inverse
-  model is compiled too: its reference sampled once, before the run, at the times the
-  Python loop asks for it (rk4: every stage time, or every control period's start; the
-  adaptive method: every period's start, so it needs a ``control_period``), the law in C;
+  model is compiled too, the law in C. Its reference, a
+  :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
+  :class:`~stewart_pin.motion.trajectories.Sinusoids` or
+  :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`, is evaluated in C at every
+  time the loop asks (``sp_ref_eval``: the formulas of
+  :func:`~stewart_pin.motion.trajectories.states_at`, equal to round-off), with or without
+  a ``control_period`` on either method; any other reference is sampled once, before the
+  run, at the times the Python loop asks for it (rk4: every stage time, or every control
+  period's start; the adaptive method: every period's start, so it needs a
+  ``control_period``);
 - any other function with a ``control_period``: called from Python once per period (the C
   loop stops at the period's end state and goes on with the forces it returns).
 
@@ -259,10 +266,10 @@ class _Forces:
         )
         data = _reference_data(c.reference)
         if data is not None:  # evaluated in C at every time the loop asks
-            ref_kind, ref_n, values = data
+            ref_kind, ref_n, values, pose = data
             self._set(
                 ref_kind=ref_kind,
-                ref_pose=self._arr(c.reference.reference),
+                ref_pose=self._arr(pose),
                 ref_n=ref_n,
                 ref_data=self._arr(values),
                 ref_id=next(_REF_IDS),
@@ -302,8 +309,8 @@ class _Forces:
         )
 
 
-def _reference_data(reference: Any) -> tuple[int, int, np.ndarray] | None:
-    """``(ref_kind, ref_n, ref_data)`` of a reference the C loop evaluates itself (the
+def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] | None:
+    """``(ref_kind, ref_n, ref_data, ref_pose)`` of a reference the C loop evaluates itself (the
     exact types :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
     :class:`~stewart_pin.motion.trajectories.Sinusoids` and
     :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`: their coordinates, the
@@ -314,19 +321,19 @@ def _reference_data(reference: Any) -> tuple[int, int, np.ndarray] | None:
         n = reference.n_harmonics
         w = 2.0 * np.pi * reference.base_frequency * np.arange(1, n + 1)  # as coordinates()
         parts = [w, reference.offsets, reference.sine.ravel(), reference.cosine.ravel()]
-        return S.REF_FOURIER, n, np.concatenate(parts)
+        return S.REF_FOURIER, n, np.concatenate(parts), reference.reference
     if kind is Sinusoids:
         om = 2 * np.pi * reference.frequencies  # as coordinates()
         phases = reference.phases
         parts = [om, phases, reference.amplitudes, np.sin(phases)]
-        return S.REF_SINUSOIDS, 6, np.concatenate(parts).astype(np.float64)
+        return S.REF_SINUSOIDS, 6, np.concatenate(parts).astype(np.float64), reference.reference
     if kind is MinimumJerkKnots:
         counts = [len(axis) for axis in reference.knots]
         parts = [np.array(counts, dtype=np.float64)]
         for axis in reference.knots:
             parts.append(np.array([float(t) for t, _ in axis], dtype=np.float64))
             parts.append(np.array([float(v) for _, v in axis], dtype=np.float64))
-        return S.REF_MINIMUM_JERK, sum(counts), np.concatenate(parts)
+        return S.REF_MINIMUM_JERK, sum(counts), np.concatenate(parts), reference.reference
     return None
 
 
