@@ -351,6 +351,28 @@ def test_batch_runs_equal_single_runs():
         _assert_same(res, ref)
 
 
+def test_batch_runs_under_computed_torque_at_every_stage_equal_python_runs():
+    """The controller at every stage in a batch on two threads (each thread keeps its last
+    reference evaluation; two controllers on different references, runs interleaved
+    across the threads): each run equals the Python loop's."""
+    robot = get_robot("simulator")
+    motion = standard_motion(robot, "sinusoid", 0.05)
+    fourier = _fourier(robot, np.random.default_rng(4))
+    T0, V0, _ = motion(0.0)
+    controllers = [
+        ComputedTorqueController(robot, m, backend="compiled")
+        for m in (motion, fourier, motion, fourier)
+    ]
+    twists = V0 + 1e-3 * np.random.default_rng(6).standard_normal((4, 6))
+    opts = {"dt": 1e-3, "backend": "compiled"}
+    for c in controllers[:2]:  # the C loop takes these runs (else: InputError)
+        prepare_run(robot, 0.05, T0, V0, c, integrator="compiled", **opts)
+    got = simulate_batch(robot, 0.05, [T0] * 4, twists, controllers, threads=2, **opts)
+    for k, res in enumerate(got):
+        ref = simulate(robot, 0.05, T0, twists[k], controllers[k], integrator="python", **opts)
+        _assert_same(res, ref)
+
+
 def test_force_table_values():
     """Held and interpolated values against NumPy's own interpolation."""
     times = np.array([0.0, 0.5, 2.0])
