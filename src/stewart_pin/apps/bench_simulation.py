@@ -8,9 +8,9 @@ assembly included), all measured in this one run:
   a :class:`~stewart_pin.motion.force_tables.ForceTable` (linear, 11 rows);
 - ``C RK4, computed torque per step``: the
   :class:`~stewart_pin.motion.control.ComputedTorqueController` on the ``sinusoid`` motion
-  at ``control_period = dt`` (a digital controller: one inverse model per step), law and
-  reference table in C; ``per stage``: without a control period (the law at each of the
-  four RK4 evaluations);
+  at ``control_period = dt`` (a digital controller: one inverse model per step), the law
+  and the reference evaluated in C; ``per stage``: without a control period (the law at
+  each of the four RK4 evaluations, the reference at each of the two stage times);
 - ``C RK4, Python force function per step``: ``forces=f, control_period=dt`` (the C loop
   runs one period per call, Python gives the next forces);
 - ``C RK4 batch of 16 runs``: :func:`~stewart_pin.codegen.simulator.simulate_batch` of 16

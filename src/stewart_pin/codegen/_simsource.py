@@ -20,8 +20,9 @@ Anything the Python loop would look at more closely stops the call *before* the 
 inverse model's guard flags (a leg near its stroke end or a singularity, a U-joint near its
 limit, a non-positive pivot, a non-finite result: the reference checks decide), a sign of
 ``det Jp^-1`` other than the step's start, a step that
-does not land on the grid, a controller reference sampled at another time, a rotation error
-near pi. The Python loop then takes that one step (halving, locating the event, raising),
+does not land on the grid, a controller reference sampled before the run at another time
+(a reference evaluated here, ``sp_ref_eval``, is evaluated at the time asked), a rotation
+error near pi. The Python loop then takes that one step (halving, locating the event, raising),
 and the compiled loop goes on from the next grid time. Status :data:`NEED_FORCE`: the
 step's end state starts a new control period whose forces come from a Python function; the
 pending state is kept in the state block and the next call evaluates it with the held
@@ -64,6 +65,13 @@ STATIC_SIGN_COND = 1e8
 #: Force kinds of ``sp_sim.kind``.
 KIND_CONSTANT, KIND_HOLD, KIND_LINEAR, KIND_CT, KIND_EXTERNAL = 0, 1, 2, 3, 4
 
+#: Reference kinds of ``sp_sim.ref_kind`` (the computed-torque controller's): sampled before
+#: the run (a table of rows at the times the loop asks), or evaluated in C at every time it
+#: asks, a :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
+#: :class:`~stewart_pin.motion.trajectories.Sinusoids` or
+#: :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`.
+REF_TABLE, REF_FOURIER, REF_SINUSOIDS, REF_MINIMUM_JERK = 0, 1, 2, 3
+
 #: Offsets in the state block (doubles) shared with Python.
 ST_T, ST_POSE, ST_TWIST, ST_DY, ST_GAMMA, ST_SIGN = 0, 1, 17, 23, 35, 41
 ST_HELD_K, ST_HELD_G, ST_PENDING, ST_PEND_T, ST_PEND_POSE, ST_PEND_TWIST = 42, 43, 49, 50, 51, 67
@@ -95,6 +103,8 @@ typedef struct {
   long long q3sq; double* L_out;
   long long adaptive; double rtol; double atol; double h_min;
   sp_act_fn act;
+  long long ref_kind; const double* ref_pose; long long ref_n; const double* ref_data;
+  long long ref_id;
 } sp_sim;
 
 #define ST_T 0
@@ -256,15 +266,180 @@ static double sp_grid(const sp_sim* sim, long long n) {
   return n >= sim->n_grid ? sim->duration : (double)n * sim->dt;
 }
 
-/* The computed-torque law of motion/control.py at reference row r:
+/* The controller's reference evaluated here (sim->ref_kind != SP_REF_TABLE), as
+   motion/trajectories.py evaluates it: the six coordinates x = [d, r] (a Fourier series,
+   sinusoids or minimum-jerk knots; ref_data laid out by simulator.py's _reference_data),
+   then p = p_ref + d, R = exp3(r) R_ref, v = d', w = J_l(r) r', the exact classical
+   accelerations (_so3.py's so3_coefficients, so3_exp, so3_left_jacobian(_rate)). */
+#define SP_REF_TABLE 0
+#define SP_REF_FOURIER 1
+#define SP_REF_SINUSOIDS 2
+#define SP_REF_MINIMUM_JERK 3
+#define SP_SERIES_ANGLE 0.1
+#define SP_PI 3.141592653589793
+
+static double sp_horner(double t2, const double* c) {  /* _so3.py's _series, 4 terms */
+  double out = 0.0;
+  int i;
+  for (i = 3; i >= 0; --i) out = out * t2 + c[i];
+  return out;
+}
+
+/* sin t / t, a, b, a'/t, b'/t at t = |r| (_so3.py's so3_coefficients). */
+static void sp_so3_coefs(const double* r, double* co) {
+  static const double ca[4] = {1.0 / 2, -1.0 / 24, 1.0 / 720, -1.0 / 40320};
+  static const double cb[4] = {1.0 / 6, -1.0 / 120, 1.0 / 5040, -1.0 / 362880};
+  static const double cda[4] = {-1.0 / 12, 1.0 / 180, -1.0 / 6720, 1.0 / 453600};
+  static const double cdb[4] = {-1.0 / 60, 1.0 / 1260, -1.0 / 60480, 1.0 / 4989600};
+  double t = sqrt((r[0] * r[0] + r[1] * r[1]) + r[2] * r[2]), t2 = t * t, x, y;
+  x = t / SP_PI;  /* np.sinc(t / pi) */
+  y = SP_PI * (x == 0.0 ? 1.0e-20 : x);
+  co[0] = sin(y) / y;
+  if (t < SP_SERIES_ANGLE) {
+    co[1] = sp_horner(t2, ca);
+    co[2] = sp_horner(t2, cb);
+    co[3] = sp_horner(t2, cda);
+    co[4] = sp_horner(t2, cdb);
+  } else {
+    double s = sin(t), c = cos(t);
+    co[1] = (1 - c) / (t * t);
+    co[2] = (t - s) / pow(t, 3.0);
+    co[3] = (t * s - 2 * (1 - c)) / pow(t, 4.0);
+    co[4] = ((1 - c) * t - 3 * (t - s)) / pow(t, 5.0);
+  }
+}
+
+static void sp_cross(const double* a, const double* b, double* out) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* The minimum-jerk profile 10 s^3 - 15 s^4 + 6 s^5 and its derivatives (_quintic). */
+static void sp_quintic(double s, double* f) {
+  s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+  f[0] = pow(s, 3.0) * ((10 - 15 * s) + 6 * (s * s));
+  f[1] = (30 * (s * s)) * ((1 - s) * (1 - s));
+  f[2] = ((60 * s) * (1 - s)) * (1 - 2 * s);
+}
+
+/* The coordinates x, x', x'' (6 each) of the reference at t. */
+static void sp_ref_coordinates(const sp_sim* sim, double t, double* x, double* xd, double* xdd) {
+  const double* d = sim->ref_data;
+  long long n = sim->ref_n, l;
+  int k;
+  if (sim->ref_kind == SP_REF_FOURIER) {  /* d: w (n), offsets (6), sine (6, n), cosine */
+    const double *w = d, *a = d + n + 6, *b = d + n + 6 + 6 * n;
+    for (k = 0; k < 6; ++k) {
+      double sa = 0.0, cb = 0.0, ca = 0.0, sb = 0.0, sa2 = 0.0, cb2 = 0.0;
+      for (l = 0; l < n; ++l) {
+        double s = sin(t * w[l]), c = cos(t * w[l]), w2 = w[l] * w[l];
+        sa += s * a[k * n + l];
+        cb += c * b[k * n + l];
+        ca += (c * w[l]) * a[k * n + l];
+        sb += (s * w[l]) * b[k * n + l];
+        sa2 += (-(s * w2)) * a[k * n + l];
+        cb2 += (c * w2) * b[k * n + l];
+      }
+      x[k] = (d[n + k] + sa) + cb;
+      xd[k] = ca - sb;
+      xdd[k] = sa2 - cb2;
+    }
+  } else if (sim->ref_kind == SP_REF_SINUSOIDS) {  /* d: om, phases, amplitudes, sin(phases) */
+    for (k = 0; k < 6; ++k) {
+      double arg = d[k] * t + d[6 + k], s = sin(arg), A = d[12 + k];
+      x[k] = A * (s - d[18 + k]);
+      xd[k] = (A * d[k]) * cos(arg);
+      xdd[k] = ((-A) * (d[k] * d[k])) * s;
+    }
+  } else {  /* minimum-jerk knots; d: six counts m_k, then each axis's m_k times, m_k values */
+    const double* axis = d + 6;
+    for (k = 0; k < 6; ++k) {
+      long long m = (long long)d[k], seg = -1;
+      const double *tk = axis, *vk = axis + m;
+      x[k] = m > 0 ? vk[0] : 0.0;
+      xd[k] = 0.0;
+      xdd[k] = 0.0;
+      for (l = 0; l + 1 < m; ++l)
+        if (t >= tk[l]) seg = l;
+      if (seg >= 0) {
+        double h = tk[seg + 1] - tk[seg], dv = vk[seg + 1] - vk[seg], f[3];
+        sp_quintic((t - tk[seg]) / h, f);
+        x[k] = vk[seg] + dv * f[0];
+        xd[k] = dv / h * f[1];
+        xdd[k] = dv / (h * h) * f[2];
+      }
+      axis += 2 * m;
+    }
+  }
+}
+
+/* The reference's pose T (row-major 4x4), twist V and classical acceleration A at t
+   (states_at of motion/trajectories.py, the same formulas). */
+SP_EXPORT void sp_ref_eval(const sp_sim* sim, double t, double* T, double* V, double* A) {
+  double x[6], xd[6], xdd[6], co[5], K[9], KK[9], E[9], J[9], rxr[3], rrr[3], drr[3], rdr;
+  const double *r = x + 3, *rd = xd + 3, *rdd = xdd + 3, *P = sim->ref_pose;
+  int i, j;
+  sp_ref_coordinates(sim, t, x, xd, xdd);
+  sp_so3_coefs(r, co);
+  K[0] = 0.0; K[1] = -r[2]; K[2] = r[1];
+  K[3] = r[2]; K[4] = 0.0; K[5] = -r[0];
+  K[6] = -r[1]; K[7] = r[0]; K[8] = 0.0;
+  for (i = 0; i < 3; ++i)
+    for (j = 0; j < 3; ++j)
+      KK[3 * i + j] = (K[3 * i] * K[j] + K[3 * i + 1] * K[3 + j]) + K[3 * i + 2] * K[6 + j];
+  for (i = 0; i < 9; ++i) {
+    double id = (i % 4 == 0) ? 1.0 : 0.0;
+    E[i] = (id + co[0] * K[i]) + co[1] * KK[i];
+    J[i] = (id + co[1] * K[i]) + co[2] * KK[i];
+  }
+  for (i = 0; i < 3; ++i) {
+    for (j = 0; j < 3; ++j)
+      T[4 * i + j] = (E[3 * i] * P[j] + E[3 * i + 1] * P[4 + j]) + E[3 * i + 2] * P[8 + j];
+    T[4 * i + 3] = P[4 * i + 3] + x[i];
+  }
+  T[12] = 0.0; T[13] = 0.0; T[14] = 0.0; T[15] = 1.0;
+  rdr = (r[0] * rd[0] + r[1] * rd[1]) + r[2] * rd[2];
+  sp_cross(r, rd, rxr);
+  sp_cross(r, rxr, rrr);
+  sp_cross(rd, rxr, drr);
+  for (i = 0; i < 3; ++i) {
+    V[i] = xd[i];
+    A[i] = xdd[i];
+    V[3 + i] = (J[3 * i] * rd[0] + J[3 * i + 1] * rd[1]) + J[3 * i + 2] * rd[2];
+    A[3 + i] = ((J[3 * i] * rdd[0] + J[3 * i + 1] * rdd[1]) + J[3 * i + 2] * rdd[2])
+               + (((rdr * co[3]) * rxr[i] + (rdr * co[4]) * rrr[i]) + co[2] * drr[i]);
+  }
+}
+
+/* The reference's last evaluation on this thread: (T, V, A) of run ref_id at time t. */
+static __thread long long sp_ref_last_id = 0;
+static __thread double sp_ref_last_t = 0.0, sp_ref_last[28];
+
+/* The computed-torque law of motion/control.py, the reference evaluated at t (or, a
+   reference sampled before the run, its row r, which must be t's):
    Gamma = IDM(T, V, A_ref + kd (V_ref - V) + kp [p_ref - p; log3(R_ref R^T)]). */
 static int sp_ct(const sp_sim* sim, long long r, double t, const double* T, const double* V,
                  double* g) {
   const double *Tr, *Vr, *Ar;
-  double E[9], e[6], th, sc[2], A[6];
+  double E[9], e[6], th, sc[2], A[6], Tb[16], Vb[6], Ab[6];
   int i, j, flag;
-  if (r < 0 || r >= sim->n_ref || sim->ref_t[r] != t) return 0;
-  Tr = sim->ref_T + 16 * r; Vr = sim->ref_V + 6 * r; Ar = sim->ref_A + 6 * r;
+  if (sim->ref_kind != SP_REF_TABLE && sim->ref_id > 0) {
+    /* rk4 asks twice at t + h/2 and twice at t + h: this thread's last evaluation, kept
+       with the run's reference id (unique in the process) and its time */
+    if (sp_ref_last_id != sim->ref_id || sp_ref_last_t != t) {
+      sp_ref_eval(sim, t, sp_ref_last, sp_ref_last + 16, sp_ref_last + 22);
+      sp_ref_last_id = sim->ref_id;
+      sp_ref_last_t = t;
+    }
+    Tr = sp_ref_last; Vr = sp_ref_last + 16; Ar = sp_ref_last + 22;
+  } else if (sim->ref_kind != SP_REF_TABLE) {
+    sp_ref_eval(sim, t, Tb, Vb, Ab);
+    Tr = Tb; Vr = Vb; Ar = Ab;
+  } else {
+    if (r < 0 || r >= sim->n_ref || sim->ref_t[r] != t) return 0;
+    Tr = sim->ref_T + 16 * r; Vr = sim->ref_V + 6 * r; Ar = sim->ref_A + 6 * r;
+  }
   for (i = 0; i < 3; ++i) {
     e[i] = Tr[4 * i + 3] - T[4 * i + 3];
     for (j = 0; j < 3; ++j)

@@ -11,9 +11,16 @@ forces that are
 - ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
   or interpolated table), computed in C;
 - a :class:`~stewart_pin.motion.control.ComputedTorqueController` whose model's inverse
-  model is compiled too: its reference sampled once, before the run, at the times the
-  Python loop asks for it (rk4: every stage time, or every control period's start; the
-  adaptive method: every period's start, so it needs a ``control_period``), the law in C;
+  model is compiled too, the law in C. Its reference, a
+  :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
+  :class:`~stewart_pin.motion.trajectories.Sinusoids` or
+  :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`, is evaluated in C at every
+  time the loop asks (``sp_ref_eval``: the formulas of
+  :func:`~stewart_pin.motion.trajectories.states_at`, equal to round-off), with or without
+  a ``control_period`` on either method; any other reference is sampled once, before the
+  run, at the times the Python loop asks for it (rk4: every stage time, or every control
+  period's start; the adaptive method: every period's start, so it needs a
+  ``control_period``);
 - any other function with a ``control_period``: called from Python once per period (the C
   loop stops at the period's end state and goes on with the forces it returns).
 
@@ -30,6 +37,7 @@ function pointers): it is compiled once per machine into the cache of
 from __future__ import annotations
 
 import ctypes
+import itertools
 import threading
 import weakref
 from collections.abc import Sequence
@@ -51,7 +59,13 @@ from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.motion.simulation import SimulationResult, grid_times, prepare_run
-from stewart_pin.motion.trajectories import CoordinateMotion, FourierTrajectory, states_at
+from stewart_pin.motion.trajectories import (
+    CoordinateMotion,
+    FourierTrajectory,
+    MinimumJerkKnots,
+    Sinusoids,
+    states_at,
+)
 from stewart_pin.protocols import RobotLike
 
 #: The simulator's compiler flags: the models' without ``-freciprocal-math`` (the divisions
@@ -64,6 +78,9 @@ CHUNK_ROWS = 4096
 _LIB: list[Any] = []
 _LIB_LOCK = threading.Lock()
 _P = ctypes.c_void_p
+#: Ids of the references evaluated in C, unique in the process (``sp_sim.ref_id``: the key
+#: of a thread's last evaluation in the C loop).
+_REF_IDS = itertools.count(1)
 
 
 class _Sim(ctypes.Structure):
@@ -108,6 +125,11 @@ class _Sim(ctypes.Structure):
         ("atol", ctypes.c_double),
         ("h_min", ctypes.c_double),
         ("act", _P),
+        ("ref_kind", ctypes.c_longlong),
+        ("ref_pose", _P),
+        ("ref_n", ctypes.c_longlong),
+        ("ref_data", _P),
+        ("ref_id", ctypes.c_longlong),
     ]
 
 
@@ -195,10 +217,12 @@ class _Forces:
                     tab_g=self._arr(forces.values),
                 )
         elif isinstance(forces, ComputedTorqueController):
-            if adaptive and period is None:
+            if adaptive and period is None and _reference_data(forces.reference) is None:
                 self.reason = (
                     "the computed-torque controller without control_period on the adaptive "
-                    "method (its stage times are not known before the run)"
+                    f"method with a reference of type {type(forces.reference).__name__} (its "
+                    "stage times are not known before the run; the C loop evaluates a "
+                    "FourierTrajectory, Sinusoids or MinimumJerkKnots itself)"
                 )
             else:
                 self._controller(forces, period, dt, duration, n_grid, adaptive)
@@ -232,6 +256,25 @@ class _Forces:
             self.reason = f"the controller's model: {model.replace('direct', 'inverse')}"
             return
         self.keep.append(model)
+        self._set(
+            kind=S.KIND_CT,
+            idm=_address(model._lib, "sp_idm_sim"),
+            idm_chi=int(model.base_values.ctypes.data),
+            idm_max_cond=float(c.model.max_condition),
+            kp=self._arr(c.kp),
+            kd=self._arr(c.kd),
+        )
+        data = _reference_data(c.reference)
+        if data is not None:  # evaluated in C at every time the loop asks
+            ref_kind, ref_n, values, pose = data
+            self._set(
+                ref_kind=ref_kind,
+                ref_pose=self._arr(pose),
+                ref_n=ref_n,
+                ref_data=self._arr(values),
+                ref_id=next(_REF_IDS),
+            )
+            return
         grid = grid_times(dt, duration, n_grid)
         if adaptive:  # the periods' starts (k + 1) * period, where the steps end
             assert period is not None
@@ -256,19 +299,42 @@ class _Forces:
             Vf[k[first]], Af[k[first]] = V, A
             V, A = Vf, Af
         self._set(
-            kind=S.KIND_CT,
-            idm=_address(model._lib, "sp_idm_sim"),
-            idm_chi=int(model.base_values.ctypes.data),
-            idm_max_cond=float(c.model.max_condition),
+            ref_kind=S.REF_TABLE,
             ref_per_period=int(period is not None),
             n_ref=rows.size,
             ref_t=self._arr(rows),
             ref_T=self._arr(T),
             ref_V=self._arr(V),
             ref_A=self._arr(A),
-            kp=self._arr(c.kp),
-            kd=self._arr(c.kd),
         )
+
+
+def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] | None:
+    """``(ref_kind, ref_n, ref_data, ref_pose)`` of a reference the C loop evaluates itself (the
+    exact types :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
+    :class:`~stewart_pin.motion.trajectories.Sinusoids` and
+    :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`: their coordinates, the
+    products their ``coordinates`` computes first, as ``sp_ref_coordinates`` of
+    :mod:`._simsource` reads them), else None (sampled before the run)."""
+    kind = type(reference)
+    if kind is FourierTrajectory:
+        n = reference.n_harmonics
+        w = 2.0 * np.pi * reference.base_frequency * np.arange(1, n + 1)  # as coordinates()
+        parts = [w, reference.offsets, reference.sine.ravel(), reference.cosine.ravel()]
+        return S.REF_FOURIER, n, np.concatenate(parts), reference.reference
+    if kind is Sinusoids:
+        om = 2 * np.pi * reference.frequencies  # as coordinates()
+        phases = reference.phases
+        parts = [om, phases, reference.amplitudes, np.sin(phases)]
+        return S.REF_SINUSOIDS, 6, np.concatenate(parts).astype(np.float64), reference.reference
+    if kind is MinimumJerkKnots:
+        counts = [len(axis) for axis in reference.knots]
+        parts = [np.array(counts, dtype=np.float64)]
+        for axis in reference.knots:
+            parts.append(np.array([float(t) for t, _ in axis], dtype=np.float64))
+            parts.append(np.array([float(v) for _, v in axis], dtype=np.float64))
+        return S.REF_MINIMUM_JERK, sum(counts), np.concatenate(parts), reference.reference
+    return None
 
 
 #: The ``sample`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes.

@@ -32,8 +32,10 @@ The compiled loop (``integrator="auto"``, the default, or ``"compiled"``): when 
 robot's direct model is compiled and the run has no ``output_dt`` or ``dynamics``, the
 steps run in C (:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic,
 forces as data (a ``ForceTable``, a constant, the
-:class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model; on the
-adaptive method with a ``control_period``) or a Python function called once per
+:class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model, its
+reference a Fourier series, sinusoids or minimum-jerk knots evaluated in C at every stage;
+any other reference on the adaptive method with a ``control_period``) or a Python
+function called once per
 ``control_period``. rk4: the same trajectory to round-off (1e-10 and less); adaptive: the
 same accepted steps, their times within about 1e-9 of a step where the error control
 alone sets them (a few ulps in a stage move the error estimate, a difference of two
