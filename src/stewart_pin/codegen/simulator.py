@@ -4,9 +4,8 @@ direct model (:mod:`._simsource`).
 
 :func:`compiled_stepper` gives :func:`~stewart_pin.motion.simulation.simulate` a
 :class:`Stepper` when the robot's direct model is compiled and the run's options are ones
-the C loop reproduces (else the reason it cannot): no ``output_dt``, no ``dynamics``, a
-robot without the 6-UPS U-joint limits (the reference inverse geometry checks them), and
-forces that are
+the C loop reproduces (else the reason it cannot): no ``dynamics``, a robot without the
+6-UPS U-joint limits (the reference inverse geometry checks them), and forces that are
 
 - ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
   or interpolated table), computed in C;
@@ -16,6 +15,10 @@ forces that are
   adaptive method: every period's start, so it needs a ``control_period``), the law in C;
 - any other function with a ``control_period``: called from Python once per period (the C
   loop stops at the period's end state and goes on with the forces it returns).
+
+With ``output_dt`` the C loop cuts the steps at the output times and writes only the rows
+the Python loop keeps (``_Run.record``'s rule; the output index travels with the state
+block); a call takes at most as many steps as its buffers hold rows.
 
 The trajectories are those of the Python loop (same arithmetic, see :mod:`._simsource`);
 any step the C loop does not take (an event, a state the guard flags) the Python loop
@@ -108,6 +111,7 @@ class _Sim(ctypes.Structure):
         ("atol", ctypes.c_double),
         ("h_min", ctypes.c_double),
         ("act", _P),
+        ("output_dt", ctypes.c_double),
     ]
 
 
@@ -304,7 +308,9 @@ class Stepper:
         duration: float,
         period: float | None,
         n_grid: int,
-        adaptive: tuple[float, float, float] | None = None,
+        adaptive: tuple[float, float] | None = None,
+        output_dt: float | None = None,
+        h_min: float = 0.0,
     ) -> None:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
@@ -340,8 +346,9 @@ class Stepper:
             adaptive=int(adaptive is not None),
             rtol=adaptive[0] if adaptive else 0.0,
             atol=adaptive[1] if adaptive else 0.0,
-            h_min=adaptive[2] if adaptive else 0.0,
+            h_min=h_min,
             act=act or None,
+            output_dt=0.0 if output_dt is None else output_dt,
             **forces.fields,
         )
         self.sim = sim
@@ -380,9 +387,11 @@ class Stepper:
         held: tuple[int, np.ndarray] | None,
         n: int,
         h: float = 0.0,
+        n_output: int = 0,
     ) -> None:
         """Start from an accepted state at grid index ``n`` (``held``: the forces held
-        over the current control period; ``h``: the adaptive method's next trial step)."""
+        over the current control period; ``h``: the adaptive method's next trial step;
+        ``n_output``: with ``output_dt``, the index of the next output time)."""
         st = self.st
         written = st[S.ST_ROW]  # rows not handed out yet (the initial state's) stay
         st[:] = 0.0
@@ -396,6 +405,7 @@ class Stepper:
         self.hold(held)
         st[S.ST_N] = n
         st[S.ST_H] = h
+        st[S.ST_OUT_K] = n_output
 
     def start(self, T: np.ndarray, V: np.ndarray) -> bool:
         """Evaluate the initial state ``(0, T, V)`` in C as the Python loop's first state
@@ -441,6 +451,17 @@ class Stepper:
         status: int = self._run(*self._args, self._n_stop[1])
         return status
 
+    def steps(self) -> int:
+        """The steps accepted since the last call (with ``output_dt`` more than the rows
+        written: only the states at the output times are)."""
+        taken = int(self.st[S.ST_STEPS])
+        self.st[S.ST_STEPS] = 0.0
+        return taken
+
+    def output_index(self) -> int:
+        """With ``output_dt``: the index of the next output time (``_Run.n_output``)."""
+        return int(self.st[S.ST_OUT_K])
+
     @property
     def n(self) -> int:
         """The grid index of the state in the block (rk4)."""
@@ -449,14 +470,16 @@ class Stepper:
     def rows(self) -> tuple[np.ndarray | None, ...]:
         """The rows written since the last call (times, poses, twists, accelerations,
         forces, and the 6-UPS leg lengths or None): views of the buffers, which are handed
-        over (the next run writes into new ones)."""
+        over (the next run writes into new ones), or copies of a few rows (a quarter of the
+        buffers or less: ``output_dt``'s sparse rows keep no whole buffer alive)."""
         m = int(self.st[S.ST_ROW])
         self.st[S.ST_ROW] = 0.0
         if m == 0:
             return (np.zeros(0),) * 5 + (None,)
-        self._handed = True
-        out = tuple(a[:m] for a in (self.t, self.P, self.V, self.A, self.G))
-        return (*out, None if self.L is None else self.L[:m])
+        few = 4 * m <= self.capacity
+        self._handed = self._handed or not few
+        arrays = (self.t, self.P, self.V, self.A, self.G, self.L)
+        return tuple(None if a is None else a[:m].copy() if few else a[:m] for a in arrays)
 
     def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The last accepted state: ``(t, T, V, dy, gamma)`` (copies)."""
@@ -537,8 +560,6 @@ def compiled_stepper(
 ) -> Stepper | str:
     """A :class:`Stepper` for this run of :func:`simulate`, or the reason the compiled
     loop cannot run it (module docstring)."""
-    if output_dt is not None:
-        return "output_dt (its steps cut at the output times)"
     if dynamics is not None:
         return "a dynamics function"
     models = _compiled(robot, backend)
@@ -552,8 +573,10 @@ def compiled_stepper(
         simulator_library()
     except CompilationError as e:
         return f"the simulator's library: {str(e).splitlines()[0] if str(e) else e}"
-    tolerances = (rtol, atol, h_min) if adaptive else None
-    return Stepper(robot, models, data, dt, duration, control_period, n_grid, tolerances)
+    tolerances = (rtol, atol) if adaptive else None
+    return Stepper(
+        robot, models, data, dt, duration, control_period, n_grid, tolerances, output_dt, h_min
+    )
 
 
 def simulate_batch(

@@ -29,9 +29,9 @@ named error (``__cause__``). Whatever the forces function or the progress callba
 raises stops the run the same way.
 
 The compiled loop (``integrator="auto"``, the default, or ``"compiled"``): when the
-robot's direct model is compiled and the run has no ``output_dt`` or ``dynamics``, the
-steps run in C (:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic,
-forces as data (a ``ForceTable``, a constant, the
+robot's direct model is compiled and the run has no ``dynamics``, the steps run in C
+(:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic, forces as data (a
+``ForceTable``, a constant, the
 :class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model; on the
 adaptive method with a ``control_period``) or a Python function called once per
 ``control_period``. rk4: the same trajectory to round-off (1e-10 and less); adaptive: the
@@ -39,7 +39,11 @@ same accepted steps, their times within about 1e-9 of a step where the error con
 alone sets them (a few ulps in a stage move the error estimate, a difference of two
 solutions). Any step that meets an event or a state the compiled guard flags is taken by
 the Python loop, so events stop the run as above; ``progress`` is called after each
-chunk of C steps (up to 4096) instead of after each step. The guard is still checked at
+chunk of C steps (up to 4096) instead of after each step. With ``output_dt`` the C loop
+cuts its steps at the output times and keeps the rows as this loop does (only the
+states at the output times); the computed-torque controller without a control period
+leaves a step cut off the ``dt`` grid, and the step back onto it, to the Python loop
+(its reference is sampled at the grid's stage times). The guard is still checked at
 every stage, in both loops. The compiled loop evaluates the initial state too (unless a
 Python function gives the forces), takes the signs of det Jp^-1 from the compiled direct
 model's own condition check (the reference's signs wherever it decides them, see
@@ -916,7 +920,7 @@ class _Run:
         the Python loop: ``(state, n, next trial step, accepted steps, bailed)``."""
         fast, integ = self.fast, self.integ
         if self.fast_state is not s or fast.step() != h:
-            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n, h)
+            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n, h, self.n_output)
         try:
             while True:
                 status = fast.run(self.n_grid)
@@ -946,20 +950,24 @@ class _Run:
         return s, fast.n, fast.step(), taken, status == _FAST_BAIL
 
     def absorb(self, s: _State) -> tuple[_State, int]:
-        """Keep the rows the compiled loop wrote: its last state (``s`` if none) and how
-        many."""
+        """Keep the rows the compiled loop wrote (with ``output_dt``: its states at the
+        output times): its last state (``s`` if none) and how many steps it took."""
         fast = self.fast
         times, P, V, A, G, L = fast.rows()
-        if times.size == 0:
+        taken = fast.steps()
+        if self.output_dt is not None:
+            self.n_output = fast.output_index()
+        if times.size == 0 and taken == 0:
             self.fast_state = s
             return s, 0
-        self.rows.append(_Block(times, P, V, A, G, L))
+        if times.size:
+            self.rows.append(_Block(times, P, V, A, G, L))
         t, T, Vl, dy, g = fast.state()
         s = _State(t, T, Vl, dy, g, s.sign)
         self.integ.held = fast.held()
         self.last = self.fast_state = s
         self.resume = (s, fast.n)
-        return s, times.size
+        return s, taken
 
 
 class _Located(Exception):
