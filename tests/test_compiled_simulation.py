@@ -114,8 +114,8 @@ def test_the_adaptive_c_loop_follows_the_python_loop():
             assert np.abs(x - y).max() < 1e-9 * max(1.0, float(np.abs(y).max())), (case, name)
 
 
-#: output_dt values: multiples of dt = 1e-3 and not, one past the run's end.
-OUTPUT_DTS = (1e-2, 2.5e-3, 7.3e-3, 0.25)
+#: output_dt values: multiples of dt = 1e-3 and not, one below dt, one past the run's end.
+OUTPUT_DTS = (1e-2, 2.5e-3, 7.3e-3, 3e-4, 0.25)
 
 
 def _output_grid(duration: float, output_dt: float) -> np.ndarray:
@@ -141,8 +141,21 @@ def test_output_dt_on_the_c_loop_equals_the_python_loop(name, monkeypatch):
             np.testing.assert_array_equal(ref.t, _output_grid(0.1, out))
             for chunk in (simulator.CHUNK_ROWS, 16):
                 monkeypatch.setattr(simulator, "CHUNK_ROWS", chunk)
-                got, ran_c = _run(robot, 0.1, "compiled", dt=1e-3, output_dt=out, **kwargs)
-                assert ran_c, (case, out)
+                run = prepare_run(
+                    robot,
+                    0.1,
+                    backend="compiled",
+                    integrator="compiled",
+                    dt=1e-3,
+                    output_dt=out,
+                    **kwargs,
+                )
+                got = run.go()
+                in_python = [r.t for r in run.rows if isinstance(r, simulation._State)]
+                if case in ("constant", "table-linear", "table-hold"):
+                    assert not in_python, (case, out, chunk)  # every step in C
+                else:  # the callback's first forces; the continuous controller's cut steps
+                    assert len(in_python) < got.t.size, (case, out, chunk)
                 _assert_same(got, ref)
 
 

@@ -828,6 +828,12 @@ class _Run:
         """rk4: the n-th grid time [s] (``duration`` for the last)."""
         return self.duration if n >= self.n_grid else n * self.dt
 
+    def _on_grid(self, s: _State, n: int) -> bool:
+        """rk4: whether the compiled loop may take the next step from ``s`` (grid index
+        ``n``): at a grid time, or with ``output_dt`` anywhere (a state cut at an output
+        time; the next step ends at the next grid or output time, in either loop)."""
+        return s.t == self._grid(n) or self.output_dt is not None
+
     def _loop(self, s: _State, n: int = 0) -> None:
         integ, duration, rk4 = self.integ, self.duration, self.method == "rk4"
         # n, rk4: the last grid time reached
@@ -840,7 +846,7 @@ class _Run:
                 and t_bad is None
                 and steps < MAX_STEPS - _FAST_ROWS
                 and (
-                    (rk4 and n >= self.fast_from and h_cur == self.dt and s.t == self._grid(n))
+                    (rk4 and n >= self.fast_from and h_cur == self.dt and self._on_grid(s, n))
                     or (not rk4 and steps >= self.fast_from)
                 )
             ):
