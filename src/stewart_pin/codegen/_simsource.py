@@ -4,7 +4,9 @@ model, forces given as data.
 
 The library is robot-independent: it calls the robot's generated models through function
 pointers (``sp_ddm_aux``, the direct model with its by-products, and ``sp_idm_sim``, the
-controller's inverse model, of the robots' own libraries, :mod:`._csource`). One call
+controller's inverse model, of the robots' own libraries, :mod:`._csource`; or a
+payload's ``sp_ppdm_sim``, :mod:`.payload_compiled`, whose last input is the payload's
+joints sampled at the stage's time instead of the base values). One call
 runs steps of ``simulate`` and writes one row per accepted state (with ``output_dt``:
 the steps cut at the output times, rows at those times only, as the Python loop's
 ``_Run.record`` keeps them), with the Python integrator's arithmetic: the chart
@@ -98,6 +100,7 @@ typedef struct {
   long long adaptive; double rtol; double atol; double h_min;
   sp_act_fn act;
   double output_dt;
+  long long n_pay; const double* pay_t; const double* pay_x; long long pay_nx;
 } sp_sim;
 
 #define ST_T 0
@@ -267,6 +270,14 @@ static double sp_out_time(const sp_sim* sim, double k) {
   return t > sim->duration - sim->h_min ? sim->duration : t;
 }
 
+/* The direct model's last input at stage time t, reference row r: the robot's base values,
+   or a payload's joints [q, qd, qdd] sampled there (NULL: not sampled at t, bail). */
+static const double* sp_chi(const sp_sim* sim, long long r, double t) {
+  if (sim->n_pay == 0) return sim->chi;
+  if (r < 0 || r >= sim->n_pay || sim->pay_t[r] != t) return 0;
+  return sim->pay_x + r * sim->pay_nx;
+}
+
 /* The step's target cut at the next output time (with output_dt). */
 static double sp_cut(const sp_sim* sim, const double* st, double target) {
   double o;
@@ -354,7 +365,9 @@ static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* 
                    long long r, double* held_k, double* held_g, double* aux, double* T,
                    double* dy, double* g, double* sign, double* det_out) {
   double E[9], det;
+  const double* chi = sp_chi(sim, r, t);
   int ok, zero = y[3] == 0.0 && y[4] == 0.0 && y[5] == 0.0;
+  if (!chi) return 0;
   /* At xi = 0 (a state, not a stage) exp3 is I and Jlog3 is I, exactly (Pinocchio's
      formulas at theta = eps): the pose is T0's rotation and dxi/dt is w, no rounding. */
   if (zero) {
@@ -366,7 +379,7 @@ static int sp_eval(const sp_sim* sim, double t, const double* T0, const double* 
   }
   ok = sp_forces(sim, t, T, y + 6, k, r, held_k, held_g, g);
   if (ok != 1) return ok;
-  if (sim->ddm(T, y + 6, g, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0) return 0;
+  if (sim->ddm(T, y + 6, g, chi, sim->max_cond, dy + 6, aux, &det) != 0) return 0;
   if (zero) {
     dy[3] = y[9]; dy[4] = y[10]; dy[5] = y[11];
   } else if (!sp_dxi(E, y + 9, dy + 3)) {
@@ -429,7 +442,8 @@ static int sp_end_state(const sp_sim* sim, double* st, double t, const double* T
   ok = sp_eval(sim, t, T1, y, k, 2 * n1, &hk, hg, aux, T, dy, g, &sign, 0);
   if (ok == 2) {  /* forces from Python: the end state's sign and guard from a direct model
                      call with the forces held so far (Jp^-1 does not depend on them) */
-    if (sim->ddm(T, y + 6, st + ST_HELD_G, sim->chi, sim->max_cond, dy + 6, aux, &det) != 0)
+    const double* chi = sp_chi(sim, 2 * n1, t);
+    if (!chi || sim->ddm(T, y + 6, st + ST_HELD_G, chi, sim->max_cond, dy + 6, aux, &det) != 0)
       return 0;
     if (sp_sign_of(sim, det, aux) != st[ST_SIGN]) return 0;
     st[ST_PENDING] = 1.0;
@@ -580,7 +594,8 @@ SP_EXPORT int sp_sim_run(const sp_sim* sim, double* st, long long n_stop) {
     hk = st[ST_HELD_K];
     memcpy(hg, st + ST_HELD_G, sizeof hg);
     memcpy(T1, Tp, sizeof T1);
-    ok = sp_eval(sim, st[ST_PEND_T], T1, y, k, -1, &hk, hg, aux, T2, dy, g, &sign, 0);
+    ok = sp_eval(sim, st[ST_PEND_T], T1, y, k, sim->adaptive ? -1 : 2 * (long long)st[ST_N] + 2,
+                 &hk, hg, aux, T2, dy, g, &sign, 0);
     if (ok != 1 || sign != st[ST_SIGN]) return SP_BAIL;
     sp_accept(sim, st, st[ST_PEND_T], T2, y + 6, dy, g, hk, hg, aux);
     st[ST_H] = st[ST_H_PEND];

@@ -4,7 +4,9 @@ direct model (:mod:`._simsource`).
 
 :func:`compiled_stepper` gives :func:`~stewart_pin.motion.simulation.simulate` a
 :class:`Stepper` when the robot's direct model is compiled and the run's options are ones
-the C loop reproduces (else the reason it cannot): no ``dynamics``, a robot without the
+the C loop reproduces (else the reason it cannot): no ``dynamics`` but
+:func:`~stewart_pin.motion.payload.simulate_payload`'s on rk4 (the payload library's
+``sp_ppdm_sim``, the joints sampled at every stage time before the run), a robot without the
 6-UPS U-joint limits (the reference inverse geometry checks them), and forces that are
 
 - ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
@@ -112,6 +114,10 @@ class _Sim(ctypes.Structure):
         ("h_min", ctypes.c_double),
         ("act", _P),
         ("output_dt", ctypes.c_double),
+        ("n_pay", ctypes.c_longlong),
+        ("pay_t", _P),
+        ("pay_x", _P),
+        ("pay_nx", ctypes.c_longlong),
     ]
 
 
@@ -198,7 +204,10 @@ class _Forces:
                     tab_t=self._arr(forces.times),
                     tab_g=self._arr(forces.values),
                 )
-        elif isinstance(forces, ComputedTorqueController):
+        elif (  # not a subclass's own law (the payload's computed torque): a function
+            isinstance(forces, ComputedTorqueController)
+            and type(forces).__call__ is ComputedTorqueController.__call__
+        ):
             if adaptive and period is None:
                 self.reason = (
                     "the computed-torque controller without control_period on the adaptive "
@@ -311,6 +320,7 @@ class Stepper:
         adaptive: tuple[float, float] | None = None,
         output_dt: float | None = None,
         h_min: float = 0.0,
+        payload: _Payload | None = None,
     ) -> None:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
@@ -324,20 +334,27 @@ class Stepper:
         q3sq = kind.leg_length_squares
         self._act = kind.compiled_actuators
         act = _address(models._lib, "sp_act_batch") if self._act and q3sq is None else 0
+        if payload is not None:  # the actuator positions computed with the result
+            q3sq, act, self._act = None, 0, False
         self._ups = q3sq is not None or act != 0  # the rows carry the actuator positions
         self._models = models
+        self._payload = payload
         self.st = np.zeros(S.ST_SIZE)
         # Views of the state block taken once (a Python forces function's hot path).
         self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
         self._pend_T = self.st[S.ST_PEND_POSE : S.ST_PEND_POSE + 16].reshape(4, 4)
         self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
         self._keep = (models, forces)
+        model: dict[str, Any] = {
+            "ddm": _address(models._lib, "sp_ddm_aux"),
+            "chi": int(models.base_values.ctypes.data),
+            "naux": layout.ddm_size,
+            "jinv": layout.jinv,
+        }
+        if payload is not None:  # the payload's direct model, its joints as inputs
+            model.update(payload.fields)
         sim = _Sim(
-            ddm=_address(models._lib, "sp_ddm_aux"),
-            chi=int(models.base_values.ctypes.data),
             max_cond=float(robot.max_condition),
-            naux=layout.ddm_size,
-            jinv=layout.jinv,
             dt=dt,
             duration=duration,
             period=0.0 if period is None else period,
@@ -350,6 +367,7 @@ class Stepper:
             act=act or None,
             output_dt=0.0 if output_dt is None else output_dt,
             **forces.fields,
+            **model,
         )
         self.sim = sim
         self._buffers()
@@ -500,7 +518,7 @@ class Stepper:
         """The sign of det Jp^-1 at pose ``T`` from the compiled direct model (the
         determinant of its cheap condition check, as the C loop takes its stages' signs),
         or None where that check does not decide it (the caller computes it)."""
-        if self.sim.max_cond > S.STATIC_SIGN_COND:
+        if self.sim.max_cond > S.STATIC_SIGN_COND or self._payload is not None:
             return None
         aux = np.empty(self.sim.naux)
         out, det = np.empty(6), ctypes.c_double(0.0)
@@ -560,8 +578,11 @@ def compiled_stepper(
 ) -> Stepper | str:
     """A :class:`Stepper` for this run of :func:`simulate`, or the reason the compiled
     loop cannot run it (module docstring)."""
+    payload = None
     if dynamics is not None:
-        return "a dynamics function"
+        payload = _payload(dynamics, method, dt, duration, n_grid)
+        if isinstance(payload, str):
+            return payload
     models = _compiled(robot, backend)
     if isinstance(models, str):
         return models
@@ -575,8 +596,62 @@ def compiled_stepper(
         return f"the simulator's library: {str(e).splitlines()[0] if str(e) else e}"
     tolerances = (rtol, atol) if adaptive else None
     return Stepper(
-        robot, models, data, dt, duration, control_period, n_grid, tolerances, output_dt, h_min
+        robot,
+        models,
+        data,
+        dt,
+        duration,
+        control_period,
+        n_grid,
+        tolerances,
+        output_dt,
+        h_min,
+        payload,
     )
+
+
+class _Payload:
+    """A payload's compiled prescribed direct model in the C loop (``sp_ppdm_sim`` of its
+    library, :mod:`.payload_compiled`) and its joints ``[q, qd, qdd]`` sampled at every
+    rk4 stage time (rows ``2 n``: the grid times, ``2 n + 1``: the midpoints, as the
+    computed-torque controller's reference), kept alive with the ``_Sim``."""
+
+    def __init__(self, models: Any, times: np.ndarray, x: np.ndarray) -> None:
+        entry, naux, jinv = models.sim_entry
+        self.keep = (models, times, x)
+        self.fields = {
+            "ddm": entry,
+            "chi": None,
+            "naux": naux,
+            "jinv": jinv,
+            "n_pay": times.size,
+            "pay_t": int(times.ctypes.data),
+            "pay_x": int(x.ctypes.data),
+            "pay_nx": x.shape[1],
+        }
+
+
+def _payload(dynamics: Any, method: str, dt: float, duration: float, n_grid: int) -> Any:
+    """The compiled payload of ``simulate``'s ``dynamics`` (that of
+    :func:`~stewart_pin.motion.payload.simulate_payload`), or why the C loop cannot run
+    it."""
+    compiled = getattr(dynamics, "compiled_payload", None)
+    if compiled is None:
+        return "a dynamics function"
+    if method != "rk4":
+        return "a payload on the adaptive method (its stage times are not known before the run)"
+    models = compiled()
+    if getattr(models, "sim_entry", None) is None:
+        return "the payload's direct model is not compiled"
+    grid = grid_times(dt, duration, n_grid)
+    times = np.empty(2 * n_grid + 1)
+    times[0::2] = grid
+    times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+    try:
+        x = dynamics.joints_at(times)
+    except Exception as e:  # the Python loop meets it at its time and stops there
+        return f"the payload's joints: {type(e).__name__}: {e}"
+    return _Payload(models, times, x)
 
 
 def simulate_batch(

@@ -290,6 +290,32 @@ def payload_path(result_path: str | Path) -> Path:
     return p.with_name(f"{p.stem}.payload.npz")
 
 
+class _PrescribedJoints:
+    """:func:`simulate_payload`'s direct model (``simulate``'s ``dynamics``): the coupled
+    direct model with the payload's joints following ``joints`` (its default backend);
+    :meth:`compiled_payload` gives the compiled simulator
+    (:mod:`stewart_pin.codegen.simulator`) the same model and the joints at given times."""
+
+    def __init__(self, robot: PayloadRobotLike, joints: JointMotion) -> None:
+        self.robot, self.joints = robot, joints
+
+    def __call__(self, t: float, T: np.ndarray, V: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+        q, qd, qdd = self.joints(t)
+        return np.asarray(self.robot.direct_dynamics(T, V, gamma, q, qd, qdd).accel, dtype=float)
+
+    def compiled_payload(self) -> Any:
+        """The compiled coupled models :meth:`__call__` runs (``None``: the reference
+        path's)."""
+        fast = getattr(self.robot, "_fast_backend", None)
+        return None if fast is None else fast("auto")
+
+    def joints_at(self, times: np.ndarray) -> np.ndarray:
+        """``[q, qd, qdd]`` (K, nq + 2 nv) at ``times`` (K,) [s], as :meth:`__call__` takes
+        them (one call of ``joints`` per time)."""
+        q, qd, qdd = self.joints.sample(times)
+        return np.ascontiguousarray(np.hstack([q, qd, qdd]), dtype=np.float64)
+
+
 def simulate_payload(
     robot: PayloadRobotLike,
     duration: float,
@@ -305,6 +331,9 @@ def simulate_payload(
     :func:`~stewart_pin.motion.simulation.simulate`'s (``robot.robot`` gives the limits
     and singularities); a run that stops raises its ``SimulationError`` as ``simulate``.
 
+    With ``method="rk4"`` and the payload's compiled models the steps run in the compiled
+    simulator (:mod:`stewart_pin.codegen.simulator`; ``integrator`` as ``simulate``'s).
+
     Returns:
         the :class:`PayloadSimulation`: the hexapod's result, and the payload's joints and
         torques at its times (torques from the coupled inverse model at the simulated
@@ -312,11 +341,7 @@ def simulate_payload(
     """
     if joints.payload is not robot.payload:
         raise InputError("joints must be a JointMotion of this robot's payload")
-
-    def dynamics(t: float, T: np.ndarray, V: np.ndarray, gamma: np.ndarray) -> np.ndarray:
-        q, qd, qdd = joints(t)
-        return np.asarray(robot.direct_dynamics(T, V, gamma, q, qd, qdd).accel, dtype=float)
-
+    dynamics = _PrescribedJoints(robot, joints)
     result = simulate(robot.robot, duration, pose, twist, forces, dynamics=dynamics, **kwargs)
     q, qd, qdd = joints.sample(result.t)
     if len(result.t):

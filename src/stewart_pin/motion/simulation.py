@@ -29,7 +29,9 @@ named error (``__cause__``). Whatever the forces function or the progress callba
 raises stops the run the same way.
 
 The compiled loop (``integrator="auto"``, the default, or ``"compiled"``): when the
-robot's direct model is compiled and the run has no ``dynamics``, the steps run in C
+robot's direct model is compiled and the run has no ``dynamics`` (but that of
+:func:`stewart_pin.motion.payload.simulate_payload` on rk4: the payload's compiled model,
+its joints sampled at the stage times), the steps run in C
 (:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic, forces as data (a
 ``ForceTable``, a constant, the
 :class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model; on the
