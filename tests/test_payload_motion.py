@@ -191,6 +191,35 @@ def test_the_c_loop_runs_the_payload_as_the_python_loop(
         simulate_payload(robot, 0.01, joints, method="adaptive", integrator="compiled")
 
 
+@pytest.mark.parametrize("arm", ("panda", "kinova"))
+def test_the_joints_sampled_at_once_equal_one_call_per_time(arm):
+    """The compiled simulator samples the joints at every stage time in array operations
+    (the displacement broadcast over the times, ``q0`` integrated joint by joint, the
+    Kinova's unbounded revolute joints as ``(cos, sin)``): equal to ``joints(t)``
+    (Pinocchio's ``integrate``) to round-off; a displacement that does not broadcast
+    (minimum jerk) or ignores the times (still) is sampled one call per time."""
+    from stewart_pin.motion.payload import _joints_at_once, _PrescribedJoints
+
+    robot = carrier("simulator", arm)
+    p = robot.payload
+    times = np.linspace(0.0, 2.0, 801)
+    goal = p.random_configurations(1, 5)[0]
+    motions = {
+        "sweep": JointMotion.sweep(p, 0.6, 0.7),
+        "sinusoid": JointMotion.sinusoid(p, 0.3, 0.5),
+        "point_to_point": JointMotion.point_to_point(p, p.home_configuration(), goal, 1.0),
+        "still": JointMotion.still(p),
+    }
+    for name, motion in motions.items():
+        ref = np.hstack(motion.sample(times))
+        once = _joints_at_once(motion, times)
+        assert (once is None) == (name in ("point_to_point", "still")), name
+        if once is not None:
+            np.testing.assert_allclose(once, ref, rtol=0, atol=1e-15 * np.abs(ref).max())
+        got = _PrescribedJoints(robot, motion).joints_at(times)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-15 * np.abs(ref).max())
+
+
 def simulation_dynamics(robot, joints):
     """``simulate_payload``'s direct model, for a run prepared here."""
     from stewart_pin.motion.payload import _PrescribedJoints
