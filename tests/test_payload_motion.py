@@ -32,6 +32,7 @@ from stewart_pin.motion.payload import (
     payload_path,
     simulate_payload,
 )
+from stewart_pin.motion.simulation import SimulationError
 
 pytestmark = needs_example_robot_data()
 
@@ -189,6 +190,18 @@ def test_the_c_loop_runs_the_payload_as_the_python_loop(
     assert not any(isinstance(r, simulation._State) for r in run.rows)
     with pytest.raises(InputError, match="payload on the adaptive method"):
         simulate_payload(robot, 0.01, joints, method="adaptive", integrator="compiled")
+    # unpowered, the platform falls to a stroke end (joint limit): both loops stop alike
+    errors = []
+    for integrator in ("python", "compiled"):
+        with pytest.raises(SimulationError) as e:
+            simulate_payload(robot, 3.0, joints, dt=2e-3, output_dt=6e-3, integrator=integrator)
+        errors.append(e.value)
+    a, b = errors
+    assert str(a) == str(b) and a.time == b.time and a.result.t.size > 5
+    np.testing.assert_array_equal(a.result.t, b.result.t)
+    for name in ("poses", "twists", "accels", "gammas"):
+        x, y = getattr(a.result, name), getattr(b.result, name)
+        assert np.abs(x - y).max() <= 1e-10 * max(1.0, float(np.abs(x).max())), name
 
 
 @pytest.mark.parametrize("arm", ("panda", "kinova"))
