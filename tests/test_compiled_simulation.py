@@ -249,6 +249,103 @@ def test_the_c_reference_equals_states_at_to_1e_13():
     assert simulator._reference_data(lambda t: motions["knots"](t)) is None
 
 
+#: output_dt values: multiples of dt = 1e-3 and not, one below dt, one past the run's end.
+OUTPUT_DTS = (1e-2, 2.5e-3, 7.3e-3, 3e-4, 0.25)
+
+
+def _output_grid(duration: float, output_dt: float) -> np.ndarray:
+    """The documented sample times: ``k * output_dt`` up to the end, and ``duration``."""
+    k = np.arange(int(np.floor(duration / output_dt - 1e-9)) + 1)
+    t = k * output_dt
+    return t if duration - t[-1] < 1e-12 else np.r_[t, duration]
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_output_dt_on_the_c_loop_equals_the_python_loop(name, monkeypatch):
+    """``output_dt`` in C (rk4): the steps cut at the output times and the rows kept as
+    the Python loop cuts and keeps them, for every kind of forces; the samples at
+    ``k * output_dt`` exactly. Again with buffers of 16 rows (the steps per call bounded
+    alike): most calls keep no row, the state and the output index go on across them."""
+    from stewart_pin.codegen import simulator
+
+    robot = get_robot(name)
+    outs = OUTPUT_DTS if name == "simulator" else (1e-2, 7.3e-3)
+    for case, kwargs in _cases(robot).items():
+        for out in outs:
+            ref, _ = _run(robot, 0.1, "python", dt=1e-3, output_dt=out, **kwargs)
+            np.testing.assert_array_equal(ref.t, _output_grid(0.1, out))
+            for chunk in (simulator.CHUNK_ROWS, 16):
+                monkeypatch.setattr(simulator, "CHUNK_ROWS", chunk)
+                run = prepare_run(
+                    robot,
+                    0.1,
+                    backend="compiled",
+                    integrator="compiled",
+                    dt=1e-3,
+                    output_dt=out,
+                    **kwargs,
+                )
+                got = run.go()
+                in_python = [r.t for r in run.rows if isinstance(r, simulation._State)]
+                if case in ("constant", "table-linear", "table-hold"):
+                    assert not in_python, (case, out, chunk)  # every step in C
+                else:  # the callback's first forces; the continuous controller's cut steps
+                    assert len(in_python) < got.t.size, (case, out, chunk)
+                _assert_same(got, ref)
+
+
+def test_output_dt_on_the_adaptive_c_loop_equals_the_python_loop():
+    """``output_dt`` in C (adaptive): the trial steps cut at the output times (the next
+    trial step grows from the cut one, as in the Python loop); the same rows at
+    ``k * output_dt``, equal to 1e-10 (cases whose steps the error control does not set
+    on a kink of the forces)."""
+    robot = get_robot("simulator")
+    g = _hover(robot)
+    cases = _cases(robot)
+    cases = {
+        "rotating": {"forces": g * 1.001, "twist": [0.02, 0.0, 0.05, 0.1, 0.0, 0.1]},
+        "table-hold": cases["table-hold"],
+        "ct-period": cases["ct-period"],
+        "callback": cases["callback"],
+    }
+    for case, kwargs in cases.items():
+        for out in OUTPUT_DTS:
+            opts = {"method": "adaptive", "rtol": 1e-8, "atol": 1e-10, "output_dt": out}
+            ref, _ = _run(robot, 0.1, "python", **opts, **kwargs)
+            got, ran_c = _run(robot, 0.1, "compiled", **opts, **kwargs)
+            assert ran_c, (case, out)
+            np.testing.assert_array_equal(ref.t, _output_grid(0.1, out))
+            _assert_same(got, ref)
+
+
+@pytest.mark.parametrize("method", ["rk4", "adaptive"])
+def test_output_dt_with_a_stroke_end_near_the_end(method):
+    """A stroke end 4 ms before the run's end, between two output times: both loops stop
+    alike (message, time, cause) with the same partial result (the output rows, then the
+    last accepted state)."""
+    robot = get_robot("simulator")
+    opts = {"dt": 2e-3, "method": method, "rtol": 1e-8, "atol": 1e-10}
+    with pytest.raises(SimulationError) as free:
+        simulate(robot, 3.0, backend="compiled", integrator="python", **opts)
+    end = free.value.time + 4e-3
+    errors = []
+    for integrator in ("python", "compiled"):
+        run = prepare_run(
+            robot, end, backend="compiled", integrator=integrator, output_dt=7e-3, **opts
+        )
+        with pytest.raises(SimulationError) as e:
+            run.go()
+        errors.append(e.value)
+        ran_c = any(isinstance(r, simulation._Block) for r in run.rows)
+        assert ran_c == (integrator == "compiled")
+    a, b = errors
+    assert str(a) == str(b) and a.time == b.time
+    assert type(a.__cause__) is type(b.__cause__)
+    _assert_same(a.result, b.result)
+    assert b.result.t[-1] == b.time and b.result.t.size > 10
+    np.testing.assert_array_equal(b.result.t[:-1], np.arange(b.result.t.size - 1) * 7e-3)
+
+
 def test_the_computed_torque_controller_tracks_its_reference_in_c():
     """Closed loop on an exact model: the tracking error stays small (an independent
     check of the C law, against the reference motion itself)."""
@@ -405,8 +502,14 @@ def test_integrator_choice_is_checked():
     robot = get_robot("simulator")
     with pytest.raises(InputError, match="unknown integrator"):
         simulate(robot, 0.01, integrator="c")
-    with pytest.raises(InputError, match=r"integrator='compiled'.*output_dt"):
-        simulate(robot, 0.01, output_dt=1e-3, backend="compiled", integrator="compiled")
+    with pytest.raises(InputError, match=r"integrator='compiled'.*dynamics"):
+        simulate(
+            robot,
+            0.01,
+            dynamics=lambda t, T, V, g: np.zeros(6),
+            backend="compiled",
+            integrator="compiled",
+        )
     with pytest.raises(InputError, match=r"integrator='compiled'.*not compiled"):
         simulate(robot, 0.01, backend="pinocchio", integrator="compiled")
     with pytest.raises(InputError, match=r"integrator='compiled'.*control_period"):

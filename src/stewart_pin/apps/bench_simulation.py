@@ -6,6 +6,8 @@ assembly included), all measured in this one run:
 
 - ``C RK4, forces as data``: the compiled loop (:mod:`stewart_pin.codegen.simulator`) with
   a :class:`~stewart_pin.motion.force_tables.ForceTable` (linear, 11 rows);
+- ``C RK4, forces as data, output_dt = 10 dt``: the same run keeping every tenth state
+  (``output_dt = 10 * dt``: the C loop cuts and selects the rows as the Python loop);
 - ``C RK4, computed torque per step``: the
   :class:`~stewart_pin.motion.control.ComputedTorqueController` on the ``sinusoid`` motion
   at ``control_period = dt`` (a digital controller: one inverse model per step), the law
@@ -130,6 +132,9 @@ def simulation_rows(
 
     runs: dict[str, Callable[[], Any]] = {
         "C RK4, forces as data": sim("compiled", forces=table),
+        "C RK4, forces as data, output_dt = 10 dt": sim(
+            "compiled", forces=table, output_dt=10 * dt
+        ),
         "C RK4, computed torque per step": sim(
             "compiled", forces=controller, pose=T0, twist=V0, control_period=dt
         ),
