@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import re
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -344,6 +345,44 @@ def test_output_dt_with_a_stroke_end_near_the_end(method):
     _assert_same(a.result, b.result)
     assert b.result.t[-1] == b.time and b.result.t.size > 10
     np.testing.assert_array_equal(b.result.t[:-1], np.arange(b.result.t.size - 1) * 7e-3)
+
+
+@dataclass
+class _LiftingController(ComputedTorqueController):
+    """A subclass with its own law: the commanded acceleration plus 0.5 m/s^2 along z0."""
+
+    def command(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
+        return super().command(t, T, V) + np.array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0])
+
+
+def test_a_controller_subclass_or_gains_set_later_run_as_in_the_python_loop():
+    """The C loop runs the computed-torque law only as the base class computes it: a
+    subclass with its own ``command`` is a function (the Python loop's law, so the
+    ``"auto"`` run equals the Python one, and ``"compiled"`` refuses it without a control
+    period); gains set after construction (a scalar ``kp``) are the law's, broadcast to
+    the six axes (not read past a one-element array)."""
+    robot = get_robot("simulator")
+    motion = standard_motion(robot, "sinusoid", 0.05)
+    T0, V0, _ = motion(0.0)
+    lifting = _LiftingController(robot, motion, backend="compiled")
+    ref, _ = _run(robot, 0.05, "python", forces=lifting, pose=T0, twist=V0)
+    got, ran_c = _run(robot, 0.05, "auto", forces=lifting, pose=T0, twist=V0)
+    assert not ran_c
+    _assert_same(got, ref)
+    with pytest.raises(InputError, match="without control_period"):
+        prepare_run(robot, 0.05, T0, V0, lifting, backend="compiled", integrator="compiled")
+    # The subclass's law moves the platform (the test above could not pass by accident).
+    base, _ = _run(robot, 0.05, "python", forces=ComputedTorqueController(robot, motion))
+    assert np.abs(base.poses[-1, 2, 3] - ref.poses[-1, 2, 3]) > 1e-4
+    for gains in ({"kp": 400.0}, {"kd": 30.0}, {"kp": np.full(6, 900.0), "kd": 5.0}):
+        c = ComputedTorqueController(robot, motion, backend="compiled")
+        for key, value in gains.items():
+            setattr(c, key, value)
+        twist = V0 + np.array([0.0, 0.0, 0.02, 0.0, 0.05, 0.0])
+        ref, _ = _run(robot, 0.05, "python", forces=c, pose=T0, twist=twist)
+        got, ran_c = _run(robot, 0.05, "compiled", forces=c, pose=T0, twist=twist)
+        assert ran_c, gains
+        _assert_same(got, ref)
 
 
 def test_the_computed_torque_controller_tracks_its_reference_in_c():

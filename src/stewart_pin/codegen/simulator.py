@@ -226,9 +226,11 @@ class _Forces:
                     tab_t=self._arr(forces.times),
                     tab_g=self._arr(forces.values),
                 )
-        elif (  # not a subclass's own law (the payload's computed torque): a function
+        elif (  # not a subclass's own law (the payload's computed torque, its own
+            # command): a function
             isinstance(forces, ComputedTorqueController)
             and type(forces).__call__ is ComputedTorqueController.__call__
+            and type(forces).command is ComputedTorqueController.command
         ):
             if adaptive and period is None and _reference_data(forces.reference) is None:
                 self.reason = (
@@ -268,14 +270,19 @@ class _Forces:
         if isinstance(model, str):
             self.reason = f"the controller's model: {model.replace('direct', 'inverse')}"
             return
+        try:  # the gains as the law applies them (kp, kd may be set after __post_init__)
+            kp, kd = (np.broadcast_to(np.asarray(g, dtype=np.float64), (6,)) for g in (c.kp, c.kd))
+        except (TypeError, ValueError):
+            self.reason = "the controller's gains kp, kd are not scalars or (6,)"
+            return
         self.keep.append(model)
         self._set(
             kind=S.KIND_CT,
             idm=_address(model._lib, "sp_idm_sim"),
             idm_chi=int(model.base_values.ctypes.data),
             idm_max_cond=float(c.model.max_condition),
-            kp=self._arr(c.kp),
-            kd=self._arr(c.kd),
+            kp=self._arr(kp),
+            kd=self._arr(kd),
         )
         data = _reference_data(c.reference)
         if data is not None:  # evaluated in C at every time the loop asks
