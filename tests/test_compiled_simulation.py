@@ -236,6 +236,10 @@ def test_the_c_reference_equals_states_at_to_1e_13():
         ),
         "minimum-jerk": minimum_jerk(T_ref, rng.standard_normal(6), 1.3, rng.standard_normal(6)),
         "knots": MinimumJerkKnots(T_ref, knots),
+        # float32 numbers (the Python evaluation in double precision as the C's)
+        "knots-float32": MinimumJerkKnots(
+            T_ref, tuple([[np.float32(x) for x in knot] for knot in axis] for axis in knots)
+        ),
         "washout": washout(T_ref, 0.1, 0.2),
     }
     times = np.sort(np.r_[rng.uniform(-0.5, 4.0, 300), -0.3, 0.0, 0.2, 0.3, 0.4, 0.5, 0.9, 1.0])

@@ -297,7 +297,9 @@ class MinimumJerkKnots(CoordinateMotion):
         reference: the pose the coordinates are measured from (4, 4).
         knots: six lists of ``(time [s], value [m or rad])``, times increasing, one list
             per coordinate ``[dx, dy, dz, rx, ry, rz]`` (empty: the coordinate stays 0);
-            the value holds before the first and after the last knot.
+            the value holds before the first and after the last knot. Kept as tuples of
+            Python floats (a copy: the motion does not change with the lists given, and
+            its arithmetic is in double precision whatever the numbers' type).
     """
 
     reference: np.ndarray
@@ -309,9 +311,19 @@ class MinimumJerkKnots(CoordinateMotion):
             raise InputError(
                 f"knots must hold 6 lists (one per coordinate), got {len(self.knots)}"
             )
+        knots = []
         for k, axis in enumerate(self.knots):
-            times = np.array([float(t) for t, _ in axis])
-            check_increasing_times(times, f"knot times of coordinate {k}")
+            try:
+                pairs = np.array([(float(t), float(v)) for t, v in axis]).reshape(-1, 2)
+            except (TypeError, ValueError) as e:
+                raise InputError(
+                    f"knots of coordinate {k} must be (time [s], value) pairs of numbers: {e}"
+                ) from None
+            if not np.all(np.isfinite(pairs)):
+                raise InputError(f"knots of coordinate {k} must be finite, got {pairs.tolist()}")
+            check_increasing_times(pairs[:, 0], f"knot times of coordinate {k}")
+            knots.append(tuple((float(t), float(v)) for t, v in pairs))
+        object.__setattr__(self, "knots", tuple(knots))
 
     @property
     def duration(self) -> float:  # type: ignore[override]
