@@ -300,10 +300,7 @@ class _Forces:
             assert period is not None
             grid = np.arange(int(np.floor(duration / period + 1e-9)) + 1) * float(period)
         if period is None:  # every stage time: t_n, t_n + h/2 (k2, k3), t_n+1 (k4, end)
-            times = np.empty(2 * n_grid + 1)
-            times[0::2] = grid
-            times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
-            rows = times
+            times = rows = _stage_times(grid)
         else:  # the start of each period (the accepted state sampled there)
             k = np.floor(grid / period + 1e-9).astype(np.int64)
             first = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
@@ -329,6 +326,16 @@ class _Forces:
         )
 
 
+def _stage_times(grid: np.ndarray) -> np.ndarray:
+    """The rk4 stage times of the grid ``grid`` (n + 1,) [s], (2 n + 1,): row ``2 n`` the
+    grid time ``t_n`` (k1; k4 and the end state of the step before), row ``2 n + 1`` the
+    midpoint ``t_n + h/2`` (k2, k3), computed as the C loop computes it."""
+    times = np.empty(2 * grid.size - 1)
+    times[0::2] = grid
+    times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+    return times
+
+
 def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] | None:
     """``(ref_kind, ref_n, ref_data, ref_pose)`` of a reference the C loop evaluates itself (the
     exact types :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
@@ -339,11 +346,11 @@ def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] |
     kind = type(reference)
     if kind is FourierTrajectory:
         n = reference.n_harmonics
-        w = 2.0 * np.pi * reference.base_frequency * np.arange(1, n + 1)  # as coordinates()
+        w = reference.angular_frequencies  # coordinates()'s
         parts = [w, reference.offsets, reference.sine.ravel(), reference.cosine.ravel()]
         return S.REF_FOURIER, n, np.concatenate(parts), reference.reference
     if kind is Sinusoids:
-        om = 2 * np.pi * reference.frequencies  # as coordinates()
+        om = reference.angular_frequencies  # coordinates()'s
         phases = reference.phases
         parts = [om, phases, reference.amplitudes, np.sin(phases)]
         return S.REF_SINUSOIDS, 6, np.concatenate(parts).astype(np.float64), reference.reference
@@ -716,10 +723,7 @@ def _payload(dynamics: Any, method: str, dt: float, duration: float, n_grid: int
     models = compiled()
     if getattr(models, "sim_entry", None) is None:
         return "the payload's direct model is not compiled"
-    grid = grid_times(dt, duration, n_grid)
-    times = np.empty(2 * n_grid + 1)
-    times[0::2] = grid
-    times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+    times = _stage_times(grid_times(dt, duration, n_grid))
     try:
         x = dynamics.joints_at(times)
     except Exception as e:  # the Python loop meets it at its time and stops there

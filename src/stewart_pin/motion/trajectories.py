@@ -135,6 +135,12 @@ class FourierTrajectory:
         """``1/f`` [s]."""
         return 1.0 / self.base_frequency
 
+    @property
+    def angular_frequencies(self) -> np.ndarray:
+        """The harmonics' ``2 pi f l`` (l = 1 .. n), (n,) [rad/s] (the ones
+        :meth:`coordinates` and the compiled simulator's C evaluation use)."""
+        return 2.0 * np.pi * self.base_frequency * np.arange(1, self.n_harmonics + 1)
+
     # ------------------------------------------------------------ the optimiser's view
     def to_vector(self) -> np.ndarray:
         """The coefficients as one vector ``[c, a.ravel(), b.ravel()]``, (6 + 12 n,)."""
@@ -159,7 +165,7 @@ class FourierTrajectory:
     def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(x, x', x'')`` of the six coordinates, each (N, 6)."""
         t = check_array(times, (None,), "times")
-        w = 2.0 * np.pi * self.base_frequency * np.arange(1, self.n_harmonics + 1)  # [rad/s]
+        w = self.angular_frequencies
         s, c = np.sin(np.outer(t, w)), np.cos(np.outer(t, w))  # (N, n)
         x = self.offsets + s @ self.sine.T + c @ self.cosine.T
         xd = (c * w) @ self.sine.T - (s * w) @ self.cosine.T
@@ -410,9 +416,15 @@ class Sinusoids(CoordinateMotion):
         for name in ("amplitudes", "frequencies", "phases"):
             object.__setattr__(self, name, check_array(getattr(self, name), (6,), name))
 
+    @property
+    def angular_frequencies(self) -> np.ndarray:
+        """``2 pi f_k``, (6,) [rad/s] (the ones :meth:`coordinates` and the compiled
+        simulator's C evaluation use)."""
+        return 2 * np.pi * self.frequencies
+
     def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = check_array(times, (None,), "times")[:, None]
-        om = 2 * np.pi * self.frequencies
+        om = self.angular_frequencies
         arg = om * t + self.phases
         A, s = self.amplitudes, np.sin(arg)
         return (A * (s - np.sin(self.phases)), A * om * np.cos(arg), -A * om**2 * s)
