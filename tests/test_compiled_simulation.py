@@ -234,6 +234,14 @@ def test_the_c_reference_equals_states_at_to_1e_13():
         "sinusoids-small": Sinusoids(
             T_ref, 0.01 * rng.standard_normal(6), rng.uniform(0.1, 2, 6), rng.standard_normal(6)
         ),
+        # no harmonics (n = 0): the offsets alone
+        "fourier-constant": FourierTrajectory(
+            T_ref, 0.5, np.r_[0.1, -0.2, 0.3, 1.0, -0.5, 2.0], np.zeros((6, 0)), np.zeros((6, 0))
+        ),
+        # rotation vectors through pi (|r| from 0 to about 3.3 rad)
+        "sinusoids-wide-pi": Sinusoids(
+            T_ref, np.r_[0.1, 0.1, 0.1, 3.0, 1.0, 0.5], np.full(6, 0.25), np.zeros(6)
+        ),
         "minimum-jerk": minimum_jerk(T_ref, rng.standard_normal(6), 1.3, rng.standard_normal(6)),
         "knots": MinimumJerkKnots(T_ref, knots),
         # float32 numbers (the Python evaluation in double precision as the C's)
@@ -251,6 +259,8 @@ def test_the_c_reference_equals_states_at_to_1e_13():
         for x, y in zip(got, want, strict=True):
             assert np.abs(x - y).max() <= 1e-13 * max(1.0, float(np.abs(y).max())), name
     assert np.abs(states_at(motions["fourier-wide"], times)[1][:, 3:]).max() > 1.0
+    angles = np.linalg.norm(motions["sinusoids-wide-pi"].coordinates(times)[0][:, 3:], axis=1)
+    assert angles.min() < 0.1 and np.abs(angles - np.pi).min() < 0.05 and angles.max() > 3.2
     assert simulator._reference_data(lambda t: motions["knots"](t)) is None
 
 
