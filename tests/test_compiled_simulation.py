@@ -388,6 +388,12 @@ def test_a_controller_subclass_or_gains_set_later_run_as_in_the_python_loop():
     # The subclass's law moves the platform (the test above could not pass by accident).
     base, _ = _run(robot, 0.05, "python", forces=ComputedTorqueController(robot, motion))
     assert np.abs(base.poses[-1, 2, 3] - ref.poses[-1, 2, 3]) > 1e-4
+    # The same law set on an instance of the base class: a function too.
+    patched = ComputedTorqueController(robot, motion, backend="compiled")
+    patched.command = lambda t, T, V: lifting.command(t, T, V)  # type: ignore[method-assign]
+    got, ran_c = _run(robot, 0.05, "auto", forces=patched, pose=T0, twist=V0)
+    assert not ran_c
+    _assert_same(got, ref)
     for gains in ({"kp": 400.0}, {"kd": 30.0}, {"kp": np.full(6, 900.0), "kd": 5.0}):
         c = ComputedTorqueController(robot, motion, backend="compiled")
         for key, value in gains.items():

@@ -227,10 +227,11 @@ class _Forces:
                     tab_g=self._arr(forces.values),
                 )
         elif (  # not a subclass's own law (the payload's computed torque, its own
-            # command): a function
+            # command, one set on the instance): a function
             isinstance(forces, ComputedTorqueController)
             and type(forces).__call__ is ComputedTorqueController.__call__
             and type(forces).command is ComputedTorqueController.command
+            and "command" not in getattr(forces, "__dict__", {})
         ):
             if adaptive and period is None and _reference_data(forces.reference) is None:
                 self.reason = (
