@@ -405,6 +405,39 @@ def test_a_controller_subclass_or_gains_set_later_run_as_in_the_python_loop():
         _assert_same(got, ref)
 
 
+@dataclass(frozen=True, eq=False)
+class _AcceleratedSinusoids(Sinusoids):
+    """Sinusoids whose ``__call__`` is their own: 0.3 m/s^2 more along z0 in the
+    reference acceleration (a feed-forward the controller is given, say)."""
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        T, V, A = super().__call__(t)
+        return T, V, A + np.array([0.0, 0.0, 0.3, 0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("period", [None, 2e-3])
+def test_a_reference_subclass_is_sampled_by_its_own_call(period):
+    """A reference of a subclass with its own ``__call__`` (what the Python loop asks) is
+    neither evaluated in C nor sampled by its inherited ``sample``: the C loop's run
+    equals the Python loop's, which differs from the base motion's."""
+    robot = get_robot("simulator")
+    base = standard_motion(robot, "sinusoid", 0.05)
+    motion = _AcceleratedSinusoids(
+        base.reference, base.amplitudes, base.frequencies, base.phases, base.duration
+    )
+    assert simulator._reference_data(motion) is None
+    T0, V0, _ = motion(0.0)
+    opts = {"pose": T0, "twist": V0, "control_period": period}
+    controller = ComputedTorqueController(robot, motion, backend="compiled")
+    ref, _ = _run(robot, 0.05, "python", forces=controller, **opts)
+    got, ran_c = _run(robot, 0.05, "compiled", forces=controller, **opts)
+    assert ran_c
+    _assert_same(got, ref)
+    plain = ComputedTorqueController(robot, base, backend="compiled")
+    other, _ = _run(robot, 0.05, "python", forces=plain, **opts)
+    assert np.abs(other.poses[-1, 2, 3] - ref.poses[-1, 2, 3]) > 1e-5
+
+
 def test_the_computed_torque_controller_tracks_its_reference_in_c():
     """Closed loop on an exact model: the tracking error stays small (an independent
     check of the C law, against the reference motion itself)."""

@@ -365,20 +365,20 @@ def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] |
     return None
 
 
-#: The ``sample`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes.
-_COORDINATE_SAMPLES = (CoordinateMotion.sample, FourierTrajectory.sample)
+#: The ``__call__`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes
+#: (``_states`` of the motion's ``coordinates``, one time or many).
+_COORDINATE_CALLS = (CoordinateMotion.__call__, FourierTrajectory.__call__)
 
 
 def _sample(reference: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The reference's ``(T, V, A)`` at ``times``: its vectorised ``sample`` when it has
-    one (the motions of :mod:`stewart_pin.motion.trajectories`), else one call per time."""
-    sample = getattr(reference, "sample", None)
+    """The reference's ``(T, V, A)`` at ``times`` as the Python loop's ``reference(t)``
+    gives them: :func:`~stewart_pin.motion.trajectories.states_at` for a motion of
+    :mod:`stewart_pin.motion.trajectories` whose ``__call__`` is its class's (the same
+    arithmetic, vectorised), else one call per time (a subclass's own ``__call__``, which
+    its inherited ``sample`` would not follow)."""
     increasing = times.size > 1 and bool(np.all(np.diff(times) > 0))
-    if increasing and getattr(type(reference), "sample", None) in _COORDINATE_SAMPLES:
-        return states_at(reference, times)  # sample()'s arrays, without its validation
-    if sample is not None and increasing:
-        traj = sample(times)
-        return traj.poses, traj.twists, traj.accels
+    if increasing and type(reference).__call__ in _COORDINATE_CALLS:
+        return states_at(reference, times)
     T, V, A = np.empty((times.size, 4, 4)), np.empty((times.size, 6)), np.empty((times.size, 6))
     for i, t in enumerate(times):
         T[i], V[i], A[i] = reference(float(t))
