@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import re
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -233,8 +234,20 @@ def test_the_c_reference_equals_states_at_to_1e_13():
         "sinusoids-small": Sinusoids(
             T_ref, 0.01 * rng.standard_normal(6), rng.uniform(0.1, 2, 6), rng.standard_normal(6)
         ),
+        # no harmonics (n = 0): the offsets alone
+        "fourier-constant": FourierTrajectory(
+            T_ref, 0.5, np.r_[0.1, -0.2, 0.3, 1.0, -0.5, 2.0], np.zeros((6, 0)), np.zeros((6, 0))
+        ),
+        # rotation vectors through pi (|r| from 0 to about 3.3 rad)
+        "sinusoids-wide-pi": Sinusoids(
+            T_ref, np.r_[0.1, 0.1, 0.1, 3.0, 1.0, 0.5], np.full(6, 0.25), np.zeros(6)
+        ),
         "minimum-jerk": minimum_jerk(T_ref, rng.standard_normal(6), 1.3, rng.standard_normal(6)),
         "knots": MinimumJerkKnots(T_ref, knots),
+        # float32 numbers (the Python evaluation in double precision as the C's)
+        "knots-float32": MinimumJerkKnots(
+            T_ref, tuple([[np.float32(x) for x in knot] for knot in axis] for axis in knots)
+        ),
         "washout": washout(T_ref, 0.1, 0.2),
     }
     times = np.sort(np.r_[rng.uniform(-0.5, 4.0, 300), -0.3, 0.0, 0.2, 0.3, 0.4, 0.5, 0.9, 1.0])
@@ -246,6 +259,8 @@ def test_the_c_reference_equals_states_at_to_1e_13():
         for x, y in zip(got, want, strict=True):
             assert np.abs(x - y).max() <= 1e-13 * max(1.0, float(np.abs(y).max())), name
     assert np.abs(states_at(motions["fourier-wide"], times)[1][:, 3:]).max() > 1.0
+    angles = np.linalg.norm(motions["sinusoids-wide-pi"].coordinates(times)[0][:, 3:], axis=1)
+    assert angles.min() < 0.1 and np.abs(angles - np.pi).min() < 0.05 and angles.max() > 3.2
     assert simulator._reference_data(lambda t: motions["knots"](t)) is None
 
 
@@ -344,6 +359,83 @@ def test_output_dt_with_a_stroke_end_near_the_end(method):
     _assert_same(a.result, b.result)
     assert b.result.t[-1] == b.time and b.result.t.size > 10
     np.testing.assert_array_equal(b.result.t[:-1], np.arange(b.result.t.size - 1) * 7e-3)
+
+
+@dataclass
+class _LiftingController(ComputedTorqueController):
+    """A subclass with its own law: the commanded acceleration plus 0.5 m/s^2 along z0."""
+
+    def command(self, t: float, T: np.ndarray, V: np.ndarray) -> np.ndarray:
+        return super().command(t, T, V) + np.array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0])
+
+
+def test_a_controller_subclass_or_gains_set_later_run_as_in_the_python_loop():
+    """The C loop runs the computed-torque law only as the base class computes it: a
+    subclass with its own ``command`` is a function (the Python loop's law, so the
+    ``"auto"`` run equals the Python one, and ``"compiled"`` refuses it without a control
+    period); gains set after construction (a scalar ``kp``) are the law's, broadcast to
+    the six axes (not read past a one-element array)."""
+    robot = get_robot("simulator")
+    motion = standard_motion(robot, "sinusoid", 0.05)
+    T0, V0, _ = motion(0.0)
+    lifting = _LiftingController(robot, motion, backend="compiled")
+    ref, _ = _run(robot, 0.05, "python", forces=lifting, pose=T0, twist=V0)
+    got, ran_c = _run(robot, 0.05, "auto", forces=lifting, pose=T0, twist=V0)
+    assert not ran_c
+    _assert_same(got, ref)
+    with pytest.raises(InputError, match="without control_period"):
+        prepare_run(robot, 0.05, T0, V0, lifting, backend="compiled", integrator="compiled")
+    # The subclass's law moves the platform (the test above could not pass by accident).
+    base, _ = _run(robot, 0.05, "python", forces=ComputedTorqueController(robot, motion))
+    assert np.abs(base.poses[-1, 2, 3] - ref.poses[-1, 2, 3]) > 1e-4
+    # The same law set on an instance of the base class: a function too.
+    patched = ComputedTorqueController(robot, motion, backend="compiled")
+    patched.command = lambda t, T, V: lifting.command(t, T, V)  # type: ignore[method-assign]
+    got, ran_c = _run(robot, 0.05, "auto", forces=patched, pose=T0, twist=V0)
+    assert not ran_c
+    _assert_same(got, ref)
+    for gains in ({"kp": 400.0}, {"kd": 30.0}, {"kp": np.full(6, 900.0), "kd": 5.0}):
+        c = ComputedTorqueController(robot, motion, backend="compiled")
+        for key, value in gains.items():
+            setattr(c, key, value)
+        twist = V0 + np.array([0.0, 0.0, 0.02, 0.0, 0.05, 0.0])
+        ref, _ = _run(robot, 0.05, "python", forces=c, pose=T0, twist=twist)
+        got, ran_c = _run(robot, 0.05, "compiled", forces=c, pose=T0, twist=twist)
+        assert ran_c, gains
+        _assert_same(got, ref)
+
+
+@dataclass(frozen=True, eq=False)
+class _AcceleratedSinusoids(Sinusoids):
+    """Sinusoids whose ``__call__`` is their own: 0.3 m/s^2 more along z0 in the
+    reference acceleration (a feed-forward the controller is given, say)."""
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        T, V, A = super().__call__(t)
+        return T, V, A + np.array([0.0, 0.0, 0.3, 0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("period", [None, 2e-3])
+def test_a_reference_subclass_is_sampled_by_its_own_call(period):
+    """A reference of a subclass with its own ``__call__`` (what the Python loop asks) is
+    neither evaluated in C nor sampled by its inherited ``sample``: the C loop's run
+    equals the Python loop's, which differs from the base motion's."""
+    robot = get_robot("simulator")
+    base = standard_motion(robot, "sinusoid", 0.05)
+    motion = _AcceleratedSinusoids(
+        base.reference, base.amplitudes, base.frequencies, base.phases, base.duration
+    )
+    assert simulator._reference_data(motion) is None
+    T0, V0, _ = motion(0.0)
+    opts = {"pose": T0, "twist": V0, "control_period": period}
+    controller = ComputedTorqueController(robot, motion, backend="compiled")
+    ref, _ = _run(robot, 0.05, "python", forces=controller, **opts)
+    got, ran_c = _run(robot, 0.05, "compiled", forces=controller, **opts)
+    assert ran_c
+    _assert_same(got, ref)
+    plain = ComputedTorqueController(robot, base, backend="compiled")
+    other, _ = _run(robot, 0.05, "python", forces=plain, **opts)
+    assert np.abs(other.poses[-1, 2, 3] - ref.poses[-1, 2, 3]) > 1e-5
 
 
 def test_the_computed_torque_controller_tracks_its_reference_in_c():

@@ -14,6 +14,7 @@ import base64
 import re
 import shutil
 import subprocess
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -231,6 +232,53 @@ def test_the_joints_sampled_at_once_equal_one_call_per_time(arm):
             np.testing.assert_allclose(once, ref, rtol=0, atol=1e-15 * np.abs(ref).max())
         got = _PrescribedJoints(robot, motion).joints_at(times)
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-15 * np.abs(ref).max())
+
+
+@dataclass(frozen=True)
+class _DoubledAcceleration(JointMotion):
+    """A joint motion whose ``__call__`` is its own: the displacement's acceleration
+    doubled (not the second derivative of its position: a model of a motion, say)."""
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q, qd, qdd = super().__call__(t)
+        return q, qd, 2.0 * qdd
+
+
+def test_the_c_loop_samples_a_joint_motion_subclass_by_its_own_call(
+    monkeypatch, shared_compile_cache
+):
+    """The joints the compiled simulator samples before the run are those the Python loop
+    asks ``joints(t)`` for: a :class:`JointMotion` subclass with its own ``__call__`` is
+    sampled by it (not from its displacement broadcast over the times), so both loops
+    run the same model (1e-10), which differs from the base motion's."""
+    from stewart_pin.codegen import compiled as compiled_module
+    from stewart_pin.motion.force_tables import ForceTable
+    from stewart_pin.motion.payload import _PrescribedJoints
+
+    monkeypatch.setenv("STEWART_PIN_BACKEND", "auto")  # the payload's compiled models
+    monkeypatch.setenv(compiled_module.CACHE_ENV, str(shared_compile_cache))
+    robot = StewartRobot.from_preset("simulator").with_payload("ur5")
+    base = JointMotion.sweep(robot.payload, 0.3, 0.4)
+    doubled = _DoubledAcceleration(base.payload, base.q0, base.displacement, base.duration)
+    times = np.linspace(0.0, 0.1, 9)
+    want = np.hstack([np.concatenate(doubled(t)) for t in times]).reshape(times.size, -1)
+    got = _PrescribedJoints(robot, doubled).joints_at(times)
+    np.testing.assert_array_equal(got, want)
+    T0 = robot.home_pose
+    g = robot.inverse_dynamics(T0, np.zeros(6), np.zeros(6), *base(0.0)).gamma
+    table = ForceTable.constant(g)
+    runs = {}
+    for integrator in ("python", "compiled"):
+        runs[integrator] = simulate_payload(
+            robot, 0.04, doubled, dt=2e-3, forces=table, integrator=integrator
+        ).result
+    a, b = runs["python"], runs["compiled"]
+    np.testing.assert_array_equal(a.t, b.t)
+    for name in ("poses", "twists", "accels", "gammas"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert np.abs(x - y).max() <= 1e-10 * max(1.0, float(np.abs(x).max())), name
+    other = simulate_payload(robot, 0.04, base, dt=2e-3, forces=table).result
+    assert np.abs(other.accels - a.accels).max() > 1e-3 * np.abs(a.accels).max()
 
 
 def simulation_dynamics(robot, joints):

@@ -8,7 +8,8 @@ import pinocchio as pin
 import pytest
 
 from stewart_pin import StewartRobot, StrokeLimitError
-from stewart_pin.motion.trajectories import Sinusoids, minimum_jerk, washout
+from stewart_pin.exceptions import InputError
+from stewart_pin.motion.trajectories import MinimumJerkKnots, Sinusoids, minimum_jerk, washout
 
 
 @pytest.fixture(scope="module")
@@ -55,6 +56,37 @@ def test_minimum_jerk_is_rest_to_rest(robot):
     )
     assert np.abs(tr.twists).max() < 1e-15 and np.abs(tr.accels).max() < 1e-15
     np.testing.assert_allclose(tr.poses[2], tr.poses[1], atol=1e-15)  # holds the goal
+
+
+def test_minimum_jerk_knots_are_copied_as_doubles(robot):
+    """Knots given as lists of float32 numbers: the motion keeps tuples of Python floats
+    (a later change of the lists does not move it) and computes in double precision (the
+    closed-form quintic on the float32 numbers' exact values, to 1e-14; in float32 the
+    slope ``dv / h`` was off by ~1e-8, and the compiled simulator's C, reading the knots
+    as doubles, off the Python loop by as much)."""
+    t1, v1 = np.float32(0.3), np.float32(0.1)
+    axis = [[np.float32(0.0), np.float32(0.0)], [t1, v1]]
+    m = MinimumJerkKnots(robot.home_pose, ([*axis], (), (), (), (), ()))
+    axis[1][1] = np.float32(5.0)  # after construction: ignored
+    assert m.knots[0] == ((0.0, 0.0), (float(t1), float(v1)))
+    assert all(type(x) is float for knot in m.knots[0] for x in knot)
+    t = 0.1
+    x, xd, xdd = (a[0, 0] for a in m.coordinates(np.array([t])))
+    s, h, dv = t / float(t1), float(t1), float(v1)
+    want = (
+        dv * (10 * s**3 - 15 * s**4 + 6 * s**5),
+        dv / h * 30 * s**2 * (1 - s) ** 2,
+        dv / h**2 * 60 * s * (1 - s) * (1 - 2 * s),
+    )
+    np.testing.assert_allclose([x, xd, xdd], want, rtol=1e-14, atol=0)
+    for bad, match in (
+        ((0.0, np.nan), "finite"),
+        ((np.inf, 1.0), "finite"),
+        ((0.1,), "pairs of numbers"),
+        ((0.1, "a"), "pairs of numbers"),
+    ):
+        with pytest.raises(InputError, match=match):
+            MinimumJerkKnots(robot.home_pose, ([(-1.0, 0.0), bad], (), (), (), (), ()))
 
 
 def test_washout_returns_to_the_centre(robot):

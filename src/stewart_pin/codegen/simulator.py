@@ -226,9 +226,12 @@ class _Forces:
                     tab_t=self._arr(forces.times),
                     tab_g=self._arr(forces.values),
                 )
-        elif (  # not a subclass's own law (the payload's computed torque): a function
+        elif (  # not a subclass's own law (the payload's computed torque, its own
+            # command, one set on the instance): a function
             isinstance(forces, ComputedTorqueController)
             and type(forces).__call__ is ComputedTorqueController.__call__
+            and type(forces).command is ComputedTorqueController.command
+            and "command" not in getattr(forces, "__dict__", {})
         ):
             if adaptive and period is None and _reference_data(forces.reference) is None:
                 self.reason = (
@@ -268,14 +271,19 @@ class _Forces:
         if isinstance(model, str):
             self.reason = f"the controller's model: {model.replace('direct', 'inverse')}"
             return
+        try:  # the gains as the law applies them (kp, kd may be set after __post_init__)
+            kp, kd = (np.broadcast_to(np.asarray(g, dtype=np.float64), (6,)) for g in (c.kp, c.kd))
+        except (TypeError, ValueError):
+            self.reason = "the controller's gains kp, kd are not scalars or (6,)"
+            return
         self.keep.append(model)
         self._set(
             kind=S.KIND_CT,
             idm=_address(model._lib, "sp_idm_sim"),
             idm_chi=int(model.base_values.ctypes.data),
             idm_max_cond=float(c.model.max_condition),
-            kp=self._arr(c.kp),
-            kd=self._arr(c.kd),
+            kp=self._arr(kp),
+            kd=self._arr(kd),
         )
         data = _reference_data(c.reference)
         if data is not None:  # evaluated in C at every time the loop asks
@@ -293,10 +301,7 @@ class _Forces:
             assert period is not None
             grid = np.arange(int(np.floor(duration / period + 1e-9)) + 1) * float(period)
         if period is None:  # every stage time: t_n, t_n + h/2 (k2, k3), t_n+1 (k4, end)
-            times = np.empty(2 * n_grid + 1)
-            times[0::2] = grid
-            times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
-            rows = times
+            times = rows = _stage_times(grid)
         else:  # the start of each period (the accepted state sampled there)
             k = np.floor(grid / period + 1e-9).astype(np.int64)
             first = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
@@ -322,6 +327,16 @@ class _Forces:
         )
 
 
+def _stage_times(grid: np.ndarray) -> np.ndarray:
+    """The rk4 stage times of the grid ``grid`` (n + 1,) [s], (2 n + 1,): row ``2 n`` the
+    grid time ``t_n`` (k1; k4 and the end state of the step before), row ``2 n + 1`` the
+    midpoint ``t_n + h/2`` (k2, k3), computed as the C loop computes it."""
+    times = np.empty(2 * grid.size - 1)
+    times[0::2] = grid
+    times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+    return times
+
+
 def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] | None:
     """``(ref_kind, ref_n, ref_data, ref_pose)`` of a reference the C loop evaluates itself (the
     exact types :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
@@ -332,11 +347,11 @@ def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] |
     kind = type(reference)
     if kind is FourierTrajectory:
         n = reference.n_harmonics
-        w = 2.0 * np.pi * reference.base_frequency * np.arange(1, n + 1)  # as coordinates()
+        w = reference.angular_frequencies  # coordinates()'s
         parts = [w, reference.offsets, reference.sine.ravel(), reference.cosine.ravel()]
         return S.REF_FOURIER, n, np.concatenate(parts), reference.reference
     if kind is Sinusoids:
-        om = 2 * np.pi * reference.frequencies  # as coordinates()
+        om = reference.angular_frequencies  # coordinates()'s
         phases = reference.phases
         parts = [om, phases, reference.amplitudes, np.sin(phases)]
         return S.REF_SINUSOIDS, 6, np.concatenate(parts).astype(np.float64), reference.reference
@@ -350,20 +365,20 @@ def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] |
     return None
 
 
-#: The ``sample`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes.
-_COORDINATE_SAMPLES = (CoordinateMotion.sample, FourierTrajectory.sample)
+#: The ``__call__`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes
+#: (``_states`` of the motion's ``coordinates``, one time or many).
+_COORDINATE_CALLS = (CoordinateMotion.__call__, FourierTrajectory.__call__)
 
 
 def _sample(reference: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The reference's ``(T, V, A)`` at ``times``: its vectorised ``sample`` when it has
-    one (the motions of :mod:`stewart_pin.motion.trajectories`), else one call per time."""
-    sample = getattr(reference, "sample", None)
+    """The reference's ``(T, V, A)`` at ``times`` as the Python loop's ``reference(t)``
+    gives them: :func:`~stewart_pin.motion.trajectories.states_at` for a motion of
+    :mod:`stewart_pin.motion.trajectories` whose ``__call__`` is its class's (the same
+    arithmetic, vectorised), else one call per time (a subclass's own ``__call__``, which
+    its inherited ``sample`` would not follow)."""
     increasing = times.size > 1 and bool(np.all(np.diff(times) > 0))
-    if increasing and getattr(type(reference), "sample", None) in _COORDINATE_SAMPLES:
-        return states_at(reference, times)  # sample()'s arrays, without its validation
-    if sample is not None and increasing:
-        traj = sample(times)
-        return traj.poses, traj.twists, traj.accels
+    if increasing and type(reference).__call__ in _COORDINATE_CALLS:
+        return states_at(reference, times)
     T, V, A = np.empty((times.size, 4, 4)), np.empty((times.size, 6)), np.empty((times.size, 6))
     for i, t in enumerate(times):
         T[i], V[i], A[i] = reference(float(t))
@@ -709,10 +724,7 @@ def _payload(dynamics: Any, method: str, dt: float, duration: float, n_grid: int
     models = compiled()
     if getattr(models, "sim_entry", None) is None:
         return "the payload's direct model is not compiled"
-    grid = grid_times(dt, duration, n_grid)
-    times = np.empty(2 * n_grid + 1)
-    times[0::2] = grid
-    times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+    times = _stage_times(grid_times(dt, duration, n_grid))
     try:
         x = dynamics.joints_at(times)
     except Exception as e:  # the Python loop meets it at its time and stops there

@@ -313,12 +313,17 @@ class _PrescribedJoints:
         """``[q, qd, qdd]`` (K, nq + 2 nv) at ``times`` (K,) [s], as :meth:`__call__` takes
         them: the displacement evaluated on all times at once where it broadcasts (the
         motions of :class:`JointMotion`'s constructors but the minimum-jerk one) and
-        ``q0`` integrated joint by joint as ``pin.integrate`` does (to round-off), else one
-        call of ``joints`` per time."""
-        out = _joints_at_once(self.joints, times)
+        ``q0`` integrated joint by joint as ``pin.integrate`` does (to round-off), else
+        (or ``joints`` of a subclass with its own ``__call__``) one call of ``joints`` per
+        time, as :meth:`__call__` makes it."""
+        out = None
+        if type(self.joints).__call__ is JointMotion.__call__:
+            out = _joints_at_once(self.joints, times)
         if out is None:
-            q, qd, qdd = self.joints.sample(times)
-            out = np.hstack([q, qd, qdd])
+            payload = self.joints.payload
+            out = np.empty((times.size, payload.nq + 2 * payload.nv))
+            for k, t in enumerate(times):
+                out[k] = np.concatenate([np.ravel(x) for x in self.joints(float(t))])
         return np.ascontiguousarray(out, dtype=np.float64)
 
 

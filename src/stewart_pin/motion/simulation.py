@@ -46,8 +46,10 @@ the Python loop, so events stop the run as above; ``progress`` is called after e
 chunk of C steps (up to 4096) instead of after each step. With ``output_dt`` the C loop
 cuts its steps at the output times and keeps the rows as this loop does (only the
 states at the output times); the computed-torque controller without a control period
-leaves a step cut off the ``dt`` grid, and the step back onto it, to the Python loop
-(its reference is sampled at the grid's stage times). The guard is still checked at
+whose reference is sampled before the run (not a Fourier series, sinusoids or
+minimum-jerk knots), and ``simulate_payload``'s joints, leave a step cut off the ``dt``
+grid, and the step back onto it, to the Python loop (sampled at the grid's stage times
+only). The guard is still checked at
 every stage, in both loops. The compiled loop evaluates the initial state too (unless a
 Python function gives the forces), takes the signs of det Jp^-1 from the compiled direct
 model's own condition check (the reference's signs wherever it decides them, see

@@ -135,6 +135,12 @@ class FourierTrajectory:
         """``1/f`` [s]."""
         return 1.0 / self.base_frequency
 
+    @property
+    def angular_frequencies(self) -> np.ndarray:
+        """The harmonics' ``2 pi f l`` (l = 1 .. n), (n,) [rad/s] (the ones
+        :meth:`coordinates` and the compiled simulator's C evaluation use)."""
+        return 2.0 * np.pi * self.base_frequency * np.arange(1, self.n_harmonics + 1)
+
     # ------------------------------------------------------------ the optimiser's view
     def to_vector(self) -> np.ndarray:
         """The coefficients as one vector ``[c, a.ravel(), b.ravel()]``, (6 + 12 n,)."""
@@ -159,7 +165,7 @@ class FourierTrajectory:
     def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(x, x', x'')`` of the six coordinates, each (N, 6)."""
         t = check_array(times, (None,), "times")
-        w = 2.0 * np.pi * self.base_frequency * np.arange(1, self.n_harmonics + 1)  # [rad/s]
+        w = self.angular_frequencies
         s, c = np.sin(np.outer(t, w)), np.cos(np.outer(t, w))  # (N, n)
         x = self.offsets + s @ self.sine.T + c @ self.cosine.T
         xd = (c * w) @ self.sine.T - (s * w) @ self.cosine.T
@@ -297,7 +303,9 @@ class MinimumJerkKnots(CoordinateMotion):
         reference: the pose the coordinates are measured from (4, 4).
         knots: six lists of ``(time [s], value [m or rad])``, times increasing, one list
             per coordinate ``[dx, dy, dz, rx, ry, rz]`` (empty: the coordinate stays 0);
-            the value holds before the first and after the last knot.
+            the value holds before the first and after the last knot. Kept as tuples of
+            Python floats (a copy: the motion does not change with the lists given, and
+            its arithmetic is in double precision whatever the numbers' type).
     """
 
     reference: np.ndarray
@@ -309,9 +317,19 @@ class MinimumJerkKnots(CoordinateMotion):
             raise InputError(
                 f"knots must hold 6 lists (one per coordinate), got {len(self.knots)}"
             )
+        knots = []
         for k, axis in enumerate(self.knots):
-            times = np.array([float(t) for t, _ in axis])
-            check_increasing_times(times, f"knot times of coordinate {k}")
+            try:
+                pairs = np.array([(float(t), float(v)) for t, v in axis]).reshape(-1, 2)
+            except (TypeError, ValueError) as e:
+                raise InputError(
+                    f"knots of coordinate {k} must be (time [s], value) pairs of numbers: {e}"
+                ) from None
+            if not np.all(np.isfinite(pairs)):
+                raise InputError(f"knots of coordinate {k} must be finite, got {pairs.tolist()}")
+            check_increasing_times(pairs[:, 0], f"knot times of coordinate {k}")
+            knots.append(tuple((float(t), float(v)) for t, v in pairs))
+        object.__setattr__(self, "knots", tuple(knots))
 
     @property
     def duration(self) -> float:  # type: ignore[override]
@@ -398,9 +416,15 @@ class Sinusoids(CoordinateMotion):
         for name in ("amplitudes", "frequencies", "phases"):
             object.__setattr__(self, name, check_array(getattr(self, name), (6,), name))
 
+    @property
+    def angular_frequencies(self) -> np.ndarray:
+        """``2 pi f_k``, (6,) [rad/s] (the ones :meth:`coordinates` and the compiled
+        simulator's C evaluation use)."""
+        return 2 * np.pi * self.frequencies
+
     def coordinates(self, times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = check_array(times, (None,), "times")[:, None]
-        om = 2 * np.pi * self.frequencies
+        om = self.angular_frequencies
         arg = om * t + self.phases
         A, s = self.amplitudes, np.sin(arg)
         return (A * (s - np.sin(self.phases)), A * om * np.cos(arg), -A * om**2 * s)
