@@ -237,7 +237,16 @@ def vector_source(
             written.add(vname)
     if not written:
         return "", written
-    parts = [PREAMBLE]
+    helpers = lane_helpers(used)
+    parts = [PREAMBLE, helpers] if helpers else [PREAMBLE]
+    parts += [c.code for c in callees.values() if c is not None]
+    return "\n".join(parts) + "\n" + "\n".join(bodies), written
+
+
+def lane_helpers(used: set[str]) -> str:
+    """The C of the lane-by-lane functions ``sp_v_<fn>`` of the functions ``used`` by
+    vector bodies (those :data:`PREAMBLE` does not write in vector form)."""
+    parts = []
     for fn in sorted(used - _VECTOR_FORMS):
         if _LANEWISE.get(fn, 1) == 1:
             parts.append(
@@ -251,8 +260,7 @@ def vector_source(
                 f"  sp_vec r; int l;\n  for (l = 0; l < SP_WIDTH; ++l) r[l] = {fn}(x[l], y[l]);\n"
                 "  return r;\n}"
             )
-    parts += [c.code for c in callees.values() if c is not None]
-    return "\n".join(parts) + "\n" + "\n".join(bodies), written
+    return "\n".join(parts)
 
 
 def _operand(x: str) -> str:

@@ -473,7 +473,8 @@ def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
     if lc.name == "custom":
         return _newton(lc, P0)
     j1 = lc.joints[0]
-    b = float(lc.branch)
+    # a number, or a lane input of the legs-as-lanes models (:mod:`.lanes`)
+    b = lc.branch if isinstance(lc.branch, cs.SX) else float(lc.branch)
     slacks: list[Scalar] = []
     p = _pre_joint1(lc, P0)
     if lc.name in ("ups", "ups-offset"):
@@ -705,22 +706,23 @@ def newton_euler(
 def joint_terms(
     joints: Sequence[JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar]
 ) -> list[Scalar]:
-    """``Ia qdd + (Fv + D) qd + Fc sign(qd) + K (q - q0)`` per joint (zero terms fold)."""
+    """``Ia qdd + (Fv + D) qd + Fc sign(qd) + K (q - q0)`` per joint (zero terms fold; a
+    coefficient may be a symbol: the legs-as-lanes models of :mod:`.lanes`)."""
     out: list[Scalar] = []
     for j, J in enumerate(joints):
         k = J.k
         t: Scalar = 0.0
-        if k.armature:
+        if not is_zero(k.armature):
             t = plus(t, mul(k.armature, qdd[j]))
-        if k.viscous:
+        if not is_zero(k.viscous):
             t = plus(t, mul(k.viscous, qd[j]))
-        if k.coulomb and not isinstance(qd[j], (int, float)):
+        if not is_zero(k.coulomb) and not isinstance(qd[j], (int, float)):
             if k.coulomb_smoothing > 0.0:  # the planner's smooth model
                 sign = cs.tanh(qd[j] / k.coulomb_smoothing)
             else:
                 sign = cs.if_else(cs.fabs(qd[j]) > COULOMB_DEAD_BAND, cs.sign(qd[j]), 0.0)
             t = plus(t, mul(k.coulomb, sign))
-        if k.stiffness:
+        if not is_zero(k.stiffness):
             t = plus(t, mul(k.stiffness, minus(J.value(), k.rest)))
         out.append(t)
     return out

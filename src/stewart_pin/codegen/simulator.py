@@ -46,6 +46,7 @@ from stewart_pin.codegen.compiled import (
     model_layout,
     split_batch,
 )
+from stewart_pin.codegen.lanes import lanes_entry
 from stewart_pin.codegen.leg_chain_symbolic import AuxLayout
 from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
@@ -139,6 +140,11 @@ def simulator_library() -> Any:
             lib.sp_sim_many.restype = ctypes.c_int
             _LIB.append(lib)
         return _LIB[0]
+
+
+#: ``sp_ddm_aux``'s C type (the robot library's, or ``sp_ddm_lanes``; arguments as
+#: ``c_void_p`` and ``c_double`` objects).
+_DDM_AUX = ctypes.CFUNCTYPE(ctypes.c_int, _P, _P, _P, _P, ctypes.c_double, _P, _P, _P)
 
 
 def _address(lib: Any, name: str) -> int:
@@ -326,8 +332,11 @@ class Stepper:
         self._pend_T = self.st[S.ST_PEND_POSE : S.ST_PEND_POSE + 16].reshape(4, 4)
         self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
         self._keep = (models, forces)
+        # The legs as vector lanes where they apply (codegen/lanes.py), else the library's.
+        ddm = lanes_entry(models, layout) or _address(models._lib, "sp_ddm_aux")
+        self._ddm = _DDM_AUX(ddm)
         sim = _Sim(
-            ddm=_address(models._lib, "sp_ddm_aux"),
+            ddm=ddm,
             chi=int(models.base_values.ctypes.data),
             max_cond=float(robot.max_condition),
             naux=layout.ddm_size,
@@ -483,7 +492,7 @@ class Stepper:
         out, det = np.empty(6), ctypes.c_double(0.0)
         T = np.ascontiguousarray(T, dtype=np.float64)
         zero = np.zeros(6)
-        flag = self._models._lib.sp_ddm_aux(
+        flag = self._ddm(
             *(ctypes.c_void_p(a.ctypes.data) for a in (T, zero, zero)),
             ctypes.c_void_p(self.sim.chi),
             ctypes.c_double(self.sim.max_cond),
