@@ -161,6 +161,81 @@ def test_the_lanes_equal_the_library_and_the_reference(name):
     assert 0 in flags and any(f & 1 for f in flags) and len(flags) >= 3, flags
 
 
+def _idm(address_or_fn, T, V, A, run, chi):
+    """One ``sp_idm_sim``-like call: (flag, gamma)."""
+    gamma, flags = np.empty(6), np.zeros(1, np.int32)
+    address_or_fn(
+        ctypes.c_longlong(1),
+        *(ctypes.c_void_p(np.ascontiguousarray(a).ctypes.data) for a in (T, V, A)),
+        ctypes.c_void_p(chi),
+        ctypes.c_double(run.fast.sim.max_cond),
+        ctypes.c_void_p(gamma.ctypes.data),
+        ctypes.c_void_p(flags.ctypes.data),
+    )
+    return int(flags[0]), gamma
+
+
+_IDM_SIM = ctypes.CFUNCTYPE(
+    ctypes.c_int,
+    ctypes.c_longlong,
+    *[ctypes.c_void_p] * 4,
+    ctypes.c_double,
+    *[ctypes.c_void_p] * 2,
+)
+
+
+@needs_lanes
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_inverse_lanes_equal_the_library_and_the_reference(name):
+    """The computed-torque controller's inverse model on the lanes (``sp_idm_lanes``)
+    against the robot library's ``sp_idm_sim`` (its AVX2+FMA copy) and the batch call:
+    about home the same flag (0) and forces within 1e-13 (relative to max(|G|, 1)); at
+    300 sampled states the same flags and forces within 1e-12 of the reference path's
+    (tests/test_general_codegen.py's bound for the compiled inverse model); at 200
+    states from well inside to beyond the workspace (non-finite inputs among them) the
+    same flag, flagged or not, and the INPUT flag."""
+    robot = get_robot(name)
+    run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
+    models = run.fast._models
+    ddm, idm = lanes.lanes_entries(models)
+    assert ddm != 0 and idm != 0
+    lanes_fn, lib_fn = _IDM_SIM(idm), models._lib.sp_idm_sim
+    chi = run.fast.sim.chi
+    rng = np.random.default_rng(3)
+    near = _near_home(robot, 100, 7, 0.02)
+    T, tw, _ = (np.array(x) for x in zip(*near, strict=True))
+    A = 0.5 * rng.standard_normal((100, 6))
+    batch = robot.inverse_dynamics(T, tw, A, backend="compiled")
+    for k in range(100):
+        f1, g1 = _idm(lib_fn, T[k], tw[k], A[k], run, chi)
+        f2, g2 = _idm(lanes_fn, T[k], tw[k], A[k], run, chi)
+        assert f1 == 0 and f2 == 0
+        _close(g2, g1)
+        _close(g2, batch[k])
+    P, V, A = robot.sample_states(300, 5)
+    ok, got = [], []
+    for k in range(300):
+        f1, _ = _idm(lib_fn, P[k], V[k], A[k], run, chi)
+        f2, g2 = _idm(lanes_fn, P[k], V[k], A[k], run, chi)
+        assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
+        if f1 == 0:
+            ok.append(k)
+            got.append(g2)
+    assert len(ok) >= 150, len(ok)
+    ref = robot.inverse_dynamics(P[ok], V[ok], A[ok], backend="pinocchio")
+    assert rel_error(np.array(got), ref) < 1e-12
+    flags = set()
+    for T1, tw1, g1 in _near_home(robot, 200, 11, 0.4, odd=True):
+        acc = 0.5 * rng.standard_normal(6)
+        if not np.all(np.isfinite(g1)):
+            acc[1] = np.inf
+        f1, _ = _idm(lib_fn, T1, tw1, acc, run, chi)
+        f2, _ = _idm(lanes_fn, T1, tw1, acc, run, chi)
+        assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
+        flags.add(f1)
+    assert 0 in flags and any(f & 1 for f in flags) and len(flags) >= 3, flags
+
+
 def _asymmetric_limits(robot):
     """``robot`` (general legs) with another lower limit on leg 2's first joint that has
     one."""

@@ -772,5 +772,12 @@ SP_EXPORT int sp_ddm_guard_sim(const double* pose, const double* twist, const do
 #endif
   return sp_ddm_after_det(pose, twist, gam, accel, aux, max_cond, det);
 }
+
+/* sp_idm_sim's guard alone, for an inverse model computed elsewhere (the lanes): the
+   state's flag from its outputs (gamma, aux; a repivoted state's gamma solved again). */
+SP_EXPORT int sp_idm_guard_sim(const double* pose, const double* twist, const double* accel,
+                               double* gamma, const double* aux, double max_cond) {
+  return sp_idm_after(pose, twist, accel, gamma, aux, max_cond);
+}
 """
 )

@@ -47,17 +47,24 @@ from stewart_pin.codegen._sx_common import (
     ddm_legs_closure,
     ddm_platform,
     function,
+    idm_platform,
+    idm_shared,
+    is_zero,
+    pivot_order,
     pose_from_input,
     split,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
-    AuxLayout,
     LegConst,
     ddm_leg_outputs,
     general_robot,
+    idm_closure_and_aux,
+    idm_leg_outputs,
     leg_constants,
+    leg_kinematics,
 )
 from stewart_pin.exceptions import CompilationError
+from stewart_pin.kinematics import leg_chains
 
 #: Lanes per vector (AVX2: four doubles) and vectors of legs (six legs in eight lanes).
 WIDTH = 4
@@ -81,12 +88,19 @@ class LaneModels:
             ``(k // 4) 4 n_out + 4 i + k % 4``), ``aux`` the robot library's direct-model
             by-products (:class:`~.leg_chain_symbolic.AuxLayout`).
         prm: (6, n_prm) the legs' numbers.
+        idm_leg, idm_closure, ni_out: the same for the inverse model:
+            ``idm_leg(pose, twist, accel (6), prm) -> out (ni_out)`` (``row``, ``wrench``
+            (6), ``Hz`` (1), the slacks), ``idm_closure(pose, twist, accel, X) -> (gamma,
+            aux)`` with the robot library's static pivots.
     """
 
     leg: cs.Function
     closure: cs.Function
     prm: np.ndarray
     n_out: int
+    idm_leg: cs.Function
+    idm_closure: cs.Function
+    ni_out: int
 
 
 #: The numbers of a joint that may differ between the lanes (arithmetic only in the leg
@@ -219,13 +233,48 @@ def lane_models(desc: Any) -> LaneModels | None:
         [("pose", y_pose), ("twist", y_twist), ("X", X)],
         [("accel", accel), ("aux", aux)],
     )
+    # ---- the inverse model (the computed-torque controller's): the same leg numbers
+    x_accel = cs.SX.sym("accel", 6)
+    K, _ = idm_shared(tw, split(x_accel), g_platform)
+    iout = idm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], split(x_accel)[:3], K)
+    iflat = [*iout["row"], *iout["wrench"], *iout["Hz"], *iout["slack"]]
+    idm_leg = function(
+        "sp_lane_idm_leg",
+        [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("prm", x_prm)],
+        [("out", iflat)],
+    )
+    ni_out = len(iflat)
+    y_accel = cs.SX.sym("accel", 6)
+    Xi = cs.SX.sym("X", GROUPS * WIDTH * ni_out)
+    yp, _ = pose_from_input(y_pose, "matrix")
+    ac = split(y_accel)
+    Ky, vdg = idm_shared(split(y_twist), ac, g_platform)
+    ilegs = []
+    for k in range(6):
+        base = (k // WIDTH) * WIDTH * ni_out + k % WIDTH
+        v = [Xi[base + WIDTH * i] for i in range(ni_out)]
+        ilegs.append({"row": v[:6], "wrench": v[6:12], "Hz": v[12:13], "slack": v[13:]})
+    F_p = idm_platform(Ry, w, ac[3:], vdg, Ky, Pp)
+    # the robot library's static pivots: from the structural zeros of its (baked) rows
+    zero: list[Scalar] = [0.0, 0.0, 0.0]
+    rows = [leg_kinematics(lc, yp, Ry, zero, zero).row for lc in legs]
+    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    gamma, iaux, _, _ = idm_closure_and_aux(ilegs, F_p, home_rows, 1.0 / robot.size, pivots)
+    idm_closure = function(
+        "sp_lane_idm_closure",
+        [("pose", y_pose), ("twist", y_twist), ("accel", y_accel), ("X", Xi)],
+        [("gamma", gamma), ("aux", iaux)],
+    )
     prm = np.array(columns, dtype=float).T.reshape(6, len(columns))
-    return LaneModels(leg, closure, prm, n_out)
+    return LaneModels(leg, closure, prm, n_out, idm_leg, idm_closure, ni_out)
 
 
 #: The entry after the generated code (``%`` fields: the sizes, the legs' numbers).
 ENTRY = r"""
-#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__) && defined(SP_LANE_CLOSURE)
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__) && \
+    defined(SP_LANE_CLOSURE) && defined(SP_LANE_IDM_CLOSURE)
 #define SP_EXPORT __attribute__((visibility("default")))
 /* the robot library's sp_ddm_guard_sim (codegen/_csource.py), bound by sp_lanes_bind */
 typedef int (*sp_guard_fn)(const double*, const double*, const double*, double, const double*,
@@ -268,6 +317,51 @@ SP_EXPORT SP_AVX2 int sp_ddm_lanes(const double* pose, const double* twist, cons
   sp_lane_closure_avx2(carg, cres, iw, w, 0);
   return sp_lane_guard(pose, twist, gam, max_cond, accel, aux, det);
 }
+
+/* the robot library's sp_idm_guard_sim, bound by sp_lanes_bind_idm */
+typedef int (*sp_iguard_fn)(const double*, const double*, const double*, double*, const double*,
+                            double);
+static sp_iguard_fn sp_lane_iguard = 0;
+
+/* The length of the inverse model's aux (the robot library's SP_IDM_NAUX). */
+SP_EXPORT int sp_lanes_idm_naux(void) { return %(inaux)d; }
+
+/* Binds the robot library's inverse-model guard; returns sp_lanes_bind's answer. */
+SP_EXPORT int sp_lanes_bind_idm(void* guard) {
+  sp_lane_iguard = (sp_iguard_fn)guard;
+  return sp_avx2_ready;
+}
+
+/* sp_idm_sim of the robot library (n states; the same signature, outputs and flags), the
+   legs as lanes. */
+SP_EXPORT SP_AVX2 int sp_idm_lanes(long long n, const double* pose, const double* twist,
+                                   const double* accel, const double* chi, double max_cond,
+                                   double* gamma, int* flags) {
+  sp_vec X[%(groups)d * %(ni_out)d];
+  double aux[%(inaux)d];
+  const sp_vec* a0[4] = {0, 0, 0, (const sp_vec*)sp_lane_prm[0]};
+  const sp_vec* a1[4] = {0, 0, 0, (const sp_vec*)sp_lane_prm[1]};
+  sp_vec* r0[1] = {X};
+  sp_vec* r1[1] = {X + %(ni_out)d};
+  const double* carg[%(i_arg)d + 1];
+  double* cres[%(i_res)d + 1];
+  long long int iw[%(i_iw)d + 1];
+  double w[%(i_w)d + 1];
+  int any = 0, f;
+  long long s;
+  (void)chi;
+  for (s = 0; s < n; ++s) {
+    const double* sh[3] = {pose + 16 * s, twist + 6 * s, accel + 6 * s};
+    sp_vilane_legs(a0, a1, sh, r0, r1);
+    carg[0] = sh[0]; carg[1] = sh[1]; carg[2] = sh[2]; carg[3] = (const double*)X;
+    cres[0] = gamma + 6 * s; cres[1] = aux;
+    sp_lane_idm_closure_avx2(carg, cres, iw, w, 0);
+    f = sp_lane_iguard(sh[0], sh[1], sh[2], gamma + 6 * s, aux, max_cond);
+    flags[s] = f;
+    any |= f;
+  }
+  return any;
+}
 #endif
 """
 
@@ -297,27 +391,37 @@ def lanes_source(m: LaneModels) -> str:
         "sp_lanes.c",
         {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
     )
-    cg.add(m.leg)
-    cg.add(m.closure)
+    for f in (m.leg, m.closure, m.idm_leg, m.idm_closure):
+        cg.add(f)
     code = cg.dump()
-    internal = _simd.internal_name(code, m.leg.name())
     used: set[str] = set()
-    lines = (
-        None
-        if internal is None
-        else _simd.vector_lines(code, internal, used, frozenset({0, 1}), {}, called=True)
-    )
+    bodies = []
+    for f, vname, shared in ((m.leg, "sp_vlane_legs", 2), (m.idm_leg, "sp_vilane_legs", 3)):
+        internal = _simd.internal_name(code, f.name())
+        lines = (
+            None
+            if internal is None
+            else _simd.vector_lines(
+                code, internal, used, frozenset(range(shared)), {}, called=True
+            )
+        )
+        if lines is None or any("vw" in ln for ln in lines):
+            return ""
+        bodies.append(
+            f"SP_VTARGET static void {vname}(const sp_vec* const* argv0, "
+            "const sp_vec* const* argv1, const double* const* shared, sp_vec* const* resv0, "
+            "sp_vec* const* resv1) {\n"
+            "#ifdef __clang__\n#pragma clang fp contract(fast)\n#endif\n"
+            + "\n".join(_interleaved(lines))
+            + "\n  (void)argv0; (void)argv1; (void)shared; (void)resv0; (void)resv1;\n}\n"
+        )
     closure = avx2_copy(code, m.closure.name(), "sp_lane_closure_avx2", "SP_LANE_CLOSURE")
-    if lines is None or not closure or any("vw" in ln for ln in lines):
-        return ""
-    vec = (
-        "SP_VTARGET static void sp_vlane_legs(const sp_vec* const* argv0, "
-        "const sp_vec* const* argv1, const double* const* shared, sp_vec* const* resv0, "
-        "sp_vec* const* resv1) {\n"
-        "#ifdef __clang__\n#pragma clang fp contract(fast)\n#endif\n"
-        + "\n".join(_interleaved(lines))
-        + "\n  (void)argv0; (void)argv1; (void)shared; (void)resv0; (void)resv1;\n}\n"
+    iclosure = avx2_copy(
+        code, m.idm_closure.name(), "sp_lane_idm_closure_avx2", "SP_LANE_IDM_CLOSURE"
     )
+    if not closure or not iclosure:
+        return ""
+    vec = "\n".join(bodies)
     preamble = _simd.PREAMBLE.replace('target("avx2")', 'target("avx2,fma")')
     n_prm = max(m.prm.shape[1], 1)
     prm = np.zeros((GROUPS, n_prm, WIDTH))
@@ -339,46 +443,56 @@ def lanes_source(m: LaneModels) -> str:
         "c_iw": c.sz_iw(),
         "c_w": c.sz_w(),
         "naux": c.size1_out(1),
+        "ni_out": m.ni_out,
+        "i_arg": m.idm_closure.sz_arg(),
+        "i_res": m.idm_closure.sz_res(),
+        "i_iw": m.idm_closure.sz_iw(),
+        "i_w": m.idm_closure.sz_w(),
+        "inaux": m.idm_closure.size1_out(1),
     }
     return (
         "/* Generated by stewart-pin (see codegen/lanes.py). */\n"
         "#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)\n"
-        f"{code}\n{preamble}\n{_simd.lane_helpers(used)}\n{vec}\n#endif\n{closure}\n{entry}"
+        f"{code}\n{preamble}\n{_simd.lane_helpers(used)}\n{vec}\n#endif\n{closure}\n"
+        f"{iclosure}\n{entry}"
     )
 
 
-_ENTRIES: weakref.WeakKeyDictionary[Any, tuple[int, Any]] = weakref.WeakKeyDictionary()
+_ENTRIES: weakref.WeakKeyDictionary[Any, tuple[int, int, Any]] = weakref.WeakKeyDictionary()
 _ENTRIES_LOCK = threading.Lock()
 
 
-def lanes_entry(models: Any, layout: AuxLayout) -> int:
-    """The address of ``sp_ddm_lanes`` for the robot of ``models`` (a compiled
-    :class:`~.compiled.CompiledDynamics` of a robot with general legs, ``layout`` its
-    direct model's by-products), bound to its library's guard: built (or found) in the
-    cache on first use, once per models object; 0 where the lanes do not apply (legs that
-    differ in more than their placement, a processor without AVX2 and FMA, a library that
-    cannot be built): the caller then calls the robot library's ``sp_ddm_aux``."""
+def lanes_entries(models: Any) -> tuple[int, int]:
+    """The addresses of ``sp_ddm_lanes`` and ``sp_idm_lanes`` for the robot of ``models``
+    (a compiled :class:`~.compiled.CompiledDynamics` of a robot with general legs), bound
+    to its library's guards: built (or found) in the cache on first use, once per models
+    object; ``(0, 0)`` where the lanes do not apply (legs that differ in more than their
+    numbers, a processor without AVX2 and FMA, a library that cannot be built): the
+    caller then calls the robot library's ``sp_ddm_aux`` and ``sp_idm_sim``."""
     with _ENTRIES_LOCK:
         got = _ENTRIES.get(models)
         if got is None:
-            got = _ENTRIES[models] = _entry(models, layout)
-        return got[0]
+            got = _ENTRIES[models] = _entry(models)
+        return got[0], got[1]
 
 
-def _entry(models: Any, layout: AuxLayout) -> tuple[int, Any]:
+def _entry(models: Any) -> tuple[int, int, Any]:
     from stewart_pin.codegen._architecture import codegen_kind
     from stewart_pin.codegen._identity import library_identity
-    from stewart_pin.codegen.compiled import build_source_library, printable_name
+    from stewart_pin.codegen.compiled import build_source_library, model_layout, printable_name
 
     desc = models.robot.description
     lib = getattr(models, "_lib", None)
-    guard = getattr(lib, "sp_ddm_guard_sim", None) if lib is not None else None
-    if guard is None or not codegen_kind(desc).generic_models or desc.has_chain_legs:
-        return 0, None
-    if (layout.jinv, layout.ddm_d, layout.ddm_slack) != (0, 36, 42):
-        return 0, None
+    guards = [getattr(lib, f"sp_{x}_guard_sim", None) for x in ("ddm", "idm")]
+    if guards[0] is None or guards[1] is None:
+        return 0, 0, None
+    if not codegen_kind(desc).generic_models or desc.has_chain_legs:
+        return 0, 0, None
     if _lane_legs(general_robot(desc)) is None:
-        return 0, None
+        return 0, 0, None
+    layout = model_layout(desc)
+    if (layout.jinv, layout.ddm_d, layout.ddm_slack) != (0, 36, 42):
+        return 0, 0, None
 
     def source() -> str:
         m = lane_models(desc)
@@ -391,20 +505,27 @@ def _entry(models: Any, layout: AuxLayout) -> tuple[int, Any]:
             source,
             getattr(models, "cache_dir", None),
             load=lambda path: loaded.append(ctypes.CDLL(str(path))),
-            announce=f"the legs-as-lanes direct model of robot '{printable_name(desc)}'",
+            announce=f"the legs-as-lanes models of robot '{printable_name(desc)}'",
             identity=identity,
         )
     except CompilationError:
-        return 0, None
+        return 0, 0, None
     lanes = loaded[0]
     try:
-        bind, naux = lanes["sp_lanes_bind"], lanes["sp_lanes_naux"]
+        bind, bind_idm = lanes["sp_lanes_bind"], lanes["sp_lanes_bind_idm"]
+        naux, inaux = lanes["sp_lanes_naux"], lanes["sp_lanes_idm_naux"]
     except AttributeError:  # not an x86 GNU compiler: the preprocessor left them out
-        return 0, lanes
-    if naux() != layout.ddm_size:
-        return 0, lanes
-    bind.argtypes, bind.restype = [ctypes.c_void_p], ctypes.c_int
-    if not bind(ctypes.cast(guard, ctypes.c_void_p)):
-        return 0, lanes
-    entry = int(ctypes.cast(lanes["sp_ddm_lanes"], ctypes.c_void_p).value or 0)
-    return entry, lanes
+        return 0, 0, lanes
+    if naux() != layout.ddm_size or inaux() != layout.idm_size:
+        return 0, 0, lanes
+    for f in (bind, bind_idm):
+        f.argtypes, f.restype = [ctypes.c_void_p], ctypes.c_int
+    ok = bind(ctypes.cast(guards[0], ctypes.c_void_p))
+    ok &= bind_idm(ctypes.cast(guards[1], ctypes.c_void_p))
+    if not ok:
+        return 0, 0, lanes
+    ddm, idm = (
+        int(ctypes.cast(lanes[name], ctypes.c_void_p).value or 0)
+        for name in ("sp_ddm_lanes", "sp_idm_lanes")
+    )
+    return ddm, idm, lanes

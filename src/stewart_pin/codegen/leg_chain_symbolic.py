@@ -849,7 +849,9 @@ def _leg_torques(lc: LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Scal
     return [tau[j] + terms[j] for j in range(3)], qdd
 
 
-def _idm_leg(lc: LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat) -> dict[str, Any]:
+def idm_leg_outputs(
+    lc: LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat
+) -> dict[str, Any]:
     kin = leg_kinematics(lc, p, R, v, w)
     A_P = add(vd, [dot(K[i], kin.L) for i in range(3)])
     H, _ = _leg_torques(lc, kin, A_P)
@@ -924,7 +926,7 @@ def ddm_leg_outputs(
 
 # ---------------------------------------------------------------------------- assembly
 def _idm_leg_stage(lc: LegConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
-    return _idm_leg(lc, p, R, t[:3], t[3:], a[:3], K)
+    return idm_leg_outputs(lc, p, R, t[:3], t[3:], a[:3], K)
 
 
 def _ddm_leg_stage(lc: LegConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
@@ -1057,7 +1059,11 @@ def build_general_models(
 
 
 def idm_closure_and_aux(
-    ilegs: Sequence[dict[str, Any]], F_p: list[Scalar], home_rows: np.ndarray, inv_l: float
+    ilegs: Sequence[dict[str, Any]],
+    F_p: list[Scalar],
+    home_rows: np.ndarray,
+    inv_l: float,
+    pivots: Sequence[tuple[int, int]] | None = None,
 ) -> tuple[list[Scalar], list[Scalar], AuxLayout, tuple[tuple[int, int], ...]]:
     """The IDM's closure from the six legs' outputs (``row``, ``wrench``, ``Hz``,
     ``slack``, in leg order) and the platform's wrench ``F_p``, with the static pivots of
@@ -1065,10 +1071,14 @@ def idm_closure_and_aux(
     guard's inputs of :class:`AuxLayout` (``Jp^-1`` row-major, ``F``, ``Hz``, the pivot
     growth, det and squared Frobenius norm of ``Jp^-1`` scaled by ``inv_l`` = 1 / the
     singularity measure's length [1/m], the legs' slacks). Shared by the three-joint and the
-    chain-leg generators (the idle models too)."""
+    chain-leg generators (the idle models too). ``pivots``: given (the legs-as-lanes
+    closure of :mod:`.lanes`, whose rows are inputs: the robot's models' pivots), else
+    chosen from ``home_rows`` and the rows' structural zeros."""
     rows = [lg["row"] for lg in ilegs]
-    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
-    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    if pivots is None:
+        nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+        pivots = pivot_order(home_rows.T, nonzero)
+    pivots = tuple(pivots)
     Hz = [lg["Hz"][0] for lg in ilegs]
     gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
     fro2: Scalar = 0.0

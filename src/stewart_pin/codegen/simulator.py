@@ -46,7 +46,7 @@ from stewart_pin.codegen.compiled import (
     model_layout,
     split_batch,
 )
-from stewart_pin.codegen.lanes import lanes_entry
+from stewart_pin.codegen.lanes import lanes_entries
 from stewart_pin.codegen.leg_chain_symbolic import AuxLayout
 from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
@@ -263,7 +263,7 @@ class _Forces:
             V, A = Vf, Af
         self._set(
             kind=S.KIND_CT,
-            idm=_address(model._lib, "sp_idm_sim"),
+            idm=lanes_entries(model)[1] or _address(model._lib, "sp_idm_sim"),
             idm_chi=int(model.base_values.ctypes.data),
             idm_max_cond=float(c.model.max_condition),
             ref_per_period=int(period is not None),
@@ -333,7 +333,7 @@ class Stepper:
         self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
         self._keep = (models, forces)
         # The legs as vector lanes where they apply (codegen/lanes.py), else the library's.
-        ddm = lanes_entry(models, layout) or _address(models._lib, "sp_ddm_aux")
+        ddm = lanes_entries(models)[0] or _address(models._lib, "sp_ddm_aux")
         self._ddm = _DDM_AUX(ddm)
         sim = _Sim(
             ddm=ddm,
