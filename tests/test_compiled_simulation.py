@@ -6,6 +6,7 @@ model)."""
 
 from __future__ import annotations
 
+import ctypes
 import re
 
 import numpy as np
@@ -13,13 +14,23 @@ import pinocchio as pin
 import pytest
 from conftest import get_robot, use_compile_cache
 
+from stewart_pin._so3 import so3_log
+from stewart_pin.codegen import simulator
 from stewart_pin.codegen.simulator import simulate_batch
 from stewart_pin.exceptions import InputError
 from stewart_pin.motion import simulation
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.motion.simulation import SimulationError, prepare_run, simulate
-from stewart_pin.motion.trajectories import standard_motion
+from stewart_pin.motion.trajectories import (
+    FourierTrajectory,
+    MinimumJerkKnots,
+    Sinusoids,
+    minimum_jerk,
+    standard_motion,
+    states_at,
+    washout,
+)
 
 TOL = 1e-10
 ROBOTS = ("simulator", "rus")
@@ -51,6 +62,18 @@ def _assert_same(a, b) -> None:
         assert np.abs(x - y).max() <= TOL * scale, name
 
 
+def _fourier(robot, rng) -> FourierTrajectory:
+    """A 3-harmonic Fourier motion about home (a few mm and tenths of a degree at 2 Hz)."""
+    scale = np.array([2e-3, 2e-3, 2e-3, 5e-3, 5e-3, 5e-3])[:, None]
+    return FourierTrajectory(
+        robot.home_pose,
+        2.0,
+        np.zeros(6),
+        scale * rng.standard_normal((6, 3)),
+        scale * rng.standard_normal((6, 3)),
+    )
+
+
 def _cases(robot):
     g = _hover(robot)
     rng = np.random.default_rng(3)
@@ -59,12 +82,24 @@ def _cases(robot):
     motion = standard_motion(robot, "sinusoid", 0.1)
     T0, V0, _ = motion(0.0)
     controller = ComputedTorqueController(robot, motion, backend="compiled")
+    jerk = standard_motion(robot, "minimum-jerk", 0.1)
+    fourier = _fourier(robot, rng)
+    # A reference the C loop does not evaluate (a function): sampled before the run.
+    sampled = ComputedTorqueController(robot, lambda t: motion(t), backend="compiled")
     return {
         "constant": {"forces": g * 1.001},
         "table-linear": {"forces": ForceTable(times, values, "linear")},
         "table-hold": {"forces": ForceTable(times, values, "hold"), "control_period": 2e-3},
         "ct": {"forces": controller, "pose": T0, "twist": V0},
         "ct-period": {"forces": controller, "pose": T0, "twist": V0, "control_period": 2e-3},
+        "ct-minimum-jerk": {"forces": ComputedTorqueController(robot, jerk, backend="compiled")},
+        "ct-fourier": {
+            "forces": ComputedTorqueController(robot, fourier, backend="compiled"),
+            "pose": fourier(0.0)[0],
+            "twist": fourier(0.0)[1],
+        },
+        "ct-sampled": {"forces": sampled, "pose": T0, "twist": V0},
+        "ct-sampled-period": {"forces": sampled, "pose": T0, "twist": V0, "control_period": 2e-3},
         "callback": {
             "forces": lambda t, T, V: g * (1.0 + 0.01 * np.sin(30 * t)),
             "control_period": 1e-3,
@@ -88,15 +123,30 @@ def test_the_adaptive_c_loop_follows_the_python_loop():
     """Dormand-Prince 5(4) in C: the same accepted steps as the Python loop. Where the
     error control alone sets the step (no control period pins it), a difference of a few
     ulps in a stage moves the next step by about 1e-9 of it (the error estimate is a
-    difference of two solutions): times within 1e-8 s, states within 1e-9 there."""
+    difference of two solutions): times within 1e-8 s, the rows on the same trajectory to
+    1e-10 (:func:`_assert_same_path`). The computed-torque controller without a control
+    period: its reference evaluated in C at every stage time."""
     robot = get_robot("simulator")
     g = _hover(robot)
     motion = standard_motion(robot, "sinusoid", 0.2)
     T0, V0, _ = motion(0.0)
     controller = ComputedTorqueController(robot, motion, backend="compiled")
+    fourier = _fourier(robot, np.random.default_rng(8))
     cases = {
         "rotating": {"forces": g * 1.001, "twist": [0.02, 0.0, 0.05, 0.1, 0.0, 0.1]},
         "ct-period": {"forces": controller, "pose": T0, "twist": V0, "control_period": 5e-3},
+        # The reference evaluated in C at every stage time: no control period needed.
+        "ct": {"forces": controller, "pose": T0, "twist": V0},
+        "ct-fourier": {
+            "forces": ComputedTorqueController(robot, fourier, backend="compiled"),
+            "pose": fourier(0.0)[0],
+            "twist": fourier(0.0)[1],
+        },
+        "ct-minimum-jerk": {
+            "forces": ComputedTorqueController(
+                robot, standard_motion(robot, "minimum-jerk", 0.2), backend="compiled"
+            )
+        },
         "callback": {
             "forces": lambda t, T, V: g * (1.0 + 0.01 * np.sin(20 * t)),
             "control_period": 0.01,
@@ -109,9 +159,191 @@ def test_the_adaptive_c_loop_follows_the_python_loop():
         assert ran_c, case
         assert got.t.shape == ref.t.shape and got.t.size >= 10, case
         assert np.abs(got.t - ref.t).max() < 1e-8, case
-        for name in ("poses", "twists", "gammas"):
-            x, y = getattr(got, name), getattr(ref, name)
-            assert np.abs(x - y).max() < 1e-9 * max(1.0, float(np.abs(y).max())), (case, name)
+        smooth = "control_period" not in kwargs
+        _assert_same_path(got, ref, smooth)
+        if not smooth:  # the forces held over the periods, row by row
+            y = ref.gammas
+            assert np.abs(got.gammas - y).max() < 1e-9 * max(1.0, float(np.abs(y).max())), case
+
+
+def _assert_same_path(got, ref, smooth: bool) -> None:
+    """The rows of two adaptive runs lie on one trajectory to 1e-10: each row of ``got``
+    equals ``ref``'s row moved by their time difference ``dt`` (under 1e-8 s: to first
+    order, the derivative times ``dt``; the rates of the accelerations and forces from
+    ``np.gradient``, only where they are ``smooth``, without a control period's jumps)."""
+    dt = (got.t - ref.t)[:, None]
+    R = np.einsum("nij,nkj->nik", got.poses[:, :3, :3], ref.poses[:, :3, :3])
+    rows = {
+        "positions": (got.poses[:, :3, 3] - ref.poses[:, :3, 3], ref.twists[:, :3]),
+        "rotations": (so3_log(R), ref.twists[:, 3:]),
+        "twists": (got.twists - ref.twists, ref.accels),
+    }
+    if smooth:
+        for name in ("accels", "gammas"):
+            y = getattr(ref, name)
+            rows[name] = (getattr(got, name) - y, np.gradient(y, ref.t, axis=0))
+    for name, (diff, rate) in rows.items():
+        scale = max(1.0, float(np.abs(getattr(ref, name, ref.twists)).max()))
+        assert np.abs(diff - rate * dt).max() <= TOL * scale, name
+
+
+def _c_reference(motion, times):
+    """``(T, V, A)`` of ``motion`` at ``times`` from the simulator library's ``sp_ref_eval``
+    (the reference the C loop evaluates at its stage times)."""
+    kind, n, data, pose = simulator._reference_data(motion)
+    pose = np.ascontiguousarray(pose, dtype=np.float64)
+    sim = simulator._Sim(
+        ref_kind=kind, ref_pose=pose.ctypes.data, ref_n=n, ref_data=data.ctypes.data
+    )
+    lib = simulator.simulator_library()
+    T, V, A = np.empty((times.size, 4, 4)), np.empty((times.size, 6)), np.empty((times.size, 6))
+    for i, t in enumerate(times):
+        out = (ctypes.c_void_p(x[i].ctypes.data) for x in (T, V, A))
+        lib.sp_ref_eval(ctypes.byref(sim), ctypes.c_double(t), *out)
+    return T, V, A
+
+
+def test_the_c_reference_equals_states_at_to_1e_13():
+    """The reference the C loop evaluates (Fourier series, sinusoids, minimum-jerk knots;
+    rotations below and above the SO(3) series' angle) equals ``states_at`` (the Python
+    evaluation) at random times, at knot times and outside the knots, to 1e-13 relative;
+    a reference of another type is not evaluated in C."""
+    rng = np.random.default_rng(11)
+    T_ref = np.eye(4)
+    T_ref[:3, :3] = pin.exp3(rng.standard_normal(3))
+    T_ref[:3, 3] = rng.standard_normal(3)
+    knots = (
+        ((0.2, 1.0),),
+        (),
+        ((0.0, 0.5), (0.5, -1.0), (1.0, 2.0)),
+        (),
+        ((-0.3, 0.0), (0.4, 0.8), (0.9, 0.8), (2.0, -0.1)),
+        ((0.3, 0.1), (0.9, 0.4)),
+    )
+    motions = {
+        "fourier-wide": FourierTrajectory(
+            T_ref, 0.7, *(0.4 * rng.standard_normal(s) for s in ((6,), (6, 5), (6, 5)))
+        ),
+        "fourier-small": FourierTrajectory(
+            T_ref, 1.3, *(0.01 * rng.standard_normal(s) for s in ((6,), (6, 2), (6, 2)))
+        ),
+        "sinusoids-wide": Sinusoids(
+            T_ref, rng.standard_normal(6), rng.uniform(0.1, 2.0, 6), rng.standard_normal(6)
+        ),
+        "sinusoids-small": Sinusoids(
+            T_ref, 0.01 * rng.standard_normal(6), rng.uniform(0.1, 2, 6), rng.standard_normal(6)
+        ),
+        "minimum-jerk": minimum_jerk(T_ref, rng.standard_normal(6), 1.3, rng.standard_normal(6)),
+        "knots": MinimumJerkKnots(T_ref, knots),
+        "washout": washout(T_ref, 0.1, 0.2),
+    }
+    times = np.sort(np.r_[rng.uniform(-0.5, 4.0, 300), -0.3, 0.0, 0.2, 0.3, 0.4, 0.5, 0.9, 1.0])
+    for name, motion in motions.items():
+        want = states_at(motion, times)
+        got = _c_reference(motion, times)
+        angle = np.linalg.norm(motion.coordinates(times)[0][:, 3:], axis=1).max()
+        assert angle < 0.1 if name.endswith("small") else angle > 0.1, name  # series or not
+        for x, y in zip(got, want, strict=True):
+            assert np.abs(x - y).max() <= 1e-13 * max(1.0, float(np.abs(y).max())), name
+    assert np.abs(states_at(motions["fourier-wide"], times)[1][:, 3:]).max() > 1.0
+    assert simulator._reference_data(lambda t: motions["knots"](t)) is None
+
+
+#: output_dt values: multiples of dt = 1e-3 and not, one below dt, one past the run's end.
+OUTPUT_DTS = (1e-2, 2.5e-3, 7.3e-3, 3e-4, 0.25)
+
+
+def _output_grid(duration: float, output_dt: float) -> np.ndarray:
+    """The documented sample times: ``k * output_dt`` up to the end, and ``duration``."""
+    k = np.arange(int(np.floor(duration / output_dt - 1e-9)) + 1)
+    t = k * output_dt
+    return t if duration - t[-1] < 1e-12 else np.r_[t, duration]
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_output_dt_on_the_c_loop_equals_the_python_loop(name, monkeypatch):
+    """``output_dt`` in C (rk4): the steps cut at the output times and the rows kept as
+    the Python loop cuts and keeps them, for every kind of forces; the samples at
+    ``k * output_dt`` exactly. Again with buffers of 16 rows (the steps per call bounded
+    alike): most calls keep no row, the state and the output index go on across them."""
+    from stewart_pin.codegen import simulator
+
+    robot = get_robot(name)
+    outs = OUTPUT_DTS if name == "simulator" else (1e-2, 7.3e-3)
+    for case, kwargs in _cases(robot).items():
+        for out in outs:
+            ref, _ = _run(robot, 0.1, "python", dt=1e-3, output_dt=out, **kwargs)
+            np.testing.assert_array_equal(ref.t, _output_grid(0.1, out))
+            for chunk in (simulator.CHUNK_ROWS, 16):
+                monkeypatch.setattr(simulator, "CHUNK_ROWS", chunk)
+                run = prepare_run(
+                    robot,
+                    0.1,
+                    backend="compiled",
+                    integrator="compiled",
+                    dt=1e-3,
+                    output_dt=out,
+                    **kwargs,
+                )
+                got = run.go()
+                in_python = [r.t for r in run.rows if isinstance(r, simulation._State)]
+                if case in ("constant", "table-linear", "table-hold"):
+                    assert not in_python, (case, out, chunk)  # every step in C
+                else:  # the callback's first forces; the continuous controller's cut steps
+                    assert len(in_python) < got.t.size, (case, out, chunk)
+                _assert_same(got, ref)
+
+
+def test_output_dt_on_the_adaptive_c_loop_equals_the_python_loop():
+    """``output_dt`` in C (adaptive): the trial steps cut at the output times (the next
+    trial step grows from the cut one, as in the Python loop); the same rows at
+    ``k * output_dt``, equal to 1e-10 (cases whose steps the error control does not set
+    on a kink of the forces)."""
+    robot = get_robot("simulator")
+    g = _hover(robot)
+    cases = _cases(robot)
+    cases = {
+        "rotating": {"forces": g * 1.001, "twist": [0.02, 0.0, 0.05, 0.1, 0.0, 0.1]},
+        "table-hold": cases["table-hold"],
+        "ct-period": cases["ct-period"],
+        "callback": cases["callback"],
+    }
+    for case, kwargs in cases.items():
+        for out in OUTPUT_DTS:
+            opts = {"method": "adaptive", "rtol": 1e-8, "atol": 1e-10, "output_dt": out}
+            ref, _ = _run(robot, 0.1, "python", **opts, **kwargs)
+            got, ran_c = _run(robot, 0.1, "compiled", **opts, **kwargs)
+            assert ran_c, (case, out)
+            np.testing.assert_array_equal(ref.t, _output_grid(0.1, out))
+            _assert_same(got, ref)
+
+
+@pytest.mark.parametrize("method", ["rk4", "adaptive"])
+def test_output_dt_with_a_stroke_end_near_the_end(method):
+    """A stroke end 4 ms before the run's end, between two output times: both loops stop
+    alike (message, time, cause) with the same partial result (the output rows, then the
+    last accepted state)."""
+    robot = get_robot("simulator")
+    opts = {"dt": 2e-3, "method": method, "rtol": 1e-8, "atol": 1e-10}
+    with pytest.raises(SimulationError) as free:
+        simulate(robot, 3.0, backend="compiled", integrator="python", **opts)
+    end = free.value.time + 4e-3
+    errors = []
+    for integrator in ("python", "compiled"):
+        run = prepare_run(
+            robot, end, backend="compiled", integrator=integrator, output_dt=7e-3, **opts
+        )
+        with pytest.raises(SimulationError) as e:
+            run.go()
+        errors.append(e.value)
+        ran_c = any(isinstance(r, simulation._Block) for r in run.rows)
+        assert ran_c == (integrator == "compiled")
+    a, b = errors
+    assert str(a) == str(b) and a.time == b.time
+    assert type(a.__cause__) is type(b.__cause__)
+    _assert_same(a.result, b.result)
+    assert b.result.t[-1] == b.time and b.result.t.size > 10
+    np.testing.assert_array_equal(b.result.t[:-1], np.arange(b.result.t.size - 1) * 7e-3)
 
 
 def test_the_computed_torque_controller_tracks_its_reference_in_c():
@@ -216,6 +448,28 @@ def test_batch_runs_equal_single_runs():
         _assert_same(res, ref)
 
 
+def test_batch_runs_under_computed_torque_at_every_stage_equal_python_runs():
+    """The controller at every stage in a batch on two threads (each thread keeps its last
+    reference evaluation; two controllers on different references, runs interleaved
+    across the threads): each run equals the Python loop's."""
+    robot = get_robot("simulator")
+    motion = standard_motion(robot, "sinusoid", 0.05)
+    fourier = _fourier(robot, np.random.default_rng(4))
+    T0, V0, _ = motion(0.0)
+    controllers = [
+        ComputedTorqueController(robot, m, backend="compiled")
+        for m in (motion, fourier, motion, fourier)
+    ]
+    twists = V0 + 1e-3 * np.random.default_rng(6).standard_normal((4, 6))
+    opts = {"dt": 1e-3, "backend": "compiled"}
+    for c in controllers[:2]:  # the C loop takes these runs (else: InputError)
+        prepare_run(robot, 0.05, T0, V0, c, integrator="compiled", **opts)
+    got = simulate_batch(robot, 0.05, [T0] * 4, twists, controllers, threads=2, **opts)
+    for k, res in enumerate(got):
+        ref = simulate(robot, 0.05, T0, twists[k], controllers[k], integrator="python", **opts)
+        _assert_same(res, ref)
+
+
 def test_force_table_values():
     """Held and interpolated values against NumPy's own interpolation."""
     times = np.array([0.0, 0.5, 2.0])
@@ -248,8 +502,14 @@ def test_integrator_choice_is_checked():
     robot = get_robot("simulator")
     with pytest.raises(InputError, match="unknown integrator"):
         simulate(robot, 0.01, integrator="c")
-    with pytest.raises(InputError, match=r"integrator='compiled'.*output_dt"):
-        simulate(robot, 0.01, output_dt=1e-3, backend="compiled", integrator="compiled")
+    with pytest.raises(InputError, match=r"integrator='compiled'.*dynamics"):
+        simulate(
+            robot,
+            0.01,
+            dynamics=lambda t, T, V, g: np.zeros(6),
+            backend="compiled",
+            integrator="compiled",
+        )
     with pytest.raises(InputError, match=r"integrator='compiled'.*not compiled"):
         simulate(robot, 0.01, backend="pinocchio", integrator="compiled")
     with pytest.raises(InputError, match=r"integrator='compiled'.*control_period"):
@@ -259,6 +519,14 @@ def test_integrator_choice_is_checked():
             forces=lambda t, T, V: np.zeros(6),
             backend="compiled",
             integrator="compiled",
+        )
+    # The adaptive method with a controller whose reference C does not evaluate: its stage
+    # times are not known before the run.
+    motion = standard_motion(robot, "sinusoid", 0.01)
+    ctl = ComputedTorqueController(robot, lambda t: motion(t), backend="compiled")
+    with pytest.raises(InputError, match=r"integrator='compiled'.*control_period.*function"):
+        simulate(
+            robot, 0.01, forces=ctl, method="adaptive", backend="compiled", integrator="compiled"
         )
 
 

@@ -32,6 +32,7 @@ from stewart_pin.motion.payload import (
     payload_path,
     simulate_payload,
 )
+from stewart_pin.motion.simulation import SimulationError
 
 pytestmark = needs_example_robot_data()
 
@@ -129,6 +130,114 @@ def test_compensating_the_arm_keeps_its_base_still():
     ignorant = run(JointMotion.still(robot.payload, joints.q0))
     assert compensated < 1e-5  # m: the zero-order hold of a 2 ms controller (3.2 um seen)
     assert ignorant > 50 * compensated  # 0.26 mm seen (80 times; from the Panda's ready pose)
+
+
+@pytest.mark.parametrize(("preset", "arm"), [("simulator", "ur5"), ("rus", "so101")])
+def test_the_c_loop_runs_the_payload_as_the_python_loop(
+    preset, arm, monkeypatch, shared_compile_cache
+):
+    """The payload's compiled prescribed direct model in the compiled simulator (rk4, the
+    joints sampled at every stage time): the trajectories equal the Python loop's (same
+    model, one call per stage) to 1e-10, with the payload's computed torque per control
+    period (a Python function), a force table, and ``output_dt`` off the grid; the
+    adaptive method stays on the Python loop and ``integrator="compiled"`` says why."""
+    from stewart_pin.codegen import compiled as compiled_module
+    from stewart_pin.motion import simulation
+    from stewart_pin.motion.force_tables import ForceTable
+
+    monkeypatch.setenv("STEWART_PIN_BACKEND", "auto")  # the payload's compiled models
+    monkeypatch.setenv(compiled_module.CACHE_ENV, str(shared_compile_cache))
+    robot = StewartRobot.from_preset(preset).with_payload(arm)  # no backend chosen yet
+    joints = JointMotion.sweep(robot.payload, 0.3, 0.4)
+    T0 = robot.home_pose
+    hold = PayloadComputedTorque(robot, lambda t: (T0, np.zeros(6), np.zeros(6)), joints=joints)
+    g = robot.inverse_dynamics(T0, np.zeros(6), np.zeros(6), *joints(0.0)).gamma
+    table = ForceTable([0.0, 0.03, 0.06], [g, 1.01 * g, 0.99 * g], "linear")
+    cases = {
+        "hold": {"forces": hold, "control_period": 2e-3},
+        "table": {"forces": table},
+        "table, output_dt": {"forces": table, "output_dt": 7e-3},
+    }
+    for case, kwargs in cases.items():
+        got = {}
+        for integrator in ("python", "compiled"):
+            got[integrator] = simulate_payload(
+                robot, 0.06, joints, dt=2e-3, integrator=integrator, **kwargs
+            )
+        a, b = got["python"], got["compiled"]
+        np.testing.assert_array_equal(a.result.t, b.result.t)
+        for name in ("poses", "twists", "accels", "gammas", "lengths"):
+            x, y = getattr(a.result, name), getattr(b.result, name)
+            assert np.abs(x - y).max() <= 1e-10 * max(1.0, float(np.abs(x).max())), (case, name)
+        np.testing.assert_allclose(b.tau, a.tau, rtol=0, atol=1e-10 * np.abs(a.tau).max())
+        # what the C loop integrates is the whole constrained tree's motion (independent)
+        r, k = b.result, np.arange(0, len(b.result.t), 5)
+        accel, _ = check.reference_prescribed_dynamics(
+            check.PayloadTreeSolver(robot.robot, robot.payload),
+            *(r.poses[k], r.twists[k], r.gammas[k], b.q[k], b.qd[k], b.qdd[k]),
+        )
+        assert np.abs(r.accels[k] - accel).max() < 1e-9 * np.abs(accel).max(), case
+    # the C loop took the steps (rows it wrote), not the Python loop
+    run = simulation.prepare_run(
+        robot.robot,
+        0.06,
+        dt=2e-3,
+        forces=table,
+        dynamics=simulation_dynamics(robot, joints),
+        integrator="compiled",
+    )
+    run.go()
+    assert not any(isinstance(r, simulation._State) for r in run.rows)
+    with pytest.raises(InputError, match="payload on the adaptive method"):
+        simulate_payload(robot, 0.01, joints, method="adaptive", integrator="compiled")
+    # unpowered, the platform falls to a stroke end (joint limit): both loops stop alike
+    errors = []
+    for integrator in ("python", "compiled"):
+        with pytest.raises(SimulationError) as e:
+            simulate_payload(robot, 3.0, joints, dt=2e-3, output_dt=6e-3, integrator=integrator)
+        errors.append(e.value)
+    a, b = errors
+    assert str(a) == str(b) and a.time == b.time and a.result.t.size > 5
+    np.testing.assert_array_equal(a.result.t, b.result.t)
+    for name in ("poses", "twists", "accels", "gammas"):
+        x, y = getattr(a.result, name), getattr(b.result, name)
+        assert np.abs(x - y).max() <= 1e-10 * max(1.0, float(np.abs(x).max())), name
+
+
+@pytest.mark.parametrize("arm", ("panda", "kinova"))
+def test_the_joints_sampled_at_once_equal_one_call_per_time(arm):
+    """The compiled simulator samples the joints at every stage time in array operations
+    (the displacement broadcast over the times, ``q0`` integrated joint by joint, the
+    Kinova's unbounded revolute joints as ``(cos, sin)``): equal to ``joints(t)``
+    (Pinocchio's ``integrate``) to round-off; a displacement that does not broadcast
+    (minimum jerk) or ignores the times (still) is sampled one call per time."""
+    from stewart_pin.motion.payload import _joints_at_once, _PrescribedJoints
+
+    robot = carrier("simulator", arm)
+    p = robot.payload
+    times = np.linspace(0.0, 2.0, 801)
+    goal = p.random_configurations(1, 5)[0]
+    motions = {
+        "sweep": JointMotion.sweep(p, 0.6, 0.7),
+        "sinusoid": JointMotion.sinusoid(p, 0.3, 0.5),
+        "point_to_point": JointMotion.point_to_point(p, p.home_configuration(), goal, 1.0),
+        "still": JointMotion.still(p),
+    }
+    for name, motion in motions.items():
+        ref = np.hstack(motion.sample(times))
+        once = _joints_at_once(motion, times)
+        assert (once is None) == (name in ("point_to_point", "still")), name
+        if once is not None:
+            np.testing.assert_allclose(once, ref, rtol=0, atol=1e-15 * np.abs(ref).max())
+        got = _PrescribedJoints(robot, motion).joints_at(times)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-15 * np.abs(ref).max())
+
+
+def simulation_dynamics(robot, joints):
+    """``simulate_payload``'s direct model, for a run prepared here."""
+    from stewart_pin.motion.payload import _PrescribedJoints
+
+    return _PrescribedJoints(robot, joints)
 
 
 def test_payload_simulation_saves_the_joints_beside_the_result(tmp_path):

@@ -6,11 +6,13 @@ assembly included), all measured in this one run:
 
 - ``C RK4, forces as data``: the compiled loop (:mod:`stewart_pin.codegen.simulator`) with
   a :class:`~stewart_pin.motion.force_tables.ForceTable` (linear, 11 rows);
+- ``C RK4, forces as data, output_dt = 10 dt``: the same run keeping every tenth state
+  (``output_dt = 10 * dt``: the C loop cuts and selects the rows as the Python loop);
 - ``C RK4, computed torque per step``: the
   :class:`~stewart_pin.motion.control.ComputedTorqueController` on the ``sinusoid`` motion
-  at ``control_period = dt`` (a digital controller: one inverse model per step), law and
-  reference table in C; ``per stage``: without a control period (the law at each of the
-  four RK4 evaluations);
+  at ``control_period = dt`` (a digital controller: one inverse model per step), the law
+  and the reference evaluated in C; ``per stage``: without a control period (the law at
+  each of the four RK4 evaluations, the reference at each of the two stage times);
 - ``C RK4, Python force function per step``: ``forces=f, control_period=dt`` (the C loop
   runs one period per call, Python gives the next forces);
 - ``C RK4 batch of 16 runs``: :func:`~stewart_pin.codegen.simulator.simulate_batch` of 16
@@ -130,6 +132,9 @@ def simulation_rows(
 
     runs: dict[str, Callable[[], Any]] = {
         "C RK4, forces as data": sim("compiled", forces=table),
+        "C RK4, forces as data, output_dt = 10 dt": sim(
+            "compiled", forces=table, output_dt=10 * dt
+        ),
         "C RK4, computed torque per step": sim(
             "compiled", forces=controller, pose=T0, twist=V0, control_period=dt
         ),

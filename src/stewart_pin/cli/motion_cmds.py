@@ -227,6 +227,7 @@ def _simulate_payload(args: argparse.Namespace, carrier: Any, out: Path) -> int:
                 dt=args.dt,
                 control_period=args.control_period if forces is not None else None,
                 progress=bar.to,
+                integrator=args.integrator,
             )
     except SimulationError as e:
         raise _save_partial(e, out) from e

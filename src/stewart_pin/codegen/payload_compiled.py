@@ -17,7 +17,9 @@ the guard flags (any bit but ``REPIVOTED``: the static-pivot LU redone with part
 pivoting in C) is computed again by the reference path (``PayloadRobot``'s methods with
 ``backend="pinocchio"``), whose result replaces the compiled one; if the reference
 refuses one, it runs on the whole call to raise its own error (same type, message and
-state index). So the results and errors are the reference path's.
+state index). So the results and errors are the reference path's. ``sp_ppdm_sim`` is the
+compiled simulator's entry (:mod:`.simulator`): one prescribed direct-dynamics state with
+its by-products and the sign-giving determinant, as the hexapod's ``sp_ddm_aux``.
 """
 
 from __future__ import annotations
@@ -229,6 +231,39 @@ SP_BATCH(sp_ppdm_batch, %(pddm)s, SP_VEC_PDM, sp_ppdm_vec, sp_ppdm_after, %(pddm
 SP_ONE(sp_pidm_one, sp_pidm_batch)
 SP_ONE(sp_pddm_one, sp_pddm_batch)
 SP_ONE(sp_ppdm_one, sp_ppdm_batch)
+
+/* The compiled simulator's entry (codegen/_simsource.py, the signature of the hexapod's
+   sp_ddm_aux): one prescribed direct-dynamics state, the payload's joints
+   x = [q, qd, qdd]; the platform's acceleration (6) to accel, the by-products to aux
+   (SP_PPDM_NAUX values, Jp^-1 at SP_PPDM_JINV), *det the determinant of S the cheap
+   condition check computed (0.0 where it did not decide). The scalar path of
+   sp_ppdm_batch (the single-state calls' arithmetic). Returns the state's flag. */
+#define SP_PPDM_NAUX %(pddm_naux)d
+#define SP_PPDM_JINV %(jinv)d
+SP_EXPORT int sp_ppdm_sim(const double* pose, const double* twist, const double* gam,
+                          const double* x, double max_cond, double* accel, double* aux,
+                          double* det) {
+  const casadi_real* arg[%(pddm_sz_arg)d + 1];
+  casadi_real* res[%(pddm_sz_res)d + 1];
+  casadi_int iw[%(pddm_sz_iw)d + 1];
+  casadi_real w[%(pddm_sz_w)d + 1];
+  double o[SP_NOUT];
+  int f, k;
+  arg[0] = pose; arg[1] = twist; arg[2] = gam;
+  arg[3] = x; arg[4] = x + SP_NQ; arg[5] = x + SP_NQ + SP_NV;
+  res[0] = o; res[1] = aux;
+  %(pddm)s(arg, res, iw, w, 0);
+  f = sp_ppdm_after(arg, o, aux, max_cond);
+  if (!sp_static_cond_det(aux + SP_PPDM_JINV, max_cond, det)) *det = 0.0;
+  for (k = 0; k < 6; ++k) accel[k] = o[k];
+  return f;
+}
+
+/* sp_ppdm_sim's layout: out[0] the by-products' count, out[1] the offset of Jp^-1. */
+SP_EXPORT void sp_ppdm_sim_layout(long long* out) {
+  out[0] = SP_PPDM_NAUX;
+  out[1] = SP_PPDM_JINV;
+}
 """
 )
 
@@ -388,6 +423,15 @@ class CompiledPayloadDynamics:
             one = lib[f"sp_{which}_one"]  # called without argtypes: the fastest call
             one.restype = ctypes.c_int
             self._one[which] = one
+        layout = (ctypes.c_longlong * 2)()
+        lib.sp_ppdm_sim_layout(layout)
+        #: The compiled simulator's entry ``sp_ppdm_sim`` (address), its by-products'
+        #: count and the offset of ``Jp^-1`` among them.
+        self.sim_entry = (
+            int(ctypes.cast(lib.sp_ppdm_sim, ctypes.c_void_p).value or 0),
+            int(layout[0]),
+            int(layout[1]),
+        )
         self._lock = threading.Lock()
         self._out = np.zeros(6 + self.nv)
         self._out_ptr = ctypes.c_void_p(self._out.ctypes.data)

@@ -4,18 +4,30 @@ direct model (:mod:`._simsource`).
 
 :func:`compiled_stepper` gives :func:`~stewart_pin.motion.simulation.simulate` a
 :class:`Stepper` when the robot's direct model is compiled and the run's options are ones
-the C loop reproduces (else the reason it cannot): no ``output_dt``, no ``dynamics``, a
-robot without the 6-UPS U-joint limits (the reference inverse geometry checks them), and
-forces that are
+the C loop reproduces (else the reason it cannot): no ``dynamics`` but
+:func:`~stewart_pin.motion.payload.simulate_payload`'s on rk4 (the payload library's
+``sp_ppdm_sim``, the joints sampled at every stage time before the run), a robot without the
+6-UPS U-joint limits (the reference inverse geometry checks them), and forces that are
 
 - ``None`` (zero), a :class:`~stewart_pin.motion.force_tables.ForceTable` (constant, held
   or interpolated table), computed in C;
 - a :class:`~stewart_pin.motion.control.ComputedTorqueController` whose model's inverse
-  model is compiled too: its reference sampled once, before the run, at the times the
-  Python loop asks for it (rk4: every stage time, or every control period's start; the
-  adaptive method: every period's start, so it needs a ``control_period``), the law in C;
+  model is compiled too, the law in C. Its reference, a
+  :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
+  :class:`~stewart_pin.motion.trajectories.Sinusoids` or
+  :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`, is evaluated in C at every
+  time the loop asks (``sp_ref_eval``: the formulas of
+  :func:`~stewart_pin.motion.trajectories.states_at`, equal to round-off), with or without
+  a ``control_period`` on either method; any other reference is sampled once, before the
+  run, at the times the Python loop asks for it (rk4: every stage time, or every control
+  period's start; the adaptive method: every period's start, so it needs a
+  ``control_period``);
 - any other function with a ``control_period``: called from Python once per period (the C
   loop stops at the period's end state and goes on with the forces it returns).
+
+With ``output_dt`` the C loop cuts the steps at the output times and writes only the rows
+the Python loop keeps (``_Run.record``'s rule; the output index travels with the state
+block); a call takes at most as many steps as its buffers hold rows.
 
 The trajectories are those of the Python loop (same arithmetic, see :mod:`._simsource`);
 any step the C loop does not take (an event, a state the guard flags) the Python loop
@@ -30,6 +42,7 @@ function pointers): it is compiled once per machine into the cache of
 from __future__ import annotations
 
 import ctypes
+import itertools
 import threading
 import weakref
 from collections.abc import Sequence
@@ -52,7 +65,13 @@ from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
 from stewart_pin.motion.force_tables import ForceTable
 from stewart_pin.motion.simulation import SimulationResult, grid_times, prepare_run
-from stewart_pin.motion.trajectories import CoordinateMotion, FourierTrajectory, states_at
+from stewart_pin.motion.trajectories import (
+    CoordinateMotion,
+    FourierTrajectory,
+    MinimumJerkKnots,
+    Sinusoids,
+    states_at,
+)
 from stewart_pin.protocols import RobotLike
 
 #: The simulator's compiler flags: the models' without ``-freciprocal-math`` (the divisions
@@ -65,6 +84,9 @@ CHUNK_ROWS = 4096
 _LIB: list[Any] = []
 _LIB_LOCK = threading.Lock()
 _P = ctypes.c_void_p
+#: Ids of the references evaluated in C, unique in the process (``sp_sim.ref_id``: the key
+#: of a thread's last evaluation in the C loop).
+_REF_IDS = itertools.count(1)
 
 
 class _Sim(ctypes.Structure):
@@ -109,6 +131,16 @@ class _Sim(ctypes.Structure):
         ("atol", ctypes.c_double),
         ("h_min", ctypes.c_double),
         ("act", _P),
+        ("ref_kind", ctypes.c_longlong),
+        ("ref_pose", _P),
+        ("ref_n", ctypes.c_longlong),
+        ("ref_data", _P),
+        ("ref_id", ctypes.c_longlong),
+        ("output_dt", ctypes.c_double),
+        ("n_pay", ctypes.c_longlong),
+        ("pay_t", _P),
+        ("pay_x", _P),
+        ("pay_nx", ctypes.c_longlong),
     ]
 
 
@@ -200,11 +232,16 @@ class _Forces:
                     tab_t=self._arr(forces.times),
                     tab_g=self._arr(forces.values),
                 )
-        elif isinstance(forces, ComputedTorqueController):
-            if adaptive and period is None:
+        elif (  # not a subclass's own law (the payload's computed torque): a function
+            isinstance(forces, ComputedTorqueController)
+            and type(forces).__call__ is ComputedTorqueController.__call__
+        ):
+            if adaptive and period is None and _reference_data(forces.reference) is None:
                 self.reason = (
                     "the computed-torque controller without control_period on the adaptive "
-                    "method (its stage times are not known before the run)"
+                    f"method with a reference of type {type(forces.reference).__name__} (its "
+                    "stage times are not known before the run; the C loop evaluates a "
+                    "FourierTrajectory, Sinusoids or MinimumJerkKnots itself)"
                 )
             else:
                 self._controller(forces, period, dt, duration, n_grid, adaptive)
@@ -238,6 +275,26 @@ class _Forces:
             self.reason = f"the controller's model: {model.replace('direct', 'inverse')}"
             return
         self.keep.append(model)
+        self._set(
+            kind=S.KIND_CT,
+            # the legs as vector lanes where they apply (codegen/lanes.py)
+            idm=lanes_entries(model)[1] or _address(model._lib, "sp_idm_sim"),
+            idm_chi=int(model.base_values.ctypes.data),
+            idm_max_cond=float(c.model.max_condition),
+            kp=self._arr(c.kp),
+            kd=self._arr(c.kd),
+        )
+        data = _reference_data(c.reference)
+        if data is not None:  # evaluated in C at every time the loop asks
+            ref_kind, ref_n, values, pose = data
+            self._set(
+                ref_kind=ref_kind,
+                ref_pose=self._arr(pose),
+                ref_n=ref_n,
+                ref_data=self._arr(values),
+                ref_id=next(_REF_IDS),
+            )
+            return
         grid = grid_times(dt, duration, n_grid)
         if adaptive:  # the periods' starts (k + 1) * period, where the steps end
             assert period is not None
@@ -262,19 +319,42 @@ class _Forces:
             Vf[k[first]], Af[k[first]] = V, A
             V, A = Vf, Af
         self._set(
-            kind=S.KIND_CT,
-            idm=lanes_entries(model)[1] or _address(model._lib, "sp_idm_sim"),
-            idm_chi=int(model.base_values.ctypes.data),
-            idm_max_cond=float(c.model.max_condition),
+            ref_kind=S.REF_TABLE,
             ref_per_period=int(period is not None),
             n_ref=rows.size,
             ref_t=self._arr(rows),
             ref_T=self._arr(T),
             ref_V=self._arr(V),
             ref_A=self._arr(A),
-            kp=self._arr(c.kp),
-            kd=self._arr(c.kd),
         )
+
+
+def _reference_data(reference: Any) -> tuple[int, int, np.ndarray, np.ndarray] | None:
+    """``(ref_kind, ref_n, ref_data, ref_pose)`` of a reference the C loop evaluates itself (the
+    exact types :class:`~stewart_pin.motion.trajectories.FourierTrajectory`,
+    :class:`~stewart_pin.motion.trajectories.Sinusoids` and
+    :class:`~stewart_pin.motion.trajectories.MinimumJerkKnots`: their coordinates, the
+    products their ``coordinates`` computes first, as ``sp_ref_coordinates`` of
+    :mod:`._simsource` reads them), else None (sampled before the run)."""
+    kind = type(reference)
+    if kind is FourierTrajectory:
+        n = reference.n_harmonics
+        w = 2.0 * np.pi * reference.base_frequency * np.arange(1, n + 1)  # as coordinates()
+        parts = [w, reference.offsets, reference.sine.ravel(), reference.cosine.ravel()]
+        return S.REF_FOURIER, n, np.concatenate(parts), reference.reference
+    if kind is Sinusoids:
+        om = 2 * np.pi * reference.frequencies  # as coordinates()
+        phases = reference.phases
+        parts = [om, phases, reference.amplitudes, np.sin(phases)]
+        return S.REF_SINUSOIDS, 6, np.concatenate(parts).astype(np.float64), reference.reference
+    if kind is MinimumJerkKnots:
+        counts = [len(axis) for axis in reference.knots]
+        parts = [np.array(counts, dtype=np.float64)]
+        for axis in reference.knots:
+            parts.append(np.array([float(t) for t, _ in axis], dtype=np.float64))
+            parts.append(np.array([float(v) for _, v in axis], dtype=np.float64))
+        return S.REF_MINIMUM_JERK, sum(counts), np.concatenate(parts), reference.reference
+    return None
 
 
 #: The ``sample`` methods :func:`~stewart_pin.motion.trajectories.states_at` computes.
@@ -310,7 +390,10 @@ class Stepper:
         duration: float,
         period: float | None,
         n_grid: int,
-        adaptive: tuple[float, float, float] | None = None,
+        adaptive: tuple[float, float] | None = None,
+        output_dt: float | None = None,
+        h_min: float = 0.0,
+        payload: _Payload | None = None,
     ) -> None:
         self.lib = simulator_library()
         self.external = forces.fields.get("kind") == S.KIND_EXTERNAL
@@ -324,23 +407,30 @@ class Stepper:
         q3sq = kind.leg_length_squares
         self._act = kind.compiled_actuators
         act = _address(models._lib, "sp_act_batch") if self._act and q3sq is None else 0
+        if payload is not None:  # the actuator positions computed with the result
+            q3sq, act, self._act = None, 0, False
         self._ups = q3sq is not None or act != 0  # the rows carry the actuator positions
         self._models = models
+        self._payload = payload
         self.st = np.zeros(S.ST_SIZE)
         # Views of the state block taken once (a Python forces function's hot path).
         self._held_g = self.st[S.ST_HELD_G : S.ST_HELD_G + 6]
         self._pend_T = self.st[S.ST_PEND_POSE : S.ST_PEND_POSE + 16].reshape(4, 4)
         self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
         self._keep = (models, forces)
-        # The legs as vector lanes where they apply (codegen/lanes.py), else the library's.
-        ddm = lanes_entries(models)[0] or _address(models._lib, "sp_ddm_aux")
-        self._ddm = _DDM_AUX(ddm)
+        model: dict[str, Any] = {
+            # the legs as vector lanes where they apply (codegen/lanes.py), else the library's
+            "ddm": (payload is None and lanes_entries(models)[0])
+            or _address(models._lib, "sp_ddm_aux"),
+            "chi": int(models.base_values.ctypes.data),
+            "naux": layout.ddm_size,
+            "jinv": layout.jinv,
+        }
+        if payload is not None:  # the payload's direct model, its joints as inputs
+            model.update(payload.fields)
+        self._ddm = _DDM_AUX(model["ddm"])
         sim = _Sim(
-            ddm=ddm,
-            chi=int(models.base_values.ctypes.data),
             max_cond=float(robot.max_condition),
-            naux=layout.ddm_size,
-            jinv=layout.jinv,
             dt=dt,
             duration=duration,
             period=0.0 if period is None else period,
@@ -349,9 +439,11 @@ class Stepper:
             adaptive=int(adaptive is not None),
             rtol=adaptive[0] if adaptive else 0.0,
             atol=adaptive[1] if adaptive else 0.0,
-            h_min=adaptive[2] if adaptive else 0.0,
+            h_min=h_min,
             act=act or None,
+            output_dt=0.0 if output_dt is None else output_dt,
             **forces.fields,
+            **model,
         )
         self.sim = sim
         self._buffers()
@@ -389,9 +481,11 @@ class Stepper:
         held: tuple[int, np.ndarray] | None,
         n: int,
         h: float = 0.0,
+        n_output: int = 0,
     ) -> None:
         """Start from an accepted state at grid index ``n`` (``held``: the forces held
-        over the current control period; ``h``: the adaptive method's next trial step)."""
+        over the current control period; ``h``: the adaptive method's next trial step;
+        ``n_output``: with ``output_dt``, the index of the next output time)."""
         st = self.st
         written = st[S.ST_ROW]  # rows not handed out yet (the initial state's) stay
         st[:] = 0.0
@@ -405,6 +499,7 @@ class Stepper:
         self.hold(held)
         st[S.ST_N] = n
         st[S.ST_H] = h
+        st[S.ST_OUT_K] = n_output
 
     def start(self, T: np.ndarray, V: np.ndarray) -> bool:
         """Evaluate the initial state ``(0, T, V)`` in C as the Python loop's first state
@@ -450,6 +545,17 @@ class Stepper:
         status: int = self._run(*self._args, self._n_stop[1])
         return status
 
+    def steps(self) -> int:
+        """The steps accepted since the last call (with ``output_dt`` more than the rows
+        written: only the states at the output times are)."""
+        taken = int(self.st[S.ST_STEPS])
+        self.st[S.ST_STEPS] = 0.0
+        return taken
+
+    def output_index(self) -> int:
+        """With ``output_dt``: the index of the next output time (``_Run.n_output``)."""
+        return int(self.st[S.ST_OUT_K])
+
     @property
     def n(self) -> int:
         """The grid index of the state in the block (rk4)."""
@@ -458,14 +564,16 @@ class Stepper:
     def rows(self) -> tuple[np.ndarray | None, ...]:
         """The rows written since the last call (times, poses, twists, accelerations,
         forces, and the 6-UPS leg lengths or None): views of the buffers, which are handed
-        over (the next run writes into new ones)."""
+        over (the next run writes into new ones), or copies of a few rows (a quarter of the
+        buffers or less: ``output_dt``'s sparse rows keep no whole buffer alive)."""
         m = int(self.st[S.ST_ROW])
         self.st[S.ST_ROW] = 0.0
         if m == 0:
             return (np.zeros(0),) * 5 + (None,)
-        self._handed = True
-        out = tuple(a[:m] for a in (self.t, self.P, self.V, self.A, self.G))
-        return (*out, None if self.L is None else self.L[:m])
+        few = 4 * m <= self.capacity
+        self._handed = self._handed or not few
+        arrays = (self.t, self.P, self.V, self.A, self.G, self.L)
+        return tuple(None if a is None else a[:m].copy() if few else a[:m] for a in arrays)
 
     def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The last accepted state: ``(t, T, V, dy, gamma)`` (copies)."""
@@ -486,7 +594,7 @@ class Stepper:
         """The sign of det Jp^-1 at pose ``T`` from the compiled direct model (the
         determinant of its cheap condition check, as the C loop takes its stages' signs),
         or None where that check does not decide it (the caller computes it)."""
-        if self.sim.max_cond > S.STATIC_SIGN_COND:
+        if self.sim.max_cond > S.STATIC_SIGN_COND or self._payload is not None:
             return None
         aux = np.empty(self.sim.naux)
         out, det = np.empty(6), ctypes.c_double(0.0)
@@ -546,10 +654,11 @@ def compiled_stepper(
 ) -> Stepper | str:
     """A :class:`Stepper` for this run of :func:`simulate`, or the reason the compiled
     loop cannot run it (module docstring)."""
-    if output_dt is not None:
-        return "output_dt (its steps cut at the output times)"
+    payload = None
     if dynamics is not None:
-        return "a dynamics function"
+        payload = _payload(dynamics, method, dt, duration, n_grid)
+        if isinstance(payload, str):
+            return payload
     models = _compiled(robot, backend)
     if isinstance(models, str):
         return models
@@ -561,8 +670,64 @@ def compiled_stepper(
         simulator_library()
     except CompilationError as e:
         return f"the simulator's library: {str(e).splitlines()[0] if str(e) else e}"
-    tolerances = (rtol, atol, h_min) if adaptive else None
-    return Stepper(robot, models, data, dt, duration, control_period, n_grid, tolerances)
+    tolerances = (rtol, atol) if adaptive else None
+    return Stepper(
+        robot,
+        models,
+        data,
+        dt,
+        duration,
+        control_period,
+        n_grid,
+        tolerances,
+        output_dt,
+        h_min,
+        payload,
+    )
+
+
+class _Payload:
+    """A payload's compiled prescribed direct model in the C loop (``sp_ppdm_sim`` of its
+    library, :mod:`.payload_compiled`) and its joints ``[q, qd, qdd]`` sampled at every
+    rk4 stage time (rows ``2 n``: the grid times, ``2 n + 1``: the midpoints, as the
+    computed-torque controller's reference), kept alive with the ``_Sim``."""
+
+    def __init__(self, models: Any, times: np.ndarray, x: np.ndarray) -> None:
+        entry, naux, jinv = models.sim_entry
+        self.keep = (models, times, x)
+        self.fields = {
+            "ddm": entry,
+            "chi": None,
+            "naux": naux,
+            "jinv": jinv,
+            "n_pay": times.size,
+            "pay_t": int(times.ctypes.data),
+            "pay_x": int(x.ctypes.data),
+            "pay_nx": x.shape[1],
+        }
+
+
+def _payload(dynamics: Any, method: str, dt: float, duration: float, n_grid: int) -> Any:
+    """The compiled payload of ``simulate``'s ``dynamics`` (that of
+    :func:`~stewart_pin.motion.payload.simulate_payload`), or why the C loop cannot run
+    it."""
+    compiled = getattr(dynamics, "compiled_payload", None)
+    if compiled is None:
+        return "a dynamics function"
+    if method != "rk4":
+        return "a payload on the adaptive method (its stage times are not known before the run)"
+    models = compiled()
+    if getattr(models, "sim_entry", None) is None:
+        return "the payload's direct model is not compiled"
+    grid = grid_times(dt, duration, n_grid)
+    times = np.empty(2 * n_grid + 1)
+    times[0::2] = grid
+    times[1::2] = grid[:-1] + (grid[1:] - grid[:-1]) / 2
+    try:
+        x = dynamics.joints_at(times)
+    except Exception as e:  # the Python loop meets it at its time and stops there
+        return f"the payload's joints: {type(e).__name__}: {e}"
+    return _Payload(models, times, x)
 
 
 def simulate_batch(

@@ -290,6 +290,69 @@ def payload_path(result_path: str | Path) -> Path:
     return p.with_name(f"{p.stem}.payload.npz")
 
 
+class _PrescribedJoints:
+    """:func:`simulate_payload`'s direct model (``simulate``'s ``dynamics``): the coupled
+    direct model with the payload's joints following ``joints`` (its default backend);
+    :meth:`compiled_payload` gives the compiled simulator
+    (:mod:`stewart_pin.codegen.simulator`) the same model and the joints at given times."""
+
+    def __init__(self, robot: PayloadRobotLike, joints: JointMotion) -> None:
+        self.robot, self.joints = robot, joints
+
+    def __call__(self, t: float, T: np.ndarray, V: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+        q, qd, qdd = self.joints(t)
+        return np.asarray(self.robot.direct_dynamics(T, V, gamma, q, qd, qdd).accel, dtype=float)
+
+    def compiled_payload(self) -> Any:
+        """The compiled coupled models :meth:`__call__` runs (``None``: the reference
+        path's)."""
+        fast = getattr(self.robot, "_fast_backend", None)
+        return None if fast is None else fast("auto")
+
+    def joints_at(self, times: np.ndarray) -> np.ndarray:
+        """``[q, qd, qdd]`` (K, nq + 2 nv) at ``times`` (K,) [s], as :meth:`__call__` takes
+        them: the displacement evaluated on all times at once where it broadcasts (the
+        motions of :class:`JointMotion`'s constructors but the minimum-jerk one) and
+        ``q0`` integrated joint by joint as ``pin.integrate`` does (to round-off), else one
+        call of ``joints`` per time."""
+        out = _joints_at_once(self.joints, times)
+        if out is None:
+            q, qd, qdd = self.joints.sample(times)
+            out = np.hstack([q, qd, qdd])
+        return np.ascontiguousarray(out, dtype=np.float64)
+
+
+def _joints_at_once(motion: JointMotion, times: np.ndarray) -> np.ndarray | None:
+    """``[q, qd, qdd]`` (K, nq + 2 nv) of ``motion`` at ``times`` in array operations, or
+    None where its displacement does not broadcast over ``times[:, None]`` or a joint is
+    none of those integrated here (one degree of freedom: ``q0 + s``; an unbounded
+    revolute's ``(cos, sin)`` turned by ``s``, renormalised as Pinocchio does)."""
+    model, K, nv = motion.payload.model, times.size, motion.payload.nv
+    try:
+        at_times: Any = motion.displacement  # called with (K, 1) times: broadcasts or fails
+        parts = [np.asarray(a, dtype=float) for a in at_times(times[:, None])]
+    except Exception:
+        return None
+    if len(parts) != 3 or any(a.shape != (K, nv) for a in parts):
+        return None
+    s = parts[0]
+    q = np.repeat(motion.q0[None], K, 0)
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        iq, iv = joint.idx_q, joint.idx_v
+        if joint.nq == joint.nv == 1:
+            q[:, iq] = motion.q0[iq] + s[:, iv]
+        elif joint.nq == 2 and joint.nv == 1 and joint.shortname().startswith("JointModelRUB"):
+            c0, s0 = motion.q0[iq], motion.q0[iq + 1]
+            cw, sw = np.cos(s[:, iv]), np.sin(s[:, iv])
+            c1, s1 = c0 * cw - s0 * sw, s0 * cw + c0 * sw
+            scale = (3.0 - (c1 * c1 + s1 * s1)) / 2.0
+            q[:, iq], q[:, iq + 1] = c1 * scale, s1 * scale
+        else:
+            return None
+    return np.hstack([q, parts[1], parts[2]])
+
+
 def simulate_payload(
     robot: PayloadRobotLike,
     duration: float,
@@ -305,6 +368,9 @@ def simulate_payload(
     :func:`~stewart_pin.motion.simulation.simulate`'s (``robot.robot`` gives the limits
     and singularities); a run that stops raises its ``SimulationError`` as ``simulate``.
 
+    With ``method="rk4"`` and the payload's compiled models the steps run in the compiled
+    simulator (:mod:`stewart_pin.codegen.simulator`; ``integrator`` as ``simulate``'s).
+
     Returns:
         the :class:`PayloadSimulation`: the hexapod's result, and the payload's joints and
         torques at its times (torques from the coupled inverse model at the simulated
@@ -312,11 +378,7 @@ def simulate_payload(
     """
     if joints.payload is not robot.payload:
         raise InputError("joints must be a JointMotion of this robot's payload")
-
-    def dynamics(t: float, T: np.ndarray, V: np.ndarray, gamma: np.ndarray) -> np.ndarray:
-        q, qd, qdd = joints(t)
-        return np.asarray(robot.direct_dynamics(T, V, gamma, q, qd, qdd).accel, dtype=float)
-
+    dynamics = _PrescribedJoints(robot, joints)
     result = simulate(robot.robot, duration, pose, twist, forces, dynamics=dynamics, **kwargs)
     q, qd, qdd = joints.sample(result.t)
     if len(result.t):

@@ -29,17 +29,25 @@ named error (``__cause__``). Whatever the forces function or the progress callba
 raises stops the run the same way.
 
 The compiled loop (``integrator="auto"``, the default, or ``"compiled"``): when the
-robot's direct model is compiled and the run has no ``output_dt`` or ``dynamics``, the
-steps run in C (:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic,
-forces as data (a ``ForceTable``, a constant, the
-:class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model; on the
-adaptive method with a ``control_period``) or a Python function called once per
+robot's direct model is compiled and the run has no ``dynamics`` (but that of
+:func:`stewart_pin.motion.payload.simulate_payload` on rk4: the payload's compiled model,
+its joints sampled at the stage times), the steps run in C
+(:mod:`stewart_pin.codegen.simulator`) with this module's arithmetic, forces as data (a
+``ForceTable``, a constant, the
+:class:`~stewart_pin.motion.control.ComputedTorqueController` on a compiled model, its
+reference a Fourier series, sinusoids or minimum-jerk knots evaluated in C at every stage;
+any other reference on the adaptive method with a ``control_period``) or a Python
+function called once per
 ``control_period``. rk4: the same trajectory to round-off (1e-10 and less); adaptive: the
 same accepted steps, their times within about 1e-9 of a step where the error control
 alone sets them (a few ulps in a stage move the error estimate, a difference of two
 solutions). Any step that meets an event or a state the compiled guard flags is taken by
 the Python loop, so events stop the run as above; ``progress`` is called after each
-chunk of C steps (up to 4096) instead of after each step. The guard is still checked at
+chunk of C steps (up to 4096) instead of after each step. With ``output_dt`` the C loop
+cuts its steps at the output times and keeps the rows as this loop does (only the
+states at the output times); the computed-torque controller without a control period
+leaves a step cut off the ``dt`` grid, and the step back onto it, to the Python loop
+(its reference is sampled at the grid's stage times). The guard is still checked at
 every stage, in both loops. The compiled loop evaluates the initial state too (unless a
 Python function gives the forces), takes the signs of det Jp^-1 from the compiled direct
 model's own condition check (the reference's signs wherever it decides them, see
@@ -824,6 +832,12 @@ class _Run:
         """rk4: the n-th grid time [s] (``duration`` for the last)."""
         return self.duration if n >= self.n_grid else n * self.dt
 
+    def _on_grid(self, s: _State, n: int) -> bool:
+        """rk4: whether the compiled loop may take the next step from ``s`` (grid index
+        ``n``): at a grid time, or with ``output_dt`` anywhere (a state cut at an output
+        time; the next step ends at the next grid or output time, in either loop)."""
+        return s.t == self._grid(n) or self.output_dt is not None
+
     def _loop(self, s: _State, n: int = 0) -> None:
         integ, duration, rk4 = self.integ, self.duration, self.method == "rk4"
         # n, rk4: the last grid time reached
@@ -836,7 +850,7 @@ class _Run:
                 and t_bad is None
                 and steps < MAX_STEPS - _FAST_ROWS
                 and (
-                    (rk4 and n >= self.fast_from and h_cur == self.dt and s.t == self._grid(n))
+                    (rk4 and n >= self.fast_from and h_cur == self.dt and self._on_grid(s, n))
                     or (not rk4 and steps >= self.fast_from)
                 )
             ):
@@ -916,7 +930,7 @@ class _Run:
         the Python loop: ``(state, n, next trial step, accepted steps, bailed)``."""
         fast, integ = self.fast, self.integ
         if self.fast_state is not s or fast.step() != h:
-            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n, h)
+            fast.load(s.t, s.T, s.V, s.dy, s.gamma, s.sign, integ.held, n, h, self.n_output)
         try:
             while True:
                 status = fast.run(self.n_grid)
@@ -946,20 +960,24 @@ class _Run:
         return s, fast.n, fast.step(), taken, status == _FAST_BAIL
 
     def absorb(self, s: _State) -> tuple[_State, int]:
-        """Keep the rows the compiled loop wrote: its last state (``s`` if none) and how
-        many."""
+        """Keep the rows the compiled loop wrote (with ``output_dt``: its states at the
+        output times): its last state (``s`` if none) and how many steps it took."""
         fast = self.fast
         times, P, V, A, G, L = fast.rows()
-        if times.size == 0:
+        taken = fast.steps()
+        if self.output_dt is not None:
+            self.n_output = fast.output_index()
+        if times.size == 0 and taken == 0:
             self.fast_state = s
             return s, 0
-        self.rows.append(_Block(times, P, V, A, G, L))
+        if times.size:
+            self.rows.append(_Block(times, P, V, A, G, L))
         t, T, Vl, dy, g = fast.state()
         s = _State(t, T, Vl, dy, g, s.sign)
         self.integ.held = fast.held()
         self.last = self.fast_state = s
         self.resume = (s, fast.n)
-        return s, times.size
+        return s, taken
 
 
 class _Located(Exception):

@@ -210,7 +210,8 @@ def states_at(motion: Any, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     """``(poses (N, 4, 4), twists (N, 6), accels (N, 6))`` of a motion given by coordinates
     (a :class:`CoordinateMotion` or :class:`FourierTrajectory`) at validated ``times``
     (N,) [s]: the arrays of its ``sample(times)`` (the same arithmetic) without building
-    and validating a :class:`Trajectory` (the compiled simulator's reference table)."""
+    and validating a :class:`Trajectory` (the compiled simulator's reference table, for a
+    motion its C does not evaluate itself)."""
     return _states(motion.reference, *motion.coordinates(times))
 
 
