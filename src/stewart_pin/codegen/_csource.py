@@ -760,5 +760,24 @@ SP_EXPORT int sp_ddm_aux(const double* pose, const double* twist, const double* 
   %(ddm)s(arg, res, iw, w, 0);
   return sp_ddm_after_det(pose, twist, gam, accel, aux, max_cond, det);
 }
+
+/* sp_ddm_aux's guard alone, for a direct model computed elsewhere (the legs-as-lanes
+   library of codegen/lanes.py, which calls it through a pointer): the same flags and
+   *det from the model's outputs (accel, aux). */
+SP_EXPORT int sp_ddm_guard_sim(const double* pose, const double* twist, const double* gam,
+                               double max_cond, const double* accel, const double* aux,
+                               double* det) {
+#ifdef SP_DDM_AVX2
+  if (sp_avx2_ready) return sp_ddm_after_sim(pose, twist, gam, accel, aux, max_cond, det);
+#endif
+  return sp_ddm_after_det(pose, twist, gam, accel, aux, max_cond, det);
+}
+
+/* sp_idm_sim's guard alone, for an inverse model computed elsewhere (the lanes): the
+   state's flag from its outputs (gamma, aux; a repivoted state's gamma solved again). */
+SP_EXPORT int sp_idm_guard_sim(const double* pose, const double* twist, const double* accel,
+                               double* gamma, const double* aux, double max_cond) {
+  return sp_idm_after(pose, twist, accel, gamma, aux, max_cond);
+}
 """
 )

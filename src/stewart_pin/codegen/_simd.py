@@ -201,7 +201,7 @@ def function_body(source: str, name: str) -> list[str] | None:
     return None
 
 
-def _internal_name(source: str, name: str) -> str | None:
+def internal_name(source: str, name: str) -> str | None:
     """The ``casadi_fN`` the exported ``name`` of CasADi's ``source`` calls."""
     m = re.search(
         r"int " + re.escape(name) + r"\(const casadi_real\*\* arg[^{]*\{\s*return (casadi_f\d+)\(",
@@ -226,7 +226,7 @@ def vector_source(
     written: set[str] = set()
     callees: dict[str, _Callee | None] = {}
     for name, vname in names.items():
-        internal = _internal_name(source, name)
+        internal = internal_name(source, name)
         code = (
             None
             if internal is None
@@ -237,7 +237,16 @@ def vector_source(
             written.add(vname)
     if not written:
         return "", written
-    parts = [PREAMBLE]
+    helpers = lane_helpers(used)
+    parts = [PREAMBLE, helpers] if helpers else [PREAMBLE]
+    parts += [c.code for c in callees.values() if c is not None]
+    return "\n".join(parts) + "\n" + "\n".join(bodies), written
+
+
+def lane_helpers(used: set[str]) -> str:
+    """The C of the lane-by-lane functions ``sp_v_<fn>`` of the functions ``used`` by
+    vector bodies (those :data:`PREAMBLE` does not write in vector form)."""
+    parts = []
     for fn in sorted(used - _VECTOR_FORMS):
         if _LANEWISE.get(fn, 1) == 1:
             parts.append(
@@ -251,8 +260,7 @@ def vector_source(
                 f"  sp_vec r; int l;\n  for (l = 0; l < SP_WIDTH; ++l) r[l] = {fn}(x[l], y[l]);\n"
                 "  return r;\n}"
             )
-    parts += [c.code for c in callees.values() if c is not None]
-    return "\n".join(parts) + "\n" + "\n".join(bodies), written
+    return "\n".join(parts)
 
 
 def _operand(x: str) -> str:
@@ -278,7 +286,7 @@ def _vector_function(
     shared: frozenset[int],
     callees: dict[str, _Callee | None],
 ) -> str | None:
-    out = _vector_lines(source, name, used, shared, callees, called=False)
+    out = vector_lines(source, name, used, shared, callees, called=False)
     if out is None:
         return None
     return (
@@ -299,9 +307,7 @@ def _callee(
         body = function_body(source, name)
         inner: set[str] = set()
         out = (
-            None
-            if body is None
-            else _vector_lines(source, name, inner, frozenset(), callees, True)
+            None if body is None else vector_lines(source, name, inner, frozenset(), callees, True)
         )
         if out is not None and body is not None:
             used |= inner
@@ -323,7 +329,7 @@ def _callee(
     return callees[name]
 
 
-def _vector_lines(
+def vector_lines(
     source: str,
     name: str,
     used: set[str],

@@ -871,6 +871,7 @@ class CompiledDynamics:
     ) -> None:
         _check_compilable(robot.description)
         self.robot = robot
+        self.cache_dir = cache_dir  # where its libraries are (the simulator's lanes too)
         self.threads = default_threads() if threads is None else positive_threads(threads)
         desc = robot.description
         self._desc = desc

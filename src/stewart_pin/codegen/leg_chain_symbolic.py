@@ -259,7 +259,7 @@ class JointConst:
 
 
 @dataclass(frozen=True)
-class _LegConst:
+class LegConst:
     """One leg's numbers (snapped)."""
 
     index: int
@@ -312,7 +312,7 @@ def joint_constants(
 
 def leg_constants(
     robot: GeneralHexapod, k: int, inline_newton: bool = True, coulomb_smoothing: float = 0.0
-) -> _LegConst:
+) -> LegConst:
     """Leg ``k``'s numbers; ``coulomb_smoothing`` > 0 [m/s or rad/s, each joint's rate
     unit]: its joints' Coulomb sign smoothed (:func:`build_general_models`)."""
     leg: LegArchitecture = robot.legs[k]
@@ -329,7 +329,7 @@ def leg_constants(
     # hypot, not the norm's sum of squares: |g| past ~1e154 overflowed that to inf, which
     # snapped every component to 0 (a robot without gravity, silently)
     gscale = max(math.hypot(*(float(x) for x in g)), 1e-300)
-    return _LegConst(
+    return LegConst(
         index=k,
         name=leg.name,
         R=tuple(tuple(snap(x) for x in row) for row in R),
@@ -437,14 +437,14 @@ class _LegGeometry:
     slacks: list[Scalar]
 
 
-def _pre_joint1(lc: _LegConst, P0: Vec) -> Vec:
+def _pre_joint1(lc: LegConst, P0: Vec) -> Vec:
     """``(Rx(alpha1) Tx(d1))^-1 P``."""
     j1 = lc.joints[0]
     x, y, z = P0[0] - j1.d, P0[1], P0[2]
     return [x, j1.ca * y + j1.sa * z, j1.ca * z - j1.sa * y]
 
 
-def _solve_u(lc: _LegConst, w: Vec, slacks: list[Scalar]) -> tuple[JointState, JointState]:
+def _solve_u(lc: LegConst, w: Vec, slacks: list[Scalar]) -> tuple[JointState, JointState]:
     """The universal joint (joints 2, 3, intersecting axes) pointing ``tip`` at ``w``
     (frame 1 rotated by ``Rx(alpha2)``; the reference's ``_solve_u``):
     ``psi3 = atan2(b, a) - acos(k / hypot(a, b))``, ``psi2 = atan2(w_y, w_x) - atan2(v_y, v_x)``,
@@ -468,12 +468,13 @@ def _solve_u(lc: _LegConst, w: Vec, slacks: list[Scalar]) -> tuple[JointState, J
     return revolute(j2, c2, s2), revolute(j3, c3, s3)
 
 
-def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
+def _inverse_geometry(lc: LegConst, P0: Vec) -> _LegGeometry:
     """The closed-form inverse geometry of a named leg, or Newton's for a custom one."""
     if lc.name == "custom":
         return _newton(lc, P0)
     j1 = lc.joints[0]
-    b = float(lc.branch)
+    # a number, or a lane input of the legs-as-lanes models (:mod:`.lanes`)
+    b = lc.branch if isinstance(lc.branch, cs.SX) else float(lc.branch)
     slacks: list[Scalar] = []
     p = _pre_joint1(lc, P0)
     if lc.name in ("ups", "ups-offset"):
@@ -525,7 +526,7 @@ def _inverse_geometry(lc: _LegConst, P0: Vec) -> _LegGeometry:
     return _LegGeometry([J1, J2, J3], P0, slacks)
 
 
-def _joints_at(lc: _LegConst, q: Sequence[Scalar]) -> list[JointState]:
+def _joints_at(lc: LegConst, q: Sequence[Scalar]) -> list[JointState]:
     out = []
     for k, qj in zip(lc.joints, q, strict=True):
         if k.revolute:
@@ -535,7 +536,7 @@ def _joints_at(lc: _LegConst, q: Sequence[Scalar]) -> list[JointState]:
     return out
 
 
-def _newton(lc: _LegConst, P0: Vec) -> _LegGeometry:
+def _newton(lc: LegConst, P0: Vec) -> _LegGeometry:
     """:data:`NEWTON_ITERATIONS` steps of the reference's Newton method
     (:func:`~stewart_pin.kinematics.leg_chains.solve_leg`) from the leg's ``guess``; the
     slack ``tol^2 - |P - P(q)|^2`` flags a state that has not converged."""
@@ -555,7 +556,7 @@ def _newton(lc: _LegConst, P0: Vec) -> _LegGeometry:
     return _LegGeometry(joints, tip, [tol * tol - dot(err, err)])
 
 
-def _newton_step(lc: _LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
+def _newton_step(lc: LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
     """``q + J(q)^-1 (P - P(q))``."""
     joints = _joints_at(lc, q)
     z, O, tip = _chain(joints, lc.tip)
@@ -566,7 +567,7 @@ def _newton_step(lc: _LegConst, q: Sequence[Scalar], P0: Vec) -> list[Scalar]:
 
 
 @functools.lru_cache(maxsize=64)
-def _newton_step_function(lc: _LegConst) -> cs.Function:
+def _newton_step_function(lc: LegConst) -> cs.Function:
     """One Newton step of leg ``lc`` as a function called (never inlined) by the models."""
     q, P = cs.SX.sym("q", 3), cs.SX.sym("P", 3)
     step = _newton_step(lc, split(q), split(P))
@@ -705,22 +706,23 @@ def newton_euler(
 def joint_terms(
     joints: Sequence[JointState], qd: Sequence[Scalar], qdd: Sequence[Scalar]
 ) -> list[Scalar]:
-    """``Ia qdd + (Fv + D) qd + Fc sign(qd) + K (q - q0)`` per joint (zero terms fold)."""
+    """``Ia qdd + (Fv + D) qd + Fc sign(qd) + K (q - q0)`` per joint (zero terms fold; a
+    coefficient may be a symbol: the legs-as-lanes models of :mod:`.lanes`)."""
     out: list[Scalar] = []
     for j, J in enumerate(joints):
         k = J.k
         t: Scalar = 0.0
-        if k.armature:
+        if not is_zero(k.armature):
             t = plus(t, mul(k.armature, qdd[j]))
-        if k.viscous:
+        if not is_zero(k.viscous):
             t = plus(t, mul(k.viscous, qd[j]))
-        if k.coulomb and not isinstance(qd[j], (int, float)):
+        if not is_zero(k.coulomb) and not isinstance(qd[j], (int, float)):
             if k.coulomb_smoothing > 0.0:  # the planner's smooth model
                 sign = cs.tanh(qd[j] / k.coulomb_smoothing)
             else:
                 sign = cs.if_else(cs.fabs(qd[j]) > COULOMB_DEAD_BAND, cs.sign(qd[j]), 0.0)
             t = plus(t, mul(k.coulomb, sign))
-        if k.stiffness:
+        if not is_zero(k.stiffness):
             t = plus(t, mul(k.stiffness, minus(J.value(), k.rest)))
         out.append(t)
     return out
@@ -762,7 +764,7 @@ class _LegKinematics:
     slacks: list[Scalar]
 
 
-def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinematics:
+def leg_kinematics(lc: LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinematics:
     """Inverse geometry, ``J_i^-1``, the guard's slacks, ``qdot`` and the Jp^-1 row."""
     L = _rotate(R, list(lc.pL))
     P0 = _rotate_T(lc.R, [plus(minus(p[i], lc.B[i]), L[i]) for i in range(3)])
@@ -781,7 +783,7 @@ def leg_kinematics(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec) -> _LegKinemat
 
 
 def _serial_slacks(
-    lc: _LegConst, joints: Sequence[JointState], cols: list, O: list, P: Vec, det: Scalar
+    lc: LegConst, joints: Sequence[JointState], cols: list, O: list, P: Vec, det: Scalar
 ) -> list[Scalar]:
     """The reference's serial-singularity refusals as slacks: each revolute lever
     ``l_j = |P_i - O_j|`` longer than ``LEG_MIN_LENGTH_RATIO`` of the platform radius, and
@@ -834,7 +836,7 @@ def limit_slacks(radius: float, joints: Sequence[JointState]) -> list[Scalar]:
     return out
 
 
-def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Scalar], Vec]:
+def _leg_torques(lc: LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Scalar], Vec]:
     """The leg's joint efforts ``H_i`` (joint terms included) with the tip accelerating at
     ``A_P`` (F0, classical); also ``qddot``."""
     joints = kin.geo.joints
@@ -847,7 +849,9 @@ def _leg_torques(lc: _LegConst, kin: _LegKinematics, A_P: Vec) -> tuple[list[Sca
     return [tau[j] + terms[j] for j in range(3)], qdd
 
 
-def _idm_leg(lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat) -> dict[str, Any]:
+def idm_leg_outputs(
+    lc: LegConst, p: Vec, R: Mat, v: Vec, w: Vec, vd: Vec, K: Mat
+) -> dict[str, Any]:
     kin = leg_kinematics(lc, p, R, v, w)
     A_P = add(vd, [dot(K[i], kin.L) for i in range(3)])
     H, _ = _leg_torques(lc, kin, A_P)
@@ -885,8 +889,8 @@ def leg_block(A0: Mat, L: Vec) -> list[Scalar]:
     return [block[i][j] for i, j in _UPPER6]
 
 
-def _ddm_leg(
-    lc: _LegConst, p: Vec, R: Mat, v: Vec, w: Vec, gamma_k: Scalar
+def ddm_leg_outputs(
+    lc: LegConst, p: Vec, R: Mat, v: Vec, w: Vec, gamma_k: Scalar
 ) -> dict[str, list[Scalar]]:
     kin = leg_kinematics(lc, p, R, v, w)
     joints = kin.geo.joints
@@ -921,12 +925,12 @@ def _ddm_leg(
 
 
 # ---------------------------------------------------------------------------- assembly
-def _idm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
-    return _idm_leg(lc, p, R, t[:3], t[3:], a[:3], K)
+def _idm_leg_stage(lc: LegConst, p: Vec, R: Mat, t: list, a: list, K: Mat) -> dict:
+    return idm_leg_outputs(lc, p, R, t[:3], t[3:], a[:3], K)
 
 
-def _ddm_leg_stage(lc: _LegConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
-    return _ddm_leg(lc, p, R, t[:3], t[3:], gamma_k)
+def _ddm_leg_stage(lc: LegConst, p: Vec, R: Mat, t: list, gamma_k: Scalar) -> dict:
+    return ddm_leg_outputs(lc, p, R, t[:3], t[3:], gamma_k)
 
 
 #: Entries of a leg's outputs that describe them rather than being outputs: how many of
@@ -1055,7 +1059,11 @@ def build_general_models(
 
 
 def idm_closure_and_aux(
-    ilegs: Sequence[dict[str, Any]], F_p: list[Scalar], home_rows: np.ndarray, inv_l: float
+    ilegs: Sequence[dict[str, Any]],
+    F_p: list[Scalar],
+    home_rows: np.ndarray,
+    inv_l: float,
+    pivots: Sequence[tuple[int, int]] | None = None,
 ) -> tuple[list[Scalar], list[Scalar], AuxLayout, tuple[tuple[int, int], ...]]:
     """The IDM's closure from the six legs' outputs (``row``, ``wrench``, ``Hz``,
     ``slack``, in leg order) and the platform's wrench ``F_p``, with the static pivots of
@@ -1063,10 +1071,14 @@ def idm_closure_and_aux(
     guard's inputs of :class:`AuxLayout` (``Jp^-1`` row-major, ``F``, ``Hz``, the pivot
     growth, det and squared Frobenius norm of ``Jp^-1`` scaled by ``inv_l`` = 1 / the
     singularity measure's length [1/m], the legs' slacks). Shared by the three-joint and the
-    chain-leg generators (the idle models too)."""
+    chain-leg generators (the idle models too). ``pivots``: given (the legs-as-lanes
+    closure of :mod:`.lanes`, whose rows are inputs: the robot's models' pivots), else
+    chosen from ``home_rows`` and the rows' structural zeros."""
     rows = [lg["row"] for lg in ilegs]
-    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
-    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    if pivots is None:
+        nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+        pivots = pivot_order(home_rows.T, nonzero)
+    pivots = tuple(pivots)
     Hz = [lg["Hz"][0] for lg in ilegs]
     gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in ilegs], Hz, F_p, pivots)
     fro2: Scalar = 0.0

@@ -59,6 +59,7 @@ from stewart_pin.codegen.compiled import (
     model_layout,
     split_batch,
 )
+from stewart_pin.codegen.lanes import lanes_entries
 from stewart_pin.codegen.leg_chain_symbolic import AuxLayout
 from stewart_pin.exceptions import CompilationError, InputError, SimulationError
 from stewart_pin.motion.control import ComputedTorqueController
@@ -173,6 +174,11 @@ def simulator_library() -> Any:
         return _LIB[0]
 
 
+#: ``sp_ddm_aux``'s C type (the robot library's, or ``sp_ddm_lanes``; arguments as
+#: ``c_void_p`` and ``c_double`` objects).
+_DDM_AUX = ctypes.CFUNCTYPE(ctypes.c_int, _P, _P, _P, _P, ctypes.c_double, _P, _P, _P)
+
+
 def _address(lib: Any, name: str) -> int:
     return int(ctypes.cast(getattr(lib, name), ctypes.c_void_p).value or 0)
 
@@ -279,7 +285,8 @@ class _Forces:
         self.keep.append(model)
         self._set(
             kind=S.KIND_CT,
-            idm=_address(model._lib, "sp_idm_sim"),
+            # the legs as vector lanes where they apply (codegen/lanes.py)
+            idm=lanes_entries(model)[1] or _address(model._lib, "sp_idm_sim"),
             idm_chi=int(model.base_values.ctypes.data),
             idm_max_cond=float(c.model.max_condition),
             kp=self._arr(kp),
@@ -427,13 +434,16 @@ class Stepper:
         self._pend_V = self.st[S.ST_PEND_TWIST : S.ST_PEND_TWIST + 6]
         self._keep = (models, forces)
         model: dict[str, Any] = {
-            "ddm": _address(models._lib, "sp_ddm_aux"),
+            # the legs as vector lanes where they apply (codegen/lanes.py), else the library's
+            "ddm": (payload is None and lanes_entries(models)[0])
+            or _address(models._lib, "sp_ddm_aux"),
             "chi": int(models.base_values.ctypes.data),
             "naux": layout.ddm_size,
             "jinv": layout.jinv,
         }
         if payload is not None:  # the payload's direct model, its joints as inputs
             model.update(payload.fields)
+        self._ddm = _DDM_AUX(model["ddm"])
         sim = _Sim(
             max_cond=float(robot.max_condition),
             dt=dt,
@@ -605,7 +615,7 @@ class Stepper:
         out, det = np.empty(6), ctypes.c_double(0.0)
         T = np.ascontiguousarray(T, dtype=np.float64)
         zero = np.zeros(6)
-        flag = self._models._lib.sp_ddm_aux(
+        flag = self._ddm(
             *(ctypes.c_void_p(a.ctypes.data) for a in (T, zero, zero)),
             ctypes.c_void_p(self.sim.chi),
             ctypes.c_double(self.sim.max_cond),

@@ -1,0 +1,531 @@
+"""The six legs as vector lanes: the compiled simulator's direct model (issue 24).
+
+A state's direct model (:mod:`.leg_chain_symbolic`) is mostly six independent leg
+computations followed by a closure (the legs' 6x6 blocks summed with the platform's, an
+``L D L^T`` solve). Where the six legs have the same structure and the same numbers but
+their placement, the leg code is one function of the leg's numbers: this module writes it
+once with every number that differs between the legs as an input (the rotation ``R_i``
+of frame 0i, ``B_i``, ``P_i``, gravity in frame 0i, the branch; numbers equal in all six
+legs stay baked in, so that their zeros and ones fold as in the robot's library), turns
+it into four-lane AVX2+FMA code with :mod:`._simd` (lanes = legs: legs 1-4 in one vector,
+5-6 and two idle lanes in another, the two interleaved statement by statement in one
+function) and follows it by the closure, a scalar CasADi function compiled for
+AVX2+FMA too, reading the legs' outputs where the lanes wrote them.
+
+The entry ``sp_ddm_lanes`` has ``sp_ddm_aux``'s signature and outputs (the robot
+library's, :mod:`._csource`) and calls the robot library's guard (``sp_ddm_guard_sim``,
+bound once by ``sp_lanes_bind``): the compiled simulator (:mod:`.simulator`) calls it in
+place of ``sp_ddm_aux`` where the processor has AVX2 and FMA and the robot's legs are
+lane-compatible (:func:`lane_models`: not a ``custom`` leg, the same architecture, joints,
+tip and actuated joint in every leg); elsewhere the robot library's entry. The lanes
+compute the operations of the scalar model in the same order but for products by the
+placement numbers that the scalar model folds (by 0, 1 or -1: exact) and for FMA
+contraction (as the simulator's AVX2+FMA copy of the flat model): within a few units in
+the last place of the robot library's direct model (tests/test_lanes.py).
+
+The library is small (the leg code once, the closure) and compiled on the simulator's
+first use of a robot, cached as the robot library is (:func:`.compiled.build_source_library`).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import re
+import threading
+import weakref
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from stewart_pin._lazy import casadi as cs  # imported on first use
+from stewart_pin.codegen import _simd
+from stewart_pin.codegen._sx_common import (
+    Scalar,
+    column,
+    ddm_legs_closure,
+    ddm_platform,
+    function,
+    idm_platform,
+    idm_shared,
+    is_zero,
+    pivot_order,
+    pose_from_input,
+    split,
+)
+from stewart_pin.codegen.leg_chain_symbolic import (
+    LegConst,
+    ddm_leg_outputs,
+    general_robot,
+    idm_closure_and_aux,
+    idm_leg_outputs,
+    leg_constants,
+    leg_kinematics,
+)
+from stewart_pin.exceptions import CompilationError
+from stewart_pin.kinematics import leg_chains
+
+#: Lanes per vector (AVX2: four doubles) and vectors of legs (six legs in eight lanes).
+WIDTH = 4
+GROUPS = 2
+#: The generator's version (in the library's identity).
+LANES_VERSION = "1"
+_VAR = re.compile(r"\ba\d+\b")
+
+
+@dataclass(frozen=True)
+class LaneModels:
+    """The legs-as-lanes direct model of a robot.
+
+    Attributes:
+        leg: ``leg(pose (16), twist (6), gamma (1), prm (n_prm)) -> out (n_out)``: one
+            leg's ``row`` (6, its row of ``Jp^-1``), ``block`` (21, the upper triangle of
+            its 6x6 share of the mass matrix), ``wrench`` (6) and its slacks, at the leg
+            numbers ``prm``.
+        closure: ``closure(pose (16), twist (6), X (8 n_out)) -> (accel (6), aux)``, ``X``
+            the legs' outputs as the lanes write them (element ``i`` of leg ``k`` at
+            ``(k // 4) 4 n_out + 4 i + k % 4``), ``aux`` the robot library's direct-model
+            by-products (:class:`~.leg_chain_symbolic.AuxLayout`).
+        prm: (6, n_prm) the legs' numbers.
+        idm_leg, idm_closure, ni_out: the same for the inverse model:
+            ``idm_leg(pose, twist, accel (6), prm) -> out (ni_out)`` (``row``, ``wrench``
+            (6), ``Hz`` (1), the slacks), ``idm_closure(pose, twist, accel, X) -> (gamma,
+            aux)`` with the robot library's static pivots.
+    """
+
+    leg: cs.Function
+    closure: cs.Function
+    prm: np.ndarray
+    n_out: int
+    idm_leg: cs.Function
+    idm_closure: cs.Function
+    ni_out: int
+
+
+#: The numbers of a joint that may differ between the lanes (arithmetic only in the leg
+#: code: no Python-level branch reads them but :func:`.leg_chain_symbolic.joint_terms`'s
+#: zero tests, which keep a term some leg has), besides ``inertia``; ``theta`` too but
+#: where :func:`.leg_chain_symbolic.limit_slacks` takes its cosine in Python.
+_JOINT_LANES = (
+    "ca",
+    "sa",
+    "d",
+    "theta",
+    "ct",
+    "st",
+    "r",
+    "armature",
+    "viscous",
+    "coulomb",
+    "stiffness",
+    "rest",
+)
+#: A joint's fields that branch the generator (or are thresholds of the guard): equal in
+#: every leg, else the robot keeps the library's direct model.
+_JOINT_SAME = ("revolute", "lower", "upper", "gravcomp", "coulomb_smoothing")
+
+
+def _theta_in_python(j: Any) -> bool:
+    """Whether :func:`.leg_chain_symbolic.limit_slacks` takes ``cos(theta + mid)`` of
+    joint ``j`` in Python (a revolute joint with a range shorter than 2 pi)."""
+    lo, hi = j.lower, j.upper
+    return bool(j.revolute and np.isfinite(lo) and np.isfinite(hi) and hi - lo < 2.0 * np.pi)
+
+
+def _lane_compatible(legs: list[LegConst]) -> bool:
+    """Whether the six legs differ only in numbers the lanes take as inputs: the same
+    architecture (not ``custom``: its Newton steps are a called function of the leg's
+    numbers), actuated joint, guard scale and joints' kinds, limits and options."""
+    first = legs[0]
+    if first.name == "custom":
+        return False
+    same = ("name", "actuated", "radius", "inline_newton")
+    if any(getattr(lc, f) != getattr(first, f) for lc in legs[1:] for f in same):
+        return False
+    for j, j0 in enumerate(first.joints):
+        fields = _JOINT_SAME + (("theta",) if _theta_in_python(j0) else ())
+        if any(getattr(lc.joints[j], f) != getattr(j0, f) for lc in legs[1:] for f in fields):
+            return False
+    return True
+
+
+def _lane_legs(robot: Any) -> list[LegConst] | None:
+    """The six legs' numbers (:func:`.leg_chain_symbolic.leg_constants`) if they are
+    lane-compatible, else None."""
+    legs = [leg_constants(robot, k) for k in range(6)]
+    return legs if _lane_compatible(legs) else None
+
+
+def lane_models(desc: Any) -> LaneModels | None:
+    """The legs-as-lanes models of a robot with general legs, or None where its legs
+    differ in more than their placement (or a leg is ``custom``): the simulator then runs
+    the robot library's direct model."""
+    robot = general_robot(desc)
+    found = _lane_legs(robot)
+    if not found:
+        return None
+    legs = found
+    columns: list[list[float]] = []
+    x_prm = cs.SX.sym("prm", 0)
+    symbols: list[Scalar] = []
+
+    def lane(values: list[float]) -> Scalar:
+        """The number if the six legs share it, else a new lane input."""
+        if all(v == values[0] for v in values):
+            return values[0]
+        columns.append(values)
+        s = cs.SX.sym(f"prm_{len(symbols)}")
+        symbols.append(s)
+        return s
+
+    R = tuple(tuple(lane([lc.R[i][j] for lc in legs]) for j in range(3)) for i in range(3))
+    B = tuple(lane([lc.B[i] for lc in legs]) for i in range(3))
+    pL = tuple(lane([lc.pL[i] for lc in legs]) for i in range(3))
+    g = tuple(lane([lc.gravity[i] for lc in legs]) for i in range(3))
+    branch = lane([float(lc.branch) for lc in legs])
+    tip = tuple(lane([lc.tip[i] for lc in legs]) for i in range(3))
+    joints = []
+    for j, j0 in enumerate(legs[0].joints):
+        numbers: dict[str, Any] = {
+            f: lane([getattr(lc.joints[j], f) for lc in legs]) for f in _JOINT_LANES
+        }
+        numbers["inertia"] = tuple(
+            lane([lc.joints[j].inertia[i] for lc in legs]) for i in range(len(j0.inertia))
+        )
+        joints.append(dataclasses.replace(j0, **numbers))
+    sym_lc = dataclasses.replace(
+        legs[0], R=R, B=B, pL=pL, gravity=g, branch=branch, tip=tip, joints=tuple(joints)
+    )
+    x_prm = column(symbols) if symbols else cs.SX.sym("prm", 0)
+    x_pose, x_twist, x_gamma = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6), cs.SX.sym("g", 1)
+    p, Rp = pose_from_input(x_pose, "matrix")
+    tw = split(x_twist)
+    out = ddm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], x_gamma[0])
+    flat = [*out["row"], *out["block"], *out["wrench"], *out["slack"]]
+    leg = function(
+        "sp_lane_leg",
+        [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma), ("prm", x_prm)],
+        [("out", flat)],
+    )
+    n_out = len(flat)
+    n_slack = len(out["slack"])
+
+    Pp = [float(x) for x in robot.platform_inertia]
+    gravity = np.asarray(robot.gravity, dtype=float)
+    g_platform = (1.0 - robot.platform_gravcomp) * gravity
+    y_pose, y_twist = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6)
+    X = cs.SX.sym("X", GROUPS * WIDTH * n_out)
+    _, Ry = pose_from_input(y_pose, "matrix")
+    w = split(y_twist)[3:]
+    dlegs = []
+    for k in range(6):
+        base = (k // WIDTH) * WIDTH * n_out + k % WIDTH
+        v = [X[base + WIDTH * i] for i in range(n_out)]
+        dlegs.append(
+            {"row": v[:6], "block": v[6:27], "wrench": v[27:33], "slack": v[33 : 33 + n_slack]}
+        )
+    Ip, hp = ddm_platform(Ry, w, Pp, g_platform)
+    accel, D = ddm_legs_closure(dlegs, Ip, hp)
+    aux = [*(x for lg in dlegs for x in lg["row"]), *D, *(s for lg in dlegs for s in lg["slack"])]
+    closure = function(
+        "sp_lane_closure",
+        [("pose", y_pose), ("twist", y_twist), ("X", X)],
+        [("accel", accel), ("aux", aux)],
+    )
+    # ---- the inverse model (the computed-torque controller's): the same leg numbers
+    x_accel = cs.SX.sym("accel", 6)
+    K, _ = idm_shared(tw, split(x_accel), g_platform)
+    iout = idm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], split(x_accel)[:3], K)
+    iflat = [*iout["row"], *iout["wrench"], *iout["Hz"], *iout["slack"]]
+    idm_leg = function(
+        "sp_lane_idm_leg",
+        [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("prm", x_prm)],
+        [("out", iflat)],
+    )
+    ni_out = len(iflat)
+    y_accel = cs.SX.sym("accel", 6)
+    Xi = cs.SX.sym("X", GROUPS * WIDTH * ni_out)
+    yp, _ = pose_from_input(y_pose, "matrix")
+    ac = split(y_accel)
+    Ky, vdg = idm_shared(split(y_twist), ac, g_platform)
+    ilegs = []
+    for k in range(6):
+        base = (k // WIDTH) * WIDTH * ni_out + k % WIDTH
+        v = [Xi[base + WIDTH * i] for i in range(ni_out)]
+        ilegs.append({"row": v[:6], "wrench": v[6:12], "Hz": v[12:13], "slack": v[13:]})
+    F_p = idm_platform(Ry, w, ac[3:], vdg, Ky, Pp)
+    # the robot library's static pivots: from the structural zeros of its (baked) rows
+    zero: list[Scalar] = [0.0, 0.0, 0.0]
+    rows = [leg_kinematics(lc, yp, Ry, zero, zero).row for lc in legs]
+    nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
+    home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
+    pivots = tuple(pivot_order(home_rows.T, nonzero))
+    gamma, iaux, _, _ = idm_closure_and_aux(ilegs, F_p, home_rows, 1.0 / robot.size, pivots)
+    idm_closure = function(
+        "sp_lane_idm_closure",
+        [("pose", y_pose), ("twist", y_twist), ("accel", y_accel), ("X", Xi)],
+        [("gamma", gamma), ("aux", iaux)],
+    )
+    prm = np.array(columns, dtype=float).T.reshape(6, len(columns))
+    return LaneModels(leg, closure, prm, n_out, idm_leg, idm_closure, ni_out)
+
+
+#: The entry after the generated code (``%`` fields: the sizes, the legs' numbers).
+ENTRY = r"""
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__) && \
+    defined(SP_LANE_CLOSURE) && defined(SP_LANE_IDM_CLOSURE)
+#define SP_EXPORT __attribute__((visibility("default")))
+/* the robot library's sp_ddm_guard_sim (codegen/_csource.py), bound by sp_lanes_bind */
+typedef int (*sp_guard_fn)(const double*, const double*, const double*, double, const double*,
+                           const double*, double*);
+static sp_guard_fn sp_lane_guard = 0;
+/* the legs' numbers, [vector][number][lane] (legs 5 and 6 repeated in the idle lanes) */
+static const double sp_lane_prm[%(groups)d][%(n_prm)d][%(width)d] __attribute__((aligned(32))) = {
+%(prm)s};
+
+/* The length of aux (the robot library's SP_DDM_NAUX). */
+SP_EXPORT int sp_lanes_naux(void) { return %(naux)d; }
+
+/* Binds the robot library's guard; returns 1 where the processor runs the lanes (AVX2
+   and FMA), else 0 (then sp_ddm_lanes must not be called). */
+SP_EXPORT int sp_lanes_bind(void* guard) {
+  sp_lane_guard = (sp_guard_fn)guard;
+  return sp_avx2_ready;
+}
+
+/* sp_ddm_aux of the robot library (the same signature, outputs and flag), the legs as
+   lanes: legs 1-4 in one vector, 5-6 in the next, then the closure and the guard. */
+SP_EXPORT SP_AVX2 int sp_ddm_lanes(const double* pose, const double* twist, const double* gam,
+                                   const double* chi, double max_cond, double* accel,
+                                   double* aux, double* det) {
+  sp_vec X[%(groups)d * %(n_out)d];
+  sp_vec g0 = {gam[0], gam[1], gam[2], gam[3]}, g1 = {gam[4], gam[5], gam[4], gam[5]};
+  const double* sh[2] = {pose, twist};
+  const sp_vec* a0[4] = {0, 0, &g0, (const sp_vec*)sp_lane_prm[0]};
+  const sp_vec* a1[4] = {0, 0, &g1, (const sp_vec*)sp_lane_prm[1]};
+  sp_vec* r0[1] = {X};
+  sp_vec* r1[1] = {X + %(n_out)d};
+  const double* carg[%(c_arg)d + 1];
+  double* cres[%(c_res)d + 1];
+  long long int iw[%(c_iw)d + 1];
+  double w[%(c_w)d + 1];
+  (void)chi;
+  sp_vlane_legs(a0, a1, sh, r0, r1);
+  carg[0] = pose; carg[1] = twist; carg[2] = (const double*)X;
+  cres[0] = accel; cres[1] = aux;
+  sp_lane_closure_avx2(carg, cres, iw, w, 0);
+  return sp_lane_guard(pose, twist, gam, max_cond, accel, aux, det);
+}
+
+/* the robot library's sp_idm_guard_sim, bound by sp_lanes_bind_idm */
+typedef int (*sp_iguard_fn)(const double*, const double*, const double*, double*, const double*,
+                            double);
+static sp_iguard_fn sp_lane_iguard = 0;
+
+/* The length of the inverse model's aux (the robot library's SP_IDM_NAUX). */
+SP_EXPORT int sp_lanes_idm_naux(void) { return %(inaux)d; }
+
+/* Binds the robot library's inverse-model guard; returns sp_lanes_bind's answer. */
+SP_EXPORT int sp_lanes_bind_idm(void* guard) {
+  sp_lane_iguard = (sp_iguard_fn)guard;
+  return sp_avx2_ready;
+}
+
+/* sp_idm_sim of the robot library (n states; the same signature, outputs and flags), the
+   legs as lanes. */
+SP_EXPORT SP_AVX2 int sp_idm_lanes(long long n, const double* pose, const double* twist,
+                                   const double* accel, const double* chi, double max_cond,
+                                   double* gamma, int* flags) {
+  sp_vec X[%(groups)d * %(ni_out)d];
+  double aux[%(inaux)d];
+  const sp_vec* a0[4] = {0, 0, 0, (const sp_vec*)sp_lane_prm[0]};
+  const sp_vec* a1[4] = {0, 0, 0, (const sp_vec*)sp_lane_prm[1]};
+  sp_vec* r0[1] = {X};
+  sp_vec* r1[1] = {X + %(ni_out)d};
+  const double* carg[%(i_arg)d + 1];
+  double* cres[%(i_res)d + 1];
+  long long int iw[%(i_iw)d + 1];
+  double w[%(i_w)d + 1];
+  int any = 0, f;
+  long long s;
+  (void)chi;
+  for (s = 0; s < n; ++s) {
+    const double* sh[3] = {pose + 16 * s, twist + 6 * s, accel + 6 * s};
+    sp_vilane_legs(a0, a1, sh, r0, r1);
+    carg[0] = sh[0]; carg[1] = sh[1]; carg[2] = sh[2]; carg[3] = (const double*)X;
+    cres[0] = gamma + 6 * s; cres[1] = aux;
+    sp_lane_idm_closure_avx2(carg, cres, iw, w, 0);
+    f = sp_lane_iguard(sh[0], sh[1], sh[2], gamma + 6 * s, aux, max_cond);
+    flags[s] = f;
+    any |= f;
+  }
+  return any;
+}
+#endif
+"""
+
+
+def _interleaved(lines: list[str]) -> list[str]:
+    """The vector body of one leg function (:func:`._simd.vector_lines`, called form)
+    for two vectors of legs at once, statement by statement (``aNNN`` the first's,
+    ``bNNN`` the second's; inputs ``argv0``, ``argv1``, outputs ``resv0``, ``resv1``): two
+    independent chains the processor overlaps (measured on ``rus``: about 13 % less time
+    per direct model than two calls)."""
+    out: list[str] = []
+    for line in lines:
+        second = _VAR.sub(lambda v: "b" + v.group(0)[1:], line)
+        if line.lstrip().startswith("sp_vec "):
+            out += [line, second]
+            continue
+        out.append(line.replace("argv[", "argv0[").replace("resv[", "resv0["))
+        out.append(second.replace("argv[", "argv1[").replace("resv[", "resv1["))
+    return out
+
+
+def lanes_source(m: LaneModels) -> str:
+    """The C of the legs-as-lanes library of :func:`lane_models`'s ``m``."""
+    from stewart_pin.codegen.compiled import avx2_copy
+
+    cg = cs.CodeGenerator(
+        "sp_lanes.c",
+        {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
+    )
+    for f in (m.leg, m.closure, m.idm_leg, m.idm_closure):
+        cg.add(f)
+    code = cg.dump()
+    used: set[str] = set()
+    bodies = []
+    for f, vname, shared in ((m.leg, "sp_vlane_legs", 2), (m.idm_leg, "sp_vilane_legs", 3)):
+        internal = _simd.internal_name(code, f.name())
+        lines = (
+            None
+            if internal is None
+            else _simd.vector_lines(
+                code, internal, used, frozenset(range(shared)), {}, called=True
+            )
+        )
+        if lines is None or any("vw" in ln for ln in lines):
+            return ""
+        bodies.append(
+            f"SP_VTARGET static void {vname}(const sp_vec* const* argv0, "
+            "const sp_vec* const* argv1, const double* const* shared, sp_vec* const* resv0, "
+            "sp_vec* const* resv1) {\n"
+            "#ifdef __clang__\n#pragma clang fp contract(fast)\n#endif\n"
+            + "\n".join(_interleaved(lines))
+            + "\n  (void)argv0; (void)argv1; (void)shared; (void)resv0; (void)resv1;\n}\n"
+        )
+    closure = avx2_copy(code, m.closure.name(), "sp_lane_closure_avx2", "SP_LANE_CLOSURE")
+    iclosure = avx2_copy(
+        code, m.idm_closure.name(), "sp_lane_idm_closure_avx2", "SP_LANE_IDM_CLOSURE"
+    )
+    if not closure or not iclosure:
+        return ""
+    vec = "\n".join(bodies)
+    preamble = _simd.PREAMBLE.replace('target("avx2")', 'target("avx2,fma")')
+    n_prm = max(m.prm.shape[1], 1)
+    prm = np.zeros((GROUPS, n_prm, WIDTH))
+    for k, leg in enumerate((0, 1, 2, 3, 4, 5, 4, 5)):
+        prm[k // WIDTH, : m.prm.shape[1], k % WIDTH] = m.prm[leg]
+    rows = ",\n".join(
+        "{" + ", ".join("{" + ", ".join(repr(float(x)) for x in lanes) + "}" for lanes in g) + "}"
+        for g in prm
+    )
+    c = m.closure
+    entry = ENTRY % {
+        "groups": GROUPS,
+        "width": WIDTH,
+        "n_prm": n_prm,
+        "n_out": m.n_out,
+        "prm": rows,
+        "c_arg": c.sz_arg(),
+        "c_res": c.sz_res(),
+        "c_iw": c.sz_iw(),
+        "c_w": c.sz_w(),
+        "naux": c.size1_out(1),
+        "ni_out": m.ni_out,
+        "i_arg": m.idm_closure.sz_arg(),
+        "i_res": m.idm_closure.sz_res(),
+        "i_iw": m.idm_closure.sz_iw(),
+        "i_w": m.idm_closure.sz_w(),
+        "inaux": m.idm_closure.size1_out(1),
+    }
+    return (
+        "/* Generated by stewart-pin (see codegen/lanes.py). */\n"
+        "#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)\n"
+        f"{code}\n{preamble}\n{_simd.lane_helpers(used)}\n{vec}\n#endif\n{closure}\n"
+        f"{iclosure}\n{entry}"
+    )
+
+
+_ENTRIES: weakref.WeakKeyDictionary[Any, tuple[int, int, Any]] = weakref.WeakKeyDictionary()
+_ENTRIES_LOCK = threading.Lock()
+
+
+def lanes_entries(models: Any) -> tuple[int, int]:
+    """The addresses of ``sp_ddm_lanes`` and ``sp_idm_lanes`` for the robot of ``models``
+    (a compiled :class:`~.compiled.CompiledDynamics` of a robot with general legs), bound
+    to its library's guards: built (or found) in the cache on first use, once per models
+    object; ``(0, 0)`` where the lanes do not apply (legs that differ in more than their
+    numbers, a processor without AVX2 and FMA, a library that cannot be built): the
+    caller then calls the robot library's ``sp_ddm_aux`` and ``sp_idm_sim``."""
+    with _ENTRIES_LOCK:
+        got = _ENTRIES.get(models)
+        if got is None:
+            got = _ENTRIES[models] = _entry(models)
+        return got[0], got[1]
+
+
+def _entry(models: Any) -> tuple[int, int, Any]:
+    from stewart_pin.codegen._architecture import codegen_kind
+    from stewart_pin.codegen._identity import library_identity
+    from stewart_pin.codegen.compiled import build_source_library, model_layout, printable_name
+
+    desc = models.robot.description
+    lib = getattr(models, "_lib", None)
+    guards = [getattr(lib, f"sp_{x}_guard_sim", None) for x in ("ddm", "idm")]
+    if guards[0] is None or guards[1] is None:
+        return 0, 0, None
+    if not codegen_kind(desc).generic_models or desc.has_chain_legs:
+        return 0, 0, None
+    if _lane_legs(general_robot(desc)) is None:
+        return 0, 0, None
+    layout = model_layout(desc)
+    if (layout.jinv, layout.ddm_d, layout.ddm_slack) != (0, 36, 42):
+        return 0, 0, None
+
+    def source() -> str:
+        m = lane_models(desc)
+        return "" if m is None else lanes_source(m)
+
+    identity = library_identity(desc, f"lanes {LANES_VERSION}")
+    loaded: list[Any] = []
+    try:
+        build_source_library(
+            source,
+            getattr(models, "cache_dir", None),
+            load=lambda path: loaded.append(ctypes.CDLL(str(path))),
+            announce=f"the legs-as-lanes models of robot '{printable_name(desc)}'",
+            identity=identity,
+        )
+    except CompilationError:
+        return 0, 0, None
+    lanes = loaded[0]
+    try:
+        bind, bind_idm = lanes["sp_lanes_bind"], lanes["sp_lanes_bind_idm"]
+        naux, inaux = lanes["sp_lanes_naux"], lanes["sp_lanes_idm_naux"]
+    except AttributeError:  # not an x86 GNU compiler: the preprocessor left them out
+        return 0, 0, lanes
+    if naux() != layout.ddm_size or inaux() != layout.idm_size:
+        return 0, 0, lanes
+    for f in (bind, bind_idm):
+        f.argtypes, f.restype = [ctypes.c_void_p], ctypes.c_int
+    ok = bind(ctypes.cast(guards[0], ctypes.c_void_p))
+    ok &= bind_idm(ctypes.cast(guards[1], ctypes.c_void_p))
+    if not ok:
+        return 0, 0, lanes
+    ddm, idm = (
+        int(ctypes.cast(lanes[name], ctypes.c_void_p).value or 0)
+        for name in ("sp_ddm_lanes", "sp_idm_lanes")
+    )
+    return ddm, idm, lanes

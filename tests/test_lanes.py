@@ -1,0 +1,308 @@
+"""The compiled simulator's direct model with the six legs as vector lanes
+(:mod:`stewart_pin.codegen.lanes`): the same results and flags as the robot library's
+``sp_ddm_aux`` (which the single-state and batch calls share with the Python loop) and as
+the reference path, on sampled states and on states the guard flags; where it applies and
+where the robot library's entry stays; the C loop on it equals the Python loop. No timing
+assertions (scripts/bench_simulation.py measures)."""
+
+from __future__ import annotations
+
+import ctypes
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import get_robot, use_compile_cache
+from helpers import rel_error
+
+from stewart_pin.codegen import lanes
+from stewart_pin.codegen.simulator import _DDM_AUX, _address
+from stewart_pin.description.leg_architecture import JointDynamics
+from stewart_pin.description.leg_chain_presets import GENERAL_PRESETS, random_hexapod
+from stewart_pin.motion import simulation
+from stewart_pin.motion.simulation import prepare_run
+
+#: Named presets and asymmetric robots (every joint term non-zero, legs that differ in
+#: their joints' numbers too).
+ROBOTS = ("rus", "pus", "ups-offset", "random-rus-0", "random-pus-0", "random-ups-offset-1")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def cache_dir(shared_compile_cache):
+    yield from use_compile_cache(shared_compile_cache)
+
+
+def _avx2_fma() -> bool:
+    """Whether this processor has AVX2 and FMA (Linux's /proc/cpuinfo; False elsewhere)."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return False
+    flags = next((ln.split(":", 1)[1].split() for ln in text.splitlines() if "flags" in ln), [])
+    return "avx2" in flags and "fma" in flags
+
+
+needs_lanes = pytest.mark.skipif(not _avx2_fma(), reason="the lanes need AVX2 and FMA")
+
+
+def _entries(robot):
+    """The run's direct-model entry (the lanes where they apply) and the library's."""
+    run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
+    lib = run.fast._models._lib
+    return run, run.fast.sim.ddm, lib.sp_ddm_aux, _address(lib, "sp_ddm_aux")
+
+
+def _call(fn, T, V, g, run):
+    aux, out, det = np.empty(run.fast.sim.naux), np.empty(6), ctypes.c_double()
+    flag = fn(
+        *(ctypes.c_void_p(np.ascontiguousarray(a).ctypes.data) for a in (T, V, g)),
+        ctypes.c_void_p(run.fast.sim.chi),
+        ctypes.c_double(run.fast.sim.max_cond),
+        ctypes.c_void_p(out.ctypes.data),
+        ctypes.c_void_p(aux.ctypes.data),
+        ctypes.byref(det),
+    )
+    return flag, out, aux, det.value
+
+
+def _close(got: np.ndarray, ref: np.ndarray, tol: float = 1e-13) -> None:
+    """Each value within ``tol`` of the reference, relative to max(|reference|, 1)."""
+    err = np.abs(got - ref) / np.maximum(np.abs(ref), 1.0)
+    assert err.max() <= tol, (err.max(), got, ref)
+
+
+def _near_home(robot, n: int, seed: int, spread: float, odd: bool = False):
+    """``n`` states about home (pose offsets of ``spread`` in the stroke and radians,
+    twists of 0.1, forces within 5 % of the hover); ``odd``: every other state's offsets
+    0.02 instead, and every tenth with a pose that is no rotation, a non-finite twist or
+    force."""
+    rng = np.random.default_rng(seed)
+    g0 = robot.inverse_dynamics(robot.home_pose, np.zeros(6), np.zeros(6), backend="pinocchio")
+    out = []
+    for i in range(n):
+        T = robot.home_pose.copy()
+        d = (spread if i % 2 or not odd else 0.02) * rng.standard_normal(6)
+        T[:3, :3] = pin.exp3(d[3:]) @ T[:3, :3]
+        T[:3, 3] += robot.description.stroke_mid * d[:3]
+        tw = 0.1 * rng.standard_normal(6)
+        g = g0 * (1.0 + 0.05 * rng.standard_normal(6))
+        if odd and i % 10 == 3:
+            T[0, 0] += 1e-5
+        if odd and i % 10 == 7:
+            tw[2] = np.nan
+        if odd and i % 10 == 9:
+            g[4] = np.inf
+        out.append((T, tw, g))
+    return out
+
+
+@needs_lanes
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_lanes_equal_the_library_and_the_reference(name):
+    """The lanes against ``sp_ddm_aux`` (the robot library's AVX2+FMA copy of the flat
+    model, the C loop's entry without the lanes) and the single-state compiled model (the
+    batch call, no FMA), state by state:
+
+    - 100 states about home: the same flag (0); the acceleration within 1e-13 of both
+      (relative to max(|a|, 1), as tests/test_compiled_simulation.py bounds the copy),
+      the by-products (``Jp^-1``, the ``L D L^T`` pivots, the slacks) and the
+      determinant of the cheap condition check within 1e-13 of ``sp_ddm_aux``'s;
+    - 300 sampled states (``sample_states``, the forces the reference's IDM of a sampled
+      acceleration): the same flags; ``Jp^-1`` and the slacks (leg code) within 1e-13;
+      the acceleration's backward error (the
+      reference IDM of it against the forces) under 1e-12, as the compiled model's in
+      tests/test_general_codegen.py (a forward bound would be the state's condition
+      number times the rounding: up to 4e-10 between ``sp_ddm_aux`` and the batch call
+      already at some sampled states of random-pus-0, and as much on the pivots);
+    - 200 states from well inside to beyond the workspace, every tenth with a pose that
+      is no rotation or a non-finite input: the same flag, flagged or not, and the INPUT
+      flag (beyond a first flag the generated values are meaningless and FMA may change
+      which further flags they raise, as for ``sp_ddm_aux``'s own copy)."""
+    robot = get_robot(name)
+    run, entry, aux_fn, aux_address = _entries(robot)
+    assert entry != aux_address  # the lanes run
+    lanes_fn = _DDM_AUX(entry)
+    near = _near_home(robot, 100, 7, 0.02)
+    T, tw, g = (np.array(x) for x in zip(*near, strict=True))
+    batch = robot.direct_dynamics(T, tw, g, backend="compiled")
+    for k in range(len(near)):
+        f1, a1, x1, d1 = _call(aux_fn, T[k], tw[k], g[k], run)
+        f2, a2, x2, d2 = _call(lanes_fn, T[k], tw[k], g[k], run)
+        assert f1 == 0 and f2 == 0
+        _close(a2, a1)
+        _close(a2, batch[k])
+        _close(x2, x1)
+        _close(np.array([d2]), np.array([d1]))
+
+    P, V, A = robot.sample_states(300, 5)
+    G = robot.inverse_dynamics(P, V, A, backend="pinocchio")
+    ok, acc = [], []
+    for k in range(300):
+        f1, _, x1, _ = _call(aux_fn, P[k], V[k], G[k], run)
+        f2, a2, x2, _ = _call(lanes_fn, P[k], V[k], G[k], run)
+        assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
+        if f1 == 0:
+            _close(x2[:36], x1[:36])
+            _close(x2[42:], x1[42:])
+            ok.append(k)
+            acc.append(a2)
+    assert len(ok) >= 150, len(ok)
+    back = robot.inverse_dynamics(P[ok], V[ok], np.array(acc), backend="pinocchio")
+    assert rel_error(back, G[ok]) < 1e-12
+
+    flags = set()
+    for T1, tw1, g1 in _near_home(robot, 200, 11, 0.4, odd=True):
+        f1, *_ = _call(aux_fn, T1, tw1, g1, run)
+        f2, *_ = _call(lanes_fn, T1, tw1, g1, run)
+        assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
+        flags.add(int(f1))
+    assert 0 in flags and any(f & 1 for f in flags) and len(flags) >= 3, flags
+
+
+def _idm(address_or_fn, T, V, A, run, chi):
+    """One ``sp_idm_sim``-like call: (flag, gamma)."""
+    gamma, flags = np.empty(6), np.zeros(1, np.int32)
+    address_or_fn(
+        ctypes.c_longlong(1),
+        *(ctypes.c_void_p(np.ascontiguousarray(a).ctypes.data) for a in (T, V, A)),
+        ctypes.c_void_p(chi),
+        ctypes.c_double(run.fast.sim.max_cond),
+        ctypes.c_void_p(gamma.ctypes.data),
+        ctypes.c_void_p(flags.ctypes.data),
+    )
+    return int(flags[0]), gamma
+
+
+_IDM_SIM = ctypes.CFUNCTYPE(
+    ctypes.c_int,
+    ctypes.c_longlong,
+    *[ctypes.c_void_p] * 4,
+    ctypes.c_double,
+    *[ctypes.c_void_p] * 2,
+)
+
+
+@needs_lanes
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_inverse_lanes_equal_the_library_and_the_reference(name):
+    """The computed-torque controller's inverse model on the lanes (``sp_idm_lanes``)
+    against the robot library's ``sp_idm_sim`` (its AVX2+FMA copy) and the batch call:
+    about home the same flag (0) and forces within 1e-13 (relative to max(|G|, 1)); at
+    300 sampled states the same flags and forces within 1e-12 of the reference path's
+    (tests/test_general_codegen.py's bound for the compiled inverse model); at 200
+    states from well inside to beyond the workspace (non-finite inputs among them) the
+    same flag, flagged or not, and the INPUT flag."""
+    robot = get_robot(name)
+    run = prepare_run(robot, 0.01, backend="compiled", integrator="compiled")
+    models = run.fast._models
+    ddm, idm = lanes.lanes_entries(models)
+    assert ddm != 0 and idm != 0
+    lanes_fn, lib_fn = _IDM_SIM(idm), models._lib.sp_idm_sim
+    chi = run.fast.sim.chi
+    rng = np.random.default_rng(3)
+    near = _near_home(robot, 100, 7, 0.02)
+    T, tw, _ = (np.array(x) for x in zip(*near, strict=True))
+    A = 0.5 * rng.standard_normal((100, 6))
+    batch = robot.inverse_dynamics(T, tw, A, backend="compiled")
+    for k in range(100):
+        f1, g1 = _idm(lib_fn, T[k], tw[k], A[k], run, chi)
+        f2, g2 = _idm(lanes_fn, T[k], tw[k], A[k], run, chi)
+        assert f1 == 0 and f2 == 0
+        _close(g2, g1)
+        _close(g2, batch[k])
+    P, V, A = robot.sample_states(300, 5)
+    ok, got = [], []
+    for k in range(300):
+        f1, _ = _idm(lib_fn, P[k], V[k], A[k], run, chi)
+        f2, g2 = _idm(lanes_fn, P[k], V[k], A[k], run, chi)
+        assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
+        if f1 == 0:
+            ok.append(k)
+            got.append(g2)
+    assert len(ok) >= 150, len(ok)
+    ref = robot.inverse_dynamics(P[ok], V[ok], A[ok], backend="pinocchio")
+    assert rel_error(np.array(got), ref) < 1e-12
+    flags = set()
+    for T1, tw1, g1 in _near_home(robot, 200, 11, 0.4, odd=True):
+        acc = 0.5 * rng.standard_normal(6)
+        if not np.all(np.isfinite(g1)):
+            acc[1] = np.inf
+        f1, _ = _idm(lib_fn, T1, tw1, acc, run, chi)
+        f2, _ = _idm(lanes_fn, T1, tw1, acc, run, chi)
+        assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
+        flags.add(f1)
+    assert 0 in flags and any(f & 1 for f in flags) and len(flags) >= 3, flags
+
+
+def _asymmetric_limits(robot):
+    """``robot`` (general legs) with another lower limit on leg 2's first joint that has
+    one."""
+    legs = list(robot.legs)
+    joints = list(legs[1].joints)
+    m = next(m for m, j in enumerate(joints) if np.isfinite(j.lower))
+    joints[m] = replace(joints[m], lower=joints[m].lower - 0.01)
+    legs[1] = replace(legs[1], joints=tuple(joints))
+    return replace(robot, legs=tuple(legs))
+
+
+def test_the_lanes_apply_where_the_legs_differ_in_numbers_only():
+    """The lanes take every number of a leg that enters its code by arithmetic alone:
+    the named presets and the asymmetric random robots have lane models, with the
+    legs' numbers as rows (six, one per leg), as has a preset whose one leg has a joint
+    term the others do not (a lane number, zero in five lanes); a ``custom`` leg
+    (Newton's steps, a called function of the leg's numbers) or a joint limit (a branch
+    of the generator, a threshold of the guard) that differs between legs leaves the
+    robot on the library's direct model."""
+    for name in ("rus", "pus", "ups-offset", "random-rus-0"):
+        m = lanes.lane_models(get_robot(name).description)
+        assert m is not None and m.prm.shape[0] == 6 and m.prm.shape[1] >= 8, name
+        assert not np.all(m.prm == m.prm[0]), name  # legs do differ
+    assert lanes.lane_models(get_robot("random-custom-0").description) is None
+    assert lanes.lane_models(random_hexapod("pus", 0)) is not None
+    assert lanes.lane_models(_asymmetric_limits(GENERAL_PRESETS["pus"]())) is None
+    rus = GENERAL_PRESETS["rus"]()
+    legs = list(rus.legs)
+    j = legs[0].joints[1]
+    assert j.dynamics.coulomb == 0.0
+    legs[0] = replace(
+        legs[0],
+        joints=(
+            legs[0].joints[0],
+            replace(j, dynamics=JointDynamics(coulomb=0.1)),
+            legs[0].joints[2],
+        ),
+    )
+    m0, m1 = lanes.lane_models(rus), lanes.lane_models(replace(rus, legs=tuple(legs)))
+    assert m0 is not None and m1 is not None and m1.prm.shape[1] == m0.prm.shape[1] + 1
+
+
+@needs_lanes
+def test_the_library_entry_stays_where_the_lanes_do_not_apply():
+    """6-UPS (the paper's models) and ``custom`` legs: the C loop calls ``sp_ddm_aux``."""
+    for name in ("simulator", "random-custom-0"):
+        _, entry, _, aux_address = _entries(get_robot(name))
+        assert entry == aux_address, name
+
+
+@needs_lanes
+@pytest.mark.parametrize("name", ("pus", "random-rus-0"))
+def test_the_c_loop_on_the_lanes_equals_the_python_loop(name):
+    """RK4 at 1 ms for 0.1 s under constant forces about the hover: the C loop on the
+    lanes gives the Python loop's trajectory to 1e-10 (relative to max(|x|, 1))."""
+    robot = get_robot(name)
+    g = robot.inverse_dynamics(robot.home_pose, np.zeros(6), np.zeros(6), backend="pinocchio")
+    kwargs = {"forces": g * 1.001, "twist": [0.01, -0.02, 0.01, 0.05, 0.02, -0.03], "dt": 1e-3}
+    ref = prepare_run(robot, 0.1, backend="compiled", integrator="python", **kwargs).go()
+    run = prepare_run(robot, 0.1, backend="compiled", integrator="compiled", **kwargs)
+    assert run.fast is not None and run.fast.sim.ddm != _address(
+        run.fast._models._lib, "sp_ddm_aux"
+    )
+    got = run.go()
+    assert any(isinstance(r, simulation._Block) for r in run.rows)  # the C loop ran
+    np.testing.assert_array_equal(got.t, ref.t)
+    assert got.t.size == 101
+    for field in ("poses", "twists", "accels", "gammas"):
+        x, y = getattr(got, field), getattr(ref, field)
+        assert np.abs(x - y).max() <= 1e-10 * max(1.0, float(np.abs(y).max())), field
