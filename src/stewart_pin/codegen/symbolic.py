@@ -42,6 +42,11 @@ sub-expressions eliminated with :func:`casadi.cse`) and as its stages
 (``SymbolicModels.idm_stages``): a shared prelude, six independent leg functions and the
 platform (which could run on seven processors), then the closure.
 
+The leg code takes the numbers of one leg (:class:`LegNumbers`: Python floats here, SX
+symbols in the legs-as-lanes models of :mod:`.lanes`, which run it for four legs at a
+time in the compiled simulator) and the closures' by-products are assembled by
+:func:`idm_legs_closure` and :func:`ddm_closure_and_aux` for both.
+
 The pieces shared with the general-leg generator (:mod:`.leg_chain_symbolic`): the SX
 algebra, the platform, both closures, the stages and :class:`SymbolicModels`, live in
 :mod:`._sx_common`, below both generators.
@@ -291,6 +296,8 @@ def _leg_parameters(chi: Sequence[Scalar], names: Sequence[str], k: int) -> dict
 
 
 def platform_parameters(chi: Sequence[Scalar], names: Sequence[str]) -> list[Scalar]:
+    """The 10 grouped platform parameters (:data:`PLATFORM_PARAMETERS`) of the base
+    parameters ``chi`` named ``names``."""
     index = {n: j for j, n in enumerate(names)}
     return [chi[index[p]] for p in PLATFORM_PARAMETERS]
 
