@@ -18,15 +18,30 @@ from conftest import get_robot, use_compile_cache
 from helpers import rel_error
 
 from stewart_pin.codegen import lanes
+from stewart_pin.codegen.compiled import model_layout
 from stewart_pin.codegen.simulator import _DDM_AUX, _address
+from stewart_pin.codegen.symbolic import LEG_PARAMETERS
 from stewart_pin.description.leg_architecture import JointDynamics
 from stewart_pin.description.leg_chain_presets import GENERAL_PRESETS, random_hexapod
 from stewart_pin.motion import simulation
 from stewart_pin.motion.simulation import prepare_run
+from stewart_pin.parameters.base import grouped_parameters
 
 #: Named presets and asymmetric robots (every joint term non-zero, legs that differ in
-#: their joints' numbers too).
-ROBOTS = ("rus", "pus", "ups-offset", "random-rus-0", "random-pus-0", "random-ups-offset-1")
+#: their joints' numbers too); the paper's 6-UPS models (:mod:`stewart_pin.codegen.symbolic`)
+#: on three presets and a random robot (no zero in its geometry).
+ROBOTS = (
+    "rus",
+    "pus",
+    "ups-offset",
+    "random-rus-0",
+    "random-pus-0",
+    "random-ups-offset-1",
+    "simulator",
+    "desktop",
+    "paper",
+    "random-0",
+)
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -54,11 +69,13 @@ def _entries(robot):
     return run, run.fast.sim.ddm, lib.sp_ddm_aux, _address(lib, "sp_ddm_aux")
 
 
-def _call(fn, T, V, g, run):
+def _call(fn, T, V, g, run, chi=None):
+    """One ``sp_ddm_aux``-like call (``chi``: the run's base parameters, or these):
+    (flag, accel, aux, det)."""
     aux, out, det = np.empty(run.fast.sim.naux), np.empty(6), ctypes.c_double()
     flag = fn(
         *(ctypes.c_void_p(np.ascontiguousarray(a).ctypes.data) for a in (T, V, g)),
-        ctypes.c_void_p(run.fast.sim.chi),
+        ctypes.c_void_p(run.fast.sim.chi if chi is None else chi.ctypes.data),
         ctypes.c_double(run.fast.sim.max_cond),
         ctypes.c_void_p(out.ctypes.data),
         ctypes.c_void_p(aux.ctypes.data),
@@ -110,7 +127,8 @@ def test_the_lanes_equal_the_library_and_the_reference(name):
       the by-products (``Jp^-1``, the ``L D L^T`` pivots, the slacks) and the
       determinant of the cheap condition check within 1e-13 of ``sp_ddm_aux``'s;
     - 300 sampled states (``sample_states``, the forces the reference's IDM of a sampled
-      acceleration): the same flags; ``Jp^-1`` and the slacks (leg code) within 1e-13;
+      acceleration): the same flags; the by-products but the pivots (the leg code's:
+      ``Jp^-1``, the slacks or the 6-UPS ``q^2``, ``rho^2``) within 1e-13;
       the acceleration's backward error (the
       reference IDM of it against the forces) under 1e-12, as the compiled model's in
       tests/test_general_codegen.py (a forward bound would be the state's condition
@@ -138,14 +156,15 @@ def test_the_lanes_equal_the_library_and_the_reference(name):
 
     P, V, A = robot.sample_states(300, 5)
     G = robot.inverse_dynamics(P, V, A, backend="pinocchio")
+    d = model_layout(robot.description).ddm_d  # the L D L^T pivots: aux[d : d + 6]
+    legs = np.r_[0:d, d + 6 : run.fast.sim.naux]
     ok, acc = [], []
     for k in range(300):
         f1, _, x1, _ = _call(aux_fn, P[k], V[k], G[k], run)
         f2, a2, x2, _ = _call(lanes_fn, P[k], V[k], G[k], run)
         assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
         if f1 == 0:
-            _close(x2[:36], x1[:36])
-            _close(x2[42:], x1[42:])
+            _close(x2[legs], x1[legs])
             ok.append(k)
             acc.append(a2)
     assert len(ok) >= 150, len(ok)
@@ -280,14 +299,63 @@ def test_the_lanes_apply_where_the_legs_differ_in_numbers_only():
 
 @needs_lanes
 def test_the_library_entry_stays_where_the_lanes_do_not_apply():
-    """6-UPS (the paper's models) and ``custom`` legs: the C loop calls ``sp_ddm_aux``."""
-    for name in ("simulator", "random-custom-0"):
-        _, entry, _, aux_address = _entries(get_robot(name))
-        assert entry == aux_address, name
+    """``custom`` legs: the C loop calls ``sp_ddm_aux``."""
+    _, entry, _, aux_address = _entries(get_robot("random-custom-0"))
+    assert entry == aux_address
+
+
+def test_the_6ups_lanes_take_the_legs_placements_and_base_parameters():
+    """The paper's 6-UPS on the lanes: the numbers that differ between the legs (``P_i``,
+    ``B_i``, the first U-joint's axis; x and y only on the paper's presets, whose z are
+    all zero, all nine on a random robot) are lane numbers, gravity (one vector) is baked,
+    and each leg reads its own 13 base parameters from ``chi`` (their names' indices)."""
+    for name, n_prm in (("simulator", 6), ("paper", 6), ("random-0", 9)):
+        desc = get_robot(name).description
+        m = lanes.lane_models(desc)
+        assert m is not None and m.prm.shape == (6, n_prm), (name, m.prm.shape)
+        names = grouped_parameters(desc).names
+        assert m.chi_index.shape == (6, 13)
+        for k in range(6):
+            got = [names[i] for i in m.chi_index[k]]
+            assert got == [f"{q}_{k + 1}" for q in LEG_PARAMETERS], got
 
 
 @needs_lanes
-@pytest.mark.parametrize("name", ("pus", "random-rus-0"))
+@pytest.mark.parametrize("name", ("simulator", "random-0"))
+def test_the_6ups_lanes_read_the_base_parameters_at_run_time(name):
+    """Base parameters other than the robot's, each leg's its own (every value scaled by
+    a random factor in [0.8, 1.2]): the lanes' direct and inverse models equal the robot
+    library's ``sp_ddm_aux`` and ``sp_idm_sim`` with the same ``chi`` (same flags, 1e-13),
+    and differ from their results with the robot's parameters (the values are read)."""
+    robot = get_robot(name)
+    run, entry, aux_fn, _ = _entries(robot)
+    models = run.fast._models
+    lanes_fn, ilanes_fn = _DDM_AUX(entry), _IDM_SIM(lanes.lanes_entries(models)[1])
+    rng = np.random.default_rng(5)
+    chi = models.base_values * rng.uniform(0.8, 1.2, models.base_values.size)
+    same = 0
+    for T, tw, g in _near_home(robot, 50, 13, 0.02):
+        f1, a1, x1, _ = _call(aux_fn, T, tw, g, run, chi)
+        f2, a2, x2, _ = _call(lanes_fn, T, tw, g, run, chi)
+        _, a0, _, _ = _call(lanes_fn, T, tw, g, run)
+        assert f1 == f2, (f1, f2)
+        if f1 == 0:
+            same += 1
+            _close(a2, a1)
+            _close(x2, x1)
+            assert np.abs(a2 - a0).max() > 1e-6 * max(1.0, np.abs(a0).max())
+        acc = 0.5 * rng.standard_normal(6)
+        f1, g1 = _idm(models._lib.sp_idm_sim, T, tw, acc, run, chi.ctypes.data)
+        f2, g2 = _idm(ilanes_fn, T, tw, acc, run, chi.ctypes.data)
+        _, g0 = _idm(ilanes_fn, T, tw, acc, run, run.fast.sim.chi)
+        assert f1 == f2 == 0, (f1, f2)
+        _close(g2, g1)
+        assert np.abs(g2 - g0).max() > 1e-6 * max(1.0, np.abs(g0).max())
+    assert same >= 40, same
+
+
+@needs_lanes
+@pytest.mark.parametrize("name", ("pus", "random-rus-0", "simulator", "random-0"))
 def test_the_c_loop_on_the_lanes_equals_the_python_loop(name):
     """RK4 at 1 ms for 0.1 s under constant forces about the hover: the C loop on the
     lanes gives the Python loop's trajectory to 1e-10 (relative to max(|x|, 1))."""

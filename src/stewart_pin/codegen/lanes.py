@@ -1,24 +1,32 @@
 """The six legs as vector lanes: the compiled simulator's direct model (issue 24).
 
-A state's direct model (:mod:`.leg_chain_symbolic`) is mostly six independent leg
-computations followed by a closure (the legs' 6x6 blocks summed with the platform's, an
-``L D L^T`` solve). Where the six legs have the same structure and the same numbers but
-their placement, the leg code is one function of the leg's numbers: this module writes it
-once with every number that differs between the legs as an input (the rotation ``R_i``
-of frame 0i, ``B_i``, ``P_i``, gravity in frame 0i, the branch; numbers equal in all six
-legs stay baked in, so that their zeros and ones fold as in the robot's library), turns
-it into four-lane AVX2+FMA code with :mod:`._simd` (lanes = legs: legs 1-4 in one vector,
-5-6 and two idle lanes in another, the two interleaved statement by statement in one
-function) and follows it by the closure, a scalar CasADi function compiled for
-AVX2+FMA too, reading the legs' outputs where the lanes wrote them.
+A state's direct model (:mod:`.leg_chain_symbolic` for general legs, :mod:`.symbolic` for
+the paper's 6-UPS) is mostly six independent leg computations followed by a closure (the
+legs' 6x6 blocks summed with the platform's, an ``L D L^T`` solve). Where the six legs
+have the same structure and differ only in their numbers, the leg code is one function of
+the leg's numbers: this module writes it once (the generator's own leg code) with every
+number that differs between the legs as an input (general legs: the rotation ``R_i`` of
+frame 0i, ``B_i``, ``P_i``, gravity in frame 0i, the branch, the joints' numbers; the
+6-UPS: ``P_i``, ``B_i``, the first U-joint's axis ``z1i``; numbers equal in all six legs
+stay baked in, so that their zeros and ones fold as in the robot's library), and for the
+6-UPS the leg's 13 base parameters as a second input, gathered per lane from the models'
+``chi`` input at each call (:data:`.symbolic.LEG_PARAMETERS`; the platform's are read by
+the closure), turns it into four-lane AVX2+FMA code with :mod:`._simd` (lanes = legs:
+legs 1-4 in one vector, 5-6 and two idle lanes in another, the two interleaved statement
+by statement in one function) and follows it by the closure, a scalar CasADi function
+compiled for AVX2+FMA too, reading the legs' outputs where the lanes wrote them and
+writing the robot library's by-products (its layout: the general legs' or the 6-UPS
+``q3^2``, ``rho^2``, ``Jp^-1``, ``D``...).
 
 The entry ``sp_ddm_lanes`` has ``sp_ddm_aux``'s signature and outputs (the robot
 library's, :mod:`._csource`) and calls the robot library's guard (``sp_ddm_guard_sim``,
 bound once by ``sp_lanes_bind``): the compiled simulator (:mod:`.simulator`) calls it in
 place of ``sp_ddm_aux`` where the processor has AVX2 and FMA and the robot's legs are
-lane-compatible (:func:`lane_models`: not a ``custom`` leg, the same architecture, joints,
-tip and actuated joint in every leg); elsewhere the robot library's entry. The lanes
-compute the operations of the scalar model in the same order but for products by the
+lane-compatible (:func:`lane_models`: the paper's 6-UPS, or general legs that are not
+``custom`` with the same architecture, joints, tip and actuated joint in every leg);
+elsewhere the robot library's entry. ``sp_idm_lanes`` does the same for ``sp_idm_sim``
+(the computed-torque controller's inverse model). The
+lanes compute the operations of the scalar model in the same order but for products by the
 placement numbers that the scalar model folds (by 0, 1 or -1: exact) and for FMA
 contraction (as the simulator's AVX2+FMA copy of the flat model): within a few units in
 the last place of the robot library's direct model (tests/test_lanes.py).
@@ -34,6 +42,7 @@ import dataclasses
 import re
 import threading
 import weakref
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,7 +51,9 @@ import numpy as np
 from stewart_pin._lazy import casadi as cs  # imported on first use
 from stewart_pin.codegen import _simd
 from stewart_pin.codegen._sx_common import (
+    Mat,
     Scalar,
+    Vec,
     column,
     ddm_legs_closure,
     ddm_platform,
@@ -53,6 +64,7 @@ from stewart_pin.codegen._sx_common import (
     pivot_order,
     pose_from_input,
     split,
+    vcross,
 )
 from stewart_pin.codegen.leg_chain_symbolic import (
     LegConst,
@@ -63,35 +75,56 @@ from stewart_pin.codegen.leg_chain_symbolic import (
     leg_constants,
     leg_kinematics,
 )
+from stewart_pin.codegen.symbolic import (
+    LEG_PARAMETERS,
+    LegNumbers,
+    leg_geometry,
+    leg_numbers,
+    model_constants,
+    platform_parameters,
+    static_pivots,
+)
+from stewart_pin.codegen.symbolic import ddm_closure_and_aux as ups_ddm_closure
+from stewart_pin.codegen.symbolic import ddm_leg_outputs as ups_ddm_leg
+from stewart_pin.codegen.symbolic import idm_leg_outputs as ups_idm_leg
+from stewart_pin.codegen.symbolic import idm_legs_closure as ups_idm_closure
+from stewart_pin.description import RobotDescription
 from stewart_pin.exceptions import CompilationError
 from stewart_pin.kinematics import leg_chains
+from stewart_pin.kinematics.geometry import characteristic_length
 
 #: Lanes per vector (AVX2: four doubles) and vectors of legs (six legs in eight lanes).
 WIDTH = 4
 GROUPS = 2
 #: The generator's version (in the library's identity).
-LANES_VERSION = "1"
+LANES_VERSION = "2"
 _VAR = re.compile(r"\ba\d+\b")
 
 
 @dataclass(frozen=True)
 class LaneModels:
-    """The legs-as-lanes direct model of a robot.
+    """The legs-as-lanes direct and inverse models of a robot.
 
     Attributes:
-        leg: ``leg(pose (16), twist (6), gamma (1), prm (n_prm)) -> out (n_out)``: one
-            leg's ``row`` (6, its row of ``Jp^-1``), ``block`` (21, the upper triangle of
-            its 6x6 share of the mass matrix), ``wrench`` (6) and its slacks, at the leg
-            numbers ``prm``.
-        closure: ``closure(pose (16), twist (6), X (8 n_out)) -> (accel (6), aux)``, ``X``
-            the legs' outputs as the lanes write them (element ``i`` of leg ``k`` at
-            ``(k // 4) 4 n_out + 4 i + k % 4``), ``aux`` the robot library's direct-model
-            by-products (:class:`~.leg_chain_symbolic.AuxLayout`).
+        leg: ``leg(pose (16), twist (6), gamma (1), prm (n_prm), lp (n_lp)) -> out
+            (n_out)``: one leg's outputs at the leg numbers ``prm`` and the leg's base
+            parameters ``lp`` (6-UPS: its 13 of ``chi``; none for general legs): ``row``
+            (6, its row of ``Jp^-1``), ``block`` (21, the upper triangle of its 6x6 share
+            of the mass matrix), ``wrench`` (6), then general legs' slacks or the 6-UPS
+            ``q3^2``, ``rho^2``.
+        closure: ``closure(pose (16), twist (6), X (8 n_out), chi) -> (accel (6), aux)``,
+            ``X`` the legs' outputs as the lanes write them (element ``i`` of leg ``k`` at
+            ``(k // 4) 4 n_out + 4 i + k % 4``), ``chi`` the robot library's
+            ``base_parameters`` input (6-UPS: the platform's are read), ``aux`` the robot
+            library's direct-model by-products (:class:`~.leg_chain_symbolic.AuxLayout`,
+            :data:`~.compiled.UPS_AUX_LAYOUT`).
         prm: (6, n_prm) the legs' numbers.
+        chi_index: (6, n_lp) where each leg's ``lp`` are in ``chi``.
         idm_leg, idm_closure, ni_out: the same for the inverse model:
-            ``idm_leg(pose, twist, accel (6), prm) -> out (ni_out)`` (``row``, ``wrench``
-            (6), ``Hz`` (1), the slacks), ``idm_closure(pose, twist, accel, X) -> (gamma,
-            aux)`` with the robot library's static pivots.
+            ``idm_leg(pose, twist, accel (6), prm, lp) -> out (ni_out)`` (``row``,
+            ``wrench`` (6), ``Hz`` (1), then the slacks or ``q3^2``, ``rho^2``),
+            ``idm_closure(pose, twist, accel, X, chi) -> (gamma, aux)`` with the robot
+            library's static pivots.
     """
 
     leg: cs.Function
@@ -101,6 +134,7 @@ class LaneModels:
     idm_leg: cs.Function
     idm_closure: cs.Function
     ni_out: int
+    chi_index: np.ndarray
 
 
 #: The numbers of a joint that may differ between the lanes (arithmetic only in the leg
@@ -157,118 +191,276 @@ def _lane_legs(robot: Any) -> list[LegConst] | None:
     return legs if _lane_compatible(legs) else None
 
 
-def lane_models(desc: Any) -> LaneModels | None:
-    """The legs-as-lanes models of a robot with general legs, or None where its legs
-    differ in more than their placement (or a leg is ``custom``): the simulator then runs
-    the robot library's direct model."""
+#: A leg's outputs, by field, as the family's leg code returns them.
+_Outputs = dict[str, list[Scalar]]
+
+
+@dataclass
+class _Family:
+    """What a family of legs (general legs, the paper's 6-UPS) puts on the lanes.
+
+    ``ddm_leg(p, R, twist, gamma, lp)`` and ``idm_leg(p, R, twist, accel, lp)`` (``lp``
+    the leg's base parameters, ``p, R`` the pose, lists of SX) are one leg's outputs with
+    the lane numbers as symbols; ``ddm_fields`` / ``idm_fields`` their fields in the
+    order the lanes write them; ``ddm_closure(p, R, twist, chi, legs) -> (accel,
+    aux)`` and ``idm_closure(p, R, twist, accel, chi, legs) -> (gamma, aux)`` the closures
+    (``legs``: six dicts of the fields), as the robot library computes them."""
+
+    numbers: _LaneNumbers
+    ddm_leg: Callable[..., _Outputs]
+    ddm_fields: tuple[str, ...]
+    ddm_closure: Callable[..., tuple[list[Scalar], list[Scalar]]]
+    idm_leg: Callable[..., _Outputs]
+    idm_fields: tuple[str, ...]
+    idm_closure: Callable[..., tuple[list[Scalar], list[Scalar]]]
+    n_chi: int = 0
+    chi_index: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((6, 0), int))
+
+
+class _LaneNumbers:
+    """The lane inputs of a leg's code: :meth:`lane` of the six legs' values of a number
+    is that number where the six legs share it (baked: its zeros and ones fold as in the
+    robot's library), else a new input of the leg function (one per lane)."""
+
+    def __init__(self) -> None:
+        self.columns: list[list[float]] = []
+        self.symbols: list[Scalar] = []
+
+    def lane(self, values: Sequence[float]) -> Scalar:
+        if all(v == values[0] for v in values):
+            return values[0]
+        self.columns.append([float(v) for v in values])
+        s = cs.SX.sym(f"prm_{len(self.symbols)}")
+        self.symbols.append(s)
+        return s
+
+    def vector(self, rows: Sequence[Sequence[float]]) -> list[Scalar]:
+        """:meth:`lane` of each element of the legs' vectors ``rows`` (6, n)."""
+        return [self.lane([r[i] for r in rows]) for i in range(len(rows[0]))]
+
+    @property
+    def prm(self) -> np.ndarray:
+        return np.array(self.columns, dtype=float).T.reshape(6, len(self.columns))
+
+
+def _split_legs(X: cs.SX, fields: Sequence[tuple[str, int]]) -> list[_Outputs]:
+    """The six legs' outputs in the lanes' layout ``X`` (:class:`LaneModels`)."""
+    n = sum(size for _, size in fields)
+    legs = []
+    for k in range(6):
+        base = (k // WIDTH) * WIDTH * n + k % WIDTH
+        v = [X[base + WIDTH * i] for i in range(n)]
+        leg, at = {}, 0
+        for name, size in fields:
+            leg[name], at = v[at : at + size], at + size
+        legs.append(leg)
+    return legs
+
+
+def _general_family(desc: Any) -> _Family | None:
+    """General legs (:mod:`.leg_chain_symbolic`), or None where the six differ in more
+    than their numbers."""
     robot = general_robot(desc)
     found = _lane_legs(robot)
     if not found:
         return None
     legs = found
-    columns: list[list[float]] = []
-    x_prm = cs.SX.sym("prm", 0)
-    symbols: list[Scalar] = []
-
-    def lane(values: list[float]) -> Scalar:
-        """The number if the six legs share it, else a new lane input."""
-        if all(v == values[0] for v in values):
-            return values[0]
-        columns.append(values)
-        s = cs.SX.sym(f"prm_{len(symbols)}")
-        symbols.append(s)
-        return s
-
-    R = tuple(tuple(lane([lc.R[i][j] for lc in legs]) for j in range(3)) for i in range(3))
-    B = tuple(lane([lc.B[i] for lc in legs]) for i in range(3))
-    pL = tuple(lane([lc.pL[i] for lc in legs]) for i in range(3))
-    g = tuple(lane([lc.gravity[i] for lc in legs]) for i in range(3))
-    branch = lane([float(lc.branch) for lc in legs])
-    tip = tuple(lane([lc.tip[i] for lc in legs]) for i in range(3))
+    nums = _LaneNumbers()
+    R = tuple(tuple(nums.vector([lc.R[i] for lc in legs])) for i in range(3))
+    B = tuple(nums.vector([lc.B for lc in legs]))
+    pL = tuple(nums.vector([lc.pL for lc in legs]))
+    g = tuple(nums.vector([lc.gravity for lc in legs]))
+    branch = nums.lane([float(lc.branch) for lc in legs])
+    tip = tuple(nums.vector([lc.tip for lc in legs]))
     joints = []
     for j, j0 in enumerate(legs[0].joints):
         numbers: dict[str, Any] = {
-            f: lane([getattr(lc.joints[j], f) for lc in legs]) for f in _JOINT_LANES
+            f: nums.lane([getattr(lc.joints[j], f) for lc in legs]) for f in _JOINT_LANES
         }
-        numbers["inertia"] = tuple(
-            lane([lc.joints[j].inertia[i] for lc in legs]) for i in range(len(j0.inertia))
-        )
+        numbers["inertia"] = tuple(nums.vector([lc.joints[j].inertia for lc in legs]))
         joints.append(dataclasses.replace(j0, **numbers))
     sym_lc = dataclasses.replace(
         legs[0], R=R, B=B, pL=pL, gravity=g, branch=branch, tip=tip, joints=tuple(joints)
     )
-    x_prm = column(symbols) if symbols else cs.SX.sym("prm", 0)
-    x_pose, x_twist, x_gamma = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6), cs.SX.sym("g", 1)
-    p, Rp = pose_from_input(x_pose, "matrix")
-    tw = split(x_twist)
-    out = ddm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], x_gamma[0])
-    flat = [*out["row"], *out["block"], *out["wrench"], *out["slack"]]
-    leg = function(
-        "sp_lane_leg",
-        [("pose", x_pose), ("twist", x_twist), ("gamma", x_gamma), ("prm", x_prm)],
-        [("out", flat)],
-    )
-    n_out = len(flat)
-    n_slack = len(out["slack"])
-
     Pp = [float(x) for x in robot.platform_inertia]
     gravity = np.asarray(robot.gravity, dtype=float)
     g_platform = (1.0 - robot.platform_gravcomp) * gravity
-    y_pose, y_twist = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6)
-    X = cs.SX.sym("X", GROUPS * WIDTH * n_out)
-    _, Ry = pose_from_input(y_pose, "matrix")
-    w = split(y_twist)[3:]
-    dlegs = []
-    for k in range(6):
-        base = (k // WIDTH) * WIDTH * n_out + k % WIDTH
-        v = [X[base + WIDTH * i] for i in range(n_out)]
-        dlegs.append(
-            {"row": v[:6], "block": v[6:27], "wrench": v[27:33], "slack": v[33 : 33 + n_slack]}
-        )
-    Ip, hp = ddm_platform(Ry, w, Pp, g_platform)
-    accel, D = ddm_legs_closure(dlegs, Ip, hp)
-    aux = [*(x for lg in dlegs for x in lg["row"]), *D, *(s for lg in dlegs for s in lg["slack"])]
-    closure = function(
-        "sp_lane_closure",
-        [("pose", y_pose), ("twist", y_twist), ("X", X)],
-        [("accel", accel), ("aux", aux)],
-    )
-    # ---- the inverse model (the computed-torque controller's): the same leg numbers
-    x_accel = cs.SX.sym("accel", 6)
-    K, _ = idm_shared(tw, split(x_accel), g_platform)
-    iout = idm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], split(x_accel)[:3], K)
-    iflat = [*iout["row"], *iout["wrench"], *iout["Hz"], *iout["slack"]]
-    idm_leg = function(
-        "sp_lane_idm_leg",
-        [("pose", x_pose), ("twist", x_twist), ("accel", x_accel), ("prm", x_prm)],
-        [("out", iflat)],
-    )
-    ni_out = len(iflat)
-    y_accel = cs.SX.sym("accel", 6)
-    Xi = cs.SX.sym("X", GROUPS * WIDTH * ni_out)
-    yp, _ = pose_from_input(y_pose, "matrix")
-    ac = split(y_accel)
-    Ky, vdg = idm_shared(split(y_twist), ac, g_platform)
-    ilegs = []
-    for k in range(6):
-        base = (k // WIDTH) * WIDTH * ni_out + k % WIDTH
-        v = [Xi[base + WIDTH * i] for i in range(ni_out)]
-        ilegs.append({"row": v[:6], "wrench": v[6:12], "Hz": v[12:13], "slack": v[13:]})
-    F_p = idm_platform(Ry, w, ac[3:], vdg, Ky, Pp)
+
+    def ddm_leg(p: Vec, Rp: Mat, tw: list[Scalar], gamma: Scalar, lp: list[Scalar]) -> _Outputs:
+        return ddm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], gamma)
+
+    def idm_leg(p: Vec, Rp: Mat, tw: list[Scalar], ac: list[Scalar], lp: list[Scalar]) -> _Outputs:
+        K, _ = idm_shared(tw, ac, g_platform)
+        return idm_leg_outputs(sym_lc, p, Rp, tw[:3], tw[3:], ac[:3], K)
+
+    def ddm_closure(
+        p: Vec, Rp: Mat, tw: list[Scalar], chi: list[Scalar], dlegs: list[_Outputs]
+    ) -> tuple[list[Scalar], list[Scalar]]:
+        Ip, hp = ddm_platform(Rp, tw[3:], Pp, g_platform)
+        accel, D = ddm_legs_closure(dlegs, Ip, hp)
+        aux = [*(x for lg in dlegs for x in lg["row"]), *D]
+        return accel, [*aux, *(s for lg in dlegs for s in lg["slack"])]
+
     # the robot library's static pivots: from the structural zeros of its (baked) rows
     zero: list[Scalar] = [0.0, 0.0, 0.0]
-    rows = [leg_kinematics(lc, yp, Ry, zero, zero).row for lc in legs]
+    sp, sR = pose_from_input(cs.SX.sym("pose", 16), "matrix")
+    rows = [leg_kinematics(lc, sp, sR, zero, zero).row for lc in legs]
     nonzero = np.array([[not is_zero(rows[i][c]) for i in range(6)] for c in range(6)])
     home_rows = leg_chains.inverse_jacobian_batch(robot, robot.home_pose[None])[0]
     pivots = tuple(pivot_order(home_rows.T, nonzero))
-    gamma, iaux, _, _ = idm_closure_and_aux(ilegs, F_p, home_rows, 1.0 / robot.size, pivots)
-    idm_closure = function(
-        "sp_lane_idm_closure",
-        [("pose", y_pose), ("twist", y_twist), ("accel", y_accel), ("X", Xi)],
-        [("gamma", gamma), ("aux", iaux)],
+
+    def idm_closure(
+        p: Vec,
+        Rp: Mat,
+        tw: list[Scalar],
+        ac: list[Scalar],
+        chi: list[Scalar],
+        ilegs: list[_Outputs],
+    ) -> tuple[list[Scalar], list[Scalar]]:
+        K, vdg = idm_shared(tw, ac, g_platform)
+        F_p = idm_platform(Rp, tw[3:], ac[3:], vdg, K, Pp)
+        gamma, iaux, _, _ = idm_closure_and_aux(ilegs, F_p, home_rows, 1.0 / robot.size, pivots)
+        return gamma, iaux
+
+    return _Family(
+        numbers=nums,
+        ddm_leg=ddm_leg,
+        ddm_fields=("row", "block", "wrench", "slack"),
+        ddm_closure=ddm_closure,
+        idm_leg=idm_leg,
+        idm_fields=("row", "wrench", "Hz", "slack"),
+        idm_closure=idm_closure,
     )
-    prm = np.array(columns, dtype=float).T.reshape(6, len(columns))
-    return LaneModels(leg, closure, prm, n_out, idm_leg, idm_closure, ni_out)
+
+
+def _ups_family(desc: Any) -> _Family:
+    """The paper's 6-UPS (:mod:`.symbolic`): its leg code with ``P_i``, ``B_i`` and the
+    first U-joint's axis as lane numbers (where the legs differ), the leg's 13 base
+    parameters (:data:`~.symbolic.LEG_PARAMETERS`) from ``chi``, the platform's in the
+    closures."""
+    c = model_constants(desc)
+    names = list(c.parameter_names)
+    legs = [leg_numbers(c, k) for k in range(6)]
+    nums = _LaneNumbers()
+    sym = LegNumbers(
+        pL=nums.vector([n.pL for n in legs]),
+        B=nums.vector([n.B for n in legs]),
+        z1=nums.vector([n.z1 for n in legs]),
+        gravity=nums.vector([n.gravity for n in legs]),
+    )
+    chi_index = np.array(
+        [[names.index(f"{q}_{k + 1}") for q in LEG_PARAMETERS] for k in range(6)], dtype=int
+    )
+
+    def params(lp: list[Scalar]) -> dict[str, Scalar]:
+        return dict(zip(LEG_PARAMETERS, lp, strict=True))
+
+    def ddm_leg(p: Vec, Rp: Mat, tw: list[Scalar], gamma: Scalar, lp: list[Scalar]) -> _Outputs:
+        return ups_ddm_leg(sym, p, Rp, tw[:3], tw[3:], gamma, params(lp))
+
+    def idm_leg(p: Vec, Rp: Mat, tw: list[Scalar], ac: list[Scalar], lp: list[Scalar]) -> _Outputs:
+        K, vdg = idm_shared(tw, ac, c.gravity)
+        return ups_idm_leg(sym, p, Rp, tw[:3], tw[3:], K, vdg, params(lp))
+
+    def ddm_closure(
+        p: Vec, Rp: Mat, tw: list[Scalar], chi: list[Scalar], dlegs: list[_Outputs]
+    ) -> tuple[list[Scalar], list[Scalar]]:
+        Ip, hp = ddm_platform(Rp, tw[3:], platform_parameters(chi, names), c.gravity)
+        return ups_ddm_closure(dlegs, Ip, hp)
+
+    # the robot library's static pivots: from the structural zeros of its (baked) rows
+    sp, sR = pose_from_input(cs.SX.sym("pose", 16), "matrix")
+    rows = [[*g.a, *vcross(g.L, g.a)] for g in (leg_geometry(c, k, sp, sR) for k in range(6))]
+    pivots = static_pivots(desc, rows)
+    inv_l = 1.0 / characteristic_length(desc)
+
+    def idm_closure(
+        p: Vec,
+        Rp: Mat,
+        tw: list[Scalar],
+        ac: list[Scalar],
+        chi: list[Scalar],
+        ilegs: list[_Outputs],
+    ) -> tuple[list[Scalar], list[Scalar]]:
+        K, vdg = idm_shared(tw, ac, c.gravity)
+        F_p = idm_platform(Rp, tw[3:], ac[3:], vdg, K, platform_parameters(chi, names))
+        return ups_idm_closure(ilegs, F_p, pivots, inv_l)
+
+    return _Family(
+        numbers=nums,
+        ddm_leg=ddm_leg,
+        ddm_fields=("row", "block", "wrench", "q3sq", "rho2"),
+        ddm_closure=ddm_closure,
+        idm_leg=idm_leg,
+        idm_fields=("row", "wrench", "Hz", "q3sq", "rho2"),
+        idm_closure=idm_closure,
+        n_chi=len(names),
+        chi_index=chi_index,
+    )
+
+
+def _is_ups(desc: Any) -> bool:
+    """Whether ``desc`` (a description, or a general robot) takes the paper's 6-UPS
+    models (:mod:`.symbolic`)."""
+    from stewart_pin.codegen._architecture import PaperUpsCodegen, codegen_kind
+
+    return isinstance(desc, RobotDescription) and isinstance(codegen_kind(desc), PaperUpsCodegen)
+
+
+def lane_models(desc: Any) -> LaneModels | None:
+    """The legs-as-lanes models of a robot: the paper's 6-UPS, or general legs that
+    differ only in their numbers; None where its legs differ in more than their numbers
+    (or a leg is ``custom``): the simulator then runs the robot library's models."""
+    family = _ups_family(desc) if _is_ups(desc) else _general_family(desc)
+    return None if family is None else _assemble(family)
+
+
+def _assemble(fam: _Family) -> LaneModels:
+    """The four functions of :class:`LaneModels` from a family's leg code and closures."""
+    syms = fam.numbers.symbols
+    x_prm = column(syms) if syms else cs.SX.sym("prm", 0)
+    x_lp = cs.SX.sym("lp", fam.chi_index.shape[1])
+    x_pose, x_twist = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6)
+    x_gamma, x_accel = cs.SX.sym("g", 1), cs.SX.sym("accel", 6)
+    p, Rp = pose_from_input(x_pose, "matrix")
+    tw, lp = split(x_twist), split(x_lp)
+    y_pose, y_twist, y_accel = cs.SX.sym("pose", 16), cs.SX.sym("twist", 6), cs.SX.sym("accel", 6)
+    y_chi = cs.SX.sym("chi", fam.n_chi)
+    yp, Ry = pose_from_input(y_pose, "matrix")
+    models: list[Any] = []
+    for idm in (False, True):
+        fields = fam.idm_fields if idm else fam.ddm_fields
+        out = (
+            fam.idm_leg(p, Rp, tw, split(x_accel), lp)
+            if idm
+            else fam.ddm_leg(p, Rp, tw, x_gamma[0], lp)
+        )
+        sizes = [(f, len(out[f])) for f in fields]
+        flat = [x for f in fields for x in out[f]]
+        third = ("accel", x_accel) if idm else ("gamma", x_gamma)
+        leg = function(
+            "sp_lane_idm_leg" if idm else "sp_lane_leg",
+            [("pose", x_pose), ("twist", x_twist), third, ("prm", x_prm), ("lp", x_lp)],
+            [("out", flat)],
+        )
+        X = cs.SX.sym("X", GROUPS * WIDTH * len(flat))
+        legs = _split_legs(X, sizes)
+        ins = [("pose", y_pose), ("twist", y_twist)]
+        if idm:
+            res = fam.idm_closure(yp, Ry, split(y_twist), split(y_accel), split(y_chi), legs)
+            ins.append(("accel", y_accel))
+        else:
+            res = fam.ddm_closure(yp, Ry, split(y_twist), split(y_chi), legs)
+        closure = function(
+            "sp_lane_idm_closure" if idm else "sp_lane_closure",
+            [*ins, ("X", X), ("chi", y_chi)],
+            [("gamma" if idm else "accel", res[0]), ("aux", res[1])],
+        )
+        models.append((leg, closure, len(flat)))
+    (leg, closure, n_out), (idm_leg, idm_closure, ni_out) = models
+    return LaneModels(
+        leg, closure, fam.numbers.prm, n_out, idm_leg, idm_closure, ni_out, fam.chi_index
+    )
 
 
 #: The entry after the generated code (``%`` fields: the sizes, the legs' numbers).
@@ -283,6 +475,16 @@ static sp_guard_fn sp_lane_guard = 0;
 /* the legs' numbers, [vector][number][lane] (legs 5 and 6 repeated in the idle lanes) */
 static const double sp_lane_prm[%(groups)d][%(n_prm)d][%(width)d] __attribute__((aligned(32))) = {
 %(prm)s};
+/* where each lane's base parameters are in chi, [vector][parameter][lane] */
+static const int sp_lane_chi[%(groups)d][%(n_lp1)d][%(width)d] = {
+%(lp)s};
+
+/* The lanes' base parameters from chi (lp: %(groups)d x %(n_lp)d vectors). */
+SP_AVX2 static inline void sp_lane_gather(const double* chi, sp_vec* lp) {
+  int i, l;
+  for (i = 0; i < %(groups)d * %(n_lp)d; ++i)
+    for (l = 0; l < %(width)d; ++l) lp[i][l] = chi[sp_lane_chi[i / %(n_lp1)d][i %% %(n_lp1)d][l]];
+}
 
 /* The length of aux (the robot library's SP_DDM_NAUX). */
 SP_EXPORT int sp_lanes_naux(void) { return %(naux)d; }
@@ -299,20 +501,20 @@ SP_EXPORT int sp_lanes_bind(void* guard) {
 SP_EXPORT SP_AVX2 int sp_ddm_lanes(const double* pose, const double* twist, const double* gam,
                                    const double* chi, double max_cond, double* accel,
                                    double* aux, double* det) {
-  sp_vec X[%(groups)d * %(n_out)d];
+  sp_vec X[%(groups)d * %(n_out)d], lp[%(groups)d * %(n_lp1)d];
   sp_vec g0 = {gam[0], gam[1], gam[2], gam[3]}, g1 = {gam[4], gam[5], gam[4], gam[5]};
   const double* sh[2] = {pose, twist};
-  const sp_vec* a0[4] = {0, 0, &g0, (const sp_vec*)sp_lane_prm[0]};
-  const sp_vec* a1[4] = {0, 0, &g1, (const sp_vec*)sp_lane_prm[1]};
+  const sp_vec* a0[5] = {0, 0, &g0, (const sp_vec*)sp_lane_prm[0], lp};
+  const sp_vec* a1[5] = {0, 0, &g1, (const sp_vec*)sp_lane_prm[1], lp + %(n_lp)d};
   sp_vec* r0[1] = {X};
   sp_vec* r1[1] = {X + %(n_out)d};
   const double* carg[%(c_arg)d + 1];
   double* cres[%(c_res)d + 1];
   long long int iw[%(c_iw)d + 1];
   double w[%(c_w)d + 1];
-  (void)chi;
+  sp_lane_gather(chi, lp);
   sp_vlane_legs(a0, a1, sh, r0, r1);
-  carg[0] = pose; carg[1] = twist; carg[2] = (const double*)X;
+  carg[0] = pose; carg[1] = twist; carg[2] = (const double*)X; carg[3] = chi;
   cres[0] = accel; cres[1] = aux;
   sp_lane_closure_avx2(carg, cres, iw, w, 0);
   return sp_lane_guard(pose, twist, gam, max_cond, accel, aux, det);
@@ -337,10 +539,10 @@ SP_EXPORT int sp_lanes_bind_idm(void* guard) {
 SP_EXPORT SP_AVX2 int sp_idm_lanes(long long n, const double* pose, const double* twist,
                                    const double* accel, const double* chi, double max_cond,
                                    double* gamma, int* flags) {
-  sp_vec X[%(groups)d * %(ni_out)d];
+  sp_vec X[%(groups)d * %(ni_out)d], lp[%(groups)d * %(n_lp1)d];
   double aux[%(inaux)d];
-  const sp_vec* a0[4] = {0, 0, 0, (const sp_vec*)sp_lane_prm[0]};
-  const sp_vec* a1[4] = {0, 0, 0, (const sp_vec*)sp_lane_prm[1]};
+  const sp_vec* a0[5] = {0, 0, 0, (const sp_vec*)sp_lane_prm[0], lp};
+  const sp_vec* a1[5] = {0, 0, 0, (const sp_vec*)sp_lane_prm[1], lp + %(n_lp)d};
   sp_vec* r0[1] = {X};
   sp_vec* r1[1] = {X + %(ni_out)d};
   const double* carg[%(i_arg)d + 1];
@@ -349,11 +551,12 @@ SP_EXPORT SP_AVX2 int sp_idm_lanes(long long n, const double* pose, const double
   double w[%(i_w)d + 1];
   int any = 0, f;
   long long s;
-  (void)chi;
+  sp_lane_gather(chi, lp);
   for (s = 0; s < n; ++s) {
     const double* sh[3] = {pose + 16 * s, twist + 6 * s, accel + 6 * s};
     sp_vilane_legs(a0, a1, sh, r0, r1);
     carg[0] = sh[0]; carg[1] = sh[1]; carg[2] = sh[2]; carg[3] = (const double*)X;
+    carg[4] = chi;
     cres[0] = gamma + 6 * s; cres[1] = aux;
     sp_lane_idm_closure_avx2(carg, cres, iw, w, 0);
     f = sp_lane_iguard(sh[0], sh[1], sh[2], gamma + 6 * s, aux, max_cond);
@@ -431,6 +634,14 @@ def lanes_source(m: LaneModels) -> str:
         "{" + ", ".join("{" + ", ".join(repr(float(x)) for x in lanes) + "}" for lanes in g) + "}"
         for g in prm
     )
+    n_lp = m.chi_index.shape[1]
+    index = np.zeros((GROUPS, max(n_lp, 1), WIDTH), dtype=int)
+    for k, leg in enumerate((0, 1, 2, 3, 4, 5, 4, 5)):
+        index[k // WIDTH, :n_lp, k % WIDTH] = m.chi_index[leg]
+    lp = ",\n".join(
+        "{" + ", ".join("{" + ", ".join(str(int(x)) for x in lanes) + "}" for lanes in g) + "}"
+        for g in index
+    )
     c = m.closure
     entry = ENTRY % {
         "groups": GROUPS,
@@ -438,6 +649,9 @@ def lanes_source(m: LaneModels) -> str:
         "n_prm": n_prm,
         "n_out": m.n_out,
         "prm": rows,
+        "n_lp": n_lp,
+        "n_lp1": max(n_lp, 1),
+        "lp": lp,
         "c_arg": c.sz_arg(),
         "c_res": c.sz_res(),
         "c_iw": c.sz_iw(),
@@ -464,11 +678,11 @@ _ENTRIES_LOCK = threading.Lock()
 
 def lanes_entries(models: Any) -> tuple[int, int]:
     """The addresses of ``sp_ddm_lanes`` and ``sp_idm_lanes`` for the robot of ``models``
-    (a compiled :class:`~.compiled.CompiledDynamics` of a robot with general legs), bound
-    to its library's guards: built (or found) in the cache on first use, once per models
-    object; ``(0, 0)`` where the lanes do not apply (legs that differ in more than their
-    numbers, a processor without AVX2 and FMA, a library that cannot be built): the
-    caller then calls the robot library's ``sp_ddm_aux`` and ``sp_idm_sim``."""
+    (a compiled :class:`~.compiled.CompiledDynamics`: the paper's 6-UPS or general legs),
+    bound to its library's guards: built (or found) in the cache on first use, once per
+    models object; ``(0, 0)`` where the lanes do not apply (chain legs, legs that differ in
+    more than their numbers, a processor without AVX2 and FMA, a library that cannot be
+    built): the caller then calls the robot library's ``sp_ddm_aux`` and ``sp_idm_sim``."""
     with _ENTRIES_LOCK:
         got = _ENTRIES.get(models)
         if got is None:
@@ -477,7 +691,7 @@ def lanes_entries(models: Any) -> tuple[int, int]:
 
 
 def _entry(models: Any) -> tuple[int, int, Any]:
-    from stewart_pin.codegen._architecture import codegen_kind
+    from stewart_pin.codegen._architecture import UPS_AUX_LAYOUT, codegen_kind
     from stewart_pin.codegen._identity import library_identity
     from stewart_pin.codegen.compiled import build_source_library, model_layout, printable_name
 
@@ -486,12 +700,15 @@ def _entry(models: Any) -> tuple[int, int, Any]:
     guards = [getattr(lib, f"sp_{x}_guard_sim", None) for x in ("ddm", "idm")]
     if guards[0] is None or guards[1] is None:
         return 0, 0, None
-    if not codegen_kind(desc).generic_models or desc.has_chain_legs:
-        return 0, 0, None
-    if _lane_legs(general_robot(desc)) is None:
-        return 0, 0, None
     layout = model_layout(desc)
-    if (layout.jinv, layout.ddm_d, layout.ddm_slack) != (0, 36, 42):
+    if _is_ups(desc):  # the paper's models: the lanes write their layout
+        if layout != UPS_AUX_LAYOUT:
+            return 0, 0, None
+    elif not codegen_kind(desc).generic_models or desc.has_chain_legs:
+        return 0, 0, None
+    elif _lane_legs(general_robot(desc)) is None:
+        return 0, 0, None
+    elif (layout.jinv, layout.ddm_d, layout.ddm_slack) != (0, 36, 42):
         return 0, 0, None
 
     def source() -> str:

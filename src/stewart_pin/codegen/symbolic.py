@@ -42,6 +42,11 @@ sub-expressions eliminated with :func:`casadi.cse`) and as its stages
 (``SymbolicModels.idm_stages``): a shared prelude, six independent leg functions and the
 platform (which could run on seven processors), then the closure.
 
+The leg code takes the numbers of one leg (:class:`LegNumbers`: Python floats here, SX
+symbols in the legs-as-lanes models of :mod:`.lanes`, which run it for four legs at a
+time in the compiled simulator) and the closures' by-products are assembled by
+:func:`idm_legs_closure` and :func:`ddm_closure_and_aux` for both.
+
 The pieces shared with the general-leg generator (:mod:`.leg_chain_symbolic`): the SX
 algebra, the platform, both closures, the stages and :class:`SymbolicModels`, live in
 :mod:`._sx_common`, below both generators.
@@ -186,12 +191,39 @@ class _LegGeometry:
     dz: Scalar  # (P_i - B_i) . z1 = -q3 cos q2
 
 
+@dataclass(frozen=True)
+class LegNumbers:
+    """The numbers of one leg that its code reads: ``pL`` the platform point ``P_k`` in
+    the platform frame [m], ``B`` the base point ``B_k`` [m], ``z1`` the axis of its first
+    U-joint (frame 1k's ``z``) and ``gravity`` [m/s^2], in F0, 3 each. Python floats (the
+    robot's snapped constants, :func:`leg_numbers`: its zeros and ones fold) or SX
+    symbols (the legs-as-lanes models of :mod:`.lanes`, one leg's code for all six)."""
+
+    pL: Vec
+    B: Vec
+    z1: Vec
+    gravity: Vec
+
+
+def leg_numbers(c: ModelConstants, k: int) -> LegNumbers:
+    """The numbers of leg ``k`` (0-5) of the constants ``c`` (:func:`model_constants`)."""
+    return LegNumbers(
+        pL=[float(x) for x in c.platform_points[k]],
+        B=[float(x) for x in c.base_points[k]],
+        z1=[float(x) for x in c.leg_base_rotations[k][:, 2]],
+        gravity=[float(x) for x in c.gravity],
+    )
+
+
 def leg_geometry(c: ModelConstants, k: int, p: Vec, R: list[list[Scalar]]) -> _LegGeometry:
     """Inverse geometry of leg k (eq. 1-4) without trigonometry: ``q3``, ``rho``, the frame
     3k axes in F0 and ``L_k``."""
-    pL = [float(x) for x in c.platform_points[k]]
-    B = [float(x) for x in c.base_points[k]]
-    z1 = [float(x) for x in c.leg_base_rotations[k][:, 2]]
+    return leg_geometry_of(leg_numbers(c, k), p, R)
+
+
+def leg_geometry_of(leg: LegNumbers, p: Vec, R: list[list[Scalar]]) -> _LegGeometry:
+    """:func:`leg_geometry` of the leg of numbers ``leg``."""
+    pL, B, z1 = leg.pL, leg.B, leg.z1
     L = matvec(R, pL)
     d = [(p[i] - B[i]) + L[i] for i in range(3)]
     q3sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
@@ -263,7 +295,9 @@ def _leg_parameters(chi: Sequence[Scalar], names: Sequence[str], k: int) -> dict
     return {p: chi[index[f"{p}_{k + 1}"]] for p in LEG_PARAMETERS}
 
 
-def _platform_parameters(chi: Sequence[Scalar], names: Sequence[str]) -> list[Scalar]:
+def platform_parameters(chi: Sequence[Scalar], names: Sequence[str]) -> list[Scalar]:
+    """The 10 grouped platform parameters (:data:`PLATFORM_PARAMETERS`) of the base
+    parameters ``chi`` named ``names``."""
     index = {n: j for j, n in enumerate(names)}
     return [chi[index[p]] for p in PLATFORM_PARAMETERS]
 
@@ -279,10 +313,26 @@ def _idm_leg(
     vdg: Vec,
     P: dict[str, Scalar],
 ) -> dict[str, list[Scalar]]:
-    g = leg_geometry(c, k, p, R)
+    return idm_leg_outputs(leg_numbers(c, k), p, R, v, w, K, vdg, P)
+
+
+def idm_leg_outputs(
+    n: LegNumbers,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    K: Mat,
+    vdg: Vec,
+    P: dict[str, Scalar],
+) -> dict[str, list[Scalar]]:
+    """One leg's share of the IDM (the leg of numbers ``n``, base parameters ``P``):
+    ``row`` (its row of ``Jp^-1``), ``wrench`` (6, the part of ``H_x`` normal to the leg
+    and its moment about ``O_p``, F0), ``Hz``, ``q3sq``, ``rho2`` (1 each)."""
+    g = leg_geometry_of(n, p, R)
     V = vadd(v, vcross(w, g.L))
     Ag = vadd(vdg, matvec(K, g.L))  # acceleration of P_k minus gravity, F0
-    grav = _to_frame3(g, [float(x) for x in c.gravity])
+    grav = _to_frame3(g, list(n.gravity))
     A3g = _to_frame3(g, Ag)
     H = _leg_dynamics(g, _to_frame3(g, V), [A3g[0] + grav[0], A3g[1] + grav[1]], A3g, grav, P)
     Hp = vadd(vscale(g.x3, H[0]), vscale(g.y3, H[1]))  # the part of H_x normal to the leg
@@ -306,10 +356,25 @@ def _ddm_leg(
     gamma_k: Scalar,
     P: dict[str, Scalar],
 ) -> dict[str, list[Scalar]]:
-    g = leg_geometry(c, k, p, R)
+    return ddm_leg_outputs(leg_numbers(c, k), p, R, v, w, gamma_k, P)
+
+
+def ddm_leg_outputs(
+    n: LegNumbers,
+    p: Vec,
+    R: Mat,
+    v: Vec,
+    w: Vec,
+    gamma_k: Scalar,
+    P: dict[str, Scalar],
+) -> dict[str, list[Scalar]]:
+    """One leg's share of the DDM (the leg of numbers ``n``, base parameters ``P``, its
+    actuator force ``gamma_k``): ``row`` (6), ``block`` (21, the upper triangle of its 6x6
+    share of ``A_robot``), ``wrench`` (6, F0), ``q3sq``, ``rho2`` (1 each)."""
+    g = leg_geometry_of(n, p, R)
     wL = vcross(w, g.L)
     V3 = _to_frame3(g, vadd(v, wL))
-    grav = _to_frame3(g, [float(x) for x in c.gravity])
+    grav = _to_frame3(g, list(n.gravity))
     A3 = _to_frame3(g, vcross(w, wL))  # acceleration of P_k at zero platform acceleration
     b = _leg_dynamics(g, V3, A3[:2], vsub(A3, grav), grav, P)
     # Cartesian inertia at P_k in frame 3 (symmetric, only the upper triangle is used).
@@ -347,6 +412,57 @@ def _ddm_leg(
     }
 
 
+def static_pivots(desc: RobotDescription, rows: Sequence[Sequence[Scalar]]) -> tuple:
+    """The static pivot order of the IDM's LU of ``Jp^-T`` (threshold partial pivoting at
+    the home pose with the structural zeros of the legs' ``rows``, as built from the
+    robot's numbers)."""
+    home_rows = inverse_jacobian_batch(desc, desc.home_pose[None])[0]
+    nonzero = np.array([[not is_zero(rows[i][cc]) for i in range(6)] for cc in range(6)])
+    return tuple(pivot_order(home_rows.T, nonzero))
+
+
+def idm_legs_closure(
+    legs: Sequence[dict[str, list[Scalar]]],
+    F_p: Sequence[Scalar],
+    pivots: Sequence[tuple[int, int]],
+    inv_l: float,
+) -> tuple[list[Scalar], list[Scalar]]:
+    """The IDM's closure (eq. 31) from the six legs' outputs (:func:`idm_leg_outputs`) and
+    the platform's wrench ``F_p``: ``(gamma, aux)``, ``aux`` the guarded variant's
+    by-products (``AUX_*``: ``q3^2``, ``rho^2``, ``Jp^-1``, ``F``, ``H_z``, the pivot growth,
+    ``det`` and ``||.||_F^2`` of ``S``), ``inv_l`` = 1 / the characteristic length [1/m]."""
+    rows = [lg["row"] for lg in legs]
+    Hz = [lg["Hz"][0] for lg in legs]
+    gamma, growth, F, det = idm_closure(rows, [lg["wrench"] for lg in legs], Hz, F_p, pivots)
+    q3 = [lg["q3sq"][0] for lg in legs]
+    rho = [lg["rho2"][0] for lg in legs]
+    jinv = [x for r in rows for x in r]
+    # The condition bound's inputs for the singularity measure (Jp^-1 with its angular
+    # columns divided by the characteristic length l): ||.||_F^2 and det = det(Jp^-1) / l^3.
+    fro2_lin: Scalar = 0.0
+    fro2_ang: Scalar = 0.0
+    for r in rows:
+        for j in range(3):
+            fro2_lin = fro2_lin + r[j] * r[j]
+            fro2_ang = fro2_ang + r[3 + j] * r[3 + j]
+    fro2 = fro2_lin + fro2_ang * (inv_l * inv_l)
+    det = det * inv_l**3
+    return gamma, [*q3, *rho, *jinv, *F, *Hz, growth, det, fro2]
+
+
+def ddm_closure_and_aux(
+    dlegs: Sequence[dict[str, list[Scalar]]], Ip: Sequence[Scalar], hp: Sequence[Scalar]
+) -> tuple[list[Scalar], list[Scalar]]:
+    """The DDM's closure (eq. 33-38) from the six legs' outputs (:func:`ddm_leg_outputs`)
+    and the platform's ``Ip``, ``h_p``: ``(accel, aux)``, ``aux`` the guarded variant's
+    by-products (``q3^2``, ``rho^2``, ``Jp^-1``, the pivots ``D``: ``AUX_DDM_*``)."""
+    accel, D = ddm_legs_closure(dlegs, Ip, hp)
+    dq3 = [lg["q3sq"][0] for lg in dlegs]
+    drho = [lg["rho2"][0] for lg in dlegs]
+    djinv = [x for lg in dlegs for x in lg["row"]]
+    return accel, [*dq3, *drho, *djinv, *D]
+
+
 def _chi_values(c: ModelConstants, chi: cs.SX, parameters: str) -> list[Scalar]:
     entries = split(chi)
     if parameters == "base":
@@ -371,7 +487,7 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
     x_chi = cs.SX.sym("base_parameters", len(names))
     chi = _chi_values(c, x_chi, parameters)
     Ps = [_leg_parameters(chi, names, k) for k in range(6)]
-    Pp = _platform_parameters(chi, names)
+    Pp = platform_parameters(chi, names)
 
     p, R = pose_from_input(x_pose, pose)
     tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
@@ -381,35 +497,13 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
     K, vdg = idm_shared(tw, ac, c.gravity)
     legs = [_idm_leg(c, k, p, R, v, w, K, vdg, Ps[k]) for k in range(6)]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
-    rows = [lg["row"] for lg in legs]
-    home_rows = inverse_jacobian_batch(desc, desc.home_pose[None])[0]
-    nonzero = np.array([[not is_zero(rows[i][cc]) for i in range(6)] for cc in range(6)])
-    pivots = tuple(pivot_order(home_rows.T, nonzero))
-    gamma, growth, F, det = idm_closure(
-        rows, [lg["wrench"] for lg in legs], [lg["Hz"][0] for lg in legs], F_p, pivots
-    )
-    q3 = [lg["q3sq"][0] for lg in legs]
-    rho = [lg["rho2"][0] for lg in legs]
-    jinv = [x for r in rows for x in r]
-    # The condition bound's inputs for the singularity measure (Jp^-1 with its angular
-    # columns divided by the characteristic length l): ||.||_F^2 and det = det(Jp^-1) / l^3.
-    inv_l = 1.0 / characteristic_length(desc)
-    fro2_lin, fro2_ang = 0.0, 0.0
-    for r in rows:
-        for j in range(3):
-            fro2_lin = fro2_lin + r[j] * r[j]
-            fro2_ang = fro2_ang + r[3 + j] * r[3 + j]
-    fro2 = fro2_lin + fro2_ang * (inv_l * inv_l)
-    det = det * inv_l**3
-    idm_aux = [*q3, *rho, *jinv, *F, *[lg["Hz"][0] for lg in legs], growth, det, fro2]
+    pivots = static_pivots(desc, [lg["row"] for lg in legs])
+    gamma, idm_aux = idm_legs_closure(legs, F_p, pivots, 1.0 / characteristic_length(desc))
 
     # ---- DDM, flat
     dlegs = [_ddm_leg(c, k, p, R, v, w, gm[k], Ps[k]) for k in range(6)]
     Ip, hp = ddm_platform(R, w, Pp, c.gravity)
-    accel, D = ddm_legs_closure(dlegs, Ip, hp)
-    dq3 = [lg["q3sq"][0] for lg in dlegs]
-    drho = [lg["rho2"][0] for lg in dlegs]
-    djinv = [x for lg in dlegs for x in lg["row"]]
+    accel, ddm_aux = ddm_closure_and_aux(dlegs, Ip, hp)
     inputs = {
         "pose": x_pose,
         "twist": x_twist,
@@ -418,7 +512,7 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
         "base_parameters": x_chi,
     }
     idm, ddm, idm_guarded, ddm_guarded = model_functions(
-        prefix, inputs, gamma, idm_aux, accel, [*dq3, *drho, *djinv, *D]
+        prefix, inputs, gamma, idm_aux, accel, ddm_aux
     )
 
     # ---- stages (fresh symbols at each interface)
@@ -465,7 +559,7 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
                     a[3:],
                     vg,
                     mat3(Kf),
-                    _platform_parameters(chi_of(s), names),
+                    platform_parameters(chi_of(s), names),
                 )
             },
         ),
@@ -498,7 +592,7 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
                     ddm_platform(
                         pose_from_input(column(ps), pose)[1],
                         t[3:],
-                        _platform_parameters(chi_of(s), names),
+                        platform_parameters(chi_of(s), names),
                         c.gravity,
                     ),
                     strict=True,
