@@ -302,20 +302,6 @@ def platform_parameters(chi: Sequence[Scalar], names: Sequence[str]) -> list[Sca
     return [chi[index[p]] for p in PLATFORM_PARAMETERS]
 
 
-def _idm_leg(
-    c: ModelConstants,
-    k: int,
-    p: Vec,
-    R: Mat,
-    v: Vec,
-    w: Vec,
-    K: Mat,
-    vdg: Vec,
-    P: dict[str, Scalar],
-) -> dict[str, list[Scalar]]:
-    return idm_leg_outputs(leg_numbers(c, k), p, R, v, w, K, vdg, P)
-
-
 def idm_leg_outputs(
     n: LegNumbers,
     p: Vec,
@@ -344,19 +330,6 @@ def idm_leg_outputs(
         "q3sq": [g.q3sq],
         "rho2": [g.rho2],
     }
-
-
-def _ddm_leg(
-    c: ModelConstants,
-    k: int,
-    p: Vec,
-    R: Mat,
-    v: Vec,
-    w: Vec,
-    gamma_k: Scalar,
-    P: dict[str, Scalar],
-) -> dict[str, list[Scalar]]:
-    return ddm_leg_outputs(leg_numbers(c, k), p, R, v, w, gamma_k, P)
 
 
 def ddm_leg_outputs(
@@ -488,6 +461,7 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
     chi = _chi_values(c, x_chi, parameters)
     Ps = [_leg_parameters(chi, names, k) for k in range(6)]
     Pp = platform_parameters(chi, names)
+    numbers = [leg_numbers(c, k) for k in range(6)]  # each leg's numbers, once
 
     p, R = pose_from_input(x_pose, pose)
     tw, ac, gm = split(x_twist), split(x_accel), split(x_gamma)
@@ -495,13 +469,13 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
 
     # ---- IDM, flat
     K, vdg = idm_shared(tw, ac, c.gravity)
-    legs = [_idm_leg(c, k, p, R, v, w, K, vdg, Ps[k]) for k in range(6)]
+    legs = [idm_leg_outputs(numbers[k], p, R, v, w, K, vdg, Ps[k]) for k in range(6)]
     F_p = idm_platform(R, w, wd, vdg, K, Pp)
     pivots = static_pivots(desc, [lg["row"] for lg in legs])
     gamma, idm_aux = idm_legs_closure(legs, F_p, pivots, 1.0 / characteristic_length(desc))
 
     # ---- DDM, flat
-    dlegs = [_ddm_leg(c, k, p, R, v, w, gm[k], Ps[k]) for k in range(6)]
+    dlegs = [ddm_leg_outputs(numbers[k], p, R, v, w, gm[k], Ps[k]) for k in range(6)]
     Ip, hp = ddm_platform(R, w, Pp, c.gravity)
     accel, ddm_aux = ddm_closure_and_aux(dlegs, Ip, hp)
     inputs = {
@@ -529,9 +503,8 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
             stage_function(
                 f"idm_leg{k + 1}",
                 [("pose", npose), ("twist", 6), ("K", 9), ("vdg", 3), ("base_parameters", 88)],
-                lambda ps, t, Kf, vg, s, k=k: _idm_leg(
-                    c,
-                    k,
+                lambda ps, t, Kf, vg, s, k=k: idm_leg_outputs(
+                    numbers[k],
                     *pose_from_input(column(ps), pose),
                     t[:3],
                     t[3:],
@@ -571,9 +544,8 @@ def build(desc: RobotDescription, pose: str, parameters: str, prefix: str) -> Sy
             stage_function(
                 f"ddm_leg{k + 1}",
                 [("pose", npose), ("twist", 6), ("gamma", 1), ("base_parameters", 88)],
-                lambda ps, t, gk, s, k=k: _ddm_leg(
-                    c,
-                    k,
+                lambda ps, t, gk, s, k=k: ddm_leg_outputs(
+                    numbers[k],
                     *pose_from_input(column(ps), pose),
                     t[:3],
                     t[3:],
