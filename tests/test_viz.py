@@ -26,7 +26,7 @@ from helpers import points_in_base, tip_frame
 from helpers import tree_configuration as tree_configuration_by_hand
 
 from stewart_pin import StewartRobot
-from stewart_pin.exceptions import InputError, MissingDependencyError
+from stewart_pin.exceptions import InputError, MissingDependencyError, ViewerError
 from stewart_pin.formats.urdf import VisualSizes, plate_visual
 from stewart_pin.motion.simulation import simulate
 
@@ -64,6 +64,9 @@ CHROMIUM_FLAGS = (
 )
 #: Seconds one Chromium run may take (2-4 s seen).
 CHROMIUM_TIMEOUT = 60.0
+#: Seconds the live viewer's test waits for Chromium's page to connect (the load gate
+#: lets the page end at 30 s at the latest).
+BROWSER_WAIT = 40.0
 #: URDF materials: cylinder_blue and platform_orange.
 BLUE, ORANGE = (0.20, 0.40, 0.80), (0.95, 0.55, 0.15)
 
@@ -438,9 +441,13 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path):
         # time (--virtual-time-budget) can hang with a websocket open: show the page in
         # an iframe of a wrapper page whose load the gate holds until the viewer's browser
         # is connected and has had time to draw. On a busy machine (the suite on every
-        # core) the browser may not have drawn every mesh in that time: a new page, given
-        # longer, up to three times (the robot must be in view on one of them).
+        # core) the browser may not have drawn every mesh in that time, or not have
+        # connected before the gate's own 30 s: a new page, given longer, up to three
+        # times (the robot must be in view on one of them). The wait is bounded: a
+        # browser that never connects is a failure, not a hung suite.
         for attempt, draw_time in enumerate((1.5, 4.0, 8.0)):
+            # a new server (and URL, the robot at home) after a wait that timed out
+            url = viewer.start()
             with load_gate() as gate, ThreadPoolExecutor(1) as pool:
                 wrapper = tmp_path / f"live-{attempt}.html"
                 wrapper.write_text(
@@ -450,11 +457,17 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path):
                     f'<img src="{gate.url}/wait" alt="" style="display:none"></body></html>'
                 )
                 shot = pool.submit(screenshot, chromium, wrapper.as_uri(), tmp_path)
-                viewer.wait()
-                time.sleep(draw_time)
+                try:
+                    viewer.wait(timeout=BROWSER_WAIT)
+                    connected = True
+                except ViewerError:
+                    connected = False
+                else:
+                    time.sleep(draw_time)
                 gate.open()
                 img = shot.result()
             try:
+                assert connected, f"chromium did not connect within {BROWSER_WAIT} s"
                 check_robot_in_view(img)
                 break
             except AssertionError:
@@ -462,6 +475,31 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path):
                     raise
     assert viewer.url is None
     assert child_pids() <= before
+
+
+def test_waiting_for_a_browser_that_never_comes_times_out_and_stops_the_server(paper):
+    """meshcat's server answers nothing until a browser connects: a wait with a time-out
+    raises ViewerError in about that time, stops the stuck server, and the viewer starts
+    a new one that answers."""
+    before = child_pids()
+    with Viewer(paper) as viewer:
+        first = viewer.start()
+        t0 = time.monotonic()
+        with pytest.raises(ViewerError, match=r"within 0\.5 s"):
+            viewer.wait(timeout=0.5)
+        assert 0.4 < time.monotonic() - t0 < 20.0
+        assert viewer.url is None
+        assert child_pids() <= before
+        second = viewer.start()
+        assert second != first or viewer.url == second
+        viewer.display(paper.home_pose)  # the new server answers requests
+    assert child_pids() <= before
+
+
+@pytest.mark.parametrize("timeout", [0.0, -1.0, float("nan"), float("inf"), "5", True])
+def test_wait_refuses_a_timeout_that_is_not_a_positive_number(paper, timeout):
+    with Viewer(paper) as viewer, pytest.raises(InputError, match="timeout"):
+        viewer.wait(timeout=timeout)
 
 
 def test_missing_meshcat_gives_the_install_hint(simulator, monkeypatch):

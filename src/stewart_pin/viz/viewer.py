@@ -42,7 +42,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from stewart_pin._checks import check_array, check_increasing_times, check_pose, check_poses
+from stewart_pin._checks import (
+    check_array,
+    check_increasing_times,
+    check_pose,
+    check_poses,
+    check_scalar,
+)
 from stewart_pin._extras import install_hint, require
 from stewart_pin._io import write_text_atomic
 from stewart_pin.exceptions import InputError, ViewerError
@@ -221,18 +227,25 @@ class _Server:
         import zmq
 
         socket = self.visualizer.window.zmq_socket
-        socket.setsockopt(zmq.RCVTIMEO, -1 if seconds is None else int(seconds * 1000))
+        # (zmq's option is an int of milliseconds: about 24 days at most)
+        ms = -1 if seconds is None else max(1, min(int(seconds * 1000), 2**31 - 1))
+        socket.setsockopt(zmq.RCVTIMEO, ms)
         socket.setsockopt(zmq.LINGER, 0)
 
-    def wait_for_browser(self) -> None:
-        """Block until a browser is connected (meshcat's ``wait``, without a time-out: the
-        server answers nothing else until then, so a client giving up would leave it stuck).
-        """
-        self._set_timeout(None)
+    def wait_for_browser(self, timeout: float | None = None) -> bool:
+        """Block until a browser is connected (meshcat's ``wait``), at most ``timeout``
+        seconds (``None``: as long as it takes); whether one connected. The server answers
+        nothing else until a browser connects, so after a time-out it is stuck: the caller
+        stops it."""
+        import zmq
+
+        self._set_timeout(timeout)
         try:
             self.visualizer.wait()
-        finally:
-            self._set_timeout(REQUEST_TIMEOUT)
+        except zmq.Again:
+            return False
+        self._set_timeout(REQUEST_TIMEOUT)
+        return True
 
     def _read_lines(self, n: int, timeout: float) -> list[str]:
         """The server's first ``n`` ``key=value`` lines (unbuffered reads, so that the
@@ -332,13 +345,32 @@ class Viewer:
             webbrowser.open(self._server.web_url, new=2)
         return self._server.web_url
 
-    def wait(self) -> None:
+    def wait(self, timeout: float | None = None) -> None:
         """Block until a browser has the viewer's page open (starts the server if needed);
-        the server sends it the whole scene as it connects. There is no time-out: until a
-        browser connects, meshcat's server answers no other request."""
+        the server sends it the whole scene as it connects.
+
+        Args:
+            timeout: the most seconds to wait (a positive number), or ``None`` (default)
+                to wait as long as it takes.
+
+        Raises:
+            ViewerError: no browser connected within ``timeout``. Until a browser
+                connects, meshcat's server answers no other request, so the server is
+                stopped first; the next :meth:`start`, :meth:`display` or :meth:`wait`
+                starts a new one (at a new URL).
+            InputError: ``timeout`` is not a positive number or ``None``.
+        """
+        if timeout is not None:
+            timeout = check_scalar(timeout, "timeout", positive=True, unit="s")
         self.start()
         assert self._server is not None  # start() sets it
-        self._server.wait_for_browser()
+        if not self._server.wait_for_browser(timeout):
+            self.close()
+            raise ViewerError(
+                f"no browser opened the viewer's page within {timeout:g} s; its server "
+                "was stopped (meshcat's server answers nothing else until a browser "
+                "connects) and the next call starts a new one"
+            )
 
     @property
     def url(self) -> str | None:
