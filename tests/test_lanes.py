@@ -18,7 +18,7 @@ from conftest import get_robot, use_compile_cache
 from helpers import rel_error
 
 from stewart_pin.codegen import lanes
-from stewart_pin.codegen.compiled import model_layout
+from stewart_pin.codegen.compiled import model_layout, singularity_length
 from stewart_pin.codegen.simulator import _DDM_AUX, _address
 from stewart_pin.codegen.symbolic import LEG_PARAMETERS
 from stewart_pin.description.leg_architecture import JointDynamics
@@ -69,14 +69,14 @@ def _entries(robot):
     return run, run.fast.sim.ddm, lib.sp_ddm_aux, _address(lib, "sp_ddm_aux")
 
 
-def _call(fn, T, V, g, run, chi=None):
-    """One ``sp_ddm_aux``-like call (``chi``: the run's base parameters, or these):
-    (flag, accel, aux, det)."""
+def _call(fn, T, V, g, run, chi=None, max_cond=None):
+    """One ``sp_ddm_aux``-like call (``chi``: the run's base parameters, or these;
+    ``max_cond``: the run's threshold, or this): (flag, accel, aux, det)."""
     aux, out, det = np.empty(run.fast.sim.naux), np.empty(6), ctypes.c_double()
     flag = fn(
         *(ctypes.c_void_p(np.ascontiguousarray(a).ctypes.data) for a in (T, V, g)),
         ctypes.c_void_p(run.fast.sim.chi if chi is None else chi.ctypes.data),
-        ctypes.c_double(run.fast.sim.max_cond),
+        ctypes.c_double(run.fast.sim.max_cond if max_cond is None else max_cond),
         ctypes.c_void_p(out.ctypes.data),
         ctypes.c_void_p(aux.ctypes.data),
         ctypes.byref(det),
@@ -180,14 +180,15 @@ def test_the_lanes_equal_the_library_and_the_reference(name):
     assert 0 in flags and any(f & 1 for f in flags) and len(flags) >= 3, flags
 
 
-def _idm(address_or_fn, T, V, A, run, chi):
-    """One ``sp_idm_sim``-like call: (flag, gamma)."""
+def _idm(address_or_fn, T, V, A, run, chi, max_cond=None):
+    """One ``sp_idm_sim``-like call (``max_cond``: the run's threshold, or this): (flag,
+    gamma)."""
     gamma, flags = np.empty(6), np.zeros(1, np.int32)
     address_or_fn(
         ctypes.c_longlong(1),
         *(ctypes.c_void_p(np.ascontiguousarray(a).ctypes.data) for a in (T, V, A)),
         ctypes.c_void_p(chi),
-        ctypes.c_double(run.fast.sim.max_cond),
+        ctypes.c_double(run.fast.sim.max_cond if max_cond is None else max_cond),
         ctypes.c_void_p(gamma.ctypes.data),
         ctypes.c_void_p(flags.ctypes.data),
     )
@@ -253,6 +254,64 @@ def test_the_inverse_lanes_equal_the_library_and_the_reference(name):
         assert (f1 == 0) == (f2 == 0) and f1 & 1 == f2 & 1, (f1, f2)
         flags.add(f1)
     assert 0 in flags and any(f & 1 for f in flags) and len(flags) >= 3, flags
+
+
+@needs_lanes
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_direct_lanes_at_the_controllers_state_flag_as_the_library(name):
+    """The direct model on the lanes called at the state of the lanes' inverse model's last
+    call (the computed-torque controller's in the C loop: the same pose and twist, the
+    forces it returned), where its guard takes the inputs' validity and the condition
+    bound's determinant and norm from that call (sign by the static pivot order's parity:
+    -1 on random-rus-0, random-pus-0, paper, random-0): at 200 sampled states, the
+    inverse model at a threshold that flags none of them, the direct model at the run's
+    ``max_condition`` (at least 150 states pass) and at the quartiles of the thresholds
+    at which the guard's bounds of cond S (NumPy's) pass the passing states (the direct
+    model's own threshold decides; at each, 20 states flagged COND and 20 passed): the
+    flags of the robot library's ``sp_ddm_aux`` at the same state and threshold; where
+    the state passes with the cheap check's determinant (at the run's threshold, 150
+    states at least), the sign of NumPy's ``det Jp^-1`` (the by-products'), the sign the
+    C loop compares with the step's start. The inverse model's own flags there: the
+    library's ``sp_idm_sim``'s."""
+    robot = get_robot(name)
+    run, entry, aux_fn, _ = _entries(robot)
+    models = run.fast._models
+    lanes_fn = _DDM_AUX(entry)
+    ilanes, ilib = _IDM_SIM(lanes.lanes_entries(models)[1]), models._lib.sp_idm_sim
+    chi = run.fast.sim.chi
+    jinv = model_layout(robot.description).jinv
+    scale = np.r_[np.ones(3), np.full(3, 1.0 / singularity_length(robot.description))]
+    P, V, A = robot.sample_states(200, 9)
+    states, passing = [], []
+    for k in range(200):
+        fi, gamma = _idm(ilanes, P[k], V[k], A[k], run, chi, max_cond=1e12)
+        fl, _ = _idm(ilib, P[k], V[k], A[k], run, chi, max_cond=1e12)
+        assert fi == fl, (k, fi, fl)
+        f, _, x, _ = _call(aux_fn, P[k], V[k], gamma, run)
+        if f == 0:  # the threshold below which the guard flags it (its two bounds of cond S)
+            S = x[jinv : jinv + 36].reshape(6, 6).T * scale[:, None]
+            fro2 = np.sum(S * S)
+            bound = 2.0 / abs(np.linalg.det(S)) * (fro2 / 6.0) ** 3
+            passing.append(min(2.0 * bound, np.sqrt(fro2 * np.sum(np.linalg.inv(S) ** 2))))
+            states.append((k, gamma))
+    assert len(states) >= 150, len(states)
+    thresholds = (run.fast.sim.max_cond, *np.quantile(passing, [0.25, 0.5, 0.75]))
+    flags: dict[float, list[int]] = {c: [] for c in thresholds}
+    signed = dict.fromkeys(thresholds, 0)
+    for k, gamma in states:
+        for c in thresholds:
+            _idm(ilanes, P[k], V[k], A[k], run, chi, max_cond=1e12)  # the state to reuse
+            f1, _, x1, d1 = _call(lanes_fn, P[k], V[k], gamma, run, max_cond=c)
+            f2, *_ = _call(aux_fn, P[k], V[k], gamma, run, max_cond=c)
+            assert f1 == f2, (k, c, f1, f2)
+            flags[c].append(f1)
+            if f1 == 0 and d1 != 0.0:  # 0.0: the cheap check did not decide (an LU does)
+                ref = np.linalg.det(x1[jinv : jinv + 36].reshape(6, 6))
+                assert np.sign(d1) == np.sign(ref), (k, d1, ref)
+                signed[c] += 1
+    for c in thresholds[1:]:
+        assert min(flags[c].count(0), flags[c].count(4)) >= 20, (c, flags[c])
+    assert flags[thresholds[0]].count(0) == len(states) and signed[thresholds[0]] >= 150
 
 
 def _asymmetric_limits(robot):

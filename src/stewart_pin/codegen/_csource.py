@@ -385,56 +385,11 @@ def layout_numbers(layout: Any) -> dict[str, int]:
     }
 
 
-TEMPLATE = (
-    GUARDS
-    + STATIC_COND
-    + r"""
-/* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
-#ifndef SP_EXPORT
-#define SP_EXPORT __attribute__((visibility("default")))
-#endif
-
-#define SP_IDM_NAUX %(idm_naux)d
-#define SP_DDM_NAUX %(ddm_naux)d
-#define SP_IDM_SLACK %(idm_slack)d
-#define SP_DDM_SLACK %(ddm_slack)d
-
-/* The guards of one inverse-dynamics state after the generated code ran (g: its Gamma,
-   aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */
-static int sp_idm_after(const double* T, const double* tw, const double* acc, double* g,
-                        const double* aux, double max_cond) {
-  double y[6];
-  int k, f = sp_check_inputs(T, tw, acc);
-"""
-    + IDM_GUARDS
-    + r"""  if (!sp_finite6(g)) f |= SP_NONFINITE;
-  return f;
-}
-
-/* The guards of one direct-dynamics state after the generated code ran; *det: the
-   determinant of S from the cheap condition check when it decided (0.0 when the pivoted
-   LU had to). */
-static int sp_ddm_after_det(const double* T, const double* tw, const double* gam,
-                            const double* a, const double* aux, double max_cond, double* det) {
-  int k, f = sp_check_inputs(T, tw, gam);
-  f |= sp_check_legs(aux, SP_DDM_SLACK);
-  if (!sp_static_cond_det(aux + %(jinv)d, max_cond, det)) {  /* the cheap screen, the LU */
-    *det = 0.0;
-    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
-  }
-  for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
-  if (!sp_finite6(a)) f |= SP_NONFINITE;
-  return f;
-}
-
-/* The guards of one direct-dynamics state after the generated code ran. */
-static int sp_ddm_after(const double* T, const double* tw, const double* gam, const double* a,
-                        const double* aux, double max_cond) {
-  double det;
-  return sp_ddm_after_det(T, tw, gam, a, aux, max_cond, &det);
-}
-
-#ifdef SP_DDM_AVX2
+#: The compiled simulator's direct-model guard (``sp_ddm_after_sim``, with
+#: ``sp_check_inputs_flat`` and ``sp_static_cond_sim``; %-keys ``jinv``, ``ddm_d``):
+#: the robot library's (in :data:`TEMPLATE`, where the AVX2+FMA copy of the direct model
+#: runs) and the legs-as-lanes library's screen (:mod:`.lanes`).
+DDM_SIM_GUARD = r"""#ifdef SP_DDM_AVX2
 /* ---- the compiled simulator's guard (sp_ddm_aux where the AVX2+FMA copy runs) ---- */
 /* sp_check_inputs's decision without its early exits (the same tests: |x| <= DBL_MAX iff
    x is finite, then each orthogonality error within the tolerance, the pose's entries
@@ -503,7 +458,60 @@ SP_AVX2 static int sp_ddm_after_sim(const double* T, const double* tw, const dou
   return f;
 }
 #endif
+"""
 
+TEMPLATE = (
+    GUARDS
+    + STATIC_COND
+    + r"""
+/* ---- stewart-pin: batch loops (hand-written, see _csource.py) ---- */
+#ifndef SP_EXPORT
+#define SP_EXPORT __attribute__((visibility("default")))
+#endif
+
+#define SP_IDM_NAUX %(idm_naux)d
+#define SP_DDM_NAUX %(ddm_naux)d
+#define SP_IDM_SLACK %(idm_slack)d
+#define SP_DDM_SLACK %(ddm_slack)d
+
+/* The guards of one inverse-dynamics state after the generated code ran (g: its Gamma,
+   aux: its by-products): the state's flag; a repivoted state's Gamma solved again. */
+static int sp_idm_after(const double* T, const double* tw, const double* acc, double* g,
+                        const double* aux, double max_cond) {
+  double y[6];
+  int k, f = sp_check_inputs(T, tw, acc);
+"""
+    + IDM_GUARDS
+    + r"""  if (!sp_finite6(g)) f |= SP_NONFINITE;
+  return f;
+}
+
+/* The guards of one direct-dynamics state after the generated code ran; *det: the
+   determinant of S from the cheap condition check when it decided (0.0 when the pivoted
+   LU had to). */
+static int sp_ddm_after_det(const double* T, const double* tw, const double* gam,
+                            const double* a, const double* aux, double max_cond, double* det) {
+  int k, f = sp_check_inputs(T, tw, gam);
+  f |= sp_check_legs(aux, SP_DDM_SLACK);
+  if (!sp_static_cond_det(aux + %(jinv)d, max_cond, det)) {  /* the cheap screen, the LU */
+    *det = 0.0;
+    f |= sp_check_cond(aux + %(jinv)d, max_cond, 0, 0);
+  }
+  for (k = 0; k < 6; ++k) if (!(aux[%(ddm_d)d + k] > 0.0)) f |= SP_NOT_PD;
+  if (!sp_finite6(a)) f |= SP_NONFINITE;
+  return f;
+}
+
+/* The guards of one direct-dynamics state after the generated code ran. */
+static int sp_ddm_after(const double* T, const double* tw, const double* gam, const double* a,
+                        const double* aux, double max_cond) {
+  double det;
+  return sp_ddm_after_det(T, tw, gam, a, aux, max_cond, &det);
+}
+
+"""
+    + DDM_SIM_GUARD
+    + r"""
 #ifdef SP_WIDTH
 /* ---- the vector screens: the lanes (all ones) whose scalar guard would return 0 ---- */
 #define SP_BIG 1.7976931348623157e308  /* DBL_MAX: |x| <= SP_BIG iff x is finite */

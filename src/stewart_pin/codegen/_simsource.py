@@ -37,7 +37,9 @@ written as row 0.
 
 The sign of ``det Jp^-1`` of each stage and state comes from the determinant the direct
 model's guard computed anyway (``sp_ddm_aux``'s ``det``: the LU without pivoting of its
-cheap condition check, ``S = Jp^-T diag(1, 1, 1, 1/l, 1/l, 1/l)``, so the same sign):
+cheap condition check, ``S = Jp^-T diag(1, 1, 1, 1/l, 1/l, 1/l)``, so the same sign; on
+the legs-as-lanes at the computed-torque controller's state, the controller's inverse
+model's static-pivot LU's, :mod:`.lanes`):
 where that check decides, cond(S) is at most half of ``max_condition``, so for a threshold
 up to :data:`STATIC_SIGN_COND` the determinant's relative error is far below 1 and its
 sign is the one ``np.linalg.det`` gives the reference's ``Jp^-1`` (the Python loop's);

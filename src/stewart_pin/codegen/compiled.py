@@ -250,6 +250,19 @@ def leg_checks_source(desc: Any, layout: AuxLayout) -> str:
     return codegen_kind(desc).leg_checks_source(desc, layout)
 
 
+def guard_numbers(desc: Any, layout: AuxLayout) -> dict[str, Any]:
+    """The %-keys of :data:`._csource.GUARDS` for ``desc`` (``check_legs``: the C of
+    :func:`leg_checks_source`, the rotation tolerance, the pivot growth limit and 1 / the
+    singularity measure's length [1/m]): the robot library's and the legs-as-lanes
+    library's guards (:mod:`.lanes`)."""
+    return {
+        "check_legs": leg_checks_source(desc, layout),
+        "rotation_tol": ROTATION_TOLERANCE * (1.0 - 1e-3),
+        "growth_limit": GROWTH_LIMIT,
+        "inv_length": 1.0 / singularity_length(desc),
+    }
+
+
 def c_source(desc: Any) -> str:
     """The C source of a robot's library: CasADi's generated IDM and DDM (guarded
     variants) followed by the batch loops and guards of :mod:`._csource` (the leg checks
@@ -271,10 +284,7 @@ def c_source(desc: Any) -> str:
     layout = model_layout(desc)
     fi, fd = models.idm_guarded, models.ddm_guarded
     wrapper = _csource.TEMPLATE % {
-        "check_legs": leg_checks_source(desc, layout),
-        "rotation_tol": ROTATION_TOLERANCE * (1.0 - 1e-3),
-        "growth_limit": GROWTH_LIMIT,
-        "inv_length": 1.0 / singularity_length(desc),
+        **guard_numbers(desc, layout),
         "idm_naux": layout.idm_size,
         "ddm_naux": layout.ddm_size,
         **_csource.layout_numbers(layout),

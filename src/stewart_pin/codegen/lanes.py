@@ -19,8 +19,20 @@ writing the robot library's by-products (its layout: the general legs' or the 6-
 ``q3^2``, ``rho^2``, ``Jp^-1``, ``D``...).
 
 The entry ``sp_ddm_lanes`` has ``sp_ddm_aux``'s signature and outputs (the robot
-library's, :mod:`._csource`) and calls the robot library's guard (``sp_ddm_guard_sim``,
-bound once by ``sp_lanes_bind``): the compiled simulator (:mod:`.simulator`) calls it in
+library's, :mod:`._csource`) and its flag: a screen compiled here from the robot
+library's guard code and numbers (:func:`guard_keys`: the inputs, four at a time; the leg
+checks, general legs' slacks four at a time; the ``L D L^T`` pivots; the cheap condition
+check) passes the states every test of the library's guard passes, and the library's
+guard (``sp_ddm_guard_sim``, bound once by ``sp_lanes_bind``) decides the others. At the
+state of the last single-state ``sp_idm_lanes`` call on the thread (the same pose, twist
+and the forces it returned: the computed-torque controller's state, whose direct model
+the C loop runs next), the screen takes the inputs' validity from that call's guard and,
+where its static-pivot LU's multipliers stayed within the growth limit, the condition
+bound's determinant and norm of ``S`` (at the direct model's own threshold; the
+determinant's sign corrected by the pivot order's parity, ``LaneModels.parity``)
+instead of computing the cheap condition check again: the same numbers up to rounding.
+``sp_idm_lanes`` screens its states alike before the library's ``sp_idm_guard_sim``.
+The compiled simulator (:mod:`.simulator`) calls them in
 place of ``sp_ddm_aux`` where the processor has AVX2 and FMA and the robot's legs are
 lane-compatible (:func:`lane_models`: the paper's 6-UPS, or general legs that are not
 ``custom`` with the same architecture, joints, tip and actuated joint in every leg);
@@ -97,7 +109,7 @@ from stewart_pin.kinematics.geometry import characteristic_length
 WIDTH = 4
 GROUPS = 2
 #: The generator's version (in the library's identity).
-LANES_VERSION = "2"
+LANES_VERSION = "3"
 _VAR = re.compile(r"\ba\d+\b")
 
 
@@ -125,6 +137,13 @@ class LaneModels:
             ``wrench`` (6), ``Hz`` (1), then the slacks or ``q3^2``, ``rho^2``),
             ``idm_closure(pose, twist, accel, X, chi) -> (gamma, aux)`` with the robot
             library's static pivots.
+        parity: the sign of the inverse model's static pivot order (the rows' and the
+            columns' permutations): its ``det`` (the product of the static-pivot LU's
+            pivots) times ``parity`` is the determinant of ``S`` the direct model's guard
+            computes.
+        guard: the %-keys of the guards on the lanes (:data:`ENTRY`, :func:`guard_keys`;
+            empty where ``lane_models`` was given a general robot, not a description: no
+            library, :func:`lanes_source` is "").
     """
 
     leg: cs.Function
@@ -135,6 +154,8 @@ class LaneModels:
     idm_closure: cs.Function
     ni_out: int
     chi_index: np.ndarray
+    parity: float = 1.0
+    guard: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 #: The numbers of a joint that may differ between the lanes (arithmetic only in the leg
@@ -215,6 +236,7 @@ class _Family:
     idm_closure: Callable[..., tuple[list[Scalar], list[Scalar]]]
     n_chi: int = 0
     chi_index: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((6, 0), int))
+    pivots: tuple[tuple[int, int], ...] = ()
 
 
 class _LaneNumbers:
@@ -330,6 +352,7 @@ def _general_family(desc: Any) -> _Family | None:
         idm_leg=idm_leg,
         idm_fields=("row", "wrench", "Hz", "slack"),
         idm_closure=idm_closure,
+        pivots=pivots,
     )
 
 
@@ -396,6 +419,7 @@ def _ups_family(desc: Any) -> _Family:
         idm_closure=idm_closure,
         n_chi=len(names),
         chi_index=chi_index,
+        pivots=tuple(pivots),
     )
 
 
@@ -412,7 +436,47 @@ def lane_models(desc: Any) -> LaneModels | None:
     differ only in their numbers; None where its legs differ in more than their numbers
     (or a leg is ``custom``): the simulator then runs the robot library's models."""
     family = _ups_family(desc) if _is_ups(desc) else _general_family(desc)
-    return None if family is None else _assemble(family)
+    if family is None:
+        return None
+    guard = guard_keys(desc) if isinstance(desc, RobotDescription) else {}
+    return dataclasses.replace(_assemble(family), parity=_parity(family.pivots), guard=guard)
+
+
+def _parity(pivots: Sequence[tuple[int, int]]) -> float:
+    """The sign of the static pivot order ``pivots`` ``(row, col)``: the rows' permutation's
+    sign times the columns' (the determinant of the permuted matrix over the matrix's)."""
+    sign = 1.0
+    for order in ([r for r, _ in pivots], [c for _, c in pivots]):
+        for i in range(len(order)):
+            for j in range(i + 1, len(order)):
+                if order[i] > order[j]:
+                    sign = -sign
+    return sign
+
+
+def guard_keys(desc: Any) -> dict[str, Any]:
+    """The %-keys of the direct model's guard on the lanes (:data:`ENTRY`): the robot
+    library's guards (:data:`._csource.GUARDS`, :data:`._csource.STATIC_COND`,
+    :data:`._csource.DDM_SIM_GUARD`: the same text, the same numbers) and the screen's leg
+    check ``lane_legs`` (general legs: every slack positive, four at a time; the 6-UPS: the
+    library's ``sp_check_legs``)."""
+    from stewart_pin.codegen import _csource
+    from stewart_pin.codegen.compiled import guard_numbers, model_layout
+
+    layout = model_layout(desc)
+    keys = {**guard_numbers(desc, layout), **_csource.layout_numbers(layout)}
+    text = (
+        f"#define SP_DDM_SLACK {layout.ddm_slack}\n"
+        + _csource.GUARDS % keys
+        + _csource.STATIC_COND
+        + (_csource.DDM_SIM_GUARD % keys).replace("#ifdef SP_DDM_AVX2\n", "", 1)
+    )
+    text = text[: text.rindex("#endif")]  # DDM_SIM_GUARD's
+    if _is_ups(desc):
+        legs = "return sp_check_legs(aux, slack) == 0;"
+    else:
+        legs = LANE_SLACKS % {"n_slack": layout.n_slack}
+    return {**keys, "guards": text, "lane_legs": legs, "n_slack": layout.n_slack}
 
 
 def _assemble(fam: _Family) -> LaneModels:
@@ -463,7 +527,22 @@ def _assemble(fam: _Family) -> LaneModels:
     )
 
 
-#: The entry after the generated code (``%`` fields: the sizes, the legs' numbers).
+#: The general legs' check of the lanes' guards (:func:`guard_keys`): every slack
+#: ``aux[slack .. slack + n_slack)`` positive (``sp_check_legs``'s decision, four at a
+#: time and without its early exit).
+LANE_SLACKS = r"""const double* s = aux + slack;
+  sp_ivec m = SP_ALL;
+  int k, ok = 1;
+  for (k = 0; k + 4 <= %(n_slack)d; k += 4) {
+    sp_vec v;
+    __builtin_memcpy(&v, s + k, sizeof v);
+    m &= v > sp_bcast(0.0);
+  }
+  for (; k < %(n_slack)d; ++k) ok &= s[k] > 0.0;
+  return ok && m[0] && m[1] && m[2] && m[3];"""
+
+#: The entry after the generated code (``%`` fields: the sizes, the legs' numbers, the
+#: guards' text and numbers).
 ENTRY = r"""
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__) && \
     defined(SP_LANE_CLOSURE) && defined(SP_LANE_IDM_CLOSURE)
@@ -484,6 +563,89 @@ SP_AVX2 static inline void sp_lane_gather(const double* chi, sp_vec* lp) {
   int i, l;
   for (i = 0; i < %(groups)d * %(n_lp)d; ++i)
     for (l = 0; l < %(width)d; ++l) lp[i][l] = chi[sp_lane_chi[i / %(n_lp1)d][i %% %(n_lp1)d][l]];
+}
+
+/* ---- the direct model's guard (the robot library's, codegen/_csource.py) ---- */
+%(guards)s
+/* The inputs checks of the guards' screens: sp_check_inputs_flat's tests (every number
+   finite, the last pose row [0, 0, 0, 1], each orthogonality error of the rotation within
+   the tolerance, the same sums of products, and its determinant positive), four at a
+   time; 1 where the state passes them. */
+SP_AVX2 static int sp_lane_inputs_ok(const double* T, const double* x, const double* y) {
+  const sp_vec big = sp_bcast(1.7976931348623157e308), tol = sp_bcast(sp_rotation_tol);
+  sp_vec r0, r1, r2, r3, a = {x[0], x[1], x[2], x[3]}, b = {x[4], x[5], y[0], y[1]},
+         c = {y[2], y[3], y[4], y[5]}, d, p0, p1, p2, e;
+  sp_ivec m;
+  double det;
+  __builtin_memcpy(&r0, T, sizeof r0);
+  __builtin_memcpy(&r1, T + 4, sizeof r1);
+  __builtin_memcpy(&r2, T + 8, sizeof r2);
+  __builtin_memcpy(&r3, T + 12, sizeof r3);
+  m = (sp_v_fabs(r0) <= big) & (sp_v_fabs(r1) <= big) & (sp_v_fabs(r2) <= big);
+  m &= (sp_v_fabs(a) <= big) & (sp_v_fabs(b) <= big) & (sp_v_fabs(c) <= big);
+  m &= r3 == (sp_vec){0.0, 0.0, 0.0, 1.0};
+  if (!(m[0] && m[1] && m[2] && m[3])) return 0;
+  /* lanes j < 3: column j with itself (minus 1), then with column (j + 1) mod 3 */
+  d = (r0 * r0 + r1 * r1) + r2 * r2;
+  p0 = (sp_vec){r0[1], r0[2], r0[0], 0.0};
+  p1 = (sp_vec){r1[1], r1[2], r1[0], 0.0};
+  p2 = (sp_vec){r2[1], r2[2], r2[0], 0.0};
+  e = (r0 * p0 + r1 * p1) + r2 * p2;
+  m = (sp_v_fabs(d - sp_bcast(1.0)) <= tol) & (sp_v_fabs(e) <= tol);
+  if (!(m[0] && m[1] && m[2])) return 0;
+  det = T[0] * (T[5] * T[10] - T[6] * T[9]) - T[1] * (T[4] * T[10] - T[6] * T[8])
+      + T[2] * (T[4] * T[9] - T[5] * T[8]);
+  return det > 0.0;
+}
+
+/* The leg checks of the guards' screens: the state passes sp_check_legs(aux, slack). */
+SP_AVX2 static int sp_lane_legs_ok(const double* aux, int slack) {
+  %(lane_legs)s
+}
+
+/* The last state of sp_idm_lanes on this thread (a single state, the controller's): its
+   pose, twist and Gamma (memo_in), and what its guard established there: 1 the inputs
+   valid and Gamma finite (flag 0 or REPIVOTED alone), 2 also its static-pivot LU's
+   multipliers within the growth limit (flag 0), so that its det and fro2 are the
+   condition bound's; 0 nothing. */
+static __thread double sp_lane_memo_in[28];
+static __thread int sp_lane_memo = 0;
+static __thread double sp_lane_memo_det = 0.0, sp_lane_memo_fro2 = 0.0;
+/* The sign of the inverse model's static pivot order: memo det times it is det S. */
+static const double sp_lane_parity = %(parity)r;
+
+/* sp_ddm_guard_sim's flag and det for the lanes' direct model (the same signature): a
+   screen first, the robot library's guard (sp_lane_guard) where the screen does not pass.
+   The screen passes a state only where every test of the library's guard passes (its
+   inputs valid, sp_check_legs, the L D L^T pivots positive, the acceleration finite, and
+   the cheap condition check sp_static_cond_sim with its det), so the flag is the
+   library's; at the state of the last sp_idm_lanes call (the computed-torque controller's,
+   the same pose, twist and the Gamma it returned: the C loop's direct model at the
+   state whose forces it just computed), the inputs are valid already, and where that
+   call's static-pivot LU had its multipliers within the growth limit its det and fro2 give
+   the condition bound (at this max_cond) and the sign: the same determinant and norm of
+   S up to rounding (cond(S) <= max_cond / 2, the reference accepts the state, as with
+   sp_static_cond_sim's own). */
+SP_AVX2 static int sp_lane_ddm_guard(const double* pose, const double* twist, const double* gam,
+                                     double max_cond, const double* accel, const double* aux,
+                                     double* det) {
+  const double big = 1.7976931348623157e308;
+  int memo = 0, ok, k;
+  if (sp_lane_memo && __builtin_memcmp(sp_lane_memo_in, pose, 16 * sizeof(double)) == 0
+      && __builtin_memcmp(sp_lane_memo_in + 16, twist, 6 * sizeof(double)) == 0
+      && __builtin_memcmp(sp_lane_memo_in + 22, gam, 6 * sizeof(double)) == 0)
+    memo = sp_lane_memo;
+  ok = memo || sp_lane_inputs_ok(pose, twist, gam);
+  ok = ok && sp_lane_legs_ok(aux, %(ddm_slack)d);
+  for (k = 0; k < 6; ++k) ok &= (aux[%(ddm_d)d + k] > 0.0) & (fabs(accel[k]) <= big);
+  if (ok) {
+    if (memo == 2 && sp_cond_bound(sp_lane_memo_det, sp_lane_memo_fro2, max_cond) == 0) {
+      *det = sp_lane_parity * sp_lane_memo_det;
+      return 0;
+    }
+    if (sp_static_cond_sim(aux + %(jinv)d, max_cond, det)) return 0;
+  }
+  return sp_lane_guard(pose, twist, gam, max_cond, accel, aux, det);
 }
 
 /* The length of aux (the robot library's SP_DDM_NAUX). */
@@ -517,7 +679,7 @@ SP_EXPORT SP_AVX2 int sp_ddm_lanes(const double* pose, const double* twist, cons
   carg[0] = pose; carg[1] = twist; carg[2] = (const double*)X; carg[3] = chi;
   cres[0] = accel; cres[1] = aux;
   sp_lane_closure_avx2(carg, cres, iw, w, 0);
-  return sp_lane_guard(pose, twist, gam, max_cond, accel, aux, det);
+  return sp_lane_ddm_guard(pose, twist, gam, max_cond, accel, aux, det);
 }
 
 /* the robot library's sp_idm_guard_sim, bound by sp_lanes_bind_idm */
@@ -532,6 +694,23 @@ SP_EXPORT int sp_lanes_idm_naux(void) { return %(inaux)d; }
 SP_EXPORT int sp_lanes_bind_idm(void* guard) {
   sp_lane_iguard = (sp_iguard_fn)guard;
   return sp_avx2_ready;
+}
+
+/* sp_idm_guard_sim's flag for the lanes' inverse model (the same signature): 0 where
+   every test of the library's guard (sp_idm_after) passes (the inputs valid,
+   sp_check_legs, the static-pivot LU's multipliers within the growth limit and its
+   condition bound, Gamma finite), else the library's guard decides (and solves a
+   repivoted state again). */
+SP_AVX2 static int sp_lane_idm_guard(const double* pose, const double* twist,
+                                     const double* accel, double* gamma, const double* aux,
+                                     double max_cond) {
+  const double big = 1.7976931348623157e308;
+  int ok, k;
+  ok = sp_lane_inputs_ok(pose, twist, accel) && sp_lane_legs_ok(aux, %(idm_slack)d);
+  ok = ok && aux[%(growth)d] <= sp_growth_limit
+       && sp_cond_bound(aux[%(det)d], aux[%(fro2)d], max_cond) == 0;
+  for (k = 0; k < 6; ++k) ok &= fabs(gamma[k]) <= big;
+  return ok ? 0 : sp_lane_iguard(pose, twist, accel, gamma, aux, max_cond);
 }
 
 /* sp_idm_sim of the robot library (n states; the same signature, outputs and flags), the
@@ -549,7 +728,7 @@ SP_EXPORT SP_AVX2 int sp_idm_lanes(long long n, const double* pose, const double
   double* cres[%(i_res)d + 1];
   long long int iw[%(i_iw)d + 1];
   double w[%(i_w)d + 1];
-  int any = 0, f;
+  int any = 0, f = 0;
   long long s;
   sp_lane_gather(chi, lp);
   for (s = 0; s < n; ++s) {
@@ -559,9 +738,18 @@ SP_EXPORT SP_AVX2 int sp_idm_lanes(long long n, const double* pose, const double
     carg[4] = chi;
     cres[0] = gamma + 6 * s; cres[1] = aux;
     sp_lane_idm_closure_avx2(carg, cres, iw, w, 0);
-    f = sp_lane_iguard(sh[0], sh[1], sh[2], gamma + 6 * s, aux, max_cond);
+    f = sp_lane_idm_guard(sh[0], sh[1], sh[2], gamma + 6 * s, aux, max_cond);
     flags[s] = f;
     any |= f;
+  }
+  sp_lane_memo = 0;
+  if (n == 1 && (f & ~SP_REPIVOTED) == 0) {  /* what the direct model's guard may reuse */
+    __builtin_memcpy(sp_lane_memo_in, pose, 16 * sizeof(double));
+    __builtin_memcpy(sp_lane_memo_in + 16, twist, 6 * sizeof(double));
+    __builtin_memcpy(sp_lane_memo_in + 22, gamma, 6 * sizeof(double));
+    sp_lane_memo = f == 0 ? 2 : 1;
+    sp_lane_memo_det = aux[%(det)d];
+    sp_lane_memo_fro2 = aux[%(fro2)d];
   }
   return any;
 }
@@ -587,9 +775,12 @@ def _interleaved(lines: list[str]) -> list[str]:
 
 
 def lanes_source(m: LaneModels) -> str:
-    """The C of the legs-as-lanes library of :func:`lane_models`'s ``m``."""
+    """The C of the legs-as-lanes library of :func:`lane_models`'s ``m`` ("" where ``m``
+    has no guard keys: :func:`lane_models` of a general robot, not a description)."""
     from stewart_pin.codegen.compiled import avx2_copy
 
+    if not m.guard:
+        return ""
     cg = cs.CodeGenerator(
         "sp_lanes.c",
         {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
@@ -663,6 +854,8 @@ def lanes_source(m: LaneModels) -> str:
         "i_iw": m.idm_closure.sz_iw(),
         "i_w": m.idm_closure.sz_w(),
         "inaux": m.idm_closure.size1_out(1),
+        "parity": m.parity,
+        **m.guard,
     }
     return (
         "/* Generated by stewart-pin (see codegen/lanes.py). */\n"
