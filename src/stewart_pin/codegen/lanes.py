@@ -528,7 +528,7 @@ def _assemble(fam: _Family) -> LaneModels:
 
 
 #: The general legs' check of the lanes' guards (:func:`guard_keys`): every slack
-#: ``aux[slack .. slack + n_slack)`` positive (``sp_check_legs``'s decision, four at a
+#: ``aux[slack:slack + n_slack]`` positive (``sp_check_legs``'s decision, four at a
 #: time and without its early exit).
 LANE_SLACKS = r"""const double* s = aux + slack;
   sp_ivec m = SP_ALL;
