@@ -3,8 +3,10 @@ generated C; the cache key is the hash of the source itself; a library is loaded
 after its digest matches its manifest (otherwise it is rebuilt, atomically, safely under
 concurrent processes); a cache others can write is refused.
 
-Libraries are built here with ``build_library(..., load=None)`` (nothing loaded into this
-process) before being tampered with, so that a corrupted file can never be mapped by the
+Libraries are tampered with in a private cache folder per test, as copies of the key
+folders of the session's shared cache (:func:`prebuilt`; a file there may be mapped by
+this process, its copy never is) or built there with ``build_library(..., load=None)``
+(nothing loaded into this process), so that a corrupted file can never be mapped by the
 test process itself; the truncated library is loaded in a subprocess."""
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -46,6 +50,23 @@ def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return path
 
 
+@pytest.fixture
+def prebuilt(cache: Path, shared_compile_cache: Path) -> Callable[[Any], Path]:
+    """``prebuilt(desc)``: ``desc``'s library, as :func:`build_library` makes it, in the
+    private ``cache``: built (or found) in the session's shared cache and its key folder
+    copied (each build takes seconds; these tests are of the cache's rules, and the
+    library's numbers are tested where it is built). Returns the library's path in
+    ``cache``."""
+
+    def make(desc: Any) -> Path:
+        lib, _ = build_library(desc, shared_compile_cache)
+        cache.mkdir(mode=0o700, exist_ok=True)
+        folder = shutil.copytree(lib.parent, cache / lib.parent.name)
+        return Path(folder) / lib.name
+
+    return make
+
+
 def _states(name: str, n: int = 10):
     robot = get_robot(name)
     P, V, A = sample_states(robot.description, n, 3)
@@ -61,7 +82,7 @@ def _with_name(desc, name: str):
 
 
 # ---------------------------------------------------------------------------- item 1
-def test_name_with_comment_close_cannot_inject_c(cache, tmp_path):
+def test_name_with_comment_close_cannot_inject_c(cache, prebuilt, tmp_path):
     """A robot name closing the C comment and defining a constructor used to run code when
     the library loaded; no text of the description reaches the source now."""
     marker = tmp_path / "injected"
@@ -74,6 +95,7 @@ def test_name_with_comment_close_cannot_inject_c(cache, tmp_path):
     source = c_source(desc)
     assert source == c_source(plain)  # the name shapes nothing
     assert "*/ extern" not in source and "creat" not in source and "sp_evil" not in source
+    prebuilt(plain)  # the same source: the same library
     backend = CompiledDynamics(StewartRobot(desc))
     assert backend.kind == "compiled", backend.reason
     assert not marker.exists()
@@ -83,14 +105,13 @@ def test_name_with_comment_close_cannot_inject_c(cache, tmp_path):
     assert CompiledDynamics(StewartRobot(_with_name(plain, "other"))).library == backend.library
 
 
-def test_cache_key_is_what_shapes_the_source(cache, monkeypatch):
+def test_cache_key_is_what_shapes_the_source(cache, prebuilt, monkeypatch):
     """Everything that shapes the source is in the key: the description's numbers and the
     generator's version (its source files, whose constants are compiled into the guard;
     a code change is simulated by another version string), without the source being
     generated to find a cached library (issue 24)."""
     desc = get_robot("random-1").description
-    lib, built = build_library(desc)
-    assert built
+    lib = prebuilt(desc)
     assert lib.parent.name == compiled_module.cache_key(
         identity.library_identity(desc, "models"), compiled_module.find_compiler()
     )
@@ -112,12 +133,12 @@ def _no_source(desc):
 
 
 # ---------------------------------------------------------------------------- item 2
-def test_library_copied_from_another_geometry_is_rebuilt(cache):
+def test_library_copied_from_another_geometry_is_rebuilt(cache, prebuilt):
     """The library (and manifest) of another robot copied over this robot's: the mismatch is
     detected and the library rebuilt; the forces are right (they were 100x off)."""
     robot, P, V, A, G = _states("random-1")
-    mine, _ = build_library(robot.description)
-    theirs, _ = build_library(get_robot("simulator").description)
+    mine = prebuilt(robot.description)
+    theirs = prebuilt(get_robot("simulator").description)
     for name in ("libstewart_models.so", "manifest.json"):
         shutil.copyfile(theirs.parent / name, mine.parent / name)
     with pytest.warns(RuntimeWarning, match="manifest names another key"):
@@ -126,7 +147,7 @@ def test_library_copied_from_another_geometry_is_rebuilt(cache):
     assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
     assert rel_error(backend.direct_dynamics(P, V, G), robot.direct_dynamics(P, V, G)) < TOL
     # Only the library copied (its own manifest kept): the digest no longer matches.
-    other, _ = build_library(get_robot("desktop").description)
+    other = prebuilt(get_robot("desktop").description)
     shutil.copyfile(theirs, other)
     with pytest.warns(RuntimeWarning, match="does not match its manifest"):
         _, built = build_library(get_robot("desktop").description)
@@ -135,10 +156,10 @@ def test_library_copied_from_another_geometry_is_rebuilt(cache):
     assert manifest["sha256"] == compiled_module._sha256(other)[0]
 
 
-def test_truncated_library_is_rebuilt_without_sigbus(cache):
+def test_truncated_library_is_rebuilt_without_sigbus(cache, prebuilt):
     """A library cut short (a full disk, a killed copy) killed every later run with SIGBUS;
     now it is detected before loading and rebuilt (checked in a subprocess)."""
-    lib, _ = build_library(get_robot("paper").description)
+    lib = prebuilt(get_robot("paper").description)
     size = lib.stat().st_size
     with open(lib, "r+b") as f:
         f.truncate(size // 2)
@@ -173,11 +194,11 @@ def test_truncated_library_is_rebuilt_without_sigbus(cache):
 
 
 @pytest.mark.parametrize("target", ["root", "folder", "library", "manifest"])
-def test_cache_writable_by_others_is_refused(cache, target):
+def test_cache_writable_by_others_is_refused(cache, prebuilt, target):
     """A cache folder or file that group or others can write is refused with a named error
     (it used to be loaded): nothing is loaded, no fallback hides it."""
     robot = StewartRobot(get_robot("paper").description)
-    lib, _ = build_library(robot.description)
+    lib = prebuilt(robot.description)
     path = {
         "root": cache,
         "folder": lib.parent,
@@ -194,10 +215,10 @@ def test_cache_writable_by_others_is_refused(cache, target):
     assert CompiledDynamics(robot).kind == "compiled"
 
 
-def test_cache_of_another_user_or_a_symlink_is_refused(cache, monkeypatch, tmp_path):
+def test_cache_of_another_user_or_a_symlink_is_refused(cache, prebuilt, monkeypatch, tmp_path):
     """(Another owner is simulated: the effective user id is patched.)"""
     robot = StewartRobot(get_robot("paper").description)
-    lib, _ = build_library(robot.description)
+    lib = prebuilt(robot.description)
     with monkeypatch.context() as mp:
         mp.setattr(compiled_module.os, "geteuid", lambda: os.getuid() + 1)
         with pytest.raises(UnsafeCacheError, match="belongs to user id"):
@@ -296,13 +317,13 @@ def read_only(monkeypatch):
     yield make
 
 
-def test_read_only_cache_with_a_valid_library_is_used(cache, read_only):
+def test_read_only_cache_with_a_valid_library_is_used(cache, prebuilt, read_only):
     """A read-only key folder holding a verified library: loaded (the lock's O_RDWR open
     failed, and the backend fell back to the virtual machine); without a valid library,
     or in a read-only cache without the key folder, the error says the folder is
     read-only; the safety checks still hold."""
     robot, P, V, A, G = _states("paper")
-    lib, _ = build_library(robot.description)
+    lib = prebuilt(robot.description)
     (lib.parent / ".lock").unlink()  # as a cache copied without its lock file
     read_only(lib.parent)
     try:
@@ -310,7 +331,7 @@ def test_read_only_cache_with_a_valid_library_is_used(cache, read_only):
         assert (backend.kind, backend.compiled_now, backend.library) == ("compiled", False, lib)
         assert rel_error(backend.inverse_dynamics(P, V, A), G) < TOL
         other = StewartRobot(get_robot("desktop").description)
-        other_lib, _ = build_library(other.description)
+        other_lib = prebuilt(other.description)
         read_only(other_lib.parent)
         os.chmod(other_lib.parent, 0o700)
         other_lib.unlink()
