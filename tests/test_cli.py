@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pinocchio as pin
@@ -237,6 +240,26 @@ def test_bench_writes_json(tmp_path, capsys):
     sim = data["simulation"]["desktop"]
     assert all(np.isfinite(v) and v > 0 for v in sim["median_us_per_step"].values())
     assert "simulation: aim" in out
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/maps"), reason="Linux's process maps")
+def test_bench_fills_its_fresh_caches_by_copying_the_users_libraries(tmp_path):
+    """The start-up and first-use figures time processes on a fresh cache that holds the
+    robot's value models: copied from the caller's cache (the session's here), not built
+    again; a new process on the copy loads it without compiling (FIRST_CALL asserts it)."""
+    from stewart_pin.apps.bench_sections import FIRST_CALL, environment, seed_cache
+
+    first = FIRST_CALL.format(preset="desktop")
+    fresh = tmp_path / "fresh"
+    fill = ["-c", first.replace("and not backend.compiled_now", "")]
+    assert seed_cache(str(fresh), fill) == 1
+    (folder,) = fresh.iterdir()
+    assert (folder / "manifest.json").is_file() and (folder / "libstewart_models.so").is_file()
+    assert fresh.stat().st_mode & 0o777 == 0o700
+    run = subprocess.run(
+        [sys.executable, "-c", first], env=environment(str(fresh)), capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
 
 
 def test_bench_prints_progress_then_one_table(capsys, monkeypatch):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -321,6 +322,54 @@ def environment(cache: str, pycache: str | None = None) -> dict[str, str]:
     return env
 
 
+#: Prepended to a script run by :func:`seed_cache`: at exit, the process prints the
+#: folders of the libraries it has mapped from its cache (Linux's ``/proc/self/maps``;
+#: elsewhere nothing, and the timed processes build their own).
+_PRINT_LOADED = """
+import atexit, os
+def _print_loaded():
+    root = os.path.realpath(os.environ["STEWART_PIN_CACHE"]) + os.sep
+    try:
+        with open("/proc/self/maps") as maps:
+            fields = [line.split(None, 5) for line in maps]
+    except OSError:
+        return
+    files = {f[5].strip() for f in fields if len(f) == 6}
+    print("\\n".join(sorted({os.path.dirname(f) for f in files if f.startswith(root)})))
+atexit.register(_print_loaded)
+"""
+
+
+def seed_cache(cache: str, args: list[str]) -> int:
+    """Fill the empty ``cache`` folder with what ``python -c script *more`` (``args``)
+    loads: the script runs once on this process's own cache (:func:`.compiled.cache_root`,
+    where it builds each library once, or finds it), and the key folders of the libraries
+    it mapped are copied into ``cache`` (the timed processes then find them as they would
+    in the user's cache: verified against their manifests). Copying the folders instead of
+    building them again in ``cache`` saves a build of seconds per library; a folder not
+    found (another platform) is built by the timed processes as before. Returns how many
+    key folders were copied."""
+    from stewart_pin.codegen.compiled import cache_root
+
+    env = environment(str(cache_root()))
+    script, *more = args[1:] if args[0] == "-c" else args
+    run = subprocess.run(
+        [sys.executable, "-c", _PRINT_LOADED + script, *more],
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    os.makedirs(cache, mode=0o700, exist_ok=True)
+    copied = 0
+    for line in run.stdout.splitlines():
+        folder = Path(line)
+        if line.startswith(os.sep) and (folder / "manifest.json").is_file():
+            shutil.copytree(folder, Path(cache) / folder.name, dirs_exist_ok=True)
+            copied += 1
+    return copied
+
+
 def timed(args: list[str], env: dict[str, str]) -> tuple[float, float]:
     """Wall-clock and CPU (user + system) seconds of one fresh process ``python *args``
     (which must succeed)."""
@@ -347,9 +396,11 @@ def startup_figures(runs: int, preset: str) -> dict[str, dict[str, float | None]
         bare = environment(cache)
         bare["PYTHONDONTWRITEBYTECODE"] = "1"
         first = FIRST_CALL.format(preset=preset)
-        # fill the cache (compiles once, not timed): the build's own process
+        # fill the cache (not timed): the libraries of the first call, copied from the
+        # user's cache (built there once, if they were not)
         fill = first.replace("and not backend.compiled_now", "")
-        subprocess.run([sys.executable, "-c", fill], env=env, check=True, capture_output=True)
+        if not seed_cache(cache, ["-c", fill]):  # built here, by a process of its own
+            subprocess.run([sys.executable, "-c", fill], env=env, check=True, capture_output=True)
         label = f"first call on a cached robot ({preset})"
         cases = [
             *((*case, env) for case in STARTUP_CASES),
@@ -427,6 +478,9 @@ def first_use(preset: str) -> dict[str, object]:
     seconds in all, compiling, and for the second call; the load average just before."""
     with tempfile.TemporaryDirectory(prefix="stewart-pin-first-use-") as cache:
         env = environment(cache)
+        # the value models' libraries, as after any use of the robot (copied from the
+        # user's cache, built there once if they were not); the value step then finds them
+        seed_cache(cache, ["-c", _FIRST_USE, preset, "values"])
         for step in ("values", "time"):
             load = os.getloadavg()[0]
             run = subprocess.run(
