@@ -36,7 +36,7 @@ ROBOTS = (
     "ups-offset",
     "random-rus-0",
     "random-pus-0",
-    "random-ups-offset-1",
+    "random-ups-offset-0",  # the robot of test_general_codegen.py: one build for both
     "simulator",
     "desktop",
     "paper",
