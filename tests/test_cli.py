@@ -346,7 +346,10 @@ def test_view_starts_a_local_server(capsys):
     assert "http://127.0.0.1:" in capsys.readouterr().out
 
 
-def test_demo_writes_the_whole_workflow(tmp_path, capsys):
+def test_demo_writes_the_whole_workflow(tmp_path, capsys, monkeypatch):
+    # the user's default (the suite's is the reference path): the compiled models and the
+    # C simulator, the robot's library shared with the bench tests above
+    monkeypatch.setenv("STEWART_PIN_BACKEND", "auto")
     from stewart_pin.motion.simulation import SimulationResult
 
     out = tmp_path / "demo"
