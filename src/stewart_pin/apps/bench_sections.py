@@ -351,7 +351,8 @@ def seed_cache(cache: str, args: list[str]) -> int:
     key folders were copied."""
     from stewart_pin.codegen.compiled import cache_root
 
-    env = environment(str(cache_root()))
+    root = Path(os.path.realpath(cache_root()))
+    env = environment(str(root))
     script, *more = args[1:] if args[0] == "-c" else args
     run = subprocess.run(
         [sys.executable, "-c", _PRINT_LOADED + script, *more],
@@ -364,7 +365,9 @@ def seed_cache(cache: str, args: list[str]) -> int:
     copied = 0
     for line in run.stdout.splitlines():
         folder = Path(line)
-        if line.startswith(os.sep) and (folder / "manifest.json").is_file():
+        # a key folder of the cache (nothing else is copied), as a folder, not a link
+        key = folder.parent == root and not folder.is_symlink()
+        if key and (folder / "manifest.json").is_file():
             shutil.copytree(folder, Path(cache) / folder.name, dirs_exist_ok=True)
             copied += 1
     return copied
