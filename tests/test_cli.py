@@ -260,6 +260,9 @@ def test_bench_fills_its_fresh_caches_by_copying_the_users_libraries(tmp_path):
         [sys.executable, "-c", first], env=environment(str(fresh)), capture_output=True, text=True
     )
     assert run.returncode == 0, run.stderr[-2000:]
+    # a script that fails on the user's cache copies nothing (the timed processes build)
+    assert seed_cache(str(tmp_path / "other"), ["-c", "raise SystemExit(3)"]) == 0
+    assert not any((tmp_path / "other").iterdir())
 
 
 def test_bench_prints_progress_then_one_table(capsys, monkeypatch):
