@@ -15,6 +15,7 @@ import signal
 import subprocess
 import threading
 import time
+import warnings
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -454,8 +455,13 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path, record
         # connected before the gate's own 30 s: a new page, given longer, up to three
         # times (the robot must be in view on one of them). The wait is bounded: a
         # browser that never connects is a failure, not a hung suite.
+        failed: list[str] = []
         for attempt, draw_time in enumerate((1.5, 4.0, 8.0)):
-            # a new server (and URL, the robot at home) after a wait that timed out
+            # Each retry on a new server (and URL, the robot at home): a browser of a new
+            # page did not connect in 40 s to a server whose earlier browser had gone
+            # (meshcat's, seen on a busy machine; noted on issue 24).
+            if attempt:
+                viewer.close()
             url = viewer.start()
             with load_gate() as gate, ThreadPoolExecutor(1) as pool:
                 wrapper = tmp_path / f"live-{attempt}.html"
@@ -483,9 +489,13 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path, record
                 assert connected, f"chromium did not connect within {BROWSER_WAIT} s"
                 check_robot_in_view(img)
                 break
-            except AssertionError:
+            except AssertionError as e:
+                failed.append(f"try {attempt} after {waited:.1f} s: {str(e).splitlines()[0]}")
                 if attempt == 2:
                     raise
+    if failed:  # passed on a later try: said in the run's warnings summary (CI's log)
+        tries = "; ".join(failed)
+        warnings.warn(f"the live viewer passed after failed tries: {tries}", stacklevel=1)
     assert viewer.url is None
     assert child_pids() <= before
 
