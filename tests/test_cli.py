@@ -251,7 +251,7 @@ def test_bench_fills_its_fresh_caches_by_copying_the_users_libraries(tmp_path):
 
     first = FIRST_CALL.format(preset="desktop")
     fresh = tmp_path / "fresh"
-    fill = ["-c", first.replace("and not backend.compiled_now", "")]
+    fill = first.replace("and not backend.compiled_now", "")
     assert seed_cache(str(fresh), fill) == 1
     (folder,) = fresh.iterdir()
     assert (folder / "manifest.json").is_file() and (folder / "libstewart_models.so").is_file()
@@ -261,7 +261,7 @@ def test_bench_fills_its_fresh_caches_by_copying_the_users_libraries(tmp_path):
     )
     assert run.returncode == 0, run.stderr[-2000:]
     # a script that fails on the user's cache copies nothing (the timed processes build)
-    assert seed_cache(str(tmp_path / "other"), ["-c", "raise SystemExit(3)"]) == 0
+    assert seed_cache(str(tmp_path / "other"), "raise SystemExit(3)") == 0
     assert not any((tmp_path / "other").iterdir())
 
 

@@ -340,12 +340,12 @@ atexit.register(_print_loaded)
 """
 
 
-def seed_cache(cache: str, args: list[str]) -> int:
-    """Fill the empty ``cache`` folder with what ``python -c script *more`` (``args``)
-    loads: the script runs once on this process's own cache (:func:`.compiled.cache_root`,
-    where it builds each library once, or finds it), and the key folders of the libraries
-    it mapped are copied into ``cache`` (the timed processes then find them as they would
-    in the user's cache: verified against their manifests). Copying the folders instead of
+def seed_cache(cache: str, script: str, *argv: str) -> int:
+    """Fill the empty ``cache`` folder with what ``python -c script *argv`` loads: the
+    script runs once on this process's own cache (:func:`.compiled.cache_root`, where it
+    builds each library once, or finds it), and the key folders of the libraries it mapped
+    are copied into ``cache`` (the timed processes then find them as they would in the
+    user's cache: verified against their manifests). Copying the folders instead of
     building them again in ``cache`` saves a build of seconds per library; a folder not
     found (another platform), or a script that fails on the user's cache, leaves the
     building to the timed processes, as before. Returns how many key folders were
@@ -354,9 +354,8 @@ def seed_cache(cache: str, args: list[str]) -> int:
 
     root = Path(os.path.realpath(cache_root()))
     env = environment(str(root))
-    script, *more = args[1:] if args[0] == "-c" else args
     run = subprocess.run(
-        [sys.executable, "-c", _PRINT_LOADED + script, *more],
+        [sys.executable, "-c", _PRINT_LOADED + script, *argv],
         env=env,
         check=False,
         capture_output=True,
@@ -405,7 +404,7 @@ def startup_figures(runs: int, preset: str) -> dict[str, dict[str, float | None]
         # fill the cache (not timed): the libraries of the first call, copied from the
         # user's cache (built there once, if they were not)
         fill = first.replace("and not backend.compiled_now", "")
-        if not seed_cache(cache, ["-c", fill]):  # built here, by a process of its own
+        if not seed_cache(cache, fill):  # built here, by a process of its own
             subprocess.run([sys.executable, "-c", fill], env=env, check=True, capture_output=True)
         label = f"first call on a cached robot ({preset})"
         cases = [
@@ -484,10 +483,10 @@ def first_use(preset: str) -> dict[str, object]:
     seconds in all, compiling, and for the second call; the load average just before."""
     with tempfile.TemporaryDirectory(prefix="stewart-pin-first-use-") as cache:
         env = environment(cache)
-        # the value models' libraries, as after any use of the robot (copied from the
-        # user's cache, built there once if they were not); the value step then finds them
-        seed_cache(cache, ["-c", _FIRST_USE, preset, "values"])
-        for step in ("values", "time"):
+        # the value models' libraries, as after any use of the robot: copied from the
+        # user's cache (built there once if they were not), else built by a value step here
+        seeded = seed_cache(cache, _FIRST_USE, preset, "values")
+        for step in ("time",) if seeded else ("values", "time"):
             load = os.getloadavg()[0]
             run = subprocess.run(
                 [sys.executable, "-c", _FIRST_USE, preset, step],
