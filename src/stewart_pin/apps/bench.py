@@ -70,7 +70,7 @@ from stewart_pin.check.constrained_dynamics import (
     tree_state,
 )
 from stewart_pin.codegen import CompiledDynamics, cost_dict
-from stewart_pin.codegen.compiled import CFLAGS, find_compiler
+from stewart_pin.codegen.compiled import find_compiler, model_cflags
 from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
 from stewart_pin.kinematics.chain_legs import idle_home, idle_legs
 
@@ -151,7 +151,7 @@ def compiled_rows(
         "reason": backend.reason,
         "library": str(backend.library) if backend.library else None,
         "compiler": find_compiler(),
-        "cflags": list(CFLAGS),
+        "cflags": list(model_cflags()),
     }
     return rows, info
 

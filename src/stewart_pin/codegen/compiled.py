@@ -4,7 +4,10 @@
 library: CasADi writes the C of the guarded IDM and DDM, :mod:`._csource` adds a loop over
 N states and a guard per state, the system C compiler builds it (``-O2``, no
 ``-march=native``, so a cached library stays valid on any machine of the same kind), and
-:mod:`ctypes` loads it. Compiling takes a few seconds.
+:mod:`ctypes` loads it. Compiling takes a few seconds (up to half a minute for the largest
+chain legs); ``$STEWART_PIN_BUILD=quick`` (:func:`model_cflags`) builds without
+optimisation instead, 3-5x sooner, for calls about twice as slow: for a study that meets
+many geometries and evaluates each a few thousand times.
 
 The cache. Libraries are kept under ``$STEWART_PIN_CACHE`` (default
 ``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of what the
@@ -135,6 +138,10 @@ CFLAGS = (
 #: size of CasADi's one straight-line function: on the exact derivatives, about 2.7 s at
 #: -O0 against 17 s at -O1 and 45-50 s at -O2; the calls take about 2x longer).
 QUICK_CFLAGS = ("-O0", *CFLAGS[1:])
+#: Environment variable: how the models' libraries are compiled (:func:`model_cflags`).
+BUILD_ENV = "STEWART_PIN_BUILD"
+#: The values of ``$STEWART_PIN_BUILD`` and their flags.
+BUILD_FLAGS = {"optimised": CFLAGS, "quick": QUICK_CFLAGS}
 #: Libraries linked (after the source).
 LDLIBS = ("-lm",)
 #: Environment variable: the longest a compilation may take [s] (default
@@ -217,10 +224,32 @@ def compile_timeout() -> float:
     return value
 
 
-def cache_key(source: str, compiler: str, cflags: tuple[str, ...] = CFLAGS) -> str:
+def model_cflags() -> tuple[str, ...]:
+    """The compiler flags of the models' libraries, from ``$STEWART_PIN_BUILD``:
+    ``optimised`` (the default, :data:`CFLAGS`) or ``quick`` (:data:`QUICK_CFLAGS`: no
+    optimisation; measured on this project's 2-core machine, gcc builds a library 3-5x
+    sooner, e.g. 5.9 s against 30 s for the 1.8 MB of the welded-UPS chain legs, and a call
+    takes about twice as long). Part of the cache key: both builds of a robot are kept.
+    Anything else raises :class:`~stewart_pin.exceptions.InputError`. The exact
+    derivatives are always built quick (:mod:`.derivatives`), the simulator always
+    optimised (:mod:`.simulator`)."""
+    env = (os.environ.get(BUILD_ENV) or "").strip()
+    if not env:
+        return CFLAGS
+    if env not in BUILD_FLAGS:
+        raise InputError(
+            f"${BUILD_ENV} must be 'optimised' (the default) or 'quick' (libraries built "
+            f"without optimisation, 3-5x sooner), got {env[:40]!r}"
+        )
+    return BUILD_FLAGS[env]
+
+
+def cache_key(source: str, compiler: str, cflags: tuple[str, ...] | None = None) -> str:
     """The name of a library's cache folder: the SHA-256 (first 32 hex digits) of the C
     ``source`` (:func:`c_source`) or of what it is made from (:func:`library_identity`),
-    the compiler (:func:`compiler_identity`) and the flags (``cflags``, :data:`LDLIBS`)."""
+    the compiler (:func:`compiler_identity`) and the flags (``cflags``, default
+    :func:`model_cflags`; and :data:`LDLIBS`)."""
+    cflags = model_cflags() if cflags is None else cflags
     h = hashlib.sha256()
     for part in (source, compiler_identity(compiler), " ".join(cflags), " ".join(LDLIBS)):
         data = part.encode()
@@ -604,7 +633,7 @@ def _kill(proc: subprocess.Popen[str]) -> None:
         proc.communicate(timeout=10)
 
 
-def build_seconds(source: str, cflags: tuple[str, ...] = CFLAGS) -> float:
+def build_seconds(source: str, cflags: tuple[str, ...] | None = None) -> float:
     """About how long the system compiler takes on ``source`` with ``cflags`` [s]
     (measured on this project's 2-core machine with gcc -O2, before the models had their
     vector copy (:mod:`._simd`, about 1.5x the source and 2-2.5x the time): 1 s for
@@ -613,7 +642,7 @@ def build_seconds(source: str, cflags: tuple[str, ...] = CFLAGS) -> float:
     with :data:`QUICK_CFLAGS`, linear: 2.5-2.8 s for the 1.2-1.5 MB of the exact
     derivatives)."""
     n = len(source)
-    if "-O0" in cflags:
+    if "-O0" in (model_cflags() if cflags is None else cflags):
         return 2e-6 * n
     return 8e-6 * n + (n / 3.5e5) ** 2
 
@@ -647,7 +676,7 @@ def build_source_library(
     load: Any = None,
     announce: str | None = None,
     identity: str | None = None,
-    cflags: tuple[str, ...] = CFLAGS,
+    cflags: tuple[str, ...] | None = None,
 ) -> tuple[Path, bool]:
     """:func:`build_library` for any generated C source (``source_of()``): the same cache
     folder, key, integrity rules, lock and build (the exact derivatives of
@@ -655,8 +684,9 @@ def build_source_library(
     with about how long it takes (only when it compiles), or None. ``identity``: what the
     source is made from (:func:`library_identity`), keyed instead of the source, which is
     then generated only to be compiled; None: the source is generated (once a compiler is
-    found) and keyed. ``cflags``: the compiler flags (part of the key; :data:`CFLAGS`, or
-    :data:`QUICK_CFLAGS` for a library wanted in seconds)."""
+    found) and keyed. ``cflags``: the compiler flags (part of the key; None:
+    :func:`model_cflags`, :data:`CFLAGS` unless ``$STEWART_PIN_BUILD`` says otherwise)."""
+    cflags = model_cflags() if cflags is None else cflags
     compiler = compiler or find_compiler()
     if not compiler:
         raise CompilationError("no C compiler found (cc, gcc, clang or $CC)")

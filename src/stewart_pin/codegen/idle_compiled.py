@@ -44,7 +44,6 @@ from stewart_pin.codegen import _csource
 from stewart_pin.codegen._identity import library_identity
 from stewart_pin.codegen.chain_leg_symbolic import IDLE_INPUT, IdleModels, build_idle_models
 from stewart_pin.codegen.compiled import (
-    CFLAGS,
     auto_env,
     build_or_vm,
     build_source_library,
@@ -341,7 +340,6 @@ class CompiledIdleDynamics:
                 self._load,
                 what,
                 library_identity(desc, "idle-models"),
-                CFLAGS,
             ),
             compiler,
             vm_fallback,
