@@ -26,7 +26,7 @@ import pytest
 # Tests of the reference path say backend="pinocchio"; tests of the compiled and "auto"
 # paths ask for them explicitly (test_auto_backend.py, test_general_codegen.py).
 os.environ.setdefault("STEWART_PIN_BACKEND", "pinocchio")
-# The models' libraries build without optimisation ($STEWART_PIN_BUILD=quick: 3-5x sooner,
+# The models' libraries build without optimisation ($STEWART_PIN_BUILD=quick: 3-7x sooner,
 # the suite's largest cost was ~100 gcc -O2 builds of as many geometries); the optimised
 # build of each kind of library is checked against the quick one and against the
 # independent references in test_build_flags.py.

@@ -2,7 +2,7 @@
 :data:`~stewart_pin.codegen.compiled.CFLAGS`).
 
 The rest of the suite builds them quick (``$STEWART_PIN_BUILD=quick``, set in conftest.py:
-no optimisation, 3-5x sooner). Here each kind of library is built optimised, and its
+no optimisation, 3-7x sooner). Here each kind of library is built optimised, and its
 results are compared with:
 
 - the independent references, to the tolerances the rest of the suite uses: the reference

@@ -6,8 +6,9 @@ N states and a guard per state, the system C compiler builds it (``-O2``, no
 ``-march=native``, so a cached library stays valid on any machine of the same kind), and
 :mod:`ctypes` loads it. Compiling takes a few seconds (up to half a minute for the largest
 chain legs); ``$STEWART_PIN_BUILD=quick`` (:func:`model_cflags`) builds without
-optimisation instead, 3-5x sooner, for calls about twice as slow: for a study that meets
-many geometries and evaluates each a few thousand times.
+optimisation instead, 3-7x sooner, for calls 1.4-3.5x slower one at a time and 4-9x slower
+per state in batches: for a study that meets many geometries and evaluates each a few
+thousand times.
 
 The cache. Libraries are kept under ``$STEWART_PIN_CACHE`` (default
 ``~/.cache/stewart-pin``), one folder per :func:`cache_key`: the SHA-256 of what the
@@ -227,9 +228,10 @@ def compile_timeout() -> float:
 def model_cflags() -> tuple[str, ...]:
     """The compiler flags of the models' libraries, from ``$STEWART_PIN_BUILD``:
     ``optimised`` (the default, :data:`CFLAGS`) or ``quick`` (:data:`QUICK_CFLAGS`: no
-    optimisation; measured on this project's 2-core machine, gcc builds a library 3-5x
-    sooner, e.g. 5.9 s against 30 s for the 1.8 MB of the welded-UPS chain legs, and a call
-    takes about twice as long). Part of the cache key: both builds of a robot are kept.
+    optimisation; on this project's 2-core machine a library builds 3-7x sooner, 4.5 s
+    against 31 s for the 1.8 MB of C of ``welded-ups``, and a call takes 1.4-3.5x longer
+    for one state, 4-9x per state in a batch: ``scripts/bench_build_flags.py``). Part of
+    the cache key: both builds of a robot are kept.
     Anything else raises :class:`~stewart_pin.exceptions.InputError`. The exact
     derivatives are always built quick (:mod:`.derivatives`), the simulator always
     optimised (:mod:`.simulator`)."""
@@ -239,7 +241,7 @@ def model_cflags() -> tuple[str, ...]:
     if env not in BUILD_FLAGS:
         raise InputError(
             f"${BUILD_ENV} must be 'optimised' (the default) or 'quick' (libraries built "
-            f"without optimisation, 3-5x sooner), got {env[:40]!r}"
+            f"without optimisation, 3-7x sooner), got {env[:40]!r}"
         )
     return BUILD_FLAGS[env]
 
