@@ -15,6 +15,7 @@ from helpers import leg_lengths_by_hand
 
 from stewart_pin import StewartRobot, preset
 from stewart_pin.cli import build_parser, main
+from stewart_pin.codegen import compiled as compiled_module
 from stewart_pin.models.pinocchio_models import load_tree
 
 
@@ -237,6 +238,9 @@ def test_bench_writes_json(tmp_path, capsys):
     assert sampled == set(SAMPLING_PRESETS) and {"rus", "welded-ups"} <= sampled
     assert "payload robot, inverse, compiled, one state" in sections["payload"]["median"]
     assert any(k.startswith("IDM batch 50, per state") for k in sections["batches"]["median"])
+    # the suite builds quick (conftest.py): the run says its figures are not the default's
+    quick = compiled_module.model_cflags() == compiled_module.QUICK_CFLAGS
+    assert ("models built without optimisation ($STEWART_PIN_BUILD=quick)" in out) == quick
     sim = data["simulation"]["desktop"]
     assert all(np.isfinite(v) and v > 0 for v in sim["median_us_per_step"].values())
     assert "simulation: aim" in out

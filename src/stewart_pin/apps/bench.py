@@ -70,7 +70,7 @@ from stewart_pin.check.constrained_dynamics import (
     tree_state,
 )
 from stewart_pin.codegen import CompiledDynamics, cost_dict
-from stewart_pin.codegen.compiled import find_compiler, model_cflags
+from stewart_pin.codegen.compiled import BUILD_ENV, CFLAGS, find_compiler, model_cflags
 from stewart_pin.description.chain_leg_presets import CHAIN_PRESETS
 from stewart_pin.kinematics.chain_legs import idle_home, idle_legs
 
@@ -378,6 +378,11 @@ def report(args: argparse.Namespace) -> dict[str, object]:
         args.preset, args.batch, args.repeats, args.quick, archs, None if quiet else progress
     )
     print(f"stewart-pin {stewart_pin.__version__} on {machine_line(result['machine'])}")
+    if model_cflags() != CFLAGS:
+        print(
+            f"models built without optimisation (${BUILD_ENV}=quick): slower calls than the "
+            "default build's"
+        )
     print("\n".join(table(result, args.preset)))
     if result.get("simulation"):
         from stewart_pin.apps.bench_sections import SIMULATION_AIM
