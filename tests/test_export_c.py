@@ -74,10 +74,35 @@ def exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, 
     return out
 
 
+def _link(folder: Path, prefix: str, program: str, out: str, *flags: str) -> Path:
+    """``program`` compiled with ``flags`` and linked with the library's object
+    (:func:`objects`: built once per module)."""
+    run = _run(
+        [GCC, *STRICT, *flags, program, f"{prefix}.o", "-lm", "-o", out],  # type: ignore[list-item]
+        folder,
+    )
+    assert run.returncode == 0, run.stderr
+    return folder / out
+
+
 @pytest.fixture(scope="module")
-def test_programs(exported: dict[str, tuple[Path, str]]) -> dict[str, Path]:
+def objects(exported: dict[str, tuple[Path, str]]) -> dict[str, Path]:
+    """Each exported library compiled once with the strict flags at -O2 (``PREFIX.o`` in
+    its folder): the programs of the tests below link it."""
+    out = {}
+    for name, (folder, prefix) in exported.items():
+        run = _run([GCC, *STRICT, "-O2", "-c", f"{prefix}.c", "-o", f"{prefix}.o"], folder)  # type: ignore[list-item]
+        assert run.returncode == 0, run.stderr
+        out[name] = folder / f"{prefix}.o"
+    return out
+
+
+@pytest.fixture(scope="module")
+def test_programs(
+    exported: dict[str, tuple[Path, str]], objects: dict[str, Path]
+) -> dict[str, Path]:
     return {
-        name: _build(folder, prefix, f"{prefix}_test.c", "check", "-O2")
+        name: _link(folder, prefix, f"{prefix}_test.c", "check", "-O2")
         for name, (folder, prefix) in exported.items()
     }
 
@@ -97,7 +122,9 @@ def test_strict_build_equals_the_reference_path(
     assert "passed: 0 failure(s)" in run.stdout
 
 
-def test_the_test_program_can_fail(exported: dict[str, tuple[Path, str]], tmp_path: Path) -> None:
+def test_the_test_program_can_fail(
+    exported: dict[str, tuple[Path, str]], objects: dict[str, Path], tmp_path: Path
+) -> None:
     """A reference value off by 1e-10 (relative) makes the test program fail."""
     folder, prefix = exported["rus"]
     copy = tmp_path / "tampered"
@@ -109,7 +136,7 @@ def test_the_test_program_can_fail(exported: dict[str, tuple[Path, str]], tmp_pa
     ref.write_text(
         f"{head}{prefix}_ref_gamma[6][6] = {{\n  {{{float(first) * (1 + 1e-10)!r},{rest}"
     )
-    program = _build(copy, prefix, f"{prefix}_test.c", "check", "-O2")
+    program = _link(copy, prefix, f"{prefix}_test.c", "check", "-O2")
     run = _run([str(program)], copy)
     assert run.returncode == 1
     assert "FAIL inverse_dynamics state 0" in run.stdout
@@ -143,16 +170,14 @@ def test_sanitizers(exported: dict[str, tuple[Path, str]], tmp_path: Path) -> No
 
 
 def test_no_allocation_no_stdio_no_writable_global(
-    exported: dict[str, tuple[Path, str]],
+    exported: dict[str, tuple[Path, str]], objects: dict[str, Path]
 ) -> None:
     """The library's object calls nothing but libm (no malloc, no stdio) and defines no
     writable data (no .data or .bss symbol)."""
     if shutil.which("nm") is None:
         pytest.skip("nm (binutils) is not installed")
-    for folder, prefix in exported.values():
-        run = _run([GCC, *STRICT, "-O2", "-c", f"{prefix}.c", "-o", "lib.o"], folder)  # type: ignore[list-item]
-        assert run.returncode == 0, run.stderr
-        symbols = _run(["nm", "lib.o"], folder).stdout.split("\n")
+    for name, (folder, prefix) in exported.items():
+        symbols = _run(["nm", str(objects[name])], folder).stdout.split("\n")
         undefined = {s.split()[-1] for s in symbols if s.strip().startswith("U ")}
         assert undefined <= MATH, undefined - MATH
         kinds = {s.split()[-2] for s in symbols if len(s.split()) == 3}
@@ -179,7 +204,9 @@ int main(void) {
 """
 
 
-def test_no_heap_allocation_at_run_time(exported: dict[str, tuple[Path, str]]) -> None:
+def test_no_heap_allocation_at_run_time(
+    exported: dict[str, tuple[Path, str]], objects: dict[str, Path]
+) -> None:
     """Every function run under valgrind by a program without stdio: no heap block."""
     if shutil.which("valgrind") is None:
         pytest.skip("valgrind is not installed")
@@ -187,7 +214,7 @@ def test_no_heap_allocation_at_run_time(exported: dict[str, tuple[Path, str]]) -
     harness = HARNESS.replace("PREFIX", prefix).replace("PU_", prefix.upper() + "_")
     (folder / "harness.c").write_text(harness)
     try:
-        program = _build(folder, prefix, "harness.c", "harness", "-O2")
+        program = _link(folder, prefix, "harness.c", "harness", "-O2")
         run = _run(["valgrind", "--error-exitcode=3", str(program)], folder)
     finally:
         (folder / "harness.c").unlink()
@@ -195,13 +222,14 @@ def test_no_heap_allocation_at_run_time(exported: dict[str, tuple[Path, str]]) -
     assert "total heap usage: 0 allocs" in run.stderr, run.stderr
 
 
-def test_control_loop_example(exported: dict[str, tuple[Path, str]]) -> None:
+def test_control_loop_example(
+    exported: dict[str, tuple[Path, str]], objects: dict[str, Path]
+) -> None:
     """The C++17 control-loop example builds and tracks its trajectory (50 steps)."""
     gxx = shutil.which("g++")
     if gxx is None:
         pytest.skip("g++ is not installed")
     folder, prefix = exported["simulator"]
-    assert _run([GCC, *STRICT, "-O2", "-c", f"{prefix}.c", "-o", "lib.o"], folder).returncode == 0  # type: ignore[list-item]
     run = _run(
         [
             gxx,
@@ -211,7 +239,7 @@ def test_control_loop_example(exported: dict[str, tuple[Path, str]]) -> None:
             "-Wextra",
             "-Werror",
             f"{prefix}_control_loop.cpp",
-            "lib.o",
+            str(objects["simulator"]),
             "-lm",
             "-o",
             "loop",
@@ -513,8 +541,9 @@ CHAIN_ROBOTS = ("welded-ups", "mixed-chain", "rus-chain")
 @pytest.fixture(scope="module")
 def chain_exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Path]]:
     """Robots with chain legs exported (3 states each; the welded one by the command line
-    from a description file) and their test programs built with the strict flags at -O0
-    (the welded legs' Newton steps make a 1 MB source)."""
+    from a description file), each library compiled with the strict flags at -O0 (the
+    welded legs' Newton steps make a 1 MB source) into ``cl.o``, and their test programs
+    linked with it."""
     root = tmp_path_factory.mktemp("export_c_chain")
     out = {}
     for name in CHAIN_ROBOTS:
@@ -525,7 +554,9 @@ def chain_exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[
             assert main(["export-c", *argv, "-o", str(folder)]) == 0
         else:
             _chain_robot(name).export_c(folder, prefix="cl", samples=3, seed=1)
-        out[name] = (folder, _build(folder, "cl", "cl_test.c", "check", "-O0"))
+        run = _run([GCC, *STRICT, "-O0", "-c", "cl.c", "-o", "cl.o"], folder)  # type: ignore[list-item]
+        assert run.returncode == 0, run.stderr
+        out[name] = (folder, _link(folder, "cl", "cl_test.c", "check", "-O0"))
     return out
 
 
@@ -564,9 +595,7 @@ def test_chain_legs_library_calls_only_libm(chain_exported: dict[str, tuple[Path
     if shutil.which("nm") is None:
         pytest.skip("nm (binutils) is not installed")
     folder, _ = chain_exported["welded-ups"]
-    run = _run([GCC, *STRICT, "-O0", "-c", "cl.c", "-o", "lib.o"], folder)  # type: ignore[list-item]
-    assert run.returncode == 0, run.stderr
-    symbols = [s.split() for s in _run(["nm", "lib.o"], folder).stdout.split("\n") if s.strip()]
+    symbols = [s.split() for s in _run(["nm", "cl.o"], folder).stdout.split("\n") if s.strip()]
     undefined = {s[-1] for s in symbols if s[0] == "U"}
     assert undefined <= MATH, undefined - MATH
     assert not {s[-2] for s in symbols if len(s) == 3} & set("BbDdCGgSs")
