@@ -377,12 +377,9 @@ def report(args: argparse.Namespace) -> dict[str, object]:
     result = run(
         args.preset, args.batch, args.repeats, args.quick, archs, None if quiet else progress
     )
-    print(f"stewart-pin {stewart_pin.__version__} on {machine_line(result['machine'])}")
-    if model_cflags() != CFLAGS:
-        print(
-            f"models built without optimisation (${BUILD_ENV}=quick): slower calls than the "
-            "default build's"
-        )
+    quick = model_cflags() != CFLAGS  # the figures are not the default build's
+    note = f"; models built without optimisation (${BUILD_ENV}=quick)" if quick else ""
+    print(f"stewart-pin {stewart_pin.__version__} on {machine_line(result['machine'])}{note}")
     print("\n".join(table(result, args.preset)))
     if result.get("simulation"):
         from stewart_pin.apps.bench_sections import SIMULATION_AIM
