@@ -24,6 +24,8 @@ robot, shared by the tests.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -89,6 +91,12 @@ class Lab:
             output_dt=dt,
         )
 
+    @functools.cached_property
+    def identified(self):
+        """``identify_log`` on the identification run's log of noise seed 0 (both tests
+        start from it)."""
+        return identify_log(self.robot, self.log(self.run, 0), self.base)
+
     def log(self, run, seed: int | None, noise: float = NOISE) -> ActuatorLog:
         """What the lab logs: quantised positions, noisy held efforts."""
         return ActuatorLog.from_simulation(
@@ -124,7 +132,7 @@ def test_identification_covers_the_true_base_parameters(lab):
     seed checked against ``identify_log`` on the same log to 1e-9)."""
     robot, base = lab.robot, lab.base
     clean = lab.log(lab.run, None, noise=0.0)
-    first = identify_log(robot, lab.log(lab.run, 0), base)
+    first = lab.identified
     design = first.design
     W, g0 = [], []
     for _, Wd, gd, _ in log_equations(robot, clean, base, design):
@@ -185,7 +193,7 @@ def test_physically_consistent_estimate_predicts_the_validation_efforts(lab, tmp
     - the identified robot is written as a description, URDF and MJCF that load back.
     """
     robot, base = lab.robot, lab.base
-    ident = identify_log(robot, lab.log(lab.run, 0), base)
+    ident = lab.identified
     prior = _prior(lab)
     est = physically_consistent(robot, ident, prior=prior)
     check = lab.log(lab.check, 100)
