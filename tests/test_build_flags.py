@@ -19,7 +19,8 @@ cranks, gears, friction), legs with idle freedoms (an asymmetric 6-RSS), a paylo
 hexapod (``simulator`` carrying a three-joint arm), and the compiled simulator's models
 with its legs as vector lanes (``simulator``). Chain legs without idle joints
 (``welded-ups``, ``mixed``) are not built here: their optimised build takes 17-30 s. Their
-C is written by the same generator and guards as the general legs' and the idle legs'.
+models come from the same chain-leg generator (``codegen/chain_leg_symbolic.py``) as the
+idle legs' library built here, and their guards from the same ``codegen/_csource.py``.
 """
 
 from __future__ import annotations
