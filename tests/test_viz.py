@@ -450,13 +450,14 @@ def test_live_viewer_listens_on_localhost_only(paper, chromium, tmp_path):
         # The page gets the scene over its websocket after its load event, and virtual
         # time (--virtual-time-budget) can hang with a websocket open: show the page in
         # an iframe of a wrapper page whose load the gate holds until the viewer's browser
-        # is connected and has had time to draw. On a busy machine (the suite on every
-        # core) the browser may not have drawn every mesh in that time, or not have
+        # is connected and has had time to draw (3 s: with 1.5 s, the first try found no
+        # platform pixels in most runs of the suite on 2 cores). On a busy machine
+        # the browser may not have drawn every mesh in that time, or not have
         # connected before the gate's own 30 s: a new page, given longer, up to three
         # times (the robot must be in view on one of them). The wait is bounded: a
         # browser that never connects is a failure, not a hung suite.
         failed: list[str] = []
-        for attempt, draw_time in enumerate((1.5, 4.0, 8.0)):
+        for attempt, draw_time in enumerate((3.0, 6.0, 10.0)):
             # Each retry on a new server (and URL, the robot at home): a browser of a new
             # page did not connect in 40 s to a server whose earlier browser had gone
             # (meshcat's, seen on a busy machine; noted on issue 24).
