@@ -635,7 +635,7 @@ def _kill(proc: subprocess.Popen[str]) -> None:
         proc.communicate(timeout=10)
 
 
-def build_seconds(source: str, cflags: tuple[str, ...] | None = None) -> float:
+def build_seconds(source: str, cflags: tuple[str, ...] = CFLAGS) -> float:
     """About how long the system compiler takes on ``source`` with ``cflags`` [s]
     (measured on this project's 2-core machine with gcc -O2, before the models had their
     vector copy (:mod:`._simd`, about 1.5x the source and 2-2.5x the time): 1 s for
@@ -644,7 +644,7 @@ def build_seconds(source: str, cflags: tuple[str, ...] | None = None) -> float:
     with :data:`QUICK_CFLAGS`, linear: 2.5-2.8 s for the 1.2-1.5 MB of the exact
     derivatives)."""
     n = len(source)
-    if "-O0" in (model_cflags() if cflags is None else cflags):
+    if "-O0" in cflags:
         return 2e-6 * n
     return 8e-6 * n + (n / 3.5e5) ** 2
 
