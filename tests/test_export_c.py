@@ -74,6 +74,14 @@ def exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, 
     return out
 
 
+def _object(folder: Path, prefix: str, *flags: str) -> Path:
+    """The exported library ``PREFIX.c`` compiled with the strict flags and ``flags`` into
+    ``PREFIX.o`` in ``folder``."""
+    run = _run([GCC, *STRICT, *flags, "-c", f"{prefix}.c", "-o", f"{prefix}.o"], folder)  # type: ignore[list-item]
+    assert run.returncode == 0, run.stderr
+    return folder / f"{prefix}.o"
+
+
 def _link(folder: Path, prefix: str, program: str, out: str, *flags: str) -> Path:
     """``program`` compiled with ``flags`` and linked with the library's object
     (:func:`objects`: built once per module)."""
@@ -89,12 +97,7 @@ def _link(folder: Path, prefix: str, program: str, out: str, *flags: str) -> Pat
 def objects(exported: dict[str, tuple[Path, str]]) -> dict[str, Path]:
     """Each exported library compiled once with the strict flags at -O2 (``PREFIX.o`` in
     its folder): the programs of the tests below link it."""
-    out = {}
-    for name, (folder, prefix) in exported.items():
-        run = _run([GCC, *STRICT, "-O2", "-c", f"{prefix}.c", "-o", f"{prefix}.o"], folder)  # type: ignore[list-item]
-        assert run.returncode == 0, run.stderr
-        out[name] = folder / f"{prefix}.o"
-    return out
+    return {name: _object(folder, prefix, "-O2") for name, (folder, prefix) in exported.items()}
 
 
 @pytest.fixture(scope="module")
@@ -554,8 +557,7 @@ def chain_exported(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[
             assert main(["export-c", *argv, "-o", str(folder)]) == 0
         else:
             _chain_robot(name).export_c(folder, prefix="cl", samples=3, seed=1)
-        run = _run([GCC, *STRICT, "-O0", "-c", "cl.c", "-o", "cl.o"], folder)  # type: ignore[list-item]
-        assert run.returncode == 0, run.stderr
+        _object(folder, "cl", "-O0")
         out[name] = (folder, _link(folder, "cl", "cl_test.c", "check", "-O0"))
     return out
 
