@@ -16,6 +16,7 @@ import pytest
 from test_every_architecture import ARCHITECTURES, robot_of
 
 from stewart_pin import StewartRobot, WorkspaceError
+from stewart_pin.description.leg_chain_hexapod import GeneralHexapod
 from stewart_pin.exceptions import LegReachError, StewartPinError
 from stewart_pin.kinematics import leg_chains, workspace
 from stewart_pin.kinematics.geometry import inverse_geometry_batch
@@ -188,11 +189,72 @@ def test_zero_states_and_the_draw_budget():
         robot.sample_poses(3, 0, translation=10.0)
 
 
+def interleaved(name: str, rename: str) -> GeneralHexapod:
+    """The general legs of robot ``name`` with legs 2, 4 and 6 renamed ``rename`` (the
+    same chains: ``ups-offset`` with a zero offset is ``ups``; ``custom`` takes Newton's
+    method): the legs' groups interleave."""
+    general = robot_of(name).general
+    legs = tuple(leg.replace(name=rename) if k % 2 else leg for k, leg in enumerate(general.legs))
+    return general.replace(legs=legs)
+
+
+def legs_one_by_one(general: GeneralHexapod, P0i: np.ndarray) -> np.ndarray:
+    """The reference: each leg's inverse geometry alone, in the legs' order."""
+    return np.stack(
+        [leg_chains._inverse_leg(leg, P0i[:, k], k, None) for k, leg in enumerate(general.legs)],
+        axis=1,
+    )
+
+
+@pytest.mark.parametrize(
+    "robot",
+    ["rus", "pus", "ups-offset", "simulator", "mixed", "simulator|ups-offset", "pus|custom"],
+)
+def test_inverse_geometry_of_grouped_legs_equals_the_legs_one_by_one(robot):
+    """The legs of one architecture are solved together: the joint values equal each
+    leg's own closed form or Newton's method (1e-12), and where some leg cannot reach,
+    or meets an overflow, the error is the one the legs solved one by one in their order
+    raise (the first failing leg's, the same state and counts), for a batch and for each
+    state alone."""
+    name, _, rename = robot.partition("|")
+    general = interleaved(name, rename) if rename else robot_of(name).general
+    assert {g.name for g in leg_chains.leg_groups(general.legs).closed_forms} >= (
+        {rename} - {"custom"} if rename else set()
+    )
+    rng = np.random.default_rng(3)
+    n = 60
+    size = robot_of(name).description.stroke_mid
+    T = np.broadcast_to(general.home_pose, (n, 4, 4)).copy()
+    T[:, :3, 3] += rng.uniform(-1, 1, (n, 3)) * size * np.linspace(0.05, 1.5, n)[:, None]
+    for k in range(n):
+        T[k, :3, :3] = pin.exp3(rng.uniform(-0.3, 0.3, 3)) @ T[k, :3, :3]
+    T[n // 3, :3, 3] = 1e300  # an overflow: a NumericalError (rus, pus: |P|^2)
+    P0i = leg_chains._leg_points(general, T)
+    failures = 0
+    for batch in [np.arange(n), *([k] for k in range(n))]:
+        try:
+            expected = legs_one_by_one(general, P0i[batch])
+        except StewartPinError as e:
+            failures += 1
+            with pytest.raises(type(e)) as got:
+                leg_chains._inverse_legs(general, P0i[batch])
+            assert str(got.value) == str(e)
+            continue
+        np.testing.assert_allclose(
+            leg_chains._inverse_legs(general, P0i[batch]), expected, rtol=0, atol=1e-12
+        )
+    if name in ("rus", "pus", "mixed"):  # some states reach, some do not
+        assert 3 <= failures < n
+    else:  # a U-P leg reaches anywhere, and its closed form takes |P| = 1e300
+        assert failures == 0
+
+
 @pytest.mark.parametrize("name", ["ups-offset", "rus", "pus", "mixed"])
 def test_closed_forms_over_a_batch_equal_each_leg_alone(name):
-    """The closed forms over a batch with unreachable states marked (not raised): the
-    marked states are those where the leg alone raises :class:`LegReachError`, the others
-    have the joint values of the leg alone (1e-12)."""
+    """The closed forms of each group of legs (one pass over the legs of an architecture)
+    over a batch with unreachable states marked (not raised): the marked states are those
+    where the leg alone raises :class:`LegReachError`, the others have the joint values
+    of the leg alone (1e-12)."""
     robot = robot_of(name)
     desc = robot.description
     rng = np.random.default_rng(8)
@@ -201,18 +263,22 @@ def test_closed_forms_over_a_batch_equal_each_leg_alone(name):
     T[:, :3, 3] += rng.uniform(-1, 1, (m, 3)) * 0.4 * desc.stroke_mid
     P0i = leg_chains._leg_points(robot.general, T)
     marked = 0
-    for k, leg in enumerate(robot.general.legs):
-        if leg.name == "custom":
-            continue
-        unreachable = np.zeros(m, dtype=bool)
-        q = leg_chains._closed_form(leg, P0i[:, k], k, np.empty((m, 3)), unreachable)
-        for n in range(m):
-            try:
-                alone = leg_chains._inverse_leg(leg, P0i[n : n + 1, k], k, None)
-            except LegReachError:
-                assert unreachable[n]
-                continue
-            assert not unreachable[n]
-            np.testing.assert_allclose(q[n], alone[0], rtol=0, atol=1e-12)
+    groups = leg_chains.leg_groups(robot.general.legs).closed_forms
+    assert sorted(k for g in groups for k in g.legs) == [
+        k for k, leg in enumerate(robot.general.legs) if leg.name != "custom"
+    ]
+    for forms in groups:
+        unreachable = np.zeros((m, forms.legs.size), dtype=bool)
+        q = leg_chains._closed_form(forms, P0i[:, forms.legs], unreachable)
+        for j, k in enumerate(forms.legs):
+            leg = robot.general.legs[k]
+            for n in range(m):
+                try:
+                    alone = leg_chains._inverse_leg(leg, P0i[n : n + 1, k], k, None)
+                except LegReachError:
+                    assert unreachable[n, j]
+                    continue
+                assert not unreachable[n, j]
+                np.testing.assert_allclose(q[n, j], alone[0], rtol=0, atol=1e-12)
         marked += unreachable.sum()
     assert (marked > 0) == (name != "ups-offset")  # an offset U-joint leg reaches anywhere

@@ -90,14 +90,20 @@ def wrap_into_limits(
     Returns:
         the values, shape of ``q``.
     """
+    q = np.asarray(q, dtype=float)
+    lower, upper = np.broadcast_to(lower, q.shape), np.broadcast_to(upper, q.shape)
+    outside = revolute & ((q < lower) | (q > upper))
+    if not np.any(outside):  # the common case: nothing to wrap (np.mod is slow)
+        return q
+    x, lo, up = q[outside], lower[outside], upper[outside]
     two_pi = 2.0 * math.pi
     with np.errstate(invalid="ignore"):  # inf - inf for joints without limits: not used
-        above_lower = lower + np.mod(q - lower, two_pi)
-        rep = np.where(np.isfinite(lower), above_lower, upper - np.mod(upper - q, two_pi))
+        rep = np.where(np.isfinite(lo), lo + np.mod(x - lo, two_pi), up - np.mod(up - x, two_pi))
         below = rep - two_pi
-        rep = np.where((rep > upper) & (lower - below < rep - upper), below, rep)
-    change = revolute & np.isfinite(rep) & ((q < lower) | (q > upper))
-    return np.where(change, rep, q)
+        rep = np.where((rep > up) & (lo - below < rep - up), below, rep)
+    out = q.copy()
+    out[outside] = np.where(np.isfinite(rep), rep, x)
+    return out
 
 
 def _is_real(value: Any) -> bool:
