@@ -1,12 +1,13 @@
-"""Time the reference (``backend="pinocchio"``) 6-UPS models and check them against a
-saved run.
+"""Time the reference (``backend="pinocchio"``) models and check them against a saved
+run.
 
 Medians [us per state] of one-state and batch IDM / DDM through ``StewartRobot`` on a
 preset, beside ``pin.constraintDynamics`` on the closed-loop tree in the same run (the
 ratio column), with the helpers of :mod:`stewart_pin.apps.bench`.
 
-``--save FILE`` writes the IDM and DDM outputs of 200 random states of the simulator,
-desktop, paper and random-1 presets (``.npz``); ``--compare FILE`` recomputes them and
+``--save FILE`` writes the IDM and DDM outputs of 200 random states of the 6-UPS
+simulator, desktop, paper and random-1 presets and of the general-leg ``ups-offset``,
+``rus``, ``pus`` and ``random-custom-0`` (``.npz``); ``--compare FILE`` recomputes them and
 prints the largest relative difference to the saved ones (to show a rewrite changes
 nothing but round-off).
 
@@ -23,15 +24,23 @@ import numpy as np
 
 from stewart_pin import StewartRobot
 from stewart_pin.apps.bench import constraint_dynamics_call, median_us
-from stewart_pin.kinematics.workspace import sample_states
 
-PRESETS = ("simulator", "desktop", "paper", "random-1")
+PRESETS = (
+    "simulator",
+    "desktop",
+    "paper",
+    "random-1",
+    "ups-offset",
+    "rus",
+    "pus",
+    "random-custom-0",
+)
 REF = "pinocchio"  # the reference path (the default backend="auto" is the compiled one)
 
 
 def timings(preset: str, batch: int, repeats: int) -> dict[str, float]:
     robot = StewartRobot.from_preset(preset)
-    poses, twists, accels = sample_states(robot.description, batch, 0)
+    poses, twists, accels = robot.sample_states(batch, 0)
     gammas = robot.inverse_dynamics(poses, twists, accels, backend=REF)
     T, V, A, G = poses[0], twists[0], accels[0], gammas[0]
     reps = max(3, min(repeats, 5))
@@ -57,7 +66,7 @@ def outputs() -> dict[str, np.ndarray]:
     rng = np.random.default_rng(7)
     for name in PRESETS:
         robot = StewartRobot.from_preset(name)
-        poses, twists, accels = sample_states(robot.description, 200, 3)
+        poses, twists, accels = robot.sample_states(200, 3)
         gammas = robot.inverse_dynamics(poses, twists, accels, backend=REF)
         gammas2 = gammas + rng.normal(size=gammas.shape) * np.abs(gammas).mean()
         out[f"{name}/idm"] = gammas

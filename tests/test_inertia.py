@@ -18,6 +18,7 @@ from stewart_pin import DescriptionError as DescriptionErrorType
 from stewart_pin import InertiaError
 from stewart_pin.description.inertia import (
     check_physical,
+    check_physical_bodies,
     khalil_from_pin_inertia,
     khalil_from_urdf_inertial,
     pin_inertia_from_khalil,
@@ -313,6 +314,53 @@ def test_non_physical_tensors_fail_the_physical_check(draw, violation):
         bad = np.array([-delta, I2, I3])
     with pytest.raises(InertiaError, match=r"triangle inequality|not positive semi-definite"):
         check_physical(khalil_by_hand(mass, com, R @ np.diag(bad) @ R.T), "body")
+
+
+def _one_by_one(params: np.ndarray) -> str | None:
+    """The reference: :func:`check_physical` on each body in order, the first error."""
+    try:
+        for k, p in enumerate(params):
+            check_physical(p, f"body {k}")
+    except InertiaError as e:
+        return str(e)
+    return None
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(body_strategy, st.sampled_from(["physical", "triangle", "negative", "other"])),
+        min_size=1,
+        max_size=19,
+    )
+)
+def test_bodies_checked_together_decide_as_one_by_one(draws):
+    """:func:`check_physical_bodies` (a description's bodies in one pass): the bodies the
+    per-body check accepts are accepted, else the error is the first failing body's."""
+    rows = []
+    for draw, case in draws:
+        mass, com, R, moments = _body(draw)
+        I1, I2, I3 = np.sort(moments)
+        size = 10.0 ** draw[4]
+        delta = NON_PHYSICAL_MARGIN * (
+            _scale(mass, com, R @ np.diag(moments) @ R.T) + mass * size**2
+        )
+        if case == "triangle":
+            moments = np.array([I1, I2, I1 + I2 + delta])
+        elif case == "negative":
+            moments = np.array([-delta, I2, I3])
+        row = khalil_by_hand(mass, com, R @ np.diag(moments) @ R.T)
+        if case == "other":  # a massless body, with or without moments; a negative mass
+            row = [np.zeros(10), np.r_[np.ones(6), np.zeros(4)], -row][int(draw[4] * 7) % 3]
+        rows.append(row)
+    params = np.array(rows)
+    expected = _one_by_one(params)
+    if expected is None:
+        check_physical_bodies(params, lambda k: f"body {k}")
+    else:
+        with pytest.raises(InertiaError) as got:
+            check_physical_bodies(params, lambda k: f"body {k}")
+        assert str(got.value) == expected
 
 
 def test_point_mass_check_is_independent_of_units():

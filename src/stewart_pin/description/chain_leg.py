@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_array, check_items, project_rotation
-from stewart_pin.description.inertia import check_physical
+from stewart_pin.description.inertia import check_physical_bodies
 from stewart_pin.description.leg_architecture import Joint, LegArchitecture
 from stewart_pin.exceptions import (
     ArchitectureError,
@@ -146,8 +146,7 @@ class ChainLeg:
                 raise ArchitectureError(f"chain leg: {e}", key, getattr(self, key)) from e
             R.flags.writeable = False
             object.__setattr__(self, key, R)
-        for j in range(n):
-            check_physical(self.inertia[j], f"chain leg link {j + 1}")
+        check_physical_bodies(self.inertia, lambda j: f"chain leg link {j + 1}")
         self._check_gravcomp(n)
 
     def _check_gravcomp(self, n: int) -> None:

@@ -12,6 +12,7 @@ and to URDF's ``<inertial>`` (centre of mass and the tensor about it).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -42,14 +43,14 @@ PIN_TO_KHALIL = np.argsort(KHALIL_TO_PIN)
 PHYSICAL_TOLERANCE = 1e-10
 
 
+#: The Khalil parameters ``XX, XY, XZ, YY, YZ, ZZ`` (indices 0-5) at their places in the
+#: symmetric 3x3 tensor.
+_TENSOR_ENTRIES = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
+
+
 def inertia_tensor(params: np.ndarray) -> np.ndarray:
     """The 3x3 (or batch) inertia tensor about the frame origin [kg m^2] from Khalil params."""
-    p = np.asarray(params, dtype=float)
-    XX, XY, XZ, YY, YZ, ZZ = (p[..., k] for k in range(6))
-    return np.stack(
-        [np.stack([XX, XY, XZ], -1), np.stack([XY, YY, YZ], -1), np.stack([XZ, YZ, ZZ], -1)],
-        -2,
-    )
+    return np.asarray(params, dtype=float)[..., _TENSOR_ENTRIES]
 
 
 def khalil_from_tensor(I_O: np.ndarray, ms: np.ndarray, mass: float) -> np.ndarray:
@@ -236,6 +237,47 @@ def check_physical(params: Any, body: str, tol: float = PHYSICAL_TOLERANCE) -> n
     margin = tol * max(inertia_scale(p), np.finfo(float).tiny)
     _check_principal_moments(I_c, margin, body, "XY, XZ, YZ and the first moments")
     return p
+
+
+def leg_link_name(k: int) -> str:
+    """The name of body ``k`` of the legs' links (6, 3) flattened: ``leg i link j``."""
+    return f"leg {k // 3 + 1} link {k % 3 + 1}"
+
+
+def check_physical_bodies(
+    params: np.ndarray, bodies: Callable[[int], str], tol: float = PHYSICAL_TOLERANCE
+) -> None:
+    """:func:`check_physical` on each of the bodies ``params`` (n, 10) (finite float64),
+    ``bodies(k)`` naming body k: the error of the first non-physical body.
+
+    The rules are evaluated for all bodies at once with the same arithmetic; only when
+    one of them is not accepted are the bodies checked one by one, in their order, to
+    raise that body's error (a description's 19 bodies: ~10x sooner than one by one)."""
+    p = np.asarray(params, dtype=float).reshape(-1, 10)
+    mass = p[:, 9]
+    massive = mass > 0
+    fine = bool(np.all(mass >= 0) and np.all(massive | np.all(p == 0.0, axis=1)))
+    if fine and np.any(massive):
+        with np.errstate(all="ignore"):  # an overflow: decided body by body below
+            q = p[massive]
+            m, c = q[:, 9], q[:, 6:9] / q[:, 9:10]
+            I_O = inertia_tensor(q)
+            shift = np.einsum("ki,ki->k", c, c)[:, None, None] * np.eye(3)
+            I_c = I_O - m[:, None, None] * (shift - c[:, :, None] * c[:, None, :])
+            I_c = 0.5 * (I_c + np.swapaxes(I_c, 1, 2))
+            offset = np.einsum("ki,ki->k", q[:, 6:9], q[:, 6:9]) / m
+            scale = np.linalg.norm(I_O, axis=(1, 2)) + offset
+            margin = tol * np.maximum(scale, np.finfo(float).tiny)
+        fine = bool(np.all(np.isfinite(I_c)) and np.all(np.isfinite(margin)))
+        if fine:
+            eig = np.linalg.eigvalsh(I_c)
+            fine = bool(
+                np.all(eig[:, 0] >= -margin)
+                and np.all(eig[:, 0] + eig[:, 1] >= eig[:, 2] - margin)
+            )
+    if not fine:
+        for k in range(len(p)):
+            check_physical(p[k], bodies(k), tol)
 
 
 def _check_principal_moments(I_c: np.ndarray, margin: float, body: str, signs: str) -> None:

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from stewart_pin._checks import check_array, project_rotation
-from stewart_pin.description.inertia import check_physical
+from stewart_pin.description.inertia import check_physical, check_physical_bodies, leg_link_name
 from stewart_pin.description.leg_architecture import LegArchitecture
 from stewart_pin.description.robot_description import RobotDescription
 from stewart_pin.exceptions import (
@@ -93,9 +93,7 @@ class GeneralHexapod:
                 "a general hexapod needs six LegArchitecture legs", "legs", self.legs
             )
         object.__setattr__(self, "legs", legs)
-        for i in range(6):
-            for j in range(3):
-                check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
+        check_physical_bodies(self.leg_inertia, leg_link_name)
         check_physical(self.platform_inertia, "platform")
         for body, c in [
             ("platform", self.platform_gravcomp),

@@ -40,7 +40,12 @@ from stewart_pin._checks import (
 from stewart_pin._io import write_text_atomic
 from stewart_pin.description.chain_leg import ChainLeg, gravcomp_factor
 from stewart_pin.description.chain_leg_io import chain_leg_to_dict, chain_legs_from_value
-from stewart_pin.description.inertia import check_physical, khalil_from_inertial_table
+from stewart_pin.description.inertia import (
+    check_physical,
+    check_physical_bodies,
+    khalil_from_inertial_table,
+    leg_link_name,
+)
 from stewart_pin.description.leg_architecture import LegArchitecture, ups
 from stewart_pin.description.leg_io import leg_to_dict, legs_from_value, legs_toml
 from stewart_pin.description.model_source import ModelSource, source_toml
@@ -238,9 +243,7 @@ class RobotDescription:
             set_("home_pose", _upright_home_pose(self))
         try:
             key = "leg_inertia"
-            for i in range(6):
-                for j in range(3):
-                    check_physical(self.leg_inertia[i, j], f"leg {i + 1} link {j + 1}")
+            check_physical_bodies(self.leg_inertia, leg_link_name)
             key = "platform_inertia"
             check_physical(self.platform_inertia, "platform")
             key = "leg_inertia"

@@ -311,11 +311,9 @@ class ClosedForms:
 
     @classmethod
     def of(cls, legs: list[tuple[int, LegArchitecture]]) -> ClosedForms:
-        """The group of ``legs`` ((index, leg) pairs, one named architecture, not custom)."""
+        """The group of ``legs``: (index, leg) pairs, all of one named architecture (not
+        custom: :class:`LegGroups` sorts them)."""
         each = [leg for _, leg in legs]
-        name = each[0].name
-        if name == "custom" or any(leg.name != name for leg in each):
-            raise ValueError(f"one named architecture per group, got {[g.name for g in each]}")
         j1 = [leg.joints[0] for leg in each]
         A1 = np.array([_mdh(j.alpha, j.d, 0.0, 0.0) for j in j1])
         c = np.array([leg.joints[1].placement()[:3, 3] for leg in each])
@@ -328,7 +326,7 @@ class ClosedForms:
             cc, ell2 = np.einsum("ki,ki->k", c, c), np.einsum("ki,ki->k", tip, tip)
             rail = np.einsum("kij,kj->ki", Rz1, c) + r1[:, None] * np.array([0.0, 0.0, 1.0])
         return cls(
-            name=name,
+            name=each[0].name,
             legs=np.array([k for k, _ in legs]),
             R1=A1[:, :3, :3],
             t1=A1[:, :3, 3],
