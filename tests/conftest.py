@@ -35,6 +35,43 @@ os.environ.setdefault("STEWART_PIN_BUILD", "quick")
 from stewart_pin import StewartRobot
 from stewart_pin.codegen import compiled as compiled_module
 
+#: The test files whose tests take longest in all (sums of the test times of a run with
+#: ``--junitxml``, this project's 2-core machine, 2026-12-03), longest first. They are
+#: collected first, and ``--no-loadscope-reorder`` (pyproject's addopts) keeps that order
+#: under ``--dist loadfile``: a worker takes the next file when it is nearly done with
+#: its own, so the long files start early, the short ones fill in at the end and the
+#: workers finish together. (xdist's own order, by number of tests, put the notebooks,
+#: 7 tests and 90-100 s, among the last files: one worker ran on alone.)
+SLOWEST_FILES = (
+    "test_notebooks.py",
+    "test_general_codegen.py",
+    "test_export_c.py",
+    "test_point_to_point.py",
+    "test_viz.py",
+    "test_compiled_simulation.py",
+    "test_cli.py",
+    "test_singularities.py",
+    "test_build_flags.py",
+    "test_lanes.py",
+    "test_chain_legs_compiled.py",
+    "test_chain_legs_idle_compiled.py",
+    "test_docs_snippets.py",
+    "test_payload_motion.py",
+    "test_identification_lab.py",
+    "test_every_architecture.py",
+    "test_codegen_cache.py",
+    "test_general_regressor.py",
+    "test_derivatives.py",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The files of :data:`SLOWEST_FILES` first, in that order; the others after them
+    as collected (the tests of each file in their order)."""
+    rank = {name: k for k, name in enumerate(SLOWEST_FILES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 #: Seeds of the general asymmetric robots used throughout.
 RANDOM_SEEDS = (0, 1, 2)
 #: Every robot a "for all robots" test runs on.
