@@ -59,10 +59,12 @@ def simulator() -> StewartRobot:
 def test_tracks_a_multi_axis_trajectory(simulator):
     """Exact model, 1 kHz zero-order hold: errors below 1 mm and 0.1 deg over 2 s
     (measured: 0.0093 mm and 1.9e-4 deg, both integrators; the residue is the hold's
-    one-sample delay)."""
+    one-sample delay). The plant and the controller are the compiled models, which equal
+    the reference path to 1e-9 (test_codegen.py, test_compiled_simulation.py): 2000
+    steps of the Python loop on the reference path took 11-16 s of the suite."""
     ref = multi_axis(simulator)
-    ctrl = ComputedTorqueController(simulator, ref)
-    res = simulate(simulator, 2.0, forces=ctrl, dt=1e-3, control_period=1e-3)
+    ctrl = ComputedTorqueController(simulator, ref, backend="compiled")
+    res = simulate(simulator, 2.0, forces=ctrl, dt=1e-3, control_period=1e-3, backend="compiled")
     pos, rot = (np.linalg.norm(e, axis=1) for e in tracking_errors(ref, res.t, res.poses))
     assert pos.max() < 1e-3  # [m]
     assert np.degrees(rot.max()) < 0.1  # [deg]
@@ -71,7 +73,8 @@ def test_tracks_a_multi_axis_trajectory(simulator):
 def test_wrong_inertial_parameters_degrade_tracking(simulator):
     """A model with the platform 30 % heavier and the legs 30 % lighter than the plant:
     the loop still tracks, with larger errors than with the exact model (over 2 s:
-    0.78 mm and 0.008 deg, against 0.0093 mm and 1.9e-4 deg)."""
+    0.78 mm and 0.008 deg, against 0.0093 mm and 1.9e-4 deg). Compiled plant and
+    controllers, as in :func:`test_tracks_a_multi_axis_trajectory`."""
     ref = multi_axis(simulator)
     chi = standard_parameters(simulator.description)
     wrong = chi.copy()
@@ -82,9 +85,10 @@ def test_wrong_inertial_parameters_degrade_tracking(simulator):
         simulate(
             simulator,
             0.5,
-            forces=ComputedTorqueController(controller_model, ref),
+            forces=ComputedTorqueController(controller_model, ref, backend="compiled"),
             dt=1e-3,
             control_period=1e-3,
+            backend="compiled",
         )
         for controller_model in (simulator, model)
     )
