@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -65,6 +65,9 @@ FORWARD_MAX_ITERATIONS = 50
 
 
 # ---------------------------------------------------------------------------- constants
+V = TypeVar("V")
+
+
 @dataclass(frozen=True)
 class ChainConstants:
     """The six legs' joint parameters as arrays (6, 3), for batched evaluation."""
@@ -99,18 +102,31 @@ class ChainConstants:
         )
 
 
-_CONSTANTS: dict[int, tuple[GeneralHexapod, ChainConstants]] = {}
+class _ByIdentity(Generic[V]):
+    """A cache keyed by an object's identity: its ``id``, checked against the object kept
+    beside the value (so a new object at a reused address is not a hit); past ``size``
+    entries, the oldest is dropped."""
+
+    def __init__(self, size: int = 64) -> None:
+        self.size = size
+        self._items: dict[int, tuple[object, V]] = {}
+
+    def get(self, key: object, build: Callable[[], V]) -> V:
+        hit = self._items.get(id(key))
+        if hit is None or hit[0] is not key:
+            hit = (key, build())
+            self._items[id(key)] = hit
+            if len(self._items) > self.size:
+                self._items.pop(next(iter(self._items)))
+        return hit[1]
+
+
+_CONSTANTS: _ByIdentity[ChainConstants] = _ByIdentity()
 
 
 def constants(robot: GeneralHexapod) -> ChainConstants:
     """The (cached) :class:`ChainConstants` of ``robot``."""
-    hit = _CONSTANTS.get(id(robot))
-    if hit is None or hit[0] is not robot:
-        hit = (robot, ChainConstants.of(robot))
-        _CONSTANTS[id(robot)] = hit
-        if len(_CONSTANTS) > 64:
-            _CONSTANTS.pop(next(iter(_CONSTANTS)))
-    return hit[1]
+    return _CONSTANTS.get(robot, lambda: ChainConstants.of(robot))
 
 
 def _mdh(alpha: Any, d: Any, theta: Any, r: Any) -> np.ndarray:
@@ -382,18 +398,12 @@ class LegGroups:
         )
 
 
-_GROUPS: dict[int, tuple[tuple[LegArchitecture, ...], LegGroups]] = {}
+_GROUPS: _ByIdentity[LegGroups] = _ByIdentity()
 
 
 def leg_groups(legs: tuple[LegArchitecture, ...]) -> LegGroups:
     """The (cached) :class:`LegGroups` of a robot's ``legs``."""
-    hit = _GROUPS.get(id(legs))
-    if hit is None or hit[0] is not legs:
-        hit = (legs, LegGroups.of(legs))
-        _GROUPS[id(legs)] = hit
-        if len(_GROUPS) > 64:
-            _GROUPS.pop(next(iter(_GROUPS)))
-    return hit[1]
+    return _GROUPS.get(legs, lambda: LegGroups.of(legs))
 
 
 def _each_leg(v: np.ndarray, M: np.ndarray) -> np.ndarray:
