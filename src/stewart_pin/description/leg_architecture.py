@@ -94,7 +94,7 @@ def wrap_into_limits(
     lower, upper = np.broadcast_to(lower, q.shape), np.broadcast_to(upper, q.shape)
     outside = revolute & ((q < lower) | (q > upper))
     if not np.any(outside):  # the common case: nothing to wrap (np.mod is slow)
-        return q
+        return q.copy()  # a new array, as when some value is wrapped
     x, lo, up = q[outside], lower[outside], upper[outside]
     two_pi = 2.0 * math.pi
     with np.errstate(invalid="ignore"):  # inf - inf for joints without limits: not used
